@@ -1,0 +1,83 @@
+//! Errors, each saying what went wrong and what to do next.
+
+/// Everything that can go wrong when building RADAR components.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A node, namespace or topic name breaks the ROS naming rules.
+    #[error("invalid ROS name \"{name}\": {reason}")]
+    InvalidName {
+        /// The name as given.
+        name: String,
+        /// Which rule it breaks and how to fix it.
+        reason: String,
+    },
+    /// `ROS_DOMAIN_ID` (or an explicit domain id) is not usable.
+    #[error(
+        "invalid ROS_DOMAIN_ID \"{value}\": {reason}. Set ROS_DOMAIN_ID to a whole number from 0 to 232 \
+         (0-101 and 215-232 avoid the Linux ephemeral port range), or unset it for domain 0"
+    )]
+    InvalidDomainId {
+        /// The value as found.
+        value: String,
+        /// Why it was refused.
+        reason: String,
+    },
+    /// A component with this name already runs in this process.
+    #[error("a RADAR component named \"{0}\" already runs in this process; pick another name or namespace")]
+    DuplicateName(String),
+    /// DDS or ros2-client refused to create an entity.
+    #[error("ROS 2 (DDS) could not create {what}: {detail}")]
+    Dds {
+        /// What was being created.
+        what: String,
+        /// The underlying error.
+        detail: String,
+    },
+    /// Waiting for something on the ROS graph took longer than allowed.
+    #[error("timed out after {after:?} waiting for {what}")]
+    Timeout {
+        /// What was awaited.
+        what: String,
+        /// How long we waited.
+        after: std::time::Duration,
+    },
+    /// The component was shut down while the call was in progress.
+    #[error("{0} is shut down")]
+    Closed(String),
+}
+
+impl Error {
+    pub(crate) fn dds(what: impl Into<String>, detail: impl std::fmt::Debug) -> Error {
+        Error::Dds {
+            what: what.into(),
+            detail: format!("{detail:?}"),
+        }
+    }
+}
+
+/// Result alias for this crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// An error returned from a user's slot or event check. Any `std::error::Error` converts into it with `?`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SlotError(pub String);
+
+impl std::fmt::Display for SlotError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<E: std::error::Error> From<E> for SlotError {
+    fn from(e: E) -> Self {
+        SlotError(e.to_string())
+    }
+}
+
+impl SlotError {
+    /// An error from a message.
+    pub fn msg(m: impl Into<String>) -> SlotError {
+        SlotError(m.into())
+    }
+}

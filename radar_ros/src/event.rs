@@ -1,0 +1,382 @@
+//! Events as ROS 2 nodes.
+//!
+//! An event named `NS/NAME` is a node that publishes `NS/NAME/triggered` (its payload type, default
+//! `std_msgs/msg/Empty`, signal QoS) and `NS/NAME/state` (`radar_msgs/msg/EventState`, transient-local).
+//!
+//! It is **active exactly while at least one subscription is matched on `triggered`** (a relay, an rclpy
+//! node, `ros2 topic echo`): the ROS form of RADAR's self-activating events. While active it runs
+//! [`Event::check`] in a loop; every value the check resolves with is published on `triggered`. When the last
+//! subscriber leaves, the running check is dropped (cancelled at its current await point). The match count
+//! comes from DDS discovery events (see [`crate::graph`]), so activation follows a subscriber within a few
+//! milliseconds, and also follows a subscriber process that was killed, once DDS declares it lost.
+
+use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc, time::Duration};
+
+use futures::{FutureExt, StreamExt};
+use tokio::sync::{watch, Mutex};
+
+use crate::{
+    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription},
+    error::{Result, SlotError},
+    msg::{Empty, EventState, RosMessage, Time},
+    names::ComponentName,
+    radar::Radar,
+    semantics::event::{Activation, Transition},
+};
+
+/// A condition check.
+///
+/// ```
+/// use radar_ros::{Event, SlotError, msg::Empty};
+/// /// Triggers 2 s after it becomes active, then every 2 s (the paper's `StartEvent`).
+/// struct StartEvent;
+/// impl Event for StartEvent {
+///     type Payload = Empty;
+///     async fn check(&mut self) -> Result<Empty, SlotError> {
+///         tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+///         Ok(Empty::default())
+///     }
+/// }
+/// ```
+pub trait Event: Send + 'static {
+    /// What `triggered` carries.
+    type Payload: RosMessage;
+
+    /// Resolves when the condition holds, with the payload to emit. Called again after each trigger while
+    /// the event is active. An error is counted and reported on `state`, and the check is retried after
+    /// [`Event::retry_after`].
+    fn check(&mut self) -> impl Future<Output = Result<Self::Payload, SlotError>> + Send;
+
+    /// Called when the event becomes active, before the first check.
+    fn on_activate(&mut self) {}
+
+    /// Called when the event becomes inactive, after the running check was dropped.
+    fn on_deactivate(&mut self) {}
+
+    /// Called once when the event's node exists, to create extra ROS endpoints on it (see [`TopicEvent`]).
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        let _ = node;
+        Ok(())
+    }
+
+    /// Pause before checking again after an error or panic. Default 100 ms.
+    fn retry_after(&self) -> Duration {
+        Duration::from_millis(100)
+    }
+}
+
+/// Access to an event's own node while it is being set up.
+pub struct EventNode<'a> {
+    node: &'a mut ros2_client::Node,
+    radar: &'a Radar,
+}
+
+impl EventNode<'_> {
+    /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
+    /// QoS (reliable, volatile, keep-last 10).
+    pub fn subscribe<M: RosMessage>(
+        &mut self,
+        topic: &str,
+    ) -> Result<ros2_client::Subscription<M>> {
+        let abs = resolve_topic(self.radar, topic)?;
+        subscription::<M>(self.node, &abs, &signal_qos())
+    }
+}
+
+/// Topic names follow the same rules as component names: relative ones resolve in the Radar's namespace.
+fn resolve_topic(radar: &Radar, topic: &str) -> Result<String> {
+    radar.resolve(topic).map(|n| n.fully_qualified())
+}
+
+/// Triggers every `period` while active, first `period` after activation.
+#[derive(Clone, Debug)]
+pub struct TimerEvent {
+    period: Duration,
+    next: tokio::time::Instant,
+}
+
+impl TimerEvent {
+    /// A timer with this period.
+    pub fn new(period: Duration) -> Self {
+        TimerEvent {
+            period,
+            next: tokio::time::Instant::now() + period,
+        }
+    }
+}
+
+impl Event for TimerEvent {
+    type Payload = Empty;
+    fn on_activate(&mut self) {
+        self.next = tokio::time::Instant::now() + self.period;
+    }
+    async fn check(&mut self) -> Result<Empty, SlotError> {
+        tokio::time::sleep_until(self.next).await;
+        self.next += self.period;
+        Ok(Empty::default())
+    }
+}
+
+type Predicate<M, P> = Box<dyn FnMut(&M) -> Option<P> + Send>;
+
+/// Triggers when a message on a ROS topic satisfies a predicate, with a payload mapped from it.
+///
+/// The subscription is made once, on the event's own node; messages that arrive while the event is inactive
+/// are discarded on activation, so a trigger always comes from a message received while active.
+///
+/// ```no_run
+/// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+/// use radar_ros::{TopicEvent, msg::{Float64, Empty}};
+/// let low_battery = TopicEvent::new("battery_level", |m: &Float64| (m.data < 0.2).then(Empty::default));
+/// let handle = radar.spawn_event("low_battery", low_battery)?;
+/// # Ok(()) }
+/// ```
+pub struct TopicEvent<M: RosMessage, P: RosMessage> {
+    topic: String,
+    predicate: Predicate<M, P>,
+    sub: Option<ros2_client::Subscription<M>>,
+}
+
+impl<M: RosMessage, P: RosMessage> TopicEvent<M, P> {
+    /// Watches `topic` (type `M`); triggers with `f(msg)` whenever it returns `Some`.
+    pub fn new(topic: &str, f: impl FnMut(&M) -> Option<P> + Send + 'static) -> Self {
+        TopicEvent {
+            topic: topic.to_owned(),
+            predicate: Box::new(f),
+            sub: None,
+        }
+    }
+}
+
+impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
+    type Payload = P;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        self.sub = Some(node.subscribe::<M>(&self.topic)?);
+        Ok(())
+    }
+    fn on_activate(&mut self) {
+        if let Some(sub) = &self.sub {
+            while let Ok(Some(_)) = sub.take() {}
+        }
+    }
+    async fn check(&mut self) -> Result<P, SlotError> {
+        let sub = self
+            .sub
+            .as_ref()
+            .ok_or_else(|| SlotError::msg("TopicEvent used before attach"))?;
+        let mut stream = Box::pin(sub.async_stream());
+        while let Some(r) = stream.next().await {
+            match r {
+                Ok((m, _)) => {
+                    if let Some(p) = (self.predicate)(&m) {
+                        return Ok(p);
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(topic = %self.topic, expected = %M::ros_type_name(), error = %e, "dropped a malformed message")
+                }
+            }
+        }
+        Err(SlotError::msg(format!(
+            "subscription to {} ended",
+            self.topic
+        )))
+    }
+}
+
+/// A running event node. Dropping it (or [`EventHandle::shutdown`]) removes the node from the graph.
+pub struct EventHandle {
+    name: ComponentName,
+    state: watch::Receiver<EventState>,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
+}
+
+impl EventHandle {
+    /// The event's fully qualified name.
+    pub fn name(&self) -> &ComponentName {
+        &self.name
+    }
+
+    /// The absolute topic of one of its endpoints, e.g. `topic("triggered")`.
+    pub fn topic(&self, endpoint: &str) -> String {
+        self.name.topic(endpoint)
+    }
+
+    /// The latest state.
+    pub fn state(&self) -> EventState {
+        self.state.borrow().clone()
+    }
+
+    /// A receiver that sees every state change.
+    pub fn watch_state(&self) -> watch::Receiver<EventState> {
+        self.state.clone()
+    }
+
+    /// Stops checking and removes the node; waits until it is gone.
+    pub async fn shutdown(mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        if let Some(task) = self.task.take() {
+            let _ = task.await;
+        }
+    }
+}
+
+impl Drop for EventHandle {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+    }
+}
+
+/// Minimum spacing of `state` messages caused by triggers alone (activation changes and errors are
+/// published at once). A high-rate event does not double its traffic with state updates.
+const STATE_TRIGGER_THROTTLE: Duration = Duration::from_millis(100);
+
+impl Radar {
+    /// Starts `event` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
+    pub fn spawn_event<E: Event>(&self, name: &str, mut event: E) -> Result<EventHandle> {
+        let name = self.resolve(name)?;
+        let (mut node, claim) = self.claim_node(&name)?;
+        event.attach(&mut EventNode {
+            node: &mut node,
+            radar: self,
+        })?;
+        let triggered =
+            publisher::<E::Payload>(&mut node, &name.topic("triggered"), &signal_qos())?;
+        let state_pub = publisher::<EventState>(&mut node, &name.topic("state"), &state_qos())?;
+        let listeners = self.graph().watch_writer(triggered.guid());
+        let st = EventState {
+            stamp: Time::now(),
+            name: name.fully_qualified(),
+            trigger_type: E::Payload::ros_type_name(),
+            ..Default::default()
+        };
+        emit(&state_pub, "state", st.clone());
+        let (state_tx, state_rx) = watch::channel(st.clone());
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
+        let graph = self.graph().clone();
+        let guid = triggered.guid();
+        let task = tokio::spawn(async move {
+            let _claim = claim;
+            let _node = node;
+            drive_event(
+                event, triggered, state_pub, state_tx, st, listeners, stop_rx,
+            )
+            .await;
+            graph.forget(guid);
+        });
+        tracing::info!(event = %name, payload = %E::Payload::ros_type_name(), "event up");
+        Ok(EventHandle {
+            name,
+            state: state_rx,
+            stop: Some(stop_tx),
+            task: Some(task),
+        })
+    }
+}
+
+type Check<P> = Pin<Box<dyn Future<Output = Result<P, SlotError>> + Send>>;
+
+fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<E::Payload> {
+    let e = Arc::clone(event);
+    Box::pin(async move {
+        if let Some(d) = delay {
+            tokio::time::sleep(d).await;
+        }
+        let mut guard = e.lock_owned().await;
+        match AssertUnwindSafe(guard.check()).catch_unwind().await {
+            Ok(r) => r,
+            Err(p) => Err(SlotError(format!("check panicked: {}", panic_message(p)))),
+        }
+    })
+}
+
+async fn drive_event<E: Event>(
+    event: E,
+    triggered: ros2_client::Publisher<E::Payload>,
+    state_pub: ros2_client::Publisher<EventState>,
+    state_tx: watch::Sender<EventState>,
+    mut st: EventState,
+    mut listeners: watch::Receiver<usize>,
+    mut stop: tokio::sync::oneshot::Receiver<()>,
+) {
+    let event = Arc::new(Mutex::new(event));
+    let mut activation = Activation::new();
+    let mut check: Option<Check<E::Payload>> = None;
+    let mut last_state = tokio::time::Instant::now();
+    let mut dirty = false;
+    let name = st.name.clone();
+    let publish = |st: &mut EventState, last: &mut tokio::time::Instant, dirty: &mut bool| {
+        st.stamp = Time::now();
+        emit(&state_pub, "state", st.clone());
+        state_tx.send_replace(st.clone());
+        *last = tokio::time::Instant::now();
+        *dirty = false;
+    };
+    // the count may already be non-zero
+    let mut pending_count = Some(*listeners.borrow_and_update());
+    loop {
+        if let Some(n) = pending_count.take() {
+            st.listeners = n as u32;
+            match activation.set_listeners(n) {
+                Some(Transition::Activate) => {
+                    event.lock().await.on_activate();
+                    check = Some(new_check(&event, None));
+                    tracing::debug!(event = %name, listeners = n, "activated");
+                }
+                Some(Transition::Deactivate) => {
+                    check = None;
+                    event.lock().await.on_deactivate();
+                    tracing::debug!(event = %name, "deactivated");
+                }
+                None => {}
+            }
+            st.active = activation.is_active();
+            st.activations = activation.activations();
+            publish(&mut st, &mut last_state, &mut dirty);
+        }
+        tokio::select! {
+            _ = &mut stop => break,
+            changed = listeners.changed() => match changed {
+                Ok(()) => pending_count = Some(*listeners.borrow_and_update()),
+                Err(_) => break,
+            },
+            res = async {
+                match check.as_mut() {
+                    Some(c) => c.await,
+                    None => std::future::pending().await,
+                }
+            } => {
+                match res {
+                    Ok(payload) => {
+                        emit(&triggered, "triggered", payload);
+                        st.triggers += 1;
+                        check = Some(new_check(&event, None));
+                        if last_state.elapsed() >= STATE_TRIGGER_THROTTLE {
+                            publish(&mut st, &mut last_state, &mut dirty);
+                        } else {
+                            dirty = true;
+                        }
+                    }
+                    Err(e) => {
+                        tracing::warn!(event = %name, error = %e, "event check failed; retrying");
+                        st.check_errors += 1;
+                        st.last_error = e.0;
+                        let delay = event.lock().await.retry_after();
+                        check = Some(new_check(&event, Some(delay)));
+                        publish(&mut st, &mut last_state, &mut dirty);
+                    }
+                }
+            }
+            _ = tokio::time::sleep_until(last_state + STATE_TRIGGER_THROTTLE), if dirty => {
+                publish(&mut st, &mut last_state, &mut dirty);
+            }
+        }
+    }
+    drop(check);
+    tracing::info!(event = %name, "event stopped");
+}

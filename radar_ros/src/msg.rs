@@ -1,0 +1,273 @@
+//! ROS 2 message types used by RADAR signals, and the [`RosMessage`] trait that ties a Rust type to its ROS
+//! interface name.
+//!
+//! Any type that serializes to the same CDR layout as a ROS message can carry a signal: implement
+//! [`RosMessage`] for it (or use [`ros_message!`](crate::ros_message)). The standard types that RADAR users
+//! need most are provided here; the `radar_msgs` types mirror `msgs/radar_msgs/msg/*.msg` field for field.
+//!
+//! ```
+//! use radar_ros::msg::{RosMessage, StringMsg};
+//! assert_eq!(StringMsg::ros_type_name(), "std_msgs/msg/String");
+//! ```
+
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// A Rust type that is the wire form of a ROS 2 message.
+///
+/// The serde field order must match the `.msg` definition, because ROS 2 on DDS serializes with CDR, which
+/// carries no field names.
+pub trait RosMessage:
+    Serialize + DeserializeOwned + Clone + Default + std::fmt::Debug + Send + Sync + 'static
+{
+    /// The ROS package of the interface, e.g. `"std_msgs"`.
+    const PACKAGE: &'static str;
+    /// The message name within the package, e.g. `"String"`.
+    const NAME: &'static str;
+
+    /// The ROS interface name as the `ros2` command line shows it, e.g. `"std_msgs/msg/String"`.
+    fn ros_type_name() -> String {
+        format!("{}/msg/{}", Self::PACKAGE, Self::NAME)
+    }
+
+    /// The ros2-client form of the type name.
+    fn message_type_name() -> ros2_client::MessageTypeName {
+        ros2_client::MessageTypeName::new(Self::PACKAGE, Self::NAME)
+    }
+}
+
+/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`.
+#[macro_export]
+macro_rules! ros_message {
+    ($ty:ty, $pkg:literal, $name:literal) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+        }
+    };
+}
+
+/// `std_msgs/msg/Empty`: the default payload of every RADAR signal.
+///
+/// ROS 2 serializes an empty struct with one padding byte (rclpy does so); a zero-sized Rust type would put
+/// nothing on the wire and peers would receive nothing, so this carries that byte explicitly.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Empty {
+    structure_needs_at_least_one_member: u8,
+}
+ros_message!(Empty, "std_msgs", "Empty");
+
+/// `std_msgs/msg/String`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StringMsg {
+    /// The text.
+    pub data: String,
+}
+ros_message!(StringMsg, "std_msgs", "String");
+
+impl From<&str> for StringMsg {
+    fn from(s: &str) -> Self {
+        StringMsg { data: s.to_owned() }
+    }
+}
+
+/// `std_msgs/msg/Bool`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Bool {
+    /// The value.
+    pub data: bool,
+}
+ros_message!(Bool, "std_msgs", "Bool");
+
+/// `std_msgs/msg/Int32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Int32 {
+    /// The value.
+    pub data: i32,
+}
+ros_message!(Int32, "std_msgs", "Int32");
+
+/// `std_msgs/msg/Int64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Int64 {
+    /// The value.
+    pub data: i64,
+}
+ros_message!(Int64, "std_msgs", "Int64");
+
+/// `std_msgs/msg/Float64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64 {
+    /// The value.
+    pub data: f64,
+}
+ros_message!(Float64, "std_msgs", "Float64");
+
+/// `builtin_interfaces/msg/Time`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Time {
+    /// Seconds since the Unix epoch.
+    pub sec: i32,
+    /// Nanoseconds within the second.
+    pub nanosec: u32,
+}
+ros_message!(Time, "builtin_interfaces", "Time");
+
+impl Time {
+    /// The wall-clock time now.
+    pub fn now() -> Time {
+        let d = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
+        Time {
+            sec: d.as_secs() as i32,
+            nanosec: d.subsec_nanos(),
+        }
+    }
+}
+
+/// `std_msgs/msg/Header`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Acquisition time.
+    pub stamp: Time,
+    /// Coordinate frame.
+    pub frame_id: String,
+}
+ros_message!(Header, "std_msgs", "Header");
+
+/// `geometry_msgs/msg/Point`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// X.
+    pub x: f64,
+    /// Y.
+    pub y: f64,
+    /// Z.
+    pub z: f64,
+}
+ros_message!(Point, "geometry_msgs", "Point");
+
+/// `geometry_msgs/msg/Quaternion`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// X.
+    pub x: f64,
+    /// Y.
+    pub y: f64,
+    /// Z.
+    pub z: f64,
+    /// W.
+    pub w: f64,
+}
+ros_message!(Quaternion, "geometry_msgs", "Quaternion");
+
+impl Default for Quaternion {
+    /// The identity rotation, as in the `.msg` defaults.
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/msg/Pose`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Position.
+    pub position: Point,
+    /// Orientation.
+    pub orientation: Quaternion,
+}
+ros_message!(Pose, "geometry_msgs", "Pose");
+
+/// `geometry_msgs/msg/PoseStamped`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Header.
+    pub header: Header,
+    /// Pose.
+    pub pose: Pose,
+}
+ros_message!(PoseStamped, "geometry_msgs", "PoseStamped");
+
+/// `radar_msgs/msg/ResponseState`: what a response is doing, published transient-local on `<response>/state`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ResponseState {
+    /// When this state was entered.
+    pub stamp: Time,
+    /// Fully qualified node name of the response.
+    pub name: String,
+    /// One of the `STATE_*` constants.
+    pub state: u8,
+    /// The state as a word: `idle`, `running`, `interrupting`, `exiting`.
+    pub state_label: String,
+    /// What the start slot accepts, e.g. `std_msgs/msg/Empty`.
+    pub start_type: String,
+    /// Policy for `start` while busy: `ignore`, `restart`, `queue_one`.
+    pub start_policy: String,
+    /// Why the last run ended: `completed`, `interrupted`, `exit_signal`, `failed: ...`, `panicked: ...`.
+    pub last_exit_reason: String,
+    /// Runs started (including restarts).
+    pub starts: u64,
+    /// Runs that reached `exited`.
+    pub exits: u64,
+    /// Runs ended by an `interrupt` signal.
+    pub interrupts: u64,
+    /// Runs ended by an `exit` signal.
+    pub exit_signals: u64,
+    /// Runs whose start behaviour returned normally.
+    pub completed: u64,
+    /// Runs whose start behaviour returned an error.
+    pub failures: u64,
+    /// Panics caught in any slot.
+    pub panics: u64,
+    /// Restarts requested by the exit slot.
+    pub restarts: u64,
+    /// `start` signals ignored by the policy (or replaced in the queue).
+    pub ignored_starts: u64,
+    /// `interrupt` signals ignored (idle, or already interrupting/exiting).
+    pub ignored_interrupts: u64,
+    /// `exit` signals ignored (idle, or already interrupting/exiting).
+    pub ignored_exits: u64,
+    /// Whether a start is queued to run after the current run.
+    pub start_queued: bool,
+}
+ros_message!(ResponseState, "radar_msgs", "ResponseState");
+
+impl ResponseState {
+    /// Idle: waiting for `start`.
+    pub const STATE_IDLE: u8 = 0;
+    /// The start behaviour is running.
+    pub const STATE_RUNNING: u8 = 1;
+    /// The interrupt slot is running.
+    pub const STATE_INTERRUPTING: u8 = 2;
+    /// The exit slot is running.
+    pub const STATE_EXITING: u8 = 3;
+}
+
+/// `radar_msgs/msg/EventState`: whether an event is checking, published transient-local on `<event>/state`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EventState {
+    /// When this state was published.
+    pub stamp: Time,
+    /// Fully qualified node name of the event.
+    pub name: String,
+    /// True while at least one subscriber listens on `triggered` and the check runs.
+    pub active: bool,
+    /// Subscribers matched on `triggered`.
+    pub listeners: u32,
+    /// What `triggered` carries, e.g. `std_msgs/msg/Empty`.
+    pub trigger_type: String,
+    /// Signals emitted on `triggered`.
+    pub triggers: u64,
+    /// Times the event went from inactive to active.
+    pub activations: u64,
+    /// Checks that returned an error or panicked.
+    pub check_errors: u64,
+    /// The last such error, empty if none.
+    pub last_error: String,
+}
+ros_message!(EventState, "radar_msgs", "EventState");

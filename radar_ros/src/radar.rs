@@ -1,0 +1,291 @@
+//! [`Radar`]: one DDS participant that hosts RADAR events and responses, honouring `ROS_DOMAIN_ID`.
+
+use std::{
+    collections::HashSet,
+    sync::{Arc, Mutex},
+};
+
+use ros2_client::{dds::rustdds::DomainParticipantBuilder, Context, Node, NodeName, NodeOptions};
+
+use crate::{
+    error::{Error, Result},
+    graph::Graph,
+    names::{validate_namespace, ComponentName},
+};
+
+/// Parses a `ROS_DOMAIN_ID` value the way ROS 2 tools do: empty means 0, otherwise a whole number 0..=232.
+pub fn parse_domain_id(value: &str) -> Result<u16> {
+    let v = value.trim();
+    if v.is_empty() {
+        return Ok(0);
+    }
+    let bad = |reason: &str| Error::InvalidDomainId {
+        value: value.to_owned(),
+        reason: reason.to_owned(),
+    };
+    let n: u64 = v.parse().map_err(|_| bad("it is not a whole number"))?;
+    if n > 232 {
+        return Err(bad(
+            "it is above 232, the largest domain whose UDP ports fit in 16 bits",
+        ));
+    }
+    if (102..=214).contains(&n) {
+        tracing::warn!(
+            domain = n,
+            "ROS_DOMAIN_ID {n} maps to UDP ports in the Linux ephemeral range; prefer 0-101 or 215-232"
+        );
+    }
+    Ok(n as u16)
+}
+
+/// Reads `ROS_DOMAIN_ID` from the environment (0 when unset), as every ROS 2 tool does.
+pub fn domain_id_from_env() -> Result<u16> {
+    match std::env::var("ROS_DOMAIN_ID") {
+        Ok(v) => parse_domain_id(&v),
+        Err(std::env::VarError::NotPresent) => Ok(0),
+        Err(std::env::VarError::NotUnicode(v)) => Err(Error::InvalidDomainId {
+            value: v.to_string_lossy().into_owned(),
+            reason: "it is not valid UTF-8".into(),
+        }),
+    }
+}
+
+/// How far DDS discovery reaches, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DiscoveryRange {
+    /// Only this host: DDS uses the loopback interface only.
+    Localhost,
+    /// The host and its subnets (ROS 2's default).
+    Subnet,
+}
+
+/// Reads `ROS_AUTOMATIC_DISCOVERY_RANGE` (and the older `ROS_LOCALHOST_ONLY=1`) like ROS 2 Jazzy does.
+/// Unset or `SUBNET`/`SYSTEM_DEFAULT` give [`DiscoveryRange::Subnet`]; `LOCALHOST` and `OFF` give
+/// [`DiscoveryRange::Localhost`] (RADAR needs same-host discovery, so `OFF` is treated as `LOCALHOST`).
+pub fn discovery_range_from_env() -> Result<DiscoveryRange> {
+    if std::env::var("ROS_LOCALHOST_ONLY").as_deref() == Ok("1") {
+        return Ok(DiscoveryRange::Localhost);
+    }
+    match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").as_deref() {
+        Err(_) | Ok("") | Ok("SUBNET") | Ok("SYSTEM_DEFAULT") => Ok(DiscoveryRange::Subnet),
+        Ok("LOCALHOST") => Ok(DiscoveryRange::Localhost),
+        Ok("OFF") => {
+            tracing::warn!("ROS_AUTOMATIC_DISCOVERY_RANGE=OFF treated as LOCALHOST");
+            Ok(DiscoveryRange::Localhost)
+        }
+        Ok(other) => Err(Error::Dds {
+            what: "the RADAR participant".into(),
+            detail: format!(
+                "ROS_AUTOMATIC_DISCOVERY_RANGE=\"{other}\" is not one of SUBNET, LOCALHOST, OFF, SYSTEM_DEFAULT"
+            ),
+        }),
+    }
+}
+
+/// Configures a [`Radar`].
+#[derive(Clone, Debug, Default)]
+#[must_use]
+pub struct RadarBuilder {
+    domain_id: Option<u16>,
+    namespace: Option<String>,
+    range: Option<DiscoveryRange>,
+}
+
+impl RadarBuilder {
+    /// Uses this DDS domain instead of `ROS_DOMAIN_ID`.
+    pub fn domain_id(mut self, id: u16) -> Self {
+        self.domain_id = Some(id);
+        self
+    }
+
+    /// The namespace that relative component names resolve in (default `/`).
+    pub fn namespace(mut self, ns: &str) -> Self {
+        self.namespace = Some(ns.to_owned());
+        self
+    }
+
+    /// Uses this discovery range instead of `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+    pub fn discovery_range(mut self, range: DiscoveryRange) -> Self {
+        self.range = Some(range);
+        self
+    }
+
+    /// Creates the DDS participant. Must be called inside a tokio runtime.
+    pub fn build(self) -> Result<Radar> {
+        let namespace = validate_namespace(self.namespace.as_deref().unwrap_or("/"))?;
+        let domain_id = match self.domain_id {
+            Some(id) => parse_domain_id(&id.to_string())?,
+            None => domain_id_from_env()?,
+        };
+        let rt = tokio::runtime::Handle::try_current().map_err(|_| Error::Dds {
+            what: "the RADAR participant".into(),
+            detail: "no tokio runtime: create Radar inside #[tokio::main] or Runtime::block_on"
+                .into(),
+        })?;
+        let range = match self.range {
+            Some(r) => r,
+            None => discovery_range_from_env()?,
+        };
+        let mut dpb = DomainParticipantBuilder::new(domain_id);
+        if range == DiscoveryRange::Localhost {
+            dpb = dpb.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
+        }
+        let participant = dpb
+            .build()
+            .map_err(|e| Error::dds(format!("a DDS participant in domain {domain_id}"), e))?;
+        let ctx = Context::from_domain_participant(participant)
+            .map_err(|e| Error::dds(format!("a ROS 2 context in domain {domain_id}"), e))?;
+        let graph = Graph::default();
+        let (stop, stop_rx) = tokio::sync::oneshot::channel();
+        rt.spawn(graph.clone().run(ctx.domain_participant(), stop_rx));
+        Ok(Radar {
+            inner: Arc::new(Inner {
+                ctx,
+                domain_id,
+                namespace,
+                graph,
+                names: Mutex::new(HashSet::new()),
+                stop_graph: Mutex::new(Some(stop)),
+            }),
+        })
+    }
+}
+
+struct Inner {
+    ctx: Context,
+    domain_id: u16,
+    namespace: String,
+    graph: Graph,
+    names: Mutex<HashSet<String>>,
+    stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop_graph.lock().unwrap().take() {
+            let _ = stop.send(());
+        }
+    }
+}
+
+/// A handle on one DDS participant that hosts RADAR components; cheap to clone.
+///
+/// All events and responses spawned from one `Radar` share its participant (the embedded default). The same
+/// component types can run in their own processes with their own `Radar`; nothing in them changes.
+///
+/// ```no_run
+/// # async fn f() -> radar_ros::Result<()> {
+/// let radar = radar_ros::Radar::new()?; // honours ROS_DOMAIN_ID
+/// # Ok(()) }
+/// ```
+#[derive(Clone)]
+pub struct Radar {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for Radar {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Radar")
+            .field("domain_id", &self.inner.domain_id)
+            .field("namespace", &self.inner.namespace)
+            .finish()
+    }
+}
+
+impl Radar {
+    /// A participant in the domain from `ROS_DOMAIN_ID`, namespace `/`.
+    pub fn new() -> Result<Radar> {
+        Radar::builder().build()
+    }
+
+    /// Configure before creating.
+    pub fn builder() -> RadarBuilder {
+        RadarBuilder::default()
+    }
+
+    /// The DDS domain in use.
+    pub fn domain_id(&self) -> u16 {
+        self.inner.domain_id
+    }
+
+    /// The namespace relative names resolve in.
+    pub fn namespace(&self) -> &str {
+        &self.inner.namespace
+    }
+
+    /// The underlying ros2-client context, for creating plain ROS 2 nodes on the same participant.
+    pub fn context(&self) -> &Context {
+        &self.inner.ctx
+    }
+
+    /// Resolves and validates a component name against this participant's namespace.
+    pub fn resolve(&self, name: &str) -> Result<ComponentName> {
+        ComponentName::resolve(name, &self.inner.namespace)
+    }
+
+    pub(crate) fn graph(&self) -> &Graph {
+        &self.inner.graph
+    }
+
+    /// Claims a name for a component in this process and creates its node (no rosout, no parameter services:
+    /// a RADAR node's endpoints are its signals and its state).
+    pub(crate) fn claim_node(&self, name: &ComponentName) -> Result<(Node, NameClaim)> {
+        let fq = name.fully_qualified();
+        if !self.inner.names.lock().unwrap().insert(fq.clone()) {
+            return Err(Error::DuplicateName(fq));
+        }
+        let claim = NameClaim {
+            radar: self.clone(),
+            name: fq.clone(),
+        };
+        let node_name =
+            NodeName::new(name.namespace(), name.base()).map_err(|e| Error::InvalidName {
+                name: fq.clone(),
+                reason: format!("{e}"),
+            })?;
+        let node = self
+            .inner
+            .ctx
+            .new_node(
+                node_name,
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .map_err(|e| Error::dds(format!("node {fq}"), e))?;
+        Ok((node, claim))
+    }
+}
+
+/// Frees a claimed component name when the component stops.
+pub(crate) struct NameClaim {
+    radar: Radar,
+    name: String,
+}
+
+impl Drop for NameClaim {
+    fn drop(&mut self) {
+        self.radar.inner.names.lock().unwrap().remove(&self.name);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn domain_ids_parse_like_ros2_tools() {
+        assert_eq!(parse_domain_id("").unwrap(), 0);
+        assert_eq!(parse_domain_id("42").unwrap(), 42);
+        assert_eq!(parse_domain_id(" 7 ").unwrap(), 7);
+        assert_eq!(parse_domain_id("232").unwrap(), 232);
+        let e = parse_domain_id("abc").unwrap_err().to_string();
+        assert!(
+            e.contains("\"abc\"") && e.contains("not a whole number") && e.contains("0 to 232"),
+            "{e}"
+        );
+        let e = parse_domain_id("233").unwrap_err().to_string();
+        assert!(e.contains("above 232"), "{e}");
+        assert!(parse_domain_id("-1").is_err());
+    }
+}

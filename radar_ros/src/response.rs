@@ -1,0 +1,443 @@
+//! Responses as ROS 2 nodes.
+//!
+//! A response named `NS/NAME` is a node with these topics (all under `NS/NAME/`):
+//!
+//! | topic | direction | type | QoS |
+//! |---|---|---|---|
+//! | `start` | slot (subscribed) | the response's start type (default `std_msgs/msg/Empty`) | signal |
+//! | `interrupt`, `exit` | slot (subscribed) | `std_msgs/msg/Empty` | signal |
+//! | `started` | signal (published) | the start type, carrying the payload the run started with | signal |
+//! | `interrupted` | signal (published) | `std_msgs/msg/Empty` | signal |
+//! | `exited` | signal (published) | the response's output type (default `std_msgs/msg/Empty`) | signal |
+//! | `state` | published | `radar_msgs/msg/ResponseState` | state (transient-local, depth 1) |
+//!
+//! Signal QoS is reliable, volatile, keep-last 10 ([`signal_qos`](crate::endpoints::signal_qos)). What happens
+//! on each signal is decided by [`ResponseMachine`]; this module runs the slots and moves the messages.
+
+use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc};
+
+use futures::{future::BoxFuture, FutureExt, StreamExt};
+use tokio::sync::{watch, Mutex};
+
+use crate::{
+    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription},
+    error::{Result, SlotError},
+    msg::{Empty, ResponseState, RosMessage, Time},
+    names::ComponentName,
+    radar::Radar,
+    semantics::response::{
+        Effect, ExitAction, ExitReason, Input, ResponseMachine, StartEnd, StartPolicy,
+    },
+};
+
+/// Behaviour with `start`, `interrupt` and `exit` slots.
+///
+/// Slots are async and run on the tokio runtime: sleep with `tokio::time::sleep`, never block the thread. An
+/// interrupt or exit signal cancels the start behaviour at its current await point (its future is dropped).
+///
+/// ```
+/// use radar_ros::{Response, SlotError, ExitReason, ExitAction, msg::Empty};
+/// struct CountUp { i: u32 }
+/// impl Response for CountUp {
+///     type Start = Empty;
+///     type Output = Empty;
+///     async fn start(&mut self, _: Empty) -> Result<Empty, SlotError> {
+///         self.i = 0;
+///         while self.i < 10 {
+///             tokio::time::sleep(std::time::Duration::from_millis(500)).await;
+///             self.i += 1;
+///         }
+///         Ok(Empty::default())
+///     }
+///     async fn exit(&mut self, _why: ExitReason) -> ExitAction { ExitAction::Restart }
+/// }
+/// ```
+pub trait Response: Send + 'static {
+    /// What the `start` slot accepts, and `started` carries.
+    type Start: RosMessage;
+    /// What `exited` carries: the start behaviour's result, or `Default` when the run did not complete.
+    type Output: RosMessage;
+
+    /// The main behaviour. Returning ends the run normally; an error ends it as failed. Either way the exit
+    /// slot runs next.
+    fn start(
+        &mut self,
+        payload: Self::Start,
+    ) -> impl Future<Output = Result<Self::Output, SlotError>> + Send;
+
+    /// Runs after an `interrupt` signal cancelled the start behaviour, before the exit slot.
+    fn interrupt(&mut self) -> impl Future<Output = ()> + Send {
+        async {}
+    }
+
+    /// Always runs last, whatever ended the run. Return [`ExitAction::Restart`] to start again with the same
+    /// payload after `exited`.
+    fn exit(&mut self, reason: ExitReason) -> impl Future<Output = ExitAction> + Send {
+        let _ = reason;
+        async { ExitAction::Done }
+    }
+
+    /// What `start` does while a run is in progress. Default: ignore.
+    fn start_policy(&self) -> StartPolicy {
+        StartPolicy::Ignore
+    }
+}
+
+type StartFn<P, O> = Box<dyn FnMut(P) -> BoxFuture<'static, Result<O, SlotError>> + Send>;
+type InterruptFn = Box<dyn FnMut() -> BoxFuture<'static, ()> + Send>;
+type ExitFn = Box<dyn FnMut(ExitReason) -> BoxFuture<'static, ExitAction> + Send>;
+
+/// A [`Response`] made of closures, for responses without much state.
+///
+/// ```
+/// use radar_ros::{FnResponse, ExitAction, msg::{Empty, StringMsg}};
+/// let r = FnResponse::new(|goal: StringMsg| async move {
+///     println!("going to {}", goal.data);
+///     Ok(Empty::default())
+/// })
+/// .on_exit(|why| async move { println!("ended: {why:?}"); ExitAction::Done });
+/// ```
+pub struct FnResponse<P, O> {
+    start: StartFn<P, O>,
+    interrupt: InterruptFn,
+    exit: ExitFn,
+    policy: StartPolicy,
+}
+
+impl<P: RosMessage, O: RosMessage> FnResponse<P, O> {
+    /// A response whose start behaviour is `start`.
+    pub fn new<F, Fut>(mut start: F) -> Self
+    where
+        F: FnMut(P) -> Fut + Send + 'static,
+        Fut: Future<Output = Result<O, SlotError>> + Send + 'static,
+    {
+        FnResponse {
+            start: Box::new(move |p| start(p).boxed()),
+            interrupt: Box::new(|| async {}.boxed()),
+            exit: Box::new(|_| async { ExitAction::Done }.boxed()),
+            policy: StartPolicy::Ignore,
+        }
+    }
+
+    /// Sets the interrupt slot.
+    #[must_use]
+    pub fn on_interrupt<F, Fut>(mut self, mut f: F) -> Self
+    where
+        F: FnMut() -> Fut + Send + 'static,
+        Fut: Future<Output = ()> + Send + 'static,
+    {
+        self.interrupt = Box::new(move || f().boxed());
+        self
+    }
+
+    /// Sets the exit slot.
+    #[must_use]
+    pub fn on_exit<F, Fut>(mut self, mut f: F) -> Self
+    where
+        F: FnMut(ExitReason) -> Fut + Send + 'static,
+        Fut: Future<Output = ExitAction> + Send + 'static,
+    {
+        self.exit = Box::new(move |r| f(r).boxed());
+        self
+    }
+
+    /// Sets the policy for `start` while running.
+    #[must_use]
+    pub fn start_policy(mut self, policy: StartPolicy) -> Self {
+        self.policy = policy;
+        self
+    }
+}
+
+impl<P: RosMessage, O: RosMessage> Response for FnResponse<P, O> {
+    type Start = P;
+    type Output = O;
+    fn start(&mut self, payload: P) -> impl Future<Output = Result<O, SlotError>> + Send {
+        (self.start)(payload)
+    }
+    fn interrupt(&mut self) -> impl Future<Output = ()> + Send {
+        (self.interrupt)()
+    }
+    fn exit(&mut self, reason: ExitReason) -> impl Future<Output = ExitAction> + Send {
+        (self.exit)(reason)
+    }
+    fn start_policy(&self) -> StartPolicy {
+        self.policy
+    }
+}
+
+/// A running response node. Dropping it stops the response like [`ResponseHandle::shutdown`] does, without
+/// waiting.
+pub struct ResponseHandle {
+    name: ComponentName,
+    state: watch::Receiver<ResponseState>,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
+}
+
+impl ResponseHandle {
+    /// The response's fully qualified name.
+    pub fn name(&self) -> &ComponentName {
+        &self.name
+    }
+
+    /// The absolute topic of one of its endpoints, e.g. `topic("start")`.
+    pub fn topic(&self, endpoint: &str) -> String {
+        self.name.topic(endpoint)
+    }
+
+    /// The latest state, as published on `state`.
+    pub fn state(&self) -> ResponseState {
+        self.state.borrow().clone()
+    }
+
+    /// A receiver that sees every state change.
+    pub fn watch_state(&self) -> watch::Receiver<ResponseState> {
+        self.state.clone()
+    }
+
+    /// Stops the response: a running start behaviour is ended as by an `exit` signal (the exit slot runs and
+    /// `exited` is sent), then the node leaves the ROS graph. Waits until it has.
+    pub async fn shutdown(mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        if let Some(task) = self.task.take() {
+            let _ = task.await;
+        }
+    }
+}
+
+impl Drop for ResponseHandle {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+    }
+}
+
+enum SlotDone<O> {
+    Start(StartEnd<O>),
+    Interrupt(Option<String>),
+    Exit(Result<ExitAction, String>),
+}
+
+impl<O> SlotDone<O> {
+    fn into_input<P>(self) -> Input<P, O> {
+        match self {
+            SlotDone::Start(e) => Input::StartEnded(e),
+            SlotDone::Interrupt(p) => Input::InterruptEnded(p),
+            SlotDone::Exit(r) => Input::ExitEnded(r),
+        }
+    }
+}
+
+type Slot<O> = Pin<Box<dyn Future<Output = SlotDone<O>> + Send>>;
+
+impl Radar {
+    /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
+    ///
+    /// Fails before creating anything if the name is not a valid ROS name or is already used in this process.
+    pub fn spawn_response<R: Response>(&self, name: &str, response: R) -> Result<ResponseHandle> {
+        let name = self.resolve(name)?;
+        let (mut node, claim) = self.claim_node(&name)?;
+        let sq = signal_qos();
+        let start_sub = subscription::<R::Start>(&mut node, &name.topic("start"), &sq)?;
+        let interrupt_sub = subscription::<Empty>(&mut node, &name.topic("interrupt"), &sq)?;
+        let exit_sub = subscription::<Empty>(&mut node, &name.topic("exit"), &sq)?;
+        let started = publisher::<R::Start>(&mut node, &name.topic("started"), &sq)?;
+        let interrupted = publisher::<Empty>(&mut node, &name.topic("interrupted"), &sq)?;
+        let exited = publisher::<R::Output>(&mut node, &name.topic("exited"), &sq)?;
+        let state_pub = publisher::<ResponseState>(&mut node, &name.topic("state"), &state_qos())?;
+
+        let policy = response.start_policy();
+        let machine = ResponseMachine::<R::Start, R::Output>::new(policy);
+        let initial = state_message::<R>(&name, &machine);
+        emit(&state_pub, "state", initial.clone());
+        let (state_tx, state_rx) = watch::channel(initial);
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
+
+        let io = Io::<R> {
+            name: name.clone(),
+            started,
+            interrupted,
+            exited,
+            state_pub,
+            state_tx,
+        };
+        let task = tokio::spawn(async move {
+            let _claim = claim;
+            let _node = node;
+            drive(
+                Arc::new(Mutex::new(response)),
+                machine,
+                io,
+                start_sub,
+                interrupt_sub,
+                exit_sub,
+                stop_rx,
+            )
+            .await;
+        });
+        tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
+        Ok(ResponseHandle {
+            name,
+            state: state_rx,
+            stop: Some(stop_tx),
+            task: Some(task),
+        })
+    }
+}
+
+struct Io<R: Response> {
+    name: ComponentName,
+    started: ros2_client::Publisher<R::Start>,
+    interrupted: ros2_client::Publisher<Empty>,
+    exited: ros2_client::Publisher<R::Output>,
+    state_pub: ros2_client::Publisher<ResponseState>,
+    state_tx: watch::Sender<ResponseState>,
+}
+
+fn state_message<R: Response>(
+    name: &ComponentName,
+    m: &ResponseMachine<R::Start, R::Output>,
+) -> ResponseState {
+    let c = m.counters();
+    ResponseState {
+        stamp: Time::now(),
+        name: name.fully_qualified(),
+        state: m.phase().code(),
+        state_label: m.phase().label().to_owned(),
+        start_type: R::Start::ros_type_name(),
+        start_policy: m.policy().label().to_owned(),
+        last_exit_reason: m.last_exit().map(ExitReason::describe).unwrap_or_default(),
+        starts: c.starts,
+        exits: c.exits,
+        interrupts: c.interrupts,
+        exit_signals: c.exit_signals,
+        completed: c.completed,
+        failures: c.failures,
+        panics: c.panics,
+        restarts: c.restarts,
+        ignored_starts: c.ignored_starts,
+        ignored_interrupts: c.ignored_interrupts,
+        ignored_exits: c.ignored_exits,
+        start_queued: m.start_queued(),
+    }
+}
+
+async fn drive<R: Response>(
+    response: Arc<Mutex<R>>,
+    mut machine: ResponseMachine<R::Start, R::Output>,
+    io: Io<R>,
+    start_sub: ros2_client::Subscription<R::Start>,
+    interrupt_sub: ros2_client::Subscription<Empty>,
+    exit_sub: ros2_client::Subscription<Empty>,
+    mut stop: tokio::sync::oneshot::Receiver<()>,
+) {
+    let name = io.name.clone();
+    let start_topic = name.topic("start");
+    let malformed = move |topic: String, ty: String| {
+        move |e: ros2_client::ReadError| {
+            tracing::warn!(
+                %topic,
+                expected = %ty,
+                error = %e,
+                "dropped a message that does not decode as the slot's type; publish {ty} on this topic"
+            );
+        }
+    };
+    let on_bad_start = malformed(start_topic, R::Start::ros_type_name());
+    let on_bad_int = malformed(name.topic("interrupt"), Empty::ros_type_name());
+    let on_bad_exit = malformed(name.topic("exit"), Empty::ros_type_name());
+    let starts = start_sub
+        .async_stream()
+        .map(move |r| r.map(|(m, _)| Input::Start(m)).map_err(&on_bad_start));
+    let interrupts = interrupt_sub
+        .async_stream()
+        .map(move |r| r.map(|_| Input::Interrupt).map_err(&on_bad_int));
+    let exits = exit_sub
+        .async_stream()
+        .map(move |r| r.map(|_| Input::Exit).map_err(&on_bad_exit));
+    let mut signals = Box::pin(futures::stream::select(
+        starts,
+        futures::stream::select(interrupts, exits),
+    ));
+
+    let mut current: Option<Slot<R::Output>> = None;
+    let mut stop_requested = false;
+    loop {
+        let fx = tokio::select! {
+            done = async {
+                match current.as_mut() {
+                    Some(slot) => slot.await,
+                    None => std::future::pending().await,
+                }
+            } => {
+                current = None;
+                machine.handle(done.into_input())
+            }
+            _ = &mut stop, if !stop_requested => {
+                stop_requested = true;
+                machine.stop()
+            }
+            sig = signals.next() => match sig {
+                Some(Ok(input)) => machine.handle(input),
+                Some(Err(())) => continue,
+                None => break,
+            },
+        };
+        for effect in fx {
+            match effect {
+                Effect::EmitStarted(p) => emit(&io.started, "started", p),
+                Effect::RunStart(p) => {
+                    let r = Arc::clone(&response);
+                    current = Some(Box::pin(async move {
+                        let mut guard = r.lock_owned().await;
+                        let end = match AssertUnwindSafe(guard.start(p)).catch_unwind().await {
+                            Ok(Ok(o)) => StartEnd::Returned(o),
+                            Ok(Err(e)) => StartEnd::Failed(e.0),
+                            Err(panic) => StartEnd::Panicked(panic_message(panic)),
+                        };
+                        SlotDone::Start(end)
+                    }));
+                }
+                Effect::CancelStart => current = None,
+                Effect::EmitInterrupted => emit(&io.interrupted, "interrupted", Empty::default()),
+                Effect::RunInterrupt => {
+                    let r = Arc::clone(&response);
+                    current = Some(Box::pin(async move {
+                        let mut guard = r.lock_owned().await;
+                        let panic = AssertUnwindSafe(guard.interrupt())
+                            .catch_unwind()
+                            .await
+                            .err();
+                        SlotDone::Interrupt(panic.map(panic_message))
+                    }));
+                }
+                Effect::RunExit(reason) => {
+                    let r = Arc::clone(&response);
+                    current = Some(Box::pin(async move {
+                        let mut guard = r.lock_owned().await;
+                        let res = AssertUnwindSafe(guard.exit(reason)).catch_unwind().await;
+                        SlotDone::Exit(res.map_err(panic_message))
+                    }));
+                }
+                Effect::EmitExited(o) => emit(&io.exited, "exited", o),
+                Effect::ReportPanic { slot, message } => {
+                    tracing::error!(response = %name, slot, %message, "slot panicked; the response carries on")
+                }
+                Effect::Ignored { signal, phase } => {
+                    tracing::debug!(response = %name, signal, phase = phase.label(), "signal ignored")
+                }
+            }
+        }
+        let st = state_message::<R>(&name, &machine);
+        emit(&io.state_pub, "state", st.clone());
+        io.state_tx.send_replace(st);
+        if stop_requested && current.is_none() {
+            break;
+        }
+    }
+    tracing::info!(response = %name, "response stopped");
+}
