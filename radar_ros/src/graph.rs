@@ -56,6 +56,11 @@ impl Graph {
         Self::watch(&mut self.table.lock().unwrap().writers, writer)
     }
 
+    /// Watches the number of publishers matched with a local reader.
+    pub(crate) fn watch_reader(&self, reader: GUID) -> watch::Receiver<usize> {
+        Self::watch(&mut self.table.lock().unwrap().readers, reader)
+    }
+
     fn watch(map: &mut HashMap<GUID, Entry>, guid: GUID) -> watch::Receiver<usize> {
         let e = map.entry(guid).or_default();
         match &e.tx {

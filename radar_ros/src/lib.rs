@@ -72,6 +72,7 @@ pub mod names;
 pub mod radar;
 pub mod response;
 pub mod semantics;
+pub mod signal;
 
 pub use error::{Error, Result, SlotError};
 pub use event::{Event, EventHandle, EventNode, TimerEvent, TopicEvent};
@@ -82,3 +83,4 @@ pub use radar::{
 };
 pub use response::{FnResponse, Response, ResponseHandle};
 pub use semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
+pub use signal::{SignalPublisher, SignalSubscription};

@@ -145,6 +145,7 @@ impl RadarBuilder {
                 namespace,
                 graph,
                 names: Mutex::new(HashSet::new()),
+                client: Mutex::new(None),
                 stop_graph: Mutex::new(Some(stop)),
             }),
         })
@@ -157,6 +158,8 @@ struct Inner {
     namespace: String,
     graph: Graph,
     names: Mutex<HashSet<String>>,
+    /// A plain node for this participant's publishers and subscriptions that belong to no component.
+    client: Mutex<Option<Node>>,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
 }
 
@@ -225,6 +228,34 @@ impl Radar {
 
     pub(crate) fn graph(&self) -> &Graph {
         &self.inner.graph
+    }
+
+    /// Runs `f` with this participant's client node, creating it on first use (named
+    /// `radar_client_<pid>_<n>`, so several participants in one process stay distinct on the graph).
+    pub(crate) fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
+        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let mut guard = self.inner.client.lock().unwrap();
+        if guard.is_none() {
+            let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let base = format!("radar_client_{}_{k}", std::process::id());
+            let name =
+                NodeName::new(&self.inner.namespace, &base).map_err(|e| Error::InvalidName {
+                    name: base.clone(),
+                    reason: format!("{e}"),
+                })?;
+            let node = self
+                .inner
+                .ctx
+                .new_node(
+                    name,
+                    NodeOptions::new()
+                        .enable_rosout(false)
+                        .start_parameter_services(false),
+                )
+                .map_err(|e| Error::dds(format!("node {base}"), e))?;
+            *guard = Some(node);
+        }
+        f(guard.as_mut().expect("client node was just created"))
     }
 
     /// Claims a name for a component in this process and creates its node (no rosout, no parameter services:

@@ -171,6 +171,10 @@ impl<P: RosMessage, O: RosMessage> Response for FnResponse<P, O> {
 pub struct ResponseHandle {
     name: ComponentName,
     state: watch::Receiver<ResponseState>,
+    /// Publishers matched with the `start`, `interrupt` and `exit` readers.
+    slot_publishers: [watch::Receiver<usize>; 3],
+    /// Subscriptions matched with the `started`, `interrupted` and `exited` writers.
+    signal_subscribers: [watch::Receiver<usize>; 3],
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     task: Option<tokio::task::JoinHandle<()>>,
 }
@@ -194,6 +198,58 @@ impl ResponseHandle {
     /// A receiver that sees every state change.
     pub fn watch_state(&self) -> watch::Receiver<ResponseState> {
         self.state.clone()
+    }
+
+    /// Publishers matched now with the `start`, `interrupt` and `exit` slot readers.
+    pub fn slot_publishers(&self) -> [usize; 3] {
+        self.slot_publishers.each_ref().map(|w| *w.borrow())
+    }
+
+    /// Subscriptions matched now with the `started`, `interrupted` and `exited` writers.
+    pub fn signal_subscribers(&self) -> [usize; 3] {
+        self.signal_subscribers.each_ref().map(|w| *w.borrow())
+    }
+
+    /// Waits until each slot reader (`start`, `interrupt`, `exit`) has matched at least `slot_publishers`
+    /// publishers and each signal writer (`started`, `interrupted`, `exited`) at least `signal_subscribers`
+    /// subscriptions. DDS discovery completes on each side separately, and a volatile writer sends only to
+    /// readers it has matched, so a peer seeing the match from its side is not enough for nothing to be lost.
+    pub async fn wait_for_peers(
+        &self,
+        slot_publishers: usize,
+        signal_subscribers: usize,
+        timeout: std::time::Duration,
+    ) -> Result<()> {
+        let wanted = self
+            .slot_publishers
+            .iter()
+            .map(|w| (w, slot_publishers))
+            .chain(
+                self.signal_subscribers
+                    .iter()
+                    .map(|w| (w, signal_subscribers)),
+            );
+        let wait = async {
+            for (w, n) in wanted {
+                let mut w = w.clone();
+                if w.wait_for(|c| *c >= n).await.is_err() {
+                    return Err(crate::Error::Closed(self.name.fully_qualified()));
+                }
+            }
+            Ok(())
+        };
+        tokio::time::timeout(timeout, wait)
+            .await
+            .map_err(|_| crate::Error::Timeout {
+                what: format!(
+                    "{slot_publishers} publisher(s) per slot and {signal_subscribers} subscriber(s) per signal of {} \
+                     (now {:?} and {:?})",
+                    self.name,
+                    self.slot_publishers(),
+                    self.signal_subscribers()
+                ),
+                after: timeout,
+            })?
     }
 
     /// Stops the response: a running start behaviour is ended as by an `exit` signal (the exit slot runs and
@@ -250,6 +306,11 @@ impl Radar {
         let exited = publisher::<R::Output>(&mut node, &name.topic("exited"), &sq)?;
         let state_pub = publisher::<ResponseState>(&mut node, &name.topic("state"), &state_qos())?;
 
+        let graph = self.graph().clone();
+        let slot_guids = [start_sub.guid(), interrupt_sub.guid(), exit_sub.guid()];
+        let slot_publishers = slot_guids.map(|g| graph.watch_reader(g));
+        let signal_guids = [started.guid(), interrupted.guid(), exited.guid()];
+        let signal_subscribers = signal_guids.map(|g| graph.watch_writer(g));
         let policy = response.start_policy();
         let machine = ResponseMachine::<R::Start, R::Output>::new(policy);
         let initial = state_message::<R>(&name, &machine);
@@ -278,11 +339,16 @@ impl Radar {
                 stop_rx,
             )
             .await;
+            for g in slot_guids.into_iter().chain(signal_guids) {
+                graph.forget(g);
+            }
         });
         tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
         Ok(ResponseHandle {
             name,
             state: state_rx,
+            slot_publishers,
+            signal_subscribers,
             stop: Some(stop_tx),
             task: Some(task),
         })
@@ -367,7 +433,11 @@ async fn drive<R: Response>(
     let mut current: Option<Slot<R::Output>> = None;
     let mut stop_requested = false;
     loop {
+        // Biased: the running slot is polled before any signal is taken, so a start behaviour that was just
+        // begun runs up to its first await point before an interrupt can cancel it (`started` never announces
+        // a behaviour that did not run at all).
         let fx = tokio::select! {
+            biased;
             done = async {
                 match current.as_mut() {
                     Some(slot) => slot.await,

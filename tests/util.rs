@@ -1,0 +1,161 @@
+//! Shared helpers for the integration tests: participants on an explicit domain, and a probe that drives a
+//! response's slots and records its signals from a separate DDS participant.
+//!
+//! Every test uses its own `ROS_DOMAIN_ID` (see `tests/README.md` for the allocation), and loopback-only
+//! discovery, so tests can run in parallel and never send traffic off the machine.
+
+use std::time::Duration;
+
+use radar_ros::{
+    msg::{Empty, ResponseState, RosMessage},
+    DiscoveryRange, Radar, SignalPublisher, SignalSubscription,
+};
+
+/// How long any wait on DDS discovery may take before a test fails.
+pub const DISCOVERY: Duration = Duration::from_secs(15);
+
+/// Installs a log subscriber once (`RUST_LOG` to see more).
+pub fn init_logs() {
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+        )
+        .with_test_writer()
+        .try_init();
+}
+
+/// A participant in `domain`, discovering over loopback only.
+pub fn radar(domain: u16) -> Radar {
+    init_logs();
+    Radar::builder()
+        .domain_id(domain)
+        .discovery_range(DiscoveryRange::Localhost)
+        .build()
+        .expect("participant")
+}
+
+/// A signal as seen on the wire.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Seen<P, O> {
+    /// `started` with its payload.
+    Started(P),
+    /// `interrupted`.
+    Interrupted,
+    /// `exited` with its output.
+    Exited(O),
+}
+
+/// Drives one response from another participant and records what it emits.
+pub struct ResponseProbe<P: RosMessage, O: RosMessage> {
+    /// Publishes on `start`.
+    pub start: SignalPublisher<P>,
+    /// Publishes on `interrupt`.
+    pub interrupt: SignalPublisher<Empty>,
+    /// Publishes on `exit`.
+    pub exit: SignalPublisher<Empty>,
+    started: SignalSubscription<P>,
+    interrupted: SignalSubscription<Empty>,
+    exited: SignalSubscription<O>,
+    state: SignalSubscription<ResponseState>,
+}
+
+impl<P: RosMessage, O: RosMessage> ResponseProbe<P, O> {
+    /// Connects to the response `name` and waits until every endpoint is matched.
+    pub async fn connect(radar: &Radar, name: &str) -> Self {
+        let p = ResponseProbe {
+            start: radar.signal_publisher(&format!("{name}/start")).unwrap(),
+            interrupt: radar
+                .signal_publisher(&format!("{name}/interrupt"))
+                .unwrap(),
+            exit: radar.signal_publisher(&format!("{name}/exit")).unwrap(),
+            started: radar
+                .signal_subscription(&format!("{name}/started"))
+                .unwrap(),
+            interrupted: radar
+                .signal_subscription(&format!("{name}/interrupted"))
+                .unwrap(),
+            exited: radar
+                .signal_subscription(&format!("{name}/exited"))
+                .unwrap(),
+            state: radar.state_subscription(&format!("{name}/state")).unwrap(),
+        };
+        p.start.wait_for_subscribers(1, DISCOVERY).await.unwrap();
+        p.interrupt
+            .wait_for_subscribers(1, DISCOVERY)
+            .await
+            .unwrap();
+        p.exit.wait_for_subscribers(1, DISCOVERY).await.unwrap();
+        p.started.wait_for_publishers(1, DISCOVERY).await.unwrap();
+        p.interrupted
+            .wait_for_publishers(1, DISCOVERY)
+            .await
+            .unwrap();
+        p.exited.wait_for_publishers(1, DISCOVERY).await.unwrap();
+        p.state.wait_for_publishers(1, DISCOVERY).await.unwrap();
+        p
+    }
+
+    /// Collects the next `n` signals, in the order the response emitted them (by source timestamp), failing
+    /// after `timeout`.
+    pub async fn signals(&self, n: usize, timeout: Duration) -> Vec<Seen<P, O>> {
+        let mut got: Vec<(i64, Seen<P, O>)> = Vec::new();
+        let deadline = tokio::time::Instant::now() + timeout;
+        while got.len() < n {
+            let next = tokio::time::timeout_at(deadline, async {
+                tokio::select! {
+                    r = self.started.recv_stamped() => r.map(|(m, t)| (t, Seen::Started(m))),
+                    r = self.interrupted.recv_stamped() => r.map(|(_, t)| (t, Seen::Interrupted)),
+                    r = self.exited.recv_stamped() => r.map(|(m, t)| (t, Seen::Exited(m))),
+                }
+            })
+            .await;
+            match next {
+                Ok(Ok(x)) => got.push(x),
+                Ok(Err(e)) => panic!("receive failed: {e}"),
+                Err(_) => panic!(
+                    "timed out after {timeout:?} with {} of {n} signals: {got:?}",
+                    got.len()
+                ),
+            }
+        }
+        got.sort_by_key(|(t, _)| *t);
+        got.into_iter().map(|(_, s)| s).collect()
+    }
+
+    /// Asserts that no signal arrives within `d`.
+    pub async fn assert_quiet(&self, d: Duration) {
+        let r = tokio::time::timeout(d, async {
+            tokio::select! {
+                r = self.started.recv() => format!("started {:?}", r),
+                r = self.interrupted.recv() => format!("interrupted {:?}", r),
+                r = self.exited.recv() => format!("exited {:?}", r),
+            }
+        })
+        .await;
+        if let Ok(s) = r {
+            panic!("expected no signal, got {s}");
+        }
+    }
+
+    /// Reads state messages until one satisfies `pred`; returns the labels seen on the way (inclusive).
+    pub async fn states_until(
+        &self,
+        timeout: Duration,
+        pred: impl Fn(&ResponseState) -> bool,
+    ) -> (Vec<String>, ResponseState) {
+        let mut labels = Vec::new();
+        let deadline = tokio::time::Instant::now() + timeout;
+        loop {
+            match tokio::time::timeout_at(deadline, self.state.recv()).await {
+                Ok(Ok(s)) => {
+                    labels.push(s.state_label.clone());
+                    if pred(&s) {
+                        return (labels, s);
+                    }
+                }
+                Ok(Err(e)) => panic!("state receive failed: {e}"),
+                Err(_) => panic!("timed out waiting for a state; saw {labels:?}"),
+            }
+        }
+    }
+}
