@@ -1,1 +1,320 @@
+//! An event checks only while someone listens on `triggered`: activation and deactivation follow the DDS
+//! match count, for subscribers in the same participant, in another participant, and in a child process that
+//! exits cleanly or is killed. Domains 40-49.
 
+use std::{
+    process::Stdio,
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc,
+    },
+    time::{Duration, Instant},
+};
+
+use radar_ros::{
+    msg::{Empty, EventState, Int32, StringMsg},
+    Event, EventHandle, SlotError, TimerEvent, TopicEvent,
+};
+use radar_test_util::{radar, DISCOVERY};
+use tokio::io::{AsyncBufReadExt, BufReader};
+
+/// Counts checks begun and checks cancelled; each check triggers after 20 ms.
+#[derive(Clone, Default)]
+struct Counting {
+    checks: Arc<AtomicU64>,
+    cancelled: Arc<AtomicU64>,
+    fail_first: Arc<AtomicU64>,
+}
+
+struct Cancelled(Arc<AtomicU64>, bool);
+impl Drop for Cancelled {
+    fn drop(&mut self) {
+        if !self.1 {
+            self.0.fetch_add(1, Ordering::SeqCst);
+        }
+    }
+}
+
+impl Event for Counting {
+    type Payload = Int32;
+    async fn check(&mut self) -> Result<Int32, SlotError> {
+        let n = self.checks.fetch_add(1, Ordering::SeqCst) + 1;
+        let mut guard = Cancelled(self.cancelled.clone(), false);
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        guard.1 = true;
+        if self.fail_first.load(Ordering::SeqCst) >= n {
+            return Err(SlotError::msg(format!("sensor offline ({n})")));
+        }
+        Ok(Int32 { data: n as i32 })
+    }
+    fn retry_after(&self) -> Duration {
+        Duration::from_millis(10)
+    }
+}
+
+async fn until_state(
+    h: &EventHandle,
+    timeout: Duration,
+    pred: impl Fn(&EventState) -> bool,
+) -> EventState {
+    let mut w = h.watch_state();
+    let r = tokio::time::timeout(timeout, w.wait_for(|s| pred(s))).await;
+    match r {
+        Ok(Ok(s)) => s.clone(),
+        _ => panic!(
+            "event state did not reach the expected value in {timeout:?}; last: {:?}",
+            h.state()
+        ),
+    }
+}
+
+async fn assert_idle_for(h: &EventHandle, c: &Counting, d: Duration) {
+    let before = c.checks.load(Ordering::SeqCst);
+    tokio::time::sleep(d).await;
+    assert!(!h.state().active, "{:?}", h.state());
+    assert_eq!(
+        c.checks.load(Ordering::SeqCst),
+        before,
+        "the check ran with no listener"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn same_participant_subscriber_activates_and_deactivates_the_event() {
+    let host = radar(40);
+    let c = Counting::default();
+    let h = host.spawn_event("ev", c.clone()).unwrap();
+    assert_idle_for(&h, &c, Duration::from_millis(300)).await;
+
+    let t0 = Instant::now();
+    let sub = host.signal_subscription::<Int32>("/ev/triggered").unwrap();
+    until_state(&h, DISCOVERY, |s| s.active).await;
+    let activation = t0.elapsed();
+    let first = sub.recv_timeout(Duration::from_secs(5)).await.unwrap();
+    assert!(first.data >= 1);
+    println!("same participant: active {activation:?} after the subscription was created");
+    assert!(
+        activation < Duration::from_millis(500),
+        "activation took {activation:?}"
+    );
+
+    let t1 = Instant::now();
+    drop(sub);
+    let st = until_state(&h, DISCOVERY, |s| !s.active).await;
+    let deactivation = t1.elapsed();
+    println!("same participant: inactive {deactivation:?} after the subscription was deleted");
+    assert!(
+        deactivation < Duration::from_millis(500),
+        "deactivation took {deactivation:?}"
+    );
+    assert!(st.triggers >= 1 && st.activations == 1, "{st:?}");
+    // the check that was running when the listener left was cancelled, and none runs any more
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    assert!(c.cancelled.load(Ordering::SeqCst) <= 1);
+    assert_idle_for(&h, &c, Duration::from_millis(300)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn subscriber_in_another_participant_activates_it_and_its_departure_cancels_the_check() {
+    let host = radar(41);
+    let c = Counting::default();
+    let h = host.spawn_event("ev", c.clone()).unwrap();
+    let other = radar(41);
+    let sub = other.signal_subscription::<Int32>("/ev/triggered").unwrap();
+    sub.wait_for_publishers(1, DISCOVERY).await.unwrap();
+    let t0 = Instant::now();
+    let st = until_state(&h, DISCOVERY, |s| s.active).await;
+    println!(
+        "other participant: active {:?} after the subscriber saw the match",
+        t0.elapsed()
+    );
+    assert_eq!(st.listeners, 1);
+    sub.recv_timeout(Duration::from_secs(5)).await.unwrap();
+
+    // a second listener keeps it active when the first leaves
+    let sub2 = host.signal_subscription::<Int32>("/ev/triggered").unwrap();
+    until_state(&h, DISCOVERY, |s| s.listeners == 2).await;
+    drop(sub);
+    let st = until_state(&h, DISCOVERY, |s| s.listeners == 1).await;
+    assert!(st.active);
+    let t1 = Instant::now();
+    drop(sub2);
+    until_state(&h, DISCOVERY, |s| !s.active).await;
+    println!(
+        "other participant: inactive {:?} after the last subscriber left",
+        t1.elapsed()
+    );
+    assert_idle_for(&h, &c, Duration::from_millis(200)).await;
+}
+
+fn peer(domain: u16, topic: &str) -> tokio::process::Child {
+    tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
+        .args(["subscribe", topic])
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("RUST_LOG", "error")
+        .stdout(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("start radar_test_peer")
+}
+
+async fn wait_line(child: &mut tokio::process::Child, want: &str) {
+    let out = child.stdout.take().expect("stdout");
+    let mut lines = BufReader::new(out).lines();
+    let found = tokio::time::timeout(DISCOVERY, async {
+        while let Ok(Some(l)) = lines.next_line().await {
+            if l == want {
+                return true;
+            }
+        }
+        false
+    })
+    .await;
+    assert_eq!(found, Ok(true), "peer did not print {want:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn subscriber_process_that_exits_cleanly_deactivates_the_event_at_once() {
+    let host = radar(42);
+    let c = Counting::default();
+    let h = host.spawn_event("ev", c.clone()).unwrap();
+    let mut child = peer(42, "/ev/triggered");
+    wait_line(&mut child, "matched").await;
+    until_state(&h, DISCOVERY, |s| s.active).await;
+    let t0 = Instant::now();
+    // SIGTERM: the peer drops its participant, which tells DDS peers it is gone
+    let pid = child.id().unwrap() as i32;
+    assert_eq!(unsafe_kill(pid, "TERM"), 0);
+    until_state(&h, Duration::from_secs(10), |s| !s.active).await;
+    let took = t0.elapsed();
+    println!("clean exit of the subscriber process: inactive after {took:?}");
+    assert!(took < Duration::from_secs(5), "took {took:?}");
+    let _ = child.wait().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn killed_subscriber_process_deactivates_the_event_when_its_dds_lease_expires() {
+    let host = radar(43);
+    let c = Counting::default();
+    let h = host.spawn_event("ev", c.clone()).unwrap();
+    let mut child = peer(43, "/ev/triggered");
+    wait_line(&mut child, "matched").await;
+    until_state(&h, DISCOVERY, |s| s.active).await;
+    let t0 = Instant::now();
+    child.kill().await.unwrap(); // SIGKILL: no goodbye on the wire
+                                 // A killed RustDDS participant is declared lost when its lease (50 s) expires; RustDDS checks every 2 s.
+    until_state(&h, Duration::from_secs(80), |s| !s.active).await;
+    let took = t0.elapsed();
+    println!("SIGKILL of the subscriber process: inactive after {took:?} (DDS participant lease)");
+    assert!(
+        took > Duration::from_secs(20),
+        "a killed peer cannot be noticed before its lease: {took:?}"
+    );
+    assert_idle_for(&h, &c, Duration::from_millis(200)).await;
+}
+
+fn unsafe_kill(pid: i32, sig: &str) -> i32 {
+    std::process::Command::new("kill")
+        .args([&format!("-{sig}"), &pid.to_string()])
+        .status()
+        .map(|s| s.code().unwrap_or(-1))
+        .unwrap_or(-1)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn timer_event_triggers_every_period_counted_from_activation() {
+    let host = radar(44);
+    let h = host
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(200)))
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let sub = host
+        .signal_subscription::<Empty>("/tick/triggered")
+        .unwrap();
+    until_state(&h, DISCOVERY, |s| s.active).await;
+    let t0 = Instant::now();
+    let mut at = Vec::new();
+    for _ in 0..3 {
+        sub.recv_timeout(Duration::from_secs(2)).await.unwrap();
+        at.push(t0.elapsed().as_millis());
+    }
+    println!("timer triggers at {at:?} ms after activation");
+    // first trigger one period after activation (not right away, not 500 ms late), then every period
+    assert!((150..350).contains(&at[0]), "{at:?}");
+    assert!(
+        (350..550).contains(&at[1]) && (550..750).contains(&at[2]),
+        "{at:?}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn topic_event_triggers_on_matching_messages_received_while_active() {
+    let host = radar(45);
+    let h = host
+        .spawn_event(
+            "hot",
+            TopicEvent::new("/temperature", |t: &Int32| {
+                (t.data > 50).then(|| StringMsg::from(format!("{} C", t.data).as_str()))
+            }),
+        )
+        .unwrap();
+    let temp = host.signal_publisher::<Int32>("/temperature").unwrap();
+    temp.wait_for_subscribers(1, DISCOVERY).await.unwrap();
+    // while inactive: a hot reading is not acted on later
+    temp.publish(Int32 { data: 99 }).unwrap();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let sub = host
+        .signal_subscription::<StringMsg>("/hot/triggered")
+        .unwrap();
+    until_state(&h, DISCOVERY, |s| s.active).await;
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    for d in [20, 60, 30, 70] {
+        temp.publish(Int32 { data: d }).unwrap();
+    }
+    assert_eq!(
+        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        "60 C"
+    );
+    assert_eq!(
+        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        "70 C"
+    );
+    assert!(
+        sub.recv_timeout(Duration::from_millis(300)).await.is_err(),
+        "99 C came from before activation"
+    );
+    assert_eq!(h.state().trigger_type, "std_msgs/msg/String");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn check_errors_are_counted_on_state_and_the_check_is_retried() {
+    let host = radar(46);
+    let c = Counting::default();
+    c.fail_first.store(2, Ordering::SeqCst);
+    let h = host.spawn_event("flaky", c.clone()).unwrap();
+    let state = host
+        .state_subscription::<EventState>("/flaky/state")
+        .unwrap();
+    let sub = host
+        .signal_subscription::<Int32>("/flaky/triggered")
+        .unwrap();
+    assert_eq!(
+        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        3
+    );
+    let st = until_state(&h, DISCOVERY, |s| s.triggers >= 1).await;
+    assert_eq!(st.check_errors, 2);
+    assert_eq!(st.last_error, "sensor offline (2)");
+    // the same is on the wire
+    let wire = tokio::time::timeout(DISCOVERY, async {
+        loop {
+            let s = state.recv().await.unwrap();
+            if s.check_errors == 2 {
+                return s;
+            }
+        }
+    })
+    .await
+    .unwrap();
+    assert_eq!(wire.name, "/flaky");
+}

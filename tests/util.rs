@@ -1,8 +1,9 @@
 //! Shared helpers for the integration tests: participants on an explicit domain, and a probe that drives a
 //! response's slots and records its signals from a separate DDS participant.
 //!
-//! Every test uses its own `ROS_DOMAIN_ID` (see `tests/README.md` for the allocation), and loopback-only
-//! discovery, so tests can run in parallel and never send traffic off the machine.
+//! Every test uses its own `ROS_DOMAIN_ID` (see `tests/README.md` for the allocation), so tests can run in
+//! parallel. The suite runs inside `tests/isolated.sh` (a private network namespace), so DDS multicast never
+//! leaves the machine; [`radar`] refuses to run outside it.
 
 use std::time::Duration;
 
@@ -18,18 +19,33 @@ pub const DISCOVERY: Duration = Duration::from_secs(15);
 pub fn init_logs() {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "warn,rustdds=error".into()),
         )
         .with_test_writer()
         .try_init();
 }
 
-/// A participant in `domain`, discovering over loopback only.
+/// Panics unless the tests run inside `tests/isolated.sh` (or `RADAR_ALLOW_NETWORK=1` says the host
+/// network may carry DDS multicast).
+pub fn require_isolation() {
+    let ok = std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+        || std::env::var("RADAR_ALLOW_NETWORK").as_deref() == Ok("1");
+    assert!(
+        ok,
+        "DDS tests send multicast discovery traffic: run them inside a private network namespace with \
+         `tests/isolated.sh cargo test --workspace` (as README.md and .ci/run do), or set \
+         RADAR_ALLOW_NETWORK=1 to use the host network"
+    );
+}
+
+/// A participant in `domain` (subnet discovery, as ROS 2's default; inside the test namespace).
 pub fn radar(domain: u16) -> Radar {
     init_logs();
+    require_isolation();
     Radar::builder()
         .domain_id(domain)
-        .discovery_range(DiscoveryRange::Localhost)
+        .discovery_range(DiscoveryRange::Subnet)
         .build()
         .expect("participant")
 }

@@ -51,6 +51,10 @@ pub fn domain_id_from_env() -> Result<u16> {
 }
 
 /// How far DDS discovery reaches, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+///
+/// Known limitation: with [`DiscoveryRange::Localhost`], RustDDS 0.15 does not deliver messages between a
+/// writer and a reader of the *same* participant (its own reader proxy never gets a loopback route), so
+/// components in one process cannot signal each other. Processes on the same host still can.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DiscoveryRange {
     /// Only this host: DDS uses the loopback interface only.
@@ -128,6 +132,11 @@ impl RadarBuilder {
         };
         let mut dpb = DomainParticipantBuilder::new(domain_id);
         if range == DiscoveryRange::Localhost {
+            tracing::warn!(
+                "LOCALHOST discovery: RustDDS 0.15 restricted to loopback does not deliver between endpoints of \
+                 the same participant, so RADAR components in this process will not hear each other; unset \
+                 ROS_AUTOMATIC_DISCOVERY_RANGE (or use SUBNET) for in-process connections"
+            );
             dpb = dpb.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
         }
         let participant = dpb

@@ -40,7 +40,8 @@ async fn main() {
             drop(radar);
             // let RustDDS send its dispose messages
             tokio::time::sleep(Duration::from_millis(200)).await;
-            println!("bye");
+            use std::io::Write;
+            let _ = writeln!(std::io::stdout(), "bye");
         }
         _ => {
             eprintln!("usage: radar_test_peer check-env | subscribe TOPIC");

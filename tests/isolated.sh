@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Runs a command in a private network namespace, so DDS discovery and traffic of the tests never leave this
+# machine, while DDS still sees an ordinary multicast-capable subnet (as on a robot):
+#   lo (127.0.0.1) + a veth pair radar0 (10.77.0.1/24) <-> radar1, both ends inside the namespace.
+# Multicast sent on radar0 arrives on radar1, inside the namespace; nothing is routed out of it.
+# Needs root (or CAP_SYS_ADMIN + CAP_NET_ADMIN) and iproute2.
+#
+#   tests/isolated.sh cargo test --workspace
+set -euo pipefail
+if [ "${RADAR_ISOLATED:-}" = 1 ]; then exec "$@"; fi
+command -v unshare >/dev/null || { echo "isolated.sh: unshare (util-linux) is missing" >&2; exit 1; }
+command -v ip >/dev/null || { echo "isolated.sh: ip (iproute2) is missing: apt-get install -y iproute2" >&2; exit 1; }
+exec unshare --net -- bash -c '
+  set -e
+  ip link set lo up
+  ip link add radar0 type veth peer name radar1
+  ip addr add 10.77.0.1/24 dev radar0
+  ip link set radar0 up
+  ip link set radar1 up
+  ip link set radar0 multicast on
+  ip route add 224.0.0.0/4 dev radar0
+  export RADAR_ISOLATED=1
+  exec "$@"
+' isolated "$@"
