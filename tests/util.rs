@@ -175,3 +175,14 @@ impl<P: RosMessage, O: RosMessage> ResponseProbe<P, O> {
         }
     }
 }
+
+/// Waits until `cond` holds, checking every 5 ms; panics with `what` after `timeout`.
+pub async fn eventually(timeout: Duration, what: &str, cond: impl Fn() -> bool) {
+    let r = tokio::time::timeout(timeout, async {
+        while !cond() {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    })
+    .await;
+    assert!(r.is_ok(), "timed out after {timeout:?} waiting for {what}");
+}

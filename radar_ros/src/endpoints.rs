@@ -7,8 +7,39 @@ use ros2_client::{
 
 use crate::{
     error::{Error, Result},
+    graph::Graph,
     msg::RosMessage,
 };
+
+/// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
+/// Dropping it removes it from the graph.
+pub(crate) struct Watched<T> {
+    inner: T,
+    guid: ros2_client::dds::rustdds::GUID,
+    graph: Graph,
+    /// Matched peers now and as they change.
+    pub(crate) matched: tokio::sync::watch::Receiver<usize>,
+}
+
+impl<T> Watched<T> {
+    /// Whether a sample from this writer should be used (false for peers of another type).
+    pub(crate) fn accepts(&self, info: &ros2_client::MessageInfo) -> bool {
+        self.graph.accepts(self.guid, info.publisher_gid())
+    }
+}
+
+impl<T> std::ops::Deref for Watched<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.inner
+    }
+}
+
+impl<T> Drop for Watched<T> {
+    fn drop(&mut self) {
+        self.graph.forget(self.guid);
+    }
+}
 
 /// QoS of every signal and slot topic: reliable, volatile, keep-last 10 (rclpy's and `ros2 topic pub`'s
 /// default, so command-line tools match it).
@@ -34,28 +65,48 @@ fn topic_name(topic: &str) -> Result<Name> {
 
 /// Creates a publisher of `M` on the absolute topic `topic`.
 pub(crate) fn publisher<M: RosMessage>(
+    graph: &Graph,
     node: &mut Node,
     topic: &str,
     qos: &QosProfile,
-) -> Result<Publisher<M>> {
+) -> Result<Watched<Publisher<M>>> {
     let t = node
         .create_topic(&topic_name(topic)?, M::message_type_name(), qos)
         .map_err(|e| Error::dds(format!("topic {topic} ({})", M::ros_type_name()), e))?;
-    node.create_publisher(&t, Some(qos.clone()))
-        .map_err(|e| Error::dds(format!("a publisher on {topic}"), e))
+    let inner = node
+        .create_publisher(&t, Some(qos.clone()))
+        .map_err(|e| Error::dds(format!("a publisher on {topic}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_writer(guid, topic, &M::message_type_name().dds_msg_type());
+    Ok(Watched {
+        inner,
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
 }
 
 /// Creates a subscription of `M` on the absolute topic `topic`.
 pub(crate) fn subscription<M: RosMessage>(
+    graph: &Graph,
     node: &mut Node,
     topic: &str,
     qos: &QosProfile,
-) -> Result<Subscription<M>> {
+) -> Result<Watched<Subscription<M>>> {
     let t = node
         .create_topic(&topic_name(topic)?, M::message_type_name(), qos)
         .map_err(|e| Error::dds(format!("topic {topic} ({})", M::ros_type_name()), e))?;
-    node.create_subscription(&t, Some(qos.clone()))
-        .map_err(|e| Error::dds(format!("a subscription on {topic}"), e))
+    let inner = node
+        .create_subscription(&t, Some(qos.clone()))
+        .map_err(|e| Error::dds(format!("a subscription on {topic}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_reader(guid, topic, &M::message_type_name().dds_msg_type());
+    Ok(Watched {
+        inner,
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
 }
 
 /// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.

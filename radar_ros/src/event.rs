@@ -16,7 +16,7 @@ use futures::{FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
 use crate::{
-    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription},
+    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription, Watched},
     error::{Result, SlotError},
     msg::{Empty, EventState, RosMessage, Time},
     names::ComponentName,
@@ -74,12 +74,44 @@ pub struct EventNode<'a> {
 impl EventNode<'_> {
     /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
     /// QoS (reliable, volatile, keep-last 10).
-    pub fn subscribe<M: RosMessage>(
-        &mut self,
-        topic: &str,
-    ) -> Result<ros2_client::Subscription<M>> {
+    pub fn subscribe<M: RosMessage>(&mut self, topic: &str) -> Result<EventSubscription<M>> {
         let abs = resolve_topic(self.radar, topic)?;
-        subscription::<M>(self.node, &abs, &signal_qos())
+        subscription::<M>(self.radar.graph(), self.node, &abs, &signal_qos())
+            .map(|inner| EventSubscription { inner })
+    }
+}
+
+/// A subscription made on an event's node (see [`EventNode::subscribe`]).
+pub struct EventSubscription<M: RosMessage> {
+    inner: Watched<ros2_client::Subscription<M>>,
+}
+
+impl<M: RosMessage> EventSubscription<M> {
+    /// Takes a message that has already arrived (skipping publishers of another type), without waiting.
+    pub fn take(&self) -> Option<M> {
+        loop {
+            match self.inner.take() {
+                Ok(Some((m, info))) if self.inner.accepts(&info) => return Some(m),
+                Ok(Some(_)) => continue,
+                Err(_) => return None,
+                Ok(None) => return None,
+            }
+        }
+    }
+
+    /// The next message (skipping malformed ones and publishers of another type).
+    pub async fn recv(&self) -> Result<M> {
+        let mut stream = Box::pin(self.inner.async_stream());
+        while let Some(r) = stream.next().await {
+            match r {
+                Ok((m, info)) if self.inner.accepts(&info) => return Ok(m),
+                Ok(_) => {}
+                Err(e) => {
+                    tracing::warn!(expected = %M::ros_type_name(), error = %e, "dropped a malformed message")
+                }
+            }
+        }
+        Err(crate::Error::Closed("subscription".into()))
     }
 }
 
@@ -134,7 +166,7 @@ type Predicate<M, P> = Box<dyn FnMut(&M) -> Option<P> + Send>;
 pub struct TopicEvent<M: RosMessage, P: RosMessage> {
     topic: String,
     predicate: Predicate<M, P>,
-    sub: Option<ros2_client::Subscription<M>>,
+    sub: Option<EventSubscription<M>>,
 }
 
 impl<M: RosMessage, P: RosMessage> TopicEvent<M, P> {
@@ -156,7 +188,7 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
     }
     fn on_activate(&mut self) {
         if let Some(sub) = &self.sub {
-            while let Ok(Some(_)) = sub.take() {}
+            while sub.take().is_some() {}
         }
     }
     async fn check(&mut self) -> Result<P, SlotError> {
@@ -164,23 +196,12 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
             .sub
             .as_ref()
             .ok_or_else(|| SlotError::msg("TopicEvent used before attach"))?;
-        let mut stream = Box::pin(sub.async_stream());
-        while let Some(r) = stream.next().await {
-            match r {
-                Ok((m, _)) => {
-                    if let Some(p) = (self.predicate)(&m) {
-                        return Ok(p);
-                    }
-                }
-                Err(e) => {
-                    tracing::warn!(topic = %self.topic, expected = %M::ros_type_name(), error = %e, "dropped a malformed message")
-                }
+        loop {
+            let m = sub.recv().await.map_err(|e| SlotError(e.to_string()))?;
+            if let Some(p) = (self.predicate)(&m) {
+                return Ok(p);
             }
         }
-        Err(SlotError::msg(format!(
-            "subscription to {} ended",
-            self.topic
-        )))
     }
 }
 
@@ -224,6 +245,14 @@ impl EventHandle {
     }
 }
 
+impl std::fmt::Debug for EventHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EventHandle")
+            .field("name", &self.name.fully_qualified())
+            .finish_non_exhaustive()
+    }
+}
+
 impl Drop for EventHandle {
     fn drop(&mut self) {
         if let Some(stop) = self.stop.take() {
@@ -245,10 +274,15 @@ impl Radar {
             node: &mut node,
             radar: self,
         })?;
-        let triggered =
-            publisher::<E::Payload>(&mut node, &name.topic("triggered"), &signal_qos())?;
-        let state_pub = publisher::<EventState>(&mut node, &name.topic("state"), &state_qos())?;
-        let listeners = self.graph().watch_writer(triggered.guid());
+        let triggered = publisher::<E::Payload>(
+            self.graph(),
+            &mut node,
+            &name.topic("triggered"),
+            &signal_qos(),
+        )?;
+        let state_pub =
+            publisher::<EventState>(self.graph(), &mut node, &name.topic("state"), &state_qos())?;
+        let listeners = triggered.matched.clone();
         let st = EventState {
             stamp: Time::now(),
             name: name.fully_qualified(),
@@ -297,8 +331,8 @@ fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<
 
 async fn drive_event<E: Event>(
     event: E,
-    triggered: ros2_client::Publisher<E::Payload>,
-    state_pub: ros2_client::Publisher<EventState>,
+    triggered: Watched<ros2_client::Publisher<E::Payload>>,
+    state_pub: Watched<ros2_client::Publisher<EventState>>,
     state_tx: watch::Sender<EventState>,
     mut st: EventState,
     mut listeners: watch::Receiver<usize>,

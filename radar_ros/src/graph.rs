@@ -11,6 +11,10 @@
 //!   it comes when the dead participant's lease expires: 20 s for Fast DDS (rclpy) peers, 50 s for RustDDS
 //!   peers (RustDDS announces 5 x its 10 s SPDP period), plus up to 2 s for RustDDS's lease check.
 //!
+//! RustDDS matches endpoints of one topic whatever their type names; ROS 2 (and Fast DDS) do not. So on every
+//! match the peer's type, from DDS discovery data, is compared with the local endpoint's: a peer of another
+//! type is not counted, a warning names both types, and [`Graph::accepts`] tells readers to drop its samples.
+//!
 //! Counts are published through `tokio::sync::watch` channels, so an event reacts to a change at once.
 
 use std::{
@@ -25,6 +29,10 @@ use tokio::sync::watch;
 #[derive(Default)]
 struct Entry {
     peers: BTreeSet<GUID>,
+    /// Matched peers whose type differs from ours.
+    rejected: BTreeSet<GUID>,
+    /// (topic, DDS type name) once registered.
+    identity: Option<(String, String)>,
     tx: Option<watch::Sender<usize>>,
 }
 
@@ -48,21 +56,116 @@ struct Table {
 #[derive(Clone, Default)]
 pub(crate) struct Graph {
     table: Arc<Mutex<Table>>,
+    participant: Arc<Mutex<Option<rustdds::DomainParticipant>>>,
+}
+
+/// `std_msgs::msg::dds_::Int32_` -> `std_msgs/msg/Int32`.
+pub(crate) fn ros_type_of_dds(dds: &str) -> String {
+    dds.replacen("::msg::dds_::", "/msg/", 1)
+        .replacen("::srv::dds_::", "/srv/", 1)
+        .trim_end_matches('_')
+        .to_owned()
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Side {
+    /// Our writer, their reader.
+    Writer,
+    /// Our reader, their writer.
+    Reader,
 }
 
 impl Graph {
-    /// Watches the number of subscriptions matched with a local writer.
-    pub(crate) fn watch_writer(&self, writer: GUID) -> watch::Receiver<usize> {
-        Self::watch(&mut self.table.lock().unwrap().writers, writer)
+    /// Watches the number of subscriptions of type `dds_type` matched with a local writer on `topic`.
+    pub(crate) fn watch_writer(
+        &self,
+        writer: GUID,
+        topic: &str,
+        dds_type: &str,
+    ) -> watch::Receiver<usize> {
+        self.watch(Side::Writer, writer, topic, dds_type)
     }
 
-    /// Watches the number of publishers matched with a local reader.
-    pub(crate) fn watch_reader(&self, reader: GUID) -> watch::Receiver<usize> {
-        Self::watch(&mut self.table.lock().unwrap().readers, reader)
+    /// Watches the number of publishers of type `dds_type` matched with a local reader on `topic`.
+    pub(crate) fn watch_reader(
+        &self,
+        reader: GUID,
+        topic: &str,
+        dds_type: &str,
+    ) -> watch::Receiver<usize> {
+        self.watch(Side::Reader, reader, topic, dds_type)
     }
 
-    fn watch(map: &mut HashMap<GUID, Entry>, guid: GUID) -> watch::Receiver<usize> {
+    /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
+    pub(crate) fn accepts(&self, reader: GUID, writer: ros2_client::Gid) -> bool {
+        let t = self.table.lock().unwrap();
+        match t.readers.get(&reader) {
+            Some(e) if !e.rejected.is_empty() => !e.rejected.contains(&GUID::from(writer)),
+            _ => true,
+        }
+    }
+
+    pub(crate) fn set_participant(&self, p: rustdds::DomainParticipant) {
+        *self.participant.lock().unwrap() = Some(p);
+    }
+
+    /// The DDS type a remote endpoint announced, if discovery knows it.
+    fn peer_type(&self, side: Side, peer: GUID) -> Option<String> {
+        let p = self.participant.lock().unwrap().clone()?;
+        match side {
+            Side::Writer => p
+                .discovered_readers()
+                .into_iter()
+                .find(|r| r.reader_proxy.remote_reader_guid == peer)
+                .map(|r| r.subscription_topic_data.type_name().clone()),
+            Side::Reader => p
+                .discovered_writers()
+                .into_iter()
+                .find(|w| w.writer_proxy.remote_writer_guid == peer)
+                .map(|w| w.publication_topic_data.type_name),
+        }
+    }
+
+    /// Adds a matched peer, unless its announced type differs from ours. Returns whether the count changed.
+    fn admit(&self, e: &mut Entry, side: Side, peer: GUID) -> bool {
+        if let Some((topic, ours)) = &e.identity {
+            if let Some(theirs) = self.peer_type(side, peer) {
+                if &theirs != ours {
+                    if e.rejected.insert(peer) {
+                        let (ours, theirs) = (ros_type_of_dds(ours), ros_type_of_dds(&theirs));
+                        match side {
+                            Side::Reader => tracing::warn!(
+                                %topic, expected = %ours, offered = %theirs, writer = ?peer,
+                                "ignoring a publisher of another type; publish {ours} on {topic}"
+                            ),
+                            Side::Writer => tracing::warn!(
+                                %topic, offered = %ours, requested = %theirs, reader = ?peer,
+                                "not counting a subscriber of another type; subscribe with {ours} to {topic}"
+                            ),
+                        }
+                    }
+                    return false;
+                }
+            }
+        }
+        e.peers.insert(peer)
+    }
+
+    fn watch(&self, side: Side, guid: GUID, topic: &str, dds_type: &str) -> watch::Receiver<usize> {
+        let mut t = self.table.lock().unwrap();
+        let map = match side {
+            Side::Writer => &mut t.writers,
+            Side::Reader => &mut t.readers,
+        };
         let e = map.entry(guid).or_default();
+        if e.identity.is_none() {
+            e.identity = Some((topic.to_owned(), dds_type.to_owned()));
+            // peers matched before we knew our type are checked now
+            let early: Vec<GUID> = std::mem::take(&mut e.peers).into_iter().collect();
+            for peer in early {
+                self.admit(e, side, peer);
+            }
+        }
         match &e.tx {
             Some(tx) => tx.subscribe(),
             None => {
@@ -88,7 +191,7 @@ impl Graph {
                 remote_reader,
             } => {
                 let e = t.writers.entry(local_writer).or_default();
-                if e.peers.insert(remote_reader) {
+                if self.admit(e, Side::Writer, remote_reader) {
                     e.notify();
                 }
             }
@@ -97,7 +200,7 @@ impl Graph {
                 remote_writer,
             } => {
                 let e = t.readers.entry(local_reader).or_default();
-                if e.peers.insert(remote_writer) {
+                if self.admit(e, Side::Reader, remote_writer) {
                     e.notify();
                 }
             }
@@ -118,6 +221,7 @@ impl Graph {
 
     fn remove_where(map: &mut HashMap<GUID, Entry>, pred: impl Fn(&GUID) -> bool) {
         for e in map.values_mut() {
+            e.rejected.retain(|g| !pred(g));
             let before = e.peers.len();
             e.peers.retain(|g| !pred(g));
             if e.peers.len() != before {
@@ -133,7 +237,6 @@ impl Graph {
         mut stop: tokio::sync::oneshot::Receiver<()>,
     ) {
         let listener = participant.status_listener();
-        drop(participant);
         let mut events = listener.as_async_status_stream();
         loop {
             tokio::select! {
@@ -144,5 +247,6 @@ impl Graph {
                 },
             }
         }
+        self.participant.lock().unwrap().take();
     }
 }

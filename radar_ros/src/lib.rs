@@ -75,7 +75,7 @@ pub mod semantics;
 pub mod signal;
 
 pub use error::{Error, Result, SlotError};
-pub use event::{Event, EventHandle, EventNode, TimerEvent, TopicEvent};
+pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
 pub use names::ComponentName;
 pub use radar::{
     discovery_range_from_env, domain_id_from_env, parse_domain_id, DiscoveryRange, Radar,

@@ -145,6 +145,7 @@ impl RadarBuilder {
         let ctx = Context::from_domain_participant(participant)
             .map_err(|e| Error::dds(format!("a ROS 2 context in domain {domain_id}"), e))?;
         let graph = Graph::default();
+        graph.set_participant(ctx.domain_participant());
         let (stop, stop_rx) = tokio::sync::oneshot::channel();
         rt.spawn(graph.clone().run(ctx.domain_participant(), stop_rx));
         Ok(Radar {

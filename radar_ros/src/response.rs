@@ -20,7 +20,7 @@ use futures::{future::BoxFuture, FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
 use crate::{
-    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription},
+    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription, Watched},
     error::{Result, SlotError},
     msg::{Empty, ResponseState, RosMessage, Time},
     names::ComponentName,
@@ -264,6 +264,14 @@ impl ResponseHandle {
     }
 }
 
+impl std::fmt::Debug for ResponseHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ResponseHandle")
+            .field("name", &self.name.fully_qualified())
+            .finish_non_exhaustive()
+    }
+}
+
 impl Drop for ResponseHandle {
     fn drop(&mut self) {
         if let Some(stop) = self.stop.take() {
@@ -298,19 +306,32 @@ impl Radar {
         let name = self.resolve(name)?;
         let (mut node, claim) = self.claim_node(&name)?;
         let sq = signal_qos();
-        let start_sub = subscription::<R::Start>(&mut node, &name.topic("start"), &sq)?;
-        let interrupt_sub = subscription::<Empty>(&mut node, &name.topic("interrupt"), &sq)?;
-        let exit_sub = subscription::<Empty>(&mut node, &name.topic("exit"), &sq)?;
-        let started = publisher::<R::Start>(&mut node, &name.topic("started"), &sq)?;
-        let interrupted = publisher::<Empty>(&mut node, &name.topic("interrupted"), &sq)?;
-        let exited = publisher::<R::Output>(&mut node, &name.topic("exited"), &sq)?;
-        let state_pub = publisher::<ResponseState>(&mut node, &name.topic("state"), &state_qos())?;
+        let start_sub =
+            subscription::<R::Start>(self.graph(), &mut node, &name.topic("start"), &sq)?;
+        let interrupt_sub =
+            subscription::<Empty>(self.graph(), &mut node, &name.topic("interrupt"), &sq)?;
+        let exit_sub = subscription::<Empty>(self.graph(), &mut node, &name.topic("exit"), &sq)?;
+        let started = publisher::<R::Start>(self.graph(), &mut node, &name.topic("started"), &sq)?;
+        let interrupted =
+            publisher::<Empty>(self.graph(), &mut node, &name.topic("interrupted"), &sq)?;
+        let exited = publisher::<R::Output>(self.graph(), &mut node, &name.topic("exited"), &sq)?;
+        let state_pub = publisher::<ResponseState>(
+            self.graph(),
+            &mut node,
+            &name.topic("state"),
+            &state_qos(),
+        )?;
 
-        let graph = self.graph().clone();
-        let slot_guids = [start_sub.guid(), interrupt_sub.guid(), exit_sub.guid()];
-        let slot_publishers = slot_guids.map(|g| graph.watch_reader(g));
-        let signal_guids = [started.guid(), interrupted.guid(), exited.guid()];
-        let signal_subscribers = signal_guids.map(|g| graph.watch_writer(g));
+        let slot_publishers = [
+            start_sub.matched.clone(),
+            interrupt_sub.matched.clone(),
+            exit_sub.matched.clone(),
+        ];
+        let signal_subscribers = [
+            started.matched.clone(),
+            interrupted.matched.clone(),
+            exited.matched.clone(),
+        ];
         let policy = response.start_policy();
         let machine = ResponseMachine::<R::Start, R::Output>::new(policy);
         let initial = state_message::<R>(&name, &machine);
@@ -339,9 +360,6 @@ impl Radar {
                 stop_rx,
             )
             .await;
-            for g in slot_guids.into_iter().chain(signal_guids) {
-                graph.forget(g);
-            }
         });
         tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
         Ok(ResponseHandle {
@@ -357,10 +375,10 @@ impl Radar {
 
 struct Io<R: Response> {
     name: ComponentName,
-    started: ros2_client::Publisher<R::Start>,
-    interrupted: ros2_client::Publisher<Empty>,
-    exited: ros2_client::Publisher<R::Output>,
-    state_pub: ros2_client::Publisher<ResponseState>,
+    started: Watched<ros2_client::Publisher<R::Start>>,
+    interrupted: Watched<ros2_client::Publisher<Empty>>,
+    exited: Watched<ros2_client::Publisher<R::Output>>,
+    state_pub: Watched<ros2_client::Publisher<ResponseState>>,
     state_tx: watch::Sender<ResponseState>,
 }
 
@@ -396,9 +414,9 @@ async fn drive<R: Response>(
     response: Arc<Mutex<R>>,
     mut machine: ResponseMachine<R::Start, R::Output>,
     io: Io<R>,
-    start_sub: ros2_client::Subscription<R::Start>,
-    interrupt_sub: ros2_client::Subscription<Empty>,
-    exit_sub: ros2_client::Subscription<Empty>,
+    start_sub: Watched<ros2_client::Subscription<R::Start>>,
+    interrupt_sub: Watched<ros2_client::Subscription<Empty>>,
+    exit_sub: Watched<ros2_client::Subscription<Empty>>,
     mut stop: tokio::sync::oneshot::Receiver<()>,
 ) {
     let name = io.name.clone();
@@ -416,15 +434,20 @@ async fn drive<R: Response>(
     let on_bad_start = malformed(start_topic, R::Start::ros_type_name());
     let on_bad_int = malformed(name.topic("interrupt"), Empty::ros_type_name());
     let on_bad_exit = malformed(name.topic("exit"), Empty::ros_type_name());
-    let starts = start_sub
-        .async_stream()
-        .map(move |r| r.map(|(m, _)| Input::Start(m)).map_err(&on_bad_start));
-    let interrupts = interrupt_sub
-        .async_stream()
-        .map(move |r| r.map(|_| Input::Interrupt).map_err(&on_bad_int));
-    let exits = exit_sub
-        .async_stream()
-        .map(move |r| r.map(|_| Input::Exit).map_err(&on_bad_exit));
+    // samples from publishers of another type (see graph) are dropped like malformed ones
+    let (ss, is, es) = (&start_sub, &interrupt_sub, &exit_sub);
+    let starts = ss.async_stream().map(move |r| {
+        let (m, info) = r.map_err(&on_bad_start)?;
+        ss.accepts(&info).then_some(Input::Start(m)).ok_or(())
+    });
+    let interrupts = is.async_stream().map(move |r| {
+        let (_, info) = r.map_err(&on_bad_int)?;
+        is.accepts(&info).then_some(Input::Interrupt).ok_or(())
+    });
+    let exits = es.async_stream().map(move |r| {
+        let (_, info) = r.map_err(&on_bad_exit)?;
+        es.accepts(&info).then_some(Input::Exit).ok_or(())
+    });
     let mut signals = Box::pin(futures::stream::select(
         starts,
         futures::stream::select(interrupts, exits),

@@ -20,7 +20,7 @@ use futures::StreamExt;
 use tokio::sync::watch;
 
 use crate::{
-    endpoints::{publisher, signal_qos, subscription},
+    endpoints::{publisher, signal_qos, subscription, Watched},
     error::{Error, Result},
     msg::RosMessage,
     radar::Radar,
@@ -45,9 +45,7 @@ async fn wait_count(
 /// A publisher of `M` on one topic, with signal QoS.
 pub struct SignalPublisher<M: RosMessage> {
     topic: String,
-    publisher: ros2_client::Publisher<M>,
-    matched: watch::Receiver<usize>,
-    radar: Radar,
+    publisher: Watched<ros2_client::Publisher<M>>,
 }
 
 impl<M: RosMessage> SignalPublisher<M> {
@@ -65,12 +63,12 @@ impl<M: RosMessage> SignalPublisher<M> {
 
     /// Subscriptions matched now.
     pub fn subscribers(&self) -> usize {
-        *self.matched.borrow()
+        *self.publisher.matched.borrow()
     }
 
     /// Waits until at least `n` subscriptions are matched.
     pub async fn wait_for_subscribers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.matched.clone();
+        let mut rx = self.publisher.matched.clone();
         wait_count(&mut rx, n, timeout, || {
             format!(
                 "{n} subscriber(s) on {} ({})",
@@ -83,7 +81,7 @@ impl<M: RosMessage> SignalPublisher<M> {
 
     /// Waits until no subscription is matched.
     pub async fn wait_for_no_subscribers(&self, timeout: Duration) -> Result<()> {
-        let mut rx = self.matched.clone();
+        let mut rx = self.publisher.matched.clone();
         let r = tokio::time::timeout(timeout, rx.wait_for(|c| *c == 0)).await;
         r.map(|_| ()).map_err(|_| Error::Timeout {
             what: format!("subscribers of {} to leave", self.topic),
@@ -92,18 +90,10 @@ impl<M: RosMessage> SignalPublisher<M> {
     }
 }
 
-impl<M: RosMessage> Drop for SignalPublisher<M> {
-    fn drop(&mut self) {
-        self.radar.graph().forget(self.publisher.guid());
-    }
-}
-
 /// A subscription to `M` on one topic, with signal QoS.
 pub struct SignalSubscription<M: RosMessage> {
     topic: String,
-    subscription: ros2_client::Subscription<M>,
-    matched: watch::Receiver<usize>,
-    radar: Radar,
+    subscription: Watched<ros2_client::Subscription<M>>,
 }
 
 impl<M: RosMessage> SignalSubscription<M> {
@@ -114,12 +104,12 @@ impl<M: RosMessage> SignalSubscription<M> {
 
     /// Publishers matched now.
     pub fn publishers(&self) -> usize {
-        *self.matched.borrow()
+        *self.subscription.matched.borrow()
     }
 
     /// Waits until at least `n` publishers are matched.
     pub async fn wait_for_publishers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.matched.clone();
+        let mut rx = self.subscription.matched.clone();
         wait_count(&mut rx, n, timeout, || {
             format!(
                 "{n} publisher(s) on {} ({})",
@@ -136,6 +126,7 @@ impl<M: RosMessage> SignalSubscription<M> {
         let mut stream = Box::pin(self.subscription.async_stream());
         loop {
             match stream.next().await {
+                Some(Ok((_, info))) if !self.subscription.accepts(&info) => {}
                 Some(Ok((m, info))) => {
                     let t = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
                     return Ok((m, t));
@@ -168,13 +159,14 @@ impl<M: RosMessage> SignalSubscription<M> {
 
     /// Takes a message that has already arrived, without waiting.
     pub fn try_recv(&self) -> Option<M> {
-        self.subscription.take().ok().flatten().map(|(m, _)| m)
-    }
-}
-
-impl<M: RosMessage> Drop for SignalSubscription<M> {
-    fn drop(&mut self) {
-        self.radar.graph().forget(self.subscription.guid());
+        loop {
+            match self.subscription.take() {
+                Ok(Some((m, info))) if self.subscription.accepts(&info) => return Some(m),
+                Ok(Some(_)) => continue,
+                Err(_) => return None,
+                Ok(None) => return None,
+            }
+        }
     }
 }
 
@@ -182,13 +174,11 @@ impl Radar {
     /// A publisher on `topic` (relative names resolve in this Radar's namespace), with signal QoS.
     pub fn signal_publisher<M: RosMessage>(&self, topic: &str) -> Result<SignalPublisher<M>> {
         let topic = self.resolve(topic)?.fully_qualified();
-        let p = self.with_client_node(|node| publisher::<M>(node, &topic, &signal_qos()))?;
-        let matched = self.graph().watch_writer(p.guid());
+        let p = self
+            .with_client_node(|node| publisher::<M>(self.graph(), node, &topic, &signal_qos()))?;
         Ok(SignalPublisher {
             topic,
             publisher: p,
-            matched,
-            radar: self.clone(),
         })
     }
 
@@ -208,13 +198,11 @@ impl Radar {
         qos: ros2_client::QosProfile,
     ) -> Result<SignalSubscription<M>> {
         let topic = self.resolve(topic)?.fully_qualified();
-        let s = self.with_client_node(|node| subscription::<M>(node, &topic, &qos))?;
-        let matched = self.graph().watch_reader(s.guid());
+        let s =
+            self.with_client_node(|node| subscription::<M>(self.graph(), node, &topic, &qos))?;
         Ok(SignalSubscription {
             topic,
             subscription: s,
-            matched,
-            radar: self.clone(),
         })
     }
 }
