@@ -149,7 +149,7 @@ async fn subscriber_in_another_participant_activates_it_and_its_departure_cancel
 
 fn peer(domain: u16, topic: &str) -> tokio::process::Child {
     tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
-        .args(["subscribe", topic])
+        .args(["subscribe", topic, "int32"])
         .env("ROS_DOMAIN_ID", domain.to_string())
         .env("RUST_LOG", "error")
         .stdout(Stdio::piped())

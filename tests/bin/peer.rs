@@ -1,13 +1,17 @@
 //! A helper process for the integration tests: a separate program with its own DDS participant.
 //!
-//! - `radar_test_peer subscribe TOPIC`: subscribes to TOPIC (std_msgs/msg/Empty, signal QoS), prints `matched`
+//! - `radar_test_peer subscribe TOPIC [empty|int32]`: subscribes to TOPIC (std_msgs/msg/Empty or Int32,
+//!   signal QoS), prints `matched`
 //!   once a publisher is matched, and stays until SIGTERM/SIGINT (then leaves the graph cleanly) or SIGKILL.
 //! - `radar_test_peer check-env`: creates a participant from the environment (ROS_DOMAIN_ID, ...) and prints
 //!   `ok`, or prints the error and exits with status 2.
 
 use std::time::Duration;
 
-use radar_ros::{msg::Empty, Radar};
+use radar_ros::{
+    msg::{Empty, Int32},
+    Radar,
+};
 use tokio::signal::unix::{signal, SignalKind};
 
 #[tokio::main]
@@ -24,12 +28,11 @@ async fn main() {
         Some("check-env") => println!("ok domain={}", radar.domain_id()),
         Some("subscribe") => {
             let topic = args.get(1).expect("subscribe TOPIC");
-            let sub = radar
-                .signal_subscription::<Empty>(topic)
-                .expect("subscription");
-            sub.wait_for_publishers(1, Duration::from_secs(30))
-                .await
-                .expect("a publisher");
+            let sub: Box<dyn std::any::Any> = match args.get(2).map(String::as_str) {
+                None | Some("empty") => Box::new(subscribe::<Empty>(&radar, topic).await),
+                Some("int32") => Box::new(subscribe::<Int32>(&radar, topic).await),
+                Some(other) => panic!("unknown type {other}: use empty or int32"),
+            };
             println!("matched");
             let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
             tokio::select! {
@@ -44,8 +47,19 @@ async fn main() {
             let _ = writeln!(std::io::stdout(), "bye");
         }
         _ => {
-            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC");
+            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32]");
             std::process::exit(64);
         }
     }
+}
+
+async fn subscribe<M: radar_ros::msg::RosMessage>(
+    radar: &Radar,
+    topic: &str,
+) -> radar_ros::SignalSubscription<M> {
+    let s = radar.signal_subscription::<M>(topic).expect("subscription");
+    s.wait_for_publishers(1, Duration::from_secs(30))
+        .await
+        .expect("a publisher");
+    s
 }
