@@ -20,7 +20,7 @@ pub fn init_logs() {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "warn,rustdds=error".into()),
+                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error".into()),
         )
         .with_test_writer()
         .try_init();

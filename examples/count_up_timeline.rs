@@ -1,0 +1,135 @@
+//! Runs the `count_up` example (Listing 1) as a separate process and checks its printed timeline against the
+//! listing, step by step, within 100 ms. Domain 60. Runs inside `tests/isolated.sh` like every DDS test.
+
+use std::{path::PathBuf, process::Command};
+
+fn example_binary() -> PathBuf {
+    // target/<profile>/deps/count_up_timeline-<hash> -> target/<profile>/examples/count_up
+    let exe = std::env::current_exe().unwrap();
+    let p = exe
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join("count_up");
+    assert!(
+        p.exists(),
+        "{} is missing: `cargo test` builds the examples of this package; build it with `cargo build --example count_up`",
+        p.display()
+    );
+    p
+}
+
+/// (time, text) of every timeline line.
+fn parse(out: &str) -> Vec<(f64, String)> {
+    out.lines()
+        .filter_map(|l| {
+            let rest = l.strip_prefix('[')?;
+            let (t, text) = rest.split_once(" s] ")?;
+            Some((
+                t.trim().parse().ok()?,
+                text.split("(listing").next()?.trim().to_owned(),
+            ))
+        })
+        .collect()
+}
+
+fn times(tl: &[(f64, String)], what: &str) -> Vec<f64> {
+    tl.iter()
+        .filter(|(_, s)| s == what)
+        .map(|(t, _)| *t)
+        .collect()
+}
+
+fn near(actual: f64, listing: f64, what: &str) {
+    assert!(
+        (actual - listing).abs() <= 0.1,
+        "{what}: at {actual:.3} s, listing says {listing:.1} s"
+    );
+}
+
+#[test]
+fn count_up_follows_listing_1_within_100_ms_per_step() {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+        "run inside tests/isolated.sh (see README.md)"
+    );
+    let out = Command::new(example_binary())
+        .args(["--duration", "9.7"])
+        .env("ROS_DOMAIN_ID", "60")
+        .output()
+        .expect("run count_up");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    assert!(
+        out.status.success(),
+        "count_up failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tl = parse(&stdout);
+
+    near(
+        times(&tl, "start_event triggered")[0],
+        2.0,
+        "start_event triggers",
+    );
+    let started = times(&tl, "count_up started");
+    assert!(started.len() >= 3, "three runs begin by 9.7 s: {started:?}");
+    near(
+        started[0],
+        2.0,
+        "count_up starts (once start_event start count_up)",
+    );
+    // start_event deactivates once the `once` connection is gone
+    let inactive = times(&tl, "start_event inactive");
+    assert!(
+        inactive.iter().any(|t| (*t - 2.0).abs() <= 0.1),
+        "start_event deactivates at 2 s: {inactive:?}"
+    );
+
+    // first run: counts at 2.5, 3.0, 3.5, then end_event at 4.0 interrupts it (until end_event)
+    for (k, t) in times(&tl, "count_up counts 1").iter().zip([2.5, 4.5]) {
+        near(*k, t, "count 1");
+    }
+    near(times(&tl, "count_up counts 2")[0], 3.0, "count 2");
+    near(times(&tl, "count_up counts 3")[0], 3.5, "count 3");
+    let interrupted = times(&tl, "count_up interrupted");
+    assert_eq!(
+        interrupted.len(),
+        1,
+        "only the statement's own run is interrupted: {interrupted:?}"
+    );
+    near(interrupted[0], 4.0, "end_event interrupts count_up");
+    near(
+        times(&tl, "end_event triggered")[0],
+        4.0,
+        "end_event triggers",
+    );
+
+    // on exit: restart, counting to 10 undisturbed (end_event at 8 s is outside the until window)
+    near(started[1], 4.0, "count_up restarts from its exit slot");
+    let restart_counts: Vec<f64> = (1..=10)
+        .map(|k| {
+            *times(&tl, &format!("count_up counts {k}"))
+                .last()
+                .filter(|t| **t > 4.0)
+                .unwrap_or(&0.0)
+        })
+        .collect();
+    for (k, t) in restart_counts.iter().enumerate() {
+        let k = k + 1;
+        if k == 1 || k == 2 {
+            // counts 1 and 2 happen again in the third run; take those of the second
+            continue;
+        }
+        near(*t, 4.0 + 0.5 * k as f64, &format!("second run, count {k}"));
+    }
+    near(
+        times(&tl, "count_up exit slot (completed)")[0],
+        9.0,
+        "second run completes",
+    );
+    near(started[2], 9.0, "count_up restarts again");
+}
