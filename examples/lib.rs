@@ -2,6 +2,8 @@
 
 use std::time::Instant;
 
+pub mod listing1;
+
 /// Prints timestamped lines, `[  2.003 s] what`, relative to when it was created.
 #[derive(Clone, Copy, Debug)]
 pub struct Timeline {

@@ -68,6 +68,8 @@ pub mod error;
 pub mod event;
 mod graph;
 pub mod msg;
+#[cfg(test)]
+mod msg_layout;
 pub mod names;
 pub mod radar;
 pub mod response;

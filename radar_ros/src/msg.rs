@@ -271,3 +271,78 @@ pub struct EventState {
     pub last_error: String,
 }
 ros_message!(EventState, "radar_msgs", "EventState");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg_layout::{fields, msg_file_constants, msg_file_fields};
+
+    fn msg_file(name: &str) -> String {
+        let p = format!(
+            "{}/../msgs/radar_msgs/msg/{name}.msg",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{p}: {e}"))
+    }
+
+    #[test]
+    fn response_state_mirrors_the_msg_file_field_for_field() {
+        let text = msg_file("ResponseState");
+        assert_eq!(fields(&ResponseState::default()), msg_file_fields(&text));
+        let consts = msg_file_constants(&text);
+        let want = [
+            ("STATE_IDLE", ResponseState::STATE_IDLE),
+            ("STATE_RUNNING", ResponseState::STATE_RUNNING),
+            ("STATE_INTERRUPTING", ResponseState::STATE_INTERRUPTING),
+            ("STATE_EXITING", ResponseState::STATE_EXITING),
+        ];
+        assert_eq!(
+            consts,
+            want.map(|(n, v)| (n.to_owned(), v.to_string())).to_vec()
+        );
+        for phase in [
+            crate::Phase::Idle,
+            crate::Phase::Running,
+            crate::Phase::Interrupting,
+            crate::Phase::Exiting,
+        ] {
+            let c = format!("STATE_{}", phase.label().to_uppercase());
+            assert!(consts.contains(&(c, phase.code().to_string())), "{phase:?}");
+        }
+    }
+
+    #[test]
+    fn event_state_mirrors_the_msg_file_field_for_field() {
+        assert_eq!(
+            fields(&EventState::default()),
+            msg_file_fields(&msg_file("EventState"))
+        );
+    }
+
+    #[test]
+    fn standard_messages_have_the_ros_layout() {
+        assert_eq!(Empty::ros_type_name(), "std_msgs/msg/Empty");
+        assert_eq!(
+            fields(&Empty::default()),
+            [(
+                "structure_needs_at_least_one_member".to_owned(),
+                "uint8".to_owned()
+            )]
+        );
+        let ps = fields(&PoseStamped::default());
+        assert_eq!(
+            ps,
+            [
+                ("header".to_owned(), "std_msgs/Header".to_owned()),
+                ("pose".to_owned(), "Pose".to_owned())
+            ]
+        );
+        assert_eq!(
+            fields(&Header::default()),
+            [
+                ("stamp".to_owned(), "builtin_interfaces/Time".to_owned()),
+                ("frame_id".to_owned(), "string".to_owned())
+            ]
+        );
+    }
+}

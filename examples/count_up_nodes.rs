@@ -1,0 +1,83 @@
+//! Listing 1 with one process per component: the same `CountUp` and `SleepThenTrigger` types as the
+//! `count_up` example, each hosted by its own `Radar` (DDS participant), found through DDS discovery.
+//!
+//! ```text
+//! count_up_nodes count_up      # the response
+//! count_up_nodes start_event   # StartEvent (2 s)
+//! count_up_nodes end_event     # EndEvent (4 s)
+//! count_up_nodes statement [--duration S]   # once start_event start count_up until end_event
+//! ```
+//! `launch_scripts/count_up_processes.sh` starts all four. Components run until SIGINT/SIGTERM; the statement
+//! prints its timeline from the moment it is armed and exits after `--duration` seconds (default 12).
+
+use std::time::Duration;
+
+use radar_ros::Radar;
+use radar_ros_examples::{
+    init_logs,
+    listing1::{watch_count_up, CountUp, OnceStartUntil, SleepThenTrigger},
+    Timeline,
+};
+use tokio::signal::unix::{signal, SignalKind};
+
+#[tokio::main]
+async fn main() {
+    init_logs();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let duration = args
+        .iter()
+        .skip_while(|a| *a != "--duration")
+        .nth(1)
+        .map(|s| s.parse::<f64>().expect("--duration SECONDS"))
+        .unwrap_or(12.0);
+    let role = args.first().map(String::as_str).unwrap_or("");
+    if let Err(e) = run(role, duration).await {
+        eprintln!("count_up_nodes {role}: {e}");
+        std::process::exit(1);
+    }
+}
+
+async fn until_stopped() {
+    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+    tokio::select! {
+        _ = term.recv() => {}
+        _ = tokio::signal::ctrl_c() => {}
+    }
+}
+
+async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
+    let radar = Radar::new()?;
+    let tl = Timeline::start();
+    match role {
+        "count_up" => {
+            let h = radar.spawn_response("count_up", CountUp { tl })?;
+            until_stopped().await;
+            h.shutdown().await;
+        }
+        "start_event" | "end_event" => {
+            let secs = if role == "start_event" { 2 } else { 4 };
+            let h = radar.spawn_event(role, SleepThenTrigger(Duration::from_secs(secs)))?;
+            until_stopped().await;
+            h.shutdown().await;
+        }
+        "statement" => {
+            let statement = OnceStartUntil::arm(&radar, Duration::from_secs(30)).await?;
+            // the listing's times count from the statement being armed
+            let tl = Timeline::start();
+            let printer = watch_count_up(&radar, tl)?;
+            tl.mark("once start_event start count_up until end_event", Some(0.0));
+            tokio::select! {
+                r = statement.run(tl) => r?,
+                r = printer => r?,
+                _ = tokio::time::sleep(Duration::from_secs_f64(duration)) => {}
+                _ = until_stopped() => {}
+            }
+            tl.mark("done", None);
+        }
+        _ => {
+            eprintln!("usage: count_up_nodes count_up | start_event | end_event | statement [--duration S]");
+            std::process::exit(64);
+        }
+    }
+    Ok(())
+}
