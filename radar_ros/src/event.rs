@@ -7,7 +7,7 @@
 //! node, `ros2 topic echo`): the ROS form of RADAR's self-activating events. While active it runs
 //! [`Event::check`] in a loop; every value the check resolves with is published on `triggered`. When the last
 //! subscriber leaves, the running check is dropped (cancelled at its current await point). The match count
-//! comes from DDS discovery events (see [`crate::graph`]), so activation follows a subscriber within a few
+//! comes from DDS discovery events (see the crate docs), so activation follows a subscriber within a few
 //! milliseconds, and also follows a subscriber process that was killed, once DDS declares it lost.
 
 use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc, time::Duration};

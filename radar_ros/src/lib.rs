@@ -27,6 +27,8 @@
 //! Decided in one place, [`semantics::response::ResponseMachine`], and tested line by line:
 //!
 //! 1. Idle + `start` → emit `started` (carrying the payload), then run the start behaviour with the payload.
+//!    The start behaviour always runs up to its first await point before the response takes the next signal,
+//!    so `started` never announces a behaviour that did not run at all.
 //! 2. The start behaviour returns → run the exit slot → emit `exited` *after* the exit slot completed → idle.
 //!    `exited` carries the start behaviour's output (or the output type's default if the run did not
 //!    complete).
@@ -50,16 +52,36 @@
 //! ## Event semantics
 //!
 //! An event is active exactly while at least one subscription is matched on its `triggered` topic, whoever
-//! owns it. While active, [`Event::check`] runs in a loop and every value it resolves with is published. The
-//! match count comes from DDS discovery status events ([`graph`](crate::graph) module docs): a local or remote
-//! subscriber that appears or is deleted changes it within milliseconds; a subscriber process killed with
-//! `SIGKILL` is noticed only when DDS declares its participant lost (lease expiry: ~20 s for Fast DDS/rclpy
-//! peers, ~50 s for RustDDS peers).
+//! owns it. While active, [`Event::check`] runs in a loop and every value it resolves with is published; when
+//! the last subscriber leaves, the running check is dropped at its await point. The match count comes from
+//! the DDS participant's discovery status events, which radar_ros consumes itself (ros2-client's counts never
+//! drop after a peer is killed):
+//!
+//! | the subscriber | the event notices within |
+//! |---|---|
+//! | is created or deleted, in this or another process | milliseconds (measured: 3 ms to activate, under 1 ms to deactivate) |
+//! | its process exits cleanly (drops its participant) | milliseconds (measured: 3-5 ms) |
+//! | its process is killed (`SIGKILL`) | the dead participant's DDS lease: ~52 s for RustDDS peers (50 s lease + 2 s check), ~20 s for Fast DDS (rclpy) peers |
+//!
+//! ## Types on the wire
+//!
+//! RustDDS matches a reader and a writer of one topic whatever their type names; ROS 2 does not. radar_ros
+//! checks the type each peer announces in discovery: a peer of another type is not counted (it does not
+//! activate an event), its samples are dropped, and a warning names both types. Malformed samples are
+//! dropped with a warning; the component keeps serving.
+//!
+//! ## Discovery range
+//!
+//! `ROS_DOMAIN_ID` and `ROS_AUTOMATIC_DISCOVERY_RANGE` are honoured ([`RadarBuilder`]). With `LOCALHOST`,
+//! RustDDS 0.15 does not deliver between endpoints of the *same* participant, so components in one process
+//! cannot signal each other; use the default subnet range (a private network namespace isolates it, as the
+//! test suite does with `tests/isolated.sh`).
 //!
 //! ## Layers
 //!
 //! [`semantics`] holds the RADAR rules in plain Rust (no DDS, no runtime). [`response`], [`event`],
-//! [`graph`] and [`endpoints`] bind them to ROS 2 nodes and topics.
+//! [`signal`] and [`endpoints`] bind them to ROS 2 nodes and topics; a private `graph` module keeps the DDS
+//! match counts.
 
 #![warn(missing_docs)]
 

@@ -11,7 +11,7 @@
 //! | `exited` | signal (published) | the response's output type (default `std_msgs/msg/Empty`) | signal |
 //! | `state` | published | `radar_msgs/msg/ResponseState` | state (transient-local, depth 1) |
 //!
-//! Signal QoS is reliable, volatile, keep-last 10 ([`signal_qos`](crate::endpoints::signal_qos)). What happens
+//! Signal QoS is reliable, volatile, keep-last 10 ([`crate::endpoints::signal_qos`]). What happens
 //! on each signal is decided by [`ResponseMachine`]; this module runs the slots and moves the messages.
 
 use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc};

@@ -3,7 +3,7 @@
 //! An event checks its condition only while something listens to its `triggered` signal. In ROS 2 terms
 //! "something listens" means at least one subscription is matched with the event's `triggered` writer: a
 //! connection relay, an rclpy node, `ros2 topic echo`. The count comes from DDS discovery (see
-//! [`crate::graph`]); this type turns count changes into activate / deactivate transitions.
+//! the crate docs); this type turns count changes into activate / deactivate transitions.
 
 /// A transition of an event between checking and not checking.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
