@@ -126,3 +126,44 @@ pub(crate) fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
         "non-string panic payload".to_owned()
     }
 }
+
+/// The task behind a component handle: asks it to stop on drop, or stops it and waits.
+pub(crate) struct ComponentTask {
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
+}
+
+impl ComponentTask {
+    /// Spawns `f(stop)`, where `stop` resolves when the handle asks the component to stop (or is dropped).
+    pub(crate) fn spawn<F, Fut>(f: F) -> ComponentTask
+    where
+        F: FnOnce(tokio::sync::oneshot::Receiver<()>) -> Fut,
+        Fut: std::future::Future<Output = ()> + Send + 'static,
+    {
+        let (stop, rx) = tokio::sync::oneshot::channel();
+        ComponentTask {
+            stop: Some(stop),
+            task: Some(tokio::spawn(f(rx))),
+        }
+    }
+
+    fn request_stop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+    }
+
+    /// Asks the component to stop and waits until its task has ended.
+    pub(crate) async fn stop_and_wait(mut self) {
+        self.request_stop();
+        if let Some(task) = self.task.take() {
+            let _ = task.await;
+        }
+    }
+}
+
+impl Drop for ComponentTask {
+    fn drop(&mut self) {
+        self.request_stop();
+    }
+}

@@ -16,7 +16,9 @@ use futures::{FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
 use crate::{
-    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription, Watched},
+    endpoints::{
+        emit, panic_message, publisher, signal_qos, state_qos, subscription, ComponentTask, Watched,
+    },
     error::{Result, SlotError},
     msg::{Empty, EventState, RosMessage, Time},
     names::ComponentName,
@@ -209,8 +211,7 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
 pub struct EventHandle {
     name: ComponentName,
     state: watch::Receiver<EventState>,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: Option<tokio::task::JoinHandle<()>>,
+    task: ComponentTask,
 }
 
 impl EventHandle {
@@ -235,13 +236,8 @@ impl EventHandle {
     }
 
     /// Stops checking and removes the node; waits until it is gone.
-    pub async fn shutdown(mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(task) = self.task.take() {
-            let _ = task.await;
-        }
+    pub async fn shutdown(self) {
+        self.task.stop_and_wait().await;
     }
 }
 
@@ -250,14 +246,6 @@ impl std::fmt::Debug for EventHandle {
         f.debug_struct("EventHandle")
             .field("name", &self.name.fully_qualified())
             .finish_non_exhaustive()
-    }
-}
-
-impl Drop for EventHandle {
-    fn drop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
     }
 }
 
@@ -291,10 +279,9 @@ impl Radar {
         };
         emit(&state_pub, "state", st.clone());
         let (state_tx, state_rx) = watch::channel(st.clone());
-        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
         let graph = self.graph().clone();
         let guid = triggered.guid();
-        let task = tokio::spawn(async move {
+        let task = ComponentTask::spawn(move |stop_rx| async move {
             let _claim = claim;
             let _node = node;
             drive_event(
@@ -307,8 +294,7 @@ impl Radar {
         Ok(EventHandle {
             name,
             state: state_rx,
-            stop: Some(stop_tx),
-            task: Some(task),
+            task,
         })
     }
 }

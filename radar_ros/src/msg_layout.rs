@@ -28,6 +28,16 @@ impl ser::Error for E {
     }
 }
 
+fn not_struct() -> E {
+    E("top level must be a struct".into())
+}
+
+macro_rules! not_struct {
+    ($($f:ident: $t:ty),*) => {
+        $(fn $f(self, _: $t) -> Result<(), E> { Err(not_struct()) })*
+    };
+}
+
 /// Serializes one value into the name of its ROS type.
 struct TypeName;
 
@@ -152,69 +162,31 @@ impl ser::Serializer for &mut Layout {
     fn serialize_struct(self, _: &'static str, _: usize) -> Result<Self, E> {
         Ok(self)
     }
-    fn serialize_bool(self, _: bool) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_i8(self, _: i8) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_i16(self, _: i16) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_i32(self, _: i32) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_i64(self, _: i64) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_u8(self, _: u8) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_u16(self, _: u16) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_u32(self, _: u32) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_u64(self, _: u64) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_f32(self, _: f32) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_f64(self, _: f64) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_char(self, _: char) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_str(self, _: &str) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
-    fn serialize_bytes(self, _: &[u8]) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
-    }
+    not_struct!(serialize_bool: bool, serialize_i8: i8, serialize_i16: i16, serialize_i32: i32,
+                serialize_i64: i64, serialize_u8: u8, serialize_u16: u16, serialize_u32: u32,
+                serialize_u64: u64, serialize_f32: f32, serialize_f64: f64, serialize_char: char,
+                serialize_str: &str, serialize_bytes: &[u8]);
     fn serialize_none(self) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_some<T: ?Sized + Serialize>(self, _: &T) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_unit(self) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_unit_struct(self, _: &'static str) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_unit_variant(self, _: &'static str, _: u32, _: &'static str) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_newtype_struct<T: ?Sized + Serialize>(
         self,
         _: &'static str,
         _: &T,
     ) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_newtype_variant<T: ?Sized + Serialize>(
         self,
@@ -223,20 +195,20 @@ impl ser::Serializer for &mut Layout {
         _: &'static str,
         _: &T,
     ) -> Result<(), E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_seq(self, _: Option<usize>) -> Result<Self::SerializeSeq, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_tuple(self, _: usize) -> Result<Self::SerializeTuple, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_tuple_struct(
         self,
         _: &'static str,
         _: usize,
     ) -> Result<Self::SerializeTupleStruct, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_tuple_variant(
         self,
@@ -245,10 +217,10 @@ impl ser::Serializer for &mut Layout {
         _: &'static str,
         _: usize,
     ) -> Result<Self::SerializeTupleVariant, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_map(self, _: Option<usize>) -> Result<Self::SerializeMap, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
     fn serialize_struct_variant(
         self,
@@ -257,7 +229,7 @@ impl ser::Serializer for &mut Layout {
         _: &'static str,
         _: usize,
     ) -> Result<Self::SerializeStructVariant, E> {
-        Err(E("top level must be a struct".into()))
+        Err(not_struct())
     }
 }
 

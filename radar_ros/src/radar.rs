@@ -240,6 +240,23 @@ impl Radar {
         &self.inner.graph
     }
 
+    /// Creates a plain node: no rosout, no parameter services (a RADAR node's endpoints are its signals and
+    /// its state).
+    fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
+        let fq = ComponentName::resolve(base, namespace)?.fully_qualified();
+        let name = NodeName::new(namespace, base).map_err(|e| Error::InvalidName {
+            name: fq.clone(),
+            reason: format!("{e}"),
+        })?;
+        let options = NodeOptions::new()
+            .enable_rosout(false)
+            .start_parameter_services(false);
+        self.inner
+            .ctx
+            .new_node(name, options)
+            .map_err(|e| Error::dds(format!("node {fq}"), e))
+    }
+
     /// Runs `f` with this participant's client node, creating it on first use (named
     /// `radar_client_<pid>_<n>`, so several participants in one process stay distinct on the graph).
     pub(crate) fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
@@ -248,28 +265,12 @@ impl Radar {
         if guard.is_none() {
             let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let base = format!("radar_client_{}_{k}", std::process::id());
-            let name =
-                NodeName::new(&self.inner.namespace, &base).map_err(|e| Error::InvalidName {
-                    name: base.clone(),
-                    reason: format!("{e}"),
-                })?;
-            let node = self
-                .inner
-                .ctx
-                .new_node(
-                    name,
-                    NodeOptions::new()
-                        .enable_rosout(false)
-                        .start_parameter_services(false),
-                )
-                .map_err(|e| Error::dds(format!("node {base}"), e))?;
-            *guard = Some(node);
+            *guard = Some(self.new_node(&self.inner.namespace, &base)?);
         }
         f(guard.as_mut().expect("client node was just created"))
     }
 
-    /// Claims a name for a component in this process and creates its node (no rosout, no parameter services:
-    /// a RADAR node's endpoints are its signals and its state).
+    /// Claims a name for a component in this process and creates its node.
     pub(crate) fn claim_node(&self, name: &ComponentName) -> Result<(Node, NameClaim)> {
         let fq = name.fully_qualified();
         if !self.inner.names.lock().unwrap().insert(fq.clone()) {
@@ -277,23 +278,9 @@ impl Radar {
         }
         let claim = NameClaim {
             radar: self.clone(),
-            name: fq.clone(),
+            name: fq,
         };
-        let node_name =
-            NodeName::new(name.namespace(), name.base()).map_err(|e| Error::InvalidName {
-                name: fq.clone(),
-                reason: format!("{e}"),
-            })?;
-        let node = self
-            .inner
-            .ctx
-            .new_node(
-                node_name,
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
-            .map_err(|e| Error::dds(format!("node {fq}"), e))?;
+        let node = self.new_node(name.namespace(), name.base())?;
         Ok((node, claim))
     }
 }

@@ -20,7 +20,9 @@ use futures::{future::BoxFuture, FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
 use crate::{
-    endpoints::{emit, panic_message, publisher, signal_qos, state_qos, subscription, Watched},
+    endpoints::{
+        emit, panic_message, publisher, signal_qos, state_qos, subscription, ComponentTask, Watched,
+    },
     error::{Result, SlotError},
     msg::{Empty, ResponseState, RosMessage, Time},
     names::ComponentName,
@@ -175,8 +177,7 @@ pub struct ResponseHandle {
     slot_publishers: [watch::Receiver<usize>; 3],
     /// Subscriptions matched with the `started`, `interrupted` and `exited` writers.
     signal_subscribers: [watch::Receiver<usize>; 3],
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: Option<tokio::task::JoinHandle<()>>,
+    task: ComponentTask,
 }
 
 impl ResponseHandle {
@@ -254,13 +255,8 @@ impl ResponseHandle {
 
     /// Stops the response: a running start behaviour is ended as by an `exit` signal (the exit slot runs and
     /// `exited` is sent), then the node leaves the ROS graph. Waits until it has.
-    pub async fn shutdown(mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(task) = self.task.take() {
-            let _ = task.await;
-        }
+    pub async fn shutdown(self) {
+        self.task.stop_and_wait().await;
     }
 }
 
@@ -269,14 +265,6 @@ impl std::fmt::Debug for ResponseHandle {
         f.debug_struct("ResponseHandle")
             .field("name", &self.name.fully_qualified())
             .finish_non_exhaustive()
-    }
-}
-
-impl Drop for ResponseHandle {
-    fn drop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
     }
 }
 
@@ -337,7 +325,6 @@ impl Radar {
         let initial = state_message::<R>(&name, &machine);
         emit(&state_pub, "state", initial.clone());
         let (state_tx, state_rx) = watch::channel(initial);
-        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
 
         let io = Io::<R> {
             name: name.clone(),
@@ -347,7 +334,7 @@ impl Radar {
             state_pub,
             state_tx,
         };
-        let task = tokio::spawn(async move {
+        let task = ComponentTask::spawn(move |stop_rx| async move {
             let _claim = claim;
             let _node = node;
             drive(
@@ -367,8 +354,7 @@ impl Radar {
             state: state_rx,
             slot_publishers,
             signal_subscribers,
-            stop: Some(stop_tx),
-            task: Some(task),
+            task,
         })
     }
 }
