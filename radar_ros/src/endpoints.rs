@@ -21,6 +21,47 @@ pub(crate) struct Watched<T> {
     pub(crate) matched: tokio::sync::watch::Receiver<usize>,
 }
 
+impl<M> Watched<Publisher<M>>
+where
+    M: serde::Serialize,
+{
+    /// Registers a writer of type `ty` on `topic` with the graph.
+    pub(crate) fn writer(
+        graph: &Graph,
+        inner: Publisher<M>,
+        topic: &str,
+        ty: &ros2_client::MessageTypeName,
+    ) -> Self {
+        let guid = inner.guid();
+        let matched = graph.watch_writer(guid, topic, &ty.dds_msg_type());
+        Watched {
+            inner,
+            guid,
+            graph: graph.clone(),
+            matched,
+        }
+    }
+}
+
+impl<M: 'static> Watched<Subscription<M>> {
+    /// Registers a reader of type `ty` on `topic` with the graph.
+    pub(crate) fn reader(
+        graph: &Graph,
+        inner: Subscription<M>,
+        topic: &str,
+        ty: &ros2_client::MessageTypeName,
+    ) -> Self {
+        let guid = inner.guid();
+        let matched = graph.watch_reader(guid, topic, &ty.dds_msg_type());
+        Watched {
+            inner,
+            guid,
+            graph: graph.clone(),
+            matched,
+        }
+    }
+}
+
 impl<T> Watched<T> {
     /// Whether a sample from this writer should be used (false for peers of another type).
     pub(crate) fn accepts(&self, info: &ros2_client::MessageInfo) -> bool {
@@ -56,7 +97,7 @@ pub fn state_qos() -> QosProfile {
         .history(History::KeepLast { depth: 1 })
 }
 
-fn topic_name(topic: &str) -> Result<Name> {
+pub(crate) fn topic_name(topic: &str) -> Result<Name> {
     Name::parse(topic).map_err(|e| Error::InvalidName {
         name: topic.to_owned(),
         reason: format!("{e}"),
@@ -76,14 +117,12 @@ pub(crate) fn publisher<M: RosMessage>(
     let inner = node
         .create_publisher(&t, Some(qos.clone()))
         .map_err(|e| Error::dds(format!("a publisher on {topic}"), e))?;
-    let guid = inner.guid();
-    let matched = graph.watch_writer(guid, topic, &M::message_type_name().dds_msg_type());
-    Ok(Watched {
+    Ok(Watched::writer(
+        graph,
         inner,
-        guid,
-        graph: graph.clone(),
-        matched,
-    })
+        topic,
+        &M::message_type_name(),
+    ))
 }
 
 /// Creates a subscription of `M` on the absolute topic `topic`.
@@ -99,14 +138,12 @@ pub(crate) fn subscription<M: RosMessage>(
     let inner = node
         .create_subscription(&t, Some(qos.clone()))
         .map_err(|e| Error::dds(format!("a subscription on {topic}"), e))?;
-    let guid = inner.guid();
-    let matched = graph.watch_reader(guid, topic, &M::message_type_name().dds_msg_type());
-    Ok(Watched {
+    Ok(Watched::reader(
+        graph,
         inner,
-        guid,
-        graph: graph.clone(),
-        matched,
-    })
+        topic,
+        &M::message_type_name(),
+    ))
 }
 
 /// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.

@@ -109,8 +109,16 @@ impl Graph {
         *self.participant.lock().unwrap() = Some(p);
     }
 
-    /// The DDS type a remote endpoint announced, if discovery knows it.
-    fn peer_type(&self, side: Side, peer: GUID) -> Option<String> {
+    /// The DDS type a matched endpoint has: from our own table for endpoints of this participant (RustDDS's
+    /// discovery lists only other participants'), else from discovery data.
+    fn peer_type(&self, t: &Table, side: Side, peer: GUID) -> Option<String> {
+        let own = match side {
+            Side::Writer => t.readers.get(&peer),
+            Side::Reader => t.writers.get(&peer),
+        };
+        if let Some((_, ty)) = own.and_then(|e| e.identity.as_ref()) {
+            return Some(ty.clone());
+        }
         let p = self.participant.lock().unwrap().clone()?;
         match side {
             Side::Writer => p
@@ -127,9 +135,9 @@ impl Graph {
     }
 
     /// Adds a matched peer, unless its announced type differs from ours. Returns whether the count changed.
-    fn admit(&self, e: &mut Entry, side: Side, peer: GUID) -> bool {
+    fn admit(e: &mut Entry, side: Side, peer: GUID, theirs: Option<String>) -> bool {
         if let Some((topic, ours)) = &e.identity {
-            if let Some(theirs) = self.peer_type(side, peer) {
+            if let Some(theirs) = theirs {
                 if &theirs != ours {
                     if e.rejected.insert(peer) {
                         let (ours, theirs) = (ros_type_of_dds(ours), ros_type_of_dds(&theirs));
@@ -162,10 +170,39 @@ impl Graph {
             e.identity = Some((topic.to_owned(), dds_type.to_owned()));
             // peers matched before we knew our type are checked now
             let early: Vec<GUID> = std::mem::take(&mut e.peers).into_iter().collect();
-            for peer in early {
-                self.admit(e, side, peer);
+            let typed: Vec<(GUID, Option<String>)> = early
+                .into_iter()
+                .map(|p| (p, self.peer_type(&t, side, p)))
+                .collect();
+            let map = match side {
+                Side::Writer => &mut t.writers,
+                Side::Reader => &mut t.readers,
+            };
+            let e = map.get_mut(&guid).expect("entry was just made");
+            for (peer, ty) in typed {
+                Self::admit(e, side, peer, ty);
+            }
+            // local endpoints that matched this one before it had a type are checked now too
+            let other = match side {
+                Side::Writer => &mut t.readers,
+                Side::Reader => &mut t.writers,
+            };
+            let other_side = match side {
+                Side::Writer => Side::Reader,
+                Side::Reader => Side::Writer,
+            };
+            for o in other.values_mut() {
+                if o.peers.remove(&guid) {
+                    Self::admit(o, other_side, guid, Some(dds_type.to_owned()));
+                    o.notify();
+                }
             }
         }
+        let map = match side {
+            Side::Writer => &mut t.writers,
+            Side::Reader => &mut t.readers,
+        };
+        let e = map.get_mut(&guid).expect("entry exists");
         match &e.tx {
             Some(tx) => tx.subscribe(),
             None => {
@@ -190,8 +227,9 @@ impl Graph {
                 local_writer,
                 remote_reader,
             } => {
+                let ty = self.peer_type(&t, Side::Writer, remote_reader);
                 let e = t.writers.entry(local_writer).or_default();
-                if self.admit(e, Side::Writer, remote_reader) {
+                if Self::admit(e, Side::Writer, remote_reader, ty) {
                     e.notify();
                 }
             }
@@ -199,8 +237,9 @@ impl Graph {
                 local_reader,
                 remote_writer,
             } => {
+                let ty = self.peer_type(&t, Side::Reader, remote_writer);
                 let e = t.readers.entry(local_reader).or_default();
-                if self.admit(e, Side::Reader, remote_writer) {
+                if Self::admit(e, Side::Reader, remote_writer, ty) {
                     e.notify();
                 }
             }

@@ -94,6 +94,7 @@ pub mod msg;
 mod msg_layout;
 pub mod names;
 pub mod radar;
+pub mod raw;
 pub mod response;
 pub mod semantics;
 pub mod signal;
@@ -105,6 +106,7 @@ pub use radar::{
     discovery_range_from_env, domain_id_from_env, parse_domain_id, DiscoveryRange, Radar,
     RadarBuilder,
 };
+pub use raw::{RawMessage, RawPublisher, RawSubscription};
 pub use response::{FnResponse, Response, ResponseHandle};
 pub use semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
 pub use signal::{SignalPublisher, SignalSubscription};

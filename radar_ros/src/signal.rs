@@ -26,7 +26,7 @@ use crate::{
     radar::Radar,
 };
 
-async fn wait_count(
+pub(crate) async fn wait_count(
     rx: &mut watch::Receiver<usize>,
     n: usize,
     timeout: Duration,
