@@ -1,0 +1,420 @@
+//! RADAR connections, with no I/O: which signal reaches which slot, and when a connection ends.
+//!
+//! A connection ties a *source* signal (an event's `triggered`, a response's `started`/`interrupted`/
+//! `exited`) to a *target* slot (a response's `start`/`interrupt`/`exit`, or an anonymous slot). The runtime
+//! feeds every signal it reads to [`ConnectionTable::on_signal`] with the time the signal was emitted, and
+//! performs the [`Delivery`]s it gets back. The rules:
+//!
+//! 1. A connection delivers only signals emitted at or after it was armed. Older signals (in flight when the
+//!    statement ran, or replayed from a DDS cache) are never delivered.
+//! 2. `whenever` delivers every such signal until it is removed; `once` delivers exactly one, then its source
+//!    is released, even when the source emits a burst, and each of several `once`s on one source gets exactly
+//!    one.
+//! 3. `... until U`: U's signals go to the target response's `interrupt` slot only inside the *window* of a
+//!    run that this connection started: from the response's first `started` after this connection delivered a
+//!    start, to the response's next `exited`. A restart requested by the response's own exit slot is not a
+//!    start this connection delivered, so it runs outside the window. U is read (and so active) from arming
+//!    until removal, also for a `once` that has already fired.
+//! 4. [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it returns
+//!    nothing more is delivered through it.
+//!
+//! [`ConnectionTable::sources`] says which sources must be read right now; the runtime keeps exactly those
+//! readers, so an event whose only listener was a fired `once` deactivates.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Identifies a connection in a table.
+pub type ConnId = u64;
+
+/// `once` or `whenever`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Deliver one signal.
+    Once,
+    /// Deliver every signal.
+    Whenever,
+}
+
+/// The `until U` part of a statement that starts response R.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Until<S, T> {
+    /// U: the signal that interrupts.
+    pub source: S,
+    /// R's `started`.
+    pub started: S,
+    /// R's `exited`.
+    pub exited: S,
+    /// R's `interrupt` slot.
+    pub interrupt: T,
+}
+
+/// The window of rule 3, for one `until`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UntilWindow {
+    awaiting_started: bool,
+    open: bool,
+}
+
+impl UntilWindow {
+    /// The connection delivered a start to R.
+    pub fn start_delivered(&mut self) {
+        self.awaiting_started = true;
+    }
+    /// R emitted `started`.
+    pub fn response_started(&mut self) {
+        if self.awaiting_started {
+            self.awaiting_started = false;
+            self.open = true;
+        }
+    }
+    /// R emitted `exited`.
+    pub fn response_exited(&mut self) {
+        self.open = false;
+    }
+    /// Whether U's signals reach R's `interrupt` now.
+    pub fn is_open(&self) -> bool {
+        self.open
+    }
+}
+
+/// What the runtime must deliver.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Delivery<T> {
+    /// Through which connection.
+    pub id: ConnId,
+    /// To which slot.
+    pub target: T,
+}
+
+#[derive(Clone, Debug)]
+struct Conn<S, T> {
+    source: S,
+    target: T,
+    kind: Kind,
+    armed_at: i64,
+    delivered: u64,
+    /// A `once` that has delivered (kept only while its `until` lives).
+    spent: bool,
+    until: Option<(Until<S, T>, UntilWindow)>,
+}
+
+/// One live connection, as listed by [`ConnectionTable::list`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConnInfo<S, T> {
+    /// Its id.
+    pub id: ConnId,
+    /// Source signal.
+    pub source: S,
+    /// Target slot.
+    pub target: T,
+    /// Once or whenever.
+    pub kind: Kind,
+    /// Signals delivered so far through the main source.
+    pub delivered: u64,
+    /// The until source, if any.
+    pub until: Option<S>,
+}
+
+/// The live connections of one manager.
+#[derive(Debug)]
+pub struct ConnectionTable<S, T> {
+    next: ConnId,
+    conns: BTreeMap<ConnId, Conn<S, T>>,
+}
+
+impl<S, T> Default for ConnectionTable<S, T> {
+    fn default() -> Self {
+        ConnectionTable {
+            next: 1,
+            conns: BTreeMap::new(),
+        }
+    }
+}
+
+impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
+    /// An empty table.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Arms a connection from `source` to `target` at time `armed_at` (ns, same clock as signal stamps).
+    pub fn arm(
+        &mut self,
+        source: S,
+        target: T,
+        kind: Kind,
+        until: Option<Until<S, T>>,
+        armed_at: i64,
+    ) -> ConnId {
+        let id = self.next;
+        self.next += 1;
+        self.conns.insert(
+            id,
+            Conn {
+                source,
+                target,
+                kind,
+                armed_at,
+                delivered: 0,
+                spent: false,
+                until: until.map(|u| (u, UntilWindow::default())),
+            },
+        );
+        id
+    }
+
+    /// Removes a connection; nothing is delivered through it afterwards. Returns whether it existed.
+    pub fn remove(&mut self, id: ConnId) -> bool {
+        self.conns.remove(&id).is_some()
+    }
+
+    /// Whether `id` is still live (a fired `once` without `until` is not).
+    pub fn contains(&self, id: ConnId) -> bool {
+        self.conns.contains_key(&id)
+    }
+
+    /// The sources that must be read now.
+    pub fn sources(&self) -> BTreeSet<S> {
+        let mut s = BTreeSet::new();
+        for c in self.conns.values() {
+            if !c.spent {
+                s.insert(c.source.clone());
+            }
+            if let Some((u, _)) = &c.until {
+                s.insert(u.source.clone());
+                s.insert(u.started.clone());
+                s.insert(u.exited.clone());
+            }
+        }
+        s
+    }
+
+    /// Every live connection.
+    pub fn list(&self) -> Vec<ConnInfo<S, T>> {
+        self.conns
+            .iter()
+            .map(|(id, c)| ConnInfo {
+                id: *id,
+                source: c.source.clone(),
+                target: c.target.clone(),
+                kind: c.kind,
+                delivered: c.delivered,
+                until: c.until.as_ref().map(|(u, _)| u.source.clone()),
+            })
+            .collect()
+    }
+
+    /// A signal from `source`, emitted at `emitted_at`: what to deliver, in connection order.
+    pub fn on_signal(&mut self, source: &S, emitted_at: i64) -> Vec<Delivery<T>> {
+        let mut out = Vec::new();
+        let mut finished = Vec::new();
+        for (id, c) in self.conns.iter_mut() {
+            if emitted_at < c.armed_at {
+                continue; // rule 1
+            }
+            // the response's own signals move the until window (before the connection's deliveries)
+            if let Some((u, w)) = &mut c.until {
+                if &u.started == source {
+                    w.response_started();
+                }
+                if &u.exited == source {
+                    w.response_exited();
+                }
+                if &u.source == source && w.is_open() {
+                    out.push(Delivery {
+                        id: *id,
+                        target: u.interrupt.clone(),
+                    });
+                }
+            }
+            if &c.source == source && !c.spent {
+                c.delivered += 1;
+                out.push(Delivery {
+                    id: *id,
+                    target: c.target.clone(),
+                });
+                if let Some((_, w)) = &mut c.until {
+                    w.start_delivered();
+                }
+                if c.kind == Kind::Once {
+                    c.spent = true;
+                    if c.until.is_none() {
+                        finished.push(*id);
+                    }
+                }
+            }
+        }
+        for id in finished {
+            self.conns.remove(&id);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    type Table = ConnectionTable<&'static str, &'static str>;
+
+    fn targets(d: Vec<Delivery<&'static str>>) -> Vec<&'static str> {
+        d.into_iter().map(|d| d.target).collect()
+    }
+
+    #[test]
+    fn rule1_signals_emitted_before_arming_are_never_delivered() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Whenever, None, 100);
+        assert!(t.on_signal(&"E", 99).is_empty(), "in flight or replayed");
+        assert_eq!(targets(t.on_signal(&"E", 100)), ["R.start"]);
+        // a once armed later ignores what the first one saw
+        let once = t.arm("E", "Q.start", Kind::Once, None, 200);
+        assert_eq!(targets(t.on_signal(&"E", 150)), ["R.start"]);
+        assert!(t.contains(once));
+    }
+
+    #[test]
+    fn rule2_whenever_delivers_every_signal() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
+        for i in 0..5 {
+            assert_eq!(targets(t.on_signal(&"E", i)), ["R.start"]);
+        }
+        assert_eq!(t.list()[0].delivered, 5);
+        assert!(t.contains(id));
+        assert!(
+            t.on_signal(&"F", 10).is_empty(),
+            "other sources do not reach it"
+        );
+    }
+
+    #[test]
+    fn rule2_once_delivers_exactly_one_of_a_burst_and_releases_its_source() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Once, None, 0);
+        assert_eq!(t.sources(), BTreeSet::from(["E"]));
+        let burst: Vec<_> = (0..100).flat_map(|i| t.on_signal(&"E", i)).collect();
+        assert_eq!(burst.len(), 1);
+        assert!(!t.contains(id));
+        assert!(t.sources().is_empty(), "the event may deactivate");
+    }
+
+    #[test]
+    fn rule2_racing_onces_on_one_source_each_get_exactly_one() {
+        let mut t = Table::new();
+        t.arm("E", "A.start", Kind::Once, None, 0);
+        t.arm("E", "B.start", Kind::Once, None, 0);
+        t.arm("E", "C.start", Kind::Whenever, None, 0);
+        assert_eq!(
+            targets(t.on_signal(&"E", 1)),
+            ["A.start", "B.start", "C.start"]
+        );
+        assert_eq!(targets(t.on_signal(&"E", 2)), ["C.start"]);
+    }
+
+    fn until() -> Until<&'static str, &'static str> {
+        Until {
+            source: "U",
+            started: "R.started",
+            exited: "R.exited",
+            interrupt: "R.interrupt",
+        }
+    }
+
+    #[test]
+    fn rule3_until_interrupts_only_the_run_this_connection_started() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        assert_eq!(
+            t.sources(),
+            BTreeSet::from(["E", "U", "R.started", "R.exited"])
+        );
+        assert!(
+            t.on_signal(&"U", 1).is_empty(),
+            "before any start: U is read but goes nowhere"
+        );
+        assert_eq!(targets(t.on_signal(&"E", 2)), ["R.start"]);
+        assert_eq!(
+            t.sources(),
+            BTreeSet::from(["U", "R.started", "R.exited"]),
+            "E is released"
+        );
+        assert!(
+            t.on_signal(&"U", 3).is_empty(),
+            "start delivered, but R has not started yet"
+        );
+        t.on_signal(&"R.started", 4);
+        assert_eq!(targets(t.on_signal(&"U", 5)), ["R.interrupt"]);
+        t.on_signal(&"R.exited", 6);
+        // R's exit slot restarts it: not a start this connection delivered
+        t.on_signal(&"R.started", 7);
+        assert!(
+            t.on_signal(&"U", 8).is_empty(),
+            "the restart runs outside the window"
+        );
+        assert!(
+            t.contains(id),
+            "the statement's until lives as long as its scope"
+        );
+        assert!(t.remove(id));
+        assert!(t.sources().is_empty());
+    }
+
+    #[test]
+    fn rule3_whenever_until_opens_a_window_for_each_start_it_delivers() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Whenever, Some(until()), 0);
+        for round in 0..3 {
+            let base = round * 10;
+            t.on_signal(&"E", base + 1);
+            t.on_signal(&"R.started", base + 2);
+            assert_eq!(targets(t.on_signal(&"U", base + 3)), ["R.interrupt"]);
+            t.on_signal(&"R.exited", base + 4);
+            assert!(t.on_signal(&"U", base + 5).is_empty());
+        }
+    }
+
+    #[test]
+    fn rule3_the_window_ignores_response_signals_from_before_arming() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 100);
+        t.on_signal(&"E", 101);
+        t.on_signal(&"R.started", 50); // stale
+        assert!(t.on_signal(&"U", 102).is_empty());
+        t.on_signal(&"R.started", 103);
+        assert_eq!(targets(t.on_signal(&"U", 104)), ["R.interrupt"]);
+    }
+
+    #[test]
+    fn rule4_removed_connections_deliver_nothing() {
+        let mut t = Table::new();
+        let a = t.arm("E", "A.start", Kind::Whenever, None, 0);
+        let b = t.arm("E", "B.start", Kind::Whenever, None, 0);
+        assert!(t.remove(a));
+        assert!(!t.remove(a), "removing twice is harmless");
+        assert_eq!(targets(t.on_signal(&"E", 1)), ["B.start"]);
+        assert_eq!(t.list().len(), 1);
+        assert_eq!(t.list()[0].id, b);
+    }
+
+    #[test]
+    fn many_arm_fire_remove_cycles_never_deliver_stale_or_twice() {
+        // the no-stale stress in miniature: signals keep coming at increasing times; connections come and go
+        let mut t = Table::new();
+        let mut now = 0;
+        let mut delivered = 0;
+        for cycle in 0..1000 {
+            now += 1;
+            t.on_signal(&"E", now); // emitted before this cycle's arming: must not count
+            now += 1;
+            let id = t.arm("E", "R.start", Kind::Once, None, now);
+            let stale = t.on_signal(&"E", now - 1);
+            assert!(stale.is_empty(), "cycle {cycle}");
+            now += 1;
+            delivered += t.on_signal(&"E", now).len();
+            delivered += t.on_signal(&"E", now).len();
+            t.remove(id);
+        }
+        assert_eq!(delivered, 1000);
+    }
+}
