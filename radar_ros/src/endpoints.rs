@@ -63,6 +63,38 @@ impl<M: 'static> Watched<Subscription<M>> {
 }
 
 impl<T> Watched<T> {
+    /// Waits until at least `n` peers of the same type are matched, and those in this participant have
+    /// matched this endpoint back (see `Graph::reciprocated`), so that nothing sent from now on is lost.
+    pub(crate) async fn wait_matched(
+        &self,
+        n: usize,
+        timeout: std::time::Duration,
+        what: impl Fn() -> String,
+    ) -> Result<()> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        let mut rx = self.matched.clone();
+        match tokio::time::timeout_at(deadline, rx.wait_for(|c| *c >= n)).await {
+            Ok(Ok(_)) => {}
+            Ok(Err(_)) => return Err(Error::Closed(what())),
+            Err(_) => {
+                return Err(Error::Timeout {
+                    what: what(),
+                    after: timeout,
+                })
+            }
+        }
+        while !self.graph.reciprocated(self.guid) {
+            if tokio::time::Instant::now() >= deadline {
+                return Err(Error::Timeout {
+                    what: format!("{} (matched on this side only)", what()),
+                    after: timeout,
+                });
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+        }
+        Ok(())
+    }
+
     /// Whether a sample from this writer should be used (false for peers of another type).
     pub(crate) fn accepts(&self, info: &ros2_client::MessageInfo) -> bool {
         self.graph.accepts(self.guid, info.publisher_gid())

@@ -42,6 +42,24 @@ pub enum Error {
         /// How long we waited.
         after: std::time::Duration,
     },
+    /// A connection's source carries another type than its target slot accepts.
+    #[error(
+        "type mismatch: {source_topic} carries {source_type} but {slot_topic} takes {slot_type}; connect a \
+         signal of type {slot_type}, or a slot that takes {source_type}"
+    )]
+    TypeMismatch {
+        /// The source signal's topic.
+        source_topic: String,
+        /// Its type.
+        source_type: String,
+        /// The slot's topic.
+        slot_topic: String,
+        /// Its type.
+        slot_type: String,
+    },
+    /// A connection statement that cannot mean anything.
+    #[error("invalid statement: {0}")]
+    InvalidStatement(String),
     /// The component was shut down while the call was in progress.
     #[error("{0} is shut down")]
     Closed(String),

@@ -210,6 +210,7 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
 /// A running event node. Dropping it (or [`EventHandle::shutdown`]) removes the node from the graph.
 pub struct EventHandle {
     name: ComponentName,
+    payload_type: String,
     state: watch::Receiver<EventState>,
     task: ComponentTask,
 }
@@ -223,6 +224,11 @@ impl EventHandle {
     /// The absolute topic of one of its endpoints, e.g. `topic("triggered")`.
     pub fn topic(&self, endpoint: &str) -> String {
         self.name.topic(endpoint)
+    }
+
+    /// Its `triggered` signal, for connections.
+    pub fn triggered(&self) -> crate::connect::Signal {
+        crate::connect::Signal::new(self.name.topic("triggered"), self.payload_type.clone())
     }
 
     /// The latest state.
@@ -293,6 +299,7 @@ impl Radar {
         tracing::info!(event = %name, payload = %E::Payload::ros_type_name(), "event up");
         Ok(EventHandle {
             name,
+            payload_type: E::Payload::ros_type_name(),
             state: state_rx,
             task,
         })

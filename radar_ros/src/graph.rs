@@ -96,6 +96,23 @@ impl Graph {
         self.watch(Side::Reader, reader, topic, dds_type)
     }
 
+    /// Whether every peer of `guid` that lives in this participant has matched `guid` back. DDS discovery
+    /// completes on each side separately, and a volatile writer only sends to readers it has matched (a reader
+    /// drops samples from writers it does not know yet), so one side's view is not enough for nothing to be
+    /// lost. Peers in other participants cannot be asked; their side is assumed.
+    pub(crate) fn reciprocated(&self, guid: GUID) -> bool {
+        let t = self.table.lock().unwrap();
+        let (mine, theirs) = match (t.writers.get(&guid), t.readers.get(&guid)) {
+            (Some(e), _) => (e, &t.readers),
+            (None, Some(e)) => (e, &t.writers),
+            (None, None) => return true,
+        };
+        mine.peers.iter().all(|p| match theirs.get(p) {
+            Some(o) if o.identity.is_some() => o.peers.contains(&guid),
+            _ => true,
+        })
+    }
+
     /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
     pub(crate) fn accepts(&self, reader: GUID, writer: ros2_client::Gid) -> bool {
         let t = self.table.lock().unwrap();

@@ -85,6 +85,7 @@
 
 #![warn(missing_docs)]
 
+pub mod connect;
 pub mod endpoints;
 pub mod error;
 pub mod event;
@@ -99,6 +100,7 @@ pub mod response;
 pub mod semantics;
 pub mod signal;
 
+pub use connect::{AsResponse, Connect, Connection, ResponseRef, Signal, Slot, Statement};
 pub use error::{Error, Result, SlotError};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
 pub use names::ComponentName;

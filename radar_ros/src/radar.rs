@@ -156,6 +156,7 @@ impl RadarBuilder {
                 graph,
                 names: Mutex::new(HashSet::new()),
                 client: Mutex::new(None),
+                manager: std::sync::OnceLock::new(),
                 stop_graph: Mutex::new(Some(stop)),
             }),
         })
@@ -168,6 +169,8 @@ struct Inner {
     namespace: String,
     graph: Graph,
     names: Mutex<HashSet<String>>,
+    /// The embedded connection manager, made on first use.
+    manager: std::sync::OnceLock<Arc<crate::connect::Manager>>,
     /// A plain node for this participant's publishers and subscriptions that belong to no component.
     client: Mutex<Option<Node>>,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
@@ -236,6 +239,18 @@ impl Radar {
         ComponentName::resolve(name, &self.inner.namespace)
     }
 
+    /// The embedded connection manager.
+    pub(crate) fn manager(&self) -> Arc<crate::connect::Manager> {
+        self.inner
+            .manager
+            .get_or_init(|| {
+                Arc::new(crate::connect::Manager::new(WeakRadar(Arc::downgrade(
+                    &self.inner,
+                ))))
+            })
+            .clone()
+    }
+
     pub(crate) fn graph(&self) -> &Graph {
         &self.inner.graph
     }
@@ -282,6 +297,16 @@ impl Radar {
         };
         let node = self.new_node(name.namespace(), name.base())?;
         Ok((node, claim))
+    }
+}
+
+/// A [`Radar`] that does not keep the participant alive.
+#[derive(Clone)]
+pub(crate) struct WeakRadar(std::sync::Weak<Inner>);
+
+impl WeakRadar {
+    pub(crate) fn upgrade(&self) -> Option<Radar> {
+        self.0.upgrade().map(|inner| Radar { inner })
     }
 }
 

@@ -22,7 +22,6 @@ use crate::{
     endpoints::{signal_qos, topic_name, Watched},
     error::{Error, Result},
     radar::Radar,
-    signal::wait_count,
 };
 
 /// The serialized CDR body of a ROS message of some type.
@@ -36,6 +35,18 @@ impl Serialize for RawMessage {
             t.serialize_element(b)?;
         }
         t.end()
+    }
+}
+
+impl RawMessage {
+    /// Decodes the body as `M` (little-endian CDR).
+    pub fn decode<M: crate::msg::RosMessage>(&self) -> Result<M> {
+        ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(&self.0)
+            .map(|(m, _)| m)
+            .map_err(|e| Error::Dds {
+                what: format!("a {} from {} bytes", M::ros_type_name(), self.0.len()),
+                detail: e.to_string(),
+            })
     }
 }
 
@@ -104,11 +115,11 @@ impl RawPublisher {
 
     /// Waits until at least `n` subscriptions of the same type are matched.
     pub async fn wait_for_subscribers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.publisher.matched.clone();
-        wait_count(&mut rx, n, timeout, || {
-            format!("{n} subscriber(s) on {} ({})", self.topic, self.ros_type)
-        })
-        .await
+        self.publisher
+            .wait_matched(n, timeout, || {
+                format!("{n} subscriber(s) on {} ({})", self.topic, self.ros_type)
+            })
+            .await
     }
 }
 
@@ -127,11 +138,11 @@ impl RawSubscription {
 
     /// Waits until at least `n` publishers of the same type are matched.
     pub async fn wait_for_publishers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.subscription.matched.clone();
-        wait_count(&mut rx, n, timeout, || {
-            format!("{n} publisher(s) on {} ({})", self.topic, self.ros_type)
-        })
-        .await
+        self.subscription
+            .wait_matched(n, timeout, || {
+                format!("{n} publisher(s) on {} ({})", self.topic, self.ros_type)
+            })
+            .await
     }
 
     /// The next message body with its source timestamp (ns since the epoch, 0 if unknown).

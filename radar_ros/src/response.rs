@@ -172,6 +172,8 @@ impl<P: RosMessage, O: RosMessage> Response for FnResponse<P, O> {
 /// waiting.
 pub struct ResponseHandle {
     name: ComponentName,
+    /// Its signal and slot topics with their types.
+    reference: crate::connect::ResponseRef,
     state: watch::Receiver<ResponseState>,
     /// Publishers matched with the `start`, `interrupt` and `exit` readers.
     slot_publishers: [watch::Receiver<usize>; 3],
@@ -189,6 +191,11 @@ impl ResponseHandle {
     /// The absolute topic of one of its endpoints, e.g. `topic("start")`.
     pub fn topic(&self, endpoint: &str) -> String {
         self.name.topic(endpoint)
+    }
+
+    /// Its signals and slots, for connections (`radar.once(e.triggered()).start(&handle)`).
+    pub fn reference(&self) -> &crate::connect::ResponseRef {
+        &self.reference
     }
 
     /// The latest state, as published on `state`.
@@ -350,6 +357,11 @@ impl Radar {
         });
         tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
         Ok(ResponseHandle {
+            reference: crate::connect::ResponseRef::new(
+                name.clone(),
+                R::Start::ros_type_name(),
+                R::Output::ros_type_name(),
+            ),
             name,
             state: state_rx,
             slot_publishers,

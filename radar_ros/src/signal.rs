@@ -17,7 +17,6 @@
 use std::time::Duration;
 
 use futures::StreamExt;
-use tokio::sync::watch;
 
 use crate::{
     endpoints::{publisher, signal_qos, subscription, Watched},
@@ -25,22 +24,6 @@ use crate::{
     msg::RosMessage,
     radar::Radar,
 };
-
-pub(crate) async fn wait_count(
-    rx: &mut watch::Receiver<usize>,
-    n: usize,
-    timeout: Duration,
-    what: impl FnOnce() -> String,
-) -> Result<()> {
-    match tokio::time::timeout(timeout, rx.wait_for(|c| *c >= n)).await {
-        Ok(Ok(_)) => Ok(()),
-        Ok(Err(_)) => Err(Error::Closed(what())),
-        Err(_) => Err(Error::Timeout {
-            what: what(),
-            after: timeout,
-        }),
-    }
-}
 
 /// A publisher of `M` on one topic, with signal QoS.
 pub struct SignalPublisher<M: RosMessage> {
@@ -68,15 +51,15 @@ impl<M: RosMessage> SignalPublisher<M> {
 
     /// Waits until at least `n` subscriptions are matched.
     pub async fn wait_for_subscribers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.publisher.matched.clone();
-        wait_count(&mut rx, n, timeout, || {
-            format!(
-                "{n} subscriber(s) on {} ({})",
-                self.topic,
-                M::ros_type_name()
-            )
-        })
-        .await
+        self.publisher
+            .wait_matched(n, timeout, || {
+                format!(
+                    "{n} subscriber(s) on {} ({})",
+                    self.topic,
+                    M::ros_type_name()
+                )
+            })
+            .await
     }
 
     /// Waits until no subscription is matched.
@@ -109,15 +92,15 @@ impl<M: RosMessage> SignalSubscription<M> {
 
     /// Waits until at least `n` publishers are matched.
     pub async fn wait_for_publishers(&self, n: usize, timeout: Duration) -> Result<()> {
-        let mut rx = self.subscription.matched.clone();
-        wait_count(&mut rx, n, timeout, || {
-            format!(
-                "{n} publisher(s) on {} ({})",
-                self.topic,
-                M::ros_type_name()
-            )
-        })
-        .await
+        self.subscription
+            .wait_matched(n, timeout, || {
+                format!(
+                    "{n} publisher(s) on {} ({})",
+                    self.topic,
+                    M::ros_type_name()
+                )
+            })
+            .await
     }
 
     /// Receives the next message with its source timestamp (nanoseconds since the epoch, 0 if unknown).

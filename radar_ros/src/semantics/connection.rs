@@ -189,6 +189,18 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
         s
     }
 
+    /// The slots that live connections may deliver to (targets, and the `interrupt` slots of `until`s).
+    pub fn targets(&self) -> Vec<T> {
+        let mut v = Vec::new();
+        for c in self.conns.values() {
+            v.push(c.target.clone());
+            if let Some((u, _)) = &c.until {
+                v.push(u.interrupt.clone());
+            }
+        }
+        v
+    }
+
     /// Every live connection.
     pub fn list(&self) -> Vec<ConnInfo<S, T>> {
         self.conns

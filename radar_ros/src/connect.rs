@@ -1,0 +1,729 @@
+//! Connections: `once`, `whenever`, `until`, `waitfor` and anonymous slots, executed by an embedded
+//! connection manager over DDS.
+//!
+//! ```no_run
+//! # async fn f(radar: radar_ros::Radar, start_event: radar_ros::EventHandle,
+//! #            end_event: radar_ros::EventHandle, count_up: radar_ros::ResponseHandle) -> radar_ros::Result<()> {
+//! // once start_event start count_up until end_event
+//! let _c = radar.once(start_event.triggered()).start(&count_up).until(end_event.triggered()).await?;
+//! // the connection lives until `_c` is dropped (end of scope, `?`, panic)
+//! let output: radar_ros::msg::Empty = radar.waitfor(count_up.reference().exited(), None).await?;
+//! # Ok(()) }
+//! ```
+//!
+//! What is delivered when is decided by [`ConnectionTable`](crate::semantics::connection::ConnectionTable);
+//! this module moves the messages. The manager keeps one reader per source topic and one writer per target
+//! slot however many connections share them, and forwards serialized messages unchanged
+//! ([`RawMessage`](crate::raw::RawMessage)), so it needs no Rust type for them. A slot of type
+//! `std_msgs/msg/Empty` (interrupt, exit, or an Empty start) accepts a source of any type: the signal counts,
+//! its payload is dropped. Any other slot needs the source's type to be the same.
+//!
+//! A statement returns once its relay is armed end to end: the relay's readers have matched the sources'
+//! writers and its writer has matched the slot's reader. Only signals emitted after that are delivered (by
+//! source timestamp against the manager's clock: hosts of one ROS graph are assumed to be in time sync).
+
+use std::{
+    collections::HashMap,
+    future::{Future, IntoFuture},
+    pin::Pin,
+    sync::{
+        atomic::{AtomicBool, Ordering},
+        Arc, Mutex,
+    },
+    time::Duration,
+};
+
+use tokio::sync::mpsc;
+
+use crate::{
+    error::{Error, Result},
+    msg::{Empty, RosMessage},
+    names::ComponentName,
+    radar::{Radar, WeakRadar},
+    raw::{RawMessage, RawPublisher, RawSubscription},
+    semantics::connection::{ConnId, ConnectionTable, Kind, Until},
+};
+
+/// A signal: a topic a component publishes, with its type.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Signal {
+    topic: String,
+    ros_type: String,
+}
+
+impl Signal {
+    /// A signal on the absolute `topic` of type `ros_type` (`pkg/msg/Name`).
+    pub fn new(topic: impl Into<String>, ros_type: impl Into<String>) -> Signal {
+        Signal {
+            topic: topic.into(),
+            ros_type: ros_type.into(),
+        }
+    }
+    /// The topic.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+    /// The type, `pkg/msg/Name`.
+    pub fn ros_type(&self) -> &str {
+        &self.ros_type
+    }
+}
+
+/// A slot: a topic a component subscribes to, with its type.
+pub type Slot = Signal;
+
+/// The signals and slots of a response, wherever it runs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ResponseRef {
+    name: ComponentName,
+    start_type: String,
+    output_type: String,
+}
+
+impl ResponseRef {
+    /// A response named `name` whose start slot takes `start_type` and whose `exited` carries `output_type`.
+    pub fn new(name: ComponentName, start_type: String, output_type: String) -> ResponseRef {
+        ResponseRef {
+            name,
+            start_type,
+            output_type,
+        }
+    }
+    /// Its name.
+    pub fn name(&self) -> &ComponentName {
+        &self.name
+    }
+    /// `started`, carrying the start payload.
+    pub fn started(&self) -> Signal {
+        Signal::new(self.name.topic("started"), self.start_type.clone())
+    }
+    /// `interrupted`.
+    pub fn interrupted(&self) -> Signal {
+        Signal::new(self.name.topic("interrupted"), Empty::ros_type_name())
+    }
+    /// `exited`, carrying the run's output.
+    pub fn exited(&self) -> Signal {
+        Signal::new(self.name.topic("exited"), self.output_type.clone())
+    }
+    /// The `start` slot.
+    pub fn start_slot(&self) -> Slot {
+        Signal::new(self.name.topic("start"), self.start_type.clone())
+    }
+    /// The `interrupt` slot.
+    pub fn interrupt_slot(&self) -> Slot {
+        Signal::new(self.name.topic("interrupt"), Empty::ros_type_name())
+    }
+    /// The `exit` slot.
+    pub fn exit_slot(&self) -> Slot {
+        Signal::new(self.name.topic("exit"), Empty::ros_type_name())
+    }
+}
+
+/// Something that names a response: a local [`ResponseHandle`](crate::ResponseHandle) or a [`ResponseRef`].
+pub trait AsResponse {
+    /// Its signals and slots.
+    fn response_ref(&self) -> ResponseRef;
+}
+
+impl AsResponse for ResponseRef {
+    fn response_ref(&self) -> ResponseRef {
+        self.clone()
+    }
+}
+
+impl AsResponse for crate::ResponseHandle {
+    fn response_ref(&self) -> ResponseRef {
+        self.reference().clone()
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Target {
+    Slot(String),
+    Anon(u64),
+}
+
+type AnonFn = Box<dyn FnMut(RawMessage) + Send>;
+
+struct Reader {
+    sub: Arc<RawSubscription>,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+}
+
+impl Drop for Reader {
+    fn drop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+    }
+}
+
+struct Writer {
+    publisher: Arc<RawPublisher>,
+    empty: bool,
+}
+
+#[derive(Default)]
+struct State {
+    table: ConnectionTable<String, Target>,
+    readers: HashMap<String, Reader>,
+    writers: HashMap<String, Writer>,
+    anon: HashMap<u64, (mpsc::UnboundedSender<RawMessage>, Arc<AtomicBool>)>,
+    /// Topics held by statements still arming (readers/writers not yet in the table).
+    pending: HashMap<String, usize>,
+    next_anon: u64,
+}
+
+/// The embedded connection manager of one [`Radar`].
+pub(crate) struct Manager {
+    radar: WeakRadar,
+    state: Mutex<State>,
+}
+
+fn now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as i64)
+        .unwrap_or(0)
+}
+
+impl Manager {
+    pub(crate) fn new(radar: WeakRadar) -> Manager {
+        Manager {
+            radar,
+            state: Mutex::new(State::default()),
+        }
+    }
+
+    fn radar(&self) -> Result<Radar> {
+        self.radar
+            .upgrade()
+            .ok_or_else(|| Error::Closed("the RADAR participant".into()))
+    }
+
+    /// One signal read on `topic`: deliver it. Publishing happens under the lock, so a connection removed
+    /// before this takes the lock gets nothing, and one removed after got this signal already.
+    fn dispatch(&self, topic: &str, raw: RawMessage, stamp: i64) {
+        let mut st = self.state.lock().unwrap();
+        let deliveries = st.table.on_signal(&topic.to_owned(), stamp);
+        for d in deliveries {
+            match &d.target {
+                Target::Slot(slot) => {
+                    if let Some(w) = st.writers.get(slot) {
+                        let m = if w.empty {
+                            RawMessage(vec![0])
+                        } else {
+                            raw.clone()
+                        };
+                        if let Err(e) = w.publisher.publish(m) {
+                            tracing::warn!(%slot, error = %e, "could not deliver a signal");
+                        }
+                    }
+                }
+                Target::Anon(k) => {
+                    if let Some((tx, _)) = st.anon.get(k) {
+                        let _ = tx.send(raw.clone());
+                    }
+                }
+            }
+        }
+        Self::prune(&mut st);
+    }
+
+    /// Drops readers and writers that no connection (live or arming) needs: an event whose only listener was
+    /// a fired `once` deactivates.
+    fn prune(st: &mut State) {
+        use std::collections::BTreeSet;
+        let sources = st.table.sources();
+        let mut slots = BTreeSet::new();
+        let mut anons = BTreeSet::new();
+        for t in st.table.targets() {
+            match t {
+                Target::Slot(s) => slots.insert(s),
+                Target::Anon(k) => anons.insert(k),
+            };
+        }
+        let pending = &st.pending;
+        st.readers
+            .retain(|t, _| sources.contains(t) || pending.contains_key(t));
+        st.writers
+            .retain(|t, _| slots.contains(t) || pending.contains_key(t));
+        // dropping the sender lets a delivery already queued (a `once` that just fired) still run
+        st.anon.retain(|k, _| anons.contains(k));
+    }
+
+    fn reader(
+        self: &Arc<Self>,
+        radar: &Radar,
+        st: &mut State,
+        sig: &Signal,
+    ) -> Result<Arc<RawSubscription>> {
+        if let Some(r) = st.readers.get(&sig.topic) {
+            return Ok(r.sub.clone());
+        }
+        let sub = Arc::new(radar.raw_subscription(&sig.topic, &sig.ros_type)?);
+        let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
+        let me = Arc::downgrade(self);
+        let task_sub = sub.clone();
+        let topic = sig.topic.clone();
+        tokio::spawn(async move {
+            loop {
+                tokio::select! {
+                    _ = &mut stop_rx => break,
+                    r = task_sub.recv_stamped() => match (r, me.upgrade()) {
+                        (Ok((raw, stamp)), Some(m)) => m.dispatch(&topic, raw, if stamp > 0 { stamp } else { now_ns() }),
+                        _ => break,
+                    },
+                }
+            }
+        });
+        st.readers.insert(
+            sig.topic.clone(),
+            Reader {
+                sub: sub.clone(),
+                stop: Some(stop),
+            },
+        );
+        Ok(sub)
+    }
+
+    fn writer(&self, radar: &Radar, st: &mut State, slot: &Slot) -> Result<Arc<RawPublisher>> {
+        if let Some(w) = st.writers.get(&slot.topic) {
+            return Ok(w.publisher.clone());
+        }
+        let p = Arc::new(radar.raw_publisher(&slot.topic, &slot.ros_type)?);
+        st.writers.insert(
+            slot.topic.clone(),
+            Writer {
+                publisher: p.clone(),
+                empty: slot.ros_type == Empty::ros_type_name(),
+            },
+        );
+        Ok(p)
+    }
+
+    async fn arm(self: &Arc<Self>, spec: Spec) -> Result<Connection> {
+        let radar = self.radar()?;
+        if let TargetSpec::Slot(slot) = &spec.target {
+            check_types(&spec.source, slot)?;
+        }
+        let mut sources = vec![spec.source.clone()];
+        if let Some(u) = &spec.until {
+            sources.extend([u.source.clone(), u.started.clone(), u.exited.clone()]);
+        }
+        let mut slots: Vec<Slot> = Vec::new();
+        if let TargetSpec::Slot(s) = &spec.target {
+            slots.push(s.clone());
+        }
+        if let Some(u) = &spec.until {
+            slots.push(u.interrupt.clone());
+        }
+        let held: Vec<String> = sources
+            .iter()
+            .chain(&slots)
+            .map(|s| s.topic.clone())
+            .collect();
+        let (readers, writers) = {
+            let mut st = self.state.lock().unwrap();
+            for t in &held {
+                *st.pending.entry(t.clone()).or_default() += 1;
+            }
+            let made = (|| -> Result<_> {
+                let r: Vec<_> = sources
+                    .iter()
+                    .map(|s| self.reader(&radar, &mut st, s))
+                    .collect::<Result<_>>()?;
+                let w: Vec<_> = slots
+                    .iter()
+                    .map(|s| self.writer(&radar, &mut st, s))
+                    .collect::<Result<_>>()?;
+                Ok((r, w))
+            })();
+            match made {
+                Ok(x) => x,
+                Err(e) => {
+                    self.release(&mut st, &held);
+                    return Err(e);
+                }
+            }
+        };
+        let matched = async {
+            for (r, s) in readers.iter().zip(&sources) {
+                r.wait_for_publishers(1, spec.timeout)
+                    .await
+                    .map_err(|_| Error::Timeout {
+                        what: format!(
+                            "a publisher of {} on {}: is the component that emits it running?",
+                            s.ros_type, s.topic
+                        ),
+                        after: spec.timeout,
+                    })?;
+            }
+            for (w, s) in writers.iter().zip(&slots) {
+                w.wait_for_subscribers(1, spec.timeout)
+                    .await
+                    .map_err(|_| Error::Timeout {
+                        what: format!(
+                            "a subscriber of {} on {}: is the response running?",
+                            s.ros_type, s.topic
+                        ),
+                        after: spec.timeout,
+                    })?;
+            }
+            Ok::<(), Error>(())
+        }
+        .await;
+        let mut st = self.state.lock().unwrap();
+        if let Err(e) = matched {
+            self.release(&mut st, &held);
+            return Err(e);
+        }
+        let (target, anon) = match spec.target {
+            TargetSpec::Slot(s) => (Target::Slot(s.topic), None),
+            TargetSpec::Anon(f) => {
+                let k = st.next_anon;
+                st.next_anon += 1;
+                (Target::Anon(k), Some((k, f)))
+            }
+        };
+        let until = spec.until.map(|u| Until {
+            source: u.source.topic,
+            started: u.started.topic,
+            exited: u.exited.topic,
+            interrupt: Target::Slot(u.interrupt.topic),
+        });
+        let id = st.table.arm(
+            spec.source.topic.clone(),
+            target,
+            spec.kind,
+            until,
+            now_ns(),
+        );
+        if let Some((k, mut f)) = anon {
+            let (tx, mut rx) = mpsc::unbounded_channel::<RawMessage>();
+            let alive = Arc::new(AtomicBool::new(true));
+            let a = alive.clone();
+            tokio::spawn(async move {
+                while let Some(m) = rx.recv().await {
+                    if !a.load(Ordering::SeqCst) {
+                        break;
+                    }
+                    f(m);
+                }
+            });
+            st.anon.insert(k, (tx, alive));
+        }
+        self.release(&mut st, &held);
+        Ok(Connection {
+            id,
+            manager: self.clone(),
+        })
+    }
+
+    fn release(&self, st: &mut State, held: &[String]) {
+        for t in held {
+            if let Some(n) = st.pending.get_mut(t) {
+                *n -= 1;
+                if *n == 0 {
+                    st.pending.remove(t);
+                }
+            }
+        }
+        Self::prune(st);
+    }
+
+    /// The guard dropped: remove the connection, and cancel anonymous-slot calls it has not begun.
+    fn remove(&self, id: ConnId) {
+        let mut st = self.state.lock().unwrap();
+        let anon = st
+            .table
+            .list()
+            .into_iter()
+            .find(|c| c.id == id)
+            .and_then(|c| match c.target {
+                Target::Anon(k) => Some(k),
+                Target::Slot(_) => None,
+            });
+        if let Some((_, alive)) = anon.and_then(|k| st.anon.get(&k)) {
+            alive.store(false, Ordering::SeqCst);
+        }
+        st.table.remove(id);
+        Self::prune(&mut st);
+    }
+}
+
+fn check_types(source: &Signal, slot: &Slot) -> Result<()> {
+    if slot.ros_type == Empty::ros_type_name() || slot.ros_type == source.ros_type {
+        Ok(())
+    } else {
+        Err(Error::TypeMismatch {
+            source_topic: source.topic.clone(),
+            source_type: source.ros_type.clone(),
+            slot_topic: slot.topic.clone(),
+            slot_type: slot.ros_type.clone(),
+        })
+    }
+}
+
+/// A live connection. Dropping it removes the connection: once the drop returns, nothing more is delivered
+/// through it (an anonymous slot already running finishes; no new call begins).
+#[must_use = "a connection lives only as long as this guard; bind it (`let _c = ...`) to keep it for the scope"]
+pub struct Connection {
+    id: ConnId,
+    manager: Arc<Manager>,
+}
+
+impl Connection {
+    /// Whether it still delivers (a fired `once` without `until` does not).
+    pub fn is_live(&self) -> bool {
+        self.manager.state.lock().unwrap().table.contains(self.id)
+    }
+
+    /// Signals delivered from its source so far (0 once a fired `once` is gone).
+    pub fn delivered(&self) -> u64 {
+        let st = self.manager.state.lock().unwrap();
+        st.table
+            .list()
+            .into_iter()
+            .find(|c| c.id == self.id)
+            .map(|c| c.delivered)
+            .unwrap_or(0)
+    }
+}
+
+impl std::fmt::Debug for Connection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Connection").field("id", &self.id).finish()
+    }
+}
+
+impl Drop for Connection {
+    fn drop(&mut self) {
+        self.manager.remove(self.id);
+    }
+}
+
+enum TargetSpec {
+    Slot(Slot),
+    Anon(AnonFn),
+}
+
+struct UntilSpec {
+    source: Signal,
+    started: Signal,
+    exited: Signal,
+    interrupt: Slot,
+}
+
+struct Spec {
+    kind: Kind,
+    source: Signal,
+    target: TargetSpec,
+    until: Option<UntilSpec>,
+    timeout: Duration,
+}
+
+/// `once E` / `whenever E`: pick a target with [`start`](Statement::start), [`interrupt`](Statement::interrupt),
+/// [`exit`](Statement::exit) or [`call`](Statement::call).
+#[must_use = "a statement does nothing until given a target and awaited"]
+pub struct Statement {
+    radar: Radar,
+    kind: Kind,
+    source: Signal,
+}
+
+/// A statement with its target; `.await` it to arm the connection.
+#[must_use = "a connection is made only when this is awaited"]
+pub struct Connect {
+    radar: Radar,
+    spec: Spec,
+    response: Option<ResponseRef>,
+    /// Whether the target is a response's start slot (`until` needs one).
+    starts: bool,
+    /// A mistake found while building the statement, reported when it is awaited.
+    error: Option<Error>,
+}
+
+impl Statement {
+    fn to(self, target: TargetSpec, response: Option<ResponseRef>) -> Connect {
+        let starts =
+            matches!((&target, &response), (TargetSpec::Slot(s), Some(r)) if *s == r.start_slot());
+        Connect {
+            starts,
+            error: None,
+            radar: self.radar,
+            spec: Spec {
+                kind: self.kind,
+                source: self.source,
+                target,
+                until: None,
+                timeout: Duration::from_secs(5),
+            },
+            response,
+        }
+    }
+    /// `... start R`.
+    pub fn start(self, r: &impl AsResponse) -> Connect {
+        let r = r.response_ref();
+        self.to(TargetSpec::Slot(r.start_slot()), Some(r))
+    }
+    /// `... interrupt R`.
+    pub fn interrupt(self, r: &impl AsResponse) -> Connect {
+        let r = r.response_ref();
+        self.to(TargetSpec::Slot(r.interrupt_slot()), Some(r))
+    }
+    /// `... exit R`.
+    pub fn exit(self, r: &impl AsResponse) -> Connect {
+        let r = r.response_ref();
+        self.to(TargetSpec::Slot(r.exit_slot()), Some(r))
+    }
+    /// `... slot`: any slot topic with its type.
+    pub fn slot(self, slot: Slot) -> Connect {
+        self.to(TargetSpec::Slot(slot), None)
+    }
+    /// An anonymous slot: `f` runs with each delivered payload, decoded as `M` (the source's type, or
+    /// `std_msgs/msg/Empty` to ignore the payload).
+    pub fn call<M: RosMessage>(self, mut f: impl FnMut(M) + Send + 'static) -> Connect {
+        let topic = self.source.topic.clone();
+        let ty = M::ros_type_name();
+        let error = (ty != self.source.ros_type && ty != Empty::ros_type_name()).then(|| {
+            Error::TypeMismatch {
+                source_topic: self.source.topic.clone(),
+                source_type: self.source.ros_type.clone(),
+                slot_topic: "(anonymous slot)".into(),
+                slot_type: ty.clone(),
+            }
+        });
+        let empty = ty == Empty::ros_type_name();
+        let mut c = self.to(
+            TargetSpec::Anon(Box::new(move |raw: RawMessage| {
+                let decoded = if empty { Ok(M::default()) } else { raw.decode::<M>() };
+                match decoded {
+                    Ok(m) => f(m),
+                    Err(e) => tracing::warn!(%topic, error = %e, "anonymous slot: payload does not decode"),
+                }
+            })),
+            None,
+        );
+        c.error = error;
+        c
+    }
+}
+
+impl Connect {
+    /// `... until U`: U's signals interrupt R while a run this statement started is in progress (see
+    /// [`crate::semantics::connection`]). Only for `start` targets.
+    pub fn until(mut self, u: Signal) -> Connect {
+        match (&self.response, self.starts) {
+            (Some(r), true) => {
+                self.spec.until = Some(UntilSpec {
+                    source: u,
+                    started: r.started(),
+                    exited: r.exited(),
+                    interrupt: r.interrupt_slot(),
+                })
+            }
+            _ => {
+                self.error.get_or_insert(Error::InvalidStatement(
+                    "`until` goes with a `start` target: once E start R until U".into(),
+                ));
+            }
+        }
+        self
+    }
+    /// How long arming may wait for discovery (default 5 s).
+    pub fn timeout(mut self, d: Duration) -> Connect {
+        self.spec.timeout = d;
+        self
+    }
+}
+
+impl IntoFuture for Connect {
+    type Output = Result<Connection>;
+    type IntoFuture = Pin<Box<dyn Future<Output = Result<Connection>> + Send>>;
+    fn into_future(self) -> Self::IntoFuture {
+        Box::pin(async move {
+            if let Some(e) = self.error {
+                return Err(e);
+            }
+            self.radar.manager().arm(self.spec).await
+        })
+    }
+}
+
+impl Radar {
+    /// `once source ...`: the connection delivers one signal.
+    pub fn once(&self, source: Signal) -> Statement {
+        Statement {
+            radar: self.clone(),
+            kind: Kind::Once,
+            source,
+        }
+    }
+
+    /// `whenever source ...`: the connection delivers every signal while it lives.
+    pub fn whenever(&self, source: Signal) -> Statement {
+        Statement {
+            radar: self.clone(),
+            kind: Kind::Whenever,
+            source,
+        }
+    }
+
+    /// `waitfor source`: the payload of the next signal emitted after this call, decoded as `M`; with a
+    /// timeout, fails with [`Error::Timeout`] after it.
+    pub async fn waitfor<M: RosMessage>(
+        &self,
+        source: Signal,
+        timeout: Option<Duration>,
+    ) -> Result<M> {
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let mut tx = Some(tx);
+        let what = format!("a signal on {}", source.topic);
+        let arm_timeout = timeout.unwrap_or(Duration::from_secs(5));
+        let start = tokio::time::Instant::now();
+        let _c = self
+            .once(source)
+            .call(move |m: M| {
+                if let Some(tx) = tx.take() {
+                    let _ = tx.send(m);
+                }
+            })
+            .timeout(arm_timeout)
+            .await?;
+        let wait = async { rx.await.map_err(|_| Error::Closed(what.clone())) };
+        match timeout {
+            None => wait.await,
+            Some(t) => {
+                let left = t.saturating_sub(start.elapsed());
+                tokio::time::timeout(left, wait)
+                    .await
+                    .map_err(|_| Error::Timeout {
+                        what: what.clone(),
+                        after: t,
+                    })?
+            }
+        }
+    }
+
+    /// Sends `payload` into a slot directly (the paper's `rtinject`): waits up to `timeout` for the slot's
+    /// subscriber, then publishes once.
+    pub async fn inject<M: RosMessage>(
+        &self,
+        slot: Slot,
+        payload: M,
+        timeout: Duration,
+    ) -> Result<()> {
+        if slot.ros_type != M::ros_type_name() {
+            return Err(Error::TypeMismatch {
+                source_topic: "(injected payload)".into(),
+                source_type: M::ros_type_name(),
+                slot_topic: slot.topic,
+                slot_type: slot.ros_type,
+            });
+        }
+        let p = self.signal_publisher::<M>(&slot.topic)?;
+        p.wait_for_subscribers(1, timeout).await?;
+        p.publish(payload)
+    }
+}

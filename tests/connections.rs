@@ -1,0 +1,361 @@
+//! Connections over real DDS through the embedded manager: whenever, once (bursts, races), until windows,
+//! waitfor, anonymous slots, injection, type errors, scope exit, and no stale or duplicate deliveries when
+//! connections come and go. Domains 80-89.
+
+use std::{
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc, Mutex,
+    },
+    time::Duration,
+};
+
+use radar_ros::{
+    msg::{Empty, Int32, StringMsg},
+    Error, Event, EventHandle, ExitAction, FnResponse, Radar, ResponseHandle, SlotError,
+    TimerEvent,
+};
+use radar_test_util::{eventually, radar};
+
+const T: Duration = Duration::from_secs(10);
+
+/// A response that counts its runs and returns at once.
+fn counter(radar: &Radar, name: &str) -> (ResponseHandle, Arc<AtomicU64>) {
+    let n = Arc::new(AtomicU64::new(0));
+    let c = n.clone();
+    let h = radar
+        .spawn_response(
+            name,
+            FnResponse::new(move |_: Empty| {
+                c.fetch_add(1, Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    (h, n)
+}
+
+async fn inactive(h: &EventHandle) {
+    eventually(T, "the event to deactivate", || !h.state().active).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn whenever_delivers_every_trigger_until_its_guard_drops() {
+    let r = radar(80);
+    let ev = r
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (resp, runs) = counter(&r, "count");
+    assert!(!ev.state().active);
+    let c = r.whenever(ev.triggered()).start(&resp).await.unwrap();
+    eventually(T, "three runs", || runs.load(Ordering::SeqCst) >= 3).await;
+    assert!(c.delivered() >= 3);
+    drop(c);
+    let after = runs.load(Ordering::SeqCst);
+    inactive(&ev).await;
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    assert!(
+        runs.load(Ordering::SeqCst) <= after + 1,
+        "nothing after the drop (one may be in flight)"
+    );
+}
+
+/// 300 ms after it is activated (so that several statements can be armed), emits `n` signals as fast as it
+/// can, then waits.
+struct Burst(u32, i32);
+impl Event for Burst {
+    type Payload = Int32;
+    fn on_activate(&mut self) {
+        self.1 = -1;
+    }
+    async fn check(&mut self) -> Result<Int32, SlotError> {
+        if self.1 == -1 {
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            self.1 = self.0 as i32;
+        }
+        if self.1 > 0 {
+            self.1 -= 1;
+            Ok(Int32 { data: self.1 })
+        } else {
+            std::future::pending().await
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn once_delivers_exactly_one_of_a_burst_to_each_racing_statement() {
+    let r = radar(81);
+    let burst = r.spawn_event("burst", Burst(50, 0)).unwrap();
+    let got: Arc<Mutex<Vec<(usize, i32)>>> = Default::default();
+    let mut guards = Vec::new();
+    for k in 0..3 {
+        let g = got.clone();
+        guards.push(
+            r.once(burst.triggered())
+                .call(move |m: Int32| g.lock().unwrap().push((k, m.data)))
+                .await
+                .unwrap(),
+        );
+    }
+    eventually(T, "three deliveries", || got.lock().unwrap().len() >= 3).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let mut got = got.lock().unwrap().clone();
+    got.sort();
+    assert_eq!(got.len(), 3, "each once gets exactly one: {got:?}");
+    assert_eq!(got.iter().map(|(k, _)| *k).collect::<Vec<_>>(), [0, 1, 2]);
+    assert!(guards.iter().all(|g| !g.is_live()));
+    inactive(&burst).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn once_start_until_interrupts_only_the_run_it_started() {
+    let r = radar(82);
+    let start_event = r
+        .spawn_event("start_event", TimerEvent::new(Duration::from_millis(200)))
+        .unwrap();
+    let end_event = r
+        .spawn_event("end_event", TimerEvent::new(Duration::from_millis(700)))
+        .unwrap();
+    let restarted = Arc::new(AtomicU64::new(0));
+    let rs = restarted.clone();
+    let resp = r
+        .spawn_response(
+            "worker",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_secs(30)).await;
+                Ok(Empty::default())
+            })
+            .on_exit(move |_| {
+                let first = rs.fetch_add(1, Ordering::SeqCst) == 0;
+                async move {
+                    if first {
+                        ExitAction::Restart
+                    } else {
+                        ExitAction::Done
+                    }
+                }
+            }),
+        )
+        .unwrap();
+    let c = r
+        .once(start_event.triggered())
+        .start(&resp)
+        .until(end_event.triggered())
+        .await
+        .unwrap();
+    // U is armed with the statement: the event activates at once (its own task sets the state)
+    eventually(Duration::from_millis(200), "end_event to be active", || {
+        end_event.state().active
+    })
+    .await;
+    eventually(T, "the interrupt", || resp.state().interrupts == 1).await;
+    eventually(T, "the restart", || resp.state().starts == 2).await;
+    inactive(&start_event).await; // the once has fired
+                                  // end_event triggers again at 1.4 s and 2.1 s: the restarted run is not the statement's
+    tokio::time::sleep(Duration::from_millis(1600)).await;
+    let st = resp.state();
+    assert_eq!(
+        (st.interrupts, st.state_label.as_str()),
+        (1, "running"),
+        "{st:?}"
+    );
+    assert!(end_event.state().triggers >= 3);
+    drop(c);
+    inactive(&end_event).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn waitfor_returns_the_next_payload_and_inject_feeds_a_slot() {
+    let r = radar(83);
+    let echo = r
+        .spawn_response(
+            "echo",
+            FnResponse::new(|s: StringMsg| async move {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                Ok(StringMsg::from(format!("done:{}", s.data).as_str()))
+            }),
+        )
+        .unwrap();
+    let refs = echo.reference().clone();
+    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited(), Some(T)), async {
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        r.inject(refs.start_slot(), StringMsg::from("x"), T).await
+    });
+    injected.unwrap();
+    assert_eq!(
+        out.unwrap().data,
+        "done:x",
+        "data in through start, back out through exited"
+    );
+    // nothing comes: a timeout
+    let e = r
+        .waitfor::<StringMsg>(refs.exited(), Some(Duration::from_millis(300)))
+        .await
+        .unwrap_err();
+    assert!(matches!(e, Error::Timeout { .. }), "{e:?}");
+    // injecting the wrong type is refused
+    let e = r
+        .inject(refs.start_slot(), Int32 { data: 1 }, T)
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("std_msgs/msg/Int32"), "{e}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn mismatched_types_and_meaningless_statements_fail_with_clear_errors() {
+    let r = radar(84);
+    let ev = r.spawn_event("num", Burst(1, 0)).unwrap();
+    let echo = r
+        .spawn_response("echo", FnResponse::new(|s: StringMsg| async move { Ok(s) }))
+        .unwrap();
+    let e = r
+        .whenever(ev.triggered())
+        .start(&echo)
+        .await
+        .unwrap_err()
+        .to_string();
+    for part in [
+        "/num/triggered",
+        "std_msgs/msg/Int32",
+        "/echo/start",
+        "std_msgs/msg/String",
+    ] {
+        assert!(e.contains(part), "{part} missing from: {e}");
+    }
+    let e = r
+        .once(ev.triggered())
+        .call(|_: StringMsg| {})
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("anonymous slot") && e.contains("std_msgs/msg/Int32"),
+        "{e}"
+    );
+    let e = r
+        .once(ev.triggered())
+        .interrupt(&echo)
+        .until(ev.triggered())
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`until` goes with a `start` target"), "{e}");
+    // an Empty slot takes any signal: the payload is dropped, the signal counts
+    let _ok = r.whenever(ev.triggered()).interrupt(&echo).await.unwrap();
+    // nobody publishes on a made-up source: arming times out and says what it waited for
+    let e = r
+        .once(radar_ros::Signal::new(
+            "/nobody/triggered",
+            "std_msgs/msg/Empty",
+        ))
+        .start(&echo)
+        .timeout(Duration::from_millis(300))
+        .await;
+    assert!(e.is_err());
+}
+
+/// A block that arms a connection and then fails with `?`.
+async fn arm_then_fail(r: &Radar, ev: &EventHandle, hits: Arc<AtomicU64>) -> Result<(), Error> {
+    let _c = r
+        .whenever(ev.triggered())
+        .call(move |_: Empty| {
+            hits.fetch_add(1, Ordering::SeqCst);
+        })
+        .await?;
+    tokio::time::sleep(Duration::from_millis(250)).await;
+    Err(Error::InvalidStatement("the block fails".into()))?;
+    unreachable!("the ? above returns")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn connections_end_with_their_scope_on_error_and_on_panic() {
+    let r = radar(85);
+    let ev = r
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(50)))
+        .unwrap();
+    let hits = Arc::new(AtomicU64::new(0));
+    assert!(arm_then_fail(&r, &ev, hits.clone()).await.is_err());
+    let n = hits.load(Ordering::SeqCst);
+    assert!(n >= 2, "it delivered while in scope: {n}");
+    inactive(&ev).await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    assert_eq!(
+        hits.load(Ordering::SeqCst),
+        n,
+        "nothing after `?` left the scope"
+    );
+
+    let h2 = Arc::new(AtomicU64::new(0));
+    let (r2, sig, h) = (r.clone(), ev.triggered(), h2.clone());
+    let task = tokio::spawn(async move {
+        let _c = r2
+            .whenever(sig)
+            .call(move |_: Empty| {
+                h.fetch_add(1, Ordering::SeqCst);
+            })
+            .await
+            .unwrap();
+        tokio::time::sleep(Duration::from_millis(250)).await;
+        panic!("the deliberative code panics");
+    });
+    assert!(task.await.unwrap_err().is_panic());
+    let n = h2.load(Ordering::SeqCst);
+    assert!(n >= 2);
+    inactive(&ev).await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    assert_eq!(
+        h2.load(Ordering::SeqCst),
+        n,
+        "nothing after the panic unwound the scope"
+    );
+}
+
+/// Emits an increasing counter every 5 ms while active.
+struct Counter(i32);
+impl Event for Counter {
+    type Payload = Int32;
+    async fn check(&mut self) -> Result<Int32, SlotError> {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        self.0 += 1;
+        Ok(Int32 { data: self.0 })
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn connections_made_fired_dropped_and_remade_never_see_stale_or_duplicate_signals() {
+    let r = radar(86);
+    let ev = r.spawn_event("counter", Counter(0)).unwrap();
+    // a second listener keeps the event running between cycles, so old samples exist to be replayed
+    let keep = r
+        .signal_subscription::<Int32>("/counter/triggered")
+        .unwrap();
+    let mut last_seen = 0;
+    for cycle in 0..60 {
+        // the newest value emitted before arming
+        while let Some(m) = keep.try_recv() {
+            last_seen = last_seen.max(m.data);
+        }
+        let got: Arc<Mutex<Vec<i32>>> = Default::default();
+        let g = got.clone();
+        let c = r
+            .once(ev.triggered())
+            .call(move |m: Int32| g.lock().unwrap().push(m.data))
+            .await
+            .unwrap();
+        eventually(T, "the once to fire", || !got.lock().unwrap().is_empty()).await;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        let got = got.lock().unwrap().clone();
+        assert_eq!(
+            got.len(),
+            1,
+            "cycle {cycle}: exactly one delivery, got {got:?}"
+        );
+        assert!(
+            got[0] > last_seen,
+            "cycle {cycle}: {} was emitted before arming (last seen {last_seen})",
+            got[0]
+        );
+        last_seen = got[0];
+        drop(c);
+    }
+}
