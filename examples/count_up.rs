@@ -10,13 +10,12 @@
 //! ```
 //!
 //! Every component is a real ROS 2 node on one DDS participant; signals travel over DDS topics
-//! (`/start_event/triggered`, `/count_up/start`, ...). Until the connection manager exists, the `once ... until`
-//! statement is wired here by hand with two small relays (see `once_start_until`): the `once` relay forwards the
-//! first `triggered` of `start_event` to `count_up/start` and then unsubscribes (so `start_event` deactivates);
-//! the `until` relay forwards `end_event` to `count_up/interrupt` only while a run that the statement started is
-//! in progress (from its `started` to its `exited`). The restart asked for by CountUp's exit slot is CountUp's
-//! own doing, not the statement's, so it is outside that window: after the interrupt at 4 s, CountUp restarts
-//! and counts to 10 undisturbed.
+//! (`/start_event/triggered`, `/count_up/start`, ...) through the embedded connection manager. The statement
+//! `once start_event start count_up until end_event` delivers the first `triggered` of `start_event` to
+//! `count_up/start` and then lets go of `start_event` (which deactivates); `end_event` reaches
+//! `count_up/interrupt` only while the run that the statement started is in progress. The restart asked for by
+//! CountUp's exit slot is CountUp's own doing, not the statement's, so it runs outside that window: after the
+//! interrupt at 4 s, CountUp restarts and counts to 10 undisturbed, though `end_event` triggers again at 8 s.
 //!
 //! Run: `cargo run --example count_up` (`-- --duration 12` to change how long it runs; Ctrl-C stops it).
 
@@ -25,7 +24,7 @@ use std::time::Duration;
 use radar_ros::Radar;
 use radar_ros_examples::{
     init_logs,
-    listing1::{watch_count_up, watch_event, CountUp, OnceStartUntil, SleepThenTrigger},
+    listing1::{watch_count_up, watch_event, CountUp, SleepThenTrigger},
     Timeline,
 };
 
@@ -54,26 +53,24 @@ async fn run(duration: f64) -> radar_ros::Result<()> {
     let count_up = radar.spawn_response("count_up", CountUp { tl })?;
     let start_event = radar.spawn_event("start_event", SleepThenTrigger(Duration::from_secs(2)))?;
     let end_event = radar.spawn_event("end_event", SleepThenTrigger(Duration::from_secs(4)))?;
-    let printer = watch_count_up(&radar, tl)?;
-    let watchers = [
-        tokio::spawn(watch_event(tl, start_event)),
-        tokio::spawn(watch_event(tl, end_event)),
-        tokio::spawn(async move {
-            if let Err(e) = printer.await {
-                eprintln!("watcher: {e}");
-            }
-        }),
+    let printers = [
+        tokio::spawn(watch_count_up(&radar, tl)?),
+        tokio::spawn(watch_event(&radar, tl, "start_event")?),
+        tokio::spawn(watch_event(&radar, tl, "end_event")?),
     ];
     tl.mark("once start_event start count_up until end_event", Some(0.0));
-    let statement = OnceStartUntil::arm(&radar, Duration::from_secs(5)).await?;
-    let statement = tokio::spawn(statement.run(tl));
+    let _statement = radar
+        .once(start_event.triggered())
+        .start(&count_up)
+        .until(end_event.triggered())
+        .await?;
+    let stop = tokio::time::sleep(Duration::from_secs_f64(duration));
     tokio::select! {
-        r = statement => r.expect("statement task")?,
-        _ = tokio::time::sleep(Duration::from_secs_f64(duration)) => {}
+        _ = stop => {}
         _ = tokio::signal::ctrl_c() => {}
     }
-    for w in watchers {
-        w.abort();
+    for p in printers {
+        p.abort();
     }
     tl.mark(
         "done: shutting down (count_up's exit slot runs once more)",

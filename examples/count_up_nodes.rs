@@ -15,7 +15,7 @@ use std::time::Duration;
 use radar_ros::Radar;
 use radar_ros_examples::{
     init_logs,
-    listing1::{watch_count_up, CountUp, OnceStartUntil, SleepThenTrigger},
+    listing1::{remote_refs, watch_count_up, watch_event, CountUp, SleepThenTrigger},
     Timeline,
 };
 use tokio::signal::unix::{signal, SignalKind};
@@ -61,17 +61,30 @@ async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
             h.shutdown().await;
         }
         "statement" => {
-            let statement = OnceStartUntil::arm(&radar, Duration::from_secs(30)).await?;
+            // the components are in other processes: name their topics (graph lookup by name comes later)
+            let (start, end, count_up) = remote_refs()?;
+            let statement = radar
+                .once(start)
+                .start(&count_up)
+                .until(end)
+                .timeout(Duration::from_secs(30))
+                .await?;
             // the listing's times count from the statement being armed
             let tl = Timeline::start();
-            let printer = watch_count_up(&radar, tl)?;
             tl.mark("once start_event start count_up until end_event", Some(0.0));
+            let printers = [
+                tokio::spawn(watch_count_up(&radar, tl)?),
+                tokio::spawn(watch_event(&radar, tl, "start_event")?),
+                tokio::spawn(watch_event(&radar, tl, "end_event")?),
+            ];
             tokio::select! {
-                r = statement.run(tl) => r?,
-                r = printer => r?,
                 _ = tokio::time::sleep(Duration::from_secs_f64(duration)) => {}
                 _ = until_stopped() => {}
             }
+            for p in printers {
+                p.abort();
+            }
+            drop(statement);
             tl.mark("done", None);
         }
         _ => {

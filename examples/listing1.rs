@@ -1,17 +1,11 @@
-//! The components and the statement of the paper's Listing 1, shared by the `count_up` example (all in one
-//! process) and `count_up_nodes` (one process per component).
+//! The components of the paper's Listing 1 and printers for its timeline, shared by the `count_up` example
+//! (all in one process) and `count_up_nodes` (one process per component).
 
-use std::{
-    sync::{
-        atomic::{AtomicBool, Ordering},
-        Arc,
-    },
-    time::Duration,
-};
+use std::time::Duration;
 
 use radar_ros::{
-    msg::Empty, Event, EventHandle, ExitAction, ExitReason, Radar, Response, SignalPublisher,
-    SignalSubscription, SlotError,
+    msg::{Empty, EventState, RosMessage},
+    ComponentName, Event, ExitAction, ExitReason, Radar, Response, ResponseRef, Signal, SlotError,
 };
 
 use crate::Timeline;
@@ -56,97 +50,53 @@ impl Event for SleepThenTrigger {
     }
 }
 
-/// Line 22, `once start_event start count_up until end_event`, wired by hand until the connection manager
-/// exists: the `once` relay forwards the first `start_event/triggered` to `count_up/start` and then
-/// unsubscribes (so `start_event` deactivates); the `until` relay forwards `end_event/triggered` to
-/// `count_up/interrupt` only while a run that this statement started is in progress (its `started` to its
-/// `exited`). A restart asked for by CountUp's own exit slot is outside that window.
-pub struct OnceStartUntil {
-    started: SignalSubscription<Empty>,
-    exited: SignalSubscription<Empty>,
-    start: SignalPublisher<Empty>,
-    interrupt: SignalPublisher<Empty>,
-    until: SignalSubscription<Empty>,
-    once: SignalSubscription<Empty>,
+/// The events and the response of Listing 1 as seen from anywhere on the ROS graph (the names and types of
+/// their topics), for a statement in another process.
+pub fn remote_refs() -> radar_ros::Result<(Signal, Signal, ResponseRef)> {
+    let empty = Empty::ros_type_name();
+    let start = Signal::new("/start_event/triggered", empty.clone());
+    let end = Signal::new("/end_event/triggered", empty.clone());
+    let count_up = ResponseRef::new(
+        ComponentName::resolve("count_up", "/")?,
+        empty.clone(),
+        empty,
+    );
+    Ok((start, end, count_up))
 }
 
-impl OnceStartUntil {
-    /// Makes the relays and waits until every one is matched with its component (discovery), up to `timeout`.
-    pub async fn arm(radar: &Radar, timeout: Duration) -> radar_ros::Result<OnceStartUntil> {
-        let s = OnceStartUntil {
-            started: radar.signal_subscription("/count_up/started")?,
-            exited: radar.signal_subscription("/count_up/exited")?,
-            start: radar.signal_publisher("/count_up/start")?,
-            interrupt: radar.signal_publisher("/count_up/interrupt")?,
-            until: radar.signal_subscription("/end_event/triggered")?,
-            once: radar.signal_subscription("/start_event/triggered")?,
-        };
-        for w in [&s.start, &s.interrupt] {
-            w.wait_for_subscribers(1, timeout).await?;
-        }
-        for r in [&s.started, &s.exited, &s.until, &s.once] {
-            r.wait_for_publishers(1, timeout).await?;
-        }
-        Ok(s)
-    }
-
-    /// Runs the statement's relays until an error.
-    pub async fn run(self, tl: Timeline) -> radar_ros::Result<()> {
-        let OnceStartUntil {
-            started,
-            exited,
-            start,
-            interrupt,
-            until,
-            once,
-        } = self;
-        let in_window = Arc::new(AtomicBool::new(false));
-        let window = in_window.clone();
-        let until_relay = async move {
-            loop {
-                until.recv().await?;
-                tl.mark("end_event triggered", None);
-                if window.load(Ordering::SeqCst) {
-                    interrupt.publish(Empty::default())?;
-                }
+/// Prints an event's activation changes and triggers, from its `state` topic (so it works wherever the
+/// event runs). Returns once subscribed; the future prints until an error.
+pub fn watch_event(
+    radar: &Radar,
+    tl: Timeline,
+    name: &str,
+) -> radar_ros::Result<impl std::future::Future<Output = radar_ros::Result<()>>> {
+    let state = radar.state_subscription::<EventState>(&format!("/{name}/state"))?;
+    let name = name.to_owned();
+    Ok(async move {
+        let (mut active, mut triggers) = (None, 0);
+        loop {
+            let st = state.recv().await?;
+            if st.triggers > triggers {
+                triggers = st.triggers;
+                let listing = match (name.as_str(), triggers) {
+                    ("start_event", 1) => Some(2.0),
+                    ("end_event", 1) => Some(4.0),
+                    _ => None,
+                };
+                tl.mark(&format!("{name} triggered"), listing);
             }
-            #[allow(unreachable_code)]
-            Ok::<(), radar_ros::Error>(())
-        };
-        let once_relay = async move {
-            once.recv().await?;
-            tl.mark("start_event triggered", Some(2.0));
-            drop(once); // once: the connection goes away, and start_event deactivates
-            start.publish(Empty::default())?;
-            started.recv().await?;
-            in_window.store(true, Ordering::SeqCst);
-            exited.recv().await?;
-            in_window.store(false, Ordering::SeqCst);
-            std::future::pending::<radar_ros::Result<()>>().await
-        };
-        tokio::try_join!(until_relay, once_relay).map(|_| ())
-    }
-}
-
-/// Prints every activation change of an event hosted in this process.
-pub async fn watch_event(tl: Timeline, event: EventHandle) {
-    let mut state = event.watch_state();
-    let mut last = None;
-    loop {
-        let st = state.borrow_and_update().clone();
-        if last != Some(st.active) {
-            last = Some(st.active);
-            let word = if st.active {
-                "active (checking)"
-            } else {
-                "inactive"
-            };
-            tl.mark(&format!("{} {word}", st.name.trim_start_matches('/')), None);
+            if active != Some(st.active) {
+                active = Some(st.active);
+                let word = if st.active {
+                    "active (checking)"
+                } else {
+                    "inactive"
+                };
+                tl.mark(&format!("{name} {word}"), None);
+            }
         }
-        if state.changed().await.is_err() {
-            return;
-        }
-    }
+    })
 }
 
 /// Prints every signal of `count_up`, wherever it runs. Returns once subscribed (matching takes place in the
