@@ -57,6 +57,40 @@ pub enum Error {
         /// Its type.
         slot_type: String,
     },
+    /// No component of that name appeared on the ROS graph in time.
+    #[error(
+        "no RADAR {kind} named \"{name}\" appeared on the ROS graph within {after:?}; is it running, in this \
+         ROS_DOMAIN_ID and namespace? Components seen: {}",
+        if candidates.is_empty() { "none".to_owned() } else { candidates.join(", ") }
+    )]
+    NotFound {
+        /// The name looked for, fully qualified.
+        name: String,
+        /// `event` or `response`.
+        kind: &'static str,
+        /// How long we waited.
+        after: std::time::Duration,
+        /// RADAR components that were found, closest names first.
+        candidates: Vec<String>,
+    },
+    /// The name belongs to a component of the other kind.
+    #[error("\"{name}\" is a RADAR {found}, but a {expected} was asked for; look it up with radar.{found}(..)")]
+    WrongKind {
+        /// The name, fully qualified.
+        name: String,
+        /// What was asked for.
+        expected: &'static str,
+        /// What is there.
+        found: &'static str,
+    },
+    /// Several types are published on a component's topic.
+    #[error("{topic} carries several types ({}); rename one of the components", types.join(", "))]
+    Ambiguous {
+        /// The topic.
+        topic: String,
+        /// The types seen on it.
+        types: Vec<String>,
+    },
     /// A connection statement that cannot mean anything.
     #[error("invalid statement: {0}")]
     InvalidStatement(String),

@@ -113,6 +113,36 @@ impl Graph {
         })
     }
 
+    /// Every endpoint on the graph that discovery knows, plus this participant's own registered ones:
+    /// `(is_writer, ROS topic, DDS type)`.
+    pub(crate) fn endpoints(&self) -> Vec<(bool, String, String)> {
+        let mut out = Vec::new();
+        {
+            let t = self.table.lock().unwrap();
+            for (is_writer, map) in [(true, &t.writers), (false, &t.readers)] {
+                for e in map.values() {
+                    if let Some((topic, ty)) = &e.identity {
+                        out.push((is_writer, topic.clone(), ty.clone()));
+                    }
+                }
+            }
+        }
+        let ros = |dds: &str| dds.strip_prefix("rt").map(str::to_owned);
+        if let Some(p) = self.participant.lock().unwrap().clone() {
+            for w in p.discovered_writers() {
+                if let Some(t) = ros(&w.publication_topic_data.topic_name) {
+                    out.push((true, t, w.publication_topic_data.type_name.clone()));
+                }
+            }
+            for r in p.discovered_readers() {
+                if let Some(t) = ros(r.subscription_topic_data.topic_name()) {
+                    out.push((false, t, r.subscription_topic_data.type_name().clone()));
+                }
+            }
+        }
+        out
+    }
+
     /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
     pub(crate) fn accepts(&self, reader: GUID, writer: ros2_client::Gid) -> bool {
         let t = self.table.lock().unwrap();

@@ -90,6 +90,7 @@ pub mod endpoints;
 pub mod error;
 pub mod event;
 mod graph;
+pub mod lookup;
 pub mod msg;
 #[cfg(test)]
 mod msg_layout;
@@ -103,6 +104,7 @@ pub mod signal;
 pub use connect::{AsResponse, Connect, Connection, ResponseRef, Signal, Slot, Statement};
 pub use error::{Error, Result, SlotError};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
+pub use lookup::EventRef;
 pub use names::ComponentName;
 pub use radar::{
     discovery_range_from_env, domain_id_from_env, parse_domain_id, DiscoveryRange, Radar,
