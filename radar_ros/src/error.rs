@@ -74,11 +74,11 @@ pub enum Error {
         candidates: Vec<String>,
     },
     /// The name belongs to a component of the other kind.
-    #[error("\"{name}\" is a RADAR {found}, but a {expected} was asked for; look it up with radar.{found}(..)")]
+    #[error("\"{name}\" is a RADAR {found}, but {expected} was asked for; look it up with radar.{found}(..)")]
     WrongKind {
         /// The name, fully qualified.
         name: String,
-        /// What was asked for.
+        /// What was asked for, with its article (`an event`).
         expected: &'static str,
         /// What is there.
         found: &'static str,

@@ -118,14 +118,14 @@ impl Radar {
                 Some(Found::Event(_)) if !want_event => {
                     return Err(Error::WrongKind {
                         name: name.fully_qualified(),
-                        expected: kind,
+                        expected: "a response",
                         found: "event",
                     })
                 }
                 Some(Found::Response(..)) if want_event => {
                     return Err(Error::WrongKind {
                         name: name.fully_qualified(),
-                        expected: kind,
+                        expected: "an event",
                         found: "response",
                     })
                 }
