@@ -359,3 +359,52 @@ async fn connections_made_fired_dropped_and_remade_never_see_stale_or_duplicate_
         drop(c);
     }
 }
+
+/// Listing 3's `do_loop`: a `once` that lives for the function's body, plus an anonymous slot.
+async fn do_loop(
+    r: &Radar,
+    ev2: &EventHandle,
+    resp: &ResponseHandle,
+    hits: Arc<AtomicU64>,
+) -> Result<(), Error> {
+    radar_ros::once!(r, ev2 interrupt resp);
+    radar_ros::whenever!(r, ev2 => move |_: Empty| {
+        hits.fetch_add(1, Ordering::SeqCst);
+    });
+    let _: Empty = radar_ros::waitfor!(r, (resp.reference().interrupted()), Duration::from_secs(5));
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn paper_syntax_macros_bind_connections_to_the_enclosing_block() -> Result<(), Error> {
+    let r = radar(89);
+    let tick = r.spawn_event("test_event", TimerEvent::new(Duration::from_millis(150)))?;
+    let ev2 = r.spawn_event("test_event2", TimerEvent::new(Duration::from_millis(400)))?;
+    let resp = r.spawn_response(
+        "test_response",
+        FnResponse::new(|_: Empty| async {
+            tokio::time::sleep(Duration::from_secs(30)).await;
+            Ok(Empty::default())
+        }),
+    )?;
+    // main: whenever TestEvent start TestResponse
+    radar_ros::whenever!(r, tick start resp);
+    eventually(T, "the first run", || resp.state().starts >= 1).await;
+    let hits = Arc::new(AtomicU64::new(0));
+    do_loop(&r, &ev2, &resp, hits.clone()).await?;
+    assert_eq!(resp.state().interrupts, 1);
+    let n = hits.load(Ordering::SeqCst);
+    assert!(n >= 1, "the anonymous slot ran inside do_loop");
+    // back in main: do_loop's connections are gone, main's is not
+    inactive(&ev2).await;
+    tokio::time::sleep(Duration::from_millis(900)).await;
+    assert_eq!(resp.state().interrupts, 1, "the once ended with do_loop");
+    assert_eq!(hits.load(Ordering::SeqCst), n, "so did the anonymous slot");
+    assert!(
+        resp.state().starts >= 2,
+        "whenever tick start still restarts the response"
+    );
+    assert!(tick.state().active);
+    Ok(())
+}

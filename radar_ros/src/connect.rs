@@ -125,6 +125,12 @@ pub trait AsResponse {
     fn response_ref(&self) -> ResponseRef;
 }
 
+impl<R: AsResponse + ?Sized> AsResponse for &R {
+    fn response_ref(&self) -> ResponseRef {
+        (**self).response_ref()
+    }
+}
+
 impl AsResponse for ResponseRef {
     fn response_ref(&self) -> ResponseRef {
         self.clone()

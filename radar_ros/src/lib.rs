@@ -91,6 +91,7 @@ pub mod error;
 pub mod event;
 mod graph;
 pub mod lookup;
+pub mod macros;
 pub mod msg;
 #[cfg(test)]
 mod msg_layout;
