@@ -184,6 +184,8 @@ struct State {
 pub(crate) struct Manager {
     radar: WeakRadar,
     state: Mutex<State>,
+    /// Bumped whenever the table may have changed.
+    changed: tokio::sync::watch::Sender<u64>,
 }
 
 fn now_ns() -> i64 {
@@ -198,6 +200,7 @@ impl Manager {
         Manager {
             radar,
             state: Mutex::new(State::default()),
+            changed: tokio::sync::watch::channel(0).0,
         }
     }
 
@@ -234,6 +237,8 @@ impl Manager {
             }
         }
         Self::prune(&mut st);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
     }
 
     /// Drops readers and writers that no connection (live or arming) needs: an event whose only listener was
@@ -455,6 +460,8 @@ impl Manager {
         }
         st.table.remove(id);
         Self::prune(&mut st);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
     }
 }
 
@@ -483,6 +490,16 @@ impl Connection {
     /// Whether it still delivers (a fired `once` without `until` does not).
     pub fn is_live(&self) -> bool {
         self.manager.state.lock().unwrap().table.contains(self.id)
+    }
+
+    /// Resolves when the connection no longer delivers: a `once` (without `until`) that fired.
+    pub async fn closed(&self) {
+        let mut rx = self.manager.changed.subscribe();
+        while self.is_live() {
+            if rx.changed().await.is_err() {
+                return;
+            }
+        }
     }
 
     /// Signals delivered from its source so far (0 once a fired `once` is gone).

@@ -1,0 +1,68 @@
+//! Runs Listings 2 and 3 (`launch_scripts/deliberative.sh`) and checks that the connections appear and
+//! disappear as in the paper's Figure 3: (a) -> (b) -> (c) -> (b). Domain 62.
+
+use std::process::Command;
+
+#[test]
+fn connections_follow_figure_3() {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+        "run inside tests/isolated.sh (see README.md)"
+    );
+    let exe = std::env::current_exe().unwrap();
+    let examples = exe.parent().unwrap().parent().unwrap().join("examples");
+    assert!(
+        examples.join("deliberative").exists(),
+        "build the examples first (cargo test builds them)"
+    );
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../launch_scripts/deliberative.sh"
+    );
+    let out = Command::new("bash")
+        .args([script, "--loop-secs", "4", "--duration", "6.5"])
+        .env("RADAR_EXAMPLES", &examples)
+        .env("ROS_DOMAIN_ID", "62")
+        .output()
+        .expect("run the launch script");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let main: Vec<(f64, String)> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("[main] ["))
+        .filter_map(|l| l.split_once(" s] "))
+        .map(|(t, text)| (t.trim().parse().unwrap(), text.to_owned()))
+        .collect();
+    let figure: Vec<&str> = main
+        .iter()
+        .filter_map(|(_, t)| t.get(..3).filter(|p| p.starts_with('(')))
+        .collect();
+    assert_eq!(figure, ["(a)", "(b)", "(c)", "(b)"], "Figure 3: {main:?}");
+    let at = |p: &str| {
+        main.iter()
+            .find(|(_, t)| t.starts_with(p))
+            .map(|(t, _)| *t)
+            .unwrap()
+    };
+    let fired = main.iter().any(|(_, t)| t.ends_with("(it fired)"));
+    assert!(fired, "test_event2 fires the once after 3 s: {main:?}");
+    let dt = at("(b) -") - at("(c) +");
+    assert!(
+        (2.9..3.4).contains(&dt),
+        "the once fires 3 s after it was made: {dt:.3}"
+    );
+    let started = at("test_response started") - at("(b) +");
+    assert!(
+        (4.9..5.4).contains(&started),
+        "test_event starts the response after 5 s: {started:.3}"
+    );
+    assert!(main.iter().any(|(_, t)| t == "do_loop returned"));
+    // the interrupt at 3 s found the response idle: nothing was interrupted
+    assert!(!stdout.contains("test_response interrupted"));
+}
