@@ -11,10 +11,10 @@
 //! # Ok(()) }
 //! ```
 //!
-//! What is delivered when is decided by [`ConnectionTable`](crate::semantics::connection::ConnectionTable);
+//! What is delivered when is decided by [`crate::semantics::connection::ConnectionTable`];
 //! this module moves the messages. The manager keeps one reader per source topic and one writer per target
 //! slot however many connections share them, and forwards serialized messages unchanged
-//! ([`RawMessage`](crate::raw::RawMessage)), so it needs no Rust type for them. A slot of type
+//! ([`crate::raw::RawMessage`]), so it needs no Rust type for them. A slot of type
 //! `std_msgs/msg/Empty` (interrupt, exit, or an Empty start) accepts a source of any type: the signal counts,
 //! its payload is dropped. Any other slot needs the source's type to be the same.
 //!
