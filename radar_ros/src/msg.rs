@@ -272,6 +272,111 @@ pub struct EventState {
 }
 ros_message!(EventState, "radar_msgs", "EventState");
 
+/// `radar_msgs/msg/Connection`: one live connection, as a manager lists it.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Connection {
+    /// Unique within its manager.
+    pub id: u64,
+    /// [`Connection::ONCE`] or [`Connection::WHENEVER`].
+    pub kind: u8,
+    /// `once` or `whenever`.
+    pub kind_label: String,
+    /// Topic of the source signal.
+    pub source: String,
+    /// Its type.
+    pub source_type: String,
+    /// Topic of the target slot, or `(anonymous)`.
+    pub target: String,
+    /// Topic of the `until` signal, empty if none.
+    pub until: String,
+    /// Who made it.
+    pub owner: String,
+    /// Signals delivered from the source so far.
+    pub delivered: u64,
+}
+ros_message!(Connection, "radar_msgs", "Connection");
+
+impl Connection {
+    /// `once`.
+    pub const ONCE: u8 = 0;
+    /// `whenever`.
+    pub const WHENEVER: u8 = 1;
+}
+
+/// `radar_msgs/msg/ConnectionList`: every live connection of one manager.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConnectionList {
+    /// When it was published.
+    pub stamp: Time,
+    /// The manager node.
+    pub manager: String,
+    /// The connections.
+    pub connections: Vec<Connection>,
+}
+ros_message!(ConnectionList, "radar_msgs", "ConnectionList");
+
+/// Request of `radar_msgs/srv/Connect`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ConnectRequest {
+    /// [`Connection::ONCE`] or [`Connection::WHENEVER`].
+    pub kind: u8,
+    /// Source signal topic.
+    pub source: String,
+    /// Target slot topic.
+    pub target: String,
+    /// Optional `until` signal topic.
+    pub until: String,
+    /// Seconds to wait for discovery; 0 means 5.
+    pub timeout: f64,
+}
+
+/// Response of `radar_msgs/srv/Connect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConnectResponse {
+    /// Whether the connection was made.
+    pub ok: bool,
+    /// Why not.
+    pub error: String,
+    /// Its id.
+    pub id: u64,
+}
+
+/// Request of `radar_msgs/srv/Disconnect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DisconnectRequest {
+    /// The connection.
+    pub id: u64,
+}
+
+/// Response of `radar_msgs/srv/Disconnect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DisconnectResponse {
+    /// Whether it existed and was removed.
+    pub ok: bool,
+    /// Why not.
+    pub error: String,
+}
+
+/// Request of `radar_msgs/srv/List` (empty: one padding byte on the wire, as ROS does).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ListRequest {
+    structure_needs_at_least_one_member: u8,
+}
+
+/// Response of `radar_msgs/srv/List`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ListResponse {
+    /// The connections.
+    pub connections: Vec<Connection>,
+}
+
+impl ros2_client::Message for ConnectRequest {}
+impl ros2_client::Message for ConnectResponse {}
+impl ros2_client::Message for DisconnectRequest {}
+impl ros2_client::Message for DisconnectResponse {}
+impl ros2_client::Message for ListRequest {}
+impl ros2_client::Message for ListResponse {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -309,6 +414,56 @@ mod tests {
             let c = format!("STATE_{}", phase.label().to_uppercase());
             assert!(consts.contains(&(c, phase.code().to_string())), "{phase:?}");
         }
+    }
+
+    fn srv_file(name: &str) -> (String, String) {
+        let p = format!(
+            "{}/../msgs/radar_msgs/srv/{name}.srv",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+        let (req, resp) = text.split_once("\n---").expect("--- in a .srv");
+        (req.to_owned(), resp.to_owned())
+    }
+
+    #[test]
+    fn connection_messages_and_services_mirror_their_files() {
+        assert_eq!(
+            fields(&Connection::default()),
+            msg_file_fields(&msg_file("Connection"))
+        );
+        let one = ConnectionList {
+            connections: vec![Connection::default()],
+            ..Default::default()
+        };
+        assert_eq!(fields(&one), msg_file_fields(&msg_file("ConnectionList")));
+        let (req, resp) = srv_file("Connect");
+        assert_eq!(fields(&ConnectRequest::default()), msg_file_fields(&req));
+        assert_eq!(fields(&ConnectResponse::default()), msg_file_fields(&resp));
+        let (req, resp) = srv_file("Disconnect");
+        assert_eq!(fields(&DisconnectRequest::default()), msg_file_fields(&req));
+        assert_eq!(
+            fields(&DisconnectResponse::default()),
+            msg_file_fields(&resp)
+        );
+        let (req, resp) = srv_file("List");
+        assert!(msg_file_fields(&req).is_empty());
+        assert_eq!(
+            fields(&ListRequest::default()).len(),
+            1,
+            "an empty request carries one padding byte"
+        );
+        let list = ListResponse {
+            connections: vec![Connection::default()],
+        };
+        assert_eq!(fields(&list), msg_file_fields(&resp));
+        assert_eq!(
+            msg_file_constants(&msg_file("Connection")),
+            [
+                ("ONCE".to_owned(), "0".to_owned()),
+                ("WHENEVER".to_owned(), "1".to_owned())
+            ]
+        );
     }
 
     #[test]

@@ -50,7 +50,7 @@ macro_rules! prim {
 impl ser::Serializer for TypeName {
     type Ok = String;
     type Error = E;
-    type SerializeSeq = ser::Impossible<String, E>;
+    type SerializeSeq = SeqType;
     type SerializeTuple = ser::Impossible<String, E>;
     type SerializeTupleStruct = ser::Impossible<String, E>;
     type SerializeTupleVariant = ser::Impossible<String, E>;
@@ -93,8 +93,8 @@ impl ser::Serializer for TypeName {
     ) -> Result<String, E> {
         Err(E("enum".into()))
     }
-    fn serialize_seq(self, _: Option<usize>) -> Result<Self::SerializeSeq, E> {
-        Err(E("sequence".into()))
+    fn serialize_seq(self, _: Option<usize>) -> Result<SeqType, E> {
+        Ok(SeqType(None))
     }
     fn serialize_tuple(self, _: usize) -> Result<Self::SerializeTuple, E> {
         Err(E("tuple".into()))
@@ -129,6 +129,24 @@ impl ser::Serializer for TypeName {
         _: usize,
     ) -> Result<Self::SerializeStructVariant, E> {
         Err(E("enum".into()))
+    }
+}
+
+/// A sequence: `elem[]`, the element type taken from the first element (give the test one).
+struct SeqType(Option<String>);
+impl ser::SerializeSeq for SeqType {
+    type Ok = String;
+    type Error = E;
+    fn serialize_element<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), E> {
+        if self.0.is_none() {
+            self.0 = Some(v.serialize(TypeName)?);
+        }
+        Ok(())
+    }
+    fn end(self) -> Result<String, E> {
+        self.0
+            .map(|t| format!("{t}[]"))
+            .ok_or_else(|| E("give sequences one element to see their type".into()))
     }
 }
 
