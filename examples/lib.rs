@@ -35,7 +35,7 @@ pub fn init_logs() {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error".into()),
+                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error".into()),
         )
         .with_writer(std::io::stderr)
         .try_init();

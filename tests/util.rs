@@ -20,7 +20,7 @@ pub fn init_logs() {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error".into()),
+                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error".into()),
         )
         .with_test_writer()
         .try_init();
@@ -185,4 +185,115 @@ pub async fn eventually(timeout: Duration, what: &str, cond: impl Fn() -> bool) 
     })
     .await;
     assert!(r.is_ok(), "timed out after {timeout:?} waiting for {what}");
+}
+
+/// Calls a service until it answers (the server's discovery takes a moment), failing after `timeout`.
+pub async fn call_service<Req, Resp>(
+    client: &ros2_client::Client<Req, Resp>,
+    req: Req,
+    timeout: Duration,
+) -> Resp
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    let deadline = tokio::time::Instant::now() + timeout;
+    loop {
+        if let Ok(id) = client.async_send_request(req.clone()).await {
+            if let Ok(Ok(resp)) = tokio::time::timeout(
+                Duration::from_millis(500),
+                client.async_receive_response(id),
+            )
+            .await
+            {
+                return resp;
+            }
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "no answer from the service within {timeout:?}"
+        );
+    }
+}
+
+/// Sends one request and waits for its answer (for calls that must not be repeated).
+pub async fn call_once<Req, Resp>(
+    client: &ros2_client::Client<Req, Resp>,
+    req: Req,
+    timeout: Duration,
+) -> Resp
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    let id = client.async_send_request(req).await.expect("send request");
+    tokio::time::timeout(timeout, client.async_receive_response(id))
+        .await
+        .expect("an answer in time")
+        .expect("a readable answer")
+}
+
+/// Clients of a manager node's three services, on a node of `radar`'s participant.
+pub struct ManagerClient {
+    _node: ros2_client::Node,
+    /// `connect`.
+    pub connect:
+        ros2_client::Client<radar_ros::msg::ConnectRequest, radar_ros::msg::ConnectResponse>,
+    /// `disconnect`.
+    pub disconnect:
+        ros2_client::Client<radar_ros::msg::DisconnectRequest, radar_ros::msg::DisconnectResponse>,
+    /// `list`.
+    pub list: ros2_client::Client<radar_ros::msg::ListRequest, radar_ros::msg::ListResponse>,
+}
+
+impl ManagerClient {
+    /// Makes the clients and waits until the manager answers `list` (so the services are discovered).
+    pub async fn new(radar: &Radar, manager: &str, node_name: &str) -> ManagerClient {
+        use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
+        let mut node = radar
+            .context()
+            .new_node(
+                NodeName::new("/", node_name).unwrap(),
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .unwrap();
+        let q = radar_ros::endpoints::signal_qos();
+        let svc = |n: &str| Name::new(manager, n).unwrap();
+        let c = ManagerClient {
+            connect: node
+                .create_client(
+                    ServiceMapping::Enhanced,
+                    &svc("connect"),
+                    &ServiceTypeName::new("radar_msgs", "Connect"),
+                    q.clone(),
+                    q.clone(),
+                )
+                .unwrap(),
+            disconnect: node
+                .create_client(
+                    ServiceMapping::Enhanced,
+                    &svc("disconnect"),
+                    &ServiceTypeName::new("radar_msgs", "Disconnect"),
+                    q.clone(),
+                    q.clone(),
+                )
+                .unwrap(),
+            list: node
+                .create_client(
+                    ServiceMapping::Enhanced,
+                    &svc("list"),
+                    &ServiceTypeName::new("radar_msgs", "List"),
+                    q.clone(),
+                    q,
+                )
+                .unwrap(),
+            _node: node,
+        };
+        call_service(&c.list, radar_ros::msg::ListRequest::default(), DISCOVERY).await;
+        // the three servers live on one node; give the other two the moment discovery of one took
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        c
+    }
 }

@@ -175,6 +175,8 @@ struct State {
     readers: HashMap<String, Reader>,
     writers: HashMap<String, Writer>,
     anon: HashMap<u64, (mpsc::UnboundedSender<RawMessage>, Arc<AtomicBool>)>,
+    /// Who made each connection.
+    owners: HashMap<ConnId, String>,
     /// Topics held by statements still arming (readers/writers not yet in the table).
     pending: HashMap<String, usize>,
     next_anon: u64,
@@ -239,6 +241,44 @@ impl Manager {
         Self::prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
+    }
+
+    /// Every live connection, as `radar_msgs/msg/Connection`.
+    pub(crate) fn list(&self) -> Vec<crate::msg::Connection> {
+        let st = self.state.lock().unwrap();
+        st.table
+            .list()
+            .into_iter()
+            .map(|c| crate::msg::Connection {
+                id: c.id,
+                kind: match c.kind {
+                    Kind::Once => crate::msg::Connection::ONCE,
+                    Kind::Whenever => crate::msg::Connection::WHENEVER,
+                },
+                kind_label: match c.kind {
+                    Kind::Once => "once".into(),
+                    Kind::Whenever => "whenever".into(),
+                },
+                source_type: st
+                    .readers
+                    .get(&c.source)
+                    .map(|r| r.sub.ros_type().to_owned())
+                    .unwrap_or_default(),
+                source: c.source,
+                target: match c.target {
+                    Target::Slot(t) => t,
+                    Target::Anon(_) => "(anonymous)".into(),
+                },
+                until: c.until.unwrap_or_default(),
+                owner: st.owners.get(&c.id).cloned().unwrap_or_default(),
+                delivered: c.delivered,
+            })
+            .collect()
+    }
+
+    /// Resolves at the next change of the table.
+    pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
+        self.changed.subscribe()
     }
 
     /// Drops readers and writers that no connection (live or arming) needs: an event whose only listener was
@@ -410,6 +450,7 @@ impl Manager {
             until,
             now_ns(),
         );
+        st.owners.insert(id, spec.owner);
         if let Some((k, mut f)) = anon {
             let (tx, mut rx) = mpsc::unbounded_channel::<RawMessage>();
             let alive = Arc::new(AtomicBool::new(true));
@@ -425,6 +466,8 @@ impl Manager {
             st.anon.insert(k, (tx, alive));
         }
         self.release(&mut st, &held);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
         Ok(Connection {
             id,
             manager: self.clone(),
@@ -459,6 +502,7 @@ impl Manager {
             alive.store(false, Ordering::SeqCst);
         }
         st.table.remove(id);
+        st.owners.remove(&id);
         Self::prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
@@ -487,6 +531,11 @@ pub struct Connection {
 }
 
 impl Connection {
+    /// Its id in the manager's list.
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+
     /// Whether it still delivers (a fired `once` without `until` does not).
     pub fn is_live(&self) -> bool {
         self.manager.state.lock().unwrap().table.contains(self.id)
@@ -539,6 +588,7 @@ struct UntilSpec {
 }
 
 struct Spec {
+    owner: String,
     kind: Kind,
     source: Signal,
     target: TargetSpec,
@@ -576,6 +626,7 @@ impl Statement {
             error: None,
             radar: self.radar,
             spec: Spec {
+                owner: format!("process {}", std::process::id()),
                 kind: self.kind,
                 source: self.source,
                 target,
@@ -654,6 +705,12 @@ impl Connect {
         }
         self
     }
+    /// Records who asked for the connection (shown in the manager's `connections` list).
+    pub(crate) fn owner(mut self, owner: String) -> Connect {
+        self.spec.owner = owner;
+        self
+    }
+
     /// How long arming may wait for discovery (default 5 s).
     pub fn timeout(mut self, d: Duration) -> Connect {
         self.spec.timeout = d;

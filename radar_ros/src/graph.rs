@@ -53,10 +53,23 @@ struct Table {
 }
 
 /// Shared match table of one DDS participant.
-#[derive(Clone, Default)]
+#[derive(Clone)]
 pub(crate) struct Graph {
     table: Arc<Mutex<Table>>,
     participant: Arc<Mutex<Option<rustdds::DomainParticipant>>>,
+    /// Participants that left the graph (cleanly or by lease expiry).
+    /// (RustDDS does not export `GuidPrefix`: a GUID carries it; compare `.prefix`.)
+    lost: tokio::sync::broadcast::Sender<GUID>,
+}
+
+impl Default for Graph {
+    fn default() -> Self {
+        Graph {
+            table: Default::default(),
+            participant: Default::default(),
+            lost: tokio::sync::broadcast::channel(64).0,
+        }
+    }
 }
 
 /// `std_msgs::msg::dds_::Int32_` -> `std_msgs/msg/Int32`.
@@ -150,6 +163,11 @@ impl Graph {
             Some(e) if !e.rejected.is_empty() => !e.rejected.contains(&GUID::from(writer)),
             _ => true,
         }
+    }
+
+    /// Tells of every participant that leaves the graph from now on.
+    pub(crate) fn participants_lost(&self) -> tokio::sync::broadcast::Receiver<GUID> {
+        self.lost.subscribe()
     }
 
     pub(crate) fn set_participant(&self, p: rustdds::DomainParticipant) {
@@ -298,6 +316,9 @@ impl Graph {
             }
             DomainParticipantStatusEvent::ParticipantLost { id, .. } => {
                 tracing::debug!(participant = ?id, "DDS participant lost");
+                let mut who = GUID::new_participant_guid();
+                who.prefix = id;
+                let _ = self.lost.send(who);
                 Self::remove_where(&mut t.writers, |g| g.prefix == id);
                 Self::remove_where(&mut t.readers, |g| g.prefix == id);
             }

@@ -92,6 +92,7 @@ pub mod event;
 mod graph;
 pub mod lookup;
 pub mod macros;
+pub mod manager_node;
 pub mod msg;
 #[cfg(test)]
 mod msg_layout;
@@ -106,6 +107,7 @@ pub use connect::{AsResponse, Connect, Connection, ResponseRef, Signal, Slot, St
 pub use error::{Error, Result, SlotError};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
 pub use lookup::EventRef;
+pub use manager_node::ManagerHandle;
 pub use names::ComponentName;
 pub use radar::{
     discovery_range_from_env, domain_id_from_env, parse_domain_id, DiscoveryRange, Radar,

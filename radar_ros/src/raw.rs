@@ -131,6 +131,11 @@ pub struct RawSubscription {
 }
 
 impl RawSubscription {
+    /// The type, `pkg/msg/Name`.
+    pub fn ros_type(&self) -> &str {
+        &self.ros_type
+    }
+
     /// Publishers (of the same type) matched now.
     pub fn publishers(&self) -> usize {
         *self.subscription.matched.borrow()

@@ -46,8 +46,32 @@ async fn main() {
             use std::io::Write;
             let _ = writeln!(std::io::stdout(), "bye");
         }
+        Some("connect") => {
+            // connect MANAGER SOURCE TARGET: make a whenever connection through the manager's service
+            let (manager, source, target) = (&args[1], &args[2], &args[3]);
+            let client = radar_test_util::ManagerClient::new(
+                &radar,
+                manager,
+                &format!("peer_{}", std::process::id()),
+            )
+            .await;
+            let req = radar_ros::msg::ConnectRequest {
+                kind: radar_ros::msg::Connection::WHENEVER,
+                source: source.clone(),
+                target: target.clone(),
+                ..Default::default()
+            };
+            let resp =
+                radar_test_util::call_once(&client.connect, req, Duration::from_secs(20)).await;
+            println!("connected {} {}", resp.ok, resp.id);
+            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+            term.recv().await;
+            drop(client);
+            drop(radar);
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
         _ => {
-            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32]");
+            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32] | connect MANAGER SOURCE TARGET");
             std::process::exit(64);
         }
     }

@@ -1,0 +1,44 @@
+//! `radar_manager [NAME]`: a standalone RADAR connection manager node (default name `radar_manager`),
+//! serving connect/disconnect/list and publishing `connections`, until SIGINT or SIGTERM.
+//! Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE.
+
+use tokio::signal::unix::{signal, SignalKind};
+
+#[tokio::main]
+async fn main() {
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=error".into()),
+        )
+        .with_writer(std::io::stderr)
+        .try_init();
+    let name = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "radar_manager".into());
+    let radar = match radar_ros::Radar::new() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("radar_manager: {e}");
+            std::process::exit(2);
+        }
+    };
+    let manager = match radar.serve_manager(&name) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("radar_manager: {e}");
+            std::process::exit(2);
+        }
+    };
+    println!(
+        "radar_manager serving as {} in domain {}",
+        manager.name(),
+        radar.domain_id()
+    );
+    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+    tokio::select! {
+        _ = term.recv() => {}
+        _ = tokio::signal::ctrl_c() => {}
+    }
+    manager.shutdown().await;
+}

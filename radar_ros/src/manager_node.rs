@@ -1,0 +1,271 @@
+//! The connection manager as a ROS 2 node, so other programs (rclpy, the command line, other Rust programs)
+//! can make connections through it.
+//!
+//! `radar.serve_manager("radar_manager")` (or the `radar_manager` binary) makes a node with
+//!
+//! | endpoint | type |
+//! |---|---|
+//! | `<name>/connect` (service) | `radar_msgs/srv/Connect` |
+//! | `<name>/disconnect` (service) | `radar_msgs/srv/Disconnect` |
+//! | `<name>/list` (service) | `radar_msgs/srv/List` |
+//! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished at every change |
+//!
+//! It serves the same manager as the program's own statements, so the list shows both. A connection made
+//! through the service belongs to the caller's DDS participant (its process) and is removed when that
+//! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed.
+//! Errors come back as `ok = false` with a message saying what to do.
+
+use std::{collections::HashMap, time::Duration};
+
+use futures::StreamExt;
+use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
+
+use crate::{
+    connect::{Connection, Signal},
+    endpoints::{emit, publisher, signal_qos, state_qos, ComponentTask},
+    error::{Error, Result},
+    lookup::DEFAULT_LOOKUP_TIMEOUT,
+    msg::{
+        ConnectRequest, ConnectResponse, Connection as ConnectionMsg, ConnectionList,
+        DisconnectRequest, DisconnectResponse, ListRequest, ListResponse, Time,
+    },
+    names::ComponentName,
+    radar::Radar,
+};
+
+/// A running manager node; dropping it removes the node and the connections made through its services.
+pub struct ManagerHandle {
+    name: ComponentName,
+    task: ComponentTask,
+}
+
+impl ManagerHandle {
+    /// The node's name.
+    pub fn name(&self) -> &ComponentName {
+        &self.name
+    }
+
+    /// Stops serving and waits until the node is gone.
+    pub async fn shutdown(self) {
+        self.task.stop_and_wait().await;
+    }
+}
+
+impl std::fmt::Debug for ManagerHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ManagerHandle")
+            .field("name", &self.name.fully_qualified())
+            .finish()
+    }
+}
+
+/// The type published on `topic` (or subscribed, for slots), waiting up to `timeout` for it to appear.
+async fn type_of(radar: &Radar, topic: &str, writer: bool, timeout: Duration) -> Result<String> {
+    let deadline = tokio::time::Instant::now() + timeout;
+    loop {
+        let types: Vec<String> = radar
+            .graph()
+            .endpoints()
+            .into_iter()
+            .filter(|(w, t, _)| *w == writer && t == topic)
+            .map(|(_, _, ty)| crate::graph::ros_type_of_dds(&ty))
+            .collect();
+        if let Some(t) = types.first() {
+            return Ok(t.clone());
+        }
+        if tokio::time::Instant::now() >= deadline {
+            let what = if writer { "publisher" } else { "subscriber" };
+            return Err(Error::Timeout {
+                what: format!(
+                    "a {what} on {topic}: is the component running, in this domain and namespace?"
+                ),
+                after: timeout,
+            });
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<Connection> {
+    let timeout = if req.timeout > 0.0 {
+        Duration::from_secs_f64(req.timeout)
+    } else {
+        DEFAULT_LOOKUP_TIMEOUT
+    };
+    let source_topic = radar.resolve(&req.source)?.fully_qualified();
+    let target_topic = radar.resolve(&req.target)?.fully_qualified();
+    let source = Signal::new(
+        &source_topic,
+        type_of(radar, &source_topic, true, timeout).await?,
+    );
+    let statement = match req.kind {
+        ConnectionMsg::ONCE => radar.once(source),
+        ConnectionMsg::WHENEVER => radar.whenever(source),
+        k => {
+            return Err(Error::InvalidStatement(format!(
+                "kind {k} is neither ONCE (0) nor WHENEVER (1)"
+            )))
+        }
+    };
+    let c = if req.until.is_empty() {
+        let slot = Signal::new(
+            &target_topic,
+            type_of(radar, &target_topic, false, timeout).await?,
+        );
+        statement.slot(slot)
+    } else {
+        let Some(response) = target_topic.strip_suffix("/start") else {
+            return Err(Error::InvalidStatement(format!(
+                "`until` goes with a start slot (…/start), not {target_topic}"
+            )));
+        };
+        let r = radar.response_within(response, timeout).await?;
+        let u_topic = radar.resolve(&req.until)?.fully_qualified();
+        let u = Signal::new(&u_topic, type_of(radar, &u_topic, true, timeout).await?);
+        statement.start(&r).until(u)
+    };
+    c.owner(owner).timeout(timeout).await
+}
+
+impl Radar {
+    /// Serves this participant's connection manager as the ROS node `name` (see the module docs).
+    pub fn serve_manager(&self, name: &str) -> Result<ManagerHandle> {
+        let name = self.resolve(name)?;
+        let (mut node, claim) = self.claim_node(&name)?;
+        let fq = name.fully_qualified();
+        let svc = |n: &str| {
+            Name::new(&fq, n).map_err(|e| Error::InvalidName {
+                name: format!("{fq}/{n}"),
+                reason: format!("{e}"),
+            })
+        };
+        let q = signal_qos();
+        let connect_srv = node
+            .create_server::<ConnectRequest, ConnectResponse>(
+                ServiceMapping::Enhanced,
+                &svc("connect")?,
+                &ServiceTypeName::new("radar_msgs", "Connect"),
+                q.clone(),
+                q.clone(),
+            )
+            .map_err(|e| Error::dds(format!("service {fq}/connect"), e))?;
+        let disconnect_srv = node
+            .create_server::<DisconnectRequest, DisconnectResponse>(
+                ServiceMapping::Enhanced,
+                &svc("disconnect")?,
+                &ServiceTypeName::new("radar_msgs", "Disconnect"),
+                q.clone(),
+                q.clone(),
+            )
+            .map_err(|e| Error::dds(format!("service {fq}/disconnect"), e))?;
+        let list_srv = node
+            .create_server::<ListRequest, ListResponse>(
+                ServiceMapping::Enhanced,
+                &svc("list")?,
+                &ServiceTypeName::new("radar_msgs", "List"),
+                q.clone(),
+                q,
+            )
+            .map_err(|e| Error::dds(format!("service {fq}/list"), e))?;
+        let list_pub = publisher::<ConnectionList>(
+            self.graph(),
+            &mut node,
+            &name.topic("connections"),
+            &state_qos(),
+        )?;
+        let radar = self.clone();
+        let manager = self.manager();
+        let mut changes = manager.changes();
+        let mut lost = self.graph().participants_lost();
+        let task = ComponentTask::spawn(move |mut stop| async move {
+            let _claim = claim;
+            let _node = node;
+            let publish = |list: Vec<ConnectionMsg>| {
+                emit(
+                    &list_pub,
+                    "connections",
+                    ConnectionList {
+                        stamp: Time::now(),
+                        manager: fq.clone(),
+                        connections: list,
+                    },
+                )
+            };
+            publish(manager.list());
+            // connections made through the service, with their owner's participant
+            let mut owned: HashMap<u64, (Connection, ros2_client::dds::rustdds::GUID)> =
+                HashMap::new();
+            let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
+            let mut connects = Box::pin(connect_srv.receive_request_stream());
+            let mut disconnects = Box::pin(disconnect_srv.receive_request_stream());
+            let mut lists = Box::pin(list_srv.receive_request_stream());
+            loop {
+                tokio::select! {
+                    _ = &mut stop => break,
+                    Some(r) = connects.next() => match r {
+                        Ok((id, req)) => {
+                            let (radar, done) = (radar.clone(), done_tx.clone());
+                            let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+                            tokio::spawn(async move {
+                                let owner = format!("service caller {:?}", caller.prefix);
+                                let r = connect(&radar, &req, owner).await;
+                                let _ = done.send((id, caller, r));
+                            });
+                        }
+                        Err(e) => tracing::warn!(error = %e, "malformed connect request dropped"),
+                    },
+                    Some((id, caller, r)) = done_rx.recv() => {
+                        let resp = match r {
+                            Ok(c) => {
+                                let cid = c.id();
+                                owned.insert(cid, (c, caller));
+                                ConnectResponse { ok: true, error: String::new(), id: cid }
+                            }
+                            Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
+                        };
+                        if let Err(e) = connect_srv.async_send_response(id, resp).await {
+                            tracing::warn!(error = ?e, "could not answer a connect request");
+                        }
+                    }
+                    Some(r) = disconnects.next() => match r {
+                        Ok((id, req)) => {
+                            let resp = match owned.remove(&req.id) {
+                                Some(_) => DisconnectResponse { ok: true, error: String::new() },
+                                None => DisconnectResponse {
+                                    ok: false,
+                                    error: format!(
+                                        "no connection {} made through this service; the list service shows the live ones",
+                                        req.id
+                                    ),
+                                },
+                            };
+                            if let Err(e) = disconnect_srv.async_send_response(id, resp).await {
+                                tracing::warn!(error = ?e, "could not answer a disconnect request");
+                            }
+                        }
+                        Err(e) => tracing::warn!(error = %e, "malformed disconnect request dropped"),
+                    },
+                    Some(r) = lists.next() => match r {
+                        Ok((id, _)) => {
+                            let resp = ListResponse { connections: manager.list() };
+                            if let Err(e) = list_srv.async_send_response(id, resp).await {
+                                tracing::warn!(error = ?e, "could not answer a list request");
+                            }
+                        }
+                        Err(e) => tracing::warn!(error = %e, "malformed list request dropped"),
+                    },
+                    Ok(gone) = lost.recv() => {
+                        let before = owned.len();
+                        owned.retain(|_, (_, caller)| caller.prefix != gone.prefix);
+                        if owned.len() != before {
+                            tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
+                        }
+                    }
+                    Ok(()) = changes.changed() => publish(manager.list()),
+                }
+            }
+        });
+        tracing::info!(manager = %name, "connection manager serving");
+        Ok(ManagerHandle { name, task })
+    }
+}

@@ -1,0 +1,216 @@
+//! The connection manager as a ROS node: connect/disconnect/list services called from another participant,
+//! the `connections` topic, errors as answers, and a caller that exits taking its connections with it.
+//! Domains 90-91.
+
+use std::{
+    process::Stdio,
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc,
+    },
+    time::Duration,
+};
+
+use radar_ros::{
+    msg::{
+        ConnectRequest, Connection, ConnectionList, DisconnectRequest, Empty, ListRequest,
+        StringMsg,
+    },
+    FnResponse, Radar, ResponseHandle, TimerEvent,
+};
+use radar_test_util::{call_once, eventually, radar, ManagerClient, DISCOVERY};
+use tokio::io::{AsyncBufReadExt, BufReader};
+
+fn counter(r: &Radar, name: &str) -> (ResponseHandle, Arc<AtomicU64>) {
+    let n = Arc::new(AtomicU64::new(0));
+    let c = n.clone();
+    let h = r
+        .spawn_response(
+            name,
+            FnResponse::new(move |_: Empty| {
+                c.fetch_add(1, Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    (h, n)
+}
+
+fn req(kind: u8, source: &str, target: &str) -> ConnectRequest {
+    ConnectRequest {
+        kind,
+        source: source.into(),
+        target: target.into(),
+        timeout: 2.0,
+        ..Default::default()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn connections_are_made_listed_and_removed_through_the_services() {
+    let host = radar(90);
+    let _tick = host
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (_count, runs) = counter(&host, "count");
+    let _echo = host
+        .spawn_response("echo", FnResponse::new(|s: StringMsg| async move { Ok(s) }))
+        .unwrap();
+    let _manager = host.serve_manager("radar_manager").unwrap();
+
+    let me = radar(90);
+    let connections = me
+        .state_subscription::<ConnectionList>("/radar_manager/connections")
+        .unwrap();
+    let initial = connections.recv_timeout(DISCOVERY).await.unwrap();
+    assert_eq!(initial.manager, "/radar_manager");
+    assert!(initial.connections.is_empty());
+    let client = ManagerClient::new(&me, "/radar_manager", "deliberative_py_stand_in").await;
+
+    let made = call_once(
+        &client.connect,
+        req(Connection::WHENEVER, "tick/triggered", "count/start"),
+        DISCOVERY,
+    )
+    .await;
+    assert!(made.ok, "{}", made.error);
+    eventually(DISCOVERY, "runs through the service's connection", || {
+        runs.load(Ordering::SeqCst) >= 2
+    })
+    .await;
+
+    let listed = tokio::time::timeout(DISCOVERY, async {
+        loop {
+            let l = connections.recv().await.unwrap();
+            if !l.connections.is_empty() {
+                return l;
+            }
+        }
+    })
+    .await
+    .unwrap();
+    let c = &listed.connections[0];
+    assert_eq!(
+        (
+            c.id,
+            c.kind_label.as_str(),
+            c.source.as_str(),
+            c.source_type.as_str(),
+            c.target.as_str()
+        ),
+        (
+            made.id,
+            "whenever",
+            "/tick/triggered",
+            "std_msgs/msg/Empty",
+            "/count/start"
+        )
+    );
+    assert!(c.owner.starts_with("service caller"), "{}", c.owner);
+    let l = call_once(&client.list, ListRequest::default(), DISCOVERY).await;
+    assert_eq!(l.connections.len(), 1);
+
+    // errors come back as answers that say what to do
+    for (r, needles) in [
+        (
+            req(Connection::ONCE, "nope/triggered", "count/start"),
+            vec!["publisher on /nope/triggered", "running"],
+        ),
+        (
+            req(Connection::WHENEVER, "tick/triggered", "echo/start"),
+            vec![
+                "/tick/triggered",
+                "std_msgs/msg/Empty",
+                "/echo/start",
+                "std_msgs/msg/String",
+            ],
+        ),
+        (
+            req(Connection::ONCE, "bad-name", "count/start"),
+            vec!["invalid ROS name"],
+        ),
+        (
+            req(7, "tick/triggered", "count/start"),
+            vec!["neither ONCE"],
+        ),
+    ] {
+        let a = call_once(&client.connect, r.clone(), DISCOVERY).await;
+        assert!(!a.ok, "{r:?} must fail");
+        for n in needles {
+            assert!(a.error.contains(n), "{n:?} missing from {:?}", a.error);
+        }
+    }
+
+    let gone = call_once(
+        &client.disconnect,
+        DisconnectRequest { id: made.id },
+        DISCOVERY,
+    )
+    .await;
+    assert!(gone.ok, "{}", gone.error);
+    let n = runs.load(Ordering::SeqCst);
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    assert!(runs.load(Ordering::SeqCst) <= n + 1);
+    let again = call_once(
+        &client.disconnect,
+        DisconnectRequest { id: made.id },
+        DISCOVERY,
+    )
+    .await;
+    assert!(
+        !again.ok && again.error.contains("list service"),
+        "{}",
+        again.error
+    );
+    assert!(call_once(&client.list, ListRequest::default(), DISCOVERY)
+        .await
+        .connections
+        .is_empty());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_callers_connections_go_when_its_process_leaves_the_graph() {
+    let host = radar(91);
+    let tick = host
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (_count, runs) = counter(&host, "count");
+    let _manager = host.serve_manager("radar_manager").unwrap();
+    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
+        .args(["connect", "/radar_manager", "tick/triggered", "count/start"])
+        .env("ROS_DOMAIN_ID", "91")
+        .env("RUST_LOG", "error")
+        .stdout(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
+        .await
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    assert!(line.starts_with("connected true "), "{line}");
+    eventually(DISCOVERY, "runs through the child's connection", || {
+        runs.load(Ordering::SeqCst) >= 2
+    })
+    .await;
+    let t0 = std::time::Instant::now();
+    assert!(std::process::Command::new("kill")
+        .args(["-TERM", &child.id().unwrap().to_string()])
+        .status()
+        .unwrap()
+        .success());
+    eventually(DISCOVERY, "the event to deactivate", || {
+        !tick.state().active
+    })
+    .await;
+    println!(
+        "the caller exited: its connection was removed after {:?}",
+        t0.elapsed()
+    );
+    let n = runs.load(Ordering::SeqCst);
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    assert!(runs.load(Ordering::SeqCst) <= n + 1);
+    let _ = child.wait().await;
+}
