@@ -214,3 +214,51 @@ async fn a_callers_connections_go_when_its_process_leaves_the_graph() {
     assert!(runs.load(Ordering::SeqCst) <= n + 1);
     let _ = child.wait().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_deliberative_program_takes_its_connections_with_it() {
+    let host = radar(92);
+    let tick = host
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (_count, runs) = counter(&host, "count");
+    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
+        .args(["whenever", "tick", "count"])
+        .env("ROS_DOMAIN_ID", "92")
+        .env("RUST_LOG", "error")
+        .stdout(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
+        .await
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    assert_eq!(line, "connected");
+    eventually(
+        DISCOVERY,
+        "runs through the child's embedded manager",
+        || runs.load(Ordering::SeqCst) >= 2,
+    )
+    .await;
+    let t0 = std::time::Instant::now();
+    child.kill().await.unwrap(); // SIGKILL: its relays vanish without a word
+                                 // its relay was the event's only listener: the event deactivates when the dead participant's lease ends
+    eventually(Duration::from_secs(80), "the event to deactivate", || {
+        !tick.state().active
+    })
+    .await;
+    println!(
+        "deliberative program killed: its connection ended after {:?} (DDS lease)",
+        t0.elapsed()
+    );
+    let n = runs.load(Ordering::SeqCst);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(
+        runs.load(Ordering::SeqCst),
+        n,
+        "nothing is delivered any more"
+    );
+}

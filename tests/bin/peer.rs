@@ -46,6 +46,26 @@ async fn main() {
             use std::io::Write;
             let _ = writeln!(std::io::stdout(), "bye");
         }
+        Some("whenever") => {
+            // whenever EVENT start RESPONSE, with this process's embedded manager; stays until killed
+            let (event, response) = (&args[1], &args[2]);
+            let e = radar
+                .event_within(event, Duration::from_secs(20))
+                .await
+                .expect("the event");
+            let r = radar
+                .response_within(response, Duration::from_secs(20))
+                .await
+                .expect("the response");
+            let _c = radar
+                .whenever(e.triggered())
+                .start(&r)
+                .await
+                .expect("the connection");
+            println!("connected");
+            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+            term.recv().await;
+        }
         Some("connect") => {
             // connect MANAGER SOURCE TARGET: make a whenever connection through the manager's service
             let (manager, source, target) = (&args[1], &args[2], &args[3]);
@@ -71,7 +91,7 @@ async fn main() {
             tokio::time::sleep(Duration::from_millis(200)).await;
         }
         _ => {
-            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32] | connect MANAGER SOURCE TARGET");
+            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32] | whenever EVENT RESPONSE | connect MANAGER SOURCE TARGET");
             std::process::exit(64);
         }
     }
