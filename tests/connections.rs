@@ -408,3 +408,69 @@ async fn paper_syntax_macros_bind_connections_to_the_enclosing_block() -> Result
     assert!(tick.state().active);
     Ok(())
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn connection_properties_filter_and_transform_payloads() {
+    let r = radar(78);
+    let counter = r.spawn_event("counter", Counter(0)).unwrap();
+    let echo = r
+        .spawn_response("echo", FnResponse::new(|s: StringMsg| async move { Ok(s) }))
+        .unwrap();
+    // only even counts, turned into text for a String slot
+    let seen: Arc<Mutex<Vec<String>>> = Default::default();
+    let s2 = seen.clone();
+    let _out = r
+        .whenever(echo.reference().started())
+        .call(move |m: StringMsg| s2.lock().unwrap().push(m.data))
+        .await
+        .unwrap();
+    let _c = r
+        .whenever(counter.triggered())
+        .slot(echo.reference().start_slot())
+        .filter(|m: &Int32| m.data % 2 == 0)
+        .map(|m: Int32| StringMsg::from(format!("count {}", m.data).as_str()))
+        .await
+        .unwrap();
+    eventually(T, "three transformed starts", || {
+        seen.lock().unwrap().len() >= 3
+    })
+    .await;
+    for s in seen.lock().unwrap().iter() {
+        let n: i32 = s.strip_prefix("count ").unwrap().parse().unwrap();
+        assert_eq!(n % 2, 0, "{s} passed the filter");
+    }
+    // a once with a filter waits for a signal it accepts
+    let got: Arc<Mutex<Vec<i32>>> = Default::default();
+    let g = got.clone();
+    let once = r
+        .once(counter.triggered())
+        .call(move |m: Int32| g.lock().unwrap().push(m.data))
+        .filter(|m: &Int32| m.data % 10 == 7)
+        .await
+        .unwrap();
+    once.closed().await;
+    let got = got.lock().unwrap().clone();
+    assert!(got.len() == 1 && got[0] % 10 == 7, "{got:?}");
+    // a filter or map of the wrong type is refused with both types named
+    let e = r
+        .whenever(counter.triggered())
+        .call(|_: Int32| {})
+        .filter(|_: &StringMsg| true)
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("std_msgs/msg/Int32") && e.contains("std_msgs/msg/String"),
+        "{e}"
+    );
+    let e = r
+        .whenever(counter.triggered())
+        .slot(echo.reference().start_slot())
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("type mismatch"),
+        "without the map the types differ: {e}"
+    );
+}

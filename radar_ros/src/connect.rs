@@ -150,6 +150,8 @@ enum Target {
 }
 
 type AnonFn = Box<dyn FnMut(RawMessage) + Send>;
+type FilterFn = Arc<dyn Fn(&RawMessage) -> bool + Send + Sync>;
+type MapFn = Arc<dyn Fn(&RawMessage) -> Option<RawMessage> + Send + Sync>;
 
 struct Reader {
     sub: Arc<RawSubscription>,
@@ -177,6 +179,9 @@ struct State {
     anon: HashMap<u64, (mpsc::UnboundedSender<RawMessage>, Arc<AtomicBool>)>,
     /// Who made each connection.
     owners: HashMap<ConnId, String>,
+    /// Connection properties: filters and payload transforms.
+    filters: HashMap<ConnId, FilterFn>,
+    maps: HashMap<ConnId, MapFn>,
     /// Topics held by statements still arming (readers/writers not yet in the table).
     pending: HashMap<String, usize>,
     next_anon: u64,
@@ -215,16 +220,27 @@ impl Manager {
     /// One signal read on `topic`: deliver it. Publishing happens under the lock, so a connection removed
     /// before this takes the lock gets nothing, and one removed after got this signal already.
     fn dispatch(&self, topic: &str, raw: RawMessage, stamp: i64) {
-        let mut st = self.state.lock().unwrap();
-        let deliveries = st.table.on_signal(&topic.to_owned(), stamp);
+        let mut guard = self.state.lock().unwrap();
+        let st = &mut *guard;
+        let filters = &st.filters;
+        let deliveries = st.table.on_signal_with(&topic.to_owned(), stamp, |id| {
+            filters.get(&id).is_none_or(|f| f(&raw))
+        });
         for d in deliveries {
+            let payload = match st.maps.get(&d.id) {
+                Some(map) => match map(&raw) {
+                    Some(p) => p,
+                    None => continue, // the transform warned
+                },
+                None => raw.clone(),
+            };
             match &d.target {
                 Target::Slot(slot) => {
                     if let Some(w) = st.writers.get(slot) {
                         let m = if w.empty {
                             RawMessage(vec![0])
                         } else {
-                            raw.clone()
+                            payload
                         };
                         if let Err(e) = w.publisher.publish(m) {
                             tracing::warn!(%slot, error = %e, "could not deliver a signal");
@@ -233,13 +249,13 @@ impl Manager {
                 }
                 Target::Anon(k) => {
                     if let Some((tx, _)) = st.anon.get(k) {
-                        let _ = tx.send(raw.clone());
+                        let _ = tx.send(payload);
                     }
                 }
             }
         }
-        Self::prune(&mut st);
-        drop(st);
+        Self::prune(st);
+        drop(guard);
         self.changed.send_modify(|g| *g += 1);
     }
 
@@ -301,6 +317,11 @@ impl Manager {
             .retain(|t, _| slots.contains(t) || pending.contains_key(t));
         // dropping the sender lets a delivery already queued (a `once` that just fired) still run
         st.anon.retain(|k, _| anons.contains(k));
+        let live: std::collections::BTreeSet<ConnId> =
+            st.table.list().iter().map(|c| c.id).collect();
+        st.owners.retain(|id, _| live.contains(id));
+        st.filters.retain(|id, _| live.contains(id));
+        st.maps.retain(|id, _| live.contains(id));
     }
 
     fn reader(
@@ -356,7 +377,11 @@ impl Manager {
     async fn arm(self: &Arc<Self>, spec: Spec) -> Result<Connection> {
         let radar = self.radar()?;
         if let TargetSpec::Slot(slot) = &spec.target {
-            check_types(&spec.source, slot)?;
+            let delivered = match &spec.mapped_type {
+                Some(t) => Signal::new(spec.source.topic.clone(), t.clone()),
+                None => spec.source.clone(),
+            };
+            check_types(&delivered, slot)?;
         }
         let mut sources = vec![spec.source.clone()];
         if let Some(u) = &spec.until {
@@ -451,6 +476,12 @@ impl Manager {
             now_ns(),
         );
         st.owners.insert(id, spec.owner);
+        if let Some(f) = spec.filter {
+            st.filters.insert(id, f);
+        }
+        if let Some(m) = spec.map {
+            st.maps.insert(id, m);
+        }
         if let Some((k, mut f)) = anon {
             let (tx, mut rx) = mpsc::unbounded_channel::<RawMessage>();
             let alive = Arc::new(AtomicBool::new(true));
@@ -589,6 +620,10 @@ struct UntilSpec {
 
 struct Spec {
     owner: String,
+    filter: Option<FilterFn>,
+    map: Option<MapFn>,
+    /// The payload type after `map`, if any.
+    mapped_type: Option<String>,
     kind: Kind,
     source: Signal,
     target: TargetSpec,
@@ -627,6 +662,9 @@ impl Statement {
             radar: self.radar,
             spec: Spec {
                 owner: format!("process {}", std::process::id()),
+                filter: None,
+                map: None,
+                mapped_type: None,
                 kind: self.kind,
                 source: self.source,
                 target,
@@ -709,6 +747,60 @@ impl Connect {
     pub(crate) fn owner(mut self, owner: String) -> Connect {
         self.spec.owner = owner;
         self
+    }
+
+    /// Connection property: deliver only the signals whose payload (decoded as the source's type `M`)
+    /// satisfies `f`. A refused signal does not use up a `once`.
+    pub fn filter<M: RosMessage>(
+        mut self,
+        f: impl Fn(&M) -> bool + Send + Sync + 'static,
+    ) -> Connect {
+        if M::ros_type_name() != self.spec.source.ros_type {
+            self.error
+                .get_or_insert(self.source_type_error::<M>("filter"));
+            return self;
+        }
+        let topic = self.spec.source.topic.clone();
+        self.spec.filter = Some(Arc::new(move |raw: &RawMessage| match raw.decode::<M>() {
+            Ok(m) => f(&m),
+            Err(e) => {
+                tracing::warn!(%topic, error = %e, "filter: payload does not decode; not delivered");
+                false
+            }
+        }));
+        self
+    }
+
+    /// Connection property: deliver `f(payload)` instead of the payload; the slot must take `N`.
+    pub fn map<M: RosMessage, N: RosMessage>(
+        mut self,
+        f: impl Fn(M) -> N + Send + Sync + 'static,
+    ) -> Connect {
+        if M::ros_type_name() != self.spec.source.ros_type {
+            self.error.get_or_insert(self.source_type_error::<M>("map"));
+            return self;
+        }
+        let topic = self.spec.source.topic.clone();
+        self.spec.mapped_type = Some(N::ros_type_name());
+        self.spec.map = Some(Arc::new(move |raw: &RawMessage| {
+            let m = raw
+                .decode::<M>()
+                .map_err(|e| tracing::warn!(%topic, error = %e, "map: payload does not decode; not delivered"))
+                .ok()?;
+            RawMessage::encode(&f(m))
+                .map_err(|e| tracing::warn!(%topic, error = %e, "map: result does not encode; not delivered"))
+                .ok()
+        }));
+        self
+    }
+
+    fn source_type_error<M: RosMessage>(&self, what: &str) -> Error {
+        Error::TypeMismatch {
+            source_topic: self.spec.source.topic.clone(),
+            source_type: self.spec.source.ros_type.clone(),
+            slot_topic: format!("({what} closure)"),
+            slot_type: M::ros_type_name(),
+        }
     }
 
     /// How long arming may wait for discovery (default 5 s).

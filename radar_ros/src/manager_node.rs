@@ -8,7 +8,7 @@
 //! | `<name>/connect` (service) | `radar_msgs/srv/Connect` |
 //! | `<name>/disconnect` (service) | `radar_msgs/srv/Disconnect` |
 //! | `<name>/list` (service) | `radar_msgs/srv/List` |
-//! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished at every change |
+//! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
 //!
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
 //! through the service belongs to the caller's DDS participant (its process) and is removed when that
@@ -192,6 +192,11 @@ impl Radar {
                 )
             };
             publish(manager.list());
+            // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
+            // change always
+            const THROTTLE: Duration = Duration::from_millis(100);
+            let mut last = tokio::time::Instant::now();
+            let mut dirty = false;
             // connections made through the service, with their owner's participant
             let mut owned: HashMap<u64, (Connection, ros2_client::dds::rustdds::GUID)> =
                 HashMap::new();
@@ -261,7 +266,19 @@ impl Radar {
                             tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
                         }
                     }
-                    Ok(()) = changes.changed() => publish(manager.list()),
+                    Ok(()) = changes.changed() => {
+                        if last.elapsed() >= THROTTLE {
+                            publish(manager.list());
+                            last = tokio::time::Instant::now();
+                        } else {
+                            dirty = true;
+                        }
+                    }
+                    _ = tokio::time::sleep_until(last + THROTTLE), if dirty => {
+                        publish(manager.list());
+                        last = tokio::time::Instant::now();
+                        dirty = false;
+                    }
                 }
             }
         });

@@ -39,6 +39,16 @@ impl Serialize for RawMessage {
 }
 
 impl RawMessage {
+    /// Encodes `m` as a little-endian CDR body.
+    pub fn encode<M: serde::Serialize>(m: &M) -> Result<RawMessage> {
+        ros2_client::dds::rustdds::cdr_encoding::to_vec::<M, byteorder::LittleEndian>(m)
+            .map(RawMessage)
+            .map_err(|e| Error::Dds {
+                what: "a CDR encoding".into(),
+                detail: e.to_string(),
+            })
+    }
+
     /// Decodes the body as `M` (little-endian CDR).
     pub fn decode<M: crate::msg::RosMessage>(&self) -> Result<M> {
         ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(&self.0)

@@ -218,6 +218,17 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
 
     /// A signal from `source`, emitted at `emitted_at`: what to deliver, in connection order.
     pub fn on_signal(&mut self, source: &S, emitted_at: i64) -> Vec<Delivery<T>> {
+        self.on_signal_with(source, emitted_at, |_| true)
+    }
+
+    /// Like [`ConnectionTable::on_signal`], with a per-connection filter (a connection property): a signal
+    /// that `accept(id)` refuses is not delivered through `id` and does not use up a `once`.
+    pub fn on_signal_with(
+        &mut self,
+        source: &S,
+        emitted_at: i64,
+        mut accept: impl FnMut(ConnId) -> bool,
+    ) -> Vec<Delivery<T>> {
         let mut out = Vec::new();
         let mut finished = Vec::new();
         for (id, c) in self.conns.iter_mut() {
@@ -239,7 +250,7 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
                     });
                 }
             }
-            if &c.source == source && !c.spent {
+            if &c.source == source && !c.spent && accept(*id) {
                 c.delivered += 1;
                 out.push(Delivery {
                     id: *id,
@@ -407,6 +418,20 @@ mod tests {
         assert_eq!(targets(t.on_signal(&"E", 1)), ["B.start"]);
         assert_eq!(t.list().len(), 1);
         assert_eq!(t.list()[0].id, b);
+    }
+
+    #[test]
+    fn a_filtered_out_signal_does_not_use_up_a_once() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Once, None, 0);
+        let other = t.arm("E", "Q.start", Kind::Whenever, None, 0);
+        assert_eq!(targets(t.on_signal_with(&"E", 1, |c| c != id)), ["Q.start"]);
+        assert!(t.contains(id), "still waiting for a signal it accepts");
+        assert_eq!(
+            targets(t.on_signal_with(&"E", 2, |_| true)),
+            ["R.start", "Q.start"]
+        );
+        assert!(!t.contains(id) && t.contains(other));
     }
 
     #[test]
