@@ -3,19 +3,12 @@
 
 use std::process::Command;
 
+use radar_ros_examples::test_support::{examples_dir, require_isolation};
+
 #[test]
 fn listing_1_runs_with_one_process_per_component() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
-            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
-        "run inside tests/isolated.sh (see README.md)"
-    );
-    let exe = std::env::current_exe().unwrap();
-    let examples = exe.parent().unwrap().parent().unwrap().join("examples");
-    assert!(
-        examples.join("count_up_nodes").exists(),
-        "build the examples first (cargo test builds them)"
-    );
+    require_isolation();
+    let examples = examples_dir("count_up_nodes");
     let script = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../launch_scripts/count_up_processes.sh"

@@ -3,22 +3,10 @@
 
 use std::{path::PathBuf, process::Command};
 
+use radar_ros_examples::test_support::{examples_dir, require_isolation};
+
 fn example_binary() -> PathBuf {
-    // target/<profile>/deps/count_up_timeline-<hash> -> target/<profile>/examples/count_up
-    let exe = std::env::current_exe().unwrap();
-    let p = exe
-        .parent()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .join("examples")
-        .join("count_up");
-    assert!(
-        p.exists(),
-        "{} is missing: `cargo test` builds the examples of this package; build it with `cargo build --example count_up`",
-        p.display()
-    );
-    p
+    examples_dir("count_up").join("count_up")
 }
 
 /// (time, text) of every timeline line.
@@ -51,11 +39,7 @@ fn near(actual: f64, listing: f64, what: &str) {
 
 #[test]
 fn count_up_follows_listing_1_within_100_ms_per_step() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
-            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
-        "run inside tests/isolated.sh (see README.md)"
-    );
+    require_isolation();
     let out = Command::new(example_binary())
         .args(["--duration", "9.7"])
         .env("ROS_DOMAIN_ID", "60")

@@ -3,19 +3,12 @@
 
 use std::process::Command;
 
+use radar_ros_examples::test_support::{examples_dir, require_isolation};
+
 #[test]
 fn connections_follow_figure_3() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
-            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
-        "run inside tests/isolated.sh (see README.md)"
-    );
-    let exe = std::env::current_exe().unwrap();
-    let examples = exe.parent().unwrap().parent().unwrap().join("examples");
-    assert!(
-        examples.join("deliberative").exists(),
-        "build the examples first (cargo test builds them)"
-    );
+    require_isolation();
+    let examples = examples_dir("deliberative");
     let script = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../launch_scripts/deliberative.sh"

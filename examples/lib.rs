@@ -40,3 +40,30 @@ pub fn init_logs() {
         .with_writer(std::io::stderr)
         .try_init();
 }
+
+/// Support for the examples' tests, which run the example programs as processes.
+pub mod test_support {
+    use std::path::PathBuf;
+
+    /// Panics unless running inside `tests/isolated.sh` (or with `RADAR_ALLOW_NETWORK` set).
+    pub fn require_isolation() {
+        assert!(
+            std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+                || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+            "run inside tests/isolated.sh (see README.md)"
+        );
+    }
+
+    /// The directory of the built example binaries, checking that `name` is there.
+    pub fn examples_dir(name: &str) -> PathBuf {
+        // target/<profile>/deps/<test>-<hash> -> target/<profile>/examples
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let dir = exe.parent().unwrap().parent().unwrap().join("examples");
+        assert!(
+            dir.join(name).exists(),
+            "{} is missing: `cargo test` builds the examples of this package; or `cargo build --example {name}`",
+            dir.join(name).display()
+        );
+        dir
+    }
+}

@@ -15,25 +15,9 @@ use radar_ros::{
     Error, Event, EventHandle, ExitAction, FnResponse, Radar, ResponseHandle, SlotError,
     TimerEvent,
 };
-use radar_test_util::{eventually, radar};
+use radar_test_util::{counter, eventually, radar};
 
 const T: Duration = Duration::from_secs(10);
-
-/// A response that counts its runs and returns at once.
-fn counter(radar: &Radar, name: &str) -> (ResponseHandle, Arc<AtomicU64>) {
-    let n = Arc::new(AtomicU64::new(0));
-    let c = n.clone();
-    let h = radar
-        .spawn_response(
-            name,
-            FnResponse::new(move |_: Empty| {
-                c.fetch_add(1, Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
-    (h, n)
-}
 
 async fn inactive(h: &EventHandle) {
     eventually(T, "the event to deactivate", || !h.state().active).await;
@@ -449,6 +433,11 @@ async fn connection_properties_filter_and_transform_payloads() {
         .await
         .unwrap();
     once.closed().await;
+    // closed: nothing more will be delivered; the slot's call for the one delivery runs in its own task
+    eventually(T, "the once's anonymous slot to run", || {
+        !got.lock().unwrap().is_empty()
+    })
+    .await;
     let got = got.lock().unwrap().clone();
     assert!(got.len() == 1 && got[0] % 10 == 7, "{got:?}");
     // a filter or map of the wrong type is refused with both types named

@@ -2,39 +2,15 @@
 //! the `connections` topic, errors as answers, and a caller that exits taking its connections with it.
 //! Domains 90-91.
 
-use std::{
-    process::Stdio,
-    sync::{
-        atomic::{AtomicU64, Ordering},
-        Arc,
-    },
-    time::Duration,
-};
+use std::{sync::atomic::Ordering, time::Duration};
 
 use radar_ros::{
-    msg::{
-        ConnectRequest, Connection, ConnectionList, DisconnectRequest, Empty, ListRequest,
-        StringMsg,
-    },
-    FnResponse, Radar, ResponseHandle, TimerEvent,
+    msg::{ConnectRequest, Connection, ConnectionList, DisconnectRequest, ListRequest, StringMsg},
+    FnResponse, TimerEvent,
 };
-use radar_test_util::{call_once, eventually, radar, ManagerClient, DISCOVERY};
-use tokio::io::{AsyncBufReadExt, BufReader};
-
-fn counter(r: &Radar, name: &str) -> (ResponseHandle, Arc<AtomicU64>) {
-    let n = Arc::new(AtomicU64::new(0));
-    let c = n.clone();
-    let h = r
-        .spawn_response(
-            name,
-            FnResponse::new(move |_: Empty| {
-                c.fetch_add(1, Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
-    (h, n)
-}
+use radar_test_util::{
+    call_once, counter, eventually, peer_with_first_line, radar, ManagerClient, DISCOVERY,
+};
 
 fn req(kind: u8, source: &str, target: &str) -> ConnectRequest {
     ConnectRequest {
@@ -176,20 +152,12 @@ async fn a_callers_connections_go_when_its_process_leaves_the_graph() {
         .unwrap();
     let (_count, runs) = counter(&host, "count");
     let _manager = host.serve_manager("radar_manager").unwrap();
-    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
-        .args(["connect", "/radar_manager", "tick/triggered", "count/start"])
-        .env("ROS_DOMAIN_ID", "91")
-        .env("RUST_LOG", "error")
-        .stdout(Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
-        .await
-        .unwrap()
-        .unwrap()
-        .unwrap();
+    let (mut child, line) = peer_with_first_line(
+        env!("CARGO_BIN_EXE_radar_test_peer"),
+        91,
+        &["connect", "/radar_manager", "tick/triggered", "count/start"],
+    )
+    .await;
     assert!(line.starts_with("connected true "), "{line}");
     eventually(DISCOVERY, "runs through the child's connection", || {
         runs.load(Ordering::SeqCst) >= 2
@@ -222,20 +190,12 @@ async fn a_killed_deliberative_program_takes_its_connections_with_it() {
         .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
         .unwrap();
     let (_count, runs) = counter(&host, "count");
-    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
-        .args(["whenever", "tick", "count"])
-        .env("ROS_DOMAIN_ID", "92")
-        .env("RUST_LOG", "error")
-        .stdout(Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
-        .await
-        .unwrap()
-        .unwrap()
-        .unwrap();
+    let (mut child, line) = peer_with_first_line(
+        env!("CARGO_BIN_EXE_radar_test_peer"),
+        92,
+        &["whenever", "tick", "count"],
+    )
+    .await;
     assert_eq!(line, "connected");
     eventually(
         DISCOVERY,

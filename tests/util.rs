@@ -297,3 +297,50 @@ impl ManagerClient {
         c
     }
 }
+
+/// A response named `name` that counts its runs and returns at once; the count is shared.
+pub fn counter(
+    radar: &Radar,
+    name: &str,
+) -> (
+    radar_ros::ResponseHandle,
+    std::sync::Arc<std::sync::atomic::AtomicU64>,
+) {
+    use std::sync::{atomic::Ordering, Arc};
+    let n = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let c = n.clone();
+    let h = radar
+        .spawn_response(
+            name,
+            radar_ros::FnResponse::new(move |_: Empty| {
+                c.fetch_add(1, Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    (h, n)
+}
+
+/// Starts `radar_test_peer ARGS` in `domain`, and returns it with the first line it prints.
+pub async fn peer_with_first_line(
+    peer: &str,
+    domain: u16,
+    args: &[&str],
+) -> (tokio::process::Child, String) {
+    use tokio::io::{AsyncBufReadExt, BufReader};
+    let mut child = tokio::process::Command::new(peer)
+        .args(args)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("RUST_LOG", "error")
+        .stdout(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("start radar_test_peer");
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
+        .await
+        .expect("the peer prints in time")
+        .expect("readable output")
+        .expect("a line");
+    (child, line)
+}

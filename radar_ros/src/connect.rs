@@ -182,6 +182,8 @@ struct State {
     /// Connection properties: filters and payload transforms.
     filters: HashMap<ConnId, FilterFn>,
     maps: HashMap<ConnId, MapFn>,
+    /// Writers for `inject`, one per slot, kept for the manager's life.
+    injectors: HashMap<String, Arc<RawPublisher>>,
     /// Topics held by statements still arming (readers/writers not yet in the table).
     pending: HashMap<String, usize>,
     next_anon: u64,
@@ -257,6 +259,17 @@ impl Manager {
         Self::prune(st);
         drop(guard);
         self.changed.send_modify(|g| *g += 1);
+    }
+
+    /// The writer `inject` uses for `slot`, made on first use.
+    pub(crate) fn injector(&self, radar: &Radar, slot: &Slot) -> Result<Arc<RawPublisher>> {
+        let mut st = self.state.lock().unwrap();
+        if let Some(p) = st.injectors.get(&slot.topic) {
+            return Ok(p.clone());
+        }
+        let p = Arc::new(radar.raw_publisher(&slot.topic, &slot.ros_type)?);
+        st.injectors.insert(slot.topic.clone(), p.clone());
+        Ok(p)
     }
 
     /// Every live connection, as `radar_msgs/msg/Connection`.
@@ -572,7 +585,8 @@ impl Connection {
         self.manager.state.lock().unwrap().table.contains(self.id)
     }
 
-    /// Resolves when the connection no longer delivers: a `once` (without `until`) that fired.
+    /// Resolves when the connection no longer delivers: a `once` (without `until`) that fired. (An anonymous
+    /// slot's call for that last delivery runs in its own task and may still be running.)
     pub async fn closed(&self) {
         let mut rx = self.manager.changed.subscribe();
         while self.is_live() {
@@ -879,7 +893,7 @@ impl Radar {
     }
 
     /// Sends `payload` into a slot directly (the paper's `rtinject`): waits up to `timeout` for the slot's
-    /// subscriber, then publishes once.
+    /// subscriber, then publishes once. The writer is kept for later injections into the same slot.
     pub async fn inject<M: RosMessage>(
         &self,
         slot: Slot,
@@ -894,8 +908,9 @@ impl Radar {
                 slot_type: slot.ros_type,
             });
         }
-        let p = self.signal_publisher::<M>(&slot.topic)?;
+        // one writer per slot, kept: a writer deleted right after publishing can lose its sample in flight
+        let p = self.manager().injector(self, &slot)?;
         p.wait_for_subscribers(1, timeout).await?;
-        p.publish(payload)
+        p.publish(RawMessage::encode(&payload)?)
     }
 }
