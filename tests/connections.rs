@@ -171,6 +171,14 @@ async fn waitfor_returns_the_next_payload_and_inject_feeds_a_slot() {
         "done:x",
         "data in through start, back out through exited"
     );
+    // without a timeout it waits as long as it takes
+    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited(), None), async {
+        tokio::time::sleep(Duration::from_millis(1500)).await;
+        r.inject(refs.start_slot(), StringMsg::from("late"), T)
+            .await
+    });
+    injected.unwrap();
+    assert_eq!(out.unwrap().data, "done:late");
     // nothing comes: a timeout
     let e = r
         .waitfor::<StringMsg>(refs.exited(), Some(Duration::from_millis(300)))
