@@ -8,19 +8,5 @@
 #
 # Uses the built example binary (cargo build --example count_up_nodes), or RADAR_EXAMPLES=<dir> to point at it.
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-bin="${RADAR_EXAMPLES:-$here/target/debug/examples}/count_up_nodes"
-if [ ! -x "$bin" ]; then
-  (cd "$here" && cargo build --example count_up_nodes)
-fi
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
-}
-trap cleanup EXIT INT TERM
-for role in count_up start_event end_event; do
-  "$bin" "$role" > >(sed -u "s/^/[$role] /") &
-  pids+=("$!")
-done
-"$bin" statement "$@" | sed -u "s/^/[statement] /"
+source "$(dirname "$0")/processes.sh"
+run_processes count_up_nodes statement "count_up start_event end_event" "$@"

@@ -6,19 +6,5 @@
 #
 # Uses the built example binary (cargo build --example deliberative), or RADAR_EXAMPLES=<dir> to point at it.
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-bin="${RADAR_EXAMPLES:-$here/target/debug/examples}/deliberative"
-if [ ! -x "$bin" ]; then
-  (cd "$here" && cargo build --example deliberative)
-fi
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
-}
-trap cleanup EXIT INT TERM
-for role in test_event test_event2 test_response; do
-  "$bin" "$role" > >(sed -u "s/^/[$role] /") &
-  pids+=("$!")
-done
-"$bin" main "$@" | sed -u "s/^/[main] /"
+source "$(dirname "$0")/processes.sh"
+run_processes deliberative main "test_event test_event2 test_response" "$@"
