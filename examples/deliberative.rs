@@ -134,7 +134,7 @@ async fn deliberative(radar: &Radar, tl: Timeline, loop_secs: f64) -> radar_ros:
         "(a) found test_event, test_event2, test_response; no connections",
         None,
     );
-    let printer = tokio::spawn(print_response(radar.clone(), tl, test_response.clone()));
+    let _printer = tokio::spawn(print_response(radar.clone(), tl, test_response.clone()));
 
     let _c1 = radar
         .whenever(test_event.triggered())
@@ -143,9 +143,8 @@ async fn deliberative(radar: &Radar, tl: Timeline, loop_secs: f64) -> radar_ros:
     tl.mark("(b) + whenever test_event start test_response", None);
     do_loop(radar, tl, &test_event2, &test_response, loop_secs).await?;
     tl.mark("do_loop returned", None);
-    std::future::pending::<()>().await;
-    drop(printer);
-    Ok(())
+    // Listing 2's `while True: pass`: main keeps its connection until the program is stopped
+    std::future::pending().await
 }
 
 /// Listing 3's `do_loop`.
