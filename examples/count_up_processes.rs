@@ -1,40 +1,17 @@
 //! Runs Listing 1 with one process per component (`launch_scripts/count_up_processes.sh`) and checks the
 //! statement's timeline: the same component types work unchanged as separate processes. Domain 61.
 
-use std::process::Command;
-
-use radar_ros_examples::test_support::{examples_dir, require_isolation};
+use radar_ros_examples::test_support::{
+    examples_dir, require_isolation, run_launch_script, timeline, times,
+};
 
 #[test]
 fn listing_1_runs_with_one_process_per_component() {
     require_isolation();
     let examples = examples_dir("count_up_nodes");
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../launch_scripts/count_up_processes.sh"
-    );
-    let out = Command::new("bash")
-        .args([script, "--duration", "5"])
-        .env("RADAR_EXAMPLES", &examples)
-        .env("ROS_DOMAIN_ID", "61")
-        .output()
-        .expect("run the launch script");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let at = |what: &str| -> Vec<f64> {
-        stdout
-            .lines()
-            .filter_map(|l| l.strip_prefix("[statement] ["))
-            .filter_map(|l| l.split_once(" s] "))
-            .filter(|(_, text)| text.split("(listing").next().unwrap().trim() == what)
-            .filter_map(|(t, _)| t.trim().parse::<f64>().ok())
-            .collect()
-    };
+    let stdout = run_launch_script("count_up_processes.sh", 61, &["--duration", "5"], &examples);
+    let tl = timeline(&stdout, Some("statement"));
+    let at = |what: &str| times(&tl, what);
     let near = |t: f64, listing: f64, what: &str| {
         assert!(
             (t - listing).abs() <= 0.1,

@@ -3,31 +3,10 @@
 
 use std::{path::PathBuf, process::Command};
 
-use radar_ros_examples::test_support::{examples_dir, require_isolation};
+use radar_ros_examples::test_support::{examples_dir, require_isolation, timeline, times};
 
 fn example_binary() -> PathBuf {
     examples_dir("count_up").join("count_up")
-}
-
-/// (time, text) of every timeline line.
-fn parse(out: &str) -> Vec<(f64, String)> {
-    out.lines()
-        .filter_map(|l| {
-            let rest = l.strip_prefix('[')?;
-            let (t, text) = rest.split_once(" s] ")?;
-            Some((
-                t.trim().parse().ok()?,
-                text.split("(listing").next()?.trim().to_owned(),
-            ))
-        })
-        .collect()
-}
-
-fn times(tl: &[(f64, String)], what: &str) -> Vec<f64> {
-    tl.iter()
-        .filter(|(_, s)| s == what)
-        .map(|(t, _)| *t)
-        .collect()
 }
 
 fn near(actual: f64, listing: f64, what: &str) {
@@ -52,7 +31,7 @@ fn count_up_follows_listing_1_within_100_ms_per_step() {
         "count_up failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let tl = parse(&stdout);
+    let tl = timeline(&stdout, None);
 
     near(
         times(&tl, "start_event triggered")[0],

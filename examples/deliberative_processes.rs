@@ -1,37 +1,21 @@
 //! Runs Listings 2 and 3 (`launch_scripts/deliberative.sh`) and checks that the connections appear and
 //! disappear as in the paper's Figure 3: (a) -> (b) -> (c) -> (b). Domain 62.
 
-use std::process::Command;
-
-use radar_ros_examples::test_support::{examples_dir, require_isolation};
+use radar_ros_examples::test_support::{
+    examples_dir, require_isolation, run_launch_script, timeline,
+};
 
 #[test]
 fn connections_follow_figure_3() {
     require_isolation();
     let examples = examples_dir("deliberative");
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../launch_scripts/deliberative.sh"
+    let stdout = run_launch_script(
+        "deliberative.sh",
+        62,
+        &["--loop-secs", "4", "--duration", "6.5"],
+        &examples,
     );
-    let out = Command::new("bash")
-        .args([script, "--loop-secs", "4", "--duration", "6.5"])
-        .env("RADAR_EXAMPLES", &examples)
-        .env("ROS_DOMAIN_ID", "62")
-        .output()
-        .expect("run the launch script");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let main: Vec<(f64, String)> = stdout
-        .lines()
-        .filter_map(|l| l.strip_prefix("[main] ["))
-        .filter_map(|l| l.split_once(" s] "))
-        .map(|(t, text)| (t.trim().parse().unwrap(), text.to_owned()))
-        .collect();
+    let main = timeline(&stdout, Some("main"));
     let figure: Vec<&str> = main
         .iter()
         .filter_map(|(_, t)| t.get(..3).filter(|p| p.starts_with('(')))

@@ -54,6 +54,56 @@ pub mod test_support {
         );
     }
 
+    /// Runs `launch_scripts/<script>` with `args` in `domain` and returns what it printed; panics if it failed.
+    pub fn run_launch_script(
+        script: &str,
+        domain: u16,
+        args: &[&str],
+        examples: &std::path::Path,
+    ) -> String {
+        let path = format!("{}/../launch_scripts/{script}", env!("CARGO_MANIFEST_DIR"));
+        let out = std::process::Command::new("bash")
+            .arg(&path)
+            .args(args)
+            .env("RADAR_EXAMPLES", examples)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .output()
+            .expect("run the launch script");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        println!("{stdout}");
+        assert!(
+            out.status.success(),
+            "{script} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        stdout
+    }
+
+    /// The `[  t s] text` lines of a timeline (only those printed by `role` when its lines are prefixed
+    /// `[role] `), as (seconds, text without the `(listing: ...)` hint).
+    pub fn timeline(out: &str, role: Option<&str>) -> Vec<(f64, String)> {
+        out.lines()
+            .filter_map(|l| match role {
+                Some(r) => l.strip_prefix(&format!("[{r}] ")),
+                None => Some(l),
+            })
+            .filter_map(|l| l.strip_prefix('['))
+            .filter_map(|l| l.split_once(" s] "))
+            .filter_map(|(t, text)| {
+                let text = text.split("(listing").next()?.trim().to_owned();
+                Some((t.trim().parse().ok()?, text))
+            })
+            .collect()
+    }
+
+    /// When `what` was printed, every time.
+    pub fn times(tl: &[(f64, String)], what: &str) -> Vec<f64> {
+        tl.iter()
+            .filter(|(_, s)| s == what)
+            .map(|(t, _)| *t)
+            .collect()
+    }
+
     /// The directory of the built example binaries, checking that `name` is there.
     pub fn examples_dir(name: &str) -> PathBuf {
         // target/<profile>/deps/<test>-<hash> -> target/<profile>/examples
