@@ -1,6 +1,6 @@
 //! Connections over real DDS through the embedded manager: whenever, once (bursts, races), until windows,
 //! waitfor, anonymous slots, injection, type errors, scope exit, and no stale or duplicate deliveries when
-//! connections come and go. Domains 80-89.
+//! connections come and go. Domains 78-89.
 
 use std::{
     sync::{
@@ -363,7 +363,14 @@ async fn do_loop(
     radar_ros::whenever!(r, ev2 => move |_: Empty| {
         hits.fetch_add(1, Ordering::SeqCst);
     });
-    let _: Empty = radar_ros::waitfor!(r, (resp.reference().interrupted()), Duration::from_secs(5));
+    // Wait for TestEvent2 rather than for `interrupted`: the once is armed before this waitfor, so a
+    // trigger falling between the two arms fires the once while the waitfor is not yet listening.
+    // Waiting for the trigger is race-free: the once has fired by the time any later trigger arrives.
+    let _: Empty = radar_ros::waitfor!(r, (ev2.triggered()), Duration::from_secs(5));
+    eventually(T, "the once to interrupt the response", || {
+        resp.state().interrupts >= 1
+    })
+    .await;
     tokio::time::sleep(Duration::from_millis(500)).await;
     Ok(())
 }
@@ -470,4 +477,46 @@ async fn connection_properties_filter_and_transform_payloads() {
         e.contains("type mismatch"),
         "without the map the types differ: {e}"
     );
+}
+
+/// A `once` that fires leaves its slot's writer unneeded, and a guard dropped right after a delivery does the
+/// same. The delivered signal must still arrive: the writer may not be deleted before its sample is sent.
+/// Each round uses a new response, so each round's writer is new.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_delivery_arrives_even_when_its_writer_is_no_longer_needed() {
+    let r = radar(79);
+    let tick = r
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(30)))
+        .unwrap();
+    let mut targets = Vec::new();
+    for round in 0..40 {
+        let resp = r
+            .spawn_response(
+                format!("target_{round}").as_str(),
+                FnResponse::new(|_: Empty| async { Ok(Empty::default()) }),
+            )
+            .unwrap();
+        if round % 2 == 0 {
+            // a once fires and its writer is retired at once
+            let c = r.once(tick.triggered()).start(&resp).await.unwrap();
+            c.closed().await;
+        } else {
+            // a whenever whose guard is dropped right after its first delivery
+            let w = r.whenever(tick.triggered()).start(&resp).await.unwrap();
+            eventually(T, "a delivery", || w.delivered() >= 1).await;
+            drop(w);
+        }
+        eventually(
+            T,
+            &format!("round {round}: the delivered start to arrive"),
+            || resp.state().starts >= 1,
+        )
+        .await;
+        targets.push(resp);
+    }
+    // the writers kept for the sake of their last sample are deleted a few seconds later
+    eventually(T, "the retired writers to be deleted", || {
+        targets.iter().all(|t| t.slot_publishers()[0] == 0)
+    })
+    .await;
 }

@@ -171,11 +171,21 @@ struct Writer {
     empty: bool,
 }
 
+/// How long a writer no connection needs any more is kept before it is deleted.
+///
+/// A RustDDS write only queues the sample for the participant's event loop; deleting the writer right after
+/// (a `once` that just fired, a guard dropped right after a delivery) can lose the sample before it is sent,
+/// and a lost reliable sample is repaired only by the writer's next heartbeat (100 ms to 1 s). Three seconds
+/// cover several repair rounds. A writer asked for again while it lingers is reused, without new discovery.
+const WRITER_LINGER: Duration = Duration::from_secs(3);
+
 #[derive(Default)]
 struct State {
     table: ConnectionTable<String, Target>,
     readers: HashMap<String, Reader>,
     writers: HashMap<String, Writer>,
+    /// Writers no connection needs, kept for [`WRITER_LINGER`] from when they were retired.
+    lingering: HashMap<String, (Writer, std::time::Instant)>,
     anon: HashMap<u64, (mpsc::UnboundedSender<RawMessage>, Arc<AtomicBool>)>,
     /// Who made each connection.
     owners: HashMap<ConnId, String>,
@@ -195,6 +205,9 @@ pub(crate) struct Manager {
     state: Mutex<State>,
     /// Bumped whenever the table may have changed.
     changed: tokio::sync::watch::Sender<u64>,
+    /// Wakes the task that deletes lingering writers.
+    retired: Arc<tokio::sync::Notify>,
+    sweeper: std::sync::Once,
 }
 
 fn now_ns() -> i64 {
@@ -210,7 +223,37 @@ impl Manager {
             radar,
             state: Mutex::new(State::default()),
             changed: tokio::sync::watch::channel(0).0,
+            retired: Arc::new(tokio::sync::Notify::new()),
+            sweeper: std::sync::Once::new(),
         }
+    }
+
+    /// Starts (once, from inside the runtime) the task that deletes writers whose linger is over.
+    fn start_sweeper(self: &Arc<Self>) {
+        self.sweeper.call_once(|| {
+            let me = Arc::downgrade(self);
+            let retired = self.retired.clone();
+            tokio::spawn(async move {
+                loop {
+                    retired.notified().await;
+                    loop {
+                        tokio::time::sleep(WRITER_LINGER).await;
+                        let Some(m) = me.upgrade() else { return };
+                        let mut st = m.state.lock().unwrap();
+                        Self::sweep(&mut st);
+                        if st.lingering.is_empty() {
+                            break;
+                        }
+                    }
+                }
+            });
+        });
+    }
+
+    /// Deletes the lingering writers whose time is up.
+    fn sweep(st: &mut State) {
+        st.lingering
+            .retain(|_, (_, since)| since.elapsed() < WRITER_LINGER);
     }
 
     fn radar(&self) -> Result<Radar> {
@@ -256,7 +299,7 @@ impl Manager {
                 }
             }
         }
-        Self::prune(st);
+        self.prune(st);
         drop(guard);
         self.changed.send_modify(|g| *g += 1);
     }
@@ -312,7 +355,7 @@ impl Manager {
 
     /// Drops readers and writers that no connection (live or arming) needs: an event whose only listener was
     /// a fired `once` deactivates.
-    fn prune(st: &mut State) {
+    fn prune(&self, st: &mut State) {
         use std::collections::BTreeSet;
         let sources = st.table.sources();
         let mut slots = BTreeSet::new();
@@ -326,8 +369,21 @@ impl Manager {
         let pending = &st.pending;
         st.readers
             .retain(|t, _| sources.contains(t) || pending.contains_key(t));
-        st.writers
-            .retain(|t, _| slots.contains(t) || pending.contains_key(t));
+        let retire: Vec<String> = st
+            .writers
+            .keys()
+            .filter(|t| !slots.contains(*t) && !pending.contains_key(*t))
+            .cloned()
+            .collect();
+        if !retire.is_empty() {
+            let now = std::time::Instant::now();
+            for t in retire {
+                if let Some(w) = st.writers.remove(&t) {
+                    st.lingering.insert(t, (w, now));
+                }
+            }
+            self.retired.notify_one();
+        }
         // dropping the sender lets a delivery already queued (a `once` that just fired) still run
         st.anon.retain(|k, _| anons.contains(k));
         let live: std::collections::BTreeSet<ConnId> =
@@ -376,6 +432,11 @@ impl Manager {
         if let Some(w) = st.writers.get(&slot.topic) {
             return Ok(w.publisher.clone());
         }
+        if let Some((w, _)) = st.lingering.remove(&slot.topic) {
+            let p = w.publisher.clone();
+            st.writers.insert(slot.topic.clone(), w);
+            return Ok(p);
+        }
         let p = Arc::new(radar.raw_publisher(&slot.topic, &slot.ros_type)?);
         st.writers.insert(
             slot.topic.clone(),
@@ -389,6 +450,7 @@ impl Manager {
 
     async fn arm(self: &Arc<Self>, spec: Spec) -> Result<Connection> {
         let radar = self.radar()?;
+        self.start_sweeper();
         if let TargetSpec::Slot(slot) = &spec.target {
             let delivered = match &spec.mapped_type {
                 Some(t) => Signal::new(spec.source.topic.clone(), t.clone()),
@@ -527,7 +589,7 @@ impl Manager {
                 }
             }
         }
-        Self::prune(st);
+        self.prune(st);
     }
 
     /// The guard dropped: remove the connection, and cancel anonymous-slot calls it has not begun.
@@ -547,7 +609,7 @@ impl Manager {
         }
         st.table.remove(id);
         st.owners.remove(&id);
-        Self::prune(&mut st);
+        self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
     }
