@@ -1,6 +1,6 @@
 //! Connections over real DDS through the embedded manager: whenever, once (bursts, races), until windows,
 //! waitfor, anonymous slots, injection, type errors, scope exit, and no stale or duplicate deliveries when
-//! connections come and go. Domains 78-89.
+//! connections come and go. Domains 77-89.
 
 use std::{
     sync::{
@@ -12,7 +12,7 @@ use std::{
 
 use radar_ros::{
     msg::{Empty, Int32, StringMsg},
-    Error, Event, EventHandle, ExitAction, FnResponse, Radar, ResponseHandle, SlotError,
+    Error, Event, EventHandle, ExitAction, FnResponse, Radar, ResponseHandle, Signal, SlotError,
     TimerEvent,
 };
 use radar_test_util::{counter, eventually, radar};
@@ -519,4 +519,71 @@ async fn a_delivery_arrives_even_when_its_writer_is_no_longer_needed() {
         targets.iter().all(|t| t.slot_publishers()[0] == 0)
     })
     .await;
+}
+
+/// Connection property: QoS depth, keep-last like a ROS subscription. An anonymous slot slower than its source
+/// sees the newest `depth` signals queued behind the one it is handling; a deeper connection keeps all of a
+/// burst. A connection with another depth gets relay endpoints of its own; the list shows each depth.
+// four workers: the two slow calls below block theirs, the relay must keep running meanwhile
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn qos_depth_sets_how_many_signals_a_slow_slot_keeps() {
+    let r = radar(77);
+    let source = Signal::new("/burst/triggered", "std_msgs/msg/Int32");
+    let burst = r.signal_publisher::<Int32>(source.topic()).unwrap();
+    let mut seen = Vec::new();
+    let mut guards = Vec::new();
+    for depth in [None, Some(200)] {
+        let got: Arc<Mutex<Vec<i32>>> = Default::default();
+        let g = got.clone();
+        let statement = r.whenever(source.clone()).call(move |m: Int32| {
+            if m.data == 0 {
+                // a slow slot: the rest of the burst queues meanwhile
+                std::thread::sleep(Duration::from_millis(1500));
+            }
+            g.lock().unwrap().push(m.data);
+        });
+        let statement = match depth {
+            Some(d) => statement.depth(d),
+            None => statement,
+        };
+        guards.push(statement.await.unwrap());
+        seen.push(got);
+    }
+    let listed: Vec<u32> = r.connections().iter().map(|c| c.depth).collect();
+    assert_eq!(
+        listed,
+        vec![10, 200],
+        "the list shows each connection's depth"
+    );
+    assert_eq!(burst.subscribers(), 2, "one relay reader per depth");
+    for i in 0..100 {
+        burst.publish(Int32 { data: i }).unwrap();
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    eventually(T, "the deep connection to deliver the whole burst", || {
+        seen[1].lock().unwrap().len() == 100
+    })
+    .await;
+    assert_eq!(*seen[1].lock().unwrap(), (0..100).collect::<Vec<_>>());
+    eventually(T, "the default connection to deliver the newest", || {
+        seen[0].lock().unwrap().last() == Some(&99)
+    })
+    .await;
+    let shallow = seen[0].lock().unwrap().clone();
+    assert_eq!(
+        shallow,
+        [0].into_iter().chain(90..100).collect::<Vec<_>>(),
+        "keep-last 10 behind the slow first call"
+    );
+    // the deep connection gone, its relay reader goes too
+    guards.pop();
+    eventually(T, "the depth-200 reader to go", || burst.subscribers() == 1).await;
+    // depth 0 is refused
+    let e = r
+        .whenever(source.clone())
+        .call(|_: Int32| {})
+        .depth(0)
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("at least 1"), "{e}");
 }

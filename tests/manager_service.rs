@@ -45,7 +45,10 @@ async fn connections_are_made_listed_and_removed_through_the_services() {
 
     let made = call_once(
         &client.connect,
-        req(Connection::WHENEVER, "tick/triggered", "count/start"),
+        ConnectRequest {
+            depth: 50,
+            ..req(Connection::WHENEVER, "tick/triggered", "count/start")
+        },
         DISCOVERY,
     )
     .await;
@@ -83,6 +86,7 @@ async fn connections_are_made_listed_and_removed_through_the_services() {
         )
     );
     assert!(c.owner.starts_with("service caller"), "{}", c.owner);
+    assert_eq!(c.depth, 50, "the requested QoS depth");
     let l = call_once(&client.list, ListRequest::default(), DISCOVERY).await;
     assert_eq!(l.connections.len(), 1);
 

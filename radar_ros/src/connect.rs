@@ -13,7 +13,7 @@
 //!
 //! What is delivered when is decided by [`crate::semantics::connection::ConnectionTable`];
 //! this module moves the messages. The manager keeps one reader per source topic and one writer per target
-//! slot however many connections share them, and forwards serialized messages unchanged
+//! slot however many connections share them (per QoS depth: see [`Connect::depth`]), and forwards serialized messages unchanged
 //! ([`crate::raw::RawMessage`]), so it needs no Rust type for them. A slot of type
 //! `std_msgs/msg/Empty` (interrupt, exit, or an Empty start) accepts a source of any type: the signal counts,
 //! its payload is dropped. Any other slot needs the source's type to be the same.
@@ -33,9 +33,8 @@ use std::{
     time::Duration,
 };
 
-use tokio::sync::mpsc;
-
 use crate::{
+    endpoints::SIGNAL_DEPTH,
     error::{Error, Result},
     msg::{Empty, RosMessage},
     names::ComponentName,
@@ -186,7 +185,7 @@ struct State {
     writers: HashMap<String, Writer>,
     /// Writers no connection needs, kept for [`WRITER_LINGER`] from when they were retired.
     lingering: HashMap<String, (Writer, std::time::Instant)>,
-    anon: HashMap<u64, (mpsc::UnboundedSender<RawMessage>, Arc<AtomicBool>)>,
+    anon: HashMap<u64, Arc<AnonQueue>>,
     /// Who made each connection.
     owners: HashMap<ConnId, String>,
     /// Connection properties: filters and payload transforms.
@@ -208,6 +207,24 @@ pub(crate) struct Manager {
     /// Wakes the task that deletes lingering writers.
     retired: Arc<tokio::sync::Notify>,
     sweeper: std::sync::Once,
+}
+
+/// The manager's key for a relay endpoint on `topic` with history `depth`: the topic itself at the default
+/// depth, so connections asking for another depth get endpoints of their own (`#` is not valid in ROS names).
+fn endpoint_key(topic: &str, depth: usize) -> String {
+    if depth == SIGNAL_DEPTH {
+        topic.to_owned()
+    } else {
+        format!("{topic}#depth={depth}")
+    }
+}
+
+/// The topic and depth of an endpoint key.
+fn split_key(key: &str) -> (&str, usize) {
+    match key.split_once("#depth=") {
+        Some((t, d)) => (t, d.parse().unwrap_or(SIGNAL_DEPTH)),
+        None => (key, SIGNAL_DEPTH),
+    }
 }
 
 fn now_ns() -> i64 {
@@ -293,8 +310,8 @@ impl Manager {
                     }
                 }
                 Target::Anon(k) => {
-                    if let Some((tx, _)) = st.anon.get(k) {
-                        let _ = tx.send(payload);
+                    if let Some(q) = st.anon.get(k) {
+                        q.push(payload);
                     }
                 }
             }
@@ -336,12 +353,16 @@ impl Manager {
                     .get(&c.source)
                     .map(|r| r.sub.ros_type().to_owned())
                     .unwrap_or_default(),
-                source: c.source,
+                source: split_key(&c.source).0.to_owned(),
+                depth: split_key(&c.source).1.min(u32::MAX as usize) as u32,
                 target: match c.target {
-                    Target::Slot(t) => t,
+                    Target::Slot(t) => split_key(&t).0.to_owned(),
                     Target::Anon(_) => "(anonymous)".into(),
                 },
-                until: c.until.unwrap_or_default(),
+                until: c
+                    .until
+                    .map(|u| split_key(&u).0.to_owned())
+                    .unwrap_or_default(),
                 owner: st.owners.get(&c.id).cloned().unwrap_or_default(),
                 delivered: c.delivered,
             })
@@ -384,8 +405,14 @@ impl Manager {
             }
             self.retired.notify_one();
         }
-        // dropping the sender lets a delivery already queued (a `once` that just fired) still run
-        st.anon.retain(|k, _| anons.contains(k));
+        // closing the queue lets a delivery already queued (a `once` that just fired) still run
+        st.anon.retain(|k, q| {
+            let keep = anons.contains(k);
+            if !keep {
+                q.close();
+            }
+            keep
+        });
         let live: std::collections::BTreeSet<ConnId> =
             st.table.list().iter().map(|c| c.id).collect();
         st.owners.retain(|id, _| live.contains(id));
@@ -398,15 +425,17 @@ impl Manager {
         radar: &Radar,
         st: &mut State,
         sig: &Signal,
+        depth: usize,
     ) -> Result<Arc<RawSubscription>> {
-        if let Some(r) = st.readers.get(&sig.topic) {
+        let key = endpoint_key(&sig.topic, depth);
+        if let Some(r) = st.readers.get(&key) {
             return Ok(r.sub.clone());
         }
-        let sub = Arc::new(radar.raw_subscription(&sig.topic, &sig.ros_type)?);
+        let sub = Arc::new(radar.raw_subscription_depth(&sig.topic, &sig.ros_type, depth)?);
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let task_sub = sub.clone();
-        let topic = sig.topic.clone();
+        let topic = key.clone();
         tokio::spawn(async move {
             loop {
                 tokio::select! {
@@ -419,7 +448,7 @@ impl Manager {
             }
         });
         st.readers.insert(
-            sig.topic.clone(),
+            key,
             Reader {
                 sub: sub.clone(),
                 stop: Some(stop),
@@ -428,18 +457,25 @@ impl Manager {
         Ok(sub)
     }
 
-    fn writer(&self, radar: &Radar, st: &mut State, slot: &Slot) -> Result<Arc<RawPublisher>> {
-        if let Some(w) = st.writers.get(&slot.topic) {
+    fn writer(
+        &self,
+        radar: &Radar,
+        st: &mut State,
+        slot: &Slot,
+        depth: usize,
+    ) -> Result<Arc<RawPublisher>> {
+        let key = endpoint_key(&slot.topic, depth);
+        if let Some(w) = st.writers.get(&key) {
             return Ok(w.publisher.clone());
         }
-        if let Some((w, _)) = st.lingering.remove(&slot.topic) {
+        if let Some((w, _)) = st.lingering.remove(&key) {
             let p = w.publisher.clone();
-            st.writers.insert(slot.topic.clone(), w);
+            st.writers.insert(key, w);
             return Ok(p);
         }
-        let p = Arc::new(radar.raw_publisher(&slot.topic, &slot.ros_type)?);
+        let p = Arc::new(radar.raw_publisher_depth(&slot.topic, &slot.ros_type, depth)?);
         st.writers.insert(
-            slot.topic.clone(),
+            key,
             Writer {
                 publisher: p.clone(),
                 empty: slot.ros_type == Empty::ros_type_name(),
@@ -469,11 +505,9 @@ impl Manager {
         if let Some(u) = &spec.until {
             slots.push(u.interrupt.clone());
         }
-        let held: Vec<String> = sources
-            .iter()
-            .chain(&slots)
-            .map(|s| s.topic.clone())
-            .collect();
+        let depth = spec.depth;
+        let key = |s: &Signal| endpoint_key(&s.topic, depth);
+        let held: Vec<String> = sources.iter().chain(&slots).map(key).collect();
         let (readers, writers) = {
             let mut st = self.state.lock().unwrap();
             for t in &held {
@@ -482,11 +516,11 @@ impl Manager {
             let made = (|| -> Result<_> {
                 let r: Vec<_> = sources
                     .iter()
-                    .map(|s| self.reader(&radar, &mut st, s))
+                    .map(|s| self.reader(&radar, &mut st, s, depth))
                     .collect::<Result<_>>()?;
                 let w: Vec<_> = slots
                     .iter()
-                    .map(|s| self.writer(&radar, &mut st, s))
+                    .map(|s| self.writer(&radar, &mut st, s, depth))
                     .collect::<Result<_>>()?;
                 Ok((r, w))
             })();
@@ -530,7 +564,7 @@ impl Manager {
             return Err(e);
         }
         let (target, anon) = match spec.target {
-            TargetSpec::Slot(s) => (Target::Slot(s.topic), None),
+            TargetSpec::Slot(s) => (Target::Slot(key(&s)), None),
             TargetSpec::Anon(f) => {
                 let k = st.next_anon;
                 st.next_anon += 1;
@@ -538,18 +572,14 @@ impl Manager {
             }
         };
         let until = spec.until.map(|u| Until {
-            source: u.source.topic,
-            started: u.started.topic,
-            exited: u.exited.topic,
-            interrupt: Target::Slot(u.interrupt.topic),
+            source: key(&u.source),
+            started: key(&u.started),
+            exited: key(&u.exited),
+            interrupt: Target::Slot(key(&u.interrupt)),
         });
-        let id = st.table.arm(
-            spec.source.topic.clone(),
-            target,
-            spec.kind,
-            until,
-            now_ns(),
-        );
+        let id = st
+            .table
+            .arm(key(&spec.source), target, spec.kind, until, now_ns());
         st.owners.insert(id, spec.owner);
         if let Some(f) = spec.filter {
             st.filters.insert(id, f);
@@ -558,18 +588,17 @@ impl Manager {
             st.maps.insert(id, m);
         }
         if let Some((k, mut f)) = anon {
-            let (tx, mut rx) = mpsc::unbounded_channel::<RawMessage>();
-            let alive = Arc::new(AtomicBool::new(true));
-            let a = alive.clone();
+            let q = Arc::new(AnonQueue::new(
+                split_key(&key(&spec.source)).0.to_owned(),
+                depth,
+            ));
+            let consumer = q.clone();
             tokio::spawn(async move {
-                while let Some(m) = rx.recv().await {
-                    if !a.load(Ordering::SeqCst) {
-                        break;
-                    }
+                while let Some(m) = consumer.next().await {
                     f(m);
                 }
             });
-            st.anon.insert(k, (tx, alive));
+            st.anon.insert(k, q);
         }
         self.release(&mut st, &held);
         drop(st);
@@ -604,14 +633,86 @@ impl Manager {
                 Target::Anon(k) => Some(k),
                 Target::Slot(_) => None,
             });
-        if let Some((_, alive)) = anon.and_then(|k| st.anon.get(&k)) {
-            alive.store(false, Ordering::SeqCst);
+        if let Some(q) = anon.and_then(|k| st.anon.get(&k)) {
+            q.cancel();
         }
         st.table.remove(id);
         st.owners.remove(&id);
         self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
+    }
+}
+
+/// The payloads waiting for one anonymous slot: keep-last `depth`, like a ROS subscription's queue, so a
+/// slow closure under a fast source costs bounded memory and sees the newest signals.
+struct AnonQueue {
+    source: String,
+    depth: usize,
+    queue: Mutex<std::collections::VecDeque<RawMessage>>,
+    ready: tokio::sync::Notify,
+    /// No more pushes: the consumer ends once the queue is empty.
+    closed: AtomicBool,
+    /// The guard dropped: the consumer ends before the next call.
+    cancelled: AtomicBool,
+    dropped: std::sync::atomic::AtomicU64,
+}
+
+impl AnonQueue {
+    fn new(source: String, depth: usize) -> AnonQueue {
+        AnonQueue {
+            source,
+            depth,
+            queue: Mutex::new(Default::default()),
+            ready: tokio::sync::Notify::new(),
+            closed: AtomicBool::new(false),
+            cancelled: AtomicBool::new(false),
+            dropped: Default::default(),
+        }
+    }
+
+    fn push(&self, m: RawMessage) {
+        let mut q = self.queue.lock().unwrap();
+        if q.len() >= self.depth {
+            q.pop_front();
+            if self.dropped.fetch_add(1, Ordering::Relaxed) == 0 {
+                tracing::warn!(
+                    source = %self.source, depth = self.depth,
+                    "an anonymous slot is slower than its source: the oldest queued signal was dropped \
+                     (keep-last {}); give the connection a larger .depth(n) to keep more", self.depth
+                );
+            }
+        }
+        q.push_back(m);
+        drop(q);
+        self.ready.notify_one();
+    }
+
+    fn close(&self) {
+        self.closed.store(true, Ordering::SeqCst);
+        self.ready.notify_one();
+    }
+
+    fn cancel(&self) {
+        self.cancelled.store(true, Ordering::SeqCst);
+        self.close();
+    }
+
+    /// The next payload to call the slot with; `None` when closed and drained, or cancelled.
+    async fn next(&self) -> Option<RawMessage> {
+        loop {
+            if self.cancelled.load(Ordering::SeqCst) {
+                return None;
+            }
+            if let Some(m) = self.queue.lock().unwrap().pop_front() {
+                return Some(m);
+            }
+            if self.closed.load(Ordering::SeqCst) {
+                return None;
+            }
+            // a push between the check and here left a permit, so this returns at once
+            self.ready.notified().await;
+        }
     }
 }
 
@@ -705,6 +806,8 @@ struct Spec {
     target: TargetSpec,
     until: Option<UntilSpec>,
     timeout: Duration,
+    /// History depth of the relay's endpoints.
+    depth: usize,
 }
 
 /// `once E` / `whenever E`: pick a target with [`start`](Statement::start), [`interrupt`](Statement::interrupt),
@@ -746,6 +849,7 @@ impl Statement {
                 target,
                 until: None,
                 timeout: Duration::from_secs(5),
+                depth: SIGNAL_DEPTH,
             },
             response,
         }
@@ -879,6 +983,20 @@ impl Connect {
         }
     }
 
+    /// Connection property: the history depth of the relay (default 10, as rclpy's): how many signals
+    /// the relay's reader queues while the manager has not taken them, and its writer keeps for
+    /// retransmission to a slow or lossy target. Connections asking for a depth other than the default get
+    /// a reader and writer of their own (shared with connections asking for the same depth). At least 1.
+    pub fn depth(mut self, depth: usize) -> Connect {
+        if depth == 0 {
+            self.error.get_or_insert(Error::InvalidStatement(
+                "a connection's QoS depth must be at least 1 (the default is 10)".into(),
+            ));
+        }
+        self.spec.depth = depth.max(1);
+        self
+    }
+
     /// How long arming may wait for discovery (default 5 s).
     pub fn timeout(mut self, d: Duration) -> Connect {
         self.spec.timeout = d;
@@ -916,6 +1034,12 @@ impl Radar {
             kind: Kind::Whenever,
             source,
         }
+    }
+
+    /// Every live connection of this program's embedded manager (what a served manager lists on its
+    /// `connections` topic).
+    pub fn connections(&self) -> Vec<crate::msg::Connection> {
+        self.manager().list()
     }
 
     /// `waitfor source`: the payload of the next signal emitted after this call, decoded as `M`; with a

@@ -117,9 +117,17 @@ impl<T> Drop for Watched<T> {
 /// QoS of every signal and slot topic: reliable, volatile, keep-last 10 (rclpy's and `ros2 topic pub`'s
 /// default, so command-line tools match it).
 pub fn signal_qos() -> QosProfile {
+    signal_qos_depth(SIGNAL_DEPTH)
+}
+
+/// History depth of signal and slot endpoints: rclpy's default.
+pub const SIGNAL_DEPTH: usize = 10;
+
+/// [`signal_qos`] with another history depth (a connection's relay may ask for one).
+pub fn signal_qos_depth(depth: usize) -> QosProfile {
     QosProfile::publisher_default()
         .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 10 })
+        .history(History::KeepLast { depth })
 }
 
 /// QoS of `state` topics: reliable, transient-local, keep-last 1, so a late subscriber gets the current state.

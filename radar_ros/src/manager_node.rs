@@ -124,6 +124,11 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         let u = Signal::new(&u_topic, type_of(radar, &u_topic, true, timeout).await?);
         statement.start(&r).until(u)
     };
+    let c = if req.depth > 0 {
+        c.depth(req.depth as usize)
+    } else {
+        c
+    };
     c.owner(owner).timeout(timeout).await
 }
 

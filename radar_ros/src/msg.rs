@@ -293,6 +293,8 @@ pub struct Connection {
     pub owner: String,
     /// Signals delivered from the source so far.
     pub delivered: u64,
+    /// History depth of the relay's reader and writer.
+    pub depth: u32,
 }
 ros_message!(Connection, "radar_msgs", "Connection");
 
@@ -328,6 +330,8 @@ pub struct ConnectRequest {
     pub until: String,
     /// Seconds to wait for discovery; 0 means 5.
     pub timeout: f64,
+    /// History depth of the relay; 0 means 10.
+    pub depth: u32,
 }
 
 /// Response of `radar_msgs/srv/Connect`.

@@ -19,7 +19,7 @@ use serde::{
 };
 
 use crate::{
-    endpoints::{signal_qos, topic_name, Watched},
+    endpoints::{signal_qos_depth, topic_name, Watched, SIGNAL_DEPTH},
     error::{Error, Result},
     radar::Radar,
 };
@@ -184,9 +184,19 @@ impl RawSubscription {
 impl Radar {
     /// A publisher of `ros_type` (e.g. `std_msgs/msg/String`) on `topic` that sends message bodies unchanged.
     pub fn raw_publisher(&self, topic: &str, ros_type: &str) -> Result<RawPublisher> {
+        self.raw_publisher_depth(topic, ros_type, SIGNAL_DEPTH)
+    }
+
+    /// [`Radar::raw_publisher`] keeping the last `depth` messages (reliable, volatile).
+    pub fn raw_publisher_depth(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawPublisher> {
         let topic = self.resolve(topic)?.fully_qualified();
         let ty = parse_type_name(ros_type)?;
-        let qos = signal_qos();
+        let qos = signal_qos_depth(depth);
         let publisher = self.with_client_node(|node| {
             let t = node
                 .create_topic(&topic_name(&topic)?, ty.clone(), &qos)
@@ -205,9 +215,19 @@ impl Radar {
 
     /// A subscription to `ros_type` on `topic` that yields message bodies unchanged.
     pub fn raw_subscription(&self, topic: &str, ros_type: &str) -> Result<RawSubscription> {
+        self.raw_subscription_depth(topic, ros_type, SIGNAL_DEPTH)
+    }
+
+    /// [`Radar::raw_subscription`] keeping the last `depth` messages not yet taken (reliable, volatile).
+    pub fn raw_subscription_depth(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawSubscription> {
         let topic = self.resolve(topic)?.fully_qualified();
         let ty = parse_type_name(ros_type)?;
-        let qos = signal_qos();
+        let qos = signal_qos_depth(depth);
         let subscription = self.with_client_node(|node| {
             let t = node
                 .create_topic(&topic_name(&topic)?, ty.clone(), &qos)
