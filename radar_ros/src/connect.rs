@@ -170,13 +170,10 @@ struct Writer {
     empty: bool,
 }
 
-/// How long a writer no connection needs any more is kept before it is deleted.
-///
-/// A RustDDS write only queues the sample for the participant's event loop; deleting the writer right after
-/// (a `once` that just fired, a guard dropped right after a delivery) can lose the sample before it is sent,
-/// and a lost reliable sample is repaired only by the writer's next heartbeat (100 ms to 1 s). Three seconds
-/// cover several repair rounds. A writer asked for again while it lingers is reused, without new discovery.
-const WRITER_LINGER: Duration = Duration::from_secs(3);
+/// How long a writer no connection needs any more is kept before it is deleted (see
+/// [`crate::endpoints::WRITER_LINGER`]). A writer asked for again while it lingers is reused, without new
+/// discovery.
+use crate::endpoints::WRITER_LINGER;
 
 #[derive(Default)]
 struct State {

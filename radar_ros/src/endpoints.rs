@@ -114,6 +114,14 @@ impl<T> Drop for Watched<T> {
     }
 }
 
+/// How long a writer whose last sample was just written is kept before it is deleted.
+///
+/// A RustDDS write only queues the sample for the participant's event loop; deleting the writer right after
+/// (a `once` that just fired, a guard dropped right after a delivery, a response's final `exited` at
+/// shutdown) can lose the sample before it is sent, and a lost reliable sample is repaired only by the
+/// writer's next heartbeat (100 ms to 1 s). Three seconds cover several repair rounds.
+pub(crate) const WRITER_LINGER: std::time::Duration = std::time::Duration::from_secs(3);
+
 /// QoS of every signal and slot topic: reliable, volatile, keep-last 10 (rclpy's and `ros2 topic pub`'s
 /// default, so command-line tools match it).
 pub fn signal_qos() -> QosProfile {

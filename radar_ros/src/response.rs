@@ -531,4 +531,12 @@ async fn drive<R: Response>(
         }
     }
     tracing::info!(response = %name, "response stopped");
+    // the final `exited` and state were just written: keep their writers a moment so they are not lost,
+    // without holding up the shutdown (the slots are gone already)
+    drop(signals);
+    drop((start_sub, interrupt_sub, exit_sub));
+    tokio::spawn(async move {
+        tokio::time::sleep(crate::endpoints::WRITER_LINGER).await;
+        drop(io);
+    });
 }
