@@ -818,14 +818,17 @@ where
     key: &<D as Keyed>::K,
     source_timestamp: Option<Timestamp>,
   ) -> WriteResult<(), ()> {
-    let send_buffer = SA::key_to_bytes(key).map_err(|e| WriteError::Serialization {
+    // radar_ros patch: dispose by key hash, so the DATA carries PID_KEY_HASH in its inline QoS (RTPS 2.5
+    // 9.6.4.8). Fast DDS ignores a key-only payload longer than 16 bytes, so with the serialized key alone it
+    // never saw RustDDS endpoints (SEDP) or participants (SPDP) being deleted until their lease expired.
+    // RustDDS readers map the hash back to the key they saw with the instance's live samples.
+    let _ = SA::key_to_bytes(key).map_err(|e| WriteError::Serialization {
       reason: format!("{e}"),
       data: (),
-    })?; // serialize key
-
-    let ddsdata = DDSData::new_disposed_by_key(
+    })?; // the key must still serialize
+    let ddsdata = DDSData::new_disposed_by_key_hash(
       ChangeKind::NotAliveDisposed,
-      SerializedPayload::new_from_bytes(SA::output_encoding(), send_buffer),
+      crate::dds::key::Key::hash_key(key, false),
     );
     let timeout = self.qos().reliable_max_blocking_time().map(|d| d.to_std());
     match self
