@@ -6,8 +6,21 @@
 # Needs root (or CAP_SYS_ADMIN + CAP_NET_ADMIN) and iproute2.
 #
 #   tests/isolated.sh cargo test --workspace
+#
+# Nothing inside the namespace reaches the internet, so first, outside it, this fetches the crates
+# (`cargo fetch`) and builds the rclpy venv of the interop tests (tests/python_env.sh, cached; exported as
+# RADAR_VENV). If the venv cannot be built the other tests still run and the interop tests fail, saying why.
 set -euo pipefail
 if [ "${RADAR_ISOLATED:-}" = 1 ]; then exec "$@"; fi
+here=$(cd "$(dirname "$0")" && pwd)
+if [ "${1:-}" = cargo ]; then
+  (cd "$here/.." && cargo fetch --quiet)
+fi
+if venv=$("$here/python_env.sh"); then
+  export RADAR_VENV="$venv"
+else
+  echo "isolated.sh: tests/python_env.sh failed (above); the interop tests will fail" >&2
+fi
 command -v unshare >/dev/null || { echo "isolated.sh: unshare (util-linux) is missing" >&2; exit 1; }
 command -v ip >/dev/null || { echo "isolated.sh: ip (iproute2) is missing: apt-get install -y iproute2" >&2; exit 1; }
 exec unshare --net -- bash -c '

@@ -1,0 +1,537 @@
+//! Interop with real rclpy (ROS 2 Jazzy wheels from PyPI, Fast DDS): Python processes see radar_ros's graph,
+//! inject into slots as `ros2 topic pub` does, act as events and responses in connections, call the manager's
+//! services with the generated `radar_msgs` types, read latched state, and send bad input. The Python side is
+//! `tests/python/interop.py` and `examples/python/`, run with the venv that `tests/python_env.sh` builds
+//! (`tests/isolated.sh` builds it before entering the test network). No venv: these tests fail. Domains 94-101.
+
+use std::{
+    path::PathBuf,
+    process::Stdio,
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc, Mutex,
+    },
+    time::Duration,
+};
+
+use radar_ros::{
+    msg::{ConnectionList, Empty, StringMsg},
+    FnResponse, Radar, TimerEvent,
+};
+use radar_test_util::{eventually, radar};
+use serde_json::Value;
+use tokio::io::{AsyncBufReadExt, BufReader, Lines};
+
+const T: Duration = Duration::from_secs(20);
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_owned()
+}
+
+/// The venv's interpreter. Missing venv: fail, saying how to build it.
+fn python() -> PathBuf {
+    let venv = std::env::var_os("RADAR_VENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join("target/ros2-venv"));
+    let py = venv.join("bin/python");
+    assert!(
+        py.exists(),
+        "the rclpy venv is missing at {}: run tests/python_env.sh (tests/isolated.sh runs it before the \
+         tests; see its output for why it failed)",
+        venv.display()
+    );
+    py
+}
+
+/// A Python process whose stdout is JSON lines (or plain lines from the examples).
+struct Py {
+    child: tokio::process::Child,
+    lines: Lines<BufReader<tokio::process::ChildStdout>>,
+    what: String,
+}
+
+impl Py {
+    fn start(domain: u16, script: &str, args: &[&str]) -> Py {
+        let mut child = tokio::process::Command::new(python())
+            .arg(repo().join(script))
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+            .env("PYTHONUNBUFFERED", "1")
+            .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .stdout(Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("start the venv's python");
+        let lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        Py {
+            child,
+            lines,
+            what: format!("{script} {}", args.join(" ")),
+        }
+    }
+
+    fn interop(domain: u16, args: &[&str]) -> Py {
+        Py::start(domain, "tests/python/interop.py", args)
+    }
+
+    async fn line(&mut self) -> String {
+        match tokio::time::timeout(T, self.lines.next_line()).await {
+            Ok(Ok(Some(l))) => l,
+            Ok(Ok(None)) => {
+                let status = self.child.wait().await;
+                panic!(
+                    "{} ended ({status:?}) before printing what was expected; its stderr is above",
+                    self.what
+                )
+            }
+            Ok(Err(e)) => panic!("{}: unreadable output: {e}", self.what),
+            Err(_) => panic!("{}: nothing printed for {T:?}", self.what),
+        }
+    }
+
+    async fn json(&mut self) -> Value {
+        let l = self.line().await;
+        serde_json::from_str(&l).unwrap_or_else(|e| panic!("{}: not JSON ({e}): {l}", self.what))
+    }
+
+    /// The next JSON line that has `key`.
+    async fn json_with(&mut self, key: &str) -> Value {
+        loop {
+            let v = self.json().await;
+            if v.get(key).is_some() {
+                return v;
+            }
+        }
+    }
+
+    /// Reads lines until one is `want`, for at most [`T`]; returns the lines before it.
+    async fn expect_line(&mut self, want: &str) -> Vec<String> {
+        let mut before = Vec::new();
+        let found = tokio::time::timeout(T, async {
+            loop {
+                let l = self.line().await;
+                if l == want {
+                    return;
+                }
+                before.push(l);
+            }
+        })
+        .await;
+        assert!(
+            found.is_ok(),
+            "{}: no line {want:?} within {T:?}; last lines: {:?}",
+            self.what,
+            &before[before.len().saturating_sub(5)..]
+        );
+        before
+    }
+
+    async fn succeeds(mut self) {
+        let status = tokio::time::timeout(T, self.child.wait())
+            .await
+            .unwrap_or_else(|_| panic!("{} did not end", self.what))
+            .unwrap();
+        assert!(status.success(), "{} failed: {status}", self.what);
+    }
+}
+
+fn slow_response(r: &Radar, name: &str) -> radar_ros::ResponseHandle {
+    r.spawn_response(
+        name,
+        FnResponse::new(|_: Empty| async {
+            tokio::time::sleep(Duration::from_secs(30)).await;
+            Ok(Empty::default())
+        }),
+    )
+    .unwrap()
+}
+
+/// Scenario 1: rclpy sees radar_ros's nodes, topics with types, and the manager's services with types.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rclpy_sees_the_radar_graph() {
+    let r = radar(94);
+    let _ev = r
+        .spawn_event(
+            "/interop/bumper",
+            TimerEvent::new(Duration::from_millis(100)),
+        )
+        .unwrap();
+    let _resp = r
+        .spawn_response(
+            "/interop/say",
+            FnResponse::new(|s: StringMsg| async move { Ok(s) }),
+        )
+        .unwrap();
+    let _m = r.serve_manager("/radar_manager").unwrap();
+    let mut py = Py::interop(
+        94,
+        &[
+            "graph",
+            "--nodes",
+            "/interop/bumper",
+            "/interop/say",
+            "/radar_manager",
+            "--services",
+            "/radar_manager/connect",
+            "/radar_manager/disconnect",
+            "/radar_manager/list",
+        ],
+    );
+    let g = py.json().await;
+    py.succeeds().await;
+    let nodes = g["nodes"].as_array().unwrap();
+    for (ns, name) in [
+        ("/interop", "bumper"),
+        ("/interop", "say"),
+        ("/", "radar_manager"),
+    ] {
+        assert!(
+            nodes.contains(&serde_json::json!([ns, name])),
+            "node {ns} {name} in {nodes:?}"
+        );
+    }
+    let topic = |t: &str| g["topics"][t].clone();
+    let ty = |t: &str| serde_json::json!([t]);
+    for (t, want) in [
+        ("/interop/bumper/triggered", "std_msgs/msg/Empty"),
+        ("/interop/bumper/state", "radar_msgs/msg/EventState"),
+        ("/interop/say/start", "std_msgs/msg/String"),
+        ("/interop/say/interrupt", "std_msgs/msg/Empty"),
+        ("/interop/say/exit", "std_msgs/msg/Empty"),
+        ("/interop/say/started", "std_msgs/msg/String"),
+        ("/interop/say/interrupted", "std_msgs/msg/Empty"),
+        ("/interop/say/exited", "std_msgs/msg/String"),
+        ("/interop/say/state", "radar_msgs/msg/ResponseState"),
+        (
+            "/radar_manager/connections",
+            "radar_msgs/msg/ConnectionList",
+        ),
+    ] {
+        assert_eq!(topic(t), ty(want), "topic {t}");
+    }
+    for (s, want) in [
+        ("/radar_manager/connect", "radar_msgs/srv/Connect"),
+        ("/radar_manager/disconnect", "radar_msgs/srv/Disconnect"),
+        ("/radar_manager/list", "radar_msgs/srv/List"),
+    ] {
+        assert_eq!(g["services"][s], ty(want), "service {s}");
+    }
+}
+
+/// Scenario 2: injection as `ros2 topic pub` does it (default QoS, one message): Empty into start, then
+/// interrupt; rclpy sees started, interrupted, exited in order. Then a typed payload in and out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rclpy_injects_into_slots_and_sees_the_signals_in_order() {
+    let r = radar(95);
+    let resp = slow_response(&r, "/interop/slow");
+    let mut py = Py::interop(95, &["inject", "/interop/slow"]);
+    let order = py.json_with("order").await;
+    py.succeeds().await;
+    assert_eq!(
+        order["order"],
+        serde_json::json!(["started", "interrupted", "exited"])
+    );
+    let s = resp.state();
+    assert_eq!((s.starts, s.interrupts, s.exits), (1, 1, 1));
+
+    let got: Arc<Mutex<Vec<String>>> = Default::default();
+    let g = got.clone();
+    let _echo = r
+        .spawn_response(
+            "/interop/echo",
+            FnResponse::new(move |s: StringMsg| {
+                g.lock().unwrap().push(s.data.clone());
+                async move { Ok(StringMsg::from(format!("done:{}", s.data).as_str())) }
+            }),
+        )
+        .unwrap();
+    let mut py = Py::interop(95, &["inject_string", "/interop/echo", "kitchen"]);
+    let mut signals = Vec::new();
+    loop {
+        let v = py.json().await;
+        if v.get("order").is_some() {
+            break;
+        }
+        if let Some(s) = v.get("signal") {
+            signals.push((s.as_str().unwrap().to_owned(), v["data"].clone()));
+        }
+    }
+    py.succeeds().await;
+    assert_eq!(
+        signals,
+        vec![
+            ("started".to_owned(), serde_json::json!("kitchen")),
+            ("exited".to_owned(), serde_json::json!("done:kitchen")),
+        ]
+    );
+    assert_eq!(*got.lock().unwrap(), vec!["kitchen".to_owned()]);
+}
+
+/// Scenario 3a: an rclpy event (examples/python/radar_event.py) connected by Rust `whenever` to a Rust
+/// response; it checks only while the connection listens.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_event_drives_a_rust_response() {
+    let r = radar(96);
+    let runs = Arc::new(AtomicU64::new(0));
+    let n = runs.clone();
+    let resp = r
+        .spawn_response(
+            "/interop/count",
+            FnResponse::new(move |_: Empty| {
+                n.fetch_add(1, Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let mut ev = Py::start(
+        96,
+        "examples/python/radar_event.py",
+        &["/interop/py_bumper", "--period", "0.05"],
+    );
+    ev.expect_line("up").await;
+    let found = r.event("/interop/py_bumper").await.unwrap();
+    assert_eq!(found.triggered().ros_type(), "std_msgs/msg/Empty");
+    {
+        let _c = r.whenever(found.triggered()).start(&resp).await.unwrap();
+        ev.expect_line("active").await;
+        eventually(T, "runs started by the rclpy event", || {
+            runs.load(Ordering::SeqCst) >= 3
+        })
+        .await;
+    }
+    // the connection is gone: the rclpy event sees no listener and stops checking
+    ev.expect_line("inactive").await;
+    let after = runs.load(Ordering::SeqCst);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        runs.load(Ordering::SeqCst) <= after + 1,
+        "no runs without the connection"
+    );
+}
+
+/// Scenario 3b: a Rust event connected to an rclpy response (examples/python/radar_response.py), found by
+/// name; the deliberative program waits for its `exited`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_rust_event_drives_an_rclpy_response() {
+    let r = radar(97);
+    let tick = r
+        .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let mut resp = Py::start(
+        97,
+        "examples/python/radar_response.py",
+        &["/interop/py_dock", "--duration", "0.1"],
+    );
+    resp.expect_line("up").await;
+    let dock = r.response("/interop/py_dock").await.unwrap();
+    assert_eq!(dock.start_slot().ros_type(), "std_msgs/msg/Empty");
+    let _c = r.once(tick.triggered()).start(&dock).await.unwrap();
+    let _: Empty = r.waitfor(dock.exited(), Some(T)).await.unwrap();
+    resp.expect_line("started").await;
+    resp.expect_line("exited").await;
+    // until: a Rust event interrupts the rclpy response's run this statement started
+    let stop = r
+        .spawn_event("/interop/stop", TimerEvent::new(Duration::from_millis(300)))
+        .unwrap();
+    let mut slow = Py::start(
+        97,
+        "examples/python/radar_response.py",
+        &["/interop/py_slow", "--duration", "30"],
+    );
+    slow.expect_line("up").await;
+    let slow_ref = r.response("/interop/py_slow").await.unwrap();
+    let _u = r
+        .once(tick.triggered())
+        .start(&slow_ref)
+        .until(stop.triggered())
+        .await
+        .unwrap();
+    let _: Empty = r.waitfor(slow_ref.interrupted(), Some(T)).await.unwrap();
+    slow.expect_line("started").await;
+    slow.expect_line("interrupted").await;
+    slow.expect_line("exited").await;
+}
+
+/// Scenario 4: an rclpy deliberative program uses the manager's services with the generated radar_msgs
+/// Python types; the connection shows on the `connections` topic, delivers, and goes on disconnect. A second
+/// run leaves without disconnecting, and the manager removes its connection.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_program_makes_connections_through_the_manager_services() {
+    let r = radar(98);
+    let _tick = r
+        .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let count = r
+        .spawn_response(
+            "/interop/count",
+            FnResponse::new(|_: Empty| async { Ok(Empty::default()) }),
+        )
+        .unwrap();
+    let _m = r.serve_manager("/radar_manager").unwrap();
+    let mut py = Py::interop(
+        98,
+        &[
+            "deliberative",
+            "/radar_manager",
+            "/interop/tick/triggered",
+            "/interop/count/start",
+            "/interop/count/started",
+        ],
+    );
+    let made = py.json_with("connect_ok").await;
+    assert_eq!(made["connect_ok"], true, "{made}");
+    let listed = py.json_with("listed").await;
+    assert_eq!(listed["listed"]["id"], made["id"]);
+    assert_eq!(listed["listed"]["kind"], "whenever");
+    assert_eq!(listed["listed"]["source"], "/interop/tick/triggered");
+    assert_eq!(listed["listed"]["source_type"], "std_msgs/msg/Empty");
+    assert_eq!(listed["listed"]["target"], "/interop/count/start");
+    assert!(listed["listed"]["owner"]
+        .as_str()
+        .unwrap()
+        .starts_with("service caller"));
+    py.json_with("through").await;
+    let d = py.json_with("disconnect_ok").await;
+    assert_eq!(d["disconnect_ok"], true, "{d}");
+    py.json_with("unlisted").await;
+    py.succeeds().await;
+    assert!(count.state().starts >= 2);
+    assert!(r.connections().is_empty());
+
+    // a second run exits without disconnecting: its connection dies with it
+    let list = r
+        .state_subscription::<ConnectionList>("/radar_manager/connections")
+        .unwrap();
+    let mut py = Py::interop(
+        98,
+        &[
+            "deliberative",
+            "/radar_manager",
+            "/interop/tick/triggered",
+            "/interop/count/start",
+            "/interop/count/started",
+            "--no-disconnect",
+        ],
+    );
+    py.json_with("leaving").await;
+    assert_eq!(r.connections().len(), 1);
+    py.succeeds().await;
+    eventually(
+        T,
+        "the manager to drop the departed caller's connection",
+        || r.connections().is_empty(),
+    )
+    .await;
+    // and says so on the connections topic
+    tokio::time::timeout(T, async {
+        loop {
+            if list.recv().await.unwrap().connections.is_empty() {
+                break;
+            }
+        }
+    })
+    .await
+    .expect("an empty connections list");
+}
+
+/// Scenario 5: rclpy subscribing late to a response's transient-local `state` gets the current state.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rclpy_gets_the_latched_state_on_subscribing() {
+    let r = radar(99);
+    let resp = slow_response(&r, "/interop/busy");
+    r.inject(resp.reference().start_slot(), Empty::default(), T)
+        .await
+        .unwrap();
+    eventually(T, "the run to start", || resp.state().starts == 1).await;
+    let mut py = Py::interop(99, &["state", "/interop/busy"]);
+    let s = py.json().await;
+    py.succeeds().await;
+    assert_eq!(s["name"], "/interop/busy");
+    assert_eq!(s["state_label"], "running");
+    assert_eq!(s["start_type"], "std_msgs/msg/Empty");
+    assert_eq!(s["starts"], 1);
+    assert!(
+        s["after_s"].as_f64().unwrap() < 5.0,
+        "the latched state came with discovery: {s}"
+    );
+}
+
+/// Scenario 6: bad input from Python. A slot published with the wrong type is not matched and changes
+/// nothing; the manager refuses unknown components, mismatched types and invalid names with reasons.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_input_from_rclpy_is_refused_with_reasons() {
+    let r = radar(100);
+    let resp = slow_response(&r, "/interop/guarded");
+    let _tick = r
+        .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let _say = r
+        .spawn_response(
+            "/interop/say",
+            FnResponse::new(|s: StringMsg| async move { Ok(s) }),
+        )
+        .unwrap();
+    let _m = r.serve_manager("/radar_manager").unwrap();
+    let mut py = Py::interop(
+        100,
+        &[
+            "bad_input",
+            "/interop/guarded",
+            "/radar_manager",
+            "/interop/tick",
+            "/interop/say/start",
+        ],
+    );
+    let wrong = py.json_with("wrong_type_matched").await;
+    assert_eq!(
+        wrong["wrong_type_matched"], 0,
+        "Fast DDS does not match other types"
+    );
+    assert_eq!(wrong["seen_after_wrong"], serde_json::json!([]));
+    assert_eq!(
+        resp.state().starts,
+        0,
+        "the wrong-type messages started nothing"
+    );
+    assert_eq!(
+        resp.slot_publishers()[0],
+        0,
+        "nor are they counted as publishers"
+    );
+    py.json_with("still_works").await;
+    assert_eq!(resp.state().starts, 1);
+    let mut answers = std::collections::BTreeMap::new();
+    for _ in 0..5 {
+        let a = py.json_with("request").await;
+        assert_eq!(a["ok"], false, "{a}");
+        answers.insert(
+            a["request"].as_str().unwrap().to_owned(),
+            a["error"].as_str().unwrap().to_owned(),
+        );
+    }
+    py.succeeds().await;
+    for (request, needles) in [
+        ("unknown source", vec!["/interop/nope/triggered", "running"]),
+        ("unknown target", vec!["/interop/nobody/start"]),
+        (
+            "type mismatch",
+            vec![
+                "/interop/tick/triggered",
+                "std_msgs/msg/Empty",
+                "/interop/say/start",
+                "std_msgs/msg/String",
+            ],
+        ),
+        ("invalid name", vec!["bad-name!", "invalid ROS name"]),
+        ("invalid kind", vec!["neither ONCE"]),
+    ] {
+        let e = &answers[request];
+        for n in needles {
+            assert!(e.contains(n), "{request}: {n:?} missing from {e:?}");
+        }
+    }
+}

