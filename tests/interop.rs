@@ -150,23 +150,33 @@ fn slow_response(r: &Radar, name: &str) -> radar_ros::ResponseHandle {
     .unwrap()
 }
 
-/// Scenario 1: rclpy sees radar_ros's nodes, topics with types, and the manager's services with types.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rclpy_sees_the_radar_graph() {
-    let r = radar(94);
-    let _ev = r
-        .spawn_event(
-            "/interop/bumper",
-            TimerEvent::new(Duration::from_millis(100)),
-        )
+/// An event `ev` (Empty, every 100 ms), a response `/interop/say` (String in, the same String out) and a
+/// manager node `/radar_manager`, kept alive by the returned handles.
+fn graph_with_manager(
+    r: &Radar,
+    ev: &str,
+) -> (
+    radar_ros::EventHandle,
+    radar_ros::ResponseHandle,
+    radar_ros::ManagerHandle,
+) {
+    let e = r
+        .spawn_event(ev, TimerEvent::new(Duration::from_millis(100)))
         .unwrap();
-    let _resp = r
+    let say = r
         .spawn_response(
             "/interop/say",
             FnResponse::new(|s: StringMsg| async move { Ok(s) }),
         )
         .unwrap();
-    let _m = r.serve_manager("/radar_manager").unwrap();
+    (e, say, r.serve_manager("/radar_manager").unwrap())
+}
+
+/// Scenario 1: rclpy sees radar_ros's nodes, topics with types, and the manager's services with types.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rclpy_sees_the_radar_graph() {
+    let r = radar(94);
+    let _graph = graph_with_manager(&r, "/interop/bumper");
     let mut py = Py::interop(
         94,
         &[
@@ -466,16 +476,7 @@ async fn rclpy_gets_the_latched_state_on_subscribing() {
 async fn bad_input_from_rclpy_is_refused_with_reasons() {
     let r = radar(100);
     let resp = slow_response(&r, "/interop/guarded");
-    let _tick = r
-        .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
-        .unwrap();
-    let _say = r
-        .spawn_response(
-            "/interop/say",
-            FnResponse::new(|s: StringMsg| async move { Ok(s) }),
-        )
-        .unwrap();
-    let _m = r.serve_manager("/radar_manager").unwrap();
+    let _graph = graph_with_manager(&r, "/interop/tick");
     let mut py = Py::interop(
         100,
         &[

@@ -12,6 +12,7 @@ import argparse
 import sys
 
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, DurabilityPolicy, HistoryPolicy
 from std_msgs.msg import Empty
@@ -49,22 +50,26 @@ class RadarEvent(Node):
             print(f"triggered {self.count}", flush=True)
 
 
+def run(node):
+    """Spins `node` until Ctrl-C or shutdown, then cleans up (shared by the examples)."""
+    print("up", flush=True)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("name", help="the event's name, e.g. /robot/bumper")
     p.add_argument("--period", type=float, default=0.1)
     a = p.parse_args()
     rclpy.init()
-    node = RadarEvent(a.name, a.period)
-    print("up", flush=True)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(RadarEvent(a.name, a.period))
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import rclpy
 from rclpy.node import Node
 from std_msgs.msg import Empty
 
-from radar_event import SIGNAL_QOS
+from radar_event import SIGNAL_QOS, run
 
 
 class RadarResponse(Node):
@@ -72,16 +72,7 @@ def main():
     p.add_argument("--duration", type=float, default=0.2)
     a = p.parse_args()
     rclpy.init()
-    node = RadarResponse(a.name, a.duration)
-    print("up", flush=True)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run(RadarResponse(a.name, a.duration))
 
 
 if __name__ == "__main__":

@@ -191,6 +191,7 @@ def bad_input(node, a):
         spin_for(node, 0.05)
     spin_for(node, 0.5)
     out(wrong_type_matched=wrong.get_subscription_count(), seen_after_wrong=list(rec.seen))
+    sys.stdin.readline()  # the test checks the Rust side while the wrong publisher is the only one
     node.destroy_publisher(wrong)
     # the response still works
     one_shot(node, Empty, f"{a.response}/start", Empty())
