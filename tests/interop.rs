@@ -7,10 +7,7 @@
 use std::{
     path::PathBuf,
     process::Stdio,
-    sync::{
-        atomic::{AtomicU64, Ordering},
-        Arc, Mutex,
-    },
+    sync::{atomic::Ordering, Arc, Mutex},
     time::Duration,
 };
 
@@ -18,7 +15,7 @@ use radar_ros::{
     msg::{ConnectionList, Empty, StringMsg},
     FnResponse, Radar, TimerEvent,
 };
-use radar_test_util::{eventually, radar};
+use radar_test_util::{counter, eventually, radar};
 use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
@@ -72,6 +69,13 @@ impl Py {
             lines,
             what: format!("{script} {}", args.join(" ")),
         }
+    }
+
+    /// Starts one of `examples/python/` and waits until it says it is up.
+    async fn example(domain: u16, script: &str, args: &[&str]) -> Py {
+        let mut py = Py::start(domain, &format!("examples/python/{script}"), args);
+        py.expect_line("up").await;
+        py
     }
 
     fn interop(domain: u16, args: &[&str]) -> Py {
@@ -286,23 +290,13 @@ async fn rclpy_injects_into_slots_and_sees_the_signals_in_order() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_rclpy_event_drives_a_rust_response() {
     let r = radar(96);
-    let runs = Arc::new(AtomicU64::new(0));
-    let n = runs.clone();
-    let resp = r
-        .spawn_response(
-            "/interop/count",
-            FnResponse::new(move |_: Empty| {
-                n.fetch_add(1, Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
-    let mut ev = Py::start(
+    let (resp, runs) = counter(&r, "/interop/count");
+    let mut ev = Py::example(
         96,
-        "examples/python/radar_event.py",
+        "radar_event.py",
         &["/interop/py_bumper", "--period", "0.05"],
-    );
-    ev.expect_line("up").await;
+    )
+    .await;
     let found = r.event("/interop/py_bumper").await.unwrap();
     assert_eq!(found.triggered().ros_type(), "std_msgs/msg/Empty");
     {
@@ -331,12 +325,12 @@ async fn a_rust_event_drives_an_rclpy_response() {
     let tick = r
         .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
         .unwrap();
-    let mut resp = Py::start(
+    let mut resp = Py::example(
         97,
-        "examples/python/radar_response.py",
+        "radar_response.py",
         &["/interop/py_dock", "--duration", "0.1"],
-    );
-    resp.expect_line("up").await;
+    )
+    .await;
     let dock = r.response("/interop/py_dock").await.unwrap();
     assert_eq!(dock.start_slot().ros_type(), "std_msgs/msg/Empty");
     let _c = r.once(tick.triggered()).start(&dock).await.unwrap();
@@ -347,12 +341,12 @@ async fn a_rust_event_drives_an_rclpy_response() {
     let stop = r
         .spawn_event("/interop/stop", TimerEvent::new(Duration::from_millis(300)))
         .unwrap();
-    let mut slow = Py::start(
+    let mut slow = Py::example(
         97,
-        "examples/python/radar_response.py",
+        "radar_response.py",
         &["/interop/py_slow", "--duration", "30"],
-    );
-    slow.expect_line("up").await;
+    )
+    .await;
     let slow_ref = r.response("/interop/py_slow").await.unwrap();
     let _u = r
         .once(tick.triggered())
@@ -375,12 +369,7 @@ async fn an_rclpy_program_makes_connections_through_the_manager_services() {
     let _tick = r
         .spawn_event("/interop/tick", TimerEvent::new(Duration::from_millis(100)))
         .unwrap();
-    let count = r
-        .spawn_response(
-            "/interop/count",
-            FnResponse::new(|_: Empty| async { Ok(Empty::default()) }),
-        )
-        .unwrap();
+    let (count, _) = counter(&r, "/interop/count");
     let _m = r.serve_manager("/radar_manager").unwrap();
     let mut py = Py::interop(
         98,
