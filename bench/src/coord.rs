@@ -1,0 +1,743 @@
+//! The coordinator: starts the processes of each scenario, drives them, and collects the numbers.
+
+use std::{
+    path::{Path, PathBuf},
+    time::{Duration, Instant},
+};
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use serde::Serialize;
+use serde_json::Value;
+
+use crate::{
+    proto::{cpu_time, Child},
+    stats::{summarize, Summary},
+};
+
+/// What to run and where to write.
+#[derive(Clone, Debug)]
+pub struct Opts {
+    /// Seconds instead of minutes: fewer samples, shorter windows, smaller scale.
+    pub quick: bool,
+    /// First `ROS_DOMAIN_ID`; each scenario uses the next one.
+    pub domain: u16,
+    /// Only scenarios whose name starts with one of these (all when empty).
+    pub only: Vec<String>,
+    /// The venv with rclpy (for the rclpy baseline).
+    pub venv: PathBuf,
+}
+
+/// Sizes of one mode.
+struct Plan {
+    latency_n: u64,
+    warmup: u64,
+    period_us: u64,
+    interrupt_n: u64,
+    setup_n: usize,
+    fresh_n: usize,
+    rates: Vec<f64>,
+    window_ms: u64,
+    fanouts: Vec<usize>,
+    scale: (usize, usize, usize),
+    idle_ms: u64,
+}
+
+impl Plan {
+    fn new(quick: bool) -> Plan {
+        if quick {
+            Plan {
+                latency_n: 300,
+                warmup: 20,
+                period_us: 2000,
+                interrupt_n: 50,
+                setup_n: 20,
+                fresh_n: 5,
+                rates: vec![500.0, 2000.0],
+                window_ms: 300,
+                fanouts: vec![1, 100],
+                scale: (50, 50, 500),
+                idle_ms: 300,
+            }
+        } else {
+            Plan {
+                latency_n: 10_000,
+                warmup: 200,
+                period_us: 1000,
+                interrupt_n: 2000,
+                setup_n: 200,
+                fresh_n: 30,
+                rates: vec![
+                    1000.0, 2000.0, 5000.0, 10_000.0, 20_000.0, 50_000.0, 100_000.0,
+                ],
+                window_ms: 2000,
+                fanouts: vec![1, 100, 1000],
+                scale: (1000, 1000, 10_000),
+                idle_ms: 3000,
+            }
+        }
+    }
+}
+
+/// One latency distribution.
+#[derive(Clone, Debug, Serialize)]
+pub struct Latency {
+    /// Short key, e.g. `radar_manager_process`.
+    pub key: String,
+    /// What was measured.
+    pub label: String,
+    /// The distribution.
+    pub summary: Summary,
+    /// Samples expected but not measured (lost, ignored, timed out).
+    pub missing: u64,
+    /// Notes for the table.
+    pub note: String,
+    /// The raw samples (ns), for plots; not written to JSON.
+    #[serde(skip)]
+    pub samples: Vec<u64>,
+}
+
+/// One step of a throughput ladder.
+#[derive(Clone, Debug, Serialize)]
+pub struct Step {
+    /// Offered rate (signals per second, all connections together).
+    pub rate: f64,
+    /// Published.
+    pub sent: u64,
+    /// Arrived at the sinks.
+    pub received: u64,
+    /// CPU of the relaying process (share of one core) during the step; 0 for one hop.
+    pub relay_cpu: f64,
+}
+
+/// One throughput ladder.
+#[derive(Clone, Debug, Serialize)]
+pub struct Throughput {
+    /// Short key.
+    pub key: String,
+    /// What was measured.
+    pub label: String,
+    /// Live connections (relayed topics).
+    pub connections: usize,
+    /// Highest offered rate with every signal delivered (0 if none).
+    pub max_lossless: f64,
+    /// Relay CPU at that rate.
+    pub relay_cpu: f64,
+    /// Every step run.
+    pub steps: Vec<Step>,
+}
+
+/// Everything one run measured.
+#[derive(Debug, Default, Serialize)]
+pub struct Results {
+    /// Mode, build profile, machine.
+    pub meta: Value,
+    /// Latencies of signals (trigger to start, interrupt, baselines).
+    pub latency: Vec<Latency>,
+    /// Connection setup and teardown times.
+    pub setup: Vec<Latency>,
+    /// Throughput ladders.
+    pub throughput: Vec<Throughput>,
+    /// The scale scenario's report.
+    pub scale: Option<Value>,
+    /// Scenarios that failed, with why.
+    pub errors: Vec<String>,
+}
+
+/// The whole run.
+pub struct Bench {
+    opts: Opts,
+    plan: Plan,
+    exe: PathBuf,
+    next_domain: u16,
+    /// What was measured so far.
+    pub results: Results,
+}
+
+const START: Duration = Duration::from_secs(30);
+
+impl Bench {
+    /// A run with `opts`.
+    pub fn new(opts: Opts) -> Result<Bench> {
+        let exe = std::env::current_exe().context("finding this program")?;
+        let plan = Plan::new(opts.quick);
+        let meta = serde_json::json!({
+            "mode": if opts.quick { "quick" } else { "full" },
+            "profile": if cfg!(debug_assertions) { "debug" } else { "release" },
+            "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0),
+            "latency_signals": plan.latency_n,
+            "latency_period_us": plan.period_us,
+            "throughput_window_ms": plan.window_ms,
+        });
+        Ok(Bench {
+            next_domain: opts.domain,
+            opts,
+            plan,
+            exe,
+            results: Results {
+                meta,
+                ..Default::default()
+            },
+        })
+    }
+
+    fn wants(&self, key: &str) -> bool {
+        self.opts.only.is_empty() || self.opts.only.iter().any(|o| key.starts_with(o.as_str()))
+    }
+
+    fn domain(&mut self) -> u16 {
+        let d = self.next_domain;
+        self.next_domain += 1;
+        d
+    }
+
+    async fn child(&self, domain: u16, args: &[&str]) -> Result<Child> {
+        let mut all = vec!["child"];
+        all.extend_from_slice(args);
+        Child::start(&self.exe, &all, domain, &[], START).await
+    }
+
+    async fn python(&self, domain: u16, args: &[&str]) -> Result<Child> {
+        let py = self.opts.venv.join("bin/python");
+        if !py.exists() {
+            bail!(
+                "the rclpy venv is missing at {}: run tests/python_env.sh (or pass --venv DIR)",
+                self.opts.venv.display()
+            );
+        }
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/rclpy_hop.py");
+        let script = script.to_string_lossy().into_owned();
+        let mut all = vec![script.as_str()];
+        all.extend_from_slice(args);
+        Child::start(
+            &py,
+            &all,
+            domain,
+            &[
+                ("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp"),
+                ("PYTHONUNBUFFERED", "1"),
+            ],
+            START,
+        )
+        .await
+    }
+
+    /// Runs every scenario (or those `--only` names); a failing scenario is recorded and the rest go on.
+    pub async fn run_all(&mut self) {
+        type Scenario = (
+            &'static str,
+            fn(&mut Bench) -> futures::future::BoxFuture<'_, Result<()>>,
+        );
+        let scenarios: Vec<Scenario> = vec![
+            ("latency", |b| Box::pin(b.latency())),
+            ("interrupt", |b| Box::pin(b.interrupt())),
+            ("setup", |b| Box::pin(b.setup())),
+            ("throughput", |b| Box::pin(b.throughput())),
+            ("scale", |b| Box::pin(b.scale())),
+        ];
+        for (key, f) in scenarios {
+            if !self.wants(key) {
+                continue;
+            }
+            eprintln!("radar_bench: {key} ...");
+            let t = Instant::now();
+            if let Err(e) = f(self).await {
+                eprintln!("radar_bench: {key} FAILED: {e:#}");
+                self.results.errors.push(format!("{key}: {e:#}"));
+            }
+            eprintln!("radar_bench: {key} took {:.1} s", t.elapsed().as_secs_f64());
+        }
+    }
+
+    fn run_timeout(&self, n: u64) -> Duration {
+        Duration::from_micros(n * self.plan.period_us) + Duration::from_secs(60)
+    }
+
+    /// Sends `run` to `source`, waits for the deliveries to drain, and reads `sink`'s report.
+    async fn paced(&self, source: &mut Child, run: &str, sink: &mut Child) -> Result<Value> {
+        let n = self.plan.latency_n + self.plan.warmup;
+        source.ask(run, self.run_timeout(n)).await?;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        sink.ask_json(&format!("report {}", self.plan.warmup), START)
+            .await
+    }
+
+    fn push_latency(
+        &mut self,
+        key: &str,
+        label: &str,
+        report: &Value,
+        extra_note: &str,
+    ) -> Result<()> {
+        let samples: Vec<u64> =
+            serde_json::from_value(report["lat_ns"].clone()).context("a report without lat_ns")?;
+        let summary =
+            summarize(&samples).ok_or_else(|| anyhow!("{label}: no signal arrived ({report})"))?;
+        let missing = self.plan.latency_n.saturating_sub(samples.len() as u64);
+        self.results.latency.push(Latency {
+            key: key.into(),
+            label: label.into(),
+            summary,
+            missing,
+            note: extra_note.into(),
+            samples,
+        });
+        Ok(())
+    }
+
+    /// Trigger -> start latency through radar_ros, and the three baselines.
+    async fn latency(&mut self) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        let run = format!("run {n} {p}");
+        // raw ros2-client, one hop
+        let d = self.domain();
+        let mut sink = self
+            .child(d, &["raw-sink", "--topic", "/bench/lat"])
+            .await?;
+        let mut src = self
+            .child(d, &["raw-source", "--topic", "/bench/lat"])
+            .await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, &run, &mut sink).await?;
+        self.push_latency(
+            "raw_1hop",
+            "raw ros2-client, 1 hop (publisher -> subscriber)",
+            &r,
+            "",
+        )?;
+        src.quit().await;
+        sink.quit().await;
+        // raw, two hops through a forwarding node
+        let d = self.domain();
+        let mut sink = self
+            .child(d, &["raw-sink", "--topic", "/bench/lat"])
+            .await?;
+        let fwd = self
+            .child(
+                d,
+                &[
+                    "raw-forward",
+                    "--from",
+                    "/bench/lat_in",
+                    "--to",
+                    "/bench/lat",
+                ],
+            )
+            .await?;
+        let mut src = self
+            .child(d, &["raw-source", "--topic", "/bench/lat_in"])
+            .await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, &run, &mut sink).await?;
+        self.push_latency(
+            "raw_2hop",
+            "raw ros2-client, 2 hops (through a forwarding node)",
+            &r,
+            "",
+        )?;
+        for c in [src, fwd, sink] {
+            c.quit().await;
+        }
+        // rclpy, one hop
+        let d = self.domain();
+        let py = async {
+            let mut sink = self.python(d, &["sink", "--topic", "/bench/lat"]).await?;
+            let mut src = self.python(d, &["source", "--topic", "/bench/lat"]).await?;
+            src.ask("wait", START).await?;
+            let r = self.paced(&mut src, &run, &mut sink).await?;
+            src.quit().await;
+            sink.quit().await;
+            Ok::<_, anyhow::Error>(r)
+        }
+        .await;
+        match py {
+            Ok(r) => self.push_latency(
+                "rclpy_1hop",
+                "rclpy, 1 hop (publisher -> subscriber)",
+                &r,
+                "",
+            )?,
+            Err(e) => self
+                .results
+                .errors
+                .push(format!("latency rclpy_1hop: {e:#}")),
+        }
+        // radar_ros: event -> manager in a third process -> response
+        let d = self.domain();
+        let mut ev = self.child(d, &["events", "--names", "/bench/ev"]).await?;
+        let mut resp = self
+            .child(d, &["response", "--name", "/bench/resp"])
+            .await?;
+        let mut mgr = self.child(d, &["manager"]).await?;
+        mgr.ask("connect /bench/ev /bench/resp", START).await?;
+        ev.ask("active /bench/ev", START).await?;
+        let r = self
+            .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
+            .await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        self.push_latency(
+            "radar_manager_process",
+            "radar_ros trigger -> start, manager in a third process",
+            &r,
+            &note,
+        )?;
+        for c in [mgr, resp, ev] {
+            c.quit().await;
+        }
+        // radar_ros: the response's process makes the connection (embedded manager)
+        let d = self.domain();
+        let mut ev = self.child(d, &["events", "--names", "/bench/ev"]).await?;
+        let mut resp = self
+            .child(
+                d,
+                &[
+                    "response",
+                    "--name",
+                    "/bench/resp",
+                    "--connect",
+                    "/bench/ev",
+                ],
+            )
+            .await?;
+        ev.ask("active /bench/ev", START).await?;
+        let r = self
+            .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
+            .await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        self.push_latency(
+            "radar_embedded",
+            "radar_ros trigger -> start, manager embedded in the response's process",
+            &r,
+            &note,
+        )?;
+        for c in [resp, ev] {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// `interrupt` published -> `interrupted` emitted (the start behaviour cancelled, the slot begun).
+    async fn interrupt(&mut self) -> Result<()> {
+        let d = self.domain();
+        let mut long = self
+            .child(d, &["long-response", "--name", "/bench/long"])
+            .await?;
+        let mut drv = self
+            .child(d, &["interrupter", "--name", "/bench/long"])
+            .await?;
+        let (n, w) = (
+            self.plan.interrupt_n,
+            self.plan.warmup.min(self.plan.interrupt_n / 5),
+        );
+        let sent = drv
+            .ask_json(&format!("run {}", n + w), Duration::from_secs(60 + n / 50))
+            .await?;
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        let at = long.ask_json("report", START).await?;
+        let sent: Vec<(u64, u64)> = serde_json::from_value(sent["sent"].clone())?;
+        let at: std::collections::HashMap<u64, u64> =
+            serde_json::from_value::<Vec<(u64, u64)>>(at["at"].clone())?
+                .into_iter()
+                .collect();
+        let lat: Vec<u64> = sent
+            .iter()
+            .filter(|(seq, _)| *seq >= w)
+            .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
+            .collect();
+        let report = serde_json::json!({ "lat_ns": lat });
+        self.push_latency(
+            "radar_interrupt",
+            "radar_ros interrupt -> interrupted (start behaviour cancelled), 1 hop",
+            &report,
+            "",
+        )?;
+        let last = self.results.latency.last_mut().unwrap();
+        last.missing = n.saturating_sub(lat.len() as u64);
+        drv.quit().await;
+        long.quit().await;
+        Ok(())
+    }
+
+    fn push_setup(&mut self, key: &str, label: &str, samples: Vec<u64>) -> Result<()> {
+        let summary = summarize(&samples).ok_or_else(|| anyhow!("{label}: no samples"))?;
+        self.results.setup.push(Latency {
+            key: key.into(),
+            label: label.into(),
+            summary,
+            missing: 0,
+            note: String::new(),
+            samples,
+        });
+        Ok(())
+    }
+
+    /// Connection setup (known source, source with a live relay, never-seen source) and disconnect.
+    async fn setup(&mut self) -> Result<()> {
+        let d = self.domain();
+        let mut ev = self
+            .child(d, &["events", "--names", "/bench/setup_a,/bench/setup_b"])
+            .await?;
+        let resp = self
+            .child(d, &["response", "--name", "/bench/resp"])
+            .await?;
+        let mut mgr = self.child(d, &["manager"]).await?;
+        let m = self.plan.setup_n;
+        let long = Duration::from_secs(60 + m as u64);
+        let known = mgr
+            .ask_json(&format!("setup-known /bench/setup_b /bench/resp {m}"), long)
+            .await?;
+        let live = mgr
+            .ask_json(&format!("setup-live /bench/setup_a /bench/resp {m}"), long)
+            .await?;
+        let mut fresh = Vec::new();
+        let mut fresh_found = Vec::new();
+        for i in 0..self.plan.fresh_n {
+            let name = format!("/bench/fresh_{i}");
+            mgr.send(&format!("setup-fresh {name} /bench/resp")).await?;
+            // the manager is looking for it before it exists
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            let spawned: u64 = ev
+                .ask(&format!("spawn {name}"), START)
+                .await?
+                .strip_prefix("spawned ")
+                .and_then(|t| t.parse().ok())
+                .ok_or_else(|| anyhow!("bad spawn answer"))?;
+            let a: Value = serde_json::from_str(&mgr.answer(START).await?)?;
+            let (found, armed) = (
+                a["found"].as_u64().unwrap_or(0),
+                a["armed"].as_u64().unwrap_or(0),
+            );
+            fresh_found.push(found.saturating_sub(spawned));
+            fresh.push(armed.saturating_sub(spawned));
+        }
+        let v =
+            |j: &Value, k: &str| -> Result<Vec<u64>> { Ok(serde_json::from_value(j[k].clone())?) };
+        self.push_setup(
+            "setup_known",
+            "whenever -> armed, source known (looked up before, no relay reader yet)",
+            v(&known, "setup")?,
+        )?;
+        self.push_setup(
+            "setup_live",
+            "whenever -> armed, source already relayed by another connection",
+            v(&live, "setup")?,
+        )?;
+        self.push_setup(
+            "setup_fresh",
+            "event starts in another process -> connection armed (source never seen)",
+            fresh,
+        )?;
+        self.push_setup(
+            "setup_fresh_found",
+            "event starts in another process -> found by name (part of the line above)",
+            fresh_found,
+        )?;
+        self.push_setup(
+            "activate",
+            "armed -> the event reports itself active (its state topic, 1 hop)",
+            v(&known, "activate")?,
+        )?;
+        self.push_setup(
+            "disconnect",
+            "guard dropped (disconnect call returns)",
+            v(&known, "disconnect")?,
+        )?;
+        self.push_setup(
+            "deactivate",
+            "guard dropped -> the event reports itself inactive (checking stopped)",
+            v(&known, "deactivate")?,
+        )?;
+        for c in [mgr, resp, ev] {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// Steps through the offered rates until a step loses signals.
+    async fn ladder(
+        &self,
+        src: &mut Child,
+        sink: &mut Child,
+        relay: Option<u32>,
+    ) -> Result<(f64, f64, Vec<Step>)> {
+        let mut steps = Vec::new();
+        let (mut best, mut best_cpu) = (0.0, 0.0);
+        let count = |s: String| s.parse::<u64>().map_err(|_| anyhow!("bad count {s:?}"));
+        for &rate in &self.plan.rates {
+            let base = count(sink.ask("count", START).await?)?;
+            let cpu0 = relay.map(cpu_time).transpose()?.unwrap_or_default();
+            let t = Instant::now();
+            let sent = count(
+                src.ask(
+                    &format!("rate {rate} {}", self.plan.window_ms),
+                    Duration::from_millis(self.plan.window_ms) + START,
+                )
+                .await?,
+            )?;
+            // wait until everything arrived, or nothing more arrives for 500 ms
+            let (mut last, mut since) = (u64::MAX, Instant::now());
+            let mut got;
+            loop {
+                got = count(sink.ask("count", START).await?)? - base;
+                if got >= sent || since.elapsed() > Duration::from_millis(500) {
+                    break;
+                }
+                if got != last {
+                    last = got;
+                    since = Instant::now();
+                }
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
+            let wall = t.elapsed().as_secs_f64();
+            let cpu = match relay {
+                Some(pid) => (cpu_time(pid)? - cpu0).as_secs_f64() / wall,
+                None => 0.0,
+            };
+            steps.push(Step {
+                rate,
+                sent,
+                received: got,
+                relay_cpu: cpu,
+            });
+            if got < sent {
+                break;
+            }
+            (best, best_cpu) = (rate, cpu);
+        }
+        Ok((best, best_cpu, steps))
+    }
+
+    fn push_throughput(&mut self, key: &str, label: &str, n: usize, r: (f64, f64, Vec<Step>)) {
+        self.results.throughput.push(Throughput {
+            key: key.into(),
+            label: label.into(),
+            connections: n,
+            max_lossless: r.0,
+            relay_cpu: r.1,
+            steps: r.2,
+        });
+    }
+
+    /// The most signals per second forwarded with no loss.
+    async fn throughput(&mut self) -> Result<()> {
+        // raw one hop
+        let d = self.domain();
+        let mut sink = self
+            .child(d, &["sinks", "--prefix", "/bench/sink", "--count", "1"])
+            .await?;
+        let mut src = self
+            .child(d, &["raw-source", "--topic", "/bench/sink_0/start"])
+            .await?;
+        src.ask("wait", START).await?;
+        let r = self.ladder(&mut src, &mut sink, None).await?;
+        self.push_throughput("raw_1hop", "raw ros2-client, 1 hop", 1, r);
+        src.quit().await;
+        sink.quit().await;
+        // raw two hops
+        let d = self.domain();
+        let mut sink = self
+            .child(d, &["sinks", "--prefix", "/bench/sink", "--count", "1"])
+            .await?;
+        let fwd = self
+            .child(
+                d,
+                &[
+                    "raw-forward",
+                    "--from",
+                    "/bench/src_0/triggered",
+                    "--to",
+                    "/bench/sink_0/start",
+                ],
+            )
+            .await?;
+        let mut src = self
+            .child(d, &["raw-source", "--topic", "/bench/src_0/triggered"])
+            .await?;
+        src.ask("wait", START).await?;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let pid = fwd.pid();
+        let r = self.ladder(&mut src, &mut sink, Some(pid)).await?;
+        self.push_throughput(
+            "raw_2hop",
+            "raw ros2-client, 2 hops (forwarding node)",
+            1,
+            r,
+        );
+        for c in [src, fwd, sink] {
+            c.quit().await;
+        }
+        // through a radar_ros manager in its own process, with N live connections
+        for n in self.plan.fanouts.clone() {
+            let d = self.domain();
+            let ns = n.to_string();
+            let mut sink = self
+                .child(d, &["sinks", "--prefix", "/bench/sink", "--count", &ns])
+                .await?;
+            let mut src = self
+                .child(d, &["sources", "--prefix", "/bench/src", "--count", &ns])
+                .await?;
+            let mut mgr = self.child(d, &["manager"]).await?;
+            let armed = mgr
+                .ask(
+                    &format!("connect-many /bench/src /bench/sink {n}"),
+                    Duration::from_secs(300),
+                )
+                .await?;
+            eprintln!("radar_bench: {n} connections {armed} ms");
+            src.ask("wait", Duration::from_secs(60)).await?;
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            let pid = mgr.pid();
+            let r = self.ladder(&mut src, &mut sink, Some(pid)).await?;
+            self.push_throughput(
+                &format!("radar_{n}"),
+                &format!("radar_ros manager process, {n} live connection(s), load spread over all"),
+                n,
+                r,
+            );
+            for c in [mgr, src, sink] {
+                c.quit().await;
+            }
+        }
+        Ok(())
+    }
+
+    /// Many events, responses and connections in one process.
+    async fn scale(&mut self) -> Result<()> {
+        let d = self.domain();
+        let (e, r, c) = self.plan.scale;
+        let (es, rs, cs, idle) = (
+            e.to_string(),
+            r.to_string(),
+            c.to_string(),
+            self.plan.idle_ms.to_string(),
+        );
+        let mut s = Child::start(
+            &self.exe,
+            &[
+                "child",
+                "scale",
+                "--events",
+                &es,
+                "--responses",
+                &rs,
+                "--connections",
+                &cs,
+                "--idle-ms",
+                &idle,
+            ],
+            d,
+            &[],
+            Duration::from_secs(1200),
+        )
+        .await?;
+        let report = s.ask_json("report", START).await?;
+        s.quit().await;
+        self.results.scale = Some(report);
+        Ok(())
+    }
+}

@@ -1,0 +1,202 @@
+//! The line protocol between the coordinator and its child processes.
+//!
+//! A child prints `ready` once its endpoints exist, then reads one command per line on stdin and answers each
+//! with one line on stdout (`error <why>` when a command fails). Logs go to stderr. The coordinator side is
+//! [`Child`].
+
+use std::{path::Path, process::Stdio, time::Duration};
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
+
+/// Commands arriving on this process's stdin.
+pub struct Commands(Lines<BufReader<tokio::io::Stdin>>);
+
+impl Commands {
+    /// Starts reading stdin.
+    pub fn new() -> Commands {
+        Commands(BufReader::new(tokio::io::stdin()).lines())
+    }
+
+    /// The next command split into words; `None` at end of input or on `quit`.
+    pub async fn next(&mut self) -> Option<Vec<String>> {
+        loop {
+            let line = self.0.next_line().await.ok()??;
+            let words: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
+            match words.first().map(String::as_str) {
+                None => continue,
+                Some("quit") => return None,
+                Some(_) => return Some(words),
+            }
+        }
+    }
+}
+
+/// Answers the coordinator (one line).
+pub fn reply(line: impl std::fmt::Display) {
+    println!("{line}");
+}
+
+/// A child process of the coordinator, driven through its stdin and stdout.
+pub struct Child {
+    what: String,
+    child: tokio::process::Child,
+    stdin: tokio::process::ChildStdin,
+    lines: Lines<BufReader<tokio::process::ChildStdout>>,
+}
+
+impl Child {
+    /// Starts `program args...` with `ROS_DOMAIN_ID=domain` and waits up to `timeout` for its `ready` line.
+    pub async fn start(
+        program: &Path,
+        args: &[&str],
+        domain: u16,
+        envs: &[(&str, &str)],
+        timeout: Duration,
+    ) -> Result<Child> {
+        let what = format!(
+            "{} {}",
+            program.file_name().unwrap_or_default().to_string_lossy(),
+            args.join(" ")
+        );
+        let mut cmd = tokio::process::Command::new(program);
+        cmd.args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .kill_on_drop(true);
+        for (k, v) in envs {
+            cmd.env(k, v);
+        }
+        let mut child = cmd.spawn().with_context(|| format!("starting `{what}`"))?;
+        let stdin = child.stdin.take().expect("piped stdin");
+        let lines = BufReader::new(child.stdout.take().expect("piped stdout")).lines();
+        let mut c = Child {
+            what,
+            child,
+            stdin,
+            lines,
+        };
+        let first = c.line(timeout).await?;
+        if first != "ready" {
+            bail!("`{}` said {first:?} instead of `ready`", c.what);
+        }
+        Ok(c)
+    }
+
+    /// The process id (to read its CPU time).
+    pub fn pid(&self) -> u32 {
+        self.child.id().unwrap_or(0)
+    }
+
+    async fn line(&mut self, timeout: Duration) -> Result<String> {
+        match tokio::time::timeout(timeout, self.lines.next_line()).await {
+            Err(_) => bail!("`{}` did not answer within {timeout:?}", self.what),
+            Ok(Err(e)) => Err(anyhow!("reading from `{}`: {e}", self.what)),
+            Ok(Ok(None)) => {
+                let status = self.child.wait().await.ok();
+                bail!("`{}` exited ({status:?}); its stderr is above", self.what)
+            }
+            Ok(Ok(Some(l))) => Ok(l),
+        }
+    }
+
+    /// Sends one command without waiting for its answer (read it with [`Child::answer`]).
+    pub async fn send(&mut self, command: &str) -> Result<()> {
+        self.stdin
+            .write_all(format!("{command}\n").as_bytes())
+            .await
+            .with_context(|| format!("sending `{command}` to `{}`", self.what))?;
+        self.stdin.flush().await?;
+        Ok(())
+    }
+
+    /// The answer to the command sent last; an `error ...` answer becomes an error.
+    pub async fn answer(&mut self, timeout: Duration) -> Result<String> {
+        let answer = self.line(timeout).await?;
+        if let Some(why) = answer.strip_prefix("error ") {
+            bail!("`{}` failed: {why}", self.what);
+        }
+        Ok(answer)
+    }
+
+    /// Sends one command and returns the answer; an `error ...` answer becomes an error.
+    pub async fn ask(&mut self, command: &str, timeout: Duration) -> Result<String> {
+        self.send(command).await?;
+        self.answer(timeout)
+            .await
+            .with_context(|| format!("answering `{command}`"))
+    }
+
+    /// Sends `command` and parses the answer as JSON.
+    pub async fn ask_json(
+        &mut self,
+        command: &str,
+        timeout: Duration,
+    ) -> Result<serde_json::Value> {
+        let a = self.ask(command, timeout).await?;
+        serde_json::from_str(&a)
+            .with_context(|| format!("`{}` answered `{command}` with {a:?}", self.what))
+    }
+
+    /// Asks the child to quit and waits for it (killed after 5 s).
+    pub async fn quit(mut self) {
+        let _ = self.stdin.write_all(b"quit\n").await;
+        if tokio::time::timeout(Duration::from_secs(5), self.child.wait())
+            .await
+            .is_err()
+        {
+            let _ = self.child.kill().await;
+        }
+    }
+}
+
+/// CPU time (user + system) a process has used, from `/proc/<pid>/stat`.
+pub fn cpu_time(pid: u32) -> Result<Duration> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .with_context(|| format!("reading /proc/{pid}/stat"))?;
+    // fields after the `(comm)`, which may contain spaces
+    let rest = stat
+        .rsplit_once(')')
+        .map(|(_, r)| r)
+        .ok_or_else(|| anyhow!("unexpected /proc/{pid}/stat"))?;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of the whole line, 12 and 13 after `(comm)`
+    let ticks: u64 = f[11].parse::<u64>()? + f[12].parse::<u64>()?;
+    // SAFETY: sysconf has no preconditions.
+    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
+    Ok(Duration::from_nanos(ticks * 1_000_000_000 / hz))
+}
+
+/// This process's resident memory in bytes, from `/proc/self/status`.
+pub fn rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .unwrap_or(0)
+        * 1024
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_time_grows_when_this_process_works() {
+        let pid = std::process::id();
+        let before = cpu_time(pid).unwrap();
+        let t = std::time::Instant::now();
+        let mut x = 0u64;
+        while t.elapsed() < Duration::from_millis(100) {
+            x = x.wrapping_mul(31).wrapping_add(7);
+        }
+        std::hint::black_box(x);
+        assert!(cpu_time(pid).unwrap() > before);
+        assert!(rss_bytes() > 0);
+    }
+}

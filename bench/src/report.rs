@@ -1,0 +1,266 @@
+//! The table, the JSON and the CDF plots of a run.
+
+use std::{fmt::Write as _, path::Path};
+
+use anyhow::{Context as _, Result};
+use plotters::prelude::*;
+
+use crate::{coord::Results, stats::cdf};
+
+fn ratio(x: f64, base: Option<f64>) -> String {
+    match base {
+        Some(b) if b > 0.0 => format!("{:.2}x", x / b),
+        _ => "-".into(),
+    }
+}
+
+/// The results as Markdown tables (what `docs/benchmarks.md` shows).
+pub fn table(r: &Results) -> String {
+    let mut s = String::new();
+    let hop = r
+        .latency
+        .iter()
+        .find(|l| l.key == "raw_1hop")
+        .map(|l| l.summary.p50_us);
+    let _ = writeln!(
+        s,
+        "### Latency (microseconds; ratio = p50 / raw 1-hop p50)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| path | n | p50 | p90 | p99 | max | ratio | missing | note |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    for l in &r.latency {
+        let m = &l.summary;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {} | {} | {} |",
+            l.label,
+            m.n,
+            m.p50_us,
+            m.p90_us,
+            m.p99_us,
+            m.max_us,
+            ratio(m.p50_us, hop),
+            l.missing,
+            l.note
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n### Connections (milliseconds; ratio = p50 / raw 1-hop p50)\n"
+    );
+    let _ = writeln!(s, "| step | n | p50 | p90 | max | ratio |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+    for l in &r.setup {
+        let m = &l.summary;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} |",
+            l.label,
+            m.n,
+            m.p50_us / 1000.0,
+            m.p90_us / 1000.0,
+            m.max_us / 1000.0,
+            ratio(m.p50_us, hop)
+        );
+    }
+    let base = r
+        .throughput
+        .iter()
+        .find(|t| t.key == "raw_1hop")
+        .map(|t| t.max_lossless);
+    let _ = writeln!(
+        s,
+        "\n### Throughput (signals per second with none lost; ratio = / raw 1-hop)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    for t in &r.throughput {
+        let lossy = t
+            .steps
+            .iter()
+            .find(|st| st.received < st.sent)
+            .map(|st| format!("{:.0}/s: {} of {} arrived", st.rate, st.received, st.sent))
+            .unwrap_or_else(|| "none (highest step passed)".into());
+        let cpu = if t.key == "raw_1hop" {
+            "-".into()
+        } else {
+            format!("{:.0}% of a core", t.relay_cpu * 100.0)
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {} | {} | {} |",
+            t.label,
+            t.connections,
+            t.max_lossless,
+            ratio(t.max_lossless, base),
+            cpu,
+            lossy
+        );
+    }
+    if let Some(sc) = &r.scale {
+        let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
+        let _ = writeln!(
+            s,
+            "\n### Scale: {} events, {} responses, {} connections in one process\n",
+            sc["events"], sc["responses"], sc["connections"]
+        );
+        let _ = writeln!(s, "| measure | value |");
+        let _ = writeln!(s, "|---|---:|");
+        let rows = [
+            ("spawn all components", format!("{:.0} ms", f("spawn_ms"))),
+            (
+                "memory per component (RSS)",
+                format!("{:.1} KiB", f("bytes_per_component") / 1024.0),
+            ),
+            (
+                "create all connections (to armed)",
+                format!("{:.0} ms", f("connect_ms")),
+            ),
+            (
+                "memory per connection (RSS)",
+                format!("{:.2} KiB", f("bytes_per_connection") / 1024.0),
+            ),
+            (
+                "events active while connected",
+                format!("{}", sc["active_while_connected"]),
+            ),
+            ("drop all guards", format!("{:.1} ms", f("drop_ms"))),
+            (
+                "drop -> every event inactive",
+                format!("{:.0} ms", f("all_inactive_ms")),
+            ),
+            (
+                "events still active after teardown",
+                format!("{}", sc["still_active_after_teardown"]),
+            ),
+            (
+                "idle CPU, participant only",
+                format!("{:.2}% of a core", f("cpu_idle_empty") * 100.0),
+            ),
+            (
+                "idle CPU, components, no listeners",
+                format!("{:.2}% of a core", f("cpu_idle_components") * 100.0),
+            ),
+            (
+                "idle CPU, all connected, no signals",
+                format!("{:.2}% of a core", f("cpu_idle_connected") * 100.0),
+            ),
+            (
+                "RSS: participant / + components / + connections",
+                format!(
+                    "{:.1} / {:.1} / {:.1} MiB",
+                    f("rss_empty_bytes") / 1048576.0,
+                    f("rss_components_bytes") / 1048576.0,
+                    f("rss_connected_bytes") / 1048576.0
+                ),
+            ),
+        ];
+        for (k, v) in rows {
+            let _ = writeln!(s, "| {k} | {v} |");
+        }
+    }
+    if !r.errors.is_empty() {
+        let _ = writeln!(s, "\n### Failed\n");
+        for e in &r.errors {
+            let _ = writeln!(s, "- {e}");
+        }
+    }
+    s
+}
+
+/// Draws the CDFs of `series` (label, samples in ns) on a log-scale time axis.
+fn cdf_svg(path: &Path, title: &str, series: &[(&str, &[u64])], unit_ms: bool) -> Result<()> {
+    let scale = if unit_ms { 1000.0 } else { 1.0 };
+    let lines: Vec<(&str, Vec<(f64, f64)>)> = series
+        .iter()
+        .filter(|(_, s)| !s.is_empty())
+        .map(|(l, s)| {
+            (
+                *l,
+                cdf(s, 400)
+                    .into_iter()
+                    .map(|(x, y)| ((x / scale).max(1e-3), y))
+                    .collect(),
+            )
+        })
+        .collect();
+    let (lo, hi) = lines
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|(x, _)| *x))
+        .fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let (lo, hi) = if lo > hi {
+        (1.0, 10.0)
+    } else {
+        (lo * 0.8, hi * 1.25)
+    };
+    let root = SVGBackend::new(path, (900, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(52)
+        .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc(if unit_ms {
+            "milliseconds (log scale)"
+        } else {
+            "microseconds (log scale)"
+        })
+        .y_desc("fraction of signals at or below")
+        .draw()?;
+    for (i, (label, pts)) in lines.into_iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))?
+            .label(label)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Writes `results.json`, `table.md`, `latency_cdf.svg` and `setup_cdf.svg` into `dir`.
+pub fn write(r: &Results, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::write(dir.join("results.json"), serde_json::to_string_pretty(r)?)?;
+    std::fs::write(dir.join("table.md"), table(r))?;
+    let lat: Vec<(&str, &[u64])> = r
+        .latency
+        .iter()
+        .map(|l| (l.key.as_str(), l.samples.as_slice()))
+        .collect();
+    cdf_svg(
+        &dir.join("latency_cdf.svg"),
+        "Signal latency across processes (CDF)",
+        &lat,
+        false,
+    )?;
+    let setup: Vec<(&str, &[u64])> = r
+        .setup
+        .iter()
+        .map(|l| (l.key.as_str(), l.samples.as_slice()))
+        .collect();
+    cdf_svg(
+        &dir.join("setup_cdf.svg"),
+        "Connection setup and teardown (CDF)",
+        &setup,
+        true,
+    )?;
+    Ok(())
+}

@@ -1,0 +1,114 @@
+//! The benchmark harness itself works: `radar_bench quick` runs every scenario across processes over real
+//! DDS (rclpy included) and writes a complete, self-consistent report. Numbers are not judged here (the
+//! goals in docs/benchmarks.md are not asserted); what is checked is that every figure was really measured.
+//! Uses ROS_DOMAIN_ID 215-227.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+fn keys(list: &Value) -> Vec<String> {
+    list.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["key"].as_str().unwrap().to_owned())
+        .collect()
+}
+
+fn check_distribution(x: &Value) {
+    let s = &x["summary"];
+    let f = |k: &str| s[k].as_f64().unwrap();
+    assert!(s["n"].as_u64().unwrap() > 0, "{x}");
+    assert!(f("p50_us") > 0.0, "{x}");
+    assert!(
+        f("p50_us") <= f("p90_us") && f("p90_us") <= f("p99_us") && f("p99_us") <= f("max_us"),
+        "percentiles out of order: {x}"
+    );
+}
+
+#[test]
+fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
+    let out = std::env::temp_dir().join(format!("radar_bench_quick_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_radar_bench"))
+        .args(["quick", "--domain", "215", "--out"])
+        .arg(&out)
+        .status()
+        .expect("run radar_bench");
+    assert!(
+        status.success(),
+        "radar_bench quick failed (its output is above; outside tests/isolated.sh it refuses to run)"
+    );
+    let r: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(r["meta"]["mode"], "quick");
+    assert!(r["errors"].as_array().unwrap().is_empty(), "{}", r["errors"]);
+
+    assert_eq!(
+        keys(&r["latency"]),
+        [
+            "raw_1hop",
+            "raw_2hop",
+            "rclpy_1hop",
+            "radar_manager_process",
+            "radar_embedded",
+            "radar_interrupt"
+        ]
+    );
+    for l in r["latency"].as_array().unwrap() {
+        check_distribution(l);
+    }
+    // the paced latency runs send 300 signals each; nearly all must have been measured
+    for l in &r["latency"].as_array().unwrap()[..5] {
+        assert!(l["summary"]["n"].as_u64().unwrap() >= 290, "{l}");
+    }
+    assert_eq!(
+        keys(&r["setup"]),
+        [
+            "setup_known",
+            "setup_live",
+            "setup_fresh",
+            "setup_fresh_found",
+            "activate",
+            "disconnect",
+            "deactivate"
+        ]
+    );
+    for s in r["setup"].as_array().unwrap() {
+        check_distribution(s);
+    }
+
+    assert_eq!(
+        keys(&r["throughput"]),
+        ["raw_1hop", "raw_2hop", "radar_1", "radar_100"]
+    );
+    for t in r["throughput"].as_array().unwrap() {
+        let steps = t["steps"].as_array().unwrap();
+        assert!(!steps.is_empty(), "{t}");
+        // the lowest offered rate (500/s) goes through every path without loss, even in a debug build
+        assert_eq!(steps[0]["sent"], steps[0]["received"], "{t}");
+        assert!(t["max_lossless"].as_f64().unwrap() >= 500.0, "{t}");
+    }
+    assert_eq!(r["throughput"][3]["connections"], 100);
+    assert!(r["throughput"][2]["relay_cpu"].as_f64().unwrap() > 0.0);
+
+    let sc = &r["scale"];
+    assert_eq!(sc["connections"], 500);
+    assert_eq!(sc["active_while_connected"], sc["events"], "{sc}");
+    assert_eq!(sc["still_active_after_teardown"], 0, "{sc}");
+    assert!(sc["bytes_per_connection"].as_f64().unwrap() > 0.0, "{sc}");
+
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    for heading in ["### Latency", "### Connections", "### Throughput", "### Scale"] {
+        assert!(table.contains(heading), "{heading} missing from:\n{table}");
+    }
+    assert!(!table.contains("### Failed"));
+    for svg in ["latency_cdf.svg", "setup_cdf.svg"] {
+        let s = std::fs::read_to_string(Path::new(&out).join(svg)).unwrap();
+        assert!(s.starts_with("<svg"), "{svg}");
+        // one line per series, each with its legend entry
+        assert!(s.matches("<polyline").count() >= 4, "{svg} has too few lines");
+        assert!(s.contains("raw_1hop") || s.contains("setup_known"), "{svg} has no legend");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
