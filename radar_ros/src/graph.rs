@@ -60,6 +60,8 @@ pub(crate) struct Graph {
     /// Participants that left the graph (cleanly or by lease expiry).
     /// (RustDDS does not export `GuidPrefix`: a GUID carries it; compare `.prefix`.)
     lost: tokio::sync::broadcast::Sender<GUID>,
+    /// Bumped after every discovery event (an endpoint or participant found, matched or lost).
+    changed: Arc<watch::Sender<u64>>,
 }
 
 impl Default for Graph {
@@ -68,6 +70,7 @@ impl Default for Graph {
             table: Default::default(),
             participant: Default::default(),
             lost: tokio::sync::broadcast::channel(64).0,
+            changed: Arc::new(watch::channel(0).0),
         }
     }
 }
@@ -163,6 +166,12 @@ impl Graph {
             Some(e) if !e.rejected.is_empty() => !e.rejected.contains(&GUID::from(writer)),
             _ => true,
         }
+    }
+
+    /// Changes after every discovery event, so code waiting for something to appear on the graph can look
+    /// again at once instead of polling.
+    pub(crate) fn changes(&self) -> watch::Receiver<u64> {
+        self.changed.subscribe()
     }
 
     /// Tells of every participant that leaves the graph from now on.
@@ -349,7 +358,10 @@ impl Graph {
             tokio::select! {
                 _ = &mut stop => break,
                 ev = events.next() => match ev {
-                    Some(ev) => self.apply(ev),
+                    Some(ev) => {
+                        self.apply(ev);
+                        self.changed.send_modify(|g| *g = g.wrapping_add(1));
+                    }
                     None => break,
                 },
             }

@@ -112,7 +112,10 @@ impl Radar {
         let name = self.resolve(name)?;
         let kind = if want_event { "event" } else { "response" };
         let deadline = tokio::time::Instant::now() + timeout;
+        // look again after every discovery event (and every 100 ms, in case an event came before the data)
+        let mut changes = self.graph().changes();
         loop {
+            changes.mark_unchanged();
             let eps = self.graph().endpoints();
             match inspect(&eps, &name)? {
                 Some(Found::Event(_)) if !want_event => {
@@ -138,7 +141,13 @@ impl Radar {
                         candidates: candidates(&eps, &name.fully_qualified()),
                     })
                 }
-                None => tokio::time::sleep(Duration::from_millis(20)).await,
+                None => {
+                    let next = tokio::time::timeout(Duration::from_millis(100), changes.changed());
+                    if let Ok(Err(_)) = next.await {
+                        // the participant is closing: no more events, fall back to polling
+                        tokio::time::sleep(Duration::from_millis(20)).await;
+                    }
+                }
             }
         }
     }
