@@ -142,7 +142,7 @@ impl AsResponse for crate::ResponseHandle {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Target {
     Slot(String),
     Anon(u64),
@@ -285,7 +285,7 @@ impl Manager {
         let deliveries = st.table.on_signal_with(&topic.to_owned(), stamp, |id| {
             filters.get(&id).is_none_or(|f| f(&raw))
         });
-        for d in deliveries {
+        for d in &deliveries {
             let payload = match st.maps.get(&d.id) {
                 Some(map) => match map(&raw) {
                     Some(p) => p,
@@ -311,6 +311,14 @@ impl Manager {
                         q.push(payload);
                     }
                 }
+            }
+        }
+        // a `once` that fired is gone: forget its properties
+        for d in &deliveries {
+            if !st.table.contains(d.id) {
+                st.owners.remove(&d.id);
+                st.filters.remove(&d.id);
+                st.maps.remove(&d.id);
             }
         }
         self.prune(st);
@@ -371,50 +379,47 @@ impl Manager {
         self.changed.subscribe()
     }
 
-    /// Drops readers and writers that no connection (live or arming) needs: an event whose only listener was
-    /// a fired `once` deactivates.
+    /// Drops the readers and writers that no connection (live or arming) needs any more: an event whose only
+    /// listener was a fired `once` deactivates. Looks only at what the table released, so its cost does not
+    /// grow with the number of connections.
     fn prune(&self, st: &mut State) {
-        use std::collections::BTreeSet;
-        let sources = st.table.sources();
-        let mut slots = BTreeSet::new();
-        let mut anons = BTreeSet::new();
-        for t in st.table.targets() {
-            match t {
-                Target::Slot(s) => slots.insert(s),
-                Target::Anon(k) => anons.insert(k),
-            };
+        let (sources, targets) = st.table.take_released();
+        self.prune_keys(st, sources, targets);
+    }
+
+    /// Drops the readers of `sources` and the writers or anonymous queues of `targets` that nothing needs.
+    fn prune_keys(&self, st: &mut State, sources: Vec<String>, targets: Vec<Target>) {
+        for s in sources {
+            if !st.table.reads(&s) && !st.pending.contains_key(&s) {
+                st.readers.remove(&s);
+            }
         }
-        let pending = &st.pending;
-        st.readers
-            .retain(|t, _| sources.contains(t) || pending.contains_key(t));
-        let retire: Vec<String> = st
-            .writers
-            .keys()
-            .filter(|t| !slots.contains(*t) && !pending.contains_key(*t))
-            .cloned()
-            .collect();
-        if !retire.is_empty() {
-            let now = std::time::Instant::now();
-            for t in retire {
-                if let Some(w) = st.writers.remove(&t) {
-                    st.lingering.insert(t, (w, now));
+        let mut retired = false;
+        for t in targets {
+            if st.table.writes(&t) {
+                continue;
+            }
+            match t {
+                Target::Slot(k) => {
+                    if st.pending.contains_key(&k) {
+                        continue;
+                    }
+                    if let Some(w) = st.writers.remove(&k) {
+                        st.lingering.insert(k, (w, std::time::Instant::now()));
+                        retired = true;
+                    }
+                }
+                // closing the queue lets a delivery already queued (a `once` that just fired) still run
+                Target::Anon(k) => {
+                    if let Some(q) = st.anon.remove(&k) {
+                        q.close();
+                    }
                 }
             }
+        }
+        if retired {
             self.retired.notify_one();
         }
-        // closing the queue lets a delivery already queued (a `once` that just fired) still run
-        st.anon.retain(|k, q| {
-            let keep = anons.contains(k);
-            if !keep {
-                q.close();
-            }
-            keep
-        });
-        let live: std::collections::BTreeSet<ConnId> =
-            st.table.list().iter().map(|c| c.id).collect();
-        st.owners.retain(|id, _| live.contains(id));
-        st.filters.retain(|id, _| live.contains(id));
-        st.maps.retain(|id, _| live.contains(id));
     }
 
     fn reader(
@@ -616,25 +621,25 @@ impl Manager {
             }
         }
         self.prune(st);
+        // endpoints made for a statement that failed, or held while it armed
+        let slots = held.iter().cloned().map(Target::Slot).collect();
+        self.prune_keys(st, held.to_vec(), slots);
     }
 
     /// The guard dropped: remove the connection, and cancel anonymous-slot calls it has not begun.
     fn remove(&self, id: ConnId) {
         let mut st = self.state.lock().unwrap();
-        let anon = st
-            .table
-            .list()
-            .into_iter()
-            .find(|c| c.id == id)
-            .and_then(|c| match c.target {
-                Target::Anon(k) => Some(k),
-                Target::Slot(_) => None,
-            });
+        let anon = match st.table.target(id) {
+            Some(Target::Anon(k)) => Some(*k),
+            _ => None,
+        };
         if let Some(q) = anon.and_then(|k| st.anon.get(&k)) {
             q.cancel();
         }
         st.table.remove(id);
         st.owners.remove(&id);
+        st.filters.remove(&id);
+        st.maps.remove(&id);
         self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);

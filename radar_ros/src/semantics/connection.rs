@@ -116,10 +116,23 @@ pub struct ConnInfo<S, T> {
 }
 
 /// The live connections of one manager.
+///
+/// A signal visits only the connections that listen to its source (an index by source), and the table keeps
+/// a count of the connections that need each source and target, so a runtime learns which readers and writers
+/// it may drop from [`ConnectionTable::take_released`] without scanning every connection: the cost of a
+/// signal or a removal does not grow with the number of unrelated connections.
 #[derive(Debug)]
 pub struct ConnectionTable<S, T> {
     next: ConnId,
     conns: BTreeMap<ConnId, Conn<S, T>>,
+    /// Source -> the connections whose delivery or `until` window that source's signals can change.
+    by_source: BTreeMap<S, BTreeSet<ConnId>>,
+    /// Sources that must be read, with how many connections need each.
+    reads: BTreeMap<S, usize>,
+    /// Slots that live connections may deliver to, with how many connections.
+    writes: BTreeMap<T, usize>,
+    /// Sources and targets whose count fell to zero since the last [`ConnectionTable::take_released`].
+    released: (Vec<S>, Vec<T>),
 }
 
 impl<S, T> Default for ConnectionTable<S, T> {
@@ -127,11 +140,56 @@ impl<S, T> Default for ConnectionTable<S, T> {
         ConnectionTable {
             next: 1,
             conns: BTreeMap::new(),
+            by_source: BTreeMap::new(),
+            reads: BTreeMap::new(),
+            writes: BTreeMap::new(),
+            released: (Vec::new(), Vec::new()),
         }
     }
 }
 
-impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
+fn count_up<K: Ord>(m: &mut BTreeMap<K, usize>, k: K) {
+    *m.entry(k).or_default() += 1;
+}
+
+/// Decrements `k`'s count; when it reaches zero the key is removed and pushed to `released`.
+fn count_down<K: Ord + Clone>(m: &mut BTreeMap<K, usize>, k: &K, released: &mut Vec<K>) {
+    if let Some(n) = m.get_mut(k) {
+        *n -= 1;
+        if *n == 0 {
+            m.remove(k);
+            released.push(k.clone());
+        }
+    }
+}
+
+impl<S: Clone + Ord, T: Clone + Ord> Conn<S, T> {
+    /// Every source whose signals this connection looks at.
+    fn listens(&self) -> Vec<S> {
+        let mut v = vec![self.source.clone()];
+        if let Some((u, _)) = &self.until {
+            v.extend([u.source.clone(), u.started.clone(), u.exited.clone()]);
+        }
+        v
+    }
+    /// The `until` sources, read from arming to removal.
+    fn until_reads(&self) -> Vec<S> {
+        match &self.until {
+            Some((u, _)) => vec![u.source.clone(), u.started.clone(), u.exited.clone()],
+            None => Vec::new(),
+        }
+    }
+    /// The slots it may deliver to.
+    fn writes(&self) -> Vec<T> {
+        let mut v = vec![self.target.clone()];
+        if let Some((u, _)) = &self.until {
+            v.push(u.interrupt.clone());
+        }
+        v
+    }
+}
+
+impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     /// An empty table.
     pub fn new() -> Self {
         Self::default()
@@ -148,24 +206,52 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
     ) -> ConnId {
         let id = self.next;
         self.next += 1;
-        self.conns.insert(
-            id,
-            Conn {
-                source,
-                target,
-                kind,
-                armed_at,
-                delivered: 0,
-                spent: false,
-                until: until.map(|u| (u, UntilWindow::default())),
-            },
-        );
+        let c = Conn {
+            source,
+            target,
+            kind,
+            armed_at,
+            delivered: 0,
+            spent: false,
+            until: until.map(|u| (u, UntilWindow::default())),
+        };
+        for s in c.listens() {
+            self.by_source.entry(s).or_default().insert(id);
+        }
+        count_up(&mut self.reads, c.source.clone());
+        for s in c.until_reads() {
+            count_up(&mut self.reads, s);
+        }
+        for t in c.writes() {
+            count_up(&mut self.writes, t);
+        }
+        self.conns.insert(id, c);
         id
     }
 
     /// Removes a connection; nothing is delivered through it afterwards. Returns whether it existed.
     pub fn remove(&mut self, id: ConnId) -> bool {
-        self.conns.remove(&id).is_some()
+        let Some(c) = self.conns.remove(&id) else {
+            return false;
+        };
+        for s in c.listens() {
+            if let Some(ids) = self.by_source.get_mut(&s) {
+                ids.remove(&id);
+                if ids.is_empty() {
+                    self.by_source.remove(&s);
+                }
+            }
+        }
+        if !c.spent {
+            count_down(&mut self.reads, &c.source, &mut self.released.0);
+        }
+        for s in c.until_reads() {
+            count_down(&mut self.reads, &s, &mut self.released.0);
+        }
+        for t in c.writes() {
+            count_down(&mut self.writes, &t, &mut self.released.1);
+        }
+        true
     }
 
     /// Whether `id` is still live (a fired `once` without `until` is not).
@@ -173,32 +259,45 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
         self.conns.contains_key(&id)
     }
 
+    /// The target of connection `id`, if it is live.
+    pub fn target(&self, id: ConnId) -> Option<&T> {
+        self.conns.get(&id).map(|c| &c.target)
+    }
+
+    /// How many connections are live.
+    pub fn len(&self) -> usize {
+        self.conns.len()
+    }
+
+    /// Whether no connection is live.
+    pub fn is_empty(&self) -> bool {
+        self.conns.is_empty()
+    }
+
     /// The sources that must be read now.
     pub fn sources(&self) -> BTreeSet<S> {
-        let mut s = BTreeSet::new();
-        for c in self.conns.values() {
-            if !c.spent {
-                s.insert(c.source.clone());
-            }
-            if let Some((u, _)) = &c.until {
-                s.insert(u.source.clone());
-                s.insert(u.started.clone());
-                s.insert(u.exited.clone());
-            }
-        }
-        s
+        self.reads.keys().cloned().collect()
+    }
+
+    /// Whether `source` must be read now.
+    pub fn reads(&self, source: &S) -> bool {
+        self.reads.contains_key(source)
     }
 
     /// The slots that live connections may deliver to (targets, and the `interrupt` slots of `until`s).
-    pub fn targets(&self) -> Vec<T> {
-        let mut v = Vec::new();
-        for c in self.conns.values() {
-            v.push(c.target.clone());
-            if let Some((u, _)) = &c.until {
-                v.push(u.interrupt.clone());
-            }
-        }
-        v
+    pub fn targets(&self) -> BTreeSet<T> {
+        self.writes.keys().cloned().collect()
+    }
+
+    /// Whether a live connection may deliver to `target`.
+    pub fn writes(&self, target: &T) -> bool {
+        self.writes.contains_key(target)
+    }
+
+    /// The sources and targets no connection needs any more, since the last call: the readers and writers
+    /// the runtime may drop (unless it holds them for another reason).
+    pub fn take_released(&mut self) -> (Vec<S>, Vec<T>) {
+        std::mem::take(&mut self.released)
     }
 
     /// Every live connection.
@@ -231,7 +330,13 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
     ) -> Vec<Delivery<T>> {
         let mut out = Vec::new();
         let mut finished = Vec::new();
-        for (id, c) in self.conns.iter_mut() {
+        let Some(ids) = self.by_source.get(source) else {
+            return out;
+        };
+        for id in ids {
+            let Some(c) = self.conns.get_mut(id) else {
+                continue;
+            };
             if emitted_at < c.armed_at {
                 continue; // rule 1
             }
@@ -261,6 +366,8 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
                 }
                 if c.kind == Kind::Once {
                     c.spent = true;
+                    // a spent `once` no longer reads its source (its `until` still does)
+                    count_down(&mut self.reads, &c.source, &mut self.released.0);
                     if c.until.is_none() {
                         finished.push(*id);
                     }
@@ -268,7 +375,7 @@ impl<S: Clone + Ord, T: Clone> ConnectionTable<S, T> {
             }
         }
         for id in finished {
-            self.conns.remove(&id);
+            self.remove(id);
         }
         out
     }
@@ -406,6 +513,47 @@ mod tests {
         assert!(t.on_signal(&"U", 102).is_empty());
         t.on_signal(&"R.started", 103);
         assert_eq!(targets(t.on_signal(&"U", 104)), ["R.interrupt"]);
+    }
+
+    #[test]
+    fn endpoints_are_released_when_the_last_connection_needing_them_goes() {
+        let mut t = ConnectionTable::new();
+        let a = t.arm("E", "R1", Kind::Whenever, None, 0);
+        let b = t.arm("E", "R2", Kind::Whenever, None, 0);
+        let c = t.arm("F", "R1", Kind::Once, None, 0);
+        assert!(t.reads(&"E") && t.reads(&"F") && t.writes(&"R1") && t.writes(&"R2"));
+        t.remove(a);
+        assert_eq!(
+            t.take_released(),
+            (vec![], vec![]),
+            "E and R1 are still needed"
+        );
+        t.remove(b);
+        assert_eq!(t.take_released(), (vec!["E"], vec!["R2"]));
+        assert!(!t.reads(&"E") && !t.writes(&"R2") && t.writes(&"R1"));
+        // a `once` that fires releases its source and its target
+        assert_eq!(targets(t.on_signal(&"F", 1)), ["R1"]);
+        assert!(!t.contains(c));
+        assert_eq!(t.take_released(), (vec!["F"], vec!["R1"]));
+        assert!(t.is_empty() && t.sources().is_empty() && t.targets().is_empty());
+        // signals of sources nobody listens to any more reach nothing
+        assert!(t.on_signal(&"E", 2).is_empty());
+    }
+
+    #[test]
+    fn a_spent_once_with_until_keeps_reading_only_its_until_signals() {
+        let mut t = ConnectionTable::new();
+        let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        assert!(t.contains(id));
+        assert_eq!(t.take_released(), (vec!["E"], vec![]));
+        assert!(t.reads(&"U") && t.reads(&"R.started") && t.reads(&"R.exited"));
+        t.remove(id);
+        let (mut s, mut w) = t.take_released();
+        s.sort();
+        w.sort();
+        assert_eq!(s, ["R.exited", "R.started", "U"]);
+        assert_eq!(w, ["R.interrupt", "R.start"]);
     }
 
     #[test]
