@@ -101,9 +101,18 @@ pub enum Error {
 
 impl Error {
     pub(crate) fn dds(what: impl Into<String>, detail: impl std::fmt::Debug) -> Error {
+        let mut detail = format!("{detail:?}");
+        if detail.contains("Too many open files") {
+            // seen at scale: RustDDS holds about 3 file descriptors per reader or writer
+            detail.push_str(
+                "; this process ran out of file descriptors: every DDS reader or writer holds a few (about \
+                 20 per response, 6 per event), so raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a \
+                 systemd unit) or spread components over more processes",
+            );
+        }
         Error::Dds {
             what: what.into(),
-            detail: format!("{detail:?}"),
+            detail,
         }
     }
 }
