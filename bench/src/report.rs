@@ -119,6 +119,13 @@ pub fn table(r: &Results) -> String {
                 format!("{:.1} KiB", f("bytes_per_component") / 1024.0),
             ),
             (
+                "file descriptors: participant / with components (limit)",
+                format!(
+                    "{} / {} ({})",
+                    sc["fds_participant"], sc["fds_components"], sc["fd_limit"]
+                ),
+            ),
+            (
                 "create all connections (to armed)",
                 format!("{:.0} ms", f("connect_ms")),
             ),

@@ -723,6 +723,38 @@ fn cpu_self() -> Duration {
     crate::proto::cpu_time(std::process::id()).unwrap_or_default()
 }
 
+/// Raises this process's open-file limit as far as allowed (to 65536 when permitted; RustDDS holds a few
+/// descriptors per reader and writer), and returns the soft limit in force.
+fn raise_fd_limit() -> u64 {
+    let mut l = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit/setrlimit read and write the struct we own.
+    unsafe {
+        libc::getrlimit(libc::RLIMIT_NOFILE, &mut l);
+        let want = l.rlim_max.max(65536);
+        let raised = libc::rlimit {
+            rlim_cur: want,
+            rlim_max: want,
+        };
+        if libc::setrlimit(libc::RLIMIT_NOFILE, &raised) != 0 {
+            // not allowed above the hard limit: go up to it
+            l.rlim_cur = l.rlim_max;
+            libc::setrlimit(libc::RLIMIT_NOFILE, &l);
+        }
+        libc::getrlimit(libc::RLIMIT_NOFILE, &mut l);
+    }
+    l.rlim_cur as u64
+}
+
+/// File descriptors this process holds.
+fn open_fds() -> usize {
+    std::fs::read_dir("/proc/self/fd")
+        .map(|d| d.count())
+        .unwrap_or(0)
+}
+
 /// CPU share of one core this process used over `window` of doing nothing.
 async fn idle_cpu(window: Duration) -> f64 {
     let c0 = cpu_self();
@@ -733,8 +765,10 @@ async fn idle_cpu(window: Duration) -> f64 {
 /// `events` events, `responses` responses and `connections` connections in one process: memory, idle CPU,
 /// time to create and tear down. Answers one JSON line as its `ready`-time report to `report`.
 async fn scale(events: usize, responses: usize, connections: usize, idle: Duration) -> Result<()> {
+    let fd_limit = raise_fd_limit();
     let radar = radar()?;
     let rss0 = rss_bytes();
+    let fds0 = open_fds();
     let cpu_empty = idle_cpu(idle).await;
     let t = now_ns();
     let evs: Vec<EventHandle> = (0..events)
@@ -749,6 +783,7 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
         })
         .collect::<radar_ros::Result<_>>()?;
     let spawn_ms = (now_ns() - t) as f64 / 1e6;
+    let fds1 = open_fds();
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss1 = rss_bytes();
     let cpu_components = idle_cpu(idle).await;
@@ -791,6 +826,7 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
         "rss_empty_bytes": rss0, "rss_components_bytes": rss1, "rss_connected_bytes": rss2,
         "bytes_per_connection": (rss2 as f64 - rss1 as f64) / connections.max(1) as f64,
         "bytes_per_component": (rss1 as f64 - rss0 as f64) / (events + responses).max(1) as f64,
+        "fd_limit": fd_limit, "fds_participant": fds0, "fds_components": fds1,
         "cpu_idle_empty": cpu_empty, "cpu_idle_components": cpu_components,
         "cpu_idle_connected": cpu_connected,
         "spawn_ms": spawn_ms, "connect_ms": connect_ms, "drop_ms": drop_ms,

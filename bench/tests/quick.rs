@@ -42,7 +42,11 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     let r: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(r["meta"]["mode"], "quick");
-    assert!(r["errors"].as_array().unwrap().is_empty(), "{}", r["errors"]);
+    assert!(
+        r["errors"].as_array().unwrap().is_empty(),
+        "{}",
+        r["errors"]
+    );
 
     assert_eq!(
         keys(&r["latency"]),
@@ -99,7 +103,12 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     assert!(sc["bytes_per_connection"].as_f64().unwrap() > 0.0, "{sc}");
 
     let table = std::fs::read_to_string(out.join("table.md")).unwrap();
-    for heading in ["### Latency", "### Connections", "### Throughput", "### Scale"] {
+    for heading in [
+        "### Latency",
+        "### Connections",
+        "### Throughput",
+        "### Scale",
+    ] {
         assert!(table.contains(heading), "{heading} missing from:\n{table}");
     }
     assert!(!table.contains("### Failed"));
@@ -107,8 +116,14 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
         let s = std::fs::read_to_string(Path::new(&out).join(svg)).unwrap();
         assert!(s.starts_with("<svg"), "{svg}");
         // one line per series, each with its legend entry
-        assert!(s.matches("<polyline").count() >= 4, "{svg} has too few lines");
-        assert!(s.contains("raw_1hop") || s.contains("setup_known"), "{svg} has no legend");
+        assert!(
+            s.matches("<polyline").count() >= 4,
+            "{svg} has too few lines"
+        );
+        assert!(
+            s.contains("raw_1hop") || s.contains("setup_known"),
+            "{svg} has no legend"
+        );
     }
     let _ = std::fs::remove_dir_all(&out);
 }
