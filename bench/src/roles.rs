@@ -725,7 +725,7 @@ fn cpu_self() -> Duration {
 
 /// Raises this process's open-file limit as far as allowed (to 65536 when permitted; RustDDS holds a few
 /// descriptors per reader and writer), and returns the soft limit in force.
-fn raise_fd_limit() -> u64 {
+fn raise_fd_limit() -> libc::rlim_t {
     let mut l = libc::rlimit {
         rlim_cur: 0,
         rlim_max: 0,
@@ -745,7 +745,7 @@ fn raise_fd_limit() -> u64 {
         }
         libc::getrlimit(libc::RLIMIT_NOFILE, &mut l);
     }
-    l.rlim_cur as u64
+    l.rlim_cur
 }
 
 /// File descriptors this process holds.
