@@ -291,55 +291,8 @@ impl Bench {
     async fn latency(&mut self) -> Result<()> {
         let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
         let run = format!("run {n} {p}");
-        // raw ros2-client, one hop
-        let d = self.domain();
-        let mut sink = self
-            .child(d, &["raw-sink", "--topic", "/bench/lat"])
-            .await?;
-        let mut src = self
-            .child(d, &["raw-source", "--topic", "/bench/lat"])
-            .await?;
-        src.ask("wait", START).await?;
-        let r = self.paced(&mut src, &run, &mut sink).await?;
-        self.push_latency(
-            "raw_1hop",
-            "raw ros2-client, 1 hop (publisher -> subscriber)",
-            &r,
-            "",
-        )?;
-        src.quit().await;
-        sink.quit().await;
-        // raw, two hops through a forwarding node
-        let d = self.domain();
-        let mut sink = self
-            .child(d, &["raw-sink", "--topic", "/bench/lat"])
-            .await?;
-        let fwd = self
-            .child(
-                d,
-                &[
-                    "raw-forward",
-                    "--from",
-                    "/bench/lat_in",
-                    "--to",
-                    "/bench/lat",
-                ],
-            )
-            .await?;
-        let mut src = self
-            .child(d, &["raw-source", "--topic", "/bench/lat_in"])
-            .await?;
-        src.ask("wait", START).await?;
-        let r = self.paced(&mut src, &run, &mut sink).await?;
-        self.push_latency(
-            "raw_2hop",
-            "raw ros2-client, 2 hops (through a forwarding node)",
-            &r,
-            "",
-        )?;
-        for c in [src, fwd, sink] {
-            c.quit().await;
-        }
+        self.raw_latency(&run, false).await?;
+        self.raw_latency(&run, true).await?;
         // rclpy, one hop
         let d = self.domain();
         let py = async {
@@ -364,46 +317,67 @@ impl Bench {
                 .errors
                 .push(format!("latency rclpy_1hop: {e:#}")),
         }
-        // radar_ros: event -> manager in a third process -> response
+        self.radar_latency(n, p, false).await?;
+        self.radar_latency(n, p, true).await
+    }
+
+    /// Paced latency from a raw ros2-client publisher to a raw subscriber: one hop, or two through a plain
+    /// forwarding node.
+    async fn raw_latency(&mut self, run: &str, forward: bool) -> Result<()> {
         let d = self.domain();
-        let mut ev = self.child(d, &["events", "--names", "/bench/ev"]).await?;
-        let mut resp = self
-            .child(d, &["response", "--name", "/bench/resp"])
+        let mut sink = self
+            .child(d, &["raw-sink", "--topic", "/bench/lat"])
             .await?;
-        let mut mgr = self.child(d, &["manager"]).await?;
-        mgr.ask("connect /bench/ev /bench/resp", START).await?;
-        ev.ask("active /bench/ev", START).await?;
-        let r = self
-            .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
-            .await?;
-        let note = format!(
-            "{} starts ignored (response busy)",
-            r["extra"]["ignored_starts"]
-        );
-        self.push_latency(
-            "radar_manager_process",
-            "radar_ros trigger -> start, manager in a third process",
-            &r,
-            &note,
-        )?;
-        for c in [mgr, resp, ev] {
+        let (fwd, topic) = if forward {
+            let args = [
+                "raw-forward",
+                "--from",
+                "/bench/lat_in",
+                "--to",
+                "/bench/lat",
+            ];
+            (Some(self.child(d, &args).await?), "/bench/lat_in")
+        } else {
+            (None, "/bench/lat")
+        };
+        let mut src = self.child(d, &["raw-source", "--topic", topic]).await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        let (key, label) = if forward {
+            (
+                "raw_2hop",
+                "raw ros2-client, 2 hops (through a forwarding node)",
+            )
+        } else {
+            (
+                "raw_1hop",
+                "raw ros2-client, 1 hop (publisher -> subscriber)",
+            )
+        };
+        self.push_latency(key, label, &r, "")?;
+        for c in [Some(src), fwd, Some(sink)].into_iter().flatten() {
             c.quit().await;
         }
-        // radar_ros: the response's process makes the connection (embedded manager)
+        Ok(())
+    }
+
+    /// Paced trigger -> start latency from a radar_ros event to a response in another process, connected by
+    /// a manager in a third process, or (`embedded`) by the response's own process.
+    async fn radar_latency(&mut self, n: u64, p: u64, embedded: bool) -> Result<()> {
         let d = self.domain();
         let mut ev = self.child(d, &["events", "--names", "/bench/ev"]).await?;
-        let mut resp = self
-            .child(
-                d,
-                &[
-                    "response",
-                    "--name",
-                    "/bench/resp",
-                    "--connect",
-                    "/bench/ev",
-                ],
-            )
-            .await?;
+        let mut args = vec!["response", "--name", "/bench/resp"];
+        if embedded {
+            args.extend(["--connect", "/bench/ev"]);
+        }
+        let mut resp = self.child(d, &args).await?;
+        let mgr = if embedded {
+            None
+        } else {
+            let mut m = self.child(d, &["manager"]).await?;
+            m.ask("connect /bench/ev /bench/resp", START).await?;
+            Some(m)
+        };
         ev.ask("active /bench/ev", START).await?;
         let r = self
             .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
@@ -412,13 +386,19 @@ impl Bench {
             "{} starts ignored (response busy)",
             r["extra"]["ignored_starts"]
         );
-        self.push_latency(
-            "radar_embedded",
-            "radar_ros trigger -> start, manager embedded in the response's process",
-            &r,
-            &note,
-        )?;
-        for c in [resp, ev] {
+        let (key, label) = if embedded {
+            (
+                "radar_embedded",
+                "radar_ros trigger -> start, manager embedded in the response's process",
+            )
+        } else {
+            (
+                "radar_manager_process",
+                "radar_ros trigger -> start, manager in a third process",
+            )
+        };
+        self.push_latency(key, label, &r, &note)?;
+        for c in [mgr, Some(resp), Some(ev)].into_iter().flatten() {
             c.quit().await;
         }
         Ok(())
