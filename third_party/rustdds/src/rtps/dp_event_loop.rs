@@ -813,6 +813,7 @@ impl DPEventLoop {
     // update local readers.
     // list to be looped over is the same as above, but now
     // EntityIds are for announcers
+    let mut newly_matched = Vec::new();
     for (writer_eid, reader_eid, writer_endpoint_set_elem, writer_qos) in &writers_init_list {
       if let Some(reader) = self.message_receiver.available_readers.get_mut(reader_eid) {
         debug!("try update_discovery_reader - {:?}", reader.topic_name());
@@ -822,8 +823,11 @@ impl DPEventLoop {
           .contains(*writer_endpoint_set_elem)
         {
           let writer_proxy = discovered_participant.get_builtin_writer_proxy(*writer_eid);
+          let writer_guid = writer_proxy.remote_writer_guid;
 
-          reader.update_writer_proxy(writer_proxy, writer_qos);
+          if reader.update_writer_proxy(writer_proxy, writer_qos) {
+            newly_matched.push((*reader_eid, writer_guid));
+          }
           debug!(
             "update_discovery_reader - endpoint {:?} - {:?}",
             *writer_endpoint_set_elem, discovered_participant.participant_guid
@@ -831,6 +835,12 @@ impl DPEventLoop {
         }
       }
     } // for
+      // Deliver what these writers sent before we matched them.
+    for (reader_eid, writer_guid) in newly_matched {
+      self
+        .message_receiver
+        .writer_matched(reader_eid, writer_guid);
+    }
 
     // Fresh SPDP traffic from this participant may have updated our interface
     // observations; refresh the interface-aware send routes of any writers that
@@ -984,6 +994,8 @@ impl DPEventLoop {
       .unwrap_or_else(|e| error!("Cannot report participant status: {e:?}"));
 
     // update writer proxies in local readers
+    let remote_writer_guid = remote_writer.writer_proxy.remote_writer_guid;
+    let mut newly_matched = Vec::new();
     for reader in self.message_receiver.available_readers.values_mut() {
       if &remote_writer.publication_topic_data.topic_name == reader.topic_name() {
         #[cfg(not(feature = "security"))]
@@ -1041,12 +1053,20 @@ impl DPEventLoop {
         if match_to_writer {
           let offered_qos = remote_writer.publication_topic_data.qos();
           // Should we check if the participant has published a QoS for the topic?
-          reader.update_writer_proxy(
+          if reader.update_writer_proxy(
             RtpsWriterProxy::from_discovered_writer_data(remote_writer, &[], &[]),
             &offered_qos,
-          );
+          ) {
+            newly_matched.push(reader.entity_id());
+          }
         }
       }
+    }
+    // Deliver what the writer sent before we matched it.
+    for reader_eid in newly_matched {
+      self
+        .message_receiver
+        .writer_matched(reader_eid, remote_writer_guid);
     }
   }
 

@@ -14,7 +14,12 @@ use crate::{
   messages::{protocol_version::ProtocolVersion, submessages::submessages::*, vendor_id::VendorId},
   network::udp_listener::PacketOrigin,
   polling::WakeSender,
-  rtps::{reader::Reader, transmit::InterfaceObservations, Message, Submessage, SubmessageBody},
+  rtps::{
+    early_arrivals::{worth_holding, EarlyArrivals, ReceiverSnapshot},
+    reader::Reader,
+    transmit::InterfaceObservations,
+    Message, Submessage, SubmessageBody,
+  },
   structure::{
     entity::RTPSEntity,
     guid::{EntityId, GuidPrefix, GUID},
@@ -135,6 +140,9 @@ pub(crate) struct MessageReceiver {
 
   submessage_count: usize, // Used in tests and error messages only?
   secure_receiver_state: Option<SecureReceiverState>,
+  // Writer submessages that came before their writer was matched; handed to a
+  // reader when it matches the writer (see `early_arrivals`).
+  early_arrivals: EarlyArrivals,
   #[cfg(feature = "security")]
   secure_rtps_wrapped: Option<SecureWrapping>,
   #[cfg(feature = "security")]
@@ -169,6 +177,7 @@ impl MessageReceiver {
 
       submessage_count: 0,
       secure_receiver_state: None,
+      early_arrivals: EarlyArrivals::default(),
       #[cfg(feature = "security")]
       secure_rtps_wrapped: None,
       #[cfg(feature = "security")]
@@ -214,6 +223,47 @@ impl MessageReceiver {
       secure_rtps_wrapped: self.secure_rtps_wrapped.clone(),
     };
     (state, reader, self.security_plugins.as_ref())
+  }
+
+  fn is_for_this_participant(&self) -> bool {
+    self.dest_guid_prefix == self.own_guid_prefix || self.dest_guid_prefix == GuidPrefix::UNKNOWN
+  }
+
+  fn snapshot(&self) -> ReceiverSnapshot {
+    ReceiverSnapshot {
+      source_guid_prefix: self.source_guid_prefix,
+      dest_guid_prefix: self.dest_guid_prefix,
+      unicast_reply_locator_list: self.unicast_reply_locator_list.clone(),
+      source_timestamp: self.source_timestamp,
+    }
+  }
+
+  /// Reader `reader` has just matched `writer`: process what that writer sent
+  /// it before the match, in the order it arrived.
+  pub fn writer_matched(&mut self, reader: EntityId, writer: GUID) {
+    let early = self.early_arrivals.take_for(writer, reader);
+    if early.is_empty() {
+      return;
+    }
+    debug!(
+      "Processing {} submessage(s) that {writer:?} sent before reader {reader:?} matched it",
+      early.len()
+    );
+    // Replay with the receiver state each submessage came with, then restore
+    // ours (we may be called between submessages of one message).
+    let saved = self.snapshot();
+    for (submessage, snapshot) in early {
+      self.restore(snapshot);
+      self.handle_writer_submessage(reader, submessage);
+    }
+    self.restore(saved);
+  }
+
+  fn restore(&mut self, s: ReceiverSnapshot) {
+    self.source_guid_prefix = s.source_guid_prefix;
+    self.dest_guid_prefix = s.dest_guid_prefix;
+    self.unicast_reply_locator_list = s.unicast_reply_locator_list;
+    self.source_timestamp = s.source_timestamp;
   }
 
   pub fn add_reader(&mut self, new_reader: Reader) {
@@ -400,12 +450,13 @@ impl MessageReceiver {
             if receiver_entity_id == EntityId::UNKNOWN {
               let sending_writer_entity_id = submessage.sender_entity_id();
 
+              let sending_writer = GUID::new(self.source_guid_prefix, sending_writer_entity_id);
               let available_target_entity_ids: Vec<EntityId> = self
                 .available_readers
                 .values()
                 .filter(|target_reader| {
-                  // Reader must contain the writer
-                  target_reader.contains_writer(sending_writer_entity_id)
+                  // Reader must have matched the writer
+                  target_reader.has_matched_writer(sending_writer)
                     // But there are two exceptions:
                     // 1. SPDP reader must read from unknown SPDP writers
                     //  TODO: This logic here is uglyish. Can we just inject a
@@ -417,6 +468,19 @@ impl MessageReceiver {
                       && target_reader.entity_id() == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_READER)
                 })
                 .map(Reader::entity_id).collect();
+
+              if available_target_entity_ids.is_empty()
+                && security_plugins_clone.is_none()
+                && self.is_for_this_participant()
+                && worth_holding(&submessage, sending_writer)
+              {
+                // Possibly from a writer that matched one of our readers before we
+                // matched it back.
+                let snapshot = self.snapshot();
+                self
+                  .early_arrivals
+                  .hold(sending_writer, None, submessage.clone(), snapshot);
+              }
 
               match security_plugins_clone {
                 None => {
@@ -609,6 +673,21 @@ impl MessageReceiver {
           )
         }
       }
+    }
+
+    let writer = GUID::new(self.source_guid_prefix, submessage.sender_entity_id());
+    let unmatched = self
+      .available_readers
+      .get(&target_reader_entity_id)
+      .is_some_and(|r| !r.is_stateless() && !r.has_matched_writer(writer));
+    if unmatched && self.security_plugins.is_none() && worth_holding(&submessage, writer) {
+      // The writer matched this reader before this reader matched it: keep the
+      // submessage until the match (see `early_arrivals`).
+      let snapshot = self.snapshot();
+      self
+        .early_arrivals
+        .hold(writer, Some(target_reader_entity_id), submessage, snapshot);
+      return;
     }
 
     let (mr_state, target_reader, security_plugins) =
@@ -1150,19 +1229,16 @@ mod tests {
     mio_source,
     network::udp_sender::UDPSender,
     polling::{new_shared_timer, wake_channel, LoopWaker},
-    rtps::reader::ReaderIngredients,
+    rtps::{reader::ReaderIngredients, rtps_writer_proxy::RtpsWriterProxy},
     serialization::from_bytes,
     structure::{dds_cache::DDSCache, guid::EntityKind},
   };
   use super::*;
 
-  #[test]
-
-  fn test_shapes_demo_message_deserialization() {
-    // The following message bytes contain serialized INFO_DST, INFO_TS, DATA &
-    // HEARTBEAT submessages. The DATA submessage contains a ShapeType value.
-    // The bytes have been captured from WireShark.
-    let udp_bits1 = Bytes::from_static(&[
+  // Captured with WireShark: INFO_DST, INFO_TS, DATA (reader id UNKNOWN) and
+  // HEARTBEAT; the DATA carries a ShapeType value whose color is "RED".
+  fn shapes_demo_packet() -> Bytes {
+    Bytes::from_static(&[
       0x52, 0x54, 0x50, 0x53, 0x02, 0x03, 0x01, 0x0f, 0x01, 0x0f, 0x99, 0x06, 0x78, 0x34, 0x00,
       0x00, 0x01, 0x00, 0x00, 0x00, 0x0e, 0x01, 0x0c, 0x00, 0x01, 0x03, 0x00, 0x0c, 0x29, 0x2d,
       0x31, 0xa2, 0x28, 0x20, 0x02, 0x08, 0x09, 0x01, 0x08, 0x00, 0x1a, 0x15, 0xf3, 0x5e, 0x00,
@@ -1172,20 +1248,26 @@ mod tests {
       0x00, 0x00, 0x1e, 0x00, 0x00, 0x00, 0x07, 0x01, 0x1c, 0x00, 0x00, 0x00, 0x00, 0x07, 0x00,
       0x00, 0x01, 0x02, 0x00, 0x00, 0x00, 0x00, 0x5b, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
       0x5b, 0x00, 0x00, 0x00, 0x1f, 0x00, 0x00, 0x00,
-    ]);
+    ])
+  }
 
-    // The message bytes contain the following guid prefix as the message target.
-    let target_gui_prefix = GuidPrefix::new(&[
-      0x01, 0x03, 0x00, 0x0c, 0x29, 0x2d, 0x31, 0xa2, 0x28, 0x20, 0x02, 0x08,
-    ]);
-
-    // The message bytes contain the following guid as the message source
-    let remote_writer_guid = GUID::new(
+  // The writer of `shapes_demo_packet`.
+  fn shapes_demo_writer() -> GUID {
+    GUID::new(
       GuidPrefix::new(&[
         0x01, 0x0f, 0x99, 0x06, 0x78, 0x34, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
       ]),
       EntityId::create_custom_entity_id([0, 0, 1], EntityKind::WRITER_WITH_KEY_USER_DEFINED),
-    );
+    )
+  }
+
+  // A message receiver of the participant `shapes_demo_packet` is addressed to,
+  // with one reader, which has matched the packet's writer if `matched`.
+  fn shapes_demo_receiver(matched: bool) -> (MessageReceiver, EntityId) {
+    // The message bytes contain the following guid prefix as the message target.
+    let target_gui_prefix = GuidPrefix::new(&[
+      0x01, 0x03, 0x00, 0x0c, 0x29, 0x2d, 0x31, 0xa2, 0x28, 0x20, 0x02, 0x08,
+    ]);
 
     // Create a message receiver
     let waker = LoopWaker::new();
@@ -1248,50 +1330,78 @@ mod tests {
       participant_status_sender,
     );
 
-    // Add info of the writer to the reader
-    new_reader.matched_writer_add(
-      remote_writer_guid,
-      EntityId::UNKNOWN,
-      vec![],
-      vec![],
-      &QosPolicies::qos_none(),
-    );
+    if matched {
+      // Add info of the writer to the reader
+      new_reader.matched_writer_add(
+        shapes_demo_writer(),
+        EntityId::UNKNOWN,
+        vec![],
+        vec![],
+        &QosPolicies::qos_none(),
+      );
+    }
 
-    // Add reader to message reader and process the bytes message
     message_receiver.add_reader(new_reader);
+    (message_receiver, entity)
+  }
 
-    message_receiver.handle_received_packet(&udp_bits1, PacketOrigin::UNKNOWN);
+  #[derive(Serialize, Deserialize, Debug, PartialEq, Eq)]
+  struct ShapeType {
+    color: String,
+    x: i32,
+    y: i32,
+    size: i32,
+  }
+
+  // The color of the first sample in the reader's history, if any.
+  fn first_shape_color(message_receiver: &MessageReceiver, reader: EntityId) -> Option<String> {
+    let sequence_numbers = message_receiver.get_reader_history_cache_start_and_end_seq_num(reader);
+    info!("history change sequence number range: {sequence_numbers:?}");
+    let a = message_receiver
+      .get_reader_and_history_cache_change(reader, *sequence_numbers.first()?)
+      .expect("No data in topic cache");
+    info!("reader history cache DATA: {:?}", a.data());
+    let (shape, _) = from_bytes::<ShapeType, LittleEndian>(&a.data()).unwrap();
+    Some(shape.color)
+  }
+
+  #[test]
+  fn test_shapes_demo_message_deserialization() {
+    let (mut message_receiver, reader) = shapes_demo_receiver(true);
+    message_receiver.handle_received_packet(&shapes_demo_packet(), PacketOrigin::UNKNOWN);
 
     // Verify the message reader has recorded the right amount of submessages
     assert_eq!(message_receiver.submessage_count, 4);
 
-    // This is not correct way to read history cache values but it serves as a test
-    let sequence_numbers =
-      message_receiver.get_reader_history_cache_start_and_end_seq_num(reader_guid.entity_id);
-    info!("history change sequence number range: {sequence_numbers:?}");
-
-    // Get the DDSData (serialized) from the topic cache / history cache
-    let a = message_receiver
-      .get_reader_and_history_cache_change(
-        reader_guid.entity_id,
-        *sequence_numbers.first().unwrap(),
-      )
-      .expect("No data in topic cache");
-    info!("reader history cache DATA: {:?}", a.data());
-
-    // Deserialize the ShapesType value from the data
-    #[derive(Serialize, Deserialize, Debug, PartialEq, Eq)]
-    struct ShapeType {
-      color: String,
-      x: i32,
-      y: i32,
-      size: i32,
-    }
-    let (deserialized_shape_type, _) = from_bytes::<ShapeType, LittleEndian>(&a.data()).unwrap();
-    info!("deserialized shapeType: {deserialized_shape_type:?}");
-
     // Verify the color in the deserialized value is correct
-    assert_eq!(deserialized_shape_type.color, "RED");
+    assert_eq!(
+      first_shape_color(&message_receiver, reader).as_deref(),
+      Some("RED")
+    );
+  }
+
+  #[test]
+  fn data_that_arrives_before_its_writer_is_matched_is_delivered_on_the_match() {
+    // A writer that matched our reader before we matched it sends its sample:
+    // the reader cannot take it yet (it does not know the writer) ...
+    let (mut message_receiver, reader) = shapes_demo_receiver(false);
+    message_receiver.handle_received_packet(&shapes_demo_packet(), PacketOrigin::UNKNOWN);
+    assert_eq!(first_shape_color(&message_receiver, reader), None);
+
+    // ... and gets it as soon as discovery matches the writer.
+    let matched = message_receiver
+      .reader_mut(reader)
+      .unwrap()
+      .update_writer_proxy(
+        RtpsWriterProxy::new(shapes_demo_writer(), vec![], vec![], EntityId::UNKNOWN),
+        &QosPolicies::qos_none(),
+      );
+    assert!(matched);
+    message_receiver.writer_matched(reader, shapes_demo_writer());
+    assert_eq!(
+      first_shape_color(&message_receiver, reader).as_deref(),
+      Some("RED")
+    );
   }
 
   #[test]

@@ -382,14 +382,15 @@ impl Reader {
     }
   }
 
-  // updates or adds a new writer proxy, doesn't touch changes
-  pub fn update_writer_proxy(&mut self, proxy: RtpsWriterProxy, offered_qos: &QosPolicies) {
+  // updates or adds a new writer proxy, doesn't touch changes.
+  // Returns true if the writer was not matched before.
+  pub fn update_writer_proxy(&mut self, proxy: RtpsWriterProxy, offered_qos: &QosPolicies) -> bool {
     if self.like_stateless {
       debug!(
         "Attempted to update writer proxy for stateless reader. Ignoring. topic={:?}",
         self.topic_name
       );
-      return;
+      return false;
     }
 
     debug!("update_writer_proxy topic={:?}", self.topic_name);
@@ -426,7 +427,9 @@ impl Reader {
               self.matched_writers.insert(writer, writer_proxy);
             }
           }
+          return true;
         }
+        false
       }
       Some(bad_policy_id) => {
         // no QoS match.
@@ -450,6 +453,7 @@ impl Reader {
           "update_writer_proxy - QoS mismatch: topic={:?} requested={:?}  offered={:?}",
           self.topic_name, self.qos_policy, offered_qos
         );
+        false
       }
     }
   }
@@ -499,6 +503,18 @@ impl Reader {
     }
   }
 
+  /// Whether `writer` is matched with this reader (always false for a
+  /// stateless reader).
+  pub fn has_matched_writer(&self, writer: GUID) -> bool {
+    self.matched_writers.contains_key(&writer)
+  }
+
+  /// Whether this reader keeps no state per writer.
+  pub fn is_stateless(&self) -> bool {
+    self.like_stateless
+  }
+
+  #[cfg(feature = "security")]
   pub fn contains_writer(&self, entity_id: EntityId) -> bool {
     if !self.like_stateless {
       self
@@ -1419,11 +1435,24 @@ impl Reader {
     self.matched_writers = writer_proxies;
   }
 
-  // An ACKNACK without the final flag requests an immediate HEARTBEAT from the
-  // writer.
+  // A preemptive ACKNACK (readerSNState base 0, no bits, final flag clear) asks
+  // the writer for an immediate HEARTBEAT. Base 0 is what Fast DDS and others
+  // send and recognise as preemptive: Fast DDS answers it with a HEARTBEAT at
+  // once, while an ACKNACK with base 1 and no bits only restarts its periodic
+  // heartbeat timer (3 s), so samples sent before the match were repaired 3 s
+  // later. RustDDS writers answer both forms.
+  fn preemptive_acknack(&self, writer_proxy: &mut RtpsWriterProxy) -> AckNack {
+    AckNack {
+      reader_id: self.entity_id(),
+      writer_id: writer_proxy.remote_writer_guid.entity_id,
+      reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::zero()),
+      count: writer_proxy.next_ack_nack_sequence_number(),
+    }
+  }
+
   fn send_preemptive_acknack_to(&self, writer_proxy: &mut RtpsWriterProxy) {
     let flags = BitFlags::<ACKNACK_Flags>::from_flag(ACKNACK_Flags::Endianness);
-    let acknack_count = writer_proxy.next_ack_nack_sequence_number();
+    let acknack = self.preemptive_acknack(writer_proxy);
     let RtpsWriterProxy {
       remote_writer_guid,
       unicast_locator_list,
@@ -1431,12 +1460,7 @@ impl Reader {
     } = writer_proxy;
     self.send_acknack_to(
       flags,
-      AckNack {
-        reader_id: self.entity_id(),
-        writer_id: remote_writer_guid.entity_id,
-        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(1)),
-        count: acknack_count,
-      },
+      acknack,
       InfoDestination {
         guid_prefix: remote_writer_guid.prefix,
       },
@@ -1803,6 +1827,15 @@ mod tests {
       .matched_writer(writer_guid)
       .expect("Did not find a matched writer");
     assert_eq!(writer_proxy.sent_ack_nack_count, 3);
+
+    // 8. The preemptive ACKNACK has readerSNState base 0 and no bits: the form
+    // Fast DDS answers with an immediate HEARTBEAT (base 1 only restarts its
+    // periodic heartbeat timer).
+    let mut writer_proxy = reader.matched_writers.remove(&writer_guid).unwrap();
+    let preemptive = reader.preemptive_acknack(&mut writer_proxy);
+    assert_eq!(preemptive.reader_sn_state.base(), SequenceNumber::zero());
+    assert_eq!(preemptive.reader_sn_state.iter().count(), 0);
+    assert_eq!(preemptive.writer_id, writer_guid.entity_id);
   }
 
   #[test]
