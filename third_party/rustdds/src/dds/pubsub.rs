@@ -530,6 +530,7 @@ impl InnerPublisher {
     // KeepLast-style hard cap on retained samples for best-effort (non-blocking)
     // writes, which are not throttled at admission, and for reliable writers
     // before a reader matches. This is where the History depth applies.
+    let keep_last = matches!(writer_qos.history(), Some(policy::History::KeepLast { .. }));
     let max_retain = match writer_qos.history() {
       Some(policy::History::KeepLast { depth }) => {
         let d = (depth as usize).max(1);
@@ -555,6 +556,7 @@ impl InnerPublisher {
       window_limit,
       backlog_limit,
       max_retain,
+      keep_last,
     );
     // Doorbell: enqueue this writer's entity id and wake the participant poll.
     let doorbell = Doorbell::new(guid.entity_id, self.writer_ready.clone());

@@ -2784,6 +2784,7 @@ mod tests {
           DEFAULT_WRITER_MAX_SAMPLES,
           DEFAULT_WRITER_MAX_SAMPLES,
           DEFAULT_WRITER_MAX_SAMPLES,
+          false,
         );
         for _ in 0..sample_count {
           let data = DDSData::new(SerializedPayload::new(

@@ -11,7 +11,11 @@ use log::{debug, error, trace, warn};
 
 use crate::{
   dds::{ddsdata::DDSData, with_key::datawriter::WriteOptions},
-  structure::{cache_change::CacheChange, guid::GUID, sequence_number::SequenceNumber},
+  structure::{
+    cache_change::CacheChange,
+    guid::{EntityKind, GUID},
+    sequence_number::SequenceNumber,
+  },
 };
 
 /// Result of an admission attempt into the [`WriterSendBuffer`].
@@ -89,6 +93,14 @@ struct Shared {
   // (TRANSIENT_LOCAL / TRANSIENT / PERSISTENT) the writer must retain samples for
   // late-joining readers, so pre-match trimming is disabled.
   volatile: bool,
+  // True when the History depth bounds what a *durable* writer keeps: History
+  // KEEP_LAST on a topic without key (one instance), TRANSIENT_LOCAL or
+  // stronger durability. Such a writer keeps only its newest `max_retain`
+  // samples, so a late-joining reader gets at most `depth` samples (the
+  // current state for a KEEP_LAST 1 "latched" topic) and memory stays flat
+  // however often it writes. (For a keyed topic KEEP_LAST bounds each instance,
+  // which this buffer does not track, so keyed writers are not trimmed here.)
+  durable_keep_last: bool,
   topic_name: String,
 }
 
@@ -117,7 +129,12 @@ impl WriterSendBuffer {
     window_limit: usize,
     backlog_limit: usize,
     max_retain: usize,
+    history_keep_last: bool,
   ) -> Self {
+    let durable_keep_last = history_keep_last
+      && !volatile
+      && !is_builtin
+      && writer_guid.entity_id.entity_kind == EntityKind::WRITER_NO_KEY_USER_DEFINED;
     Self {
       shared: Arc::new(Shared {
         inner: Mutex::new(Inner {
@@ -137,6 +154,7 @@ impl WriterSendBuffer {
         reliable_writer,
         is_builtin,
         volatile,
+        durable_keep_last,
         topic_name,
       }),
     }
@@ -287,9 +305,12 @@ impl WriterSendBuffer {
     //    KeepLast here keeps only the recent samples (correct for volatile
     //    durability); once a reliable reader matches, `reliable_readers_present`
     //    flips true and we retain everything again for repair.
+    //  - durable KEEP_LAST writers of a keyless topic (`durable_keep_last`): the
+    //    depth is what a late joiner must get, and all it may get.
     // Built-in (discovery) writers are always exempt to never lose discovery data.
     let trim_keep_last = !shared.is_builtin
       && (!may_block
+        || shared.durable_keep_last
         || (shared.reliable_writer && shared.volatile && !inner.reliable_readers_present));
     if trim_keep_last {
       while inner.changes.len() > inner.max_retain {
@@ -485,6 +506,7 @@ mod tests {
       /* window_limit */ 1,
       /* backlog_limit */ 1000,
       /* max_retain */ 1,
+      /* history_keep_last */ false,
     );
     buf.set_acked_frontier(Some(SequenceNumber::zero()));
 
@@ -511,6 +533,7 @@ mod tests {
       /* window_limit */ 1000,
       /* backlog_limit */ 2,
       /* max_retain */ 1000,
+      /* history_keep_last */ false,
     );
 
     // Nothing sent yet: backlog fills after two admissions.
@@ -539,6 +562,7 @@ mod tests {
       /* window_limit */ 1000,
       /* backlog_limit */ 1,
       /* max_retain */ 1000,
+      /* history_keep_last */ false,
     );
     // Default WriteOptions => best_effort_may_block == false => never blocks.
     assert!(admit_now(&buf, WriteOptions::default()));
@@ -559,6 +583,7 @@ mod tests {
       1000,
       /* backlog_limit */ 1,
       /* max_retain */ 1000,
+      /* history_keep_last */ false,
     );
     assert!(admit_now(&buf, may_block_opts()));
     assert!(admit_now(&buf, may_block_opts()));
@@ -583,6 +608,7 @@ mod tests {
       /* window_limit */ 1000,
       /* backlog_limit */ 1000,
       max_retain,
+      /* history_keep_last */ false,
     );
 
     for _ in 0..100 {
@@ -603,8 +629,9 @@ mod tests {
     assert!(buf.get_by_sn(SequenceNumber::new(1)).is_none());
   }
 
-  // A durable (non-VOLATILE) reliable writer must NOT drop on insert even before
-  // a reader matches: it retains samples for late-joining readers. The
+  // A durable (non-VOLATILE) reliable writer without a KEEP_LAST history on a
+  // keyless topic (KEEP_ALL, or a keyed topic) must NOT drop on insert even
+  // before a reader matches: it retains samples for late-joining readers. The
   // `max_retain` bound does not apply to it.
   #[test]
   fn durable_reliable_writer_not_trimmed_before_match() {
@@ -618,6 +645,7 @@ mod tests {
       /* window_limit */ 1000,
       /* backlog_limit */ 1000,
       max_retain,
+      /* history_keep_last */ false,
     );
     // No reliable readers matched yet => admission not window-throttled.
     for _ in 0..10 {
@@ -646,6 +674,7 @@ mod tests {
       /* window_limit */ 1000,
       /* backlog_limit */ 1000,
       max_retain,
+      /* history_keep_last */ false,
     );
     // No reliable reader yet: admitted freely (backlog has room) but trimmed to
     // KeepLast so the buffer cannot balloon before discovery completes.
@@ -662,5 +691,43 @@ mod tests {
       assert!(admit_now(&buf, WriteOptions::default()));
     }
     assert_eq!(buf.retained_len(), max_retain + 10);
+  }
+
+  // A durable KEEP_LAST writer of a keyless topic (a ROS 2 "latched" topic,
+  // TRANSIENT_LOCAL + KEEP_LAST 1) keeps only its newest `depth` samples,
+  // whether or not readers are matched: a late joiner gets the current state,
+  // not every state ever written, and memory stays flat.
+  #[test]
+  fn durable_keep_last_writer_keeps_only_its_depth() {
+    let depth = 1;
+    let guid = GUID::new(
+      crate::structure::guid::GuidPrefix::new(&[1; 12]),
+      crate::structure::guid::EntityId::new([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+    );
+    let buf = WriterSendBuffer::new(
+      guid,
+      "t".to_string(),
+      /* reliable_writer */ true,
+      /* is_builtin */ false,
+      /* volatile */ false,
+      /* window_limit */ 1000,
+      /* backlog_limit */ 1000,
+      /* max_retain */ depth,
+      /* history_keep_last */ true,
+    );
+    for _ in 0..300 {
+      assert!(admit_now(&buf, WriteOptions::default()));
+    }
+    assert_eq!(buf.retained_len(), depth);
+    assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(300));
+    assert!(buf.get_by_sn(SequenceNumber::new(300)).is_some());
+
+    // Also with a reader matched that has not acknowledged anything.
+    buf.set_acked_frontier(Some(SequenceNumber::new(1)));
+    for _ in 0..10 {
+      assert!(admit_now(&buf, WriteOptions::default()));
+    }
+    assert_eq!(buf.retained_len(), depth);
+    assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(310));
   }
 }
