@@ -765,7 +765,7 @@ impl InnerPublisher {
     self
       .remove_writer_sender
       .try_send_timeout(guid, std::time::Duration::from_millis(20))
-      .unwrap_or_else(|e| error!("Cannot remove Writer {guid:?} : {e:?}"));
+      .unwrap_or_else(|e| log_removal_failure("Writer", guid, &e));
   }
 
   pub(crate) fn identity(&self) -> EntityId {
@@ -1415,7 +1415,7 @@ impl InnerSubscriber {
     self
       .sender_remove_reader
       .try_send_timeout(guid, std::time::Duration::from_millis(20))
-      .unwrap_or_else(|e| error!("Cannot remove Reader {guid:?} : {e:?}"));
+      .unwrap_or_else(|e| log_removal_failure("Reader", guid, &e));
   }
 
   fn unwrap_or_new_entity_id(
@@ -1433,5 +1433,42 @@ impl InnerSubscriber {
 
 // -------------------------------------------------------------------
 
+/// How a failed request to remove an endpoint from the event loop is logged.
+///
+/// `Disconnected` means the participant's event loop has already ended (its
+/// participant was dropped first, as when a program exits): the endpoint went
+/// with it and there is nothing left to remove, so this is not an error. A full
+/// channel is: the event loop is alive but the endpoint stays.
+fn removal_failure_level<T>(e: &std::sync::mpsc::TrySendError<T>) -> log::Level {
+  match e {
+    std::sync::mpsc::TrySendError::Disconnected(_) => log::Level::Debug,
+    std::sync::mpsc::TrySendError::Full(_) => log::Level::Error,
+  }
+}
+
+fn log_removal_failure<T>(what: &str, guid: GUID, e: &std::sync::mpsc::TrySendError<T>) {
+  match removal_failure_level(e) {
+    log::Level::Error => error!("Cannot remove {what} {guid:?}: the event loop is not keeping up"),
+    _ => debug!("{what} {guid:?} not removed: its participant's event loop has already ended"),
+  }
+}
+
+
 #[cfg(test)]
-mod tests {}
+mod tests {
+  use std::sync::mpsc::TrySendError;
+
+  use super::removal_failure_level;
+
+  #[test]
+  fn removing_an_endpoint_after_its_participant_ended_is_not_an_error() {
+    assert_eq!(
+      removal_failure_level(&TrySendError::Disconnected(())),
+      log::Level::Debug
+    );
+    assert_eq!(
+      removal_failure_level(&TrySendError::Full(())),
+      log::Level::Error
+    );
+  }
+}
