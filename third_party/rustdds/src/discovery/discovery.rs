@@ -187,7 +187,7 @@ mod no_key {
 #[derive(Clone, Copy, Debug)]
 enum DiscoveryTimerEvent {
   // `reschedule` distinguishes the periodic SPDP announce (true, reschedules
-  // itself at SPDP_PUBLISH_PERIOD) from a one-shot quick response to a newly
+  // itself at the announce period) from a one-shot quick response to a newly
   // discovered participant (false, does not reschedule).
   SendParticipantInfo {
     reschedule: bool,
@@ -256,6 +256,10 @@ pub(crate) struct Discovery {
   // resend timers), so discovery uses a single timer background thread.
   discovery_timer: SharedTimer<DiscoveryTimerEvent>,
 
+  // The lease duration this participant announces, and the periods derived
+  // from it (see `DomainParticipantBuilder::lease_duration`).
+  lease: ParticipantLease,
+
   // If security is enabled, this field contains a SecureDiscovery struct, an appendix
   // which is used for Secure functionality
   security_opt: Option<SecureDiscovery>,
@@ -298,10 +302,41 @@ pub(crate) struct Discovery {
   spdp_quick_response_sent: std::collections::HashSet<GuidPrefix>,
 }
 
+/// How long peers keep this participant alive without hearing from it, and
+/// how often it announces itself and checks its peers' leases.
+///
+/// A participant announces itself (SPDP) five times per lease, so a lease
+/// survives a few lost announcements, and checks the leases of its peers every
+/// fifth of its own lease (at most every 2 s). A peer that dies without saying
+/// goodbye (SIGKILL, power loss, cable pulled) is therefore noticed one lease
+/// plus at most one check period after its last announcement. The cost is one
+/// SPDP DATA message (a few hundred bytes) per announcement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ParticipantLease {
+  pub duration: StdDuration,
+}
+
+impl ParticipantLease {
+  /// RustDDS's traditional lease: 50 s (announcements every 10 s).
+  pub const DEFAULT: ParticipantLease = ParticipantLease {
+    duration: StdDuration::from_secs(50),
+  };
+  const ANNOUNCEMENTS_PER_LEASE: u32 = 5;
+  const MAX_CHECK_PERIOD: StdDuration = StdDuration::from_secs(2);
+
+  /// How often this participant sends its SPDP announcement.
+  pub fn announce_period(&self) -> StdDuration {
+    self.duration / Self::ANNOUNCEMENTS_PER_LEASE
+  }
+
+  /// How often the leases of remote participants are checked.
+  pub fn check_period(&self) -> StdDuration {
+    (self.duration / Self::ANNOUNCEMENTS_PER_LEASE).min(Self::MAX_CHECK_PERIOD)
+  }
+}
+
 impl Discovery {
-  const PARTICIPANT_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(2);
   const TOPIC_CLEANUP_PERIOD: StdDuration = StdDuration::from_secs(60); // timer for cleaning up inactive topics
-  const SPDP_PUBLISH_PERIOD: StdDuration = StdDuration::from_secs(10);
   const CHECK_PARTICIPANT_MESSAGES: StdDuration = StdDuration::from_secs(1);
   #[cfg(feature = "security")]
   const CACHED_SECURE_DISCOVERY_MESSAGE_RESEND_PERIOD: StdDuration = StdDuration::from_secs(1);
@@ -318,6 +353,7 @@ impl Discovery {
     security_plugins_opt: Option<SecurityPluginsHandle>,
     waker: LoopWaker,
     discovery_samples: ReadyReceiver<Token>,
+    lease: ParticipantLease,
   ) -> CreateResult<Self> {
     // helper macro to handle initialization failures.
     macro_rules! try_construct {
@@ -621,7 +657,7 @@ impl Discovery {
         DiscoveryTimerEvent::SendParticipantInfo { reschedule: true },
       );
       t.set_timeout(
-        Self::PARTICIPANT_CLEANUP_PERIOD,
+        lease.check_period(),
         DiscoveryTimerEvent::ParticipantCleanup,
       );
       t.set_timeout(
@@ -677,6 +713,7 @@ impl Discovery {
       dcps_participant_message, // liveliness messages
 
       discovery_timer,
+      lease,
 
       security_opt,
       #[cfg(feature = "security")]
@@ -862,7 +899,7 @@ impl Discovery {
                   // quick response does not.
                   if reschedule {
                     self.discovery_timer.borrow_mut().set_timeout(
-                      Self::SPDP_PUBLISH_PERIOD,
+                      self.lease.announce_period(),
                       DiscoveryTimerEvent::SendParticipantInfo { reschedule: true },
                     );
                   }
@@ -870,7 +907,7 @@ impl Discovery {
                 DiscoveryTimerEvent::ParticipantCleanup => {
                   self.participant_cleanup();
                   self.discovery_timer.borrow_mut().set_timeout(
-                    Self::PARTICIPANT_CLEANUP_PERIOD,
+                    self.lease.check_period(),
                     DiscoveryTimerEvent::ParticipantCleanup,
                   );
                 }
@@ -1019,7 +1056,7 @@ impl Discovery {
             // returns a permission other than `Allow`, which skips
             // `process_discovered_participant_data` above — and with it the normal
             // "quick SPDP response" optimization. Without that, the remote would
-            // only learn about us on our next *periodic* SPDP (SPDP_PUBLISH_PERIOD),
+            // only learn about us on our next *periodic* SPDP (the announce period),
             // delaying the authentication handshake by up to a full period. Send an
             // unsolicited one-shot quick SPDP response now (at most once per remote).
             // We only re-announce our own public SPDP data, so this discloses nothing
@@ -1443,12 +1480,12 @@ impl Discovery {
   }
 
   fn spdp_publish(&self, local_dp: &DomainParticipant) {
-    // setting 5 times the duration so lease doesn't break if update fails once or
-    // twice
+    // The lease is 5 announce periods, so it does not break if an announcement
+    // is lost once or twice.
     let data = SpdpDiscoveredParticipantData::from_local_participant(
       local_dp,
       &self.security_opt,
-      5.0 * Duration::from(Self::SPDP_PUBLISH_PERIOD),
+      Duration::from(self.lease.duration),
     );
 
     #[cfg(feature = "security")]
@@ -2176,6 +2213,22 @@ mod tests {
     },
     RepresentationIdentifier, SerializedPayload,
   };
+
+  #[test]
+  fn the_lease_sets_how_often_a_participant_announces_itself_and_checks_its_peers() {
+    let default = ParticipantLease::DEFAULT;
+    assert_eq!(default.announce_period(), StdDuration::from_secs(10));
+    assert_eq!(default.check_period(), StdDuration::from_secs(2));
+
+    // A short lease: a peer killed right after announcing is declared lost at
+    // most lease + check period later.
+    let short = ParticipantLease {
+      duration: StdDuration::from_secs(3),
+    };
+    assert_eq!(short.announce_period(), StdDuration::from_millis(600));
+    assert_eq!(short.check_period(), StdDuration::from_millis(600));
+    assert!(short.duration + short.check_period() < StdDuration::from_secs(5));
+  }
 
   #[test]
   fn sedp_topic_caches_get_sedp_reader_limits() {
