@@ -1,6 +1,6 @@
 //! The connection manager as a ROS node: connect/disconnect/list services called from another participant,
 //! the `connections` topic, errors as answers, and a caller that exits taking its connections with it.
-//! Domains 90-91.
+//! Domains 90-92 and 32.
 
 use std::{sync::atomic::Ordering, time::Duration};
 
@@ -188,6 +188,45 @@ async fn a_callers_connections_go_when_its_process_leaves_the_graph() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_caller_loses_its_connections_within_its_lease() {
+    let host = radar(32);
+    let tick = host
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (_count, runs) = counter(&host, "count");
+    let _manager = host.serve_manager("radar_manager").unwrap();
+    let (mut child, line) = peer_with_first_line(
+        env!("CARGO_BIN_EXE_radar_test_peer"),
+        32,
+        &["connect", "/radar_manager", "tick/triggered", "count/start"],
+    )
+    .await;
+    assert!(line.starts_with("connected true "), "{line}");
+    eventually(DISCOVERY, "runs through the child's connection", || {
+        runs.load(Ordering::SeqCst) >= 2
+    })
+    .await;
+    assert_eq!(host.connections().len(), 1);
+    let t0 = std::time::Instant::now();
+    child.kill().await.unwrap(); // SIGKILL: no goodbye; the manager learns it from the lease
+    eventually(
+        Duration::from_secs(30),
+        "the manager to drop the dead caller's connection",
+        || host.connections().is_empty(),
+    )
+    .await;
+    let removed = t0.elapsed();
+    eventually(DISCOVERY, "the event to deactivate", || {
+        !tick.state().active
+    })
+    .await;
+    let inactive = t0.elapsed();
+    println!("caller killed: connection removed after {removed:?}, event inactive after {inactive:?}");
+    assert!(removed < Duration::from_secs(5), "{removed:?}");
+    assert!(inactive < Duration::from_secs(5), "{inactive:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_killed_deliberative_program_takes_its_connections_with_it() {
     let host = radar(92);
     let tick = host
@@ -210,14 +249,13 @@ async fn a_killed_deliberative_program_takes_its_connections_with_it() {
     let t0 = std::time::Instant::now();
     child.kill().await.unwrap(); // SIGKILL: its relays vanish without a word
                                  // its relay was the event's only listener: the event deactivates when the dead participant's lease ends
-    eventually(Duration::from_secs(80), "the event to deactivate", || {
+    eventually(Duration::from_secs(30), "the event to deactivate", || {
         !tick.state().active
     })
     .await;
-    println!(
-        "deliberative program killed: its connection ended after {:?} (DDS lease)",
-        t0.elapsed()
-    );
+    let took = t0.elapsed();
+    println!("deliberative program killed: its connection ended after {took:?} (DDS lease)");
+    assert!(took < Duration::from_secs(5), "{took:?}");
     let n = runs.load(Ordering::SeqCst);
     tokio::time::sleep(Duration::from_millis(300)).await;
     assert_eq!(

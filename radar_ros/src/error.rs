@@ -23,6 +23,16 @@ pub enum Error {
         /// Why it was refused.
         reason: String,
     },
+    /// An environment variable radar_ros reads has a value it cannot use.
+    #[error("invalid {var}=\"{value}\": {reason}")]
+    InvalidEnv {
+        /// The variable.
+        var: &'static str,
+        /// Its value as found.
+        value: String,
+        /// Why it was refused and what to set instead.
+        reason: String,
+    },
     /// A component with this name already runs in this process.
     #[error("a RADAR component named \"{0}\" already runs in this process; pick another name or namespace")]
     DuplicateName(String),

@@ -8,8 +8,9 @@
 //! - `RemoteReaderMatched` / `RemoteWriterMatched` add a peer (also for readers in the same participant);
 //! - `ReaderLost` / `WriterLost` remove it (a peer that closes its endpoint or exits cleanly: milliseconds);
 //! - `ParticipantLost` removes every endpoint of that participant. After `kill -9` this is the only signal, and
-//!   it comes when the dead participant's lease expires: 20 s for Fast DDS (rclpy) peers, 50 s for RustDDS
-//!   peers (RustDDS announces 5 x its 10 s SPDP period), plus up to 2 s for RustDDS's lease check.
+//!   it comes when the dead participant's lease expires: 3 s for radar_ros peers (`DEFAULT_LEASE`, announced
+//!   every 0.6 s), 20 s for Fast DDS (rclpy) peers, 50 s for other RustDDS programs, plus up to one lease
+//!   check period (0.6 s with radar_ros's lease).
 //!
 //! RustDDS matches endpoints of one topic whatever their type names; ROS 2 (and Fast DDS) do not. So on every
 //! match the peer's type, from DDS discovery data, is compared with the local endpoint's: a peer of another

@@ -61,7 +61,7 @@
 //! |---|---|
 //! | is created or deleted, in this or another process | milliseconds (measured: 3 ms to activate, under 1 ms to deactivate) |
 //! | its process exits cleanly (drops its participant) | milliseconds (measured: 3-5 ms) |
-//! | its process is killed (`SIGKILL`) | the dead participant's DDS lease: ~52 s for RustDDS peers (50 s lease + 2 s check), ~20 s for Fast DDS (rclpy) peers |
+//! | its process is killed (`SIGKILL`) | the dead participant's DDS lease: about 3-3.6 s for radar_ros peers ([`DEFAULT_LEASE`] 3 s + a 0.6 s check; `RADAR_LEASE_SECONDS` changes it), ~20 s for Fast DDS (rclpy) peers, ~52 s for other RustDDS programs |
 //!
 //! ## Types on the wire
 //!
@@ -110,8 +110,8 @@ pub use lookup::EventRef;
 pub use manager_node::ManagerHandle;
 pub use names::ComponentName;
 pub use radar::{
-    discovery_range_from_env, domain_id_from_env, parse_domain_id, DiscoveryRange, Radar,
-    RadarBuilder,
+    discovery_range_from_env, domain_id_from_env, lease_from_env, parse_domain_id, DiscoveryRange,
+    Radar, RadarBuilder, DEFAULT_LEASE,
 };
 pub use raw::{RawMessage, RawPublisher, RawSubscription};
 pub use response::{FnResponse, Response, ResponseHandle};

@@ -12,7 +12,8 @@
 //!
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
 //! through the service belongs to the caller's DDS participant (its process) and is removed when that
-//! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed.
+//! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed (3-3.6 s
+//! for a radar_ros program, see [`crate::DEFAULT_LEASE`]; ~20 s for an rclpy one).
 //! Errors come back as `ok = false` with a message saying what to do.
 
 use std::{collections::HashMap, time::Duration};
