@@ -2,7 +2,8 @@
 //! inject into slots as `ros2 topic pub` does, act as events and responses in connections, call the manager's
 //! services with the generated `radar_msgs` types, read latched state, and send bad input. The Python side is
 //! `tests/python/interop.py` and `examples/python/`, run with the venv that `tests/python_env.sh` builds
-//! (`tests/isolated.sh` builds it before entering the test network). No venv: these tests fail. Domains 94-101.
+//! (`tests/isolated.sh` builds it before entering the test network). No venv: these tests fail. Domains 94-101,
+//! 33-34.
 
 use std::{
     path::PathBuf,
@@ -524,4 +525,176 @@ async fn bad_input_from_rclpy_is_refused_with_reasons() {
             assert!(e.contains(n), "{request}: {n:?} missing from {e:?}");
         }
     }
+}
+
+/// Waits until `cond` holds, at most `timeout`; whether it did.
+async fn within(timeout: Duration, cond: impl Fn() -> bool) -> bool {
+    tokio::time::timeout(timeout, async {
+        while !cond() {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    })
+    .await
+    .is_ok()
+}
+
+/// Scenario 7: `ros2 topic pub --once` as the real command line does it: a fresh process (a new DDS
+/// participant) per message, which publishes as soon as it counts one matched subscription and leaves 0.1 s
+/// later. Thirty starts and thirty interrupts, each from its own process: every one is acted on.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_one_shot_publish_from_a_fresh_process_is_acted_on() {
+    const N: u64 = 30;
+    let r = radar(101);
+    let resp = slow_response(&r, "/interop/oneshot");
+    let mut acted = 0;
+    let mut lost = None;
+    let mut matched_after = Vec::new();
+    type Acted = fn(&radar_ros::msg::ResponseState, u64) -> bool;
+    'rounds: for i in 0..N {
+        let steps: [(&str, Acted); 2] = [
+            ("start", |s, i| s.starts == i + 1),
+            ("interrupt", |s, i| {
+                s.interrupts == i + 1 && s.exits == i + 1
+            }),
+        ];
+        for (slot, done) in steps {
+            let mut py = Py::interop(101, &["pub_once", &format!("/interop/oneshot/{slot}")]);
+            let p = py.json_with("published").await;
+            matched_after.push(p["matched_after_s"].as_f64().unwrap());
+            py.succeeds().await;
+            // the process is gone: its message has arrived, or arrives from what the transport held for it
+            if within(Duration::from_secs(5), || done(&resp.state(), i)).await {
+                acted += 1;
+            } else {
+                lost = Some(format!("{slot} #{i}, state then: {:?}", resp.state()));
+                break 'rounds;
+            }
+        }
+    }
+    println!(
+        "{acted} of {} one-shot publishes from fresh processes acted on; they matched after {:.2}-{:.2} s",
+        2 * N,
+        matched_after.iter().cloned().fold(f64::MAX, f64::min),
+        matched_after.iter().cloned().fold(0.0, f64::max)
+    );
+    assert_eq!(
+        lost, None,
+        "a one-shot publish was lost after {acted} acted on"
+    );
+    let s = resp.state();
+    assert_eq!((s.starts, s.interrupts, s.exits), (N, N, N));
+}
+
+/// Scenario 8: `ros2 service call` as the real command line does it: a fresh process per call, which waits
+/// for the service and sends one request. Thirty calls to the manager's `list`, each answered.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_service_call_from_a_fresh_process_is_answered() {
+    const N: usize = 30;
+    let r = radar(33);
+    let _graph = graph_with_manager(&r, "/interop/tick");
+    let mut answered = 0;
+    let mut answer_s = Vec::new();
+    for _ in 0..N {
+        let mut py = Py::interop(33, &["list_once", "/radar_manager"]);
+        let a = py.json_with("answered").await;
+        py.succeeds().await;
+        if a["answered"] == true {
+            answered += 1;
+            answer_s.push(a["answer_s"].as_f64().unwrap());
+            assert_eq!(a["connections"], 0, "{a}");
+        }
+    }
+    println!(
+        "{answered} of {N} service calls from fresh processes answered; answer after {:.3}-{:.3} s",
+        answer_s.iter().cloned().fold(f64::MAX, f64::min),
+        answer_s.iter().cloned().fold(0.0, f64::max)
+    );
+    assert_eq!(answered, N);
+}
+
+/// Scenario 9: a response goes through 100 state changes with nobody subscribed to its `state`; late
+/// subscribers with transient-local durability and a deep queue get exactly one sample, the current state:
+/// rclpy (Fast DDS) and ros2-client (RustDDS, another participant).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_late_state_subscriber_gets_only_the_current_state() {
+    use ros2_client::{
+        qos::{Durability, History},
+        MessageTypeName, Name, NodeName, NodeOptions,
+    };
+    let r = radar(34);
+    let resp = slow_response(&r, "/interop/cycled");
+    let start = r
+        .signal_publisher::<Empty>("/interop/cycled/start")
+        .unwrap();
+    let interrupt = r
+        .signal_publisher::<Empty>("/interop/cycled/interrupt")
+        .unwrap();
+    start.wait_for_subscribers(1, T).await.unwrap();
+    interrupt.wait_for_subscribers(1, T).await.unwrap();
+    // idle -> running -> interrupting -> exiting -> idle: four state changes per cycle
+    for i in 1..=25 {
+        start.publish(Empty::default()).unwrap();
+        eventually(T, "started", || resp.state().starts == i).await;
+        interrupt.publish(Empty::default()).unwrap();
+        eventually(T, "exited", || resp.state().exits == i).await;
+    }
+    start.publish(Empty::default()).unwrap();
+    eventually(T, "running again", || resp.state().starts == 26).await;
+    let current = resp.state();
+    assert_eq!(current.state_label, "running");
+
+    let mut py = Py::interop(34, &["state_all", "/interop/cycled"]);
+    let got = py.json_with("count").await;
+    py.succeeds().await;
+    assert_eq!(got["count"], 1, "rclpy got {got}");
+    assert_eq!(
+        got["states"][0],
+        serde_json::json!(["running", 26, 25, 25]),
+        "{got}"
+    );
+
+    // ros2-client in another participant, same QoS as the rclpy subscriber
+    let late = radar_ros::Radar::builder().domain_id(34).build().unwrap();
+    let mut node = late
+        .context()
+        .new_node(
+            NodeName::new("/", "late_state_reader").unwrap(),
+            NodeOptions::new().enable_rosout(false),
+        )
+        .unwrap();
+    let qos = radar_ros::endpoints::state_qos()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 100 });
+    let topic = node
+        .create_topic(
+            &Name::parse("/interop/cycled/state").unwrap(),
+            MessageTypeName::new("radar_msgs", "ResponseState"),
+            &qos,
+        )
+        .unwrap();
+    let sub = node
+        .create_subscription::<radar_ros::msg::ResponseState>(&topic, Some(qos))
+        .unwrap();
+    tokio::spawn(node.spinner().unwrap().spin());
+    let mut stream = Box::pin(sub.async_stream());
+    let first = tokio::time::timeout(T, futures::StreamExt::next(&mut stream))
+        .await
+        .expect("the latched state")
+        .unwrap()
+        .unwrap()
+        .0;
+    assert_eq!(
+        (first.state_label.as_str(), first.starts, first.exits),
+        ("running", 26, 25)
+    );
+    let more = tokio::time::timeout(
+        Duration::from_secs(1),
+        futures::StreamExt::next(&mut stream),
+    )
+    .await;
+    assert!(
+        more.is_err(),
+        "a second sample: {:?}",
+        more.map(|m| m.map(|r| r.map(|x| x.0)))
+    );
 }

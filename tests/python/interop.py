@@ -9,6 +9,9 @@ to assert on; it exits non-zero (with a reason on stderr) when something it wait
     interop.py state RESPONSE               # the transient-local state topic, as a late subscriber
     interop.py deliberative MANAGER SOURCE TARGET WATCH [--no-disconnect]
     interop.py bad_input RESPONSE MANAGER EVENT
+    interop.py pub_once TOPIC               # std_msgs/Empty, exactly as `ros2 topic pub --once` does it
+    interop.py list_once MANAGER            # one List request, as `ros2 service call` does it
+    interop.py state_all RESPONSE           # every sample a late transient-local subscriber (depth 100) gets
 """
 import argparse
 import json
@@ -120,6 +123,52 @@ def state(node, a):
     s = got[0]
     out(after_s=time.monotonic() - t0, name=s.name, state=s.state, state_label=s.state_label,
         start_type=s.start_type, starts=s.starts, exits=s.exits)
+
+
+def pub_once(node, a):
+    """`ros2 topic pub --once TOPIC std_msgs/msg/Empty` (ros2cli Jazzy, ros2topic/verb/pub.py), run as a fresh
+    process per message: a new participant, a publisher with the 'default' QoS profile (reliable, volatile,
+    keep-last 10), a poll every 0.1 s until it counts one matched subscription, one publish, 0.1 s of
+    keep-alive, exit."""
+    pub = node.create_publisher(Empty, a.topic, 10)
+    t0 = time.monotonic()
+    while pub.get_subscription_count() < 1:
+        if time.monotonic() - t0 > TIMEOUT:
+            fail(f"no subscription on {a.topic} within {TIMEOUT}s")
+        time.sleep(0.1)
+    pub.publish(Empty())
+    out(published=a.topic, matched_after_s=time.monotonic() - t0)
+    time.sleep(0.1)
+
+
+def list_once(node, a):
+    """`ros2 service call MANAGER/list radar_msgs/srv/List` (ros2cli Jazzy, ros2service/verb/call.py), run as
+    a fresh process: a client, wait for the service, one request, wait for the answer, exit."""
+    from radar_msgs.srv import List
+    cli = node.create_client(List, f"{a.manager}/list")
+    t0 = time.monotonic()
+    if not cli.wait_for_service(timeout_sec=TIMEOUT):
+        fail(f"service {a.manager}/list not available within {TIMEOUT}s")
+    ready = time.monotonic() - t0
+    f = cli.call_async(List.Request())
+    rclpy.spin_until_future_complete(node, f, timeout_sec=10.0)
+    out(answered=f.done() and f.result() is not None, service_ready_s=ready,
+        answer_s=time.monotonic() - t0 - ready,
+        connections=len(f.result().connections) if f.done() and f.result() is not None else None)
+
+
+def state_all(node, a):
+    """A late subscriber to a response's state with transient-local durability and a deep queue (100), as
+    `ros2 topic echo --qos-durability transient_local --qos-depth 100` would make: reports every sample it
+    gets within a second of the first."""
+    from radar_msgs.msg import ResponseState
+    got = []
+    qos = QoSProfile(depth=100, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node.create_subscription(ResponseState, f"{a.response}/state", got.append, qos)
+    spin_until(node, lambda: got, "the latched state")
+    spin_for(node, 1.0)
+    out(count=len(got), states=[[s.state_label, s.starts, s.interrupts, s.exits] for s in got])
 
 
 class ManagerClient:
@@ -234,6 +283,12 @@ def main():
     b.add_argument("manager")
     b.add_argument("event")
     b.add_argument("string_slot")
+    po = sub.add_parser("pub_once")
+    po.add_argument("topic")
+    lo = sub.add_parser("list_once")
+    lo.add_argument("manager")
+    sa = sub.add_parser("state_all")
+    sa.add_argument("response")
     a = p.parse_args()
     rclpy.init()
     node = Node(f"interop_{a.cmd}")
