@@ -221,7 +221,9 @@ async fn a_killed_caller_loses_its_connections_within_its_lease() {
     })
     .await;
     let inactive = t0.elapsed();
-    println!("caller killed: connection removed after {removed:?}, event inactive after {inactive:?}");
+    println!(
+        "caller killed: connection removed after {removed:?}, event inactive after {inactive:?}"
+    );
     assert!(removed < Duration::from_secs(5), "{removed:?}");
     assert!(inactive < Duration::from_secs(5), "{inactive:?}");
 }

@@ -107,15 +107,20 @@ pub fn lease_from_env() -> Result<std::time::Duration> {
 }
 
 fn parse_lease(value: &str) -> Result<std::time::Duration> {
-    let bad = |reason: &str| Error::InvalidEnv {
+    let bad = |reason: &str| {
+        Error::InvalidEnv {
         var: "RADAR_LEASE_SECONDS",
         value: value.to_owned(),
         reason: format!(
             "{reason}; give the lease in seconds, from 0.1 up (e.g. 3, or 1.5), or unset it for {}s",
             DEFAULT_LEASE.as_secs_f64()
         ),
+    }
     };
-    let secs: f64 = value.trim().parse().map_err(|_| bad("it is not a number"))?;
+    let secs: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| bad("it is not a number"))?;
     if !secs.is_finite() || secs < 0.1 {
         return Err(bad("it is below 0.1 s"));
     }
