@@ -586,7 +586,9 @@ async fn every_one_shot_publish_from_a_fresh_process_is_acted_on() {
 }
 
 /// Scenario 8: `ros2 service call` as the real command line does it: a fresh process per call, which waits
-/// for the service and sends one request. Thirty calls to the manager's `list`, each answered.
+/// for the service and sends one request. Thirty calls to the manager's `list`, each answered at once (a
+/// request dropped because it came before discovery matched its writer was answered only after the
+/// client's next heartbeat, 3 s later, or never if the caller gives up sooner).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_service_call_from_a_fresh_process_is_answered() {
     const N: usize = 30;
@@ -598,14 +600,16 @@ async fn every_service_call_from_a_fresh_process_is_answered() {
         let mut py = Py::interop(33, &["list_once", "/radar_manager"]);
         let a = py.json_with("answered").await;
         py.succeeds().await;
-        if a["answered"] == true {
+        if a["answered"] == true && a["answer_s"].as_f64().unwrap() < 1.5 {
             answered += 1;
-            answer_s.push(a["answer_s"].as_f64().unwrap());
             assert_eq!(a["connections"], 0, "{a}");
+        }
+        if a["answered"] == true {
+            answer_s.push(a["answer_s"].as_f64().unwrap());
         }
     }
     println!(
-        "{answered} of {N} service calls from fresh processes answered; answer after {:.3}-{:.3} s",
+        "{answered} of {N} service calls from fresh processes answered within 1.5 s; answers after {:.3}-{:.3} s",
         answer_s.iter().cloned().fold(f64::MAX, f64::min),
         answer_s.iter().cloned().fold(0.0, f64::max)
     );
