@@ -32,7 +32,7 @@ use crate::{
     discovery::DiscoveryCommand, discovery_db::DiscoveryDB, sedp_messages::DiscoveredWriterData,
   },
   mio_source,
-  polling::{wake_channel, BoundSender, Doorbell, ReadySender, WakeSender},
+  polling::{wake_channel, BoundSender, Doorbell, ReadySender, WakeSender, WakeUnboundedSender},
   rtps::{
     constant::DEFAULT_WRITER_MAX_SAMPLES, reader::ReaderIngredients, writer::WriterIngredients,
     writer_send_buffer::WriterSendBuffer,
@@ -104,7 +104,7 @@ impl Publisher {
     qos: QosPolicies,
     default_dw_qos: QosPolicies,
     add_writer_sender: WakeSender<WriterIngredients>,
-    remove_writer_sender: WakeSender<GUID>,
+    remove_writer_sender: WakeUnboundedSender<GUID>,
     discovery_command: WakeSender<DiscoveryCommand>,
     security_plugins_handle: Option<SecurityPluginsHandle>,
     writer_ready: ReadySender<EntityId>,
@@ -428,7 +428,7 @@ struct InnerPublisher {
   my_qos_policies: QosPolicies,
   default_datawriter_qos: QosPolicies, // used when creating a new DataWriter
   add_writer_sender: WakeSender<WriterIngredients>,
-  remove_writer_sender: WakeSender<GUID>,
+  remove_writer_sender: WakeUnboundedSender<GUID>,
   discovery_command: WakeSender<DiscoveryCommand>,
   security_plugins_handle: Option<SecurityPluginsHandle>,
   writer_ready: ReadySender<EntityId>,
@@ -443,7 +443,7 @@ impl InnerPublisher {
     qos: QosPolicies,
     default_dw_qos: QosPolicies,
     add_writer_sender: WakeSender<WriterIngredients>,
-    remove_writer_sender: WakeSender<GUID>,
+    remove_writer_sender: WakeUnboundedSender<GUID>,
     discovery_command: WakeSender<DiscoveryCommand>,
     writer_ready: ReadySender<EntityId>,
     security_plugins_handle: Option<SecurityPluginsHandle>,
@@ -764,8 +764,8 @@ impl InnerPublisher {
   pub(crate) fn remove_writer(&self, guid: GUID) {
     self
       .remove_writer_sender
-      .try_send_timeout(guid, std::time::Duration::from_millis(20))
-      .unwrap_or_else(|e| log_removal_failure("Writer", guid, &e));
+      .send(guid)
+      .unwrap_or_else(|_| log_removal_after_end("Writer", guid));
   }
 
   pub(crate) fn identity(&self) -> EntityId {
@@ -827,7 +827,7 @@ impl Subscriber {
     discovery_db: Arc<RwLock<DiscoveryDB>>,
     qos: QosPolicies,
     sender_add_reader: WakeSender<ReaderIngredients>,
-    sender_remove_reader: WakeSender<GUID>,
+    sender_remove_reader: WakeUnboundedSender<GUID>,
     discovery_command: WakeSender<DiscoveryCommand>,
     security_plugins_handle: Option<SecurityPluginsHandle>,
     reader_ready: ReadySender<EntityId>,
@@ -1058,7 +1058,7 @@ pub struct InnerSubscriber {
   discovery_db: Arc<RwLock<DiscoveryDB>>,
   qos: QosPolicies,
   sender_add_reader: WakeSender<ReaderIngredients>,
-  sender_remove_reader: WakeSender<GUID>,
+  sender_remove_reader: WakeUnboundedSender<GUID>,
   discovery_command: WakeSender<DiscoveryCommand>,
   security_plugins_handle: Option<SecurityPluginsHandle>,
   reader_ready: ReadySender<EntityId>,
@@ -1072,7 +1072,7 @@ impl InnerSubscriber {
     discovery_db: Arc<RwLock<DiscoveryDB>>,
     qos: QosPolicies,
     sender_add_reader: WakeSender<ReaderIngredients>,
-    sender_remove_reader: WakeSender<GUID>,
+    sender_remove_reader: WakeUnboundedSender<GUID>,
     discovery_command: WakeSender<DiscoveryCommand>,
     security_plugins_handle: Option<SecurityPluginsHandle>,
     reader_ready: ReadySender<EntityId>,
@@ -1414,8 +1414,8 @@ impl InnerSubscriber {
   pub(crate) fn remove_reader(&self, guid: GUID) {
     self
       .sender_remove_reader
-      .try_send_timeout(guid, std::time::Duration::from_millis(20))
-      .unwrap_or_else(|e| log_removal_failure("Reader", guid, &e));
+      .send(guid)
+      .unwrap_or_else(|_| log_removal_after_end("Reader", guid));
   }
 
   fn unwrap_or_new_entity_id(
@@ -1433,42 +1433,10 @@ impl InnerSubscriber {
 
 // -------------------------------------------------------------------
 
-/// How a failed request to remove an endpoint from the event loop is logged.
-///
-/// `Disconnected` means the participant's event loop has already ended (its
-/// participant was dropped first, as when a program exits): the endpoint went
-/// with it and there is nothing left to remove, so this is not an error. A full
-/// channel is: the event loop is alive but the endpoint stays.
-fn removal_failure_level<T>(e: &std::sync::mpsc::TrySendError<T>) -> log::Level {
-  match e {
-    std::sync::mpsc::TrySendError::Disconnected(_) => log::Level::Debug,
-    std::sync::mpsc::TrySendError::Full(_) => log::Level::Error,
-  }
-}
-
-fn log_removal_failure<T>(what: &str, guid: GUID, e: &std::sync::mpsc::TrySendError<T>) {
-  match removal_failure_level(e) {
-    log::Level::Error => error!("Cannot remove {what} {guid:?}: the event loop is not keeping up"),
-    _ => debug!("{what} {guid:?} not removed: its participant's event loop has already ended"),
-  }
-}
-
-
-#[cfg(test)]
-mod tests {
-  use std::sync::mpsc::TrySendError;
-
-  use super::removal_failure_level;
-
-  #[test]
-  fn removing_an_endpoint_after_its_participant_ended_is_not_an_error() {
-    assert_eq!(
-      removal_failure_level(&TrySendError::Disconnected(())),
-      log::Level::Debug
-    );
-    assert_eq!(
-      removal_failure_level(&TrySendError::Full(())),
-      log::Level::Error
-    );
-  }
+/// A removal that cannot be sent means the participant's event loop has
+/// already ended (its participant was dropped first, as when a program exits)
+/// and took the endpoint with it: there is nothing left to remove, and it is
+/// not an error.
+fn log_removal_after_end(what: &str, guid: GUID) {
+  debug!("{what} {guid:?} not removed: its participant's event loop has already ended");
 }
