@@ -1,9 +1,11 @@
 //! Runs the `count_up` example (Listing 1) as a separate process and checks its printed timeline against the
-//! listing, step by step, within 100 ms. Domain 60. Runs inside `tests/isolated.sh` like every DDS test.
+//! listing, step by step, within 100 ms, and that it ends without an error line. Domain 60. Runs inside `tests/isolated.sh` like every DDS test.
 
 use std::{path::PathBuf, process::Command};
 
-use radar_ros_examples::test_support::{examples_dir, require_isolation, timeline, times};
+use radar_ros_examples::test_support::{
+    assert_no_error_lines, examples_dir, require_isolation, timeline, times,
+};
 
 fn example_binary() -> PathBuf {
     examples_dir("count_up").join("count_up")
@@ -26,11 +28,9 @@ fn count_up_follows_listing_1_within_100_ms_per_step() {
         .expect("run count_up");
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}");
-    assert!(
-        out.status.success(),
-        "count_up failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "count_up failed: {stderr}");
+    assert_no_error_lines(&stderr, "count_up");
     let tl = timeline(&stdout, None);
 
     near(

@@ -54,7 +54,20 @@ pub mod test_support {
         );
     }
 
-    /// Runs `launch_scripts/<script>` with `args` in `domain` and returns what it printed; panics if it failed.
+    /// Panics if `stderr` of a program that ended normally has an error-level log line (a program that ends
+    /// normally prints none).
+    pub fn assert_no_error_lines(stderr: &str, what: &str) {
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("ERROR")).collect();
+        assert!(
+            errors.is_empty(),
+            "{what} ended normally but logged {} error line(s):\n{}",
+            errors.len(),
+            errors.join("\n")
+        );
+    }
+
+    /// Runs `launch_scripts/<script>` with `args` in `domain` and returns what it printed; panics if it failed
+    /// or if any of its processes logged an error.
     pub fn run_launch_script(
         script: &str,
         domain: u16,
@@ -71,11 +84,9 @@ pub mod test_support {
             .expect("run the launch script");
         let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
         println!("{stdout}");
-        assert!(
-            out.status.success(),
-            "{script} failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{script} failed: {stderr}");
+        assert_no_error_lines(&stderr, script);
         stdout
     }
 

@@ -1,6 +1,7 @@
 //! The benchmark harness itself works: `radar_bench quick` runs every scenario across processes over real
 //! DDS (rclpy included) and writes a complete, self-consistent report. Numbers are not judged here (the
-//! goals in docs/benchmarks.md are not asserted); what is checked is that every figure was really measured.
+//! goals in docs/benchmarks.md are not asserted); what is checked is that every figure was really measured,
+//! and that none of its processes logs an error.
 //! Uses ROS_DOMAIN_ID 215-227.
 
 use std::path::Path;
@@ -30,14 +31,26 @@ fn check_distribution(x: &Value) {
 fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     let out = std::env::temp_dir().join(format!("radar_bench_quick_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_radar_bench"))
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_radar_bench"))
         .args(["quick", "--domain", "215", "--out"])
         .arg(&out)
-        .status()
+        .env_remove("RUST_LOG")
+        .stderr(std::process::Stdio::piped())
+        .output()
         .expect("run radar_bench");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    eprintln!("{stderr}");
     assert!(
-        status.success(),
+        run.status.success(),
         "radar_bench quick failed (its output is above; outside tests/isolated.sh it refuses to run)"
+    );
+    // the coordinator and all its child processes ended normally: no error-level log line
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("ERROR")).collect();
+    assert!(
+        errors.is_empty(),
+        "{} error line(s) on a normal run, e.g. {:?}",
+        errors.len(),
+        &errors[..errors.len().min(3)]
     );
     let r: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();

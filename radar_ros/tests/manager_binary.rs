@@ -1,5 +1,5 @@
 //! The standalone `radar_manager` binary serves a manager node: its `connections` topic appears with the
-//! node's name, and its services answer. Domain 93. Runs inside `tests/isolated.sh` like every DDS test.
+//! node's name, and its services answer; SIGTERM ends it normally with no error line. Domain 93. Runs inside `tests/isolated.sh` like every DDS test.
 
 use std::time::Duration;
 
@@ -12,9 +12,11 @@ async fn the_radar_manager_binary_serves_a_manager_node() {
             || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
         "run inside tests/isolated.sh (see README.md)"
     );
-    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_manager"))
+    let child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_manager"))
         .arg("shared_manager")
         .env("ROS_DOMAIN_ID", "93")
+        .env_remove("RUST_LOG")
+        .stderr(std::process::Stdio::piped())
         .kill_on_drop(true)
         .spawn()
         .expect("start radar_manager");
@@ -36,5 +38,22 @@ async fn the_radar_manager_binary_serves_a_manager_node() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("invalid ROS_DOMAIN_ID \"x\""));
-    child.kill().await.unwrap();
+    // SIGTERM ends it normally, with no error line
+    drop(list);
+    assert!(std::process::Command::new("kill")
+        .args(["-TERM", &child.id().unwrap().to_string()])
+        .status()
+        .unwrap()
+        .success());
+    let out = tokio::time::timeout(Duration::from_secs(10), child.wait_with_output())
+        .await
+        .expect("radar_manager to exit on SIGTERM")
+        .unwrap();
+    assert!(out.status.success(), "{:?}", out.status);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("ERROR")).collect();
+    assert!(
+        errors.is_empty(),
+        "error lines on a normal exit: {errors:#?}"
+    );
 }
