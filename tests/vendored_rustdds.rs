@@ -1,0 +1,42 @@
+//! The vendored RustDDS (`third_party/rustdds`, patched for radar_ros, see its `RADAR_PATCHES.md`) passes its
+//! own unit tests, including one for each patch. RustDDS is not a workspace member (its examples and
+//! development dependencies would weigh on every build), so this runs `cargo test --lib` on it in its own
+//! target directory. Its unit tests open no sockets to other hosts.
+
+#[test]
+fn vendored_rustdds_passes_its_unit_tests() {
+    let manifest = concat!(env!("CARGO_MANIFEST_DIR"), "/../third_party/rustdds/Cargo.toml");
+    let out = std::process::Command::new(env!("CARGO"))
+        .args(["test", "--lib", "--manifest-path", manifest])
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_TARGET_DIR")
+        .output()
+        .expect("run cargo");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let summary: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with("test result:"))
+        .collect();
+    println!("{}", summary.join("\n"));
+    assert!(
+        out.status.success(),
+        "RustDDS unit tests failed:\n{}\n{stderr}",
+        stdout
+            .lines()
+            .filter(|l| l.contains("FAILED") || l.contains("panicked"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    // the patches' own tests ran
+    for name in [
+        "data_that_arrives_before_its_writer_is_matched_is_delivered_on_the_match",
+        "durable_keep_last_writer_keeps_only_its_depth",
+        "the_lease_sets_how_often_a_participant_announces_itself_and_checks_its_peers",
+    ] {
+        assert!(
+            stdout.contains(&format!("{name} ... ok")),
+            "{name} did not run"
+        );
+    }
+}
