@@ -3,6 +3,10 @@
 
     rclpy_hop.py sink --topic T      records each std_msgs/msg/Header's age when its callback runs
     rclpy_hop.py source --topic T    publishes stamped Headers
+    rclpy_hop.py oneshot --topic T --seq N
+                                     `ros2 topic pub --once`, as the ros2 CLI does it: a fresh process that
+                                     polls every 0.1 s until its publisher counts one subscription,
+                                     publishes one stamped Header, stays 0.1 s and exits (prints `published`)
 
 Speaks radar_bench's child protocol: prints `ready`, then answers one line per command on stdin
 (`wait`, `run N PERIOD_US`, `report WARMUP`, `quit`). Stamps use CLOCK_MONOTONIC, as the Rust side does, and
@@ -37,13 +41,33 @@ def stamped(seq):
     return h
 
 
+def oneshot(node, topic, seq):
+    """What `ros2 topic pub --once` does after rclpy.init (ros2cli Jazzy, ros2topic/verb/pub.py)."""
+    pub = node.create_publisher(Header, topic, QOS)
+    deadline = time.monotonic() + 20
+    while pub.get_subscription_count() < 1:
+        if time.monotonic() > deadline:
+            print(f"oneshot: no subscriber on {topic} within 20 s", file=sys.stderr)
+            sys.exit(2)
+        time.sleep(0.1)
+    pub.publish(stamped(seq))
+    time.sleep(0.1)
+    print("published", flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["sink", "source"])
+    ap.add_argument("role", choices=["sink", "source", "oneshot"])
     ap.add_argument("--topic", required=True)
+    ap.add_argument("--seq", type=int, default=0)
     a = ap.parse_args()
     rclpy.init()
     node = Node(f"rclpy_{a.role}", namespace="/bench")
+    if a.role == "oneshot":
+        oneshot(node, a.topic, a.seq)
+        return
     lock = threading.Lock()
     record = []
     if a.role == "sink":

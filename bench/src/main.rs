@@ -8,12 +8,15 @@
 //! Options: `--out DIR` (default `target/radar_bench/<mode>`), `--domain N` (first `ROS_DOMAIN_ID`, default
 //! 215; each scenario takes the next), `--only latency,setup,...`, `--venv DIR` (rclpy venv, default
 //! `$RADAR_VENV` or `target/ros2-venv`). Every scenario runs its parts as separate processes (this program
-//! with `child ROLE`), talking real DDS. See `docs/benchmarks.md`.
+//! with `child ROLE`), talking real DDS. `oneshot`, `memory` and `kill` try what ROS users do to a system: a
+//! fresh process per one-shot publish, a long run of state changes, a program killed with SIGKILL. See
+//! `docs/benchmarks.md`.
 
 mod clock;
 mod coord;
 mod proto;
 mod report;
+mod robustness;
 mod roles;
 mod stats;
 
@@ -24,7 +27,7 @@ use anyhow::{bail, Context as _, Result};
 fn usage() -> ! {
     eprintln!(
         "usage: radar_bench all|full|quick [--out DIR] [--domain N] [--only a,b] [--venv DIR]\n\
-         scenarios: latency, interrupt, setup, throughput, scale"
+         scenarios: latency, interrupt, setup, throughput, scale, oneshot, memory, kill"
     );
     std::process::exit(2)
 }

@@ -139,6 +139,11 @@ impl Child {
             .with_context(|| format!("`{}` answered `{command}` with {a:?}", self.what))
     }
 
+    /// Kills the child with SIGKILL (no goodbye on the wire) and reaps it.
+    pub async fn kill(mut self) {
+        let _ = self.child.kill().await;
+    }
+
     /// Asks the child to quit and waits for it (killed after 5 s).
     pub async fn quit(mut self) {
         let _ = self.stdin.write_all(b"quit\n").await;

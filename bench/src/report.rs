@@ -47,25 +47,12 @@ pub fn table(r: &Results) -> String {
             l.note
         );
     }
-    let _ = writeln!(
-        s,
-        "\n### Connections (milliseconds; ratio = p50 / raw 1-hop p50)\n"
+    ms_table(
+        &mut s,
+        "Connections (milliseconds; ratio = p50 / raw 1-hop p50)",
+        &r.setup,
+        hop,
     );
-    let _ = writeln!(s, "| step | n | p50 | p90 | max | ratio |");
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
-    for l in &r.setup {
-        let m = &l.summary;
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.3} | {:.3} | {:.3} | {} |",
-            l.label,
-            m.n,
-            m.p50_us / 1000.0,
-            m.p90_us / 1000.0,
-            m.max_us / 1000.0,
-            ratio(m.p50_us, hop)
-        );
-    }
     let base = r
         .throughput
         .iter()
@@ -172,6 +159,42 @@ pub fn table(r: &Results) -> String {
             let _ = writeln!(s, "| {k} | {v} |");
         }
     }
+    if !r.state_memory.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n### Memory over a long run (RSS; nobody subscribed to the latched topic)\n"
+        );
+        let _ = writeln!(
+            s,
+            "| run | writes | RSS at start | after 10% | at the end | end - 10% | time |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+        for m in &r.state_memory {
+            let rss: Vec<(u64, u64)> = serde_json::from_value(m["rss"].clone()).unwrap_or_default();
+            let at = |i: usize| {
+                rss.get(i)
+                    .map(|x| x.1 as f64 / 1048576.0)
+                    .unwrap_or(f64::NAN)
+            };
+            let (first, tenth, last) = (at(0), at(1), at(rss.len().saturating_sub(1)));
+            let _ = writeln!(
+                s,
+                "| {} | {} | {first:.1} MiB | {tenth:.1} MiB | {last:.1} MiB | {:+.0} KiB | {:.1} s |",
+                m["label"].as_str().unwrap_or("?"),
+                rss.last().map(|x| x.0).unwrap_or(0),
+                (last - tenth) * 1024.0,
+                m["secs"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+    }
+    if !r.kill.is_empty() {
+        ms_table(
+            &mut s,
+            "A deliberative program killed (SIGKILL; milliseconds)",
+            &r.kill,
+            None,
+        );
+    }
     if !r.errors.is_empty() {
         let _ = writeln!(s, "\n### Failed\n");
         for e in &r.errors {
@@ -179,6 +202,26 @@ pub fn table(r: &Results) -> String {
         }
     }
     s
+}
+
+/// A table of durations in milliseconds, one row per distribution.
+fn ms_table(s: &mut String, title: &str, rows: &[crate::coord::Latency], base_us: Option<f64>) {
+    let _ = writeln!(s, "\n### {title}\n");
+    let _ = writeln!(s, "| step | n | p50 | p90 | max | ratio |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+    for l in rows {
+        let m = &l.summary;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} |",
+            l.label,
+            m.n,
+            m.p50_us / 1000.0,
+            m.p90_us / 1000.0,
+            m.max_us / 1000.0,
+            ratio(m.p50_us, base_us)
+        );
+    }
 }
 
 /// Draws the CDFs of `series` (label, samples in ns) on a log-scale time axis.

@@ -26,10 +26,11 @@ use tokio::sync::mpsc;
 use crate::{
     clock::{age_ns, now_ns, stamped, unstamp},
     proto::{reply, rss_bytes, Commands},
+    robustness,
 };
 
 /// How long a child waits for discovery or a peer before it answers with an error.
-const WAIT: Duration = Duration::from_secs(20);
+pub(crate) const WAIT: Duration = Duration::from_secs(20);
 
 /// Runs the child role `role` with its arguments.
 pub async fn run(role: &str, args: &[String]) -> Result<()> {
@@ -55,6 +56,13 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "manager" => manager().await,
         "sources" => sources(&req("--prefix")?, num("--count")?).await,
         "sinks" => sinks(&req("--prefix")?, num("--count")?).await,
+        "state-churn" => robustness::state_churn(num("--changes")? as u64).await,
+        "raw-latched" => robustness::raw_latched(num("--writes")? as u64).await,
+        "service-manager" => robustness::service_manager(&req("--name")?).await,
+        "service-caller" => {
+            robustness::service_caller(&req("--manager")?, &req("--source")?, &req("--target")?)
+                .await
+        }
         "scale" => {
             scale(
                 num("--events")?,
@@ -143,7 +151,7 @@ impl Record {
 
 /// A plain ros2-client node, as a user would write it without radar_ros: context in `ROS_DOMAIN_ID`, no
 /// rosout or parameter services, spinner running.
-fn raw_node(name: &str) -> Result<(Context, Node)> {
+pub(crate) fn raw_node(name: &str) -> Result<(Context, Node)> {
     let domain = radar_ros::domain_id_from_env()?;
     let ctx = Context::with_options(ContextOptions::new().domain_id(domain))
         .map_err(|e| anyhow!("ros2-client context: {e:?}"))?;
@@ -294,7 +302,7 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 
 /// Events named in `names` (comma-separated); `run NAME N PERIOD_US` makes NAME trigger N times,
 /// `spawn NAME` starts another event (answering the clock time the spawn began), `active NAME` waits until
-/// NAME has a listener.
+/// NAME has a listener, `inactive NAME` until it has none (answering when).
 async fn events(names: &str) -> Result<()> {
     let radar = radar()?;
     let all: Arc<Mutex<HashMap<String, FedEvent>>> = Default::default();
@@ -345,6 +353,20 @@ async fn events(names: &str) -> Result<()> {
                         .await
                         .map_err(|_| anyhow!("{name} got no listener within {WAIT:?}"))??;
                     Ok("ok".into())
+                }
+                // waits (up to 2 min: a dead listener goes with its lease) until NAME has no listener, and
+                // answers when that was noticed, on the shared clock
+                "inactive" => {
+                    let mut st = all
+                        .lock()
+                        .unwrap()
+                        .get(&name)
+                        .map(|(h, _)| h.watch_state())
+                        .ok_or_else(|| anyhow!("no event {name}"))?;
+                    tokio::time::timeout(Duration::from_secs(120), st.wait_for(|s| !s.active))
+                        .await
+                        .map_err(|_| anyhow!("{name} kept a listener for 2 min"))??;
+                    Ok(now_ns().to_string())
                 }
                 c => bail!("unknown command {c}"),
             }

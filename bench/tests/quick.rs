@@ -2,7 +2,7 @@
 //! DDS (rclpy included) and writes a complete, self-consistent report. Numbers are not judged here (the
 //! goals in docs/benchmarks.md are not asserted); what is checked is that every figure was really measured,
 //! and that none of its processes logs an error.
-//! Uses ROS_DOMAIN_ID 215-227.
+//! Uses ROS_DOMAIN_ID 215-230.
 
 use std::path::Path;
 
@@ -69,7 +69,9 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
             "rclpy_1hop",
             "radar_manager_process",
             "radar_embedded",
-            "radar_interrupt"
+            "radar_interrupt",
+            "oneshot_radar",
+            "oneshot_rclpy"
         ]
     );
     for l in r["latency"].as_array().unwrap() {
@@ -115,12 +117,42 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     assert_eq!(sc["still_active_after_teardown"], 0, "{sc}");
     assert!(sc["bytes_per_connection"].as_f64().unwrap() > 0.0, "{sc}");
 
+    // one-shot publishes from fresh processes: every one arrived
+    for l in &r["latency"].as_array().unwrap()[6..] {
+        assert_eq!(l["missing"], 0, "{l}");
+        assert_eq!(l["summary"]["n"], r["meta"]["oneshot_publishes"], "{l}");
+    }
+    // memory along a run of state changes, and its raw baseline: sampled from start to end
+    let mem = r["state_memory"].as_array().unwrap();
+    assert_eq!(
+        mem.iter()
+            .map(|m| m["key"].as_str().unwrap())
+            .collect::<Vec<_>>(),
+        ["radar_response", "raw_latched"]
+    );
+    for m in mem {
+        let rss = m["rss"].as_array().unwrap();
+        assert!(rss.len() >= 10, "{m}");
+        assert_eq!(rss.last().unwrap()[0], r["meta"]["state_changes"], "{m}");
+        assert!(rss.iter().all(|x| x[1].as_u64().unwrap() > 0), "{m}");
+    }
+    // a killed caller: its connection and its event's listener go within the lease
+    assert_eq!(
+        keys(&r["kill"]),
+        ["kill_connections_removed", "kill_event_inactive"]
+    );
+    for k in r["kill"].as_array().unwrap() {
+        check_distribution(k);
+    }
+
     let table = std::fs::read_to_string(out.join("table.md")).unwrap();
     for heading in [
         "### Latency",
         "### Connections",
         "### Throughput",
         "### Scale",
+        "### Memory over a long run",
+        "### A deliberative program killed",
     ] {
         assert!(table.contains(heading), "{heading} missing from:\n{table}");
     }
