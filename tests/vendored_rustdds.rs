@@ -5,7 +5,10 @@
 
 #[test]
 fn vendored_rustdds_passes_its_unit_tests() {
-    let manifest = concat!(env!("CARGO_MANIFEST_DIR"), "/../third_party/rustdds/Cargo.toml");
+    let manifest = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../third_party/rustdds/Cargo.toml"
+    );
     let out = std::process::Command::new(env!("CARGO"))
         .args(["test", "--lib", "--manifest-path", manifest])
         .env_remove("RUSTFLAGS")

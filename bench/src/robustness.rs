@@ -40,7 +40,7 @@ impl RssSamples {
 
     /// Call after step `i` (0-based).
     fn after(&mut self, i: u64) {
-        if (i + 1) % self.every == 0 || i + 1 == self.steps {
+        if (i + 1).is_multiple_of(self.every) || i + 1 == self.steps {
             self.taken.push(((i + 1) * self.per_step, rss_bytes()));
         }
     }
@@ -109,7 +109,7 @@ pub async fn raw_latched(writes: u64) -> Result<()> {
             p.publish(stamped(i))
                 .map_err(|e| anyhow!("publish: {e:?}"))?;
             // let the event loop send, as between a response's state changes; not a tight loop
-            if i % 64 == 0 {
+            if i.is_multiple_of(64) {
                 tokio::task::yield_now().await;
             }
             rss.after(i);
