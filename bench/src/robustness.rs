@@ -46,9 +46,14 @@ impl RssSamples {
     }
 }
 
+/// Runs per second of [`state_churn`]: 3,000 state changes a second, far more than a robot's responses
+/// make, yet slow enough that RustDDS's periodic cache cleaning (every 4 s) runs many times during the run,
+/// so the RSS shows the steady state rather than what is waiting for the next cleaning.
+const CHURN_RUNS_PER_SECOND: u64 = 1000;
+
 /// A response whose start behaviour returns at once, driven from this process through `changes` state
-/// changes (3 per run: running, exiting, idle) with nobody subscribed to its `state`. Answers `run` with
-/// the process's RSS along the way.
+/// changes (3 per run: running, exiting, idle; [`CHURN_RUNS_PER_SECOND`] runs a second) with nobody
+/// subscribed to its `state`. Answers `run` with the process's RSS along the way.
 pub async fn state_churn(changes: u64) -> Result<()> {
     let radar = Radar::new()?;
     let resp = radar.spawn_response(
@@ -67,7 +72,10 @@ pub async fn state_churn(changes: u64) -> Result<()> {
         }
         let t = now_ns();
         let mut rss = RssSamples::new(changes, 3);
+        let begin = tokio::time::Instant::now();
+        let period = Duration::from_secs(1) / CHURN_RUNS_PER_SECOND as u32;
         for i in 0..rss.steps {
+            tokio::time::sleep_until(begin + period * i as u32).await;
             start.publish(Empty::default())?;
             let done = state.wait_for(|s| s.exits > i && s.state_label == "idle");
             tokio::time::timeout(WAIT, done)
@@ -105,13 +113,15 @@ pub async fn raw_latched(writes: u64) -> Result<()> {
         }
         let t = now_ns();
         let mut rss = RssSamples::new(writes, 1);
+        let begin = tokio::time::Instant::now();
+        // as often as the response's state changes in `state_churn`
+        let period = Duration::from_secs(1) / (3 * CHURN_RUNS_PER_SECOND) as u32;
         for i in 0..rss.steps {
+            if i.is_multiple_of(3) {
+                tokio::time::sleep_until(begin + period * i as u32).await;
+            }
             p.publish(stamped(i))
                 .map_err(|e| anyhow!("publish: {e:?}"))?;
-            // let the event loop send, as between a response's state changes; not a tight loop
-            if i.is_multiple_of(64) {
-                tokio::task::yield_now().await;
-            }
             rss.after(i);
         }
         let rss = rss.taken;
