@@ -310,20 +310,43 @@ impl WriterSendBuffer {
     // Built-in (discovery) writers are always exempt to never lose discovery data.
     let trim_keep_last = !shared.is_builtin
       && (!may_block
-        || shared.durable_keep_last
         || (shared.reliable_writer && shared.volatile && !inner.reliable_readers_present));
     if trim_keep_last {
-      while inner.changes.len() > inner.max_retain {
-        // BTreeMap keeps keys sorted, so the first entry is the oldest SN.
-        let oldest = match inner.changes.keys().next().copied() {
-          Some(sn) => sn,
-          None => break,
-        };
-        inner.changes.remove(&oldest);
-        inner.first_seq = oldest.plus_1();
-      }
+      Self::trim_to_retain(inner, None);
+    } else if shared.durable_keep_last {
+      Self::trim_durable(shared, inner);
     }
     seq
+  }
+
+  // Drops the oldest samples while more than `max_retain` are kept, stopping at
+  // `keep_from` (the first sample that must stay), if given.
+  fn trim_to_retain(inner: &mut Inner, keep_from: Option<SequenceNumber>) {
+    while inner.changes.len() > inner.max_retain {
+      // BTreeMap keeps keys sorted, so the first entry is the oldest SN.
+      let oldest = match inner.changes.keys().next().copied() {
+        Some(sn) => sn,
+        None => break,
+      };
+      if keep_from.is_some_and(|k| oldest >= k) {
+        break;
+      }
+      inner.changes.remove(&oldest);
+      inner.first_seq = oldest.plus_1();
+    }
+  }
+
+  // A durable KEEP_LAST writer keeps its newest `max_retain` samples, and also
+  // older ones that a matched reliable reader has not acknowledged yet: readers
+  // that are matched get every sample (as long as they keep up), late joiners
+  // get at most `depth`. Called on every write and every acknowledgement, so
+  // the history is back to `depth` as soon as the readers have acknowledged.
+  fn trim_durable(shared: &Shared, inner: &mut Inner) {
+    if !shared.durable_keep_last {
+      return;
+    }
+    let keep_from = inner.reliable_readers_present.then_some(inner.acked_before);
+    Self::trim_to_retain(inner, keep_from);
   }
 
   // --- consumer side (Writer / event loop) ---
@@ -356,6 +379,7 @@ impl WriterSendBuffer {
       }
     };
     if advanced {
+      Self::trim_durable(shared, &mut inner);
       Self::wake_all(&mut inner, &shared.progress);
     }
   }
@@ -694,9 +718,10 @@ mod tests {
   }
 
   // A durable KEEP_LAST writer of a keyless topic (a ROS 2 "latched" topic,
-  // TRANSIENT_LOCAL + KEEP_LAST 1) keeps only its newest `depth` samples,
-  // whether or not readers are matched: a late joiner gets the current state,
-  // not every state ever written, and memory stays flat.
+  // TRANSIENT_LOCAL + KEEP_LAST 1) keeps only its newest `depth` samples and
+  // what matched readers have not acknowledged: a late joiner gets the current
+  // state, not every state ever written, memory stays flat, and a reader that
+  // is matched still gets every sample.
   #[test]
   fn durable_keep_last_writer_keeps_only_its_depth() {
     let depth = 1;
@@ -722,11 +747,15 @@ mod tests {
     assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(300));
     assert!(buf.get_by_sn(SequenceNumber::new(300)).is_some());
 
-    // Also with a reader matched that has not acknowledged anything.
-    buf.set_acked_frontier(Some(SequenceNumber::new(1)));
+    // A matched reliable reader gets every sample: what it has not acknowledged
+    // is kept ...
+    buf.set_acked_frontier(Some(SequenceNumber::new(300)));
     for _ in 0..10 {
       assert!(admit_now(&buf, WriteOptions::default()));
     }
+    assert_eq!(buf.retained_len(), 11, "300 (not yet acked) and 301..=310");
+    // ... until it acknowledges: then the history is back to its depth at once.
+    buf.set_acked_frontier(Some(SequenceNumber::new(311)));
     assert_eq!(buf.retained_len(), depth);
     assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(310));
   }
