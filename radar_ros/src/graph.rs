@@ -161,10 +161,25 @@ impl Graph {
     }
 
     /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
+    ///
+    /// A sample can arrive before this graph has processed the match of its writer (DDS delivers what a
+    /// writer sent just before the match as soon as the match is made, and the match event reaches this
+    /// graph a moment later): the writer's type is then looked up in discovery data here, so a publisher of
+    /// another type is never accepted, not even in that moment.
     pub(crate) fn accepts(&self, reader: GUID, writer: ros2_client::Gid) -> bool {
+        let writer = GUID::from(writer);
         let t = self.table.lock().unwrap();
-        match t.readers.get(&reader) {
-            Some(e) if !e.rejected.is_empty() => !e.rejected.contains(&GUID::from(writer)),
+        let Some(e) = t.readers.get(&reader) else {
+            return true;
+        };
+        if e.rejected.contains(&writer) {
+            return false;
+        }
+        if e.peers.contains(&writer) {
+            return true;
+        }
+        match (&e.identity, self.peer_type(&t, Side::Reader, writer)) {
+            (Some((_, ours)), Some(theirs)) => *ours == theirs,
             _ => true,
         }
     }
