@@ -15,7 +15,7 @@ use std::time::Duration;
 use radar_ros::Radar;
 use radar_ros_examples::{
     init_logs,
-    listing1::{remote_refs, watch_count_up, watch_event, CountUp, SleepThenTrigger},
+    listing1::{watch_count_up, watch_event, CountUp, SleepThenTrigger},
     Timeline,
 };
 use tokio::signal::unix::{signal, SignalKind};
@@ -61,13 +61,16 @@ async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
             h.shutdown().await;
         }
         "statement" => {
-            // the components are in other processes: name their topics (graph lookup by name comes later)
-            let (start, end, count_up) = remote_refs()?;
+            // the components are in other processes: find them by name on the ROS graph
+            let wait = Duration::from_secs(30);
+            let start = radar.event("start_event").timeout(wait).await?;
+            let end = radar.event("end_event").timeout(wait).await?;
+            let count_up = radar.response("count_up").timeout(wait).await?;
             let statement = radar
-                .once(start)
+                .once(&start)
                 .start(&count_up)
-                .until(end)
-                .timeout(Duration::from_secs(30))
+                .until(&end)
+                .timeout(wait)
                 .await?;
             // the listing's times count from the statement being armed
             let tl = Timeline::start();

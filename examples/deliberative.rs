@@ -127,9 +127,9 @@ async fn run(role: &str, args: &[String]) -> radar_ros::Result<()> {
 /// Listing 2's `main`.
 async fn deliberative(radar: &Radar, tl: Timeline, loop_secs: f64) -> radar_ros::Result<()> {
     let wait = Duration::from_secs(30);
-    let test_event = radar.event_within("test_event", wait).await?;
-    let test_event2 = radar.event_within("test_event2", wait).await?;
-    let test_response = radar.response_within("test_response", wait).await?;
+    let test_event = radar.event("test_event").timeout(wait).await?;
+    let test_event2 = radar.event("test_event2").timeout(wait).await?;
+    let test_response = radar.response("test_response").timeout(wait).await?;
     tl.mark(
         "(a) found test_event, test_event2, test_response; no connections",
         None,

@@ -4,8 +4,8 @@
 use std::time::Duration;
 
 use radar_ros::{
-    msg::{Empty, EventState, RosMessage},
-    ComponentName, Event, ExitAction, ExitReason, Radar, Response, ResponseRef, Signal, SlotError,
+    msg::{Empty, EventState},
+    Event, ExitAction, ExitReason, Radar, Response, SlotError,
 };
 
 use crate::Timeline;
@@ -48,20 +48,6 @@ impl Event for SleepThenTrigger {
         tokio::time::sleep(self.0).await;
         Ok(Empty::default())
     }
-}
-
-/// The events and the response of Listing 1 as seen from anywhere on the ROS graph (the names and types of
-/// their topics), for a statement in another process.
-pub fn remote_refs() -> radar_ros::Result<(Signal, Signal, ResponseRef)> {
-    let empty = Empty::ros_type_name();
-    let start = Signal::new("/start_event/triggered", empty.clone());
-    let end = Signal::new("/end_event/triggered", empty.clone());
-    let count_up = ResponseRef::new(
-        ComponentName::resolve("count_up", "/")?,
-        empty.clone(),
-        empty,
-    );
-    Ok((start, end, count_up))
 }
 
 /// Prints an event's activation changes and triggers, from its `state` topic (so it works wherever the

@@ -1,6 +1,6 @@
 //! Connections over real DDS through the embedded manager: whenever, once (bursts, races), until windows,
 //! waitfor, anonymous slots, injection, type errors, scope exit, and no stale or duplicate deliveries when
-//! connections come and go. Domains 77-89.
+//! connections come and go. Domains 77-86, 89 and 35.
 
 use std::{
     sync::{
@@ -161,9 +161,11 @@ async fn waitfor_returns_the_next_payload_and_inject_feeds_a_slot() {
         )
         .unwrap();
     let refs = echo.reference().clone();
-    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited(), Some(T)), async {
+    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited()).timeout(T), async {
         tokio::time::sleep(Duration::from_millis(300)).await;
-        r.inject(refs.start_slot(), StringMsg::from("x"), T).await
+        r.inject(refs.start_slot(), StringMsg::from("x"))
+            .timeout(T)
+            .await
     });
     injected.unwrap();
     assert_eq!(
@@ -172,22 +174,25 @@ async fn waitfor_returns_the_next_payload_and_inject_feeds_a_slot() {
         "data in through start, back out through exited"
     );
     // without a timeout it waits as long as it takes
-    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited(), None), async {
+    let (out, injected) = tokio::join!(r.waitfor::<StringMsg>(refs.exited()), async {
         tokio::time::sleep(Duration::from_millis(1500)).await;
-        r.inject(refs.start_slot(), StringMsg::from("late"), T)
+        r.inject(refs.start_slot(), StringMsg::from("late"))
+            .timeout(T)
             .await
     });
     injected.unwrap();
     assert_eq!(out.unwrap().data, "done:late");
     // nothing comes: a timeout
     let e = r
-        .waitfor::<StringMsg>(refs.exited(), Some(Duration::from_millis(300)))
+        .waitfor::<StringMsg>(refs.exited())
+        .timeout(Duration::from_millis(300))
         .await
         .unwrap_err();
     assert!(matches!(e, Error::Timeout { .. }), "{e:?}");
     // injecting the wrong type is refused
     let e = r
-        .inject(refs.start_slot(), Int32 { data: 1 }, T)
+        .inject(refs.start_slot(), Int32 { data: 1 })
+        .timeout(T)
         .await
         .unwrap_err();
     assert!(e.to_string().contains("std_msgs/msg/Int32"), "{e}");
@@ -586,4 +591,26 @@ async fn qos_depth_sets_how_many_signals_a_slow_slot_keeps() {
         .await
         .unwrap_err();
     assert!(e.to_string().contains("at least 1"), "{e}");
+}
+
+/// `waitfor` cannot miss: a waiter armed, then a signal emitted at once, then `recv` gets that signal, 200
+/// times in a row (each time a fresh waiter on the same source, in this participant).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_waiter_sees_the_signal_emitted_right_after_it_is_armed() {
+    let r = radar(35);
+    let source = r.signal_publisher::<Int32>("/wf/value").unwrap();
+    let signal = Signal::new("/wf/value", "std_msgs/msg/Int32");
+    for i in 0..200 {
+        let waiter = r.waiter::<Int32>(&signal).timeout(T).await.unwrap();
+        source.publish(Int32 { data: i }).unwrap();
+        let got = waiter
+            .recv()
+            .timeout(T)
+            .await
+            .unwrap_or_else(|e| panic!("round {i}: {e}"));
+        assert_eq!(
+            got.data, i,
+            "round {i}: the signal emitted after arming, not an older one"
+        );
+    }
 }

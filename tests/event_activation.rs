@@ -1,6 +1,6 @@
 //! An event checks only while someone listens on `triggered`: activation and deactivation follow the DDS
 //! match count, for subscribers in the same participant, in another participant, and in a child process that
-//! exits cleanly or is killed. Domains 40-49.
+//! exits cleanly or is killed. Domains 40-46.
 
 use std::{
     process::Stdio,
@@ -90,7 +90,7 @@ async fn same_participant_subscriber_activates_and_deactivates_the_event() {
     let sub = host.signal_subscription::<Int32>("/ev/triggered").unwrap();
     until_state(&h, DISCOVERY, |s| s.active).await;
     let activation = t0.elapsed();
-    let first = sub.recv_timeout(Duration::from_secs(5)).await.unwrap();
+    let first = sub.recv().timeout(Duration::from_secs(5)).await.unwrap();
     assert!(first.data >= 1);
     println!("same participant: active {activation:?} after the subscription was created");
     assert!(
@@ -121,7 +121,7 @@ async fn subscriber_in_another_participant_activates_it_and_its_departure_cancel
     let h = host.spawn_event("ev", c.clone()).unwrap();
     let other = radar(41);
     let sub = other.signal_subscription::<Int32>("/ev/triggered").unwrap();
-    sub.wait_for_publishers(1, DISCOVERY).await.unwrap();
+    sub.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
     let t0 = Instant::now();
     let st = until_state(&h, DISCOVERY, |s| s.active).await;
     println!(
@@ -129,7 +129,7 @@ async fn subscriber_in_another_participant_activates_it_and_its_departure_cancel
         t0.elapsed()
     );
     assert_eq!(st.listeners, 1);
-    sub.recv_timeout(Duration::from_secs(5)).await.unwrap();
+    sub.recv().timeout(Duration::from_secs(5)).await.unwrap();
 
     // a second listener keeps it active when the first leaves
     let sub2 = host.signal_subscription::<Int32>("/ev/triggered").unwrap();
@@ -240,7 +240,7 @@ async fn timer_event_triggers_every_period_counted_from_activation() {
     let t0 = Instant::now();
     let mut at = Vec::new();
     for _ in 0..3 {
-        sub.recv_timeout(Duration::from_secs(2)).await.unwrap();
+        sub.recv().timeout(Duration::from_secs(2)).await.unwrap();
         at.push(t0.elapsed().as_millis());
     }
     println!("timer triggers at {at:?} ms after activation");
@@ -264,7 +264,10 @@ async fn topic_event_triggers_on_matching_messages_received_while_active() {
         )
         .unwrap();
     let temp = host.signal_publisher::<Int32>("/temperature").unwrap();
-    temp.wait_for_subscribers(1, DISCOVERY).await.unwrap();
+    temp.wait_for_subscribers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
     // while inactive: a hot reading is not acted on later
     temp.publish(Int32 { data: 99 }).unwrap();
     tokio::time::sleep(Duration::from_millis(200)).await;
@@ -277,15 +280,26 @@ async fn topic_event_triggers_on_matching_messages_received_while_active() {
         temp.publish(Int32 { data: d }).unwrap();
     }
     assert_eq!(
-        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        sub.recv()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap()
+            .data,
         "60 C"
     );
     assert_eq!(
-        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        sub.recv()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap()
+            .data,
         "70 C"
     );
     assert!(
-        sub.recv_timeout(Duration::from_millis(300)).await.is_err(),
+        sub.recv()
+            .timeout(Duration::from_millis(300))
+            .await
+            .is_err(),
         "99 C came from before activation"
     );
     assert_eq!(h.state().trigger_type, "std_msgs/msg/String");
@@ -304,7 +318,11 @@ async fn check_errors_are_counted_on_state_and_the_check_is_retried() {
         .signal_subscription::<Int32>("/flaky/triggered")
         .unwrap();
     assert_eq!(
-        sub.recv_timeout(Duration::from_secs(5)).await.unwrap().data,
+        sub.recv()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap()
+            .data,
         3
     );
     let st = until_state(&h, DISCOVERY, |s| s.triggers >= 1).await;

@@ -335,7 +335,7 @@ async fn a_rust_event_drives_an_rclpy_response() {
     let dock = r.response("/interop/py_dock").await.unwrap();
     assert_eq!(dock.start_slot().ros_type(), "std_msgs/msg/Empty");
     let _c = r.once(tick.triggered()).start(&dock).await.unwrap();
-    let _: Empty = r.waitfor(dock.exited(), Some(T)).await.unwrap();
+    let _: Empty = r.waitfor(dock.exited()).timeout(T).await.unwrap();
     resp.expect_line("started").await;
     resp.expect_line("exited").await;
     // until: a Rust event interrupts the rclpy response's run this statement started
@@ -355,7 +355,7 @@ async fn a_rust_event_drives_an_rclpy_response() {
         .until(stop.triggered())
         .await
         .unwrap();
-    let _: Empty = r.waitfor(slow_ref.interrupted(), Some(T)).await.unwrap();
+    let _: Empty = r.waitfor(slow_ref.interrupted()).timeout(T).await.unwrap();
     slow.expect_line("started").await;
     slow.expect_line("interrupted").await;
     slow.expect_line("exited").await;
@@ -443,7 +443,8 @@ async fn an_rclpy_program_makes_connections_through_the_manager_services() {
 async fn rclpy_gets_the_latched_state_on_subscribing() {
     let r = radar(99);
     let resp = slow_response(&r, "/interop/busy");
-    r.inject(resp.reference().start_slot(), Empty::default(), T)
+    r.inject(resp.reference().start_slot(), Empty::default())
+        .timeout(T)
         .await
         .unwrap();
     eventually(T, "the run to start", || resp.state().starts == 1).await;
@@ -633,8 +634,8 @@ async fn a_late_state_subscriber_gets_only_the_current_state() {
     let interrupt = r
         .signal_publisher::<Empty>("/interop/cycled/interrupt")
         .unwrap();
-    start.wait_for_subscribers(1, T).await.unwrap();
-    interrupt.wait_for_subscribers(1, T).await.unwrap();
+    start.wait_for_subscribers(1).timeout(T).await.unwrap();
+    interrupt.wait_for_subscribers(1).timeout(T).await.unwrap();
     // idle -> running -> interrupting -> exiting -> idle: four state changes per cycle
     for i in 1..=25 {
         start.publish(Empty::default()).unwrap();
@@ -666,7 +667,7 @@ async fn a_late_state_subscriber_gets_only_the_current_state() {
             NodeOptions::new().enable_rosout(false),
         )
         .unwrap();
-    let qos = radar_ros::endpoints::state_qos()
+    let qos = radar_ros::qos::state_qos()
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 100 });
     let topic = node

@@ -79,7 +79,8 @@ async fn lookups_wait_for_late_components_and_explain_wrong_names() {
         .unwrap();
 
     let e = r
-        .response_within("count_upp", Duration::from_millis(300))
+        .response("count_upp")
+        .timeout(Duration::from_millis(300))
         .await
         .unwrap_err();
     assert!(matches!(e, Error::NotFound { .. }), "{e:?}");

@@ -38,7 +38,7 @@ async fn connections_are_made_listed_and_removed_through_the_services() {
     let connections = me
         .state_subscription::<ConnectionList>("/radar_manager/connections")
         .unwrap();
-    let initial = connections.recv_timeout(DISCOVERY).await.unwrap();
+    let initial = connections.recv().timeout(DISCOVERY).await.unwrap();
     assert_eq!(initial.manager, "/radar_manager");
     assert!(initial.connections.is_empty());
     let client = ManagerClient::new(&me, "/radar_manager", "deliberative_py_stand_in").await;

@@ -20,10 +20,26 @@ async fn through_raw_relay<M: RosMessage + PartialEq>(
     let relay_in = domain_radar.raw_subscription(&src, &ros_type).unwrap();
     let relay_out = domain_radar.raw_publisher(&dst, &ros_type).unwrap();
     let output = domain_radar.signal_subscription::<M>(&dst).unwrap();
-    input.wait_for_subscribers(1, DISCOVERY).await.unwrap();
-    relay_in.wait_for_publishers(1, DISCOVERY).await.unwrap();
-    relay_out.wait_for_subscribers(1, DISCOVERY).await.unwrap();
-    output.wait_for_publishers(1, DISCOVERY).await.unwrap();
+    input
+        .wait_for_subscribers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    relay_in
+        .wait_for_publishers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    relay_out
+        .wait_for_subscribers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    output
+        .wait_for_publishers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
     for m in samples {
         input.publish(m.clone()).unwrap();
         let (raw, _) = tokio::time::timeout(Duration::from_secs(5), relay_in.recv_stamped())
@@ -31,7 +47,7 @@ async fn through_raw_relay<M: RosMessage + PartialEq>(
             .unwrap()
             .unwrap();
         relay_out.publish(raw).unwrap();
-        let got = output.recv_timeout(Duration::from_secs(5)).await.unwrap();
+        let got = output.recv().timeout(Duration::from_secs(5)).await.unwrap();
         assert_eq!(
             got, m,
             "{ros_type} changed on the way through the raw relay"
@@ -103,7 +119,7 @@ async fn raw_endpoints_reject_bad_type_names_and_only_match_their_type() {
     let raw = r.raw_subscription("/t", "std_msgs/msg/String").unwrap();
     let wrong = r.signal_publisher::<Empty>("/t").unwrap();
     let right = r.signal_publisher::<StringMsg>("/t").unwrap();
-    raw.wait_for_publishers(1, DISCOVERY).await.unwrap();
+    raw.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
     tokio::time::sleep(Duration::from_millis(300)).await;
     assert_eq!(raw.publishers(), 1, "the Empty publisher is another type");
     assert_eq!(wrong.subscribers(), 0);

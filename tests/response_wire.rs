@@ -1,6 +1,6 @@
 //! Drives a response through every numbered rule of the crate docs over real DDS: the response runs on one
 //! participant, the test publishes on its slot topics from another, and asserts the exact signals and state
-//! messages seen on the wire. Domains 20-39.
+//! messages seen on the wire. Domains 20-31.
 
 use std::{
     sync::{Arc, Mutex},
@@ -117,7 +117,11 @@ async fn rig(domain: u16, r: Scripted) -> Rig {
     let handle = host.spawn_response("scripted", r.clone()).unwrap();
     let probe_radar = radar(domain);
     let probe = ResponseProbe::connect(&probe_radar, "/scripted").await;
-    handle.wait_for_peers(1, 1, DISCOVERY).await.unwrap();
+    handle
+        .wait_for_peers(1, 1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
     // the transient-local state gives the current state on subscribing
     let (labels, s) = probe
         .states_until(DISCOVERY, |s| s.state_label == "idle")
@@ -188,7 +192,11 @@ async fn rule2_exited_is_sent_after_the_exit_slot_completes() {
         ._probe_radar
         .signal_subscription::<StringMsg>("/scripted/exited")
         .unwrap();
-    exited.wait_for_publishers(1, DISCOVERY).await.unwrap();
+    exited
+        .wait_for_publishers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
     rig.probe.start.publish(s("quick")).unwrap();
     let (m, sent_at) = tokio::time::timeout(T, exited.recv_stamped())
         .await
@@ -455,7 +463,11 @@ async fn rule9_slots_sleep_on_the_runtime_without_blocking_each_other() {
         probes.push(
             ResponseProbe::<StringMsg, StringMsg>::connect(&probe_radar, &format!("/{name}")).await,
         );
-        handles[i].wait_for_peers(1, 1, DISCOVERY).await.unwrap();
+        handles[i]
+            .wait_for_peers(1, 1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
     }
     let t0 = std::time::Instant::now();
     for p in &probes {
@@ -481,7 +493,11 @@ async fn shutdown_ends_a_running_start_through_the_exit_slot() {
     let handle = host.spawn_response("scripted", r.clone()).unwrap();
     let probe_radar = radar(31);
     let probe = ResponseProbe::<StringMsg, StringMsg>::connect(&probe_radar, "/scripted").await;
-    handle.wait_for_peers(1, 1, DISCOVERY).await.unwrap();
+    handle
+        .wait_for_peers(1, 1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
     probe.start.publish(s("forever")).unwrap();
     assert_eq!(probe.signals(1, T).await, [Seen::Started(s("forever"))]);
     tokio::time::timeout(T, handle.shutdown()).await.unwrap();
@@ -496,5 +512,10 @@ async fn shutdown_ends_a_running_start_through_the_exit_slot() {
         ]
     );
     // the node left the graph
-    probe.start.wait_for_no_subscribers(T).await.unwrap();
+    probe
+        .start
+        .wait_for_no_subscribers()
+        .timeout(T)
+        .await
+        .unwrap();
 }

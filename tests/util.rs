@@ -95,19 +95,41 @@ impl<P: RosMessage, O: RosMessage> ResponseProbe<P, O> {
                 .unwrap(),
             state: radar.state_subscription(&format!("{name}/state")).unwrap(),
         };
-        p.start.wait_for_subscribers(1, DISCOVERY).await.unwrap();
+        p.start
+            .wait_for_subscribers(1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
         p.interrupt
-            .wait_for_subscribers(1, DISCOVERY)
+            .wait_for_subscribers(1)
+            .timeout(DISCOVERY)
             .await
             .unwrap();
-        p.exit.wait_for_subscribers(1, DISCOVERY).await.unwrap();
-        p.started.wait_for_publishers(1, DISCOVERY).await.unwrap();
+        p.exit
+            .wait_for_subscribers(1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
+        p.started
+            .wait_for_publishers(1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
         p.interrupted
-            .wait_for_publishers(1, DISCOVERY)
+            .wait_for_publishers(1)
+            .timeout(DISCOVERY)
             .await
             .unwrap();
-        p.exited.wait_for_publishers(1, DISCOVERY).await.unwrap();
-        p.state.wait_for_publishers(1, DISCOVERY).await.unwrap();
+        p.exited
+            .wait_for_publishers(1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
+        p.state
+            .wait_for_publishers(1)
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
         p
     }
 
@@ -259,7 +281,7 @@ impl ManagerClient {
                     .start_parameter_services(false),
             )
             .unwrap();
-        let q = radar_ros::endpoints::signal_qos();
+        let q = radar_ros::qos::signal_qos();
         let svc = |n: &str| Name::new(manager, n).unwrap();
         let c = ManagerClient {
             connect: node

@@ -61,7 +61,7 @@ pub async fn state_churn(changes: u64) -> Result<()> {
         FnResponse::new(|_: Empty| async { Ok::<_, SlotError>(Empty::default()) }),
     )?;
     let start = radar.signal_publisher::<Empty>("/bench/churn/start")?;
-    start.wait_for_subscribers(1, WAIT).await?;
+    start.wait_for_subscribers(1).timeout(WAIT).await?;
     let mut state = resp.watch_state();
     reply("ready");
     let mut cmds = Commands::new();
@@ -93,7 +93,7 @@ pub async fn state_churn(changes: u64) -> Result<()> {
 /// (transient-local, keep-last 1), written `writes` times with nobody subscribed.
 pub async fn raw_latched(writes: u64) -> Result<()> {
     let (_ctx, mut node) = raw_node("latched")?;
-    let qos = radar_ros::endpoints::state_qos();
+    let qos = radar_ros::qos::state_qos();
     let t = node
         .create_topic(
             &Name::parse("/bench/latched").map_err(|e| anyhow!("{e:?}"))?,
@@ -175,7 +175,7 @@ pub async fn service_caller(manager: &str, source: &str, target: &str) -> Result
                 .start_parameter_services(false),
         )
         .map_err(|e| anyhow!("node: {e:?}"))?;
-    let q = radar_ros::endpoints::signal_qos();
+    let q = radar_ros::qos::signal_qos();
     let client = node
         .create_client::<ConnectRequest, ConnectResponse>(
             ServiceMapping::Enhanced,

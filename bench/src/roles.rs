@@ -15,9 +15,9 @@ use std::{
 use anyhow::{anyhow, bail, Context as _, Result};
 use futures::{StreamExt, TryStreamExt};
 use radar_ros::{
-    endpoints::signal_qos,
     msg::{Empty, EventState, Header, RosMessage},
-    Connection, Event, EventHandle, FnResponse, Radar, Response, SlotError,
+    qos::signal_qos,
+    ConnectionGuard, Event, EventHandle, FnResponse, Radar, Response, SlotError,
 };
 use ros2_client::{Context, ContextOptions, Name, Node, NodeName, NodeOptions};
 use serde_json::json;
@@ -392,10 +392,10 @@ async fn response(name: &str, connect: Option<String>) -> Result<()> {
             }
         }),
     )?;
-    let _conn: Option<Connection> = match connect {
+    let _conn: Option<ConnectionGuard> = match connect {
         None => None,
         Some(ev) => {
-            let ev = radar.event_within(&ev, WAIT).await?;
+            let ev = radar.event(&ev).timeout(WAIT).await?;
             Some(
                 radar
                     .whenever(ev.triggered())
@@ -471,19 +471,19 @@ async fn long_response(name: &str) -> Result<()> {
 /// answers the clock time each interrupt was published, by run.
 async fn interrupter(name: &str) -> Result<()> {
     let radar = radar()?;
-    let resp = radar.response_within(name, WAIT).await?;
+    let resp = radar.response(name).timeout(WAIT).await?;
     let topic = |e: &str| resp.name().topic(e);
     let start = radar.signal_publisher::<Header>(&topic("start"))?;
     let interrupt = radar.signal_publisher::<Empty>(&topic("interrupt"))?;
     let started = radar.signal_subscription::<Header>(&topic("started"))?;
     let interrupted = radar.signal_subscription::<Empty>(&topic("interrupted"))?;
     let exited = radar.signal_subscription::<Empty>(&topic("exited"))?;
-    start.wait_for_subscribers(1, WAIT).await?;
-    interrupt.wait_for_subscribers(1, WAIT).await?;
+    start.wait_for_subscribers(1).timeout(WAIT).await?;
+    interrupt.wait_for_subscribers(1).timeout(WAIT).await?;
     for s in [&interrupted, &exited] {
-        s.wait_for_publishers(1, WAIT).await?;
+        s.wait_for_publishers(1).timeout(WAIT).await?;
     }
-    started.wait_for_publishers(1, WAIT).await?;
+    started.wait_for_publishers(1).timeout(WAIT).await?;
     let step = Duration::from_secs(2);
     serve(|w| {
         let (start, interrupt, started, interrupted, exited) =
@@ -497,7 +497,7 @@ async fn interrupter(name: &str) -> Result<()> {
             let mut lost = 0u64;
             for i in 0..n {
                 start.publish(stamped(i))?;
-                match started.recv_timeout(step).await {
+                match started.recv().timeout(step).await {
                     Ok(h) if unstamp(&h).0 == i => {}
                     _ => {
                         lost += 1;
@@ -508,8 +508,8 @@ async fn interrupter(name: &str) -> Result<()> {
                 tokio::time::sleep(Duration::from_millis(1)).await;
                 let t0 = now_ns();
                 interrupt.publish(Empty::default())?;
-                if interrupted.recv_timeout(step).await.is_err()
-                    || exited.recv_timeout(step).await.is_err()
+                if interrupted.recv().timeout(step).await.is_err()
+                    || exited.recv().timeout(step).await.is_err()
                 {
                     lost += 1;
                     continue;
@@ -527,15 +527,15 @@ async fn interrupter(name: &str) -> Result<()> {
 /// between components in other processes, and times it.
 async fn manager() -> Result<()> {
     let radar = radar()?;
-    let held: Arc<Mutex<Vec<Connection>>> = Default::default();
+    let held: Arc<Mutex<Vec<ConnectionGuard>>> = Default::default();
     serve(|w| {
         let (radar, held) = (radar.clone(), held.clone());
         async move {
             match w[0].as_str() {
                 "connect" => {
                     let (ev, resp): (String, String) = (word(&w, 1)?, word(&w, 2)?);
-                    let ev = radar.event_within(&ev, WAIT).await?;
-                    let resp = radar.response_within(&resp, WAIT).await?;
+                    let ev = radar.event(&ev).timeout(WAIT).await?;
+                    let resp = radar.response(&resp).timeout(WAIT).await?;
                     let c = radar
                         .whenever(ev.triggered())
                         .start(&resp)
@@ -548,12 +548,13 @@ async fn manager() -> Result<()> {
                     let (src, sink, n): (String, String, usize) =
                         (word(&w, 1)?, word(&w, 2)?, word(&w, 3)?);
                     let t = now_ns();
-                    let made: Vec<Connection> = futures::stream::iter(0..n)
+                    let made: Vec<ConnectionGuard> = futures::stream::iter(0..n)
                         .map(|i| {
                             let (radar, src, sink) = (radar.clone(), src.clone(), sink.clone());
                             async move {
-                                let ev = radar.event_within(&format!("{src}_{i}"), WAIT).await?;
-                                let r = radar.response_within(&format!("{sink}_{i}"), WAIT).await?;
+                                let ev = radar.event(&format!("{src}_{i}")).timeout(WAIT).await?;
+                                let r =
+                                    radar.response(&format!("{sink}_{i}")).timeout(WAIT).await?;
                                 radar
                                     .whenever(ev.triggered())
                                     .start(&r)
@@ -579,8 +580,8 @@ async fn manager() -> Result<()> {
                 }
                 "setup-fresh" => {
                     let (ev, resp): (String, String) = (word(&w, 1)?, word(&w, 2)?);
-                    let r = radar.response_within(&resp, WAIT).await?;
-                    let e = radar.event_within(&ev, WAIT).await?;
+                    let r = radar.response(&resp).timeout(WAIT).await?;
+                    let e = radar.event(&ev).timeout(WAIT).await?;
                     let found = now_ns();
                     let c = radar
                         .whenever(e.triggered())
@@ -603,10 +604,10 @@ async fn manager() -> Result<()> {
 /// `m` times. `live`: another connection from EV stays armed meanwhile (its relay reader is reused; the event
 /// never deactivates, so that time is not taken).
 async fn setup_loop(radar: &Radar, ev: &str, resp: &str, m: usize, live: bool) -> Result<String> {
-    let e = radar.event_within(ev, WAIT).await?;
-    let r = radar.response_within(resp, WAIT).await?;
+    let e = radar.event(ev).timeout(WAIT).await?;
+    let r = radar.response(resp).timeout(WAIT).await?;
     let state = radar.state_subscription::<EventState>(&e.name().topic("state"))?;
-    state.wait_for_publishers(1, WAIT).await?;
+    state.wait_for_publishers(1).timeout(WAIT).await?;
     let keep = if live {
         Some(
             radar
@@ -624,7 +625,7 @@ async fn setup_loop(radar: &Radar, ev: &str, resp: &str, m: usize, live: bool) -
             let deadline = tokio::time::Instant::now() + WAIT;
             loop {
                 let left = deadline.saturating_duration_since(tokio::time::Instant::now());
-                let s = state.recv_timeout(left).await?;
+                let s = state.recv().timeout(left).await?;
                 if s.active == active {
                     return Ok::<(), anyhow::Error>(());
                 }
@@ -678,7 +679,7 @@ async fn sources(prefix: &str, count: usize) -> Result<()> {
             match w[0].as_str() {
                 "wait" => {
                     for p in pubs.iter() {
-                        p.wait_for_subscribers(1, WAIT).await?;
+                        p.wait_for_subscribers(1).timeout(WAIT).await?;
                     }
                     Ok("ok".into())
                 }
@@ -814,7 +815,7 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
         .map(|j| (j % events, (j % events + j / events) % responses))
         .collect();
     let t = now_ns();
-    let made: Vec<Connection> = futures::stream::iter(pairs)
+    let made: Vec<ConnectionGuard> = futures::stream::iter(pairs)
         .map(|(e, r)| {
             let radar = radar.clone();
             let (sig, resp) = (evs[e].triggered(), resps[r].reference().clone());

@@ -1,14 +1,12 @@
-//! QoS and topic helpers shared by the ROS 2 binding.
+//! The ROS 2 endpoints every component and the manager are made of: one way to create them, their live match
+//! counts, the filter for samples from peers of another type, and the task behind a component handle.
 
-use ros2_client::{
-    qos::{Durability, History},
-    Name, Node, Publisher, QosProfile, Subscription,
-};
+use futures::{Stream, StreamExt};
+use ros2_client::{MessageInfo, MessageTypeName, Name, Node, Publisher, QosProfile, Subscription};
 
 use crate::{
     error::{Error, Result},
     graph::Graph,
-    msg::RosMessage,
 };
 
 /// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
@@ -19,47 +17,6 @@ pub(crate) struct Watched<T> {
     graph: Graph,
     /// Matched peers now and as they change.
     pub(crate) matched: tokio::sync::watch::Receiver<usize>,
-}
-
-impl<M> Watched<Publisher<M>>
-where
-    M: serde::Serialize,
-{
-    /// Registers a writer of type `ty` on `topic` with the graph.
-    pub(crate) fn writer(
-        graph: &Graph,
-        inner: Publisher<M>,
-        topic: &str,
-        ty: &ros2_client::MessageTypeName,
-    ) -> Self {
-        let guid = inner.guid();
-        let matched = graph.watch_writer(guid, topic, &ty.dds_msg_type());
-        Watched {
-            inner,
-            guid,
-            graph: graph.clone(),
-            matched,
-        }
-    }
-}
-
-impl<M: 'static> Watched<Subscription<M>> {
-    /// Registers a reader of type `ty` on `topic` with the graph.
-    pub(crate) fn reader(
-        graph: &Graph,
-        inner: Subscription<M>,
-        topic: &str,
-        ty: &ros2_client::MessageTypeName,
-    ) -> Self {
-        let guid = inner.guid();
-        let matched = graph.watch_reader(guid, topic, &ty.dds_msg_type());
-        Watched {
-            inner,
-            guid,
-            graph: graph.clone(),
-            matched,
-        }
-    }
 }
 
 impl<T> Watched<T> {
@@ -95,9 +52,54 @@ impl<T> Watched<T> {
         Ok(())
     }
 
+    /// The number of peers matched now.
+    pub(crate) fn matched_now(&self) -> usize {
+        *self.matched.borrow()
+    }
+
     /// Whether a sample from this writer should be used (false for peers of another type).
-    pub(crate) fn accepts(&self, info: &ros2_client::MessageInfo) -> bool {
+    pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
         self.graph.accepts(self.guid, info.publisher_gid())
+    }
+}
+
+impl<M: 'static + serde::de::DeserializeOwned> Watched<Subscription<M>> {
+    /// A sample that has already arrived from a peer of the right type, without waiting.
+    pub(crate) fn take_accepted(&self) -> Option<M> {
+        loop {
+            match self.take() {
+                Ok(Some((m, info))) if self.accepts(&info) => return Some(m),
+                Ok(Some(_)) => continue,
+                Err(_) | Ok(None) => return None,
+            }
+        }
+    }
+}
+
+impl<M: 'static> Watched<Subscription<M>> {
+    /// The samples of `stream` (a stream of this subscription) that come from peers of the subscription's type,
+    /// in arrival order. RustDDS matches endpoints whatever their types, so samples of a peer of another type
+    /// are dropped here (the graph warned when it matched); samples that do not decode are dropped with a
+    /// warning that names the expected type. Nothing stops the stream but the subscription ending.
+    pub(crate) fn accepted<'a, T: 'a>(
+        &'a self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>> + 'a,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = (T, MessageInfo)> + 'a {
+        stream.filter_map(move |r| async move {
+            match r {
+                Ok((m, info)) if self.accepts(&info) => Some((m, info)),
+                Ok(_) => None,
+                Err(e) => {
+                    tracing::warn!(
+                        %topic, %expected, error = %e,
+                        "dropped a message that does not decode as {expected}; publish {expected} on this topic"
+                    );
+                    None
+                }
+            }
+        })
     }
 }
 
@@ -114,37 +116,6 @@ impl<T> Drop for Watched<T> {
     }
 }
 
-/// How long a writer whose last sample was just written is kept before it is deleted.
-///
-/// A RustDDS write only queues the sample for the participant's event loop; deleting the writer right after
-/// (a `once` that just fired, a guard dropped right after a delivery, a response's final `exited` at
-/// shutdown) can lose the sample before it is sent, and a lost reliable sample is repaired only by the
-/// writer's next heartbeat (100 ms to 1 s). Three seconds cover several repair rounds.
-pub(crate) const WRITER_LINGER: std::time::Duration = std::time::Duration::from_secs(3);
-
-/// QoS of every signal and slot topic: reliable, volatile, keep-last 10 (rclpy's and `ros2 topic pub`'s
-/// default, so command-line tools match it).
-pub fn signal_qos() -> QosProfile {
-    signal_qos_depth(SIGNAL_DEPTH)
-}
-
-/// History depth of signal and slot endpoints: rclpy's default.
-pub const SIGNAL_DEPTH: usize = 10;
-
-/// [`signal_qos`] with another history depth (a connection's relay may ask for one).
-pub fn signal_qos_depth(depth: usize) -> QosProfile {
-    QosProfile::publisher_default()
-        .durability(Durability::Volatile)
-        .history(History::KeepLast { depth })
-}
-
-/// QoS of `state` topics: reliable, transient-local, keep-last 1, so a late subscriber gets the current state.
-pub fn state_qos() -> QosProfile {
-    QosProfile::publisher_default()
-        .durability(Durability::TransientLocal)
-        .history(History::KeepLast { depth: 1 })
-}
-
 pub(crate) fn topic_name(topic: &str) -> Result<Name> {
     Name::parse(topic).map_err(|e| Error::InvalidName {
         name: topic.to_owned(),
@@ -152,52 +123,85 @@ pub(crate) fn topic_name(topic: &str) -> Result<Name> {
     })
 }
 
-/// Creates a publisher of `M` on the absolute topic `topic`.
-pub(crate) fn publisher<M: RosMessage>(
-    graph: &Graph,
+fn topic(
     node: &mut Node,
     topic: &str,
+    ty: &MessageTypeName,
     qos: &QosProfile,
-) -> Result<Watched<Publisher<M>>> {
-    let t = node
-        .create_topic(&topic_name(topic)?, M::message_type_name(), qos)
-        .map_err(|e| Error::dds(format!("topic {topic} ({})", M::ros_type_name()), e))?;
-    let inner = node
-        .create_publisher(&t, Some(qos.clone()))
-        .map_err(|e| Error::dds(format!("a publisher on {topic}"), e))?;
-    Ok(Watched::writer(
-        graph,
-        inner,
-        topic,
-        &M::message_type_name(),
-    ))
+) -> Result<ros2_client::dds::rustdds::Topic> {
+    node.create_topic(&topic_name(topic)?, ty.clone(), qos)
+        .map_err(|e| Error::transport(format!("topic {topic} ({})", ty.dds_msg_type()), e))
 }
 
-/// Creates a subscription of `M` on the absolute topic `topic`.
-pub(crate) fn subscription<M: RosMessage>(
+/// Creates a publisher of `M` on the absolute `topic`, announced as type `ty` (the Rust type only has to
+/// serialize: a raw message is published under any type name).
+pub(crate) fn publisher<M: serde::Serialize>(
     graph: &Graph,
     node: &mut Node,
-    topic: &str,
+    topic_abs: &str,
+    ty: &MessageTypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Publisher<M>>> {
+    let t = topic(node, topic_abs, ty, qos)?;
+    let inner = node
+        .create_publisher(&t, Some(qos.clone()))
+        .map_err(|e| Error::transport(format!("a publisher on {topic_abs}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_writer(guid, topic_abs, &ty.dds_msg_type());
+    Ok(Watched {
+        inner,
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
+}
+
+/// Creates a subscription of `M` on the absolute `topic`, announced as type `ty`.
+pub(crate) fn subscription<M: 'static>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    ty: &MessageTypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Subscription<M>>> {
-    let t = node
-        .create_topic(&topic_name(topic)?, M::message_type_name(), qos)
-        .map_err(|e| Error::dds(format!("topic {topic} ({})", M::ros_type_name()), e))?;
+    let t = topic(node, topic_abs, ty, qos)?;
     let inner = node
         .create_subscription(&t, Some(qos.clone()))
-        .map_err(|e| Error::dds(format!("a subscription on {topic}"), e))?;
-    Ok(Watched::reader(
-        graph,
+        .map_err(|e| Error::transport(format!("a subscription on {topic_abs}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_reader(guid, topic_abs, &ty.dds_msg_type());
+    Ok(Watched {
         inner,
-        topic,
-        &M::message_type_name(),
-    ))
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
+}
+
+/// Creates a publisher of `M` on the absolute `topic`, announced as `M`'s ROS type.
+pub(crate) fn typed_publisher<M: crate::msg::RosMessage>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    qos: &QosProfile,
+) -> Result<Watched<Publisher<M>>> {
+    publisher(graph, node, topic_abs, &M::message_type_name(), qos)
+}
+
+/// Creates a subscription of `M` on the absolute `topic`, announced as `M`'s ROS type.
+pub(crate) fn typed_subscription<M: crate::msg::RosMessage>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    qos: &QosProfile,
+) -> Result<Watched<Subscription<M>>> {
+    subscription(graph, node, topic_abs, &M::message_type_name(), qos)
 }
 
 /// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.
-pub(crate) fn emit<M: RosMessage>(p: &Publisher<M>, topic: &str, m: M) {
+pub(crate) fn emit<M: serde::Serialize>(p: &Publisher<M>, topic: &str, m: M) {
     if let Err(e) = p.publish(m) {
-        tracing::warn!(topic, error = ?e, "could not publish");
+        tracing::warn!(topic, error = %e.forget_data(), "could not publish");
     }
 }
 
@@ -209,6 +213,52 @@ pub(crate) fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
         s.clone()
     } else {
         "non-string panic payload".to_owned()
+    }
+}
+
+/// Spaces out publications of something that changes often (a `state`, a connection list): the first change
+/// after a quiet spell goes out at once, later ones at most every `every`, and the last change always.
+pub(crate) struct Throttle {
+    every: std::time::Duration,
+    last: tokio::time::Instant,
+    dirty: bool,
+}
+
+impl Throttle {
+    /// A throttle that has just published.
+    pub(crate) fn new(every: std::time::Duration) -> Throttle {
+        Throttle {
+            every,
+            last: tokio::time::Instant::now(),
+            dirty: false,
+        }
+    }
+
+    /// Something changed: whether to publish now (if not, [`Throttle::due`] says when).
+    pub(crate) fn changed(&mut self) -> bool {
+        if self.last.elapsed() >= self.every {
+            self.published();
+            true
+        } else {
+            self.dirty = true;
+            false
+        }
+    }
+
+    /// Record a publication made for another reason.
+    pub(crate) fn published(&mut self) {
+        self.last = tokio::time::Instant::now();
+        self.dirty = false;
+    }
+
+    /// Resolves when a held-back change is due (never if none is); call [`Throttle::published`] after
+    /// publishing it.
+    pub(crate) async fn due(&self) {
+        if self.dirty {
+            tokio::time::sleep_until(self.last + self.every).await
+        } else {
+            std::future::pending().await
+        }
     }
 }
 
@@ -250,5 +300,33 @@ impl ComponentTask {
 impl Drop for ComponentTask {
     fn drop(&mut self) {
         self.request_stop();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test(start_paused = true)]
+    async fn a_throttle_lets_the_first_change_through_and_holds_back_the_next() {
+        let every = std::time::Duration::from_millis(100);
+        let mut t = Throttle::new(every);
+        tokio::time::advance(every).await;
+        assert!(
+            t.changed(),
+            "first change after a quiet spell goes out at once"
+        );
+        assert!(!t.changed(), "the next one within `every` is held back");
+        let t0 = tokio::time::Instant::now();
+        t.due().await;
+        assert_eq!(
+            t0.elapsed(),
+            every,
+            "and is due `every` after the last publication"
+        );
+        t.published();
+        // nothing held back: never due
+        let due = tokio::time::timeout(every * 10, t.due()).await;
+        assert!(due.is_err());
     }
 }

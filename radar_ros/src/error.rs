@@ -1,10 +1,31 @@
-//! Errors, each saying what went wrong and what to do next.
+//! Errors by kind, each saying what went wrong and what to do next, with the underlying error kept as
+//! [`std::error::Error::source`].
+//!
+//! ```
+//! use radar_ros::Error;
+//! let e = radar_ros::Radar::builder().namespace("not a namespace").build().unwrap_err();
+//! assert!(matches!(e, Error::InvalidName { .. }));
+//! assert!(e.to_string().contains("not a namespace"));
+//! ```
 
-/// Everything that can go wrong when building RADAR components.
+/// A boxed underlying error.
+pub type Source = Box<dyn std::error::Error + Send + Sync + 'static>;
+
+/// Everything that can go wrong in radar_ros.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A node, namespace or topic name breaks the ROS naming rules.
+    /// Configuration: an environment variable or builder setting that cannot be used, or a missing runtime.
+    #[error("invalid {setting} \"{value}\": {reason}")]
+    Config {
+        /// The setting: `ROS_DOMAIN_ID`, `RADAR_LEASE_SECONDS`, ...
+        setting: &'static str,
+        /// Its value as found.
+        value: String,
+        /// Why it was refused and what to set instead.
+        reason: String,
+    },
+    /// A node, namespace, topic or type name breaks the ROS naming rules.
     #[error("invalid ROS name \"{name}\": {reason}")]
     InvalidName {
         /// The name as given.
@@ -12,62 +33,10 @@ pub enum Error {
         /// Which rule it breaks and how to fix it.
         reason: String,
     },
-    /// `ROS_DOMAIN_ID` (or an explicit domain id) is not usable.
-    #[error(
-        "invalid ROS_DOMAIN_ID \"{value}\": {reason}. Set ROS_DOMAIN_ID to a whole number from 0 to 232 \
-         (0-101 and 215-232 avoid the Linux ephemeral port range), or unset it for domain 0"
-    )]
-    InvalidDomainId {
-        /// The value as found.
-        value: String,
-        /// Why it was refused.
-        reason: String,
-    },
-    /// An environment variable radar_ros reads has a value it cannot use.
-    #[error("invalid {var}=\"{value}\": {reason}")]
-    InvalidEnv {
-        /// The variable.
-        var: &'static str,
-        /// Its value as found.
-        value: String,
-        /// Why it was refused and what to set instead.
-        reason: String,
-    },
     /// A component with this name already runs in this process.
     #[error("a RADAR component named \"{0}\" already runs in this process; pick another name or namespace")]
     DuplicateName(String),
-    /// DDS or ros2-client refused to create an entity.
-    #[error("ROS 2 (DDS) could not create {what}: {detail}")]
-    Dds {
-        /// What was being created.
-        what: String,
-        /// The underlying error.
-        detail: String,
-    },
-    /// Waiting for something on the ROS graph took longer than allowed.
-    #[error("timed out after {after:?} waiting for {what}")]
-    Timeout {
-        /// What was awaited.
-        what: String,
-        /// How long we waited.
-        after: std::time::Duration,
-    },
-    /// A connection's source carries another type than its target slot accepts.
-    #[error(
-        "type mismatch: {source_topic} carries {source_type} but {slot_topic} takes {slot_type}; connect a \
-         signal of type {slot_type}, or a slot that takes {source_type}"
-    )]
-    TypeMismatch {
-        /// The source signal's topic.
-        source_topic: String,
-        /// Its type.
-        source_type: String,
-        /// The slot's topic.
-        slot_topic: String,
-        /// Its type.
-        slot_type: String,
-    },
-    /// No component of that name appeared on the ROS graph in time.
+    /// Lookup: no component of that name appeared on the ROS graph in time.
     #[error(
         "no RADAR {kind} named \"{name}\" appeared on the ROS graph within {after:?}; is it running, in this \
          ROS_DOMAIN_ID and namespace? Components seen: {}",
@@ -83,7 +52,7 @@ pub enum Error {
         /// RADAR components that were found, closest names first.
         candidates: Vec<String>,
     },
-    /// The name belongs to a component of the other kind.
+    /// Lookup: the name belongs to a component of the other kind.
     #[error("\"{name}\" is a RADAR {found}, but {expected} was asked for; look it up with radar.{found}(..)")]
     WrongKind {
         /// The name, fully qualified.
@@ -93,7 +62,7 @@ pub enum Error {
         /// What is there.
         found: &'static str,
     },
-    /// Several types are published on a component's topic.
+    /// Lookup: several types are published on a component's topic.
     #[error("{topic} carries several types ({}); rename one of the components", types.join(", "))]
     Ambiguous {
         /// The topic.
@@ -101,28 +70,120 @@ pub enum Error {
         /// The types seen on it.
         types: Vec<String>,
     },
+    /// Types: a connection's source carries another type than its target slot accepts.
+    #[error(
+        "type mismatch: {source_topic} carries {source_type} but {slot_topic} takes {slot_type}; connect a \
+         signal of type {slot_type}, or a slot that takes {source_type}"
+    )]
+    TypeMismatch {
+        /// The source signal's topic.
+        source_topic: String,
+        /// Its type.
+        source_type: String,
+        /// The slot's topic.
+        slot_topic: String,
+        /// Its type.
+        slot_type: String,
+    },
+    /// Types: Rust code given to a connection or a call (a filter, a transform, an anonymous slot, an injected
+    /// payload) takes or gives another type than the topic carries.
+    #[error("{what} uses {given} but {topic} carries {expected}; use {expected} there")]
+    PayloadType {
+        /// What was given: `a filter`, `a map`, `an anonymous slot`, `an injected payload`.
+        what: &'static str,
+        /// The topic.
+        topic: String,
+        /// The topic's type.
+        expected: String,
+        /// The Rust side's type.
+        given: String,
+    },
     /// A connection statement that cannot mean anything.
     #[error("invalid statement: {0}")]
     InvalidStatement(String),
-    /// The component was shut down while the call was in progress.
+    /// Waiting for something on the ROS graph took longer than allowed.
+    #[error("timed out after {after:?} waiting for {what}")]
+    Timeout {
+        /// What was awaited.
+        what: String,
+        /// How long we waited.
+        after: std::time::Duration,
+    },
+    /// Transport: ROS 2 (DDS) refused to create an endpoint or to send.
+    #[error("ROS 2 (DDS) could not {what}: {source}{hint}")]
+    Transport {
+        /// What was being done: `create a publisher on /x`, `send on /x`.
+        what: String,
+        /// The underlying error.
+        source: Source,
+        /// What to do about it, if known.
+        hint: String,
+    },
+    /// Codec: a message could not be encoded or decoded as CDR of its type.
+    #[error("could not {what}: {source}")]
+    Codec {
+        /// `decode a std_msgs/msg/String from 3 bytes`, ...
+        what: String,
+        /// The underlying error.
+        source: Source,
+    },
+    /// The component, connection or participant was shut down while the call was in progress.
     #[error("{0} is shut down")]
     Closed(String),
 }
 
+/// A message as an error, for sources that only give text.
+#[derive(Debug)]
+pub(crate) struct Text(pub(crate) String);
+
+impl std::fmt::Display for Text {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Text {}
+
 impl Error {
-    pub(crate) fn dds(what: impl Into<String>, detail: impl std::fmt::Debug) -> Error {
-        let mut detail = format!("{detail:?}");
-        if detail.contains("Too many open files") {
+    /// A transport error while creating `what`, keeping `source`.
+    pub(crate) fn transport(
+        what: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Error {
+        let text = source.to_string();
+        let hint = if text.contains("Too many open files") {
             // seen at scale: RustDDS holds about 3 file descriptors per reader or writer
-            detail.push_str(
-                "; this process ran out of file descriptors: every DDS reader or writer holds a few (about \
-                 20 per response, 6 per event), so raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a \
-                 systemd unit) or spread components over more processes",
-            );
+            "; this process ran out of file descriptors: every DDS reader or writer holds a few (about 20 per \
+             response, 6 per event), so raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a systemd unit) \
+             or spread components over more processes"
+                .to_owned()
+        } else {
+            String::new()
+        };
+        Error::Transport {
+            what: format!("create {}", what.into()),
+            source: Box::new(source),
+            hint,
         }
-        Error::Dds {
+    }
+
+    /// A failed send of a message on `topic`.
+    pub(crate) fn send(
+        topic: &str,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Error {
+        Error::Transport {
+            what: format!("send on {topic}"),
+            source: Box::new(source),
+            hint: String::new(),
+        }
+    }
+
+    /// A codec error while doing `what`.
+    pub(crate) fn codec(what: impl Into<String>, source: impl std::fmt::Display) -> Error {
+        Error::Codec {
             what: what.into(),
-            detail,
+            source: Box::new(Text(source.to_string())),
         }
     }
 }
@@ -131,6 +192,15 @@ impl Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 /// An error returned from a user's slot or event check. Any `std::error::Error` converts into it with `?`.
+///
+/// ```
+/// use radar_ros::SlotError;
+/// fn parse(s: &str) -> Result<u32, SlotError> {
+///     Ok(s.parse::<u32>()?) // a ParseIntError becomes a SlotError
+/// }
+/// assert!(parse("x").is_err());
+/// assert_eq!(SlotError::msg("blocked").to_string(), "blocked");
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SlotError(pub String);
 
@@ -148,7 +218,43 @@ impl<E: std::error::Error> From<E> for SlotError {
 
 impl SlotError {
     /// An error from a message.
+    ///
+    /// ```
+    /// let e = radar_ros::SlotError::msg("the gripper is blocked");
+    /// assert_eq!(e.to_string(), "the gripper is blocked");
+    /// ```
     pub fn msg(m: impl Into<String>) -> SlotError {
         SlotError(m.into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::error::Error as _;
+
+    use super::*;
+
+    #[test]
+    fn transport_errors_keep_their_cause_and_say_what_to_do_about_file_descriptors() {
+        let e = Error::transport(
+            "a publisher on /x",
+            std::io::Error::other("Too many open files (os error 24)"),
+        );
+        let text = e.to_string();
+        assert!(
+            text.starts_with("ROS 2 (DDS) could not create a publisher on /x: Too many open files"),
+            "{text}"
+        );
+        assert!(text.contains("ulimit -n"), "{text}");
+        assert!(e.source().unwrap().to_string().contains("os error 24"));
+        let e = Error::codec(
+            "decode a std_msgs/msg/String from 3 bytes",
+            "unexpected end",
+        );
+        assert_eq!(
+            e.to_string(),
+            "could not decode a std_msgs/msg/String from 3 bytes: unexpected end"
+        );
+        assert!(e.source().is_some());
     }
 }

@@ -15,15 +15,18 @@ use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc, time::Du
 use futures::{FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
+use radar_semantics::event::{Activation, Transition};
+
 use crate::{
     endpoints::{
-        emit, panic_message, publisher, signal_qos, state_qos, subscription, ComponentTask, Watched,
+        emit, panic_message, typed_publisher, typed_subscription, ComponentTask, Throttle, Watched,
     },
     error::{Result, SlotError},
     msg::{Empty, EventState, RosMessage, Time},
     names::ComponentName,
+    qos::{signal_qos, state_qos},
     radar::Radar,
-    semantics::event::{Activation, Transition},
+    refs::{AsSignal, Signal},
 };
 
 /// A condition check.
@@ -76,50 +79,56 @@ pub struct EventNode<'a> {
 impl EventNode<'_> {
     /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
     /// QoS (reliable, volatile, keep-last 10).
+    ///
+    /// ```
+    /// use radar_ros::{Event, EventNode, EventSubscription, SlotError, msg::{Empty, Float64}};
+    /// /// Triggers when the battery reading falls below 20 %.
+    /// struct LowBattery(Option<EventSubscription<Float64>>);
+    /// impl Event for LowBattery {
+    ///     type Payload = Empty;
+    ///     fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
+    ///         self.0 = Some(node.subscribe::<Float64>("battery")?);
+    ///         Ok(())
+    ///     }
+    ///     async fn check(&mut self) -> Result<Empty, SlotError> {
+    ///         let sub = self.0.as_ref().ok_or_else(|| SlotError::msg("not attached"))?;
+    ///         loop {
+    ///             if sub.recv().await.map_err(|e| SlotError(e.to_string()))?.data < 0.2 {
+    ///                 return Ok(Empty::default());
+    ///             }
+    ///         }
+    ///     }
+    /// }
+    /// ```
     pub fn subscribe<M: RosMessage>(&mut self, topic: &str) -> Result<EventSubscription<M>> {
-        let abs = resolve_topic(self.radar, topic)?;
-        subscription::<M>(self.radar.graph(), self.node, &abs, &signal_qos())
-            .map(|inner| EventSubscription { inner })
+        let abs = self.radar.participant().resolve_topic(topic)?;
+        let inner = typed_subscription::<M>(self.radar.graph(), self.node, &abs, &signal_qos())?;
+        Ok(EventSubscription { topic: abs, inner })
     }
 }
 
 /// A subscription made on an event's node (see [`EventNode::subscribe`]).
 pub struct EventSubscription<M: RosMessage> {
+    topic: String,
     inner: Watched<ros2_client::Subscription<M>>,
 }
 
 impl<M: RosMessage> EventSubscription<M> {
     /// Takes a message that has already arrived (skipping publishers of another type), without waiting.
     pub fn take(&self) -> Option<M> {
-        loop {
-            match self.inner.take() {
-                Ok(Some((m, info))) if self.inner.accepts(&info) => return Some(m),
-                Ok(Some(_)) => continue,
-                Err(_) => return None,
-                Ok(None) => return None,
-            }
-        }
+        self.inner.take_accepted()
     }
 
     /// The next message (skipping malformed ones and publishers of another type).
     pub async fn recv(&self) -> Result<M> {
-        let mut stream = Box::pin(self.inner.async_stream());
-        while let Some(r) = stream.next().await {
-            match r {
-                Ok((m, info)) if self.inner.accepts(&info) => return Ok(m),
-                Ok(_) => {}
-                Err(e) => {
-                    tracing::warn!(expected = %M::ros_type_name(), error = %e, "dropped a malformed message")
-                }
-            }
+        let expected = M::ros_type_name();
+        let stream = self.inner.async_stream();
+        let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
+        match accepted.next().await {
+            Some((m, _)) => Ok(m),
+            None => Err(crate::Error::Closed(self.topic.clone())),
         }
-        Err(crate::Error::Closed("subscription".into()))
     }
-}
-
-/// Topic names follow the same rules as component names: relative ones resolve in the Radar's namespace.
-fn resolve_topic(radar: &Radar, topic: &str) -> Result<String> {
-    radar.resolve(topic).map(|n| n.fully_qualified())
 }
 
 /// Triggers every `period` while active, first `period` after activation.
@@ -131,6 +140,11 @@ pub struct TimerEvent {
 
 impl TimerEvent {
     /// A timer with this period.
+    ///
+    /// ```
+    /// use radar_ros::TimerEvent;
+    /// let every_second = TimerEvent::new(std::time::Duration::from_secs(1));
+    /// ```
     pub fn new(period: Duration) -> Self {
         TimerEvent {
             period,
@@ -207,7 +221,9 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
     }
 }
 
-/// A running event node. Dropping it (or [`EventHandle::shutdown`]) removes the node from the graph.
+/// A running event node. Dropping it (or [`EventHandle::shutdown`]) removes the node from the graph. It names
+/// the event's `triggered` wherever a connection's source is expected ([`AsSignal`]).
+#[must_use = "the event runs only while its handle lives; bind it (`let ev = radar.spawn_event(..)?`)"]
 pub struct EventHandle {
     name: ComponentName,
     payload_type: String,
@@ -217,6 +233,15 @@ pub struct EventHandle {
 
 impl EventHandle {
     /// The event's fully qualified name.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// assert_eq!(tick.name().fully_qualified(), "/tick");
+    /// assert_eq!(tick.topic("triggered"), "/tick/triggered");
+    /// # Ok(()) }
+    /// ```
     pub fn name(&self) -> &ComponentName {
         &self.name
     }
@@ -226,12 +251,33 @@ impl EventHandle {
         self.name.topic(endpoint)
     }
 
-    /// Its `triggered` signal, for connections.
-    pub fn triggered(&self) -> crate::connect::Signal {
-        crate::connect::Signal::new(self.name.topic("triggered"), self.payload_type.clone())
+    /// Its `triggered` signal, for connections (the handle itself stands for it too).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// let t = tick.triggered();
+    /// assert_eq!((t.topic(), t.ros_type()), ("/tick/triggered", "std_msgs/msg/Empty"));
+    /// # Ok(()) }
+    /// ```
+    pub fn triggered(&self) -> Signal {
+        Signal::new(self.name.topic("triggered"), self.payload_type.clone())
     }
 
     /// The latest state.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// let s = tick.state();
+    /// println!("active: {}, triggers: {}", s.active, s.triggers);
+    /// let mut changes = tick.watch_state();
+    /// changes.changed().await.ok();
+    /// tick.shutdown().await; // stops checking, leaves the graph
+    /// # Ok(()) }
+    /// ```
     pub fn state(&self) -> EventState {
         self.state.borrow().clone()
     }
@@ -244,6 +290,12 @@ impl EventHandle {
     /// Stops checking and removes the node; waits until it is gone.
     pub async fn shutdown(self) {
         self.task.stop_and_wait().await;
+    }
+}
+
+impl AsSignal for EventHandle {
+    fn signal(&self) -> Signal {
+        self.triggered()
     }
 }
 
@@ -261,21 +313,33 @@ const STATE_TRIGGER_THROTTLE: Duration = Duration::from_millis(100);
 
 impl Radar {
     /// Starts `event` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{TimerEvent, TopicEvent, msg::{Empty, Float64}};
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// let low = radar.spawn_event("low_battery", TopicEvent::new("battery", |b: &Float64| (b.data < 0.2).then(Empty::default)))?;
+    /// # Ok(()) }
+    /// ```
     pub fn spawn_event<E: Event>(&self, name: &str, mut event: E) -> Result<EventHandle> {
         let name = self.resolve(name)?;
-        let (mut node, claim) = self.claim_node(&name)?;
+        let (mut node, claim) = self.participant().claim_node(&name)?;
         event.attach(&mut EventNode {
             node: &mut node,
             radar: self,
         })?;
-        let triggered = publisher::<E::Payload>(
+        let triggered = typed_publisher::<E::Payload>(
             self.graph(),
             &mut node,
             &name.topic("triggered"),
             &signal_qos(),
         )?;
-        let state_pub =
-            publisher::<EventState>(self.graph(), &mut node, &name.topic("state"), &state_qos())?;
+        let state_pub = typed_publisher::<EventState>(
+            self.graph(),
+            &mut node,
+            &name.topic("state"),
+            &state_qos(),
+        )?;
         let listeners = triggered.matched.clone();
         let st = EventState {
             stamp: Time::now(),
@@ -334,15 +398,12 @@ async fn drive_event<E: Event>(
     let event = Arc::new(Mutex::new(event));
     let mut activation = Activation::new();
     let mut check: Option<Check<E::Payload>> = None;
-    let mut last_state = tokio::time::Instant::now();
-    let mut dirty = false;
+    let mut throttle = Throttle::new(STATE_TRIGGER_THROTTLE);
     let name = st.name.clone();
-    let publish = |st: &mut EventState, last: &mut tokio::time::Instant, dirty: &mut bool| {
+    let publish = |st: &mut EventState| {
         st.stamp = Time::now();
         emit(&state_pub, "state", st.clone());
         state_tx.send_replace(st.clone());
-        *last = tokio::time::Instant::now();
-        *dirty = false;
     };
     // the count may already be non-zero
     let mut pending_count = Some(*listeners.borrow_and_update());
@@ -364,7 +425,8 @@ async fn drive_event<E: Event>(
             }
             st.active = activation.is_active();
             st.activations = activation.activations();
-            publish(&mut st, &mut last_state, &mut dirty);
+            publish(&mut st);
+            throttle.published();
         }
         tokio::select! {
             _ = &mut stop => break,
@@ -383,10 +445,8 @@ async fn drive_event<E: Event>(
                         emit(&triggered, "triggered", payload);
                         st.triggers += 1;
                         check = Some(new_check(&event, None));
-                        if last_state.elapsed() >= STATE_TRIGGER_THROTTLE {
-                            publish(&mut st, &mut last_state, &mut dirty);
-                        } else {
-                            dirty = true;
+                        if throttle.changed() {
+                            publish(&mut st);
                         }
                     }
                     Err(e) => {
@@ -395,12 +455,14 @@ async fn drive_event<E: Event>(
                         st.last_error = e.0;
                         let delay = event.lock().await.retry_after();
                         check = Some(new_check(&event, Some(delay)));
-                        publish(&mut st, &mut last_state, &mut dirty);
+                        publish(&mut st);
+                        throttle.published();
                     }
                 }
             }
-            _ = tokio::time::sleep_until(last_state + STATE_TRIGGER_THROTTLE), if dirty => {
-                publish(&mut st, &mut last_state, &mut dirty);
+            _ = throttle.due() => {
+                publish(&mut st);
+                throttle.published();
             }
         }
     }

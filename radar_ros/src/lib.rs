@@ -7,7 +7,9 @@
 //!   its condition only while at least one subscriber is matched on `triggered`.
 //! - **Responses** ([`Response`], [`Radar::spawn_response`]) are nodes with `start`, `interrupt` and `exit` slot
 //!   topics, emitting `started`, `interrupted` and `exited`. The exit slot always runs.
-//! - Both publish a transient-local `<name>/state` that `ros2 topic echo` shows.
+//! - **Connections** ([`Radar::once`], [`Radar::whenever`], `until`) tie a signal to a slot for as long as the
+//!   block of code that made them lives, carried out by the embedded connection manager of the [`Radar`].
+//! - Components publish a transient-local `<name>/state` that `ros2 topic echo` shows.
 //!
 //! ```no_run
 //! use radar_ros::{Radar, TimerEvent, FnResponse, msg::Empty};
@@ -18,13 +20,49 @@
 //!     println!("hello");
 //!     Ok(Empty::default())
 //! }))?;
-//! // `ros2 topic pub --once /hello/start std_msgs/msg/Empty` now runs it.
+//! {
+//!     let _c = radar.whenever(&tick).start(&hello).await?; // says hello every second ...
+//!     tokio::time::sleep(std::time::Duration::from_secs(5)).await;
+//! } // ... until the guard goes
+//! // `ros2 topic pub --once /hello/start std_msgs/msg/Empty` runs it too.
 //! # Ok(()) }
 //! ```
 //!
+//! ## Connections
+//!
+//! `radar.once(E).start(&R)` / `radar.whenever(E).start(&R)` (also `.interrupt(&R)`, `.exit(&R)`, `.slot(s)`,
+//! or `.call(closure)`, an anonymous slot) return a [`ConnectionRequest`]; awaiting it arms the connection and
+//! gives a [`ConnectionGuard`]: the connection lives exactly as long as the guard, so it ends with the block
+//! that holds it, by `?`, or by a panic. Sources are anything that names a signal ([`AsSignal`]: a [`Signal`],
+//! or an event, for its `triggered`); a [`Slot`] is a different type and is never accepted as a source.
+//! The statements can also be written in the paper's syntax: [`once!`], [`whenever!`], [`waitfor!`].
+//!
+//! The rules, each tested ([`radar_semantics::connection`]):
+//!
+//! 1. A connection delivers only signals emitted after it was armed; nothing stale, nothing replayed.
+//! 2. `whenever` delivers every signal while it lives; `once` delivers exactly one, then lets go of its source
+//!    (an event whose only listener it was stops checking).
+//! 3. <span id="until-windows"></span>**`once E start R until U`**: U's signals go to R's `interrupt` only
+//!    within the *window* of the run this statement started: from R's first `started` after the statement
+//!    delivered E, to R's next `exited`. A run R starts by itself (its exit slot asking for a restart) or that
+//!    another statement started is not interrupted by this one.
+//! 4. Dropping the guard ends the connection at once: when the drop returns, nothing more is delivered.
+//!
+//! Connection properties: [`ConnectionRequest::filter`], [`ConnectionRequest::map`] (typed payload transform),
+//! [`ConnectionRequest::depth`] (QoS history depth). Another program's manager can be used through a served
+//! manager node ([`Radar::serve_manager`]; `radar_msgs/srv/Connect` from rclpy or the command line).
+//!
+//! ## Waiting
+//!
+//! Every call that waits returns a [`Wait`]: nothing happens until it is awaited, and `.timeout(d)` changes how
+//! long it may take. Waiting for discovery (looking a component up, arming, a subscriber to appear) is
+//! bounded by [`DEFAULT_TIMEOUT`] (5 s) unless told otherwise; waiting for a signal is unbounded unless told.
+//! To wait for a signal without missing it, arm first ([`Radar::waiter`]), then do what makes it come, then
+//! [`Waiter::recv`].
+//!
 //! ## Response semantics
 //!
-//! Decided in one place, [`semantics::response::ResponseMachine`], and tested line by line:
+//! Decided in one place, the [`radar_semantics`] crate's `ResponseMachine`, and tested line by line:
 //!
 //! 1. Idle + `start` → emit `started` (carrying the payload), then run the start behaviour with the payload.
 //!    The start behaviour always runs up to its first await point before the response takes the next signal,
@@ -79,41 +117,56 @@
 //!
 //! ## Layers
 //!
-//! [`semantics`] holds the RADAR rules in plain Rust (no DDS, no runtime). [`response`], [`event`],
-//! [`signal`] and [`endpoints`] bind them to ROS 2 nodes and topics; a private `graph` module keeps the DDS
-//! match counts.
+//! The [`radar_semantics`] crate holds the RADAR rules in plain Rust (no DDS, no runtime). This crate binds
+//! them to ROS 2: components and the connection manager stand on one participant core (context, match graph,
+//! endpoint factory, endpoint pool); the README's architecture section says what each file owns.
 
 #![warn(missing_docs)]
+#![deny(rustdoc::broken_intra_doc_links)]
 
-pub mod connect;
-pub mod endpoints;
-pub mod error;
-pub mod event;
+mod endpoints;
+mod error;
+mod event;
 mod graph;
-pub mod lookup;
-pub mod macros;
-pub mod manager_node;
+mod lookup;
+mod macros;
+mod manager;
+mod manager_node;
 pub mod msg;
 #[cfg(test)]
 mod msg_layout;
-pub mod names;
-pub mod radar;
-pub mod raw;
-pub mod response;
-pub mod semantics;
-pub mod signal;
+mod names;
+mod participant;
+mod pool;
+pub mod qos;
+mod radar;
+mod raw;
+mod refs;
+mod response;
+mod statement;
+mod topics;
+mod wait;
+mod waiter;
 
-pub use connect::{AsResponse, Connect, Connection, ResponseRef, Signal, Slot, Statement};
-pub use error::{Error, Result, SlotError};
+pub use error::{Error, Result, SlotError, Source};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
-pub use lookup::EventRef;
+pub use manager::ConnectionGuard;
 pub use manager_node::ManagerHandle;
 pub use names::ComponentName;
-pub use radar::{
-    discovery_range_from_env, domain_id_from_env, lease_from_env, parse_domain_id, DiscoveryRange,
-    Radar, RadarBuilder, DEFAULT_LEASE,
-};
-pub use raw::{RawMessage, RawPublisher, RawSubscription};
+pub use radar::{domain_id_from_env, DiscoveryRange, Radar, RadarBuilder, DEFAULT_LEASE};
+pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
+pub use raw::RawMessage;
+pub use refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub use response::{FnResponse, Response, ResponseHandle};
-pub use semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
-pub use signal::{SignalPublisher, SignalSubscription};
+pub use statement::{ConnectionRequest, Statement};
+pub use topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription};
+pub use wait::{Wait, DEFAULT_TIMEOUT};
+pub use waiter::Waiter;
+
+/// The RADAR rules themselves, in plain Rust (re-exported from the [`radar_semantics`] crate).
+pub use radar_semantics;
+
+/// The README's code, compiled as a doc test so that it cannot go stale.
+#[doc = include_str!("../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -1,41 +1,30 @@
 //! Finding RADAR components by name through ROS graph discovery, instead of a naming service.
 //!
 //! `radar.response("count_up")` resolves the name like any ROS name (relative names in the Radar's namespace,
-//! absolute names as given) and waits (default 5 s) until the graph shows a response there: a subscription on
-//! `<name>/start` and a publisher on `<name>/exited`. `radar.event("start_event")` waits for a publisher on
-//! `<name>/triggered`. The types come from discovery, so the returned reference works in connections exactly
-//! like a local handle, whichever process or host the component runs in.
+//! absolute names as given) and waits (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change) until the graph
+//! shows a response there: a subscription on `<name>/start` and a publisher on `<name>/exited`.
+//! `radar.event("start_event")` waits for a publisher on `<name>/triggered`. The types come from discovery, so
+//! the returned reference works in connections exactly like a local handle, whichever process or host the
+//! component runs in.
+//!
+//! ```no_run
+//! # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+//! let bumper = radar.event("/robot/bumper").await?;
+//! let dock = radar.response("/robot/dock").await?;
+//! let _c = radar.whenever(&bumper).start(&dock).await?;
+//! # Ok(()) }
+//! ```
 
 use std::{collections::BTreeSet, time::Duration};
 
 use crate::{
-    connect::{ResponseRef, Signal},
     error::{Error, Result},
     graph::ros_type_of_dds,
     names::ComponentName,
     radar::Radar,
+    refs::{EventRef, ResponseRef},
+    wait::Wait,
 };
-
-/// An event as seen on the graph.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct EventRef {
-    name: ComponentName,
-    payload_type: String,
-}
-
-impl EventRef {
-    /// Its name.
-    pub fn name(&self) -> &ComponentName {
-        &self.name
-    }
-    /// Its `triggered` signal.
-    pub fn triggered(&self) -> Signal {
-        Signal::new(self.name.topic("triggered"), self.payload_type.clone())
-    }
-}
-
-/// Default time to wait for a component to appear.
-pub const DEFAULT_LOOKUP_TIMEOUT: Duration = Duration::from_secs(5);
 
 enum Found {
     Event(String),
@@ -108,79 +97,131 @@ fn distance(a: &str, b: &str) -> usize {
 }
 
 impl Radar {
-    async fn lookup(&self, name: &str, want_event: bool, timeout: Duration) -> Result<Found> {
-        let name = self.resolve(name)?;
-        let kind = if want_event { "event" } else { "response" };
+    /// Looks at the graph after every discovery event (and every 100 ms, in case an event came before the
+    /// data) until `found` says yes or no, for at most `timeout`; `found` gets the endpoints seen so far and
+    /// answers `Ok(None)` for "not yet".
+    pub(crate) async fn wait_on_graph<T>(
+        &self,
+        timeout: Duration,
+        mut found: impl FnMut(&[(bool, String, String)]) -> Result<Option<T>>,
+        gave_up: impl FnOnce(&[(bool, String, String)]) -> Error,
+    ) -> Result<T> {
         let deadline = tokio::time::Instant::now() + timeout;
-        // look again after every discovery event (and every 100 ms, in case an event came before the data)
         let mut changes = self.graph().changes();
         loop {
             changes.mark_unchanged();
             let eps = self.graph().endpoints();
-            match inspect(&eps, &name)? {
-                Some(Found::Event(_)) if !want_event => {
-                    return Err(Error::WrongKind {
-                        name: name.fully_qualified(),
-                        expected: "a response",
-                        found: "event",
-                    })
-                }
-                Some(Found::Response(..)) if want_event => {
-                    return Err(Error::WrongKind {
-                        name: name.fully_qualified(),
-                        expected: "an event",
-                        found: "response",
-                    })
-                }
-                Some(f) => return Ok(f),
-                None if tokio::time::Instant::now() >= deadline => {
-                    return Err(Error::NotFound {
-                        name: name.fully_qualified(),
-                        kind,
-                        after: timeout,
-                        candidates: candidates(&eps, &name.fully_qualified()),
-                    })
-                }
-                None => {
-                    let next = tokio::time::timeout(Duration::from_millis(100), changes.changed());
-                    if let Ok(Err(_)) = next.await {
-                        // the participant is closing: no more events, fall back to polling
-                        tokio::time::sleep(Duration::from_millis(20)).await;
-                    }
-                }
+            if let Some(t) = found(&eps)? {
+                return Ok(t);
+            }
+            if tokio::time::Instant::now() >= deadline {
+                return Err(gave_up(&eps));
+            }
+            let next = tokio::time::timeout_at(
+                deadline.min(tokio::time::Instant::now() + Duration::from_millis(100)),
+                changes.changed(),
+            );
+            if let Ok(Err(_)) = next.await {
+                // the participant is closing: no more events, fall back to polling
+                tokio::time::sleep(Duration::from_millis(20)).await;
             }
         }
     }
 
-    /// Finds the event `name` on the ROS graph, waiting up to 5 s for it to appear.
-    pub async fn event(&self, name: &str) -> Result<EventRef> {
-        self.event_within(name, DEFAULT_LOOKUP_TIMEOUT).await
+    async fn lookup(&self, name: &str, want_event: bool, timeout: Duration) -> Result<Found> {
+        let name = self.resolve(name)?;
+        let kind = if want_event { "event" } else { "response" };
+        self.wait_on_graph(
+            timeout,
+            |eps| match inspect(eps, &name)? {
+                Some(Found::Event(_)) if !want_event => Err(Error::WrongKind {
+                    name: name.fully_qualified(),
+                    expected: "a response",
+                    found: "event",
+                }),
+                Some(Found::Response(..)) if want_event => Err(Error::WrongKind {
+                    name: name.fully_qualified(),
+                    expected: "an event",
+                    found: "response",
+                }),
+                f => Ok(f),
+            },
+            |eps| Error::NotFound {
+                name: name.fully_qualified(),
+                kind,
+                after: timeout,
+                candidates: candidates(eps, &name.fully_qualified()),
+            },
+        )
+        .await
     }
 
-    /// Finds the event `name`, waiting up to `timeout`.
-    pub async fn event_within(&self, name: &str, timeout: Duration) -> Result<EventRef> {
-        match self.lookup(name, true, timeout).await? {
-            Found::Event(payload_type) => Ok(EventRef {
-                name: self.resolve(name)?,
-                payload_type,
-            }),
-            Found::Response(..) => unreachable!("lookup checks the kind"),
-        }
+    /// The type published on `topic` (`writer`) or subscribed to, as soon as the graph shows one.
+    pub(crate) async fn topic_type(
+        &self,
+        topic: &str,
+        writer: bool,
+        timeout: Duration,
+    ) -> Result<String> {
+        let what = if writer { "publisher" } else { "subscriber" };
+        self.wait_on_graph(
+            timeout,
+            |eps| {
+                Ok(eps
+                    .iter()
+                    .find(|(w, t, _)| *w == writer && t == topic)
+                    .map(|(_, _, ty)| ros_type_of_dds(ty)))
+            },
+            |_| Error::Timeout {
+                what: format!(
+                    "a {what} on {topic}: is the component running, in this domain and namespace?"
+                ),
+                after: timeout,
+            },
+        )
+        .await
     }
 
-    /// Finds the response `name` on the ROS graph, waiting up to 5 s for it to appear.
-    pub async fn response(&self, name: &str) -> Result<ResponseRef> {
-        self.response_within(name, DEFAULT_LOOKUP_TIMEOUT).await
-    }
-
-    /// Finds the response `name`, waiting up to `timeout`.
-    pub async fn response_within(&self, name: &str, timeout: Duration) -> Result<ResponseRef> {
-        match self.lookup(name, false, timeout).await? {
-            Found::Response(start, output) => {
-                Ok(ResponseRef::new(self.resolve(name)?, start, output))
+    /// Finds the event `name` on the ROS graph, waiting for it to appear (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT),
+    /// `.timeout(d)` to change).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// let bumper = radar.event("/robot/bumper").await?;
+    /// println!("{} carries {}", bumper.name(), bumper.triggered().ros_type());
+    /// # Ok(()) }
+    /// ```
+    pub fn event(&self, name: &str) -> Wait<'static, EventRef> {
+        let (radar, name) = (self.clone(), name.to_owned());
+        Wait::discovery(move |t| async move {
+            match radar.lookup(&name, true, t).await? {
+                Found::Event(payload_type) => {
+                    Ok(EventRef::new(radar.resolve(&name)?, payload_type))
+                }
+                Found::Response(..) => unreachable!("lookup checks the kind"),
             }
-            Found::Event(_) => unreachable!("lookup checks the kind"),
-        }
+        })
+    }
+
+    /// Finds the response `name` on the ROS graph, waiting for it to appear (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT),
+    /// `.timeout(d)` to change).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use std::time::Duration;
+    /// let dock = radar.response("/robot/dock").timeout(Duration::from_secs(20)).await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn response(&self, name: &str) -> Wait<'static, ResponseRef> {
+        let (radar, name) = (self.clone(), name.to_owned());
+        Wait::discovery(move |t| async move {
+            match radar.lookup(&name, false, t).await? {
+                Found::Response(start, output) => {
+                    Ok(ResponseRef::new(radar.resolve(&name)?, start, output))
+                }
+                Found::Event(_) => unreachable!("lookup checks the kind"),
+            }
+        })
     }
 }
 

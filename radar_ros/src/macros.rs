@@ -15,7 +15,9 @@
 //! ```
 //!
 //! A source written as a name (`start_event`) means that event's `triggered`; any other signal is written
-//! in parentheses: `(count_up.reference().exited())`.
+//! in parentheses: `(count_up.reference().exited())`. The forms are those of the paper: `E start R`,
+//! `E start R until U` (U interrupts R, but only runs this statement started: see [`crate::statement`]),
+//! `E interrupt R`, `E exit R`, and `E => closure` for an anonymous slot.
 
 /// Turns a statement's source into a [`Signal`](crate::Signal): `name` is an event, `(expr)` any signal.
 #[doc(hidden)]
@@ -47,12 +49,6 @@ macro_rules! __radar_statement {
             .await?;
     };
     ($kind:ident, $radar:expr, $src:tt interrupt $resp:ident) => {
-        let _radar_connection = $radar
-            .$kind($crate::__radar_signal!($src))
-            .interrupt(&$resp)
-            .await?;
-    };
-    ($kind:ident, $radar:expr, $src:tt until $resp:ident) => {
         let _radar_connection = $radar
             .$kind($crate::__radar_signal!($src))
             .interrupt(&$resp)
@@ -91,15 +87,16 @@ macro_rules! whenever {
 }
 
 /// `waitfor!(radar, E)` or `waitfor!(radar, (signal))`: the payload of the next signal (its type inferred),
-/// or `waitfor!(radar, E, timeout)`.
+/// as [`Radar::waitfor`](crate::Radar::waitfor); `waitfor!(radar, E, timeout)` bounds the whole wait.
 #[macro_export]
 macro_rules! waitfor {
     ($radar:expr, $src:tt) => {
-        $radar.waitfor($crate::__radar_signal!($src), None).await?
+        $radar.waitfor($crate::__radar_signal!($src)).await?
     };
     ($radar:expr, $src:tt, $timeout:expr) => {
         $radar
-            .waitfor($crate::__radar_signal!($src), Some($timeout))
+            .waitfor($crate::__radar_signal!($src))
+            .timeout($timeout)
             .await?
     };
 }

@@ -22,19 +22,22 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    connect::{Connection, Signal},
-    endpoints::{emit, publisher, signal_qos, state_qos, ComponentTask},
+    endpoints::{emit, typed_publisher, ComponentTask, Throttle},
     error::{Error, Result},
-    lookup::DEFAULT_LOOKUP_TIMEOUT,
+    manager::ConnectionGuard,
     msg::{
         ConnectRequest, ConnectResponse, Connection as ConnectionMsg, ConnectionList,
         DisconnectRequest, DisconnectResponse, ListRequest, ListResponse, Time,
     },
     names::ComponentName,
+    qos::{signal_qos, state_qos},
     radar::Radar,
+    refs::{Signal, Slot},
+    wait::DEFAULT_TIMEOUT,
 };
 
 /// A running manager node; dropping it removes the node and the connections made through its services.
+#[must_use = "the manager node serves only while its handle lives; bind it (`let _m = radar.serve_manager(..)?`)"]
 pub struct ManagerHandle {
     name: ComponentName,
     task: ComponentTask,
@@ -42,6 +45,14 @@ pub struct ManagerHandle {
 
 impl ManagerHandle {
     /// The node's name.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// let manager = radar.serve_manager("radar_manager")?;
+    /// assert_eq!(manager.name().fully_qualified(), "/radar_manager");
+    /// manager.shutdown().await; // its service connections go with it
+    /// # Ok(()) }
+    /// ```
     pub fn name(&self) -> &ComponentName {
         &self.name
     }
@@ -60,44 +71,17 @@ impl std::fmt::Debug for ManagerHandle {
     }
 }
 
-/// The type published on `topic` (or subscribed, for slots), waiting up to `timeout` for it to appear.
-async fn type_of(radar: &Radar, topic: &str, writer: bool, timeout: Duration) -> Result<String> {
-    let deadline = tokio::time::Instant::now() + timeout;
-    loop {
-        let types: Vec<String> = radar
-            .graph()
-            .endpoints()
-            .into_iter()
-            .filter(|(w, t, _)| *w == writer && t == topic)
-            .map(|(_, _, ty)| crate::graph::ros_type_of_dds(&ty))
-            .collect();
-        if let Some(t) = types.first() {
-            return Ok(t.clone());
-        }
-        if tokio::time::Instant::now() >= deadline {
-            let what = if writer { "publisher" } else { "subscriber" };
-            return Err(Error::Timeout {
-                what: format!(
-                    "a {what} on {topic}: is the component running, in this domain and namespace?"
-                ),
-                after: timeout,
-            });
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-}
-
-async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<Connection> {
+async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<ConnectionGuard> {
     let timeout = if req.timeout > 0.0 {
         Duration::from_secs_f64(req.timeout)
     } else {
-        DEFAULT_LOOKUP_TIMEOUT
+        DEFAULT_TIMEOUT
     };
     let source_topic = radar.resolve(&req.source)?.fully_qualified();
     let target_topic = radar.resolve(&req.target)?.fully_qualified();
     let source = Signal::new(
         &source_topic,
-        type_of(radar, &source_topic, true, timeout).await?,
+        radar.topic_type(&source_topic, true, timeout).await?,
     );
     let statement = match req.kind {
         ConnectionMsg::ONCE => radar.once(source),
@@ -109,9 +93,9 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         }
     };
     let c = if req.until.is_empty() {
-        let slot = Signal::new(
+        let slot = Slot::new(
             &target_topic,
-            type_of(radar, &target_topic, false, timeout).await?,
+            radar.topic_type(&target_topic, false, timeout).await?,
         );
         statement.slot(slot)
     } else {
@@ -120,9 +104,9 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
                 "`until` goes with a start slot (…/start), not {target_topic}"
             )));
         };
-        let r = radar.response_within(response, timeout).await?;
+        let r = radar.response(response).timeout(timeout).await?;
         let u_topic = radar.resolve(&req.until)?.fully_qualified();
-        let u = Signal::new(&u_topic, type_of(radar, &u_topic, true, timeout).await?);
+        let u = Signal::new(&u_topic, radar.topic_type(&u_topic, true, timeout).await?);
         statement.start(&r).until(u)
     };
     let c = if req.depth > 0 {
@@ -135,9 +119,16 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
 
 impl Radar {
     /// Serves this participant's connection manager as the ROS node `name` (see the module docs).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// let manager = radar.serve_manager("radar_manager")?;
+    /// // `ros2 service call /radar_manager/list radar_msgs/srv/List` now answers
+    /// # Ok(()) }
+    /// ```
     pub fn serve_manager(&self, name: &str) -> Result<ManagerHandle> {
         let name = self.resolve(name)?;
-        let (mut node, claim) = self.claim_node(&name)?;
+        let (mut node, claim) = self.participant().claim_node(&name)?;
         let fq = name.fully_qualified();
         let svc = |n: &str| {
             Name::new(&fq, n).map_err(|e| Error::InvalidName {
@@ -154,7 +145,7 @@ impl Radar {
                 q.clone(),
                 q.clone(),
             )
-            .map_err(|e| Error::dds(format!("service {fq}/connect"), e))?;
+            .map_err(|e| Error::transport(format!("service {fq}/connect"), e))?;
         let disconnect_srv = node
             .create_server::<DisconnectRequest, DisconnectResponse>(
                 ServiceMapping::Enhanced,
@@ -163,7 +154,7 @@ impl Radar {
                 q.clone(),
                 q.clone(),
             )
-            .map_err(|e| Error::dds(format!("service {fq}/disconnect"), e))?;
+            .map_err(|e| Error::transport(format!("service {fq}/disconnect"), e))?;
         let list_srv = node
             .create_server::<ListRequest, ListResponse>(
                 ServiceMapping::Enhanced,
@@ -172,15 +163,15 @@ impl Radar {
                 q.clone(),
                 q,
             )
-            .map_err(|e| Error::dds(format!("service {fq}/list"), e))?;
-        let list_pub = publisher::<ConnectionList>(
+            .map_err(|e| Error::transport(format!("service {fq}/list"), e))?;
+        let list_pub = typed_publisher::<ConnectionList>(
             self.graph(),
             &mut node,
             &name.topic("connections"),
             &state_qos(),
         )?;
         let radar = self.clone();
-        let manager = self.manager();
+        let manager = self.manager().clone();
         let mut changes = manager.changes();
         let mut lost = self.graph().participants_lost();
         let task = ComponentTask::spawn(move |mut stop| async move {
@@ -200,11 +191,9 @@ impl Radar {
             publish(manager.list());
             // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
             // change always
-            const THROTTLE: Duration = Duration::from_millis(100);
-            let mut last = tokio::time::Instant::now();
-            let mut dirty = false;
+            let mut throttle = Throttle::new(Duration::from_millis(100));
             // connections made through the service, with their owner's participant
-            let mut owned: HashMap<u64, (Connection, ros2_client::dds::rustdds::GUID)> =
+            let mut owned: HashMap<u64, (ConnectionGuard, ros2_client::dds::rustdds::GUID)> =
                 HashMap::new();
             let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
             let mut connects = Box::pin(connect_srv.receive_request_stream());
@@ -273,17 +262,13 @@ impl Radar {
                         }
                     }
                     Ok(()) = changes.changed() => {
-                        if last.elapsed() >= THROTTLE {
+                        if throttle.changed() {
                             publish(manager.list());
-                            last = tokio::time::Instant::now();
-                        } else {
-                            dirty = true;
                         }
                     }
-                    _ = tokio::time::sleep_until(last + THROTTLE), if dirty => {
+                    _ = throttle.due() => {
                         publish(manager.list());
-                        last = tokio::time::Instant::now();
-                        dirty = false;
+                        throttle.published();
                     }
                 }
             }

@@ -114,6 +114,11 @@ ros_message!(Time, "builtin_interfaces", "Time");
 
 impl Time {
     /// The wall-clock time now.
+    ///
+    /// ```
+    /// let t = radar_ros::msg::Time::now();
+    /// assert!(t.sec > 0);
+    /// ```
     pub fn now() -> Time {
         let d = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)

@@ -69,6 +69,15 @@ pub(crate) fn validate_namespace(ns: &str) -> Result<String, Error> {
 
 impl ComponentName {
     /// Resolves `name` against the default namespace `default_ns` and checks every rule.
+    ///
+    /// ```
+    /// use radar_ros::ComponentName;
+    /// let n = ComponentName::resolve("arm/grasp", "/robot").unwrap();
+    /// assert_eq!(n.fully_qualified(), "/robot/arm/grasp");
+    /// assert_eq!((n.namespace(), n.base()), ("/robot/arm", "grasp"));
+    /// assert_eq!(n.topic("start"), "/robot/arm/grasp/start");
+    /// assert!(ComponentName::resolve("bad name", "/").is_err());
+    /// ```
     pub fn resolve(name: &str, default_ns: &str) -> Result<ComponentName, Error> {
         if name.is_empty() {
             return Err(Error::InvalidName {

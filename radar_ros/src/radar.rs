@@ -1,27 +1,33 @@
-//! [`Radar`]: one DDS participant that hosts RADAR events and responses, honouring `ROS_DOMAIN_ID`.
+//! [`Radar`]: the handle user code holds: one DDS participant that hosts RADAR events, responses and
+//! connections, configured like every ROS 2 tool (`ROS_DOMAIN_ID`, `ROS_AUTOMATIC_DISCOVERY_RANGE`).
 
-use std::{
-    collections::HashSet,
-    sync::{Arc, Mutex},
-};
+use std::sync::Arc;
 
-use ros2_client::{dds::rustdds::DomainParticipantBuilder, Context, Node, NodeName, NodeOptions};
+use ros2_client::{dds::rustdds::DomainParticipantBuilder, Context};
 
 use crate::{
     error::{Error, Result},
     graph::Graph,
+    manager::Manager,
     names::{validate_namespace, ComponentName},
+    participant::Participant,
 };
 
 /// Parses a `ROS_DOMAIN_ID` value the way ROS 2 tools do: empty means 0, otherwise a whole number 0..=232.
-pub fn parse_domain_id(value: &str) -> Result<u16> {
+pub(crate) fn parse_domain_id(value: &str) -> Result<u16> {
     let v = value.trim();
     if v.is_empty() {
         return Ok(0);
     }
-    let bad = |reason: &str| Error::InvalidDomainId {
+    let bad = |reason: &str| {
+        Error::Config {
+        setting: "ROS_DOMAIN_ID",
         value: value.to_owned(),
-        reason: reason.to_owned(),
+        reason: format!(
+            "{reason}; set ROS_DOMAIN_ID to a whole number from 0 to 232 (0-101 and 215-232 avoid the Linux \
+             ephemeral port range), or unset it for domain 0"
+        ),
+    }
     };
     let n: u64 = v.parse().map_err(|_| bad("it is not a whole number"))?;
     if n > 232 {
@@ -38,14 +44,22 @@ pub fn parse_domain_id(value: &str) -> Result<u16> {
     Ok(n as u16)
 }
 
-/// Reads `ROS_DOMAIN_ID` from the environment (0 when unset), as every ROS 2 tool does.
+/// Reads `ROS_DOMAIN_ID` from the environment (0 when unset), as every ROS 2 tool does: for code that makes
+/// its own ros2-client `Context` (whose `Context::new()` uses domain 0 whatever the variable says).
+///
+/// ```
+/// let domain = radar_ros::domain_id_from_env()?;
+/// assert!(domain <= 232);
+/// # Ok::<(), radar_ros::Error>(())
+/// ```
 pub fn domain_id_from_env() -> Result<u16> {
     match std::env::var("ROS_DOMAIN_ID") {
         Ok(v) => parse_domain_id(&v),
         Err(std::env::VarError::NotPresent) => Ok(0),
-        Err(std::env::VarError::NotUnicode(v)) => Err(Error::InvalidDomainId {
+        Err(std::env::VarError::NotUnicode(v)) => Err(Error::Config {
+            setting: "ROS_DOMAIN_ID",
             value: v.to_string_lossy().into_owned(),
-            reason: "it is not valid UTF-8".into(),
+            reason: "it is not valid UTF-8; set it to a whole number from 0 to 232".into(),
         }),
     }
 }
@@ -66,7 +80,7 @@ pub enum DiscoveryRange {
 /// Reads `ROS_AUTOMATIC_DISCOVERY_RANGE` (and the older `ROS_LOCALHOST_ONLY=1`) like ROS 2 Jazzy does.
 /// Unset or `SUBNET`/`SYSTEM_DEFAULT` give [`DiscoveryRange::Subnet`]; `LOCALHOST` and `OFF` give
 /// [`DiscoveryRange::Localhost`] (RADAR needs same-host discovery, so `OFF` is treated as `LOCALHOST`).
-pub fn discovery_range_from_env() -> Result<DiscoveryRange> {
+pub(crate) fn discovery_range_from_env() -> Result<DiscoveryRange> {
     if std::env::var("ROS_LOCALHOST_ONLY").as_deref() == Ok("1") {
         return Ok(DiscoveryRange::Localhost);
     }
@@ -77,8 +91,8 @@ pub fn discovery_range_from_env() -> Result<DiscoveryRange> {
             tracing::warn!("ROS_AUTOMATIC_DISCOVERY_RANGE=OFF treated as LOCALHOST");
             Ok(DiscoveryRange::Localhost)
         }
-        Ok(other) => Err(Error::InvalidEnv {
-            var: "ROS_AUTOMATIC_DISCOVERY_RANGE",
+        Ok(other) => Err(Error::Config {
+            setting: "ROS_AUTOMATIC_DISCOVERY_RANGE",
             value: other.to_owned(),
             reason: "it is not one of SUBNET, LOCALHOST, OFF, SYSTEM_DEFAULT".into(),
         }),
@@ -100,7 +114,7 @@ pub fn discovery_range_from_env() -> Result<DiscoveryRange> {
 pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(3);
 
 /// Reads `RADAR_LEASE_SECONDS` (seconds, may have a fraction; unset: [`DEFAULT_LEASE`]).
-pub fn lease_from_env() -> Result<std::time::Duration> {
+pub(crate) fn lease_from_env() -> Result<std::time::Duration> {
     let value = match std::env::var("RADAR_LEASE_SECONDS") {
         Err(std::env::VarError::NotPresent) => return Ok(DEFAULT_LEASE),
         Err(std::env::VarError::NotUnicode(v)) => v.to_string_lossy().into_owned(),
@@ -111,8 +125,8 @@ pub fn lease_from_env() -> Result<std::time::Duration> {
 
 fn parse_lease(value: &str) -> Result<std::time::Duration> {
     let bad = |reason: &str| {
-        Error::InvalidEnv {
-        var: "RADAR_LEASE_SECONDS",
+        Error::Config {
+        setting: "RADAR_LEASE_SECONDS",
         value: value.to_owned(),
         reason: format!(
             "{reason}; give the lease in seconds, from 0.1 up (e.g. 3, or 1.5), or unset it for {}s",
@@ -145,6 +159,13 @@ pub struct RadarBuilder {
 
 impl RadarBuilder {
     /// Uses this DDS domain instead of `ROS_DOMAIN_ID`.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().domain_id(42).build()?;
+    /// assert_eq!(radar.domain_id(), 42);
+    /// # Ok(()) }
+    /// ```
     pub fn domain_id(mut self, id: u16) -> Self {
         self.domain_id = Some(id);
         self
@@ -157,6 +178,13 @@ impl RadarBuilder {
     }
 
     /// Uses this discovery range instead of `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// use radar_ros::{DiscoveryRange, Radar};
+    /// let radar = Radar::builder().discovery_range(DiscoveryRange::Subnet).build()?;
+    /// # Ok(()) }
+    /// ```
     pub fn discovery_range(mut self, range: DiscoveryRange) -> Self {
         self.range = Some(range);
         self
@@ -164,6 +192,13 @@ impl RadarBuilder {
 
     /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`]: how soon peers
     /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`] for the trade-off).
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// use std::time::Duration;
+    /// let radar = radar_ros::Radar::builder().lease(Duration::from_secs(10)).build()?; // over Wi-Fi, say
+    /// # Ok(()) }
+    /// ```
     pub fn lease(mut self, lease: std::time::Duration) -> Self {
         self.lease = Some(lease);
         self
@@ -176,9 +211,10 @@ impl RadarBuilder {
             Some(id) => parse_domain_id(&id.to_string())?,
             None => domain_id_from_env()?,
         };
-        let rt = tokio::runtime::Handle::try_current().map_err(|_| Error::Dds {
-            what: "the RADAR participant".into(),
-            detail: "no tokio runtime: create Radar inside #[tokio::main] or Runtime::block_on"
+        let rt = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
+            setting: "runtime",
+            value: "none".into(),
+            reason: "there is no tokio runtime: create the Radar inside #[tokio::main] or Runtime::block_on"
                 .into(),
         })?;
         let range = match self.range {
@@ -200,184 +236,125 @@ impl RadarBuilder {
         }
         let participant = dpb
             .build()
-            .map_err(|e| Error::dds(format!("a DDS participant in domain {domain_id}"), e))?;
+            .map_err(|e| Error::transport(format!("a DDS participant in domain {domain_id}"), e))?;
         let ctx = Context::from_domain_participant(participant)
-            .map_err(|e| Error::dds(format!("a ROS 2 context in domain {domain_id}"), e))?;
-        let graph = Graph::default();
-        graph.set_participant(ctx.domain_participant());
-        let (stop, stop_rx) = tokio::sync::oneshot::channel();
-        rt.spawn(graph.clone().run(ctx.domain_participant(), stop_rx));
+            .map_err(|e| Error::transport(format!("a ROS 2 context in domain {domain_id}"), e))?;
+        let participant = Participant::start(ctx, domain_id, namespace, &rt);
         Ok(Radar {
-            inner: Arc::new(Inner {
-                ctx,
-                domain_id,
-                namespace,
-                graph,
-                names: Mutex::new(HashSet::new()),
-                client: Mutex::new(None),
-                manager: std::sync::OnceLock::new(),
-                stop_graph: Mutex::new(Some(stop)),
-            }),
+            manager: Arc::new(Manager::new(participant.clone())),
+            participant,
         })
     }
 }
 
-struct Inner {
-    ctx: Context,
-    domain_id: u16,
-    namespace: String,
-    graph: Graph,
-    names: Mutex<HashSet<String>>,
-    /// The embedded connection manager, made on first use.
-    manager: std::sync::OnceLock<Arc<crate::connect::Manager>>,
-    /// A plain node for this participant's publishers and subscriptions that belong to no component.
-    client: Mutex<Option<Node>>,
-    stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
-}
-
-impl Drop for Inner {
-    fn drop(&mut self) {
-        if let Some(stop) = self.stop_graph.lock().unwrap().take() {
-            let _ = stop.send(());
-        }
-    }
-}
-
-/// A handle on one DDS participant that hosts RADAR components; cheap to clone.
+/// A handle on one DDS participant that hosts RADAR components and connections; cheap to clone.
 ///
-/// All events and responses spawned from one `Radar` share its participant (the embedded default). The same
-/// component types can run in their own processes with their own `Radar`; nothing in them changes.
+/// All events and responses spawned from one `Radar` share its participant (the embedded default), and its
+/// embedded connection manager carries out the statements made through it. The same component types can run
+/// in their own processes with their own `Radar`; nothing in them changes.
 ///
 /// ```no_run
-/// # async fn f() -> radar_ros::Result<()> {
+/// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
 /// let radar = radar_ros::Radar::new()?; // honours ROS_DOMAIN_ID
+/// println!("domain {}", radar.domain_id());
 /// # Ok(()) }
 /// ```
 #[derive(Clone)]
 pub struct Radar {
-    inner: Arc<Inner>,
+    participant: Arc<Participant>,
+    manager: Arc<Manager>,
 }
 
 impl std::fmt::Debug for Radar {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Radar")
-            .field("domain_id", &self.inner.domain_id)
-            .field("namespace", &self.inner.namespace)
+            .field("domain_id", &self.participant.domain_id())
+            .field("namespace", &self.participant.namespace())
             .finish()
     }
 }
 
 impl Radar {
-    /// A participant in the domain from `ROS_DOMAIN_ID`, namespace `/`.
+    /// A participant in the domain from `ROS_DOMAIN_ID`, namespace `/`. Must be called inside a tokio runtime.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::new()?;
+    /// # Ok(()) }
+    /// ```
     pub fn new() -> Result<Radar> {
         Radar::builder().build()
     }
 
     /// Configure before creating.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().domain_id(7).namespace("/robot").build()?;
+    /// # Ok(()) }
+    /// ```
     pub fn builder() -> RadarBuilder {
         RadarBuilder::default()
     }
 
     /// The DDS domain in use.
     pub fn domain_id(&self) -> u16 {
-        self.inner.domain_id
+        self.participant.domain_id()
     }
 
     /// The namespace relative names resolve in.
     pub fn namespace(&self) -> &str {
-        &self.inner.namespace
+        self.participant.namespace()
     }
 
     /// The underlying ros2-client context, for creating plain ROS 2 nodes on the same participant.
-    pub fn context(&self) -> &Context {
-        &self.inner.ctx
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) {
+    /// use ros2_client::{NodeName, NodeOptions};
+    /// let node = radar.context().new_node(NodeName::new("/", "my_plain_node").unwrap(), NodeOptions::new());
+    /// # }
+    /// ```
+    pub fn context(&self) -> &ros2_client::Context {
+        self.participant.context()
     }
 
     /// Resolves and validates a component name against this participant's namespace.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().namespace("/robot").build()?;
+    /// assert_eq!(radar.resolve("dock")?.fully_qualified(), "/robot/dock");
+    /// # Ok(()) }
+    /// ```
     pub fn resolve(&self, name: &str) -> Result<ComponentName> {
-        ComponentName::resolve(name, &self.inner.namespace)
+        self.participant.resolve(name)
     }
 
-    /// The embedded connection manager.
-    pub(crate) fn manager(&self) -> Arc<crate::connect::Manager> {
-        self.inner
-            .manager
-            .get_or_init(|| {
-                Arc::new(crate::connect::Manager::new(WeakRadar(Arc::downgrade(
-                    &self.inner,
-                ))))
-            })
-            .clone()
+    /// Every live connection of this program's embedded manager (what a served manager lists on its
+    /// `connections` topic).
+    ///
+    /// ```no_run
+    /// # fn f(radar: radar_ros::Radar) {
+    /// for c in radar.connections() {
+    ///     println!("{} {} -> {} ({} delivered)", c.kind_label, c.source, c.target, c.delivered);
+    /// }
+    /// # }
+    /// ```
+    pub fn connections(&self) -> Vec<crate::msg::Connection> {
+        self.manager.list()
+    }
+
+    pub(crate) fn participant(&self) -> &Arc<Participant> {
+        &self.participant
+    }
+
+    pub(crate) fn manager(&self) -> &Arc<Manager> {
+        &self.manager
     }
 
     pub(crate) fn graph(&self) -> &Graph {
-        &self.inner.graph
-    }
-
-    /// Creates a plain node: no rosout, no parameter services (a RADAR node's endpoints are its signals and
-    /// its state).
-    fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
-        let fq = ComponentName::resolve(base, namespace)?.fully_qualified();
-        let name = NodeName::new(namespace, base).map_err(|e| Error::InvalidName {
-            name: fq.clone(),
-            reason: format!("{e}"),
-        })?;
-        let options = NodeOptions::new()
-            .enable_rosout(false)
-            .start_parameter_services(false);
-        self.inner
-            .ctx
-            .new_node(name, options)
-            .map_err(|e| Error::dds(format!("node {fq}"), e))
-    }
-
-    /// Runs `f` with this participant's client node, creating it on first use (named
-    /// `radar_client_<pid>_<n>`, so several participants in one process stay distinct on the graph).
-    pub(crate) fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
-        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let mut guard = self.inner.client.lock().unwrap();
-        if guard.is_none() {
-            let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let base = format!("radar_client_{}_{k}", std::process::id());
-            *guard = Some(self.new_node(&self.inner.namespace, &base)?);
-        }
-        f(guard.as_mut().expect("client node was just created"))
-    }
-
-    /// Claims a name for a component in this process and creates its node.
-    pub(crate) fn claim_node(&self, name: &ComponentName) -> Result<(Node, NameClaim)> {
-        let fq = name.fully_qualified();
-        if !self.inner.names.lock().unwrap().insert(fq.clone()) {
-            return Err(Error::DuplicateName(fq));
-        }
-        let claim = NameClaim {
-            radar: self.clone(),
-            name: fq,
-        };
-        let node = self.new_node(name.namespace(), name.base())?;
-        Ok((node, claim))
-    }
-}
-
-/// A [`Radar`] that does not keep the participant alive.
-#[derive(Clone)]
-pub(crate) struct WeakRadar(std::sync::Weak<Inner>);
-
-impl WeakRadar {
-    pub(crate) fn upgrade(&self) -> Option<Radar> {
-        self.0.upgrade().map(|inner| Radar { inner })
-    }
-}
-
-/// Frees a claimed component name when the component stops.
-pub(crate) struct NameClaim {
-    radar: Radar,
-    name: String,
-}
-
-impl Drop for NameClaim {
-    fn drop(&mut self) {
-        self.radar.inner.names.lock().unwrap().remove(&self.name);
+        self.participant.graph()
     }
 }
 

@@ -11,7 +11,7 @@
 //! | `exited` | signal (published) | the response's output type (default `std_msgs/msg/Empty`) | signal |
 //! | `state` | published | `radar_msgs/msg/ResponseState` | state (transient-local, depth 1) |
 //!
-//! Signal QoS is reliable, volatile, keep-last 10 ([`crate::endpoints::signal_qos`]). What happens
+//! Signal QoS is reliable, volatile, keep-last 10 ([`crate::qos::signal_qos`]). What happens
 //! on each signal is decided by [`ResponseMachine`]; this module runs the slots and moves the messages.
 
 use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc};
@@ -19,17 +19,22 @@ use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc};
 use futures::{future::BoxFuture, FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
+use radar_semantics::response::{
+    Effect, ExitAction, ExitReason, Input, ResponseMachine, StartEnd, StartPolicy,
+};
+
 use crate::{
     endpoints::{
-        emit, panic_message, publisher, signal_qos, state_qos, subscription, ComponentTask, Watched,
+        emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, Watched,
     },
     error::{Result, SlotError},
     msg::{Empty, ResponseState, RosMessage, Time},
     names::ComponentName,
+    participant::Participant,
+    qos::{signal_qos, state_qos},
     radar::Radar,
-    semantics::response::{
-        Effect, ExitAction, ExitReason, Input, ResponseMachine, StartEnd, StartPolicy,
-    },
+    refs::{AsResponse, ResponseRef},
+    wait::Wait,
 };
 
 /// Behaviour with `start`, `interrupt` and `exit` slots.
@@ -108,6 +113,17 @@ pub struct FnResponse<P, O> {
 
 impl<P: RosMessage, O: RosMessage> FnResponse<P, O> {
     /// A response whose start behaviour is `start`.
+    ///
+    /// ```
+    /// use radar_ros::{FnResponse, ExitAction, StartPolicy, msg::{Empty, StringMsg}};
+    /// let go_to = FnResponse::new(|goal: StringMsg| async move {
+    ///     println!("going to {}", goal.data);
+    ///     Ok(Empty::default())
+    /// })
+    /// .on_interrupt(|| async { println!("stopping") })
+    /// .on_exit(|why| async move { println!("ended: {}", why.describe()); ExitAction::Done })
+    /// .start_policy(StartPolicy::Restart);
+    /// ```
     pub fn new<F, Fut>(mut start: F) -> Self
     where
         F: FnMut(P) -> Fut + Send + 'static,
@@ -169,11 +185,31 @@ impl<P: RosMessage, O: RosMessage> Response for FnResponse<P, O> {
 }
 
 /// A running response node. Dropping it stops the response like [`ResponseHandle::shutdown`] does, without
-/// waiting.
+/// waiting. It names the response wherever one is expected ([`AsResponse`]).
+///
+/// A handle that is not kept stops its response at once, so leaving it unused is a warning (here made an
+/// error, so that this example fails to compile):
+///
+/// ```compile_fail
+/// #![deny(unused_must_use)]
+/// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+/// use radar_ros::{FnResponse, msg::Empty};
+/// radar.spawn_response("beep", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+/// # Ok(()) }
+/// ```
+///
+/// ```no_run
+/// #![deny(unused_must_use)]
+/// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+/// use radar_ros::{FnResponse, msg::Empty};
+/// let beep = radar.spawn_response("beep", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+/// # Ok(()) }
+/// ```
+#[must_use = "the response runs only while its handle lives; bind it (`let r = radar.spawn_response(..)?`)"]
 pub struct ResponseHandle {
     name: ComponentName,
     /// Its signal and slot topics with their types.
-    reference: crate::connect::ResponseRef,
+    reference: ResponseRef,
     state: watch::Receiver<ResponseState>,
     /// Publishers matched with the `start`, `interrupt` and `exit` readers.
     slot_publishers: [watch::Receiver<usize>; 3],
@@ -184,6 +220,16 @@ pub struct ResponseHandle {
 
 impl ResponseHandle {
     /// The response's fully qualified name.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, msg::Empty};
+    /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+    /// assert_eq!(dock.name().fully_qualified(), "/dock");
+    /// assert_eq!(dock.topic("start"), "/dock/start");
+    /// let _ = dock.reference().exited(); // its signals and slots
+    /// # Ok(()) }
+    /// ```
     pub fn name(&self) -> &ComponentName {
         &self.name
     }
@@ -193,12 +239,24 @@ impl ResponseHandle {
         self.name.topic(endpoint)
     }
 
-    /// Its signals and slots, for connections (`radar.once(e.triggered()).start(&handle)`).
-    pub fn reference(&self) -> &crate::connect::ResponseRef {
+    /// Its signals and slots (`handle.reference().exited()`); the handle itself stands for the response in
+    /// statements (`radar.once(&e).start(&handle)`).
+    pub fn reference(&self) -> &ResponseRef {
         &self.reference
     }
 
     /// The latest state, as published on `state`.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, msg::Empty};
+    /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+    /// let s = dock.state();
+    /// println!("{}: {} runs, {} interrupted", s.state_label, s.starts, s.interrupts);
+    /// let mut changes = dock.watch_state();
+    /// changes.changed().await.ok();
+    /// # Ok(()) }
+    /// ```
     pub fn state(&self) -> ResponseState {
         self.state.borrow().clone()
     }
@@ -209,6 +267,15 @@ impl ResponseHandle {
     }
 
     /// Publishers matched now with the `start`, `interrupt` and `exit` slot readers.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, msg::Empty};
+    /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+    /// let [start, interrupt, exit] = dock.slot_publishers();
+    /// let [started, interrupted, exited] = dock.signal_subscribers();
+    /// # Ok(()) }
+    /// ```
     pub fn slot_publishers(&self) -> [usize; 3] {
         self.slot_publishers.each_ref().map(|w| *w.borrow())
     }
@@ -220,50 +287,75 @@ impl ResponseHandle {
 
     /// Waits until each slot reader (`start`, `interrupt`, `exit`) has matched at least `slot_publishers`
     /// publishers and each signal writer (`started`, `interrupted`, `exited`) at least `signal_subscribers`
-    /// subscriptions. DDS discovery completes on each side separately, and a volatile writer sends only to
-    /// readers it has matched, so a peer seeing the match from its side is not enough for nothing to be lost.
-    pub async fn wait_for_peers(
+    /// subscriptions (default limit [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change).
+    /// DDS discovery completes on each side separately, and a volatile writer sends only to readers it has
+    /// matched, so a peer seeing the match from its side is not enough for nothing to be lost.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, msg::Empty};
+    /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+    /// // another program will drive it: wait until its publisher on each slot is matched both ways
+    /// dock.wait_for_peers(1, 0).timeout(std::time::Duration::from_secs(30)).await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn wait_for_peers(
         &self,
         slot_publishers: usize,
         signal_subscribers: usize,
-        timeout: std::time::Duration,
-    ) -> Result<()> {
-        let wanted = self
-            .slot_publishers
-            .iter()
-            .map(|w| (w, slot_publishers))
-            .chain(
-                self.signal_subscribers
-                    .iter()
-                    .map(|w| (w, signal_subscribers)),
-            );
-        let wait = async {
-            for (w, n) in wanted {
-                let mut w = w.clone();
-                if w.wait_for(|c| *c >= n).await.is_err() {
-                    return Err(crate::Error::Closed(self.name.fully_qualified()));
+    ) -> Wait<'_, ()> {
+        Wait::discovery(move |timeout| async move {
+            let wanted = self
+                .slot_publishers
+                .iter()
+                .map(|w| (w, slot_publishers))
+                .chain(
+                    self.signal_subscribers
+                        .iter()
+                        .map(|w| (w, signal_subscribers)),
+                );
+            let wait = async {
+                for (w, n) in wanted {
+                    let mut w = w.clone();
+                    if w.wait_for(|c| *c >= n).await.is_err() {
+                        return Err(crate::Error::Closed(self.name.fully_qualified()));
+                    }
                 }
-            }
-            Ok(())
-        };
-        tokio::time::timeout(timeout, wait)
-            .await
-            .map_err(|_| crate::Error::Timeout {
-                what: format!(
-                    "{slot_publishers} publisher(s) per slot and {signal_subscribers} subscriber(s) per signal of {} \
-                     (now {:?} and {:?})",
-                    self.name,
-                    self.slot_publishers(),
-                    self.signal_subscribers()
-                ),
-                after: timeout,
-            })?
+                Ok(())
+            };
+            tokio::time::timeout(timeout, wait)
+                .await
+                .map_err(|_| crate::Error::Timeout {
+                    what: format!(
+                        "{slot_publishers} publisher(s) per slot and {signal_subscribers} subscriber(s) per signal of {} \
+                         (now {:?} and {:?})",
+                        self.name,
+                        self.slot_publishers(),
+                        self.signal_subscribers()
+                    ),
+                    after: timeout,
+                })?
+        })
     }
 
     /// Stops the response: a running start behaviour is ended as by an `exit` signal (the exit slot runs and
     /// `exited` is sent), then the node leaves the ROS graph. Waits until it has.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, msg::Empty};
+    /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
+    /// dock.shutdown().await; // a running start behaviour ends through the exit slot
+    /// # Ok(()) }
+    /// ```
     pub async fn shutdown(self) {
         self.task.stop_and_wait().await;
+    }
+}
+
+impl AsResponse for ResponseHandle {
+    fn response_ref(&self) -> ResponseRef {
+        self.reference.clone()
     }
 }
 
@@ -297,25 +389,33 @@ impl Radar {
     /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
     ///
     /// Fails before creating anything if the name is not a valid ROS name or is already used in this process.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, StartPolicy, msg::{Empty, StringMsg}};
+    /// let say = radar.spawn_response("say", FnResponse::new(|s: StringMsg| async move {
+    ///     println!("{}", s.data);
+    ///     Ok(Empty::default())
+    /// }).start_policy(StartPolicy::QueueOne))?;
+    /// # Ok(()) }
+    /// ```
     pub fn spawn_response<R: Response>(&self, name: &str, response: R) -> Result<ResponseHandle> {
         let name = self.resolve(name)?;
-        let (mut node, claim) = self.claim_node(&name)?;
-        let sq = signal_qos();
+        let (mut node, claim) = self.participant().claim_node(&name)?;
+        let (g, sq) = (self.graph(), signal_qos());
+        let (start_t, empty_t) = (R::Start::message_type_name(), Empty::message_type_name());
+        let output_t = R::Output::message_type_name();
         let start_sub =
-            subscription::<R::Start>(self.graph(), &mut node, &name.topic("start"), &sq)?;
+            subscription::<R::Start>(g, &mut node, &name.topic("start"), &start_t, &sq)?;
         let interrupt_sub =
-            subscription::<Empty>(self.graph(), &mut node, &name.topic("interrupt"), &sq)?;
-        let exit_sub = subscription::<Empty>(self.graph(), &mut node, &name.topic("exit"), &sq)?;
-        let started = publisher::<R::Start>(self.graph(), &mut node, &name.topic("started"), &sq)?;
+            subscription::<Empty>(g, &mut node, &name.topic("interrupt"), &empty_t, &sq)?;
+        let exit_sub = subscription::<Empty>(g, &mut node, &name.topic("exit"), &empty_t, &sq)?;
+        let started = publisher::<R::Start>(g, &mut node, &name.topic("started"), &start_t, &sq)?;
         let interrupted =
-            publisher::<Empty>(self.graph(), &mut node, &name.topic("interrupted"), &sq)?;
-        let exited = publisher::<R::Output>(self.graph(), &mut node, &name.topic("exited"), &sq)?;
-        let state_pub = publisher::<ResponseState>(
-            self.graph(),
-            &mut node,
-            &name.topic("state"),
-            &state_qos(),
-        )?;
+            publisher::<Empty>(g, &mut node, &name.topic("interrupted"), &empty_t, &sq)?;
+        let exited = publisher::<R::Output>(g, &mut node, &name.topic("exited"), &output_t, &sq)?;
+        let state_pub =
+            typed_publisher::<ResponseState>(g, &mut node, &name.topic("state"), &state_qos())?;
 
         let slot_publishers = [
             start_sub.matched.clone(),
@@ -333,6 +433,7 @@ impl Radar {
         emit(&state_pub, "state", initial.clone());
         let (state_tx, state_rx) = watch::channel(initial);
 
+        let participant = self.participant().clone();
         let io = Io::<R> {
             name: name.clone(),
             started,
@@ -348,16 +449,19 @@ impl Radar {
                 Arc::new(Mutex::new(response)),
                 machine,
                 io,
-                start_sub,
-                interrupt_sub,
-                exit_sub,
+                SlotReaders {
+                    start: start_sub,
+                    interrupt: interrupt_sub,
+                    exit: exit_sub,
+                },
                 stop_rx,
+                participant,
             )
             .await;
         });
         tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
         Ok(ResponseHandle {
-            reference: crate::connect::ResponseRef::new(
+            reference: ResponseRef::new(
                 name.clone(),
                 R::Start::ros_type_name(),
                 R::Output::ros_type_name(),
@@ -369,6 +473,13 @@ impl Radar {
             task,
         })
     }
+}
+
+/// The slot readers of a response.
+struct SlotReaders<P: RosMessage> {
+    start: Watched<ros2_client::Subscription<P>>,
+    interrupt: Watched<ros2_client::Subscription<Empty>>,
+    exit: Watched<ros2_client::Subscription<Empty>>,
 }
 
 struct Io<R: Response> {
@@ -412,40 +523,32 @@ async fn drive<R: Response>(
     response: Arc<Mutex<R>>,
     mut machine: ResponseMachine<R::Start, R::Output>,
     io: Io<R>,
-    start_sub: Watched<ros2_client::Subscription<R::Start>>,
-    interrupt_sub: Watched<ros2_client::Subscription<Empty>>,
-    exit_sub: Watched<ros2_client::Subscription<Empty>>,
+    slots: SlotReaders<R::Start>,
     mut stop: tokio::sync::oneshot::Receiver<()>,
+    participant: Arc<Participant>,
 ) {
     let name = io.name.clone();
-    let start_topic = name.topic("start");
-    let malformed = move |topic: String, ty: String| {
-        move |e: ros2_client::ReadError| {
-            tracing::warn!(
-                %topic,
-                expected = %ty,
-                error = %e,
-                "dropped a message that does not decode as the slot's type; publish {ty} on this topic"
-            );
-        }
-    };
-    let on_bad_start = malformed(start_topic, R::Start::ros_type_name());
-    let on_bad_int = malformed(name.topic("interrupt"), Empty::ros_type_name());
-    let on_bad_exit = malformed(name.topic("exit"), Empty::ros_type_name());
-    // samples from publishers of another type (see graph) are dropped like malformed ones
-    let (ss, is, es) = (&start_sub, &interrupt_sub, &exit_sub);
-    let starts = ss.async_stream().map(move |r| {
-        let (m, info) = r.map_err(&on_bad_start)?;
-        ss.accepts(&info).then_some(Input::Start(m)).ok_or(())
-    });
-    let interrupts = is.async_stream().map(move |r| {
-        let (_, info) = r.map_err(&on_bad_int)?;
-        is.accepts(&info).then_some(Input::Interrupt).ok_or(())
-    });
-    let exits = es.async_stream().map(move |r| {
-        let (_, info) = r.map_err(&on_bad_exit)?;
-        es.accepts(&info).then_some(Input::Exit).ok_or(())
-    });
+    let (start_topic, int_topic, exit_topic) = (
+        name.topic("start"),
+        name.topic("interrupt"),
+        name.topic("exit"),
+    );
+    let (start_t, empty_t) = (R::Start::ros_type_name(), Empty::ros_type_name());
+    // samples from publishers of another type (see graph), and malformed ones, are dropped
+    let SlotReaders {
+        start: start_sub,
+        interrupt: interrupt_sub,
+        exit: exit_sub,
+    } = &slots;
+    let starts = start_sub
+        .accepted(start_sub.async_stream(), &start_topic, &start_t)
+        .map(|(m, _)| Input::Start(m));
+    let interrupts = interrupt_sub
+        .accepted(interrupt_sub.async_stream(), &int_topic, &empty_t)
+        .map(|_| Input::Interrupt);
+    let exits = exit_sub
+        .accepted(exit_sub.async_stream(), &exit_topic, &empty_t)
+        .map(|_| Input::Exit);
     let mut signals = Box::pin(futures::stream::select(
         starts,
         futures::stream::select(interrupts, exits),
@@ -473,8 +576,7 @@ async fn drive<R: Response>(
                 machine.stop()
             }
             sig = signals.next() => match sig {
-                Some(Ok(input)) => machine.handle(input),
-                Some(Err(())) => continue,
+                Some(input) => machine.handle(input),
                 None => break,
             },
         };
@@ -531,12 +633,9 @@ async fn drive<R: Response>(
         }
     }
     tracing::info!(response = %name, "response stopped");
-    // the final `exited` and state were just written: keep their writers a moment so they are not lost,
-    // without holding up the shutdown (the slots are gone already)
+    // the final `exited` and state were just written: the participant's pool keeps their writers a moment
+    // so they are not lost, without holding up the shutdown (the slots are gone already)
     drop(signals);
-    drop((start_sub, interrupt_sub, exit_sub));
-    tokio::spawn(async move {
-        tokio::time::sleep(crate::endpoints::WRITER_LINGER).await;
-        drop(io);
-    });
+    drop(slots);
+    participant.pool().retire(Box::new(io));
 }

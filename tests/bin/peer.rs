@@ -50,11 +50,13 @@ async fn main() {
             // whenever EVENT start RESPONSE, with this process's embedded manager; stays until killed
             let (event, response) = (&args[1], &args[2]);
             let e = radar
-                .event_within(event, Duration::from_secs(20))
+                .event(event)
+                .timeout(Duration::from_secs(20))
                 .await
                 .expect("the event");
             let r = radar
-                .response_within(response, Duration::from_secs(20))
+                .response(response)
+                .timeout(Duration::from_secs(20))
                 .await
                 .expect("the response");
             let _c = radar
@@ -102,7 +104,8 @@ async fn subscribe<M: radar_ros::msg::RosMessage>(
     topic: &str,
 ) -> radar_ros::SignalSubscription<M> {
     let s = radar.signal_subscription::<M>(topic).expect("subscription");
-    s.wait_for_publishers(1, Duration::from_secs(30))
+    s.wait_for_publishers(1)
+        .timeout(Duration::from_secs(30))
         .await
         .expect("a publisher");
     s

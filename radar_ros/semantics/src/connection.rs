@@ -121,6 +121,18 @@ pub struct ConnInfo<S, T> {
 /// a count of the connections that need each source and target, so a runtime learns which readers and writers
 /// it may drop from [`ConnectionTable::take_released`] without scanning every connection: the cost of a
 /// signal or a removal does not grow with the number of unrelated connections.
+///
+/// ```
+/// use radar_semantics::connection::{ConnectionTable, Kind};
+/// let mut t = ConnectionTable::new();
+/// let id = t.arm("bumper", "dock/start", Kind::Once, None, 100);
+/// assert!(t.on_signal(&"bumper", 50).is_empty(), "emitted before the statement: never delivered");
+/// let d = t.on_signal(&"bumper", 150);
+/// assert_eq!((d[0].id, d[0].target), (id, "dock/start"));
+/// assert!(t.on_signal(&"bumper", 160).is_empty(), "a once delivers one signal");
+/// assert!(!t.contains(id));
+/// assert_eq!(t.take_released(), (vec!["bumper"], vec!["dock/start"]));
+/// ```
 #[derive(Debug)]
 pub struct ConnectionTable<S, T> {
     next: ConnId,

@@ -15,6 +15,15 @@ pub enum Transition {
 }
 
 /// Tracks listeners and whether the event is active.
+///
+/// ```
+/// use radar_semantics::event::{Activation, Transition};
+/// let mut a = Activation::new();
+/// assert_eq!(a.set_listeners(1), Some(Transition::Activate));
+/// assert_eq!(a.set_listeners(2), None);
+/// assert_eq!(a.set_listeners(0), Some(Transition::Deactivate));
+/// assert_eq!(a.activations(), 1);
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct Activation {
     listeners: usize,

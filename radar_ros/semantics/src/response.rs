@@ -2,7 +2,7 @@
 //!
 //! A response is in one of four [`Phase`]s. Inputs are the three slot signals (`start`, `interrupt`, `exit`)
 //! and the completion of whichever slot is running. Each input returns the [`Effect`]s the runtime must carry
-//! out, in order. The runtime (see [`crate::response`]) runs slots, publishes signals, and feeds completions
+//! out, in order. The runtime (`radar_ros`'s response node) runs slots, publishes signals, and feeds completions
 //! back; this file alone decides *what happens when*.
 //!
 //! The rules (numbered as in the crate documentation):
@@ -207,6 +207,20 @@ pub struct Counters {
 }
 
 /// The response state machine. `P` is the start payload, `O` the output carried on `exited`.
+///
+/// ```
+/// use radar_semantics::response::{Effect, Input, Phase, ResponseMachine, StartEnd, StartPolicy, ExitAction};
+/// let mut r = ResponseMachine::<u32, ()>::new(StartPolicy::Ignore);
+/// assert_eq!(r.handle(Input::Start(7)), vec![Effect::EmitStarted(7), Effect::RunStart(7)]);
+/// assert_eq!(r.phase(), Phase::Running);
+/// r.handle(Input::Interrupt); // rule 3: cancel, emit interrupted, run the interrupt slot
+/// assert_eq!(r.phase(), Phase::Interrupting);
+/// r.handle(Input::InterruptEnded(None)); // then the exit slot
+/// let fx = r.handle(Input::ExitEnded(Ok(ExitAction::Done)));
+/// assert!(fx.contains(&Effect::EmitExited(())));
+/// assert_eq!((r.phase(), r.counters().interrupts), (Phase::Idle, 1));
+/// # let _ = StartEnd::<()>::Returned(());
+/// ```
 #[derive(Debug)]
 pub struct ResponseMachine<P, O> {
     phase: Phase,

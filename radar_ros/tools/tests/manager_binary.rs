@@ -28,7 +28,7 @@ async fn the_radar_manager_binary_serves_a_manager_node() {
     let list = me
         .state_subscription::<ConnectionList>("/shared_manager/connections")
         .unwrap();
-    let first = list.recv_timeout(Duration::from_secs(20)).await.unwrap();
+    let first = list.recv().timeout(Duration::from_secs(20)).await.unwrap();
     assert_eq!(first.manager, "/shared_manager");
     assert!(first.connections.is_empty());
     // and a wrong ROS_DOMAIN_ID stops it with a clear error

@@ -1,0 +1,244 @@
+//! The core every part of a [`Radar`](crate::Radar) stands on: one DDS participant with its ROS 2 context,
+//! the match graph, the plain node for endpoints that belong to no component, the names components have
+//! claimed, the pool of shared endpoints, and the one place endpoints are made.
+//!
+//! Components, the connection manager and plain publishers all depend on this module; it depends on none of
+//! them.
+
+use std::{
+    collections::HashSet,
+    sync::{Arc, Mutex},
+};
+
+use ros2_client::{Context, Node, NodeName, NodeOptions, QosProfile};
+
+use crate::{
+    endpoints,
+    error::{Error, Result},
+    graph::Graph,
+    msg::RosMessage,
+    names::ComponentName,
+    pool::{Dir, Key, Pool},
+    qos::signal_qos_depth,
+    raw::parse_type_name,
+    topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
+};
+
+/// One DDS participant and what hangs off it.
+pub(crate) struct Participant {
+    ctx: Context,
+    domain_id: u16,
+    namespace: String,
+    graph: Graph,
+    /// Fully qualified names of the components of this process.
+    names: Mutex<HashSet<String>>,
+    /// A plain node for endpoints that belong to no component, made on first use.
+    client: Mutex<Option<Node>>,
+    pool: Arc<Pool>,
+    stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
+}
+
+impl Drop for Participant {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop_graph.lock().unwrap().take() {
+            let _ = stop.send(());
+        }
+    }
+}
+
+impl Participant {
+    /// Wraps `ctx`, starting the graph's discovery task and the pool's sweeper on `rt`.
+    pub(crate) fn start(
+        ctx: Context,
+        domain_id: u16,
+        namespace: String,
+        rt: &tokio::runtime::Handle,
+    ) -> Arc<Participant> {
+        let graph = Graph::default();
+        graph.set_participant(ctx.domain_participant());
+        let (stop, stop_rx) = tokio::sync::oneshot::channel();
+        rt.spawn(graph.clone().run(ctx.domain_participant(), stop_rx));
+        let pool = Arc::new(Pool::default());
+        rt.spawn(Pool::sweeper(Arc::downgrade(&pool)));
+        Arc::new(Participant {
+            ctx,
+            domain_id,
+            namespace,
+            graph,
+            names: Mutex::new(HashSet::new()),
+            client: Mutex::new(None),
+            pool,
+            stop_graph: Mutex::new(Some(stop)),
+        })
+    }
+
+    pub(crate) fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    pub(crate) fn domain_id(&self) -> u16 {
+        self.domain_id
+    }
+
+    pub(crate) fn namespace(&self) -> &str {
+        &self.namespace
+    }
+
+    pub(crate) fn graph(&self) -> &Graph {
+        &self.graph
+    }
+
+    pub(crate) fn pool(&self) -> &Pool {
+        &self.pool
+    }
+
+    /// Resolves and validates a component name against this participant's namespace.
+    pub(crate) fn resolve(&self, name: &str) -> Result<ComponentName> {
+        ComponentName::resolve(name, &self.namespace)
+    }
+
+    /// Resolves a topic like a component name (relative topics in this participant's namespace).
+    pub(crate) fn resolve_topic(&self, topic: &str) -> Result<String> {
+        Ok(self.resolve(topic)?.fully_qualified())
+    }
+
+    /// Creates a plain node: no rosout, no parameter services (a RADAR node's endpoints are its signals and
+    /// its state).
+    fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
+        let fq = ComponentName::resolve(base, namespace)?.fully_qualified();
+        let name = NodeName::new(namespace, base).map_err(|e| Error::InvalidName {
+            name: fq.clone(),
+            reason: format!("{e}"),
+        })?;
+        let options = NodeOptions::new()
+            .enable_rosout(false)
+            .start_parameter_services(false);
+        self.ctx
+            .new_node(name, options)
+            .map_err(|e| Error::transport(format!("node {fq}"), e))
+    }
+
+    /// Runs `f` with this participant's client node, creating it on first use (named
+    /// `radar_client_<pid>_<n>`, so several participants in one process stay distinct on the graph).
+    fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
+        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let mut guard = self.client.lock().unwrap();
+        if guard.is_none() {
+            let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let base = format!("radar_client_{}_{k}", std::process::id());
+            *guard = Some(self.new_node(&self.namespace, &base)?);
+        }
+        f(guard.as_mut().expect("client node was just created"))
+    }
+
+    /// Claims a name for a component in this process and creates its node.
+    pub(crate) fn claim_node(self: &Arc<Self>, name: &ComponentName) -> Result<(Node, NameClaim)> {
+        let fq = name.fully_qualified();
+        if !self.names.lock().unwrap().insert(fq.clone()) {
+            return Err(Error::DuplicateName(fq));
+        }
+        let claim = NameClaim {
+            participant: self.clone(),
+            name: fq,
+        };
+        let node = self.new_node(name.namespace(), name.base())?;
+        Ok((node, claim))
+    }
+
+    /// Makes an endpoint on the client node: `make(node, absolute topic)`.
+    fn on_client_node<T>(
+        &self,
+        topic: &str,
+        make: impl FnOnce(&mut Node, &str) -> Result<T>,
+    ) -> Result<(String, T)> {
+        let topic = self.resolve_topic(topic)?;
+        let e = self.with_client_node(|node| make(node, &topic))?;
+        Ok((topic, e))
+    }
+
+    /// A typed publisher on the client node (absolute or relative `topic`).
+    pub(crate) fn publisher<M: RosMessage>(
+        &self,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> Result<SignalPublisher<M>> {
+        let (topic, p) = self.on_client_node(topic, |node, t| {
+            endpoints::typed_publisher(&self.graph, node, t, qos)
+        })?;
+        Ok(SignalPublisher::new(topic, M::ros_type_name(), p))
+    }
+
+    /// A typed subscription on the client node (absolute or relative `topic`).
+    pub(crate) fn subscription<M: RosMessage>(
+        &self,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> Result<SignalSubscription<M>> {
+        let (topic, s) = self.on_client_node(topic, |node, t| {
+            endpoints::typed_subscription(&self.graph, node, t, qos)
+        })?;
+        Ok(SignalSubscription::new(topic, M::ros_type_name(), s))
+    }
+
+    /// A raw publisher of `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
+    pub(crate) fn raw_publisher(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawPublisher> {
+        let ty = parse_type_name(ros_type)?;
+        let (topic, p) = self.on_client_node(topic, |node, t| {
+            endpoints::publisher(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+        })?;
+        Ok(RawPublisher::new(topic, ros_type.to_owned(), p))
+    }
+
+    /// A raw subscription to `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
+    pub(crate) fn raw_subscription(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawSubscription> {
+        let ty = parse_type_name(ros_type)?;
+        let (topic, s) = self.on_client_node(topic, |node, t| {
+            endpoints::subscription(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+        })?;
+        Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
+    }
+
+    /// The pooled raw writer of `ros_type` on the absolute `topic` with history `depth`, held until
+    /// [`Participant::release`] (see [`crate::pool`]).
+    pub(crate) fn pooled_writer(&self, key: &Key) -> Result<Arc<RawPublisher>> {
+        debug_assert_eq!(key.dir, Dir::Writer);
+        self.pool.writer(key, || {
+            self.raw_publisher(&key.topic, &key.ros_type, key.depth)
+        })
+    }
+
+    /// The pooled raw reader for `key`, held until [`Participant::release`].
+    pub(crate) fn pooled_reader(&self, key: &Key) -> Result<Arc<RawSubscription>> {
+        debug_assert_eq!(key.dir, Dir::Reader);
+        self.pool.reader(key, || {
+            self.raw_subscription(&key.topic, &key.ros_type, key.depth)
+        })
+    }
+
+    /// Gives up one hold on a pooled endpoint; whether it is gone.
+    pub(crate) fn release(&self, key: &Key) -> bool {
+        self.pool.release(key)
+    }
+}
+
+/// Frees a claimed component name when the component stops.
+pub(crate) struct NameClaim {
+    participant: Arc<Participant>,
+    name: String,
+}
+
+impl Drop for NameClaim {
+    fn drop(&mut self) {
+        self.participant.names.lock().unwrap().remove(&self.name);
+    }
+}

@@ -1,0 +1,141 @@
+//! `waitfor`: waiting in plain code for a component's signal, without missing one.
+//!
+//! [`Radar::waiter`] arms a `once` connection from the source to a private slot and returns when it is armed;
+//! [`Waiter::recv`] then gives the payload of the first signal emitted after that moment. Arming first, then
+//! doing what makes the signal come, then waiting, cannot miss it:
+//!
+//! ```no_run
+//! # async fn f(radar: radar_ros::Radar, arm: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+//! use radar_ros::msg::Empty;
+//! let done = radar.waiter::<Empty>(arm.exited()).await?;   // armed
+//! radar.inject(arm.start_slot(), Empty::default()).await?;   // start it
+//! let output = done.recv().await?;                         // its exited, whenever it comes
+//! # Ok(()) }
+//! ```
+//!
+//! [`Radar::waitfor`] does both steps in one call, for signals that do not depend on anything the caller does
+//! next (a sensor event, another program's response).
+//!
+//! Which signals a waiter sees: those its source emits after it is armed (stamped at or after the moment the
+//! relay was armed, by the emitter's clock), from any publisher of the source's type that discovery has
+//! matched with the waiter's reader; for a publisher in this process that means every one, for one in another
+//! process every one that has matched the reader back (DDS completes discovery on each side separately:
+//! see the crate documentation on arming).
+
+use crate::{
+    error::Error,
+    manager::ConnectionGuard,
+    msg::RosMessage,
+    radar::Radar,
+    refs::AsSignal,
+    wait::{Wait, DEFAULT_TIMEOUT},
+};
+
+/// An armed `waitfor`: [`recv`](Waiter::recv) gives the payload of the first signal emitted since it was armed.
+/// Dropping it disarms it.
+#[must_use = "a waiter waits only while it lives; call .recv() on it"]
+pub struct Waiter<M> {
+    rx: tokio::sync::oneshot::Receiver<M>,
+    topic: String,
+    _connection: ConnectionGuard,
+}
+
+impl<M: RosMessage> Waiter<M> {
+    /// The payload of the first signal emitted since the waiter was armed: unbounded unless `.timeout(d)`.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, r: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+    /// use radar_ros::msg::Empty;
+    /// let w = radar.waiter::<Empty>(r.exited()).await?;
+    /// let _ = w.recv().timeout(std::time::Duration::from_secs(60)).await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn recv(self) -> Wait<'static, M> {
+        let what = format!("a signal on {}", self.topic);
+        let topic = self.topic.clone();
+        Wait::signal(what, async move {
+            let m = self.rx.await.map_err(|_| Error::Closed(topic))?;
+            drop(self._connection);
+            Ok(m)
+        })
+    }
+}
+
+impl<M> std::fmt::Debug for Waiter<M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Waiter")
+            .field("topic", &self.topic)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Radar {
+    /// Arms a waiter for `source` (a signal, or an event for its `triggered`): returns once it is armed
+    /// (discovery: [`DEFAULT_TIMEOUT`], `.timeout(d)` to change), see [`Waiter`].
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, dock: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+    /// let docked = radar.waiter::<radar_ros::msg::Empty>(dock.exited()).await?;
+    /// // ... make the robot dock ...
+    /// docked.recv().await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn waiter<M: RosMessage>(&self, source: impl AsSignal) -> Wait<'static, Waiter<M>> {
+        let radar = self.clone();
+        let source = source.signal();
+        Wait::discovery(move |t| async move {
+            let (tx, rx) = tokio::sync::oneshot::channel();
+            let mut tx = Some(tx);
+            let topic = source.topic().to_owned();
+            let c = radar
+                .once(source)
+                .call(move |m: M| {
+                    if let Some(tx) = tx.take() {
+                        let _ = tx.send(m);
+                    }
+                })
+                .timeout(t)
+                .await?;
+            Ok(Waiter {
+                rx,
+                topic,
+                _connection: c,
+            })
+        })
+    }
+
+    /// `waitfor source`: arms a waiter and waits for the payload of its first signal. By default arming may
+    /// take [`DEFAULT_TIMEOUT`] and the signal as long as it takes; `.timeout(d)` bounds the whole call. A
+    /// signal emitted while the waiter arms is not seen: when what you do next makes the signal come, arm
+    /// first with [`Radar::waiter`].
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventRef) -> radar_ros::Result<()> {
+    /// use std::time::Duration;
+    /// let _: radar_ros::msg::Empty = radar.waitfor(&bumper).timeout(Duration::from_secs(60)).await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn waitfor<M: RosMessage>(&self, source: impl AsSignal) -> Wait<'static, M> {
+        let radar = self.clone();
+        let source = source.signal();
+        Wait::new(None, move |limit| async move {
+            let what = format!("a signal on {}", source.topic());
+            let start = tokio::time::Instant::now();
+            let waiter = radar
+                .waiter::<M>(source)
+                .timeout(limit.unwrap_or(DEFAULT_TIMEOUT))
+                .await?;
+            match limit {
+                None => waiter.recv().await,
+                Some(t) => waiter
+                    .recv()
+                    .timeout(t.saturating_sub(start.elapsed()))
+                    .await
+                    .map_err(|e| match e {
+                        Error::Timeout { .. } => Error::Timeout { what, after: t },
+                        e => e,
+                    }),
+            }
+        })
+    }
+}
