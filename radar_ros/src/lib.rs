@@ -137,6 +137,7 @@ pub mod msg;
 mod msg_layout;
 mod names;
 mod participant;
+mod plain;
 mod pool;
 pub mod qos;
 mod radar;
