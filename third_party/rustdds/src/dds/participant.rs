@@ -1170,10 +1170,17 @@ impl Drop for DomainParticipantDisc {
 
     debug!("Waiting for Discovery join.");
     if let Ok(handle) = self.discovery_join_handle.try_recv() {
-      handle
-        .join()
-        .unwrap_or_else(|e| warn!("Failed to join discovery thread: {e:?}"));
-      debug!("Joined Discovery.");
+      // RADAR patch 11: the discovery thread holds the participant for a moment while it announces it; if
+      // the application dropped its last handle meanwhile, this drop runs in the discovery thread itself,
+      // which cannot join itself (that panicked with "Resource deadlock avoided"). It stops on its own.
+      if handle.thread().id() == std::thread::current().id() {
+        debug!("Participant dropped in its discovery thread; it stops by itself.");
+      } else {
+        handle
+          .join()
+          .unwrap_or_else(|e| warn!("Failed to join discovery thread: {e:?}"));
+        debug!("Joined Discovery.");
+      }
     }
   }
 }

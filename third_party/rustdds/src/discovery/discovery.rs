@@ -1,4 +1,5 @@
 use std::{
+  collections::BTreeSet,
   sync::{Arc, RwLock},
   time::Duration as StdDuration,
 };
@@ -206,6 +207,32 @@ pub(crate) enum NormalDiscoveryPermission {
   Allow,
   #[cfg(feature = "security")] // Deny variant is never constructed if security feature is not on
   Deny,
+}
+
+/// RADAR patch 9: of the endpoint announcements read in one batch, those whose endpoint is disposed later in
+/// the same batch. A late joiner gets the transient-local SEDP history of a peer in one go, including the
+/// announcements of endpoints that have since been deleted, each followed by its dispose; matching such an
+/// endpoint for a moment made a fresh publisher count a subscriber that no longer exists (and publish before
+/// the live one had matched).
+fn announced_then_disposed<D>(
+  samples: &[Sample<D, GUID>],
+  guid_of: impl Fn(&D) -> GUID,
+) -> BTreeSet<usize> {
+  let mut disposed_after: BTreeSet<GUID> = BTreeSet::new();
+  let mut skip = BTreeSet::new();
+  for (i, s) in samples.iter().enumerate().rev() {
+    match s {
+      Sample::Dispose(g) => {
+        disposed_after.insert(*g);
+      }
+      Sample::Value(d) => {
+        if disposed_after.contains(&guid_of(d)) {
+          skip.insert(i);
+        }
+      }
+    }
+  }
+  skip
 }
 
 pub(crate) struct Discovery {
@@ -1231,7 +1258,12 @@ impl Discovery {
         }
       };
 
-    for d in drds {
+    let skip = announced_then_disposed(&drds, |d| d.reader_proxy.remote_reader_guid);
+    for (i, d) in drds.into_iter().enumerate() {
+      if skip.contains(&i) {
+        debug!("sedp_receive_subscription: not matching a reader disposed in the same batch");
+        continue;
+      }
       #[cfg(not(feature = "security"))]
       let permission = NormalDiscoveryPermission::Allow;
 
@@ -1310,7 +1342,12 @@ impl Discovery {
         }
       };
 
-    for d in dwds {
+    let skip = announced_then_disposed(&dwds, |d| d.writer_proxy.remote_writer_guid);
+    for (i, d) in dwds.into_iter().enumerate() {
+      if skip.contains(&i) {
+        debug!("sedp_receive_publication: not matching a writer disposed in the same batch");
+        continue;
+      }
       #[cfg(not(feature = "security"))]
       let permission = NormalDiscoveryPermission::Allow;
 
@@ -2823,5 +2860,29 @@ mod tests {
       reported.disposed(disposed_reader_guid) && reported.disposed(disposed_writer_guid),
       "the disposed reader and writer were not reported lost"
     );
+  }
+
+  // RADAR patch 9
+  #[test]
+  fn announcements_of_endpoints_disposed_in_the_same_batch_are_skipped() {
+    let g = |n: u8| {
+      GUID::new(
+        GuidPrefix::new(&[n; 12]),
+        EntityId::create_custom_entity_id(
+          [0, 0, 1],
+          crate::structure::guid::EntityKind::READER_NO_KEY_USER_DEFINED,
+        ),
+      )
+    };
+    let batch: Vec<Sample<GUID, GUID>> = vec![
+      Sample::Value(g(1)),
+      Sample::Value(g(2)),
+      Sample::Dispose(g(1)),
+      Sample::Value(g(3)),
+      Sample::Dispose(g(3)),
+      Sample::Value(g(3)), // announced again after its dispose: it lives
+    ];
+    let skip = announced_then_disposed(&batch, |x| *x);
+    assert_eq!(skip.into_iter().collect::<Vec<_>>(), [0, 3]);
   }
 }

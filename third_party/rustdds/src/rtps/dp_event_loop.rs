@@ -283,6 +283,7 @@ impl DPEventLoop {
       &mut writers_to_remove,
       &mut preparing_to_stop,
     ) {
+      ev_wrapper.flush_before_stop();
       return;
     }
     for reader_guid in readers_to_remove.drain(..) {
@@ -376,6 +377,7 @@ impl DPEventLoop {
         &mut writers_to_remove,
         &mut preparing_to_stop,
       ) {
+        ev_wrapper.flush_before_stop();
         return;
       }
       // Removals wait until commands queued in this same wake have run.
@@ -392,7 +394,9 @@ impl DPEventLoop {
     } // loop
   } // fn
 
-  // Returns true when the loop should exit.
+  // Returns true when the loop should exit. Even then, what is queued (samples written just before the
+  // participant was dropped, the dispose messages of its closing discovery) is processed first, so that it
+  // can be sent (RADAR patch 7).
   fn drain_queues(
     &mut self,
     readers_to_remove: &mut Vec<GUID>,
@@ -400,6 +404,7 @@ impl DPEventLoop {
     preparing_to_stop: &mut bool,
   ) -> bool {
     use std::sync::mpsc::TryRecvError;
+    let mut stop = false;
     loop {
       match self.stop_poll_receiver.try_recv() {
         Ok(EventLoopCommand::PrepareStop) => {
@@ -408,7 +413,8 @@ impl DPEventLoop {
         }
         Ok(EventLoopCommand::Stop) => {
           info!("Stopping dp_event_loop");
-          return true;
+          stop = true;
+          break;
         }
         Err(TryRecvError::Empty) => break,
         Err(TryRecvError::Disconnected) => {
@@ -476,7 +482,36 @@ impl DPEventLoop {
       }
       self.message_receiver.notify_data_to_readers(local_readers);
     }
-    false
+    stop
+  }
+
+  /// The loop stops: sends what the writers have queued for the sockets, waiting for them to drain for at
+  /// most `STOP_FLUSH_LIMIT` (RADAR patch 7).
+  fn flush_before_stop(&mut self) {
+    const STOP_FLUSH_LIMIT: Duration = Duration::from_millis(200);
+    let deadline = Instant::now() + STOP_FLUSH_LIMIT;
+    while self.has_pending_outbound() {
+      let mut sockets: BTreeSet<SocketId> =
+        self.udp_sender.pending_control_sockets().into_iter().collect();
+      sockets.extend(
+        self
+          .bulk_ready
+          .iter()
+          .filter(|(_, q)| !q.is_empty())
+          .map(|(s, _)| *s),
+      );
+      for sid in sockets {
+        self.on_socket_writable(sid);
+      }
+      if !self.has_pending_outbound() {
+        break;
+      }
+      if Instant::now() >= deadline {
+        warn!("dp_event_loop stopping with unsent messages: the sockets did not drain in time");
+        break;
+      }
+      std::thread::sleep(Duration::from_millis(1));
+    }
   }
 
   fn drain_timers(&mut self, preparing_to_stop: bool) {

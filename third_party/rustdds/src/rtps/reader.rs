@@ -944,10 +944,15 @@ impl Reader {
         // remove changes until first_sn.
         writer_proxy.irrelevant_changes_up_to(heartbeat.first_sn);
 
-        let marker_moved = this
-          .acquire_the_topic_cache_guard()
-          .mark_reliably_received_before(writer_guid, writer_proxy.all_ackable_before());
-        if marker_moved {
+        let durable = !this.qos_policy.is_volatile();
+        let mut topic_cache = this.acquire_the_topic_cache_guard();
+        // RADAR patch 6: a durable reader's view of this writer's history starts where the writer says
+        let offered = durable
+          && topic_cache.note_history_offer(this.my_guid, writer_guid, heartbeat.first_sn);
+        let marker_moved =
+          topic_cache.mark_reliably_received_before(writer_guid, writer_proxy.all_ackable_before());
+        drop(topic_cache);
+        if marker_moved || offered {
           this.notify_cache_change();
         }
 

@@ -1453,9 +1453,10 @@ impl Writer {
         match self.send_buffer.get_by_sn(unsent_sn) {
           Some(cc) => cache_change = Some(cc),
           None => {
-            // we are running out of excuses
-            error!(
-              "handle_repair_data_send_worker {:?} seq.number {:?} missing. first_change={:?}",
+            // Not retained: an earlier sample of an instance that was disposed since (RADAR patch 10),
+            // or evicted. The reader is told it will not come.
+            debug!(
+              "handle_repair_data_send_worker {:?} seq.number {:?} not retained. first_change={:?}",
               self.my_guid, unsent_sn, first_available
             );
             gap = gap.gap_msg(

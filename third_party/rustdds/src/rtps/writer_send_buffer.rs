@@ -1,6 +1,6 @@
 use std::{
   cmp::max,
-  collections::BTreeMap,
+  collections::{BTreeMap, BTreeSet},
   sync::{Arc, Condvar, Mutex},
   time::{Duration as StdDuration, Instant},
 };
@@ -10,7 +10,7 @@ use core::task::Waker;
 use log::{debug, error, trace, warn};
 
 use crate::{
-  dds::{ddsdata::DDSData, with_key::datawriter::WriteOptions},
+  dds::{ddsdata::DDSData, key::KeyHash, with_key::datawriter::WriteOptions},
   structure::{
     cache_change::CacheChange,
     guid::{EntityKind, GUID},
@@ -38,6 +38,10 @@ struct Inner {
   // strictly monotonic and unique. This is the single source of truth for the
   // Writer's outgoing samples (send, repair, fragmentation, eviction).
   changes: BTreeMap<SequenceNumber, CacheChange>,
+  // RADAR patch 10, durable keyed writers only: the retained samples of each live instance, and the
+  // retained disposes (dropped once every matched reliable reader has acknowledged them).
+  instances: BTreeMap<KeyHash, Vec<SequenceNumber>>,
+  disposes: BTreeSet<SequenceNumber>,
   first_seq: SequenceNumber, // oldest still retained (default 1)
   last_seq: SequenceNumber,  // latest allocated (default 0 == nothing yet)
 
@@ -139,6 +143,8 @@ impl WriterSendBuffer {
       shared: Arc::new(Shared {
         inner: Mutex::new(Inner {
           changes: BTreeMap::new(),
+          instances: BTreeMap::new(),
+          disposes: BTreeSet::new(),
           first_seq: SequenceNumber::new(1),
           last_seq: SequenceNumber::new(0),
           window_limit: window_limit.max(1),
@@ -380,8 +386,72 @@ impl WriterSendBuffer {
     };
     if advanced {
       Self::trim_durable(shared, &mut inner);
+      Self::drop_acked_disposes(&mut inner);
       Self::wake_all(&mut inner, &shared.progress);
     }
+  }
+
+  // --- RADAR patch 10: a durable keyed writer keeps the live instances ---
+  //
+  // A late-joining reader of a transient-local keyed topic must get the current value of each live
+  // instance. Samples of an instance that was disposed are history it must not get: for the built-in SEDP
+  // writers they announce endpoints that no longer exist, and a fresh peer matched them for a moment (a
+  // one-shot publisher then counted a subscriber that was gone and published before the live one had
+  // matched), and the history grew with every endpoint ever deleted. So a dispose drops the instance's
+  // earlier samples at once, and the dispose itself once every matched reliable reader has it. A reader
+  // that asks for a dropped sequence number gets a GAP.
+
+  /// The DATA sample `seq` belongs to instance `key`.
+  pub fn note_instance_sample(&self, seq: SequenceNumber, key: KeyHash) {
+    if self.shared.volatile {
+      return;
+    }
+    let mut inner = self.shared.inner.lock().unwrap();
+    if inner.changes.contains_key(&seq) {
+      inner.instances.entry(key).or_default().push(seq);
+    }
+  }
+
+  /// The sample `seq` disposes instance `key`.
+  pub fn note_instance_disposed(&self, seq: SequenceNumber, key: KeyHash) {
+    if self.shared.volatile {
+      return;
+    }
+    let mut inner = self.shared.inner.lock().unwrap();
+    for sn in inner.instances.remove(&key).unwrap_or_default() {
+      inner.changes.remove(&sn);
+    }
+    if inner.changes.contains_key(&seq) {
+      inner.disposes.insert(seq);
+    }
+    Self::drop_acked_disposes(&mut inner);
+    Self::advance_first_seq(&mut inner);
+  }
+
+  fn drop_acked_disposes(inner: &mut Inner) {
+    if inner.disposes.is_empty() {
+      return;
+    }
+    let keep_from = if inner.reliable_readers_present {
+      inner.acked_before
+    } else {
+      inner.last_seq.plus_1()
+    };
+    let kept = inner.disposes.split_off(&keep_from);
+    for sn in std::mem::replace(&mut inner.disposes, kept) {
+      inner.changes.remove(&sn);
+    }
+    Self::advance_first_seq(inner);
+  }
+
+  fn advance_first_seq(inner: &mut Inner) {
+    let first = inner
+      .changes
+      .keys()
+      .next()
+      .copied()
+      .unwrap_or(inner.last_seq.plus_1());
+    inner.first_seq = max(inner.first_seq, first);
   }
 
   /// nonblocking-transmit: advance the "actually transmitted" frontier. Called
@@ -759,4 +829,50 @@ mod tests {
     assert_eq!(buf.retained_len(), depth);
     assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(310));
   }
+
+  // RADAR patch 10
+  #[test]
+  fn a_durable_keyed_writer_forgets_disposed_instances() {
+    let guid = GUID::new(
+      crate::structure::guid::GuidPrefix::new(&[2; 12]),
+      crate::structure::guid::EntityId::new([0, 0, 1], EntityKind::WRITER_WITH_KEY_BUILT_IN),
+    );
+    let buf = WriterSendBuffer::new(
+      guid,
+      "DCPSSubscription".to_string(),
+      /* reliable_writer */ true,
+      /* is_builtin */ true,
+      /* volatile */ false,
+      /* window_limit */ 1000,
+      /* backlog_limit */ 1000,
+      /* max_retain */ 1,
+      /* history_keep_last */ true,
+    );
+    let key = |n: u8| KeyHash::from_pl_cdr_bytes(vec![n; 16]).unwrap();
+    let write = |k: u8| match buf.admit_blocking(WriteOptions::default(), sample(), None) {
+      Admission::Admitted(seq) => {
+        buf.note_instance_sample(seq, key(k));
+        seq
+      }
+      Admission::WouldBlock => panic!("admitted"),
+    };
+    let a1 = write(1);
+    let b = write(2);
+    let a2 = write(1);
+    // a reader is matched and has acknowledged everything so far
+    buf.set_acked_frontier(Some(a2.plus_1()));
+    let dispose_a = match buf.admit_blocking(WriteOptions::default(), sample(), None) {
+      Admission::Admitted(seq) => seq,
+      Admission::WouldBlock => panic!("admitted"),
+    };
+    buf.note_instance_disposed(dispose_a, key(1));
+    assert!(buf.get_by_sn(a1).is_none() && buf.get_by_sn(a2).is_none(), "A's samples dropped");
+    assert!(buf.get_by_sn(b).is_some(), "B lives");
+    assert!(buf.get_by_sn(dispose_a).is_some(), "the reader has not acknowledged the dispose");
+    assert_eq!(buf.first_change_sequence_number(), b);
+    buf.set_acked_frontier(Some(dispose_a.plus_1()));
+    assert!(buf.get_by_sn(dispose_a).is_none(), "acknowledged: a late joiner does not need it");
+    assert_eq!(buf.retained_len(), 1);
+  }
+
 }

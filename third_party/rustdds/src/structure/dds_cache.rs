@@ -1,6 +1,6 @@
 use std::{
   cmp::max,
-  collections::{btree_map, BTreeMap, HashMap},
+  collections::{btree_map, BTreeMap, BTreeSet, HashMap},
   iter,
   ops::Bound::{Excluded, Included},
   sync::{Arc, Mutex},
@@ -154,6 +154,14 @@ pub(crate) struct TopicCache {
   // Therefore, data before the marker SN can be handed off to a Reliable DataReader.
   // Initially, we consider the marker for each Writer (GUID) to be SequenceNumber::new(1)
   received_reliably_before: BTreeMap<GUID, SequenceNumber>,
+
+  // Writers that left while samples of theirs were still cached: their marker stays (past their last
+  // sample) until those samples are collected (RADAR patch 8).
+  departed_writers: BTreeSet<GUID>,
+
+  // (reader, writer) -> the first sequence number the writer offered that (durable) reader in its first
+  // HEARTBEAT: where the reader's view of the writer's history starts (RADAR patch 6).
+  history_offers: BTreeMap<(GUID, GUID), SequenceNumber>,
 }
 
 impl TopicCache {
@@ -170,6 +178,8 @@ impl TopicCache {
       last_added_instant: Timestamp::ZERO,
       sequence_numbers: BTreeMap::new(),
       received_reliably_before: BTreeMap::new(),
+      departed_writers: BTreeSet::new(),
+      history_offers: BTreeMap::new(),
     };
 
     new_self.update_keep_limits(topic_qos);
@@ -220,6 +230,7 @@ impl TopicCache {
     // protected only for Writers that have one.
     let marker = self.received_reliably_before.entry(writer).or_default();
     *marker = max(*marker, sn);
+    self.departed_writers.remove(&writer); // it is back
     self.advance_marker_over_present(writer);
     prev_sn < self.reliable_before(writer)
   }
@@ -241,9 +252,25 @@ impl TopicCache {
     }
   }
 
-  // The Writer is gone, so samples it never completed are no longer awaited.
+  // The Writer is gone, so samples it never completed are no longer awaited. What it did send stays readable
+  // until taken or collected: a sample sent just before its writer left is not lost (RADAR patch 8).
   pub fn forget_reliable_writer(&mut self, writer: GUID) {
-    self.received_reliably_before.remove(&writer);
+    self.history_offers.retain(|(_, w), _| *w != writer);
+    match self
+      .sequence_numbers
+      .get(&writer)
+      .and_then(|sns| sns.keys().next_back())
+    {
+      Some(last) => {
+        let after_last = last.plus_1();
+        let marker = self.received_reliably_before.entry(writer).or_default();
+        *marker = max(*marker, after_last);
+        self.departed_writers.insert(writer);
+      }
+      None => {
+        self.received_reliably_before.remove(&writer);
+      }
+    }
   }
 
   // The oldest change that a Reliable DataReader cannot yet take, because an
@@ -457,6 +484,46 @@ impl TopicCache {
       )
     }
   }
+  /// Read pointers for a new reliable reader (RADAR patch 6): for each writer with cached samples, the
+  /// sequence number after which the reader starts, so that it sees only the newest `keep(writer)` cached
+  /// samples of that writer (none for 0).
+  pub fn read_start_points(
+    &self,
+    keep: impl Fn(&GUID) -> usize,
+  ) -> BTreeMap<GUID, SequenceNumber> {
+    self
+      .sequence_numbers
+      .iter()
+      .filter_map(|(guid, sns)| {
+        let k = keep(guid);
+        // the newest sample skipped is the (k+1)-th from the end
+        sns.keys().rev().nth(k).map(|sn| (*guid, *sn))
+      })
+      .collect()
+  }
+
+  /// RADAR patch 6: `writer` told (durable) `reader` that its history starts at `first` (kept: the first
+  /// offer counts).
+  pub fn note_history_offer(&mut self, reader: GUID, writer: GUID, first: SequenceNumber) -> bool {
+    match self.history_offers.entry((reader, writer)) {
+      btree_map::Entry::Vacant(e) => {
+        e.insert(first);
+        true
+      }
+      btree_map::Entry::Occupied(_) => false,
+    }
+  }
+
+  /// Where `writer`'s history for `reader` starts, once the writer said so.
+  pub fn history_offer(&self, reader: GUID, writer: GUID) -> Option<SequenceNumber> {
+    self.history_offers.get(&(reader, writer)).copied()
+  }
+
+  /// `reader` is gone.
+  pub fn forget_reader(&mut self, reader: GUID) {
+    self.history_offers.retain(|(r, _), _| *r != reader);
+  }
+
   fn reliable_before(&self, writer: GUID) -> SequenceNumber {
     self
       .received_reliably_before
@@ -476,6 +543,9 @@ impl TopicCache {
     });
     if emptied {
       self.sequence_numbers.remove(&cc.writer_guid);
+      if self.departed_writers.remove(&cc.writer_guid) {
+        self.received_reliably_before.remove(&cc.writer_guid);
+      }
     }
   }
 
@@ -707,6 +777,68 @@ mod tests {
       read_after_repair(&Discovery::builtin_sedp_reader_qos()),
       [SequenceNumber::new(1), SequenceNumber::new(2)]
     );
+  }
+
+  // RADAR patch 8: what a writer sent before it left stays readable; what it never sent is not awaited.
+  #[test]
+  fn samples_of_a_writer_that_left_stay_readable() {
+    let mut cache = keep_all_topic_cache();
+    let writer = GUID::new(
+      GuidPrefix::new(&[7; 12]),
+      EntityId::create_custom_entity_id([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+    );
+    let sample = |sn| {
+      CacheChange::new(
+        writer,
+        SequenceNumber::new(sn),
+        WriteOptions::default(),
+        DDSData::new(SerializedPayload::default()),
+      )
+    };
+    cache.add_change(&Timestamp::now(), sample(1));
+    cache.mark_reliably_received_before(writer, SequenceNumber::new(2));
+    // 3 arrived, 2 is missing: 3 is withheld
+    cache.add_change(&Timestamp::now(), sample(3));
+    let read = |cache: &TopicCache| -> Vec<i64> {
+      cache
+        .get_changes_in_range_reliable(&BTreeMap::new())
+        .map(|(_, cc)| i64::from(cc.sequence_number))
+        .collect()
+    };
+    assert_eq!(read(&cache), [1]);
+    cache.forget_reliable_writer(writer);
+    assert_eq!(read(&cache), [1, 3], "nothing is awaited from a writer that left");
+  }
+
+  // RADAR patch 6: a new reader starts after what the participant cached, except the newest samples it may
+  // keep.
+  #[test]
+  fn read_start_points_skip_what_was_cached_before_a_reader() {
+    let mut cache = keep_all_topic_cache();
+    let writer = |p| {
+      GUID::new(
+        GuidPrefix::new(&[p; 12]),
+        EntityId::create_custom_entity_id([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+      )
+    };
+    for sn in 1..=5 {
+      for p in [1, 2] {
+        cache.add_change(
+          &Timestamp::now(),
+          CacheChange::new(
+            writer(p),
+            SequenceNumber::new(sn),
+            WriteOptions::default(),
+            DDSData::new(SerializedPayload::default()),
+          ),
+        );
+      }
+    }
+    let starts = cache.read_start_points(|w| if *w == writer(1) { 2 } else { 0 });
+    assert_eq!(starts.get(&writer(1)), Some(&SequenceNumber::new(3)), "keeps 4 and 5");
+    assert_eq!(starts.get(&writer(2)), Some(&SequenceNumber::new(5)), "keeps none");
+    let all = cache.read_start_points(|_| 10);
+    assert!(all.is_empty(), "keeping more than is cached starts from the beginning");
   }
 
   fn keep_all_topic_cache() -> TopicCache {

@@ -71,3 +71,168 @@ fn test_domain_base_parsing() {
   }
   assert!(test_domain_base(Err(VarError::NotUnicode("x".into()))).is_err());
 }
+
+/// RADAR patch 6: a reader created after others in the same participant does not get what they received
+/// before it existed: a durable reader gets only the newest sample(s) of live writers, a volatile one only
+/// what is sent after it, and nobody gets samples of a writer that is gone.
+#[test]
+fn a_new_reader_does_not_replay_what_the_participant_cached_before_it() -> Result<()> {
+  let domain = test_domain_id(21);
+  let reliable = Reliability::Reliable {
+    max_blocking_time: Duration::from_secs(1).into(),
+  };
+  let durable = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 1 })
+    .reliability(reliable)
+    .durability(Durability::TransientLocal)
+    .build();
+  let volatile = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 10 })
+    .reliability(reliable)
+    .durability(Durability::Volatile)
+    .build();
+  let writer_side = DomainParticipant::new(domain)?;
+  let topic = writer_side.create_topic(
+    "patch6".to_string(),
+    "Counter".to_string(),
+    &durable,
+    TopicKind::NoKey,
+  )?;
+  let writer = writer_side
+    .create_publisher(&durable)?
+    .create_datawriter_no_key_cdr::<u32>(&topic, None)?;
+  let reader_side = DomainParticipant::new(domain)?;
+  let rtopic = reader_side.create_topic(
+    "patch6".to_string(),
+    "Counter".to_string(),
+    &durable,
+    TopicKind::NoKey,
+  )?;
+  let subscriber = reader_side.create_subscriber(&durable)?;
+  let new_reader = |qos: &crate::QosPolicies| {
+    subscriber
+      .create_datareader_no_key_cdr::<u32>(&rtopic, Some(qos.clone()))
+      .expect("reader")
+  };
+  let take_all = |r: &mut crate::no_key::DataReaderCdr<u32>| {
+    let mut v = Vec::new();
+    while let Ok(Some(s)) = r.take_next_sample() {
+      v.push(*s.value());
+    }
+    v
+  };
+  let wait_for = |r: &mut crate::no_key::DataReaderCdr<u32>, want: u32| {
+    let mut seen = Vec::new();
+    for _ in 0..100 {
+      seen.extend(take_all(r));
+      if seen.last() == Some(&want) {
+        return seen;
+      }
+      thread::sleep(Duration::from_millis(50));
+    }
+    panic!("never got {want}; got {seen:?}");
+  };
+
+  let mut first = new_reader(&durable);
+  thread::sleep(Duration::from_millis(500)); // discovery
+  for i in 1..=5 {
+    writer.write(i, None)?;
+  }
+  wait_for(&mut first, 5);
+
+  // a durable reader created now: the live writer's newest sample only (its history depth is 1)
+  let mut durable_late = new_reader(&durable);
+  let got = wait_for(&mut durable_late, 5);
+  assert_eq!(got, [5], "not the samples 1-4 the participant cached for the first reader");
+
+  // a volatile reader created now: nothing of what was sent before it
+  let mut volatile_late = new_reader(&volatile);
+  thread::sleep(Duration::from_millis(500));
+  assert_eq!(take_all(&mut volatile_late), Vec::<u32>::new());
+  writer.write(6, None)?;
+  assert_eq!(wait_for(&mut volatile_late, 6), [6]);
+  wait_for(&mut first, 6);
+
+  // the writer goes: a durable reader created after that gets none of its samples
+  drop(writer);
+  for _ in 0..100 {
+    if reader_side.discovered_writers().is_empty() {
+      break;
+    }
+    thread::sleep(Duration::from_millis(50));
+  }
+  assert!(reader_side.discovered_writers().is_empty(), "the writer's removal is known");
+  let mut after_writer = new_reader(&durable);
+  thread::sleep(Duration::from_millis(300));
+  assert_eq!(take_all(&mut after_writer), Vec::<u32>::new());
+  Ok(())
+}
+
+/// RADAR patches 7 and 8: a participant dropped right after writing still sends the sample and its goodbye
+/// (the dispose of its endpoints and of itself), and the peer's reader can still take that sample after it
+/// learnt that the writer left; it learns that at once instead of waiting for the lease.
+#[test]
+fn a_participant_dropped_right_after_writing_still_sends_the_sample_and_its_goodbye() -> Result<()> {
+  let domain = test_domain_id(22);
+  let qos = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 10 })
+    .reliability(Reliability::Reliable {
+      max_blocking_time: Duration::from_secs(1).into(),
+    })
+    .durability(Durability::Volatile)
+    .build();
+  let reader_side = DomainParticipant::new(domain)?;
+  let rtopic = reader_side.create_topic(
+    "patch7".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let mut reader = reader_side
+    .create_subscriber(&qos)?
+    .create_datareader_no_key_cdr::<u32>(&rtopic, None)?;
+  for round in 0..10u32 {
+    let writer_side = DomainParticipant::new(domain)?;
+    let topic = writer_side.create_topic(
+      "patch7".to_string(),
+      "Counter".to_string(),
+      &qos,
+      TopicKind::NoKey,
+    )?;
+    let writer = writer_side
+      .create_publisher(&qos)?
+      .create_datawriter_no_key_cdr::<u32>(&topic, None)?;
+    let mut matched = false;
+    for _ in 0..200 {
+      matched = !reader_side.discovered_writers().is_empty()
+        && !writer_side.discovered_readers().is_empty();
+      if matched {
+        break;
+      }
+      thread::sleep(Duration::from_millis(10));
+    }
+    assert!(matched, "round {round}: discovery");
+    thread::sleep(Duration::from_millis(200)); // both have matched the other's endpoint
+    writer.write(round, None)?;
+    drop(writer);
+    drop(writer_side);
+    let t0 = std::time::Instant::now();
+    let mut got = None;
+    while got.is_none() && t0.elapsed() < Duration::from_secs(2) {
+      if let Ok(Some(s)) = reader.take_next_sample() {
+        got = Some(*s.value());
+      }
+      thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(got, Some(round), "round {round}: the sample written before the drop");
+    while !reader_side.discovered_writers().is_empty() && t0.elapsed() < Duration::from_secs(5) {
+      thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+      reader_side.discovered_writers().is_empty(),
+      "round {round}: the goodbye was heard (the lease is 50 s)"
+    );
+  }
+  Ok(())
+}
+

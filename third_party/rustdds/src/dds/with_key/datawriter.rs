@@ -356,6 +356,16 @@ where
     Ok(())
   }
 
+  /// RADAR patch 10: a durable writer remembers which instance each sample belongs to, so that a dispose
+  /// can drop the instance's history.
+  fn note_instance(&self, seq: SequenceNumber, data: &D) {
+    if !self.qos_policy.is_volatile() {
+      self
+        .send_buffer
+        .note_instance_sample(seq, crate::dds::key::Key::hash_key(&data.key(), false));
+    }
+  }
+
   pub fn write_with_options(
     &self,
     data: D,
@@ -386,6 +396,7 @@ where
       .admit_blocking(write_options, ddsdata, timeout)
     {
       Admission::Admitted(sequence_number) => {
+        self.note_instance(sequence_number, &data);
         self.ring_doorbell();
         self.refresh_manual_liveliness();
         Ok(SampleIdentity {
@@ -826,16 +837,16 @@ where
       reason: format!("{e}"),
       data: (),
     })?; // the key must still serialize
-    let ddsdata = DDSData::new_disposed_by_key_hash(
-      ChangeKind::NotAliveDisposed,
-      crate::dds::key::Key::hash_key(key, false),
-    );
+    let key_hash = crate::dds::key::Key::hash_key(key, false);
+    let ddsdata = DDSData::new_disposed_by_key_hash(ChangeKind::NotAliveDisposed, key_hash);
     let timeout = self.qos().reliable_max_blocking_time().map(|d| d.to_std());
     match self
       .send_buffer
       .admit_blocking(WriteOptions::from(source_timestamp), ddsdata, timeout)
     {
-      Admission::Admitted(_seq) => {
+      Admission::Admitted(seq) => {
+        // RADAR patch 10: a late joiner gets the live instances only
+        self.send_buffer.note_instance_disposed(seq, key_hash);
         self.ring_doorbell();
         self.refresh_manual_liveliness();
         Ok(())
@@ -948,6 +959,9 @@ where
       .try_admit(write_options, ddsdata, cx.waker())
     {
       Ok(sequence_number) => {
+        if let Some(sample) = &self.sample {
+          self.writer.note_instance(sequence_number, sample);
+        }
         self.writer.ring_doorbell();
         self.writer.refresh_manual_liveliness();
         Poll::Ready(Ok(SampleIdentity {

@@ -47,10 +47,20 @@ pub(crate) enum ReaderCommand {
 
 // This is helper struct.
 // All mutable state needed for reading should go here.
+/// RADAR patch 6: the read pointer of a writer whose history this reader does not know yet (nothing of it
+/// is read).
+fn awaiting_history_pointer() -> SequenceNumber {
+  SequenceNumber::new(i64::MAX / 2)
+}
+
 pub(crate) struct ReadState<K: Key> {
   latest_instant: Timestamp, /* This is used as a read pointer from dds_cache for BEST_EFFORT
                               * reading */
   last_read_sn: BTreeMap<GUID, SequenceNumber>, // collection of read pointers for RELIABLE reading
+  /// RADAR patch 6: writers whose samples were cached before this (durable) reader existed. Nothing of
+  /// theirs is read until the writer tells this reader what its history is (its first HEARTBEAT): then
+  /// reading starts there.
+  awaiting_history: std::collections::BTreeSet<GUID>,
   /// hash_to_key_map is used for decoding received key hashes back to original
   /// key values. This is needed when we receive a dispose message via hash
   /// only.
@@ -58,11 +68,68 @@ pub(crate) struct ReadState<K: Key> {
 }
 
 impl<K: Key> ReadState<K> {
-  fn new() -> Self {
+  /// Where a new reader starts reading the participant's topic cache (RADAR patch 6).
+  ///
+  /// The cache is shared by every reader of the topic in this participant and keeps what earlier readers
+  /// received. A new reader must not see that as if it were sent to it. A volatile reader starts after
+  /// everything cached. A durable (transient-local or stronger) reliable reader gets, of each writer, what
+  /// the writer's history holds for it: for a writer that left, nothing; for a live writer whose samples are
+  /// cached, nothing until the writer's first HEARTBEAT to this reader says where its history starts (the
+  /// cache may hold older samples, or miss newer ones when no reader was there to receive them).
+  fn for_new_reader(
+    dp: &crate::dds::participant::DomainParticipant,
+    qos: &QosPolicies,
+    topic_cache: &Arc<Mutex<TopicCache>>,
+  ) -> Self {
+    use crate::dds::qos::policy::Durability;
+    let durable = matches!(
+      qos.durability(),
+      Some(Durability::TransientLocal | Durability::Transient | Durability::Persistent)
+    );
+    let reliable = qos.is_reliable();
+    let alive: std::collections::BTreeSet<GUID> = if durable {
+      let db = dp.discovery_db();
+      let db = db.read().unwrap_or_else(|e| e.into_inner());
+      db.get_all_local_topic_writers()
+        .chain(db.get_all_external_topic_writers())
+        .map(|w| w.writer_proxy.remote_writer_guid)
+        .collect()
+    } else {
+      Default::default()
+    };
+    // skip everything cached; durable reliable readers wait for the live writers' history
+    let mut last_read_sn = topic_cache.lock().unwrap().read_start_points(|_| 0);
+    let mut awaiting_history = std::collections::BTreeSet::new();
+    if durable && reliable {
+      for w in last_read_sn.keys().filter(|w| alive.contains(w)) {
+        awaiting_history.insert(*w);
+      }
+      for w in &awaiting_history {
+        last_read_sn.insert(*w, awaiting_history_pointer());
+      }
+    }
     ReadState {
-      latest_instant: Timestamp::ZERO,
-      last_read_sn: BTreeMap::new(),
-      hash_to_key_map: BTreeMap::<KeyHash, K>::new(),
+      // best effort reads by arrival time: a volatile reader starts now
+      latest_instant: if durable { Timestamp::ZERO } else { Timestamp::now() },
+      last_read_sn,
+      awaiting_history,
+      hash_to_key_map: BTreeMap::new(),
+    }
+  }
+
+  /// Writers that have told this reader where their history starts are read from there.
+  fn take_history_offers(&mut self, reader: GUID, topic_cache: &TopicCache) {
+    if self.awaiting_history.is_empty() {
+      return;
+    }
+    let known: Vec<(GUID, SequenceNumber)> = self
+      .awaiting_history
+      .iter()
+      .filter_map(|w| topic_cache.history_offer(reader, *w).map(|first| (*w, first)))
+      .collect();
+    for (w, first) in known {
+      self.awaiting_history.remove(&w);
+      self.last_read_sn.insert(w, first - SequenceNumber::new(1));
     }
   }
 
@@ -120,6 +187,10 @@ where
   DA: DeserializerAdapter<D>,
 {
   fn drop(&mut self) {
+    // RADAR patch 6: the history offers made to this reader
+    if let Ok(mut tc) = self.topic_cache.lock() {
+      tc.forget_reader(self.my_guid);
+    }
     // Tell dp_event_loop
     self.my_subscriber.remove_reader(self.my_guid);
 
@@ -179,13 +250,15 @@ where
       });
     }
 
+    let read_state = ReadState::for_new_reader(&dp, &qos_policy, &topic_cache);
+
     Ok(Self {
       my_subscriber: subscriber,
       qos_policy,
       my_guid,
       notification_receiver: Mutex::new(notification_receiver),
       topic_cache,
-      read_state: Mutex::new(ReadState::new()),
+      read_state: Mutex::new(read_state),
       my_topic: topic,
       deserializer_type: PhantomData,
       discovery_command,
@@ -351,6 +424,7 @@ where
     let topic_cache = self.acquire_the_topic_cache_guard();
 
     let mut read_state_ref = self.read_state.lock().unwrap();
+    read_state_ref.take_history_offers(self.my_guid, &topic_cache);
     let latest_instant = read_state_ref.latest_instant;
     let (last_read_sn, hash_to_key_map) = read_state_ref.get_sn_map_and_hash_map();
 
