@@ -12,11 +12,24 @@
 //!    one.
 //! 3. `... until U`: U's signals go to the target response's `interrupt` slot only inside the *window* of a
 //!    run that this connection started: from the response's first `started` after this connection delivered a
-//!    start, to the response's next `exited`. A restart requested by the response's own exit slot is not a
-//!    start this connection delivered, so it runs outside the window. U is read (and so active) from arming
-//!    until removal, also for a `once` that has already fired.
+//!    start that the response takes, to the response's next `exited`. A restart requested by the response's own
+//!    exit slot is not a start this connection delivered, so it runs outside the window. A start delivered
+//!    while the response runs and ignores starts (its default policy) is dropped by the response, so it opens
+//!    no window: the response's next `started` (its own restart, or another statement's start) is not this
+//!    connection's run. Under a policy that runs such a start later (queue one, restart), the next `started` is
+//!    this connection's run. U is read (and so active) from arming until removal, also for a `once` that has
+//!    already fired.
 //! 4. [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it returns
 //!    nothing more is delivered through it.
+//! 5. Components leave (they exit, crash, hang, or the network cuts them off; the runtime tells the table with
+//!    [`ConnectionTable::source_lost`] and [`ConnectionTable::target_lost`]). A connection whose source left
+//!    [waits for the source](Link::WaitingForSource): it delivers again what a source of that name emits when
+//!    one comes back. A connection whose target left delivers nothing more: it is
+//!    [lost](Link::TargetLost), unless it was armed to [re-arm](ConnectionTable::set_rearm), in which case it
+//!    [waits for the target](Link::WaitingForTarget) and, when a target of that name comes back, delivers
+//!    signals emitted from that moment on (rule 1 again: nothing emitted while it waited). When the response R
+//!    of an `until` leaves, the window closes: a new R of that name did not take this statement's start.
+//!    A lost connection no longer reads its source (an event whose only listener it was deactivates).
 //!
 //! [`ConnectionTable::sources`] says which sources must be read right now; the runtime keeps exactly those
 //! readers, so an event whose only listener was a fired `once` deactivates.
@@ -46,34 +59,103 @@ pub struct Until<S, T> {
     pub exited: S,
     /// R's `interrupt` slot.
     pub interrupt: T,
+    /// What is known of R when the statement is armed.
+    pub response: ResponseView,
+}
+
+/// What an `until` knows of its response R besides R's signals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ResponseView {
+    /// R runs when the statement is armed (from here on, R's `started` and `exited` tell).
+    pub running: bool,
+    /// A start that arrives while R runs is run later (policies queue one and restart), rather than dropped
+    /// (the default policy, ignore).
+    pub runs_later: bool,
 }
 
 /// The window of rule 3, for one `until`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct UntilWindow {
+    response: ResponseView,
     awaiting_started: bool,
     open: bool,
+    /// When R emitted the last of its signals applied here: R's `started` and `exited` come through
+    /// different topics and may be read out of order; an older one than what was applied is left alone.
+    last_response_signal: i64,
 }
 
 impl UntilWindow {
-    /// The connection delivered a start to R.
-    pub fn start_delivered(&mut self) {
-        self.awaiting_started = true;
-    }
-    /// R emitted `started`.
-    pub fn response_started(&mut self) {
-        if self.awaiting_started {
-            self.awaiting_started = false;
-            self.open = true;
+    /// The window of an `until` whose response is as `response` says when armed.
+    pub fn new(response: ResponseView) -> UntilWindow {
+        UntilWindow {
+            response,
+            ..UntilWindow::default()
         }
     }
-    /// R emitted `exited`.
-    pub fn response_exited(&mut self) {
+    /// The connection delivered a start to R. R takes it if idle, or later if its policy says so; a start R
+    /// drops (it runs, and ignores starts) opens no window.
+    pub fn start_delivered(&mut self) {
+        if !self.response.running || self.response.runs_later {
+            self.awaiting_started = true;
+        }
+    }
+    /// R emitted `started` at `at`.
+    pub fn response_started(&mut self, at: i64) {
+        if at < self.last_response_signal {
+            return;
+        }
+        self.last_response_signal = at;
+        self.response.running = true;
+        // a run starts: it is this connection's if it awaited one; any other run closes the window (its
+        // `exited` for the run before may still be on its way)
+        self.open = self.awaiting_started;
+        self.awaiting_started = false;
+    }
+    /// R left the graph: its run (if any) ended without an `exited`, and a new R of that name did not take
+    /// this connection's start.
+    pub fn response_lost(&mut self) {
+        self.response.running = false;
+        self.open = false;
+        self.awaiting_started = false;
+    }
+    /// R emitted `exited` at `at`.
+    pub fn response_exited(&mut self, at: i64) {
+        if at < self.last_response_signal {
+            return;
+        }
+        self.last_response_signal = at;
+        self.response.running = false;
         self.open = false;
     }
     /// Whether U's signals reach R's `interrupt` now.
     pub fn is_open(&self) -> bool {
         self.open
+    }
+}
+
+/// Whether a connection can deliver now (rule 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Link {
+    /// Source and target are there: signals are delivered.
+    #[default]
+    Armed,
+    /// Every publisher of the source left; what a source of that name emits when one comes back is delivered.
+    WaitingForSource,
+    /// The target left and the connection re-arms: it delivers again when a target of that name comes back.
+    WaitingForTarget,
+    /// The target left: nothing more is delivered through this connection.
+    TargetLost,
+}
+
+impl Link {
+    /// A short lower-case label: `armed`, `waiting for source`, `waiting for target`, `target lost`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Link::Armed => "armed",
+            Link::WaitingForSource => "waiting for source",
+            Link::WaitingForTarget => "waiting for target",
+            Link::TargetLost => "target lost",
+        }
     }
 }
 
@@ -95,6 +177,11 @@ struct Conn<S, T> {
     delivered: u64,
     /// A `once` that has delivered (kept only while its `until` lives).
     spent: bool,
+    /// Whether the table reads its source for it (not once spent, nor once its target is lost).
+    reading: bool,
+    link: Link,
+    /// Re-arm when a lost target comes back (rule 5).
+    rearm: bool,
     until: Option<(Until<S, T>, UntilWindow)>,
 }
 
@@ -113,6 +200,8 @@ pub struct ConnInfo<S, T> {
     pub delivered: u64,
     /// The until source, if any.
     pub until: Option<S>,
+    /// Whether it can deliver now.
+    pub link: Link,
 }
 
 /// The live connections of one manager.
@@ -225,7 +314,13 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             armed_at,
             delivered: 0,
             spent: false,
-            until: until.map(|u| (u, UntilWindow::default())),
+            reading: true,
+            link: Link::Armed,
+            rearm: false,
+            until: until.map(|u| {
+                let w = UntilWindow::new(u.response);
+                (u, w)
+            }),
         };
         for s in c.listens() {
             self.by_source.entry(s).or_default().insert(id);
@@ -254,7 +349,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 }
             }
         }
-        if !c.spent {
+        if c.reading {
             count_down(&mut self.reads, &c.source, &mut self.released.0);
         }
         for s in c.until_reads() {
@@ -323,8 +418,104 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 kind: c.kind,
                 delivered: c.delivered,
                 until: c.until.as_ref().map(|(u, _)| u.source.clone()),
+                link: c.link,
             })
             .collect()
+    }
+
+    /// Whether connection `id` can deliver now, if it is live.
+    pub fn link(&self, id: ConnId) -> Option<Link> {
+        self.conns.get(&id).map(|c| c.link)
+    }
+
+    /// Makes connection `id` re-arm when its target comes back after leaving (rule 5); by default a
+    /// connection whose target left delivers nothing more.
+    pub fn set_rearm(&mut self, id: ConnId, rearm: bool) {
+        if let Some(c) = self.conns.get_mut(&id) {
+            c.rearm = rearm;
+        }
+    }
+
+    /// Every publisher of `source` left the graph (rule 5): connections from it wait for it, and `until`
+    /// windows whose response's `started` or `exited` it is close. Returns the connections whose state
+    /// changed. (Looks at every connection: components leave rarely.)
+    pub fn source_lost(&mut self, source: &S) -> Vec<ConnId> {
+        let mut changed = Vec::new();
+        for (id, c) in self.conns.iter_mut() {
+            let mut hit = false;
+            if &c.source == source && !c.spent && c.link == Link::Armed {
+                c.link = Link::WaitingForSource;
+                hit = true;
+            }
+            if let Some((u, w)) = &mut c.until {
+                if &u.started == source || &u.exited == source {
+                    hit |= w.is_open() || w.awaiting_started || w.response.running;
+                    w.response_lost();
+                }
+            }
+            if hit {
+                changed.push(*id);
+            }
+        }
+        changed
+    }
+
+    /// A publisher of `source` is back: connections waiting for it are armed again. Returns them.
+    pub fn source_back(&mut self, source: &S) -> Vec<ConnId> {
+        let mut changed = Vec::new();
+        for (id, c) in self.conns.iter_mut() {
+            if &c.source == source && c.link == Link::WaitingForSource {
+                c.link = Link::Armed;
+                changed.push(*id);
+            }
+        }
+        changed
+    }
+
+    /// Every subscriber of slot `target` left the graph (rule 5): connections to it are lost (or wait for it,
+    /// if they re-arm), and `until` windows whose response's `interrupt` it is close. Returns the connections
+    /// whose state changed.
+    pub fn target_lost(&mut self, target: &T) -> Vec<ConnId> {
+        let mut changed = Vec::new();
+        for (id, c) in self.conns.iter_mut() {
+            let mut hit = false;
+            if &c.target == target && matches!(c.link, Link::Armed | Link::WaitingForSource) {
+                if c.rearm {
+                    c.link = Link::WaitingForTarget;
+                } else {
+                    c.link = Link::TargetLost;
+                    if c.reading {
+                        c.reading = false;
+                        count_down(&mut self.reads, &c.source, &mut self.released.0);
+                    }
+                }
+                hit = true;
+            }
+            if let Some((u, w)) = &mut c.until {
+                if &u.interrupt == target {
+                    hit |= w.is_open() || w.awaiting_started || w.response.running;
+                    w.response_lost();
+                }
+            }
+            if hit {
+                changed.push(*id);
+            }
+        }
+        changed
+    }
+
+    /// A subscriber of slot `target` is back at `now`: connections waiting for it are armed again, for
+    /// signals emitted from `now` on. Returns them.
+    pub fn target_back(&mut self, target: &T, now: i64) -> Vec<ConnId> {
+        let mut changed = Vec::new();
+        for (id, c) in self.conns.iter_mut() {
+            if &c.target == target && c.link == Link::WaitingForTarget {
+                c.link = Link::Armed;
+                c.armed_at = c.armed_at.max(now);
+                changed.push(*id);
+            }
+        }
+        changed
     }
 
     /// A signal from `source`, emitted at `emitted_at`: what to deliver, in connection order.
@@ -355,10 +546,10 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             // the response's own signals move the until window (before the connection's deliveries)
             if let Some((u, w)) = &mut c.until {
                 if &u.started == source {
-                    w.response_started();
+                    w.response_started(emitted_at);
                 }
                 if &u.exited == source {
-                    w.response_exited();
+                    w.response_exited(emitted_at);
                 }
                 if &u.source == source && w.is_open() {
                     out.push(Delivery {
@@ -367,7 +558,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                     });
                 }
             }
-            if &c.source == source && !c.spent && accept(*id) {
+            if &c.source == source && !c.spent && c.link == Link::Armed && accept(*id) {
                 c.delivered += 1;
                 out.push(Delivery {
                     id: *id,
@@ -379,6 +570,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 if c.kind == Kind::Once {
                     c.spent = true;
                     // a spent `once` no longer reads its source (its `until` still does)
+                    c.reading = false;
                     count_down(&mut self.reads, &c.source, &mut self.released.0);
                     if c.until.is_none() {
                         finished.push(*id);
@@ -455,12 +647,78 @@ mod tests {
     }
 
     fn until() -> Until<&'static str, &'static str> {
+        until_with(ResponseView::default())
+    }
+
+    fn until_with(response: ResponseView) -> Until<&'static str, &'static str> {
         Until {
             source: "U",
             started: "R.started",
             exited: "R.exited",
             interrupt: "R.interrupt",
+            response,
         }
+    }
+
+    #[test]
+    fn rule3_a_start_the_busy_response_drops_opens_no_window() {
+        // R is busy when the statement delivers its start; R ignores starts while running
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"R.started", 1); // some other run of R
+        assert_eq!(targets(t.on_signal(&"E", 2)), ["R.start"]);
+        t.on_signal(&"R.exited", 3); // that run ends: the start was dropped
+        t.on_signal(&"R.started", 4); // R's exit slot restarts it
+        assert!(
+            t.on_signal(&"U", 5).is_empty(),
+            "R's own restart is not the run this statement started"
+        );
+        // also when R was already running at arming
+        let mut t = Table::new();
+        let busy = ResponseView {
+            running: true,
+            runs_later: false,
+        };
+        t.arm("E", "R.start", Kind::Once, Some(until_with(busy)), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal(&"R.exited", 2);
+        t.on_signal(&"R.started", 3);
+        assert!(t.on_signal(&"U", 4).is_empty());
+    }
+
+    #[test]
+    fn rule3_response_signals_read_out_of_order_leave_the_window_as_emitted() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Whenever, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal(&"R.started", 2);
+        // R's run ends at 5 and another statement's start runs at 6; `started` is read first
+        t.on_signal(&"R.started", 6);
+        t.on_signal(&"R.exited", 5);
+        assert!(
+            t.on_signal(&"U", 7).is_empty(),
+            "the run at 6 is not this connection's; the late `exited` did not undo that"
+        );
+        // and a run this connection starts opens its window as usual
+        t.on_signal(&"R.exited", 8);
+        t.on_signal(&"E", 9);
+        t.on_signal(&"R.started", 10);
+        assert_eq!(targets(t.on_signal(&"U", 11)), ["R.interrupt"]);
+    }
+
+    #[test]
+    fn rule3_a_start_a_busy_response_runs_later_opens_the_window_of_that_run() {
+        let queueing = ResponseView {
+            running: true,
+            runs_later: true,
+        };
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until_with(queueing)), 0);
+        t.on_signal(&"E", 1); // queued by R
+        assert!(t.on_signal(&"U", 2).is_empty(), "not yet running");
+        t.on_signal(&"R.exited", 3); // the run before ends ...
+        t.on_signal(&"R.started", 4); // ... and R runs the queued start: this statement's run
+        assert_eq!(targets(t.on_signal(&"U", 5)), ["R.interrupt"]);
     }
 
     #[test]
@@ -613,5 +871,75 @@ mod tests {
             t.remove(id);
         }
         assert_eq!(delivered, 1000);
+    }
+
+    #[test]
+    fn rule5_a_source_that_leaves_is_waited_for() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
+        assert_eq!(t.source_lost(&"E"), [id]);
+        assert_eq!(t.link(id), Some(Link::WaitingForSource));
+        assert!(t.reads(&"E"), "still listening for a new source");
+        assert_eq!(t.source_back(&"E"), [id]);
+        assert_eq!(targets(t.on_signal(&"E", 5)), ["R.start"]);
+    }
+
+    #[test]
+    fn rule5_a_target_that_leaves_is_lost_and_its_source_released() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
+        assert_eq!(t.target_lost(&"R.start"), [id]);
+        assert_eq!(t.link(id), Some(Link::TargetLost));
+        assert!(t.on_signal(&"E", 1).is_empty());
+        assert!(
+            t.target_back(&"R.start", 2).is_empty(),
+            "it did not ask to re-arm"
+        );
+        assert!(t.on_signal(&"E", 3).is_empty());
+        assert_eq!(t.take_released().0, ["E"], "the event may deactivate");
+        assert!(t.contains(id), "listed, as lost, until its scope ends");
+        t.remove(id);
+        assert!(
+            t.take_released().0.is_empty(),
+            "its source was released once"
+        );
+    }
+
+    #[test]
+    fn rule5_a_rearming_connection_delivers_only_what_comes_after_the_target_is_back() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
+        t.set_rearm(id, true);
+        t.target_lost(&"R.start");
+        assert_eq!(t.link(id), Some(Link::WaitingForTarget));
+        assert!(t.on_signal(&"E", 10).is_empty(), "no target");
+        assert_eq!(t.target_back(&"R.start", 20), [id]);
+        assert!(t.on_signal(&"E", 15).is_empty(), "emitted while it waited");
+        assert_eq!(targets(t.on_signal(&"E", 20)), ["R.start"]);
+    }
+
+    #[test]
+    fn rule5_the_until_window_closes_when_its_response_leaves() {
+        let mut t = Table::new();
+        let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal(&"R.started", 2);
+        assert_eq!(targets(t.on_signal(&"U", 3)), ["R.interrupt"]);
+        assert_eq!(
+            t.source_lost(&"R.exited"),
+            [id],
+            "R died: no exited will come"
+        );
+        assert!(t.on_signal(&"U", 4).is_empty(), "the window is closed");
+        // a new R of that name runs by itself: not this statement's run
+        t.on_signal(&"R.started", 5);
+        assert!(t.on_signal(&"U", 6).is_empty());
+        // same through the interrupt slot
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal(&"R.started", 2);
+        t.target_lost(&"R.interrupt");
+        assert!(t.on_signal(&"U", 3).is_empty());
     }
 }
