@@ -1,6 +1,6 @@
 //! Connections over real DDS through the embedded manager: whenever, once (bursts, races), until windows,
 //! waitfor, anonymous slots, injection, type errors, scope exit, and no stale or duplicate deliveries when
-//! connections come and go. Domains 77-86, 89 and 35.
+//! connections come and go. Domains 77-86, 89, 35-36.
 
 use std::{
     sync::{
@@ -613,4 +613,59 @@ async fn a_waiter_sees_the_signal_emitted_right_after_it_is_armed() {
             "round {i}: the signal emitted after arming, not an older one"
         );
     }
+}
+
+/// Rule 3 when R is busy: `once E start R until U` delivers its start while R runs another run, so R drops it
+/// (it ignores starts while running). R's next run, started by something else once R is idle again, is not
+/// this statement's run, and U must not interrupt it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn until_opens_no_window_for_a_start_the_busy_response_dropped() {
+    let r = radar(36);
+    let resp = r
+        .spawn_response(
+            "/ub/r",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_millis(600)).await;
+                Ok(Empty::default())
+            }),
+        )
+        .unwrap();
+    let e = r.signal_publisher::<Empty>("/ub/e").unwrap();
+    let u = r.signal_publisher::<Empty>("/ub/u").unwrap();
+    let empty = "std_msgs/msg/Empty";
+    // R is busy with a run no statement started
+    r.inject(resp.reference().start_slot(), Empty::default())
+        .timeout(T)
+        .await
+        .unwrap();
+    eventually(T, "run 1", || resp.state().starts == 1).await;
+    let _c = r
+        .once(Signal::new("/ub/e", empty))
+        .start(&resp)
+        .until(Signal::new("/ub/u", empty))
+        .await
+        .unwrap();
+    e.publish(Empty::default()).unwrap();
+    eventually(T, "the start to be dropped", || {
+        resp.state().ignored_starts == 1
+    })
+    .await;
+    eventually(T, "run 1 to end", || resp.state().exits == 1).await;
+    // later, something else starts R
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    r.inject(resp.reference().start_slot(), Empty::default())
+        .timeout(T)
+        .await
+        .unwrap();
+    eventually(T, "run 2", || resp.state().starts == 2).await;
+    // let the relay read R's `started` (another topic than U's) before U comes; the run lasts 600 ms
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    u.publish(Empty::default()).unwrap();
+    eventually(T, "run 2 to end", || resp.state().exits == 2).await;
+    let s = resp.state();
+    assert_eq!(
+        (s.interrupts, s.completed),
+        (0, 2),
+        "U did not interrupt a run this statement did not start: {s:?}"
+    );
 }

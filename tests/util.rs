@@ -366,3 +366,87 @@ pub async fn peer_with_first_line(
         .expect("a line");
     (child, line)
 }
+
+/// A `radar_test_peer host` process: another program with its own participant, hosting components as told
+/// (see `bin/peer.rs`), and stopped, continued or killed as a test wants.
+pub struct HostPeer {
+    child: tokio::process::Child,
+    stdin: tokio::process::ChildStdin,
+    lines: tokio::io::Lines<tokio::io::BufReader<tokio::process::ChildStdout>>,
+}
+
+impl HostPeer {
+    /// Starts one in `domain` (the path is `env!("CARGO_BIN_EXE_radar_test_peer")`) and waits until it runs.
+    pub async fn start(peer: &str, domain: u16) -> HostPeer {
+        use tokio::io::AsyncBufReadExt;
+        let mut child = tokio::process::Command::new(peer)
+            .arg("host")
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env(
+                "RUST_LOG",
+                std::env::var("RADAR_PEER_LOG").unwrap_or_else(|_| "error".into()),
+            )
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("start radar_test_peer host");
+        let stdin = child.stdin.take().unwrap();
+        let lines = tokio::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut p = HostPeer {
+            child,
+            stdin,
+            lines,
+        };
+        assert_eq!(p.line().await, "ready");
+        p
+    }
+
+    async fn line(&mut self) -> String {
+        tokio::time::timeout(DISCOVERY, self.lines.next_line())
+            .await
+            .expect("the peer answers in time")
+            .expect("readable output")
+            .unwrap_or_default()
+    }
+
+    /// Sends one command without waiting for an answer.
+    pub async fn send(&mut self, command: &str) {
+        use tokio::io::AsyncWriteExt;
+        self.stdin
+            .write_all(format!("{command}\n").as_bytes())
+            .await
+            .expect("the peer reads its stdin");
+        self.stdin.flush().await.unwrap();
+    }
+
+    /// Sends one command and asserts that it answers `ok`.
+    pub async fn run(&mut self, command: &str) {
+        self.send(command).await;
+        let answer = self.line().await;
+        assert_eq!(answer, "ok", "peer command {command:?}");
+    }
+
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id().expect("running")
+    }
+
+    /// Sends a signal (`KILL`, `STOP`, `CONT`, `TERM`) to it.
+    pub fn signal(&self, sig: &str) {
+        let ok = std::process::Command::new("kill")
+            .args([&format!("-{sig}"), &self.pid().to_string()])
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        assert!(ok, "kill -{sig} {}", self.pid());
+    }
+
+    /// Waits for it to exit (after `quit`, `emit-exit` or a kill); returns its exit status.
+    pub async fn wait(mut self) -> std::process::ExitStatus {
+        tokio::time::timeout(DISCOVERY, self.child.wait())
+            .await
+            .expect("the peer exits in time")
+            .expect("wait")
+    }
+}

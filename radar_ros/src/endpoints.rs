@@ -52,6 +52,11 @@ impl<T> Watched<T> {
         Ok(())
     }
 
+    /// Why the last peer that went went, if one did.
+    pub(crate) fn last_loss(&self) -> Option<crate::departure::LossCause> {
+        self.graph.last_loss(self.guid)
+    }
+
     /// The number of peers matched now.
     pub(crate) fn matched_now(&self) -> usize {
         *self.matched.borrow()

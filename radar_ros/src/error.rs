@@ -127,6 +127,18 @@ pub enum Error {
         /// The underlying error.
         source: Source,
     },
+    /// A component left the ROS graph while we waited for its signal (it exited, crashed, hangs, or the
+    /// network cut it off): what it would have sent will not come.
+    #[error(
+        "gave up waiting for {waiting_for}: {departure}; start it again (or find out why it stopped) and wait \
+         again"
+    )]
+    ComponentLost {
+        /// What was awaited: `a signal on /bumper/triggered`.
+        waiting_for: String,
+        /// Which component left, and why.
+        departure: crate::departure::Departure,
+    },
     /// The component, connection or participant was shut down while the call was in progress.
     #[error("{0} is shut down")]
     Closed(String),

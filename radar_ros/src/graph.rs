@@ -27,9 +27,22 @@ use futures::StreamExt;
 use ros2_client::dds::rustdds::{self, DomainParticipantStatusEvent, StatusEvented, GUID};
 use tokio::sync::watch;
 
+use crate::departure::LossCause;
+
+fn cause_of(reason: &rustdds::LostReason) -> LossCause {
+    match reason {
+        rustdds::LostReason::Disposed => LossCause::Left,
+        rustdds::LostReason::Timeout { elapsed, .. } => LossCause::Unreachable {
+            silent_for: elapsed.to_std(),
+        },
+    }
+}
+
 #[derive(Default)]
 struct Entry {
     peers: BTreeSet<GUID>,
+    /// Why the last peer that went went.
+    last_loss: Option<LossCause>,
     /// Matched peers whose type differs from ours.
     rejected: BTreeSet<GUID>,
     /// (topic, DDS type name) once registered.
@@ -303,11 +316,22 @@ impl Graph {
         }
     }
 
-    /// Forgets a local endpoint that was deleted.
+    /// Forgets a local endpoint that was deleted (also as the peer of other local endpoints).
     pub(crate) fn forget(&self, guid: GUID) {
         let mut t = self.table.lock().unwrap();
         t.writers.remove(&guid);
         t.readers.remove(&guid);
+        Self::remove_where(&mut t.writers, |g| *g == guid, &LossCause::Left);
+        Self::remove_where(&mut t.readers, |g| *g == guid, &LossCause::Left);
+    }
+
+    /// Why the last peer that left local endpoint `guid` left, if one did.
+    pub(crate) fn last_loss(&self, guid: GUID) -> Option<LossCause> {
+        let t = self.table.lock().unwrap();
+        t.writers
+            .get(&guid)
+            .or_else(|| t.readers.get(&guid))
+            .and_then(|e| e.last_loss.clone())
     }
 
     fn apply(&self, ev: DomainParticipantStatusEvent) {
@@ -333,30 +357,36 @@ impl Graph {
                     e.notify();
                 }
             }
-            DomainParticipantStatusEvent::ReaderLost { guid, .. } => {
-                Self::remove_where(&mut t.writers, |g| *g == guid);
+            DomainParticipantStatusEvent::ReaderLost { guid, reason } => {
+                Self::remove_where(&mut t.writers, |g| *g == guid, &cause_of(&reason));
             }
-            DomainParticipantStatusEvent::WriterLost { guid, .. } => {
-                Self::remove_where(&mut t.readers, |g| *g == guid);
+            DomainParticipantStatusEvent::WriterLost { guid, reason } => {
+                Self::remove_where(&mut t.readers, |g| *g == guid, &cause_of(&reason));
             }
-            DomainParticipantStatusEvent::ParticipantLost { id, .. } => {
-                tracing::debug!(participant = ?id, "DDS participant lost");
+            DomainParticipantStatusEvent::ParticipantLost { id, reason } => {
+                tracing::debug!(participant = ?id, ?reason, "DDS participant lost");
                 let mut who = GUID::new_participant_guid();
                 who.prefix = id;
                 let _ = self.lost.send(who);
-                Self::remove_where(&mut t.writers, |g| g.prefix == id);
-                Self::remove_where(&mut t.readers, |g| g.prefix == id);
+                let cause = cause_of(&reason);
+                Self::remove_where(&mut t.writers, |g| g.prefix == id, &cause);
+                Self::remove_where(&mut t.readers, |g| g.prefix == id, &cause);
             }
             _ => {}
         }
     }
 
-    fn remove_where(map: &mut HashMap<GUID, Entry>, pred: impl Fn(&GUID) -> bool) {
+    fn remove_where(
+        map: &mut HashMap<GUID, Entry>,
+        pred: impl Fn(&GUID) -> bool,
+        cause: &LossCause,
+    ) {
         for e in map.values_mut() {
             e.rejected.retain(|g| !pred(g));
             let before = e.peers.len();
             e.peers.retain(|g| !pred(g));
             if e.peers.len() != before {
+                e.last_loss = Some(cause.clone());
                 e.notify();
             }
         }

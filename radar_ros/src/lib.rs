@@ -45,12 +45,33 @@
 //! 3. <span id="until-windows"></span>**`once E start R until U`**: U's signals go to R's `interrupt` only
 //!    within the *window* of the run this statement started: from R's first `started` after the statement
 //!    delivered E, to R's next `exited`. A run R starts by itself (its exit slot asking for a restart) or that
-//!    another statement started is not interrupted by this one.
+//!    another statement started is not interrupted by this one. If R was already running when E arrived and
+//!    drops the start (start policy `ignore`), no window opens: this statement started nothing.
 //! 4. Dropping the guard ends the connection at once: when the drop returns, nothing more is delivered.
 //!
 //! Connection properties: [`ConnectionRequest::filter`], [`ConnectionRequest::map`] (typed payload transform),
 //! [`ConnectionRequest::depth`] (QoS history depth). Another program's manager can be used through a served
 //! manager node ([`Radar::serve_manager`]; `radar_msgs/srv/Connect` from rclpy or the command line).
+//!
+//! ## When components leave
+//!
+//! A component leaves the graph when its process exits, crashes, is killed, hangs (or is stopped), or the
+//! network cuts it off. radar_ros sees it when the last publisher of a connection's source, or the last
+//! subscriber of its target slot, goes (after a 100 ms grace, so a signal sent just before leaving is
+//! delivered first); DDS says why ([`LossCause`]): it said goodbye (milliseconds), or its lease ran out
+//! (3-3.6 s for radar_ros peers, ~20 s for rclpy/Fast DDS peers; see the table below). What the deliberative
+//! code sees (rule 5 of [`radar_semantics::connection`], each case tested):
+//!
+//! | what left | what happens | what the code sees |
+//! |---|---|---|
+//! | the source of a `waitfor` | the wait ends | [`Error::ComponentLost`] naming the component and the cause |
+//! | the source of a `once`/`whenever` | it waits for the source: a new publisher of that name is delivered from | [`ConnectionGuard::link`] = [`Link::WaitingForSource`], [`ConnectionGuard::departed`] resolves |
+//! | the target | nothing more is delivered (a new component of that name gets nothing) | [`Link::TargetLost`], a warning, [`ConnectionGuard::departed`] |
+//! | the target, with [`ConnectionRequest::rearm`] | it waits, then delivers to the new target the signals emitted after it came | [`Link::WaitingForTarget`], then [`Link::Armed`] |
+//! | the response of an `until` | the window closes: the dead run is not interrupted, nor a new R's runs | [`ConnectionGuard::departed`] |
+//!
+//! The manager's `connections` topic and `list` service show each connection's state (`state`,
+//! `state_label`, `departure` in `radar_msgs/msg/Connection`). docs/reliability.md measures each case.
 //!
 //! ## Waiting
 //!
@@ -124,6 +145,7 @@
 #![warn(missing_docs)]
 #![deny(rustdoc::broken_intra_doc_links)]
 
+mod departure;
 mod endpoints;
 mod error;
 mod event;
@@ -149,12 +171,14 @@ mod topics;
 mod wait;
 mod waiter;
 
+pub use departure::{Departure, LossCause};
 pub use error::{Error, Result, SlotError, Source};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
 pub use manager::ConnectionGuard;
 pub use manager_node::ManagerHandle;
 pub use names::ComponentName;
 pub use radar::{domain_id_from_env, DiscoveryRange, Radar, RadarBuilder, DEFAULT_LEASE};
+pub use radar_semantics::connection::Link;
 pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
 pub use raw::RawMessage;
 pub use refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};

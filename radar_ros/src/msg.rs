@@ -300,6 +300,12 @@ pub struct Connection {
     pub delivered: u64,
     /// History depth of the relay's reader and writer.
     pub depth: u32,
+    /// One of the `STATE_*` constants: whether it can deliver now.
+    pub state: u8,
+    /// `armed`, `waiting for source`, `waiting for target` or `target lost`.
+    pub state_label: String,
+    /// Who left and why, while it is not armed (or after its `until`'s response left); else empty.
+    pub departure: String,
 }
 ros_message!(Connection, "radar_msgs", "Connection");
 
@@ -308,6 +314,24 @@ impl Connection {
     pub const ONCE: u8 = 0;
     /// `whenever`.
     pub const WHENEVER: u8 = 1;
+    /// Source and target are there.
+    pub const STATE_ARMED: u8 = 0;
+    /// Every publisher of the source left; it delivers again when one is back.
+    pub const STATE_WAITING_FOR_SOURCE: u8 = 1;
+    /// The target left; the connection re-arms when a target of that name is back.
+    pub const STATE_WAITING_FOR_TARGET: u8 = 2;
+    /// The target left; nothing more is delivered.
+    pub const STATE_TARGET_LOST: u8 = 3;
+
+    /// The `STATE_*` code of a link state.
+    pub fn state_of(link: crate::Link) -> u8 {
+        match link {
+            crate::Link::Armed => Self::STATE_ARMED,
+            crate::Link::WaitingForSource => Self::STATE_WAITING_FOR_SOURCE,
+            crate::Link::WaitingForTarget => Self::STATE_WAITING_FOR_TARGET,
+            crate::Link::TargetLost => Self::STATE_TARGET_LOST,
+        }
+    }
 }
 
 /// `radar_msgs/msg/ConnectionList`: every live connection of one manager.
@@ -466,13 +490,36 @@ mod tests {
             connections: vec![Connection::default()],
         };
         assert_eq!(fields(&list), msg_file_fields(&resp));
+        let consts = msg_file_constants(&msg_file("Connection"));
+        let want = [
+            ("ONCE", Connection::ONCE),
+            ("WHENEVER", Connection::WHENEVER),
+            ("STATE_ARMED", Connection::STATE_ARMED),
+            (
+                "STATE_WAITING_FOR_SOURCE",
+                Connection::STATE_WAITING_FOR_SOURCE,
+            ),
+            (
+                "STATE_WAITING_FOR_TARGET",
+                Connection::STATE_WAITING_FOR_TARGET,
+            ),
+            ("STATE_TARGET_LOST", Connection::STATE_TARGET_LOST),
+        ];
         assert_eq!(
-            msg_file_constants(&msg_file("Connection")),
-            [
-                ("ONCE".to_owned(), "0".to_owned()),
-                ("WHENEVER".to_owned(), "1".to_owned())
-            ]
+            consts,
+            want.map(|(n, v)| (n.to_owned(), v.to_string())).to_vec()
         );
+        // every link state has its constant, named after its label
+        for link in [
+            crate::Link::Armed,
+            crate::Link::WaitingForSource,
+            crate::Link::WaitingForTarget,
+            crate::Link::TargetLost,
+        ] {
+            let name = format!("STATE_{}", link.label().replace(' ', "_").to_uppercase());
+            let code = Connection::state_of(link).to_string();
+            assert!(consts.contains(&(name, code)), "{link:?}");
+        }
     }
 
     #[test]

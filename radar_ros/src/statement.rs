@@ -81,6 +81,7 @@ impl Statement {
                 until: None,
                 timeout: DEFAULT_TIMEOUT,
                 depth: SIGNAL_DEPTH,
+                rearm: false,
             },
             response,
         }
@@ -191,6 +192,7 @@ impl ConnectionRequest {
                     started: r.started(),
                     exited: r.exited(),
                     interrupt: r.interrupt_slot(),
+                    state: r.name().topic("state"),
                 })
             }
             _ => {
@@ -301,6 +303,23 @@ impl ConnectionRequest {
             ));
         }
         self.spec.depth = depth.max(1);
+        self
+    }
+
+    /// Connection property: when the target leaves the ROS graph (its process exits, crashes or is cut off),
+    /// wait for a target of that name to come back and deliver to it, instead of delivering nothing more (the
+    /// default: see [components that leave](crate#when-components-leave)). Signals emitted while there was no
+    /// target are not delivered.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventRef, stop: radar_ros::ResponseRef)
+    /// #     -> radar_ros::Result<()> {
+    /// // the motor driver may be restarted by its launch file: keep stopping it on a bump
+    /// let _c = radar.whenever(&bumper).start(&stop).rearm().await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn rearm(mut self) -> ConnectionRequest {
+        self.spec.rearm = true;
         self
     }
 

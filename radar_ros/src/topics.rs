@@ -92,6 +92,20 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
         })
     }
 
+    /// The live count of matched subscriptions.
+    pub(crate) fn matched_watch(&self) -> tokio::sync::watch::Receiver<usize> {
+        self.publisher.matched.clone()
+    }
+
+    /// The last subscriber left: who, and why (as far as DDS told).
+    pub(crate) fn departure(&self) -> crate::departure::Departure {
+        let cause = self
+            .publisher
+            .last_loss()
+            .unwrap_or(crate::departure::LossCause::Left);
+        crate::departure::Departure::of_subscriber(&self.topic, cause)
+    }
+
     /// Waits until no subscription is matched (default limit [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT)).
     pub fn wait_for_no_subscribers(&self) -> Wait<'_, ()> {
         Wait::discovery(move |t| async move {
@@ -154,6 +168,20 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
                 format!("{n} publisher(s) on {} ({})", self.topic, self.ros_type)
             })
         })
+    }
+
+    /// The live count of matched publishers.
+    pub(crate) fn matched_watch(&self) -> tokio::sync::watch::Receiver<usize> {
+        self.subscription.matched.clone()
+    }
+
+    /// The last publisher left: who, and why (as far as DDS told).
+    pub(crate) fn departure(&self) -> crate::departure::Departure {
+        let cause = self
+            .subscription
+            .last_loss()
+            .unwrap_or(crate::departure::LossCause::Left);
+        crate::departure::Departure::of_publisher(&self.topic, cause)
     }
 
     /// The next sample of `stream` (this subscription's) from a publisher of the right type, with its source

@@ -16,6 +16,9 @@
 //! [`Radar::waitfor`] does both steps in one call, for signals that do not depend on anything the caller does
 //! next (a sensor event, another program's response).
 //!
+//! If the component leaves the graph before it sends the signal, the wait ends with
+//! [`Error::ComponentLost`](crate::Error::ComponentLost) (see [components that leave](crate#when-components-leave)).
+//!
 //! Which signals a waiter sees: those its source emits after it is armed (stamped at or after the moment the
 //! relay was armed, by the emitter's clock), from any publisher of the source's type that discovery has
 //! matched with the waiter's reader; for a publisher in this process that means every one, for one in another
@@ -50,13 +53,34 @@ impl<M: RosMessage> Waiter<M> {
     /// let _ = w.recv().timeout(std::time::Duration::from_secs(60)).await?;
     /// # Ok(()) }
     /// ```
+    ///
+    /// If every publisher of the signal leaves the graph first (the component exits, crashes, hangs or is cut
+    /// off), this fails with [`Error::ComponentLost`], naming the component and the cause: a signal it sent
+    /// before it left is still delivered.
     pub fn recv(self) -> Wait<'static, M> {
         let what = format!("a signal on {}", self.topic);
-        let topic = self.topic.clone();
-        Wait::signal(what, async move {
-            let m = self.rx.await.map_err(|_| Error::Closed(topic))?;
-            drop(self._connection);
-            Ok(m)
+        let Waiter {
+            mut rx,
+            topic,
+            _connection: connection,
+        } = self;
+        Wait::signal(what.clone(), async move {
+            let m = tokio::select! {
+                biased;
+                m = &mut rx => m,
+                d = connection.departed() => match d {
+                    Some(departure) => {
+                        // a signal the relay read before it saw the source go was sent before it went
+                        match rx.try_recv() {
+                            Ok(m) => Ok(m),
+                            Err(_) => return Err(Error::ComponentLost { waiting_for: what, departure }),
+                        }
+                    }
+                    None => rx.await,
+                },
+            };
+            drop(connection);
+            m.map_err(|_| Error::Closed(topic))
         })
     }
 }

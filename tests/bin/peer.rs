@@ -3,6 +3,10 @@
 //! - `radar_test_peer subscribe TOPIC [empty|int32]`: subscribes to TOPIC (std_msgs/msg/Empty or Int32,
 //!   signal QoS), prints `matched`
 //!   once a publisher is matched, and stays until SIGTERM/SIGINT (then leaves the graph cleanly) or SIGKILL.
+//! - `radar_test_peer host`: hosts components as told on stdin, one command per line, answering `ok` (or
+//!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `publisher TOPIC` (an Empty
+//!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-exit TOPIC`
+//!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
 //! - `radar_test_peer check-env`: creates a participant from the environment (ROS_DOMAIN_ID, ...) and prints
 //!   `ok`, or prints the error and exits with status 2.
 
@@ -16,6 +20,13 @@ use tokio::signal::unix::{signal, SignalKind};
 
 #[tokio::main]
 async fn main() {
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "error".into()),
+        )
+        .with_writer(std::io::stderr)
+        .try_init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let radar = match Radar::new() {
         Ok(r) => r,
@@ -92,8 +103,9 @@ async fn main() {
             drop(radar);
             tokio::time::sleep(Duration::from_millis(200)).await;
         }
+        Some("host") => host(radar).await,
         _ => {
-            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32] | whenever EVENT RESPONSE | connect MANAGER SOURCE TARGET");
+            eprintln!("usage: radar_test_peer check-env | subscribe TOPIC [empty|int32] | whenever EVENT RESPONSE | connect MANAGER SOURCE TARGET | host");
             std::process::exit(64);
         }
     }
@@ -109,4 +121,72 @@ async fn subscribe<M: radar_ros::msg::RosMessage>(
         .await
         .expect("a publisher");
     s
+}
+
+/// `host`: components made and signals sent as stdin says (see the module docs).
+async fn host(radar: Radar) {
+    use std::{collections::HashMap, io::Write};
+    use tokio::io::{AsyncBufReadExt, BufReader};
+    let mut responses = Vec::new();
+    let mut publishers: HashMap<String, radar_ros::SignalPublisher<Empty>> = HashMap::new();
+    let mut lines = BufReader::new(tokio::io::stdin()).lines();
+    let say = |s: &str| {
+        let mut out = std::io::stdout();
+        let _ = writeln!(out, "{s}");
+        let _ = out.flush();
+    };
+    say("ready");
+    while let Ok(Some(line)) = lines.next_line().await {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["response", name, ms] => {
+                let ms: u64 = ms.parse().expect("MS");
+                let r = radar.spawn_response(
+                    name,
+                    radar_ros::FnResponse::new(move |_: Empty| async move {
+                        tokio::time::sleep(Duration::from_millis(ms)).await;
+                        Ok(Empty::default())
+                    }),
+                );
+                match r {
+                    Ok(h) => {
+                        responses.push(h);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["publisher", topic] => match radar.signal_publisher::<Empty>(topic) {
+                Ok(p) => {
+                    publishers.insert(topic.to_string(), p);
+                    say("ok")
+                }
+                Err(e) => say(&format!("err {e}")),
+            },
+            ["emit" | "emit-exit", topic] => {
+                let Some(p) = publishers.get(*topic) else {
+                    say(&format!("err no publisher on {topic}"));
+                    continue;
+                };
+                let sent = async {
+                    p.wait_for_subscribers(1)
+                        .timeout(Duration::from_secs(10))
+                        .await?;
+                    p.publish(Empty::default())
+                };
+                match sent.await {
+                    Ok(()) if words[0] == "emit-exit" => break,
+                    Ok(()) => say("ok"),
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["quit"] => break,
+            _ => say(&format!("err unknown command {line:?}")),
+        }
+    }
+    // leaving cleanly: endpoints and participant dropped, so DDS peers hear the goodbye
+    drop(publishers);
+    drop(responses);
+    drop(radar);
+    tokio::time::sleep(Duration::from_millis(100)).await;
 }

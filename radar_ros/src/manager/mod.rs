@@ -12,6 +12,10 @@
 //! writers and its outlet writers have matched the slots' readers; only signals emitted after that are
 //! delivered (by source timestamp against this host's clock: hosts of one ROS graph are assumed to be in time
 //! sync).
+//!
+//! Each relay and outlet also watches its DDS match count: when the last publisher of a source, or the last
+//! subscriber of a slot, has been gone for [`GONE_AFTER`], the table is told (connection rule 5) and the
+//! connections it changes record the [`Departure`]; when one comes back, the table is told again.
 
 mod anon;
 
@@ -21,13 +25,15 @@ use std::{
     time::Duration,
 };
 
-use radar_semantics::connection::{ConnId, ConnectionTable, Kind, Until};
+use radar_semantics::connection::{ConnId, ConnectionTable, Kind, Link, ResponseView, Until};
 
 use crate::{
+    departure::Departure,
     error::{Error, Result},
-    msg::{Empty, RosMessage},
+    msg::{Empty, ResponseState, RosMessage},
     participant::Participant,
     pool::{Dir, Key},
+    qos::state_qos,
     raw::RawMessage,
     refs::{Signal, Slot},
     topics::{RawPublisher, RawSubscription},
@@ -60,6 +66,8 @@ pub(crate) struct UntilSpec {
     pub(crate) started: Signal,
     pub(crate) exited: Signal,
     pub(crate) interrupt: Slot,
+    /// R's `state` topic: whether R runs when armed, and its policy for starts while running.
+    pub(crate) state: String,
 }
 
 /// A statement ready to arm.
@@ -76,13 +84,22 @@ pub(crate) struct Spec {
     pub(crate) timeout: Duration,
     /// History depth of the relay's endpoints.
     pub(crate) depth: usize,
+    /// Re-arm when the target comes back after leaving.
+    pub(crate) rearm: bool,
 }
+
+/// How long a source or slot must have no peer before it counts as gone. A sender that emits and exits at
+/// once announces its leaving on another socket than its data, and the announcement can be read first: the
+/// relay reads what is already there before it believes the source is gone.
+pub(crate) const GONE_AFTER: Duration = Duration::from_millis(100);
 
 /// What a live connection carries besides what the table knows.
 struct Record {
     owner: String,
     filter: Option<FilterFn>,
     map: Option<MapFn>,
+    /// The component whose leaving put the connection out of `Armed`, while it is out.
+    departure: Option<Departure>,
 }
 
 /// A source the table reads: the task that feeds its reader's signals to the table (stopped on drop).
@@ -95,6 +112,8 @@ struct Outlet {
     publisher: Arc<RawPublisher>,
     /// The slot takes `std_msgs/msg/Empty`: the payload is dropped.
     empty: bool,
+    /// Stops the task that watches the slot's subscribers.
+    _stop: tokio::sync::oneshot::Sender<()>,
 }
 
 #[derive(Default)]
@@ -242,6 +261,14 @@ impl Manager {
                     .map(|r| r.owner.clone())
                     .unwrap_or_default(),
                 delivered: c.delivered,
+                state: C::state_of(c.link),
+                state_label: c.link.label().into(),
+                departure: st
+                    .records
+                    .get(&c.id)
+                    .and_then(|r| r.departure.as_ref())
+                    .map(|d| d.to_string())
+                    .unwrap_or_default(),
             })
             .collect()
     }
@@ -273,14 +300,18 @@ impl Manager {
         }
     }
 
-    /// A relay for `k`, whose reader `sub` is held once more for it; its task feeds the table.
+    /// A relay for `k`, whose reader `sub` is held once more for it; its task feeds the table, and tells it
+    /// when the source's publishers have all gone (and when one is back).
     fn relay(self: &Arc<Self>, k: &Key, sub: Arc<RawSubscription>) -> Relay {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let source = k.clone();
+        let mut matched = sub.matched_watch();
         tokio::spawn(async move {
+            let mut presence = Presence::new(*matched.borrow_and_update());
             loop {
                 tokio::select! {
+                    biased;
                     _ = &mut stop_rx => break,
                     r = sub.recv_stamped() => match (r, me.upgrade()) {
                         (Ok((raw, stamp)), Some(m)) => {
@@ -288,10 +319,163 @@ impl Manager {
                         }
                         _ => break,
                     },
+                    c = matched.changed() => {
+                        if c.is_err() {
+                            break;
+                        }
+                        let n = *matched.borrow_and_update();
+                        if presence.count(n) == Some(true) {
+                            if let Some(m) = me.upgrade() {
+                                m.source_back(&source);
+                            }
+                        }
+                    }
+                    _ = presence.deadline() => {
+                        if presence.expired(sub.publishers()) {
+                            match me.upgrade() {
+                                Some(m) => m.source_lost(&source, sub.departure()),
+                                None => break,
+                            }
+                        }
+                    }
                 }
             }
         });
         Relay { _stop: stop }
+    }
+
+    /// Watches the subscribers of the slot `k` (written by `publisher`) and tells the table when they have
+    /// all gone, and when one is back. Stops when the returned sender is dropped.
+    fn watch_outlet(
+        self: &Arc<Self>,
+        k: &Key,
+        publisher: Arc<RawPublisher>,
+    ) -> tokio::sync::oneshot::Sender<()> {
+        let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
+        let me = Arc::downgrade(self);
+        let target = Target::Slot(k.clone());
+        let mut matched = publisher.matched_watch();
+        tokio::spawn(async move {
+            let mut presence = Presence::new(*matched.borrow_and_update());
+            loop {
+                tokio::select! {
+                    biased;
+                    _ = &mut stop_rx => break,
+                    c = matched.changed() => {
+                        if c.is_err() {
+                            break;
+                        }
+                        let n = *matched.borrow_and_update();
+                        if presence.count(n) == Some(true) {
+                            match me.upgrade() {
+                                Some(m) => m.target_back(&target),
+                                None => break,
+                            }
+                        }
+                    }
+                    _ = presence.deadline() => {
+                        if presence.expired(publisher.subscribers()) {
+                            match me.upgrade() {
+                                Some(m) => m.target_lost(&target, publisher.departure()),
+                                None => break,
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        stop
+    }
+
+    /// Every publisher of `source` has gone: tell the table, and record who left on the connections it changed.
+    fn source_lost(&self, source: &Key, d: Departure) {
+        let mut st = self.state.lock().unwrap();
+        let ids = st.table.source_lost(source);
+        self.note_departure(&mut st, &ids, &d);
+        self.prune(&mut st);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
+    }
+
+    fn source_back(&self, source: &Key) {
+        let mut st = self.state.lock().unwrap();
+        let ids = st.table.source_back(source);
+        self.note_return(&mut st, &ids, &source.topic);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
+    }
+
+    fn target_lost(&self, target: &Target, d: Departure) {
+        let mut st = self.state.lock().unwrap();
+        let ids = st.table.target_lost(target);
+        self.note_departure(&mut st, &ids, &d);
+        self.prune(&mut st);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
+    }
+
+    fn target_back(&self, target: &Target) {
+        let mut st = self.state.lock().unwrap();
+        let ids = st.table.target_back(target, now_ns());
+        let topic = match target {
+            Target::Slot(k) => k.topic.clone(),
+            Target::Anon(_) => String::new(),
+        };
+        self.note_return(&mut st, &ids, &topic);
+        drop(st);
+        self.changed.send_modify(|g| *g += 1);
+    }
+
+    fn note_departure(&self, st: &mut State, ids: &[ConnId], d: &Departure) {
+        for id in ids {
+            let link = st.table.link(*id).unwrap_or_default();
+            if let Some(r) = st.records.get_mut(id) {
+                r.departure = Some(d.clone());
+            }
+            match link {
+                Link::TargetLost => tracing::warn!(
+                    connection = id, %d,
+                    "connection {id} delivers nothing more: its target left; make the statement again once it \
+                     is back, or ask for .rearm()"
+                ),
+                Link::Armed => tracing::info!(
+                    connection = id, %d, "connection {id}: the until window closed: its response left"
+                ),
+                other => tracing::info!(connection = id, %d, "connection {id}: {}", other.label()),
+            }
+        }
+    }
+
+    fn note_return(&self, st: &mut State, ids: &[ConnId], topic: &str) {
+        for id in ids {
+            if let Some(r) = st.records.get_mut(id) {
+                r.departure = None;
+            }
+            tracing::info!(connection = id, %topic, "connection {id} is armed again: {topic} is back");
+        }
+    }
+
+    /// What R's `state` says when an `until` statement is armed: whether it runs, and whether it runs a start
+    /// that arrives meanwhile later. A response that publishes no state (not a RADAR response, say) counts as
+    /// idle and dropping such starts.
+    async fn response_view(&self, state_topic: &str, timeout: Duration) -> ResponseView {
+        let look = async {
+            let s = self
+                .participant
+                .subscription::<ResponseState>(state_topic, &state_qos())?;
+            s.wait_for_publishers(1).timeout(timeout).await?;
+            s.recv().timeout(timeout).await
+        };
+        match look.await {
+            Ok(st) => ResponseView {
+                running: st.state != ResponseState::STATE_IDLE,
+                runs_later: st.start_policy != "ignore",
+            },
+            Err(e) => {
+                tracing::debug!(topic = %state_topic, error = %e, "no state from the until's response");
+                ResponseView::default()
+            }
+        }
     }
 
     /// Arms a statement: holds its endpoints while discovery matches them, then enters it in the table.
@@ -359,6 +543,13 @@ impl Manager {
                     after: spec.timeout,
                 })?;
         }
+        let view = match &spec.until {
+            Some(u) => {
+                self.response_view(&u.state, spec.timeout.min(Duration::from_secs(1)))
+                    .await
+            }
+            None => ResponseView::default(),
+        };
         let mut st = self.state.lock().unwrap();
         // the table's own holds, once per source and slot
         for (k, r) in source_keys.iter().zip(&readers) {
@@ -372,11 +563,13 @@ impl Manager {
             if !st.outlets.contains_key(k) {
                 self.participant.pooled_writer(k)?;
                 let empty = k.ros_type == Empty::ros_type_name();
+                let stop = self.watch_outlet(k, w.clone());
                 st.outlets.insert(
                     k.clone(),
                     Outlet {
                         publisher: w.clone(),
                         empty,
+                        _stop: stop,
                     },
                 );
             }
@@ -402,16 +595,19 @@ impl Manager {
             started: source_keys[2].clone(),
             exited: source_keys[3].clone(),
             interrupt: Target::Slot(slot_keys.last().expect("until has its slot").clone()),
+            response: view,
         });
         let id = st
             .table
             .arm(source_keys[0].clone(), target, spec.kind, until, now_ns());
+        st.table.set_rearm(id, spec.rearm);
         st.records.insert(
             id,
             Record {
                 owner: spec.owner,
                 filter: spec.filter,
                 map: spec.map,
+                departure: None,
             },
         );
         drop(st);
@@ -442,6 +638,14 @@ impl Manager {
         self.state.lock().unwrap().table.contains(id)
     }
 
+    /// The connection's link and the departure that put it out of `Armed`, if it is live.
+    fn link(&self, id: ConnId) -> Option<(Link, Option<Departure>)> {
+        let st = self.state.lock().unwrap();
+        let link = st.table.link(id)?;
+        let d = st.records.get(&id).and_then(|r| r.departure.clone());
+        Some((link, d))
+    }
+
     fn delivered(&self, id: ConnId) -> u64 {
         let st = self.state.lock().unwrap();
         st.table
@@ -450,6 +654,53 @@ impl Manager {
             .find(|c| c.id == id)
             .map(|c| c.delivered)
             .unwrap_or(0)
+    }
+}
+
+/// Whether a source or slot has peers, with the grace of [`GONE_AFTER`] before it counts as gone.
+struct Presence {
+    /// No peer since this moment (not yet reported).
+    empty_since: Option<tokio::time::Instant>,
+    /// Reported gone (and not back since).
+    gone: bool,
+}
+
+impl Presence {
+    fn new(count: usize) -> Presence {
+        Presence {
+            empty_since: (count == 0).then(tokio::time::Instant::now),
+            gone: false,
+        }
+    }
+
+    /// The count changed to `n`: `Some(true)` if the peers are back after being reported gone.
+    fn count(&mut self, n: usize) -> Option<bool> {
+        if n == 0 {
+            if !self.gone && self.empty_since.is_none() {
+                self.empty_since = Some(tokio::time::Instant::now());
+            }
+            None
+        } else {
+            self.empty_since = None;
+            std::mem::take(&mut self.gone).then_some(true)
+        }
+    }
+
+    /// When the grace runs out (never, if there are peers or the loss was reported).
+    async fn deadline(&self) {
+        match self.empty_since {
+            Some(t) => tokio::time::sleep_until(t + GONE_AFTER).await,
+            None => std::future::pending().await,
+        }
+    }
+
+    /// The grace ran out; `n` peers now. Whether to report the loss.
+    fn expired(&mut self, n: usize) -> bool {
+        self.empty_since = None;
+        if n == 0 {
+            self.gone = true;
+        }
+        self.gone
     }
 }
 
@@ -531,6 +782,45 @@ impl ConnectionGuard {
         while self.is_live() {
             if rx.changed().await.is_err() {
                 return;
+            }
+        }
+    }
+
+    /// Whether it can deliver now ([`Link::Armed`]), or waits because a component left; `None` once it no
+    /// longer exists (a fired `once`). See [components that leave](crate#when-components-leave).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, tick: radar_ros::EventRef, go: radar_ros::ResponseRef)
+    /// #     -> radar_ros::Result<()> {
+    /// use radar_ros::Link;
+    /// let c = radar.whenever(&tick).start(&go).await?;
+    /// let d = c.departed().await.expect("a whenever lives until dropped");
+    /// eprintln!("{d}");                       // which component left, and why
+    /// assert_eq!(c.link(), Some(Link::TargetLost));
+    /// # Ok(()) }
+    /// ```
+    pub fn link(&self) -> Option<Link> {
+        self.manager.link(self.id).map(|(l, _)| l)
+    }
+
+    /// The component whose leaving put the connection out of [`Link::Armed`], while it is out.
+    pub fn departure(&self) -> Option<Departure> {
+        self.manager.link(self.id).and_then(|(_, d)| d)
+    }
+
+    /// Resolves when a component of this connection leaves the graph (its source's last publisher, or its
+    /// target's last subscriber, or the response of its `until`), with who left and why; or with `None` when
+    /// the connection ends without that (a fired `once`). Resolves at once if one has already left.
+    pub async fn departed(&self) -> Option<Departure> {
+        let mut rx = self.manager.changed.subscribe();
+        loop {
+            match self.manager.link(self.id) {
+                None => return None,
+                Some((_, Some(d))) => return Some(d),
+                Some((_, None)) => {}
+            }
+            if rx.changed().await.is_err() {
+                return None;
             }
         }
     }
