@@ -48,6 +48,8 @@ fn python() -> PathBuf {
 struct Py {
     child: tokio::process::Child,
     lines: Lines<BufReader<tokio::process::ChildStdout>>,
+    /// Its stdin: a script that waits for the test (`sys.stdin.readline()`) goes on at [`Py::proceed`].
+    stdin: tokio::process::ChildStdin,
     what: String,
 }
 
@@ -61,15 +63,28 @@ impl Py {
             .env("PYTHONUNBUFFERED", "1")
             .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE")
             .stdout(Stdio::piped())
+            .stdin(Stdio::piped())
             .kill_on_drop(true)
             .spawn()
             .expect("start the venv's python");
         let lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let stdin = child.stdin.take().unwrap();
         Py {
             child,
             lines,
+            stdin,
             what: format!("{script} {}", args.join(" ")),
         }
+    }
+
+    /// Lets a script waiting on its stdin go on.
+    async fn proceed(&mut self) {
+        use tokio::io::AsyncWriteExt;
+        self.stdin
+            .write_all(b"go\n")
+            .await
+            .expect("the script reads its stdin");
+        self.stdin.flush().await.unwrap();
     }
 
     /// Starts one of `examples/python/` and waits until it says it is up.
@@ -494,6 +509,9 @@ async fn bad_input_from_rclpy_is_refused_with_reasons() {
         0,
         "nor are they counted as publishers"
     );
+    // (the script waited for this while its wrong-type publisher was the only one; it had inherited a
+    // closed stdin, so it used to go on at once and its valid start could beat the check above)
+    py.proceed().await;
     py.json_with("still_works").await;
     assert_eq!(resp.state().starts, 1);
     let mut answers = std::collections::BTreeMap::new();
