@@ -1,5 +1,6 @@
 //! Bad input gets a clear error and loses nothing: invalid ROS names, bad ROS_DOMAIN_ID values, malformed
-//! and mistyped messages on slot topics. Domains 50-52.
+//! and mistyped messages on slot topics, malformed CDR from raw DDS writers on every slot and service of a
+//! component in another process. Domains 50-52, 54.
 
 use std::time::Duration;
 
@@ -197,4 +198,246 @@ async fn a_slot_published_with_the_wrong_type_does_not_match_and_changes_nothing
     .await
     .unwrap();
     assert_eq!(st.starts, 1);
+}
+
+/// Whether `bytes` decode as a `T` as the server reads them: little-endian CDR, after the transport padded
+/// the payload to a multiple of 4 bytes with zeros.
+fn decodes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> bool {
+    let mut padded = bytes.to_vec();
+    padded.resize(bytes.len().div_ceil(4) * 4, 0);
+    ros2_client::dds::rustdds::cdr_encoding::from_bytes::<T, byteorder::LittleEndian>(&padded)
+        .is_ok()
+}
+
+/// A request body sent as is, under whatever service type the client names.
+#[derive(Clone, Debug)]
+struct Bytes(Vec<u8>);
+
+impl Serialize for Bytes {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(self.0.len())?;
+        for b in &self.0 {
+            t.serialize_element(b)?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Bytes {
+    fn deserialize<D: serde::Deserializer<'de>>(_: D) -> Result<Self, D::Error> {
+        Ok(Bytes(Vec::new())) // no answer is expected
+    }
+}
+
+impl ros2_client::Message for Bytes {}
+
+/// Bodies that claim a string of 1 MB, 16 bytes, 0x7fffffff bytes, or are cut short: none decodes as a
+/// std_msgs/msg/String (or anything with a string first), whatever follows.
+fn garbage(rng: &mut u64) -> Vec<radar_ros::RawMessage> {
+    let mut next = move || {
+        // xorshift
+        *rng ^= *rng << 13;
+        *rng ^= *rng >> 7;
+        *rng ^= *rng << 17;
+        *rng
+    };
+    let mut random = |n: usize, claim: u32| {
+        let mut v = claim.to_le_bytes().to_vec();
+        v.extend((0..n).map(|_| next() as u8));
+        radar_ros::RawMessage(v)
+    };
+    vec![
+        radar_ros::RawMessage(vec![]),                    // nothing at all
+        radar_ros::RawMessage(vec![0x10, 0, 0]),          // a length cut short
+        radar_ros::RawMessage(vec![0x10, 0, 0, 0, b'a']), // claims 16 bytes, has 1
+        random(64, 1_000_000),                            // random, claiming 1 MB
+        random(200_000, 0x7fff_ffff),                     // oversized, claiming 2 GB
+    ]
+}
+
+/// RADAR issue 11: a raw DDS writer with the right type name sends truncated, oversized and random CDR on
+/// every slot of a response and on every service of a manager, from two publishers. The component (another
+/// process) does not crash, counts each per publisher, logs each publisher once per topic, and valid traffic
+/// on the same topics keeps flowing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_valid_traffic_flows() {
+    use radar_test_util::{HostPeer, ManagerClient};
+    const PEER: &str = env!("CARGO_BIN_EXE_radar_test_peer");
+    let seed: u64 = std::env::var("RADAR_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0x5eed_1234_abcd_0001);
+    println!("seed {seed} (RADAR_SEED to repeat)");
+    let mut host = HostPeer::start_logging(PEER, 54, "warn,rustdds=error,ros2_client=error").await;
+    host.run("echo echo").await;
+    host.run("manager mgr").await;
+    let a = radar(54);
+    let b = radar(54);
+    let mut rng = seed | 1;
+    let mut sent_start = 0;
+    let mut sent_empty = 0;
+    for sender in [&a, &b] {
+        let start = sender
+            .raw_publisher("/echo/start", "std_msgs/msg/String")
+            .unwrap();
+        let interrupt = sender
+            .raw_publisher("/echo/interrupt", "std_msgs/msg/Empty")
+            .unwrap();
+        let exit = sender
+            .raw_publisher("/echo/exit", "std_msgs/msg/Empty")
+            .unwrap();
+        for p in [&start, &interrupt, &exit] {
+            p.wait_for_subscribers(1).timeout(DISCOVERY).await.unwrap();
+        }
+        for g in garbage(&mut rng) {
+            start.publish(g).unwrap();
+            sent_start += 1;
+        }
+        for p in [&interrupt, &exit] {
+            // an Empty is one byte; nothing at all does not decode
+            p.publish(radar_ros::RawMessage(vec![])).unwrap();
+            sent_empty += 1;
+        }
+        // keep the writers until their samples are acknowledged
+        tokio::time::sleep(Duration::from_millis(300)).await;
+    }
+    // the services: raw bodies under the request types' names
+    let garbage_client = {
+        use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
+        let mut node = a
+            .context()
+            .new_node(
+                NodeName::new("/", "garbage").unwrap(),
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .unwrap();
+        let q = radar_ros::qos::signal_qos();
+        let mut clients = Vec::new();
+        for (svc, ty) in [
+            ("connect", "Connect"),
+            ("disconnect", "Disconnect"),
+            ("list", "List"),
+        ] {
+            let c: ros2_client::Client<Bytes, Bytes> = node
+                .create_client(
+                    ServiceMapping::Enhanced,
+                    &Name::new("/mgr", svc).unwrap(),
+                    &ServiceTypeName::new("radar_msgs", ty),
+                    q.clone(),
+                    q.clone(),
+                )
+                .unwrap();
+            clients.push((svc, c));
+        }
+        (node, clients)
+    };
+    let mut sent_requests = 0;
+    for (svc, c) in &garbage_client.1 {
+        // a valid request first, repeated until answered: the service is matched, nothing is lost
+        let valid = match *svc {
+            "connect" => radar_ros::RawMessage::encode(&radar_ros::msg::ConnectRequest {
+                kind: radar_ros::msg::Connection::WHENEVER,
+                source: "not a topic".into(),
+                target: "/echo/start".into(),
+                ..Default::default()
+            }),
+            "disconnect" => {
+                radar_ros::RawMessage::encode(&radar_ros::msg::DisconnectRequest { id: 424242 })
+            }
+            _ => radar_ros::RawMessage::encode(&radar_ros::msg::ListRequest::default()),
+        }
+        .unwrap();
+        radar_test_util::call_service(c, Bytes(valid.0), DISCOVERY).await;
+        // List's request is one padding byte: only an empty body fails to decode
+        let bodies = if *svc == "list" {
+            vec![radar_ros::RawMessage(vec![])]
+        } else {
+            garbage(&mut rng)
+        };
+        for body in bodies {
+            // bodies that happen to decode as the request (random bytes are a fine u64 id) are valid
+            let bad = match *svc {
+                "connect" => !decodes::<radar_ros::msg::ConnectRequest>(&body.0),
+                "disconnect" => !decodes::<radar_ros::msg::DisconnectRequest>(&body.0),
+                _ => !decodes::<radar_ros::msg::ListRequest>(&body.0),
+            };
+            c.send_request(Bytes(body.0)).unwrap();
+            sent_requests += u64::from(bad);
+        }
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+
+    // valid traffic still flows: a start, a manager list and a connect
+    let probe =
+        ResponseProbe::<radar_ros::msg::StringMsg, radar_ros::msg::StringMsg>::connect(&a, "/echo")
+            .await;
+    probe.start.publish("fine".into()).unwrap();
+    assert_eq!(
+        probe.signals(2, Duration::from_secs(10)).await,
+        [Seen::Started("fine".into()), Seen::Exited("fine".into())]
+    );
+    let client = ManagerClient::new(&b, "/mgr", "valid").await;
+    let listed = radar_test_util::call_once(&client.list, Default::default(), DISCOVERY).await;
+    assert!(listed.connections.is_empty());
+
+    // counted per topic and publisher
+    let state = a
+        .state_subscription::<ResponseState>("/echo/state")
+        .unwrap();
+    let st = tokio::time::timeout(DISCOVERY, async {
+        loop {
+            let s = state.recv().await.unwrap();
+            if s.exits == 1 {
+                return s;
+            }
+        }
+    })
+    .await
+    .unwrap();
+    assert_eq!(st.malformed, sent_start + sent_empty, "{st:?}");
+    assert_eq!(st.starts, 1);
+    let counts = host.query("malformed").await;
+    println!("{counts:#?}");
+    let count_of = |topic: &str| -> Vec<u64> {
+        let mut v: Vec<u64> = counts
+            .iter()
+            .filter(|l| l.split(' ').next() == Some(topic))
+            .map(|l| l.rsplit(' ').next().unwrap().parse().unwrap())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(count_of("/echo/start"), [5, 5], "two publishers, five each");
+    assert_eq!(count_of("/echo/interrupt"), [1, 1]);
+    assert_eq!(count_of("/echo/exit"), [1, 1]);
+    let service_total: u64 = ["/mgr/connect", "/mgr/disconnect", "/mgr/list"]
+        .iter()
+        .flat_map(|t| count_of(t))
+        .sum();
+    assert_eq!(
+        service_total, sent_requests,
+        "every request that does not decode is counted"
+    );
+
+    // logged once per topic and publisher (services: once per service, the sender is not known)
+    let warnings: Vec<String> = host
+        .stderr()
+        .into_iter()
+        .filter(|l| l.contains("does not decode"))
+        .collect();
+    assert_eq!(warnings.len(), 2 + 2 + 2 + 3, "{warnings:#?}");
+    assert!(
+        host.stderr()
+            .iter()
+            .all(|l| !l.contains("panicked") && !l.contains("ERROR")),
+        "{:#?}",
+        host.stderr()
+    );
+    // and it is alive
+    host.run("publisher /still/here").await;
+    host.send("quit").await;
+    assert!(host.wait().await.success());
 }

@@ -373,30 +373,48 @@ pub struct HostPeer {
     child: tokio::process::Child,
     stdin: tokio::process::ChildStdin,
     lines: tokio::io::Lines<tokio::io::BufReader<tokio::process::ChildStdout>>,
+    /// What it wrote on stderr so far (also passed on to this process's stderr).
+    stderr: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
 }
 
 impl HostPeer {
     /// Starts one in `domain` (the path is `env!("CARGO_BIN_EXE_radar_test_peer")`) and waits until it runs.
+    /// It logs errors only (`RADAR_PEER_LOG` sets its `RUST_LOG`).
     pub async fn start(peer: &str, domain: u16) -> HostPeer {
+        let log = std::env::var("RADAR_PEER_LOG").unwrap_or_else(|_| "error".into());
+        Self::start_logging(peer, domain, &log).await
+    }
+
+    /// [`HostPeer::start`] with its `RUST_LOG` set to `log`.
+    pub async fn start_logging(peer: &str, domain: u16, log: &str) -> HostPeer {
         use tokio::io::AsyncBufReadExt;
         let mut child = tokio::process::Command::new(peer)
             .arg("host")
             .env("ROS_DOMAIN_ID", domain.to_string())
-            .env(
-                "RUST_LOG",
-                std::env::var("RADAR_PEER_LOG").unwrap_or_else(|_| "error".into()),
-            )
+            .env("RUST_LOG", log)
+            .env("NO_COLOR", "1")
             .stdin(std::process::Stdio::piped())
             .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
             .kill_on_drop(true)
             .spawn()
             .expect("start radar_test_peer host");
         let stdin = child.stdin.take().unwrap();
         let lines = tokio::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let stderr = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let mut err_lines = tokio::io::BufReader::new(child.stderr.take().unwrap()).lines();
+        let keep = stderr.clone();
+        tokio::spawn(async move {
+            while let Ok(Some(l)) = err_lines.next_line().await {
+                eprintln!("[peer] {l}");
+                keep.lock().unwrap().push(l);
+            }
+        });
         let mut p = HostPeer {
             child,
             stdin,
             lines,
+            stderr,
         };
         assert_eq!(p.line().await, "ready");
         p
@@ -425,6 +443,25 @@ impl HostPeer {
         self.send(command).await;
         let answer = self.line().await;
         assert_eq!(answer, "ok", "peer command {command:?}");
+    }
+
+    /// Sends one command and returns the lines it answers before `ok`.
+    pub async fn query(&mut self, command: &str) -> Vec<String> {
+        self.send(command).await;
+        let mut out = Vec::new();
+        loop {
+            let l = self.line().await;
+            if l == "ok" {
+                return out;
+            }
+            assert!(!l.starts_with("err "), "peer command {command:?}: {l}");
+            out.push(l);
+        }
+    }
+
+    /// The lines it wrote on stderr so far.
+    pub fn stderr(&self) -> Vec<String> {
+        self.stderr.lock().unwrap().clone()
     }
 
     /// Its process id.

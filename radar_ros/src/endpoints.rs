@@ -84,8 +84,9 @@ impl<M: 'static + serde::de::DeserializeOwned> Watched<Subscription<M>> {
 impl<M: 'static> Watched<Subscription<M>> {
     /// The samples of `stream` (a stream of this subscription) that come from peers of the subscription's type,
     /// in arrival order. RustDDS matches endpoints whatever their types, so samples of a peer of another type
-    /// are dropped here (the graph warned when it matched); samples that do not decode are dropped with a
-    /// warning that names the expected type. Nothing stops the stream but the subscription ending.
+    /// are dropped here (the graph warned when it matched); samples that do not decode are dropped and counted
+    /// (a warning names the expected type, once per topic). Nothing stops the stream but the subscription
+    /// ending.
     pub(crate) fn accepted<'a, T: 'a>(
         &'a self,
         stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>> + 'a,
@@ -97,14 +98,33 @@ impl<M: 'static> Watched<Subscription<M>> {
                 Ok((m, info)) if self.accepts(&info) => Some((m, info)),
                 Ok(_) => None,
                 Err(e) => {
-                    tracing::warn!(
-                        %topic, %expected, error = %e,
-                        "dropped a message that does not decode as {expected}; publish {expected} on this topic"
-                    );
+                    // the transport does not say who sent it
+                    self.graph.malformed().note(topic, expected, None, &e);
                     None
                 }
             }
         })
+    }
+}
+
+impl Watched<Subscription<crate::raw::RawMessage>> {
+    /// The samples of peers of the subscription's type, decoded as `M`, in arrival order: `Some` message, or
+    /// `None` for one that did not decode. Those are dropped, counted per publisher and logged once per
+    /// publisher (the participant's [`Malformed`](crate::malformed::Malformed) registry).
+    pub(crate) fn decoded<'a, M: crate::msg::RosMessage>(
+        &'a self,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = Option<(M, MessageInfo)>> + 'a {
+        self.accepted(self.async_stream_seed(crate::raw::RawSeed), topic, expected)
+            .map(move |(raw, info)| match raw.decode::<M>() {
+                Ok(m) => Some((m, info)),
+                Err(e) => {
+                    let who = format!("{:?}", info.publisher_gid());
+                    self.graph.malformed().note(topic, expected, Some(&who), &e);
+                    None
+                }
+            })
     }
 }
 

@@ -76,6 +76,8 @@ pub(crate) struct Graph {
     lost: tokio::sync::broadcast::Sender<GUID>,
     /// Bumped after every discovery event (an endpoint or participant found, matched or lost).
     changed: Arc<watch::Sender<u64>>,
+    /// What arrived that did not decode, from whom.
+    malformed: Arc<crate::malformed::Malformed>,
 }
 
 impl Default for Graph {
@@ -85,6 +87,7 @@ impl Default for Graph {
             participant: Default::default(),
             lost: tokio::sync::broadcast::channel(64).0,
             changed: Arc::new(watch::channel(0).0),
+            malformed: Default::default(),
         }
     }
 }
@@ -195,6 +198,11 @@ impl Graph {
             (Some((_, ours)), Some(theirs)) => *ours == theirs,
             _ => true,
         }
+    }
+
+    /// The participant's count of messages that did not decode.
+    pub(crate) fn malformed(&self) -> &crate::malformed::Malformed {
+        &self.malformed
     }
 
     /// Changes after every discovery event, so code waiting for something to appear on the graph can look

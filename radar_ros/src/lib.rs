@@ -126,8 +126,11 @@
 //!
 //! RustDDS matches a reader and a writer of one topic whatever their type names; ROS 2 does not. radar_ros
 //! checks the type each peer announces in discovery: a peer of another type is not counted (it does not
-//! activate an event), its samples are dropped, and a warning names both types. Malformed samples are
-//! dropped with a warning; the component keeps serving.
+//! activate an event), its samples are dropped, and a warning names both types. A message that does not
+//! decode as its topic's type (truncated, oversized, random bytes) is dropped and counted per topic and
+//! publisher ([`Radar::malformed_messages`], a response's `state.malformed`); each publisher is logged once
+//! per topic, so a peer flooding a slot with garbage neither stops the component nor floods the log, and valid
+//! messages on the same topic keep flowing.
 //!
 //! ## Discovery range
 //!
@@ -152,6 +155,7 @@ mod event;
 mod graph;
 mod lookup;
 mod macros;
+mod malformed;
 mod manager;
 mod manager_node;
 pub mod msg;
@@ -174,6 +178,7 @@ mod waiter;
 pub use departure::{Departure, LossCause};
 pub use error::{Error, Result, SlotError, Source};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
+pub use malformed::MalformedCount;
 pub use manager::ConnectionGuard;
 pub use manager_node::ManagerHandle;
 pub use names::ComponentName;

@@ -212,7 +212,7 @@ impl Radar {
                                 let _ = done.send((id, caller, r));
                             });
                         }
-                        Err(e) => tracing::warn!(error = %e, "malformed connect request dropped"),
+                        Err(e) => malformed(&radar, &fq, "connect", &e),
                     },
                     Some((id, caller, r)) = done_rx.recv() => {
                         let resp = match r {
@@ -243,7 +243,7 @@ impl Radar {
                                 tracing::warn!(error = ?e, "could not answer a disconnect request");
                             }
                         }
-                        Err(e) => tracing::warn!(error = %e, "malformed disconnect request dropped"),
+                        Err(e) => malformed(&radar, &fq, "disconnect", &e),
                     },
                     Some(r) = lists.next() => match r {
                         Ok((id, _)) => {
@@ -252,7 +252,7 @@ impl Radar {
                                 tracing::warn!(error = ?e, "could not answer a list request");
                             }
                         }
-                        Err(e) => tracing::warn!(error = %e, "malformed list request dropped"),
+                        Err(e) => malformed(&radar, &fq, "list", &e),
                     },
                     Ok(gone) = lost.recv() => {
                         let before = owned.len();
@@ -276,4 +276,19 @@ impl Radar {
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
     }
+}
+
+/// A service request that did not decode: dropped, counted (the transport does not say who sent it) and
+/// logged once per service.
+fn malformed(radar: &Radar, manager: &str, service: &str, e: &dyn std::fmt::Display) {
+    let topic = format!("{manager}/{service}");
+    let expected = format!("radar_msgs/srv/{}_Request", capitalized(service));
+    radar.graph().malformed().note(&topic, &expected, None, e);
+}
+
+fn capitalized(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }

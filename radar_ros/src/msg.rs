@@ -239,6 +239,8 @@ pub struct ResponseState {
     pub ignored_exits: u64,
     /// Whether a start is queued to run after the current run.
     pub start_queued: bool,
+    /// Slot messages that did not decode as their type, dropped (shown at the next state change).
+    pub malformed: u64,
 }
 ros_message!(ResponseState, "radar_msgs", "ResponseState");
 

@@ -345,6 +345,22 @@ impl Radar {
         self.manager.list()
     }
 
+    /// Messages this participant dropped because they did not decode as their topic's type (slot messages
+    /// of its responses, topic events' inputs, service requests of a served manager, payloads for
+    /// anonymous slots, filters and maps), counted per topic and publisher. Each publisher is logged once
+    /// per topic; the rest are only counted here (and in a response's `state`).
+    ///
+    /// ```no_run
+    /// # fn f(radar: radar_ros::Radar) {
+    /// for m in radar.malformed_messages() {
+    ///     eprintln!("{} message(s) on {} from {} (expected {})", m.count, m.topic, m.publisher, m.expected);
+    /// }
+    /// # }
+    /// ```
+    pub fn malformed_messages(&self) -> Vec<crate::malformed::MalformedCount> {
+        self.graph().malformed().counts()
+    }
+
     pub(crate) fn participant(&self) -> &Arc<Participant> {
         &self.participant
     }

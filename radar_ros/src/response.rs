@@ -33,6 +33,7 @@ use crate::{
     participant::Participant,
     qos::{signal_qos, state_qos},
     radar::Radar,
+    raw::RawMessage,
     refs::{AsResponse, ResponseRef},
     wait::Wait,
 };
@@ -405,11 +406,14 @@ impl Radar {
         let (g, sq) = (self.graph(), signal_qos());
         let (start_t, empty_t) = (R::Start::message_type_name(), Empty::message_type_name());
         let output_t = R::Output::message_type_name();
+        // slots are read as raw bodies and decoded here, so a message that does not decode is known by
+        // its publisher (counted, logged once per publisher)
         let start_sub =
-            subscription::<R::Start>(g, &mut node, &name.topic("start"), &start_t, &sq)?;
+            subscription::<RawMessage>(g, &mut node, &name.topic("start"), &start_t, &sq)?;
         let interrupt_sub =
-            subscription::<Empty>(g, &mut node, &name.topic("interrupt"), &empty_t, &sq)?;
-        let exit_sub = subscription::<Empty>(g, &mut node, &name.topic("exit"), &empty_t, &sq)?;
+            subscription::<RawMessage>(g, &mut node, &name.topic("interrupt"), &empty_t, &sq)?;
+        let exit_sub =
+            subscription::<RawMessage>(g, &mut node, &name.topic("exit"), &empty_t, &sq)?;
         let started = publisher::<R::Start>(g, &mut node, &name.topic("started"), &start_t, &sq)?;
         let interrupted =
             publisher::<Empty>(g, &mut node, &name.topic("interrupted"), &empty_t, &sq)?;
@@ -476,10 +480,10 @@ impl Radar {
 }
 
 /// The slot readers of a response.
-struct SlotReaders<P: RosMessage> {
-    start: Watched<ros2_client::Subscription<P>>,
-    interrupt: Watched<ros2_client::Subscription<Empty>>,
-    exit: Watched<ros2_client::Subscription<Empty>>,
+struct SlotReaders {
+    start: Watched<ros2_client::Subscription<RawMessage>>,
+    interrupt: Watched<ros2_client::Subscription<RawMessage>>,
+    exit: Watched<ros2_client::Subscription<RawMessage>>,
 }
 
 struct Io<R: Response> {
@@ -516,14 +520,18 @@ fn state_message<R: Response>(
         ignored_interrupts: c.ignored_interrupts,
         ignored_exits: c.ignored_exits,
         start_queued: m.start_queued(),
+        malformed: 0,
     }
 }
+
+/// How often a response republishes its state for malformed slot messages alone.
+const MALFORMED_REPORT_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
 
 async fn drive<R: Response>(
     response: Arc<Mutex<R>>,
     mut machine: ResponseMachine<R::Start, R::Output>,
     io: Io<R>,
-    slots: SlotReaders<R::Start>,
+    slots: SlotReaders,
     mut stop: tokio::sync::oneshot::Receiver<()>,
     participant: Arc<Participant>,
 ) {
@@ -540,15 +548,16 @@ async fn drive<R: Response>(
         interrupt: interrupt_sub,
         exit: exit_sub,
     } = &slots;
+    // `None`: a message that did not decode (counted)
     let starts = start_sub
-        .accepted(start_sub.async_stream(), &start_topic, &start_t)
-        .map(|(m, _)| Input::Start(m));
+        .decoded::<R::Start>(&start_topic, &start_t)
+        .map(|d| d.map(|(m, _)| Input::Start(m)));
     let interrupts = interrupt_sub
-        .accepted(interrupt_sub.async_stream(), &int_topic, &empty_t)
-        .map(|_| Input::Interrupt);
+        .decoded::<Empty>(&int_topic, &empty_t)
+        .map(|d| d.map(|_| Input::Interrupt));
     let exits = exit_sub
-        .accepted(exit_sub.async_stream(), &exit_topic, &empty_t)
-        .map(|_| Input::Exit);
+        .decoded::<Empty>(&exit_topic, &empty_t)
+        .map(|d| d.map(|_| Input::Exit));
     let mut signals = Box::pin(futures::stream::select(
         starts,
         futures::stream::select(interrupts, exits),
@@ -556,6 +565,8 @@ async fn drive<R: Response>(
 
     let mut current: Option<Slot<R::Output>> = None;
     let mut stop_requested = false;
+    let mut malformed: u64 = 0;
+    let mut last_malformed_report = std::time::Instant::now() - MALFORMED_REPORT_EVERY;
     loop {
         // Biased: the running slot is polled before any signal is taken, so a start behaviour that was just
         // begun runs up to its first await point before an interrupt can cancel it (`started` never announces
@@ -576,7 +587,16 @@ async fn drive<R: Response>(
                 machine.stop()
             }
             sig = signals.next() => match sig {
-                Some(input) => machine.handle(input),
+                Some(Some(input)) => machine.handle(input),
+                Some(None) => {
+                    malformed += 1;
+                    // shown at the next change; at most once a second for a flood of garbage alone
+                    if last_malformed_report.elapsed() < MALFORMED_REPORT_EVERY {
+                        continue;
+                    }
+                    last_malformed_report = std::time::Instant::now();
+                    Vec::new()
+                }
                 None => break,
             },
         };
@@ -625,7 +645,8 @@ async fn drive<R: Response>(
                 }
             }
         }
-        let st = state_message::<R>(&name, &machine);
+        let mut st = state_message::<R>(&name, &machine);
+        st.malformed = malformed;
         emit(&io.state_pub, "state", st.clone());
         io.state_tx.send_replace(st);
         if stop_requested && current.is_none() {

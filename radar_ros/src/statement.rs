@@ -159,12 +159,19 @@ impl Statement {
             }
         });
         let empty = ty == Empty::ros_type_name();
+        let graph = self.manager.graph().clone();
         let mut c = self.to(
             TargetSpec::Anon(Box::new(move |raw: RawMessage| {
-                let decoded = if empty { Ok(M::default()) } else { raw.decode::<M>() };
+                let decoded = if empty {
+                    Ok(M::default())
+                } else {
+                    raw.decode::<M>()
+                };
                 match decoded {
                     Ok(m) => f(m),
-                    Err(e) => tracing::warn!(%topic, error = %e, "anonymous slot: payload does not decode"),
+                    Err(e) => {
+                        graph.malformed().note(&topic, &ty, None, &e);
+                    }
                 }
             })),
             None,
@@ -229,10 +236,14 @@ impl ConnectionRequest {
             return self;
         }
         let topic = self.spec.source.topic().to_owned();
+        let graph = self.manager.graph().clone();
         self.spec.filter = Some(Arc::new(move |raw: &RawMessage| match raw.decode::<M>() {
             Ok(m) => f(&m),
             Err(e) => {
-                tracing::warn!(%topic, error = %e, "filter: payload does not decode; not delivered");
+                // not delivered
+                graph
+                    .malformed()
+                    .note(&topic, &M::ros_type_name(), None, &e);
                 false
             }
         }));
@@ -261,11 +272,16 @@ impl ConnectionRequest {
             return self;
         }
         let topic = self.spec.source.topic().to_owned();
+        let graph = self.manager.graph().clone();
         self.spec.mapped_type = Some(N::ros_type_name());
         self.spec.map = Some(Arc::new(move |raw: &RawMessage| {
             let m = raw
                 .decode::<M>()
-                .map_err(|e| tracing::warn!(%topic, error = %e, "map: payload does not decode; not delivered"))
+                .map_err(|e| {
+                    graph
+                        .malformed()
+                        .note(&topic, &M::ros_type_name(), None, &e)
+                })
                 .ok()?;
             RawMessage::encode(&f(m))
                 .map_err(|e| tracing::warn!(%topic, error = %e, "map: result does not encode; not delivered"))

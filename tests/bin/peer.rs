@@ -4,7 +4,10 @@
 //!   signal QoS), prints `matched`
 //!   once a publisher is matched, and stays until SIGTERM/SIGINT (then leaves the graph cleanly) or SIGKILL.
 //! - `radar_test_peer host`: hosts components as told on stdin, one command per line, answering `ok` (or
-//!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `publisher TOPIC` (an Empty
+//!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `echo NAME` (a response
+//!   whose start takes a std_msgs/msg/String and returns it), `manager NAME` (serves a connection manager
+//!   node), `malformed` (one line per count of dropped messages, `TOPIC PUBLISHER COUNT`, then `ok`),
+//!   `publisher TOPIC` (an Empty
 //!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-exit TOPIC`
 //!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
 //! - `radar_test_peer check-env`: creates a participant from the environment (ROS_DOMAIN_ID, ...) and prints
@@ -26,6 +29,7 @@ async fn main() {
                 .unwrap_or_else(|_| "error".into()),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(false)
         .try_init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let radar = match Radar::new() {
@@ -128,6 +132,7 @@ async fn host(radar: Radar) {
     use std::{collections::HashMap, io::Write};
     use tokio::io::{AsyncBufReadExt, BufReader};
     let mut responses = Vec::new();
+    let mut managers = Vec::new();
     let mut publishers: HashMap<String, radar_ros::SignalPublisher<Empty>> = HashMap::new();
     let mut lines = BufReader::new(tokio::io::stdin()).lines();
     let say = |s: &str| {
@@ -155,6 +160,32 @@ async fn host(radar: Radar) {
                     }
                     Err(e) => say(&format!("err {e}")),
                 }
+            }
+            ["echo", name] => {
+                let r = radar.spawn_response(
+                    name,
+                    radar_ros::FnResponse::new(|s: radar_ros::msg::StringMsg| async move { Ok(s) }),
+                );
+                match r {
+                    Ok(h) => {
+                        responses.push(h);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["manager", name] => match radar.serve_manager(name) {
+                Ok(m) => {
+                    managers.push(m);
+                    say("ok")
+                }
+                Err(e) => say(&format!("err {e}")),
+            },
+            ["malformed"] => {
+                for m in radar.malformed_messages() {
+                    say(&format!("{} {} {}", m.topic, m.publisher, m.count));
+                }
+                say("ok")
             }
             ["publisher", topic] => match radar.signal_publisher::<Empty>(topic) {
                 Ok(p) => {
@@ -186,6 +217,7 @@ async fn host(radar: Radar) {
     }
     // leaving cleanly: endpoints and participant dropped, so DDS peers hear the goodbye
     drop(publishers);
+    drop(managers);
     drop(responses);
     drop(radar);
     tokio::time::sleep(Duration::from_millis(100)).await;

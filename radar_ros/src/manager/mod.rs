@@ -174,6 +174,11 @@ impl Manager {
         }
     }
 
+    /// The participant's match graph (and its count of messages that did not decode).
+    pub(crate) fn graph(&self) -> &crate::graph::Graph {
+        self.participant.graph()
+    }
+
     /// Resolves at the next change of the table.
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
         self.changed.subscribe()
