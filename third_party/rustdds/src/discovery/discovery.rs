@@ -797,6 +797,8 @@ impl Discovery {
       );
       match self.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => (),
+        // RADAR patch 12: a signal (SIGSTOP/SIGCONT, a profiler, a debugger) interrupted the wait: wait again
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
         Err(e) => {
           error!("Failed in waiting of poll in discovery. {e:?}");
           return;
@@ -1159,6 +1161,32 @@ impl Discovery {
       self.sedp_receive_topic_data(Some(guid_prefix));
       self.sedp_receive_subscription(Some(guid_prefix));
       self.sedp_receive_publication(Some(guid_prefix));
+      // RADAR patch 13: a participant that was lost when its lease ran out (a hang, a network outage) and
+      // is back had its readers and writers kept in the attic, and `update_participant` has just put them
+      // back; match them again. (Their SEDP samples were read before, so no new ones come.)
+      let (readers, writers): (Vec<DiscoveredReaderData>, Vec<DiscoveredWriterData>) = {
+        let db = discovery_db_read(&self.discovery_db);
+        (
+          db.get_all_external_topic_readers()
+            .filter(|r| r.reader_proxy.remote_reader_guid.prefix == guid_prefix)
+            .cloned()
+            .collect(),
+          db.get_all_external_topic_writers()
+            .filter(|w| w.writer_proxy.remote_writer_guid.prefix == guid_prefix)
+            .cloned()
+            .collect(),
+        )
+      };
+      for discovered_reader_data in readers {
+        self.send_discovery_notification(DiscoveryNotificationType::ReaderUpdated {
+          discovered_reader_data,
+        });
+      }
+      for discovered_writer_data in writers {
+        self.send_discovery_notification(DiscoveryNotificationType::WriterUpdated {
+          discovered_writer_data,
+        });
+      }
       debug!("Participant rediscovery finished");
     }
   }

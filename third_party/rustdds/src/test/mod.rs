@@ -236,3 +236,77 @@ fn a_participant_dropped_right_after_writing_still_sends_the_sample_and_its_good
   Ok(())
 }
 
+
+/// RADAR patches 12 and 13: stopping the process (SIGSTOP) and continuing it (SIGCONT) interrupts the event
+/// loop's and discovery's waits (EINTR, even without a signal handler); they ended, and the participant was
+/// dead from then on. And a stop longer than the lease makes each participant declare the other lost; when
+/// they hear each other again their endpoints, kept in the attic, must be matched again. Both participants
+/// have a 200 ms lease; the process stops for 600 ms; a sample written after the SIGCONT arrives.
+#[test]
+fn a_participant_survives_its_process_being_stopped_and_continued() -> Result<()> {
+  let domain = test_domain_id(24);
+  let lease = Duration::from_millis(200);
+  let qos = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 10 })
+    .reliability(Reliability::Reliable {
+      max_blocking_time: Duration::from_secs(1).into(),
+    })
+    .durability(Durability::Volatile)
+    .build();
+  let writer_side = crate::DomainParticipantBuilder::new(domain)
+    .lease_duration(lease)
+    .build()?;
+  let topic = writer_side.create_topic(
+    "patch12".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let writer = writer_side
+    .create_publisher(&qos)?
+    .create_datawriter_no_key_cdr::<u32>(&topic, None)?;
+  let reader_side = crate::DomainParticipantBuilder::new(domain)
+    .lease_duration(lease)
+    .build()?;
+  let rtopic = reader_side.create_topic(
+    "patch12".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let mut reader = reader_side
+    .create_subscriber(&qos)?
+    .create_datareader_no_key_cdr::<u32>(&rtopic, None)?;
+  let mut receive = |want: u32| {
+    let t0 = std::time::Instant::now();
+    while t0.elapsed() < Duration::from_secs(3) {
+      if let Ok(Some(s)) = reader.take_next_sample() {
+        if *s.value() == want {
+          return true;
+        }
+      }
+      thread::sleep(Duration::from_millis(5));
+    }
+    false
+  };
+  let mut delivered = false;
+  for _ in 0..100 {
+    writer.write(1, None)?;
+    if receive(1) {
+      delivered = true;
+      break;
+    }
+  }
+  assert!(delivered, "matched and delivering before the stop");
+  // stop this whole process for 600 ms, three leases (a shell continues it)
+  let pid = std::process::id();
+  let status = std::process::Command::new("sh")
+    .arg("-c")
+    .arg(format!("kill -STOP {pid}; sleep 0.6; kill -CONT {pid}"))
+    .status()?;
+  assert!(status.success());
+  thread::sleep(Duration::from_millis(400)); // lost each other, heard each other again
+  writer.write(2, None)?;
+  assert!(receive(2), "the participants still deliver after SIGSTOP and SIGCONT");
+  Ok(())
+}
