@@ -387,8 +387,21 @@ impl HostPeer {
 
     /// [`HostPeer::start`] with its `RUST_LOG` set to `log`.
     pub async fn start_logging(peer: &str, domain: u16, log: &str) -> HostPeer {
+        Self::start_on(None, peer, domain, log).await
+    }
+
+    /// [`HostPeer::start_logging`] on `host` (another network namespace), if given.
+    pub async fn start_on(host: Option<&NetHost>, peer: &str, domain: u16, log: &str) -> HostPeer {
         use tokio::io::AsyncBufReadExt;
-        let mut child = tokio::process::Command::new(peer)
+        let mut cmd = match host {
+            Some(h) => {
+                let mut c = tokio::process::Command::new("nsenter");
+                c.arg(format!("--net=/proc/{}/ns/net", h.pid)).arg(peer);
+                c
+            }
+            None => tokio::process::Command::new(peer),
+        };
+        let mut child = cmd
             .arg("host")
             .env("ROS_DOMAIN_ID", domain.to_string())
             .env("RUST_LOG", log)
@@ -485,5 +498,153 @@ impl HostPeer {
             .await
             .expect("the peer exits in time")
             .expect("wait")
+    }
+}
+
+/// A network namespace standing in for another machine: lo plus whatever link joins it to the other host.
+/// It lives as long as this value (a `sleep` process holds it).
+pub struct NetHost {
+    holder: std::process::Child,
+    /// The holder's pid: `nsenter --net=/proc/PID/ns/net` runs a program on this host.
+    pub pid: u32,
+    /// Its address on the link.
+    pub addr: String,
+}
+
+impl NetHost {
+    fn new(addr: &str) -> NetHost {
+        let holder = std::process::Command::new("unshare")
+            .args(["--net", "--", "sleep", "3600"])
+            .spawn()
+            .expect("unshare (util-linux) makes a network namespace: the tests run as root in isolated.sh");
+        let h = NetHost {
+            pid: holder.id(),
+            holder,
+            addr: addr.to_owned(),
+        };
+        // the namespace exists once unshare has exec'd sleep: wait for its ns to differ from ours
+        let mine = std::fs::read_link("/proc/self/ns/net").unwrap();
+        for _ in 0..500 {
+            match std::fs::read_link(format!("/proc/{}/ns/net", h.pid)) {
+                Ok(ns) if ns != mine => break,
+                _ => std::thread::sleep(Duration::from_millis(2)),
+            }
+        }
+        h.ip(&["link", "set", "lo", "up"]);
+        h
+    }
+
+    /// Runs `ip ARGS` on this host, panicking if it fails.
+    pub fn ip(&self, args: &[&str]) {
+        let out = std::process::Command::new("nsenter")
+            .arg(format!("--net=/proc/{}/ns/net", self.pid))
+            .arg("ip")
+            .args(args)
+            .output()
+            .expect("nsenter and ip (iproute2)");
+        assert!(
+            out.status.success(),
+            "ip {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+
+    /// Gives interface `dev` this host's address, brings it up with multicast, and routes multicast
+    /// (DDS discovery) through it.
+    fn configure(&self, dev: &str) {
+        self.ip(&["addr", "add", &format!("{}/24", self.addr), "dev", dev]);
+        self.ip(&["link", "set", dev, "up"]);
+        self.ip(&["link", "set", dev, "multicast", "on"]);
+        self.ip(&["route", "add", "224.0.0.0/4", "dev", dev]);
+    }
+}
+
+impl Drop for NetHost {
+    fn drop(&mut self) {
+        let _ = self.holder.kill();
+        let _ = self.holder.wait();
+    }
+}
+
+/// Two hosts joined by one link: a veth pair (a clean cable), or a user-space relay that drops, delays
+/// and reorders packets (see `bin/netem.rs`).
+pub struct TwoHosts {
+    /// The first host.
+    pub a: NetHost,
+    /// The second host.
+    pub b: NetHost,
+    relay: Option<std::process::Child>,
+}
+
+impl TwoHosts {
+    /// Hosts 10.88.0.1 and 10.88.0.2 on a veth pair.
+    pub fn cable() -> TwoHosts {
+        let (a, b) = (NetHost::new("10.88.0.1"), NetHost::new("10.88.0.2"));
+        let out = std::process::Command::new("ip")
+            .args([
+                "link",
+                "add",
+                "h0",
+                "netns",
+                &a.pid.to_string(),
+                "type",
+                "veth",
+                "peer",
+                "name",
+                "h1",
+            ])
+            .args(["netns", &b.pid.to_string()])
+            .output()
+            .expect("ip (iproute2)");
+        assert!(
+            out.status.success(),
+            "veth: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        a.configure("h0");
+        b.configure("h1");
+        TwoHosts { a, b, relay: None }
+    }
+
+    /// Hosts 10.89.0.1 and 10.89.0.2 joined by `radar_test_netem` (path `netem`): each packet is lost with
+    /// probability `loss`, else delivered after `delay_ms` plus up to `jitter_ms`.
+    pub fn lossy(netem: &str, loss: f64, delay_ms: f64, jitter_ms: f64, seed: u64) -> TwoHosts {
+        use std::io::BufRead;
+        let (a, b) = (NetHost::new("10.89.0.1"), NetHost::new("10.89.0.2"));
+        let mut relay = std::process::Command::new(netem)
+            .args([
+                a.pid.to_string(),
+                b.pid.to_string(),
+                loss.to_string(),
+                delay_ms.to_string(),
+                jitter_ms.to_string(),
+                seed.to_string(),
+            ])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("start radar_test_netem");
+        let mut first = String::new();
+        std::io::BufReader::new(relay.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        assert_eq!(first.trim(), "ready", "radar_test_netem did not start");
+        a.configure("tun0");
+        b.configure("tun0");
+        TwoHosts {
+            a,
+            b,
+            relay: Some(relay),
+        }
+    }
+}
+
+impl Drop for TwoHosts {
+    fn drop(&mut self) {
+        if let Some(mut r) = self.relay.take() {
+            drop(r.stdin.take()); // it prints its counts and ends
+            let _ = r.wait();
+        }
     }
 }

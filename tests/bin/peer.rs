@@ -7,6 +7,16 @@
 //!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `echo NAME` (a response
 //!   whose start takes a std_msgs/msg/String and returns it), `manager NAME` (serves a connection manager
 //!   node), `malformed` (one line per count of dropped messages, `TOPIC PUBLISHER COUNT`, then `ok`),
+//!   `whenever SOURCE RESPONSE` (finds RESPONSE by name, arms `whenever SOURCE start RESPONSE` for an Empty
+//!   SOURCE topic; answers `found_ms N`), `wait-state NAME EXITS MS` (until response NAME's state shows EXITS
+//!   runs ended), `publisher-i64 TOPIC` and `emit-seq TOPIC N PERIOD_US` (N std_msgs/msg/Int64 stamped with
+//!   the send time in ns), `collect-arm TOPIC` (a whenever with an anonymous slot recording those) and
+//!   `collect-wait N MS` (answers `n=.. in_order=.. p50_us=.. p95_us=.. max_us=..`),
+//!   `event NAME PERIOD_MS` (an event triggering every PERIOD_MS with a std_msgs/msg/Int64 payload: the
+//!   emission time in ns), `echo-i64 NAME` (a response whose start takes an Int64 and returns it),
+//!   `connect-via MANAGER SOURCE TARGET` (a whenever made through a manager node's service, owned by this
+//!   process; answers `id N`), `once SOURCE RESPONSE` (an embedded `once SOURCE start RESPONSE` for an Int64
+//!   SOURCE; answers `before_ns T`, the time just before arming),
 //!   `publisher TOPIC` (an Empty
 //!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-exit TOPIC`
 //!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
@@ -133,6 +143,12 @@ async fn host(radar: Radar) {
     use tokio::io::{AsyncBufReadExt, BufReader};
     let mut responses = Vec::new();
     let mut managers = Vec::new();
+    let mut guards = Vec::new();
+    let mut events = Vec::new();
+    let mut clients = Vec::new();
+    let mut i64_publishers: HashMap<String, radar_ros::SignalPublisher<radar_ros::msg::Int64>> =
+        HashMap::new();
+    let collected: std::sync::Arc<std::sync::Mutex<Vec<(i64, i64)>>> = Default::default();
     let mut publishers: HashMap<String, radar_ros::SignalPublisher<Empty>> = HashMap::new();
     let mut lines = BufReader::new(tokio::io::stdin()).lines();
     let say = |s: &str| {
@@ -181,6 +197,192 @@ async fn host(radar: Radar) {
                 }
                 Err(e) => say(&format!("err {e}")),
             },
+            ["whenever", source, response] => {
+                let t0 = std::time::Instant::now();
+                let armed = async {
+                    let r = radar
+                        .response(response)
+                        .timeout(Duration::from_secs(30))
+                        .await?;
+                    let found = t0.elapsed();
+                    let g = radar
+                        .whenever(radar_ros::Signal::new(*source, "std_msgs/msg/Empty"))
+                        .start(&r)
+                        .timeout(Duration::from_secs(30))
+                        .await?;
+                    Ok::<_, radar_ros::Error>((found, g))
+                };
+                match armed.await {
+                    Ok((found, g)) => {
+                        guards.push(g);
+                        say(&format!("found_ms {}", found.as_millis()));
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["wait-state", name, exits, ms] => {
+                let (exits, ms): (u64, u64) = (exits.parse().unwrap(), ms.parse().unwrap());
+                let waited = async {
+                    let s = radar.state_subscription::<radar_ros::msg::ResponseState>(&format!(
+                        "/{name}/state"
+                    ))?;
+                    loop {
+                        if s.recv().await?.exits >= exits {
+                            return Ok::<_, radar_ros::Error>(());
+                        }
+                    }
+                };
+                match tokio::time::timeout(Duration::from_millis(ms), waited).await {
+                    Ok(Ok(())) => say("ok"),
+                    Ok(Err(e)) => say(&format!("err {e}")),
+                    Err(_) => say(&format!(
+                        "err {name} did not reach {exits} exits in {ms} ms"
+                    )),
+                }
+            }
+            ["publisher-i64", topic] => {
+                match radar.signal_publisher::<radar_ros::msg::Int64>(topic) {
+                    Ok(p) => {
+                        i64_publishers.insert(topic.to_string(), p);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["emit-seq", topic, n, period_us] => {
+                let (n, period): (u64, u64) = (n.parse().unwrap(), period_us.parse().unwrap());
+                let Some(p) = i64_publishers.get(*topic) else {
+                    say(&format!("err no publisher on {topic}"));
+                    continue;
+                };
+                let sent = async {
+                    p.wait_for_subscribers(1)
+                        .timeout(Duration::from_secs(30))
+                        .await?;
+                    for _ in 0..n {
+                        p.publish(radar_ros::msg::Int64 { data: now_ns() })?;
+                        tokio::time::sleep(Duration::from_micros(period)).await;
+                    }
+                    Ok::<_, radar_ros::Error>(())
+                };
+                match sent.await {
+                    Ok(()) => say("ok"),
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["collect-arm", topic] => {
+                let rec = collected.clone();
+                let armed = radar
+                    .whenever(radar_ros::Signal::new(*topic, "std_msgs/msg/Int64"))
+                    .call(move |m: radar_ros::msg::Int64| {
+                        rec.lock().unwrap().push((m.data, now_ns()));
+                    })
+                    .timeout(Duration::from_secs(30))
+                    .await;
+                match armed {
+                    Ok(g) => {
+                        guards.push(g);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["collect-wait", n, ms] => {
+                let (n, ms): (usize, u64) = (n.parse().unwrap(), ms.parse().unwrap());
+                let deadline = tokio::time::Instant::now() + Duration::from_millis(ms);
+                while collected.lock().unwrap().len() < n && tokio::time::Instant::now() < deadline
+                {
+                    tokio::time::sleep(Duration::from_millis(5)).await;
+                }
+                let got = collected.lock().unwrap().clone();
+                let in_order = got.windows(2).all(|w| w[0].0 < w[1].0);
+                let mut lat: Vec<i64> = got.iter().map(|(s, r)| (r - s) / 1000).collect();
+                lat.sort();
+                let q = |f: f64| {
+                    lat.get(((lat.len() as f64 - 1.0) * f).round() as usize)
+                        .copied()
+                        .unwrap_or(-1)
+                };
+                say(&format!(
+                    "n={} in_order={} p50_us={} p95_us={} max_us={}",
+                    got.len(),
+                    in_order,
+                    q(0.5),
+                    q(0.95),
+                    lat.last().copied().unwrap_or(-1)
+                ));
+                say("ok")
+            }
+            ["event", name, period_ms] => {
+                let period = Duration::from_millis(period_ms.parse().unwrap());
+                match radar.spawn_event(name, Stamped { period }) {
+                    Ok(e) => {
+                        events.push(e);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["connect-via", manager, source, target] => {
+                let client = radar_test_util::ManagerClient::new(
+                    &radar,
+                    manager,
+                    &format!("peer_{}_{}", std::process::id(), clients.len()),
+                )
+                .await;
+                let req = radar_ros::msg::ConnectRequest {
+                    kind: radar_ros::msg::Connection::WHENEVER,
+                    source: source.to_string(),
+                    target: target.to_string(),
+                    ..Default::default()
+                };
+                let resp =
+                    radar_test_util::call_once(&client.connect, req, Duration::from_secs(20)).await;
+                clients.push(client);
+                if resp.ok {
+                    say(&format!("id {}", resp.id));
+                    say("ok")
+                } else {
+                    say(&format!("err {}", resp.error))
+                }
+            }
+            ["once", source, response] => {
+                let r = radar
+                    .response(response)
+                    .timeout(Duration::from_secs(30))
+                    .await;
+                // a signal emitted before this moment is stale for the statement, whenever it is armed
+                let before = now_ns();
+                let armed = async {
+                    radar
+                        .once(radar_ros::Signal::new(*source, "std_msgs/msg/Int64"))
+                        .start(&r?)
+                        .timeout(Duration::from_secs(30))
+                        .await
+                };
+                match armed.await {
+                    Ok(g) => {
+                        say(&format!("before_ns {before}"));
+                        guards.push(g);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["echo-i64", name] => {
+                let r = radar.spawn_response(
+                    name,
+                    radar_ros::FnResponse::new(|m: radar_ros::msg::Int64| async move { Ok(m) }),
+                );
+                match r {
+                    Ok(h) => {
+                        responses.push(h);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
             ["malformed"] => {
                 for m in radar.malformed_messages() {
                     say(&format!("{} {} {}", m.topic, m.publisher, m.count));
@@ -216,9 +418,33 @@ async fn host(radar: Radar) {
         }
     }
     // leaving cleanly: endpoints and participant dropped, so DDS peers hear the goodbye
+    drop(guards);
+    drop(clients);
+    drop(events);
+    drop(i64_publishers);
     drop(publishers);
     drop(managers);
     drop(responses);
     drop(radar);
     tokio::time::sleep(Duration::from_millis(100)).await;
+}
+
+fn now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as i64)
+        .unwrap_or(0)
+}
+
+/// An event that triggers every `period` while active, carrying its emission time (ns since the epoch).
+struct Stamped {
+    period: Duration,
+}
+
+impl radar_ros::Event for Stamped {
+    type Payload = radar_ros::msg::Int64;
+    async fn check(&mut self) -> Result<radar_ros::msg::Int64, radar_ros::SlotError> {
+        tokio::time::sleep(self.period).await;
+        Ok(radar_ros::msg::Int64 { data: now_ns() })
+    }
 }
