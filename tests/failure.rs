@@ -255,13 +255,17 @@ async fn the_until_window_closes_when_its_response_is_killed() {
         s.state == ResponseState::STATE_RUNNING
     })
     .await;
+    let t0 = Instant::now();
     peer.signal("KILL");
     let d = c
         .departed()
         .timeout_or_panic(Duration::from_secs(10))
         .await
         .expect("the until lives until dropped");
-    println!("until's response killed: {d}");
+    println!(
+        "until's response killed: window closed after {:?}: {d}",
+        t0.elapsed()
+    );
     assert_eq!(d.component(), "/nav");
 
     // a new `nav` runs, started by someone else: this statement's `until` must not interrupt it
