@@ -11,6 +11,23 @@ use radar_ros::{
 use radar_test_util::{eventually, radar, ResponseProbe, Seen, DISCOVERY};
 use serde::{Deserialize, Serialize};
 
+/// The first state message on `state` that satisfies `want` (within [`DISCOVERY`]).
+async fn first_state(
+    state: &radar_ros::SignalSubscription<ResponseState>,
+    want: impl Fn(&ResponseState) -> bool,
+) -> ResponseState {
+    tokio::time::timeout(DISCOVERY, async {
+        loop {
+            let s = state.recv().await.unwrap();
+            if want(&s) {
+                return s;
+            }
+        }
+    })
+    .await
+    .expect("the state in time")
+}
+
 fn noop() -> FnResponse<Empty, Empty> {
     FnResponse::new(|_: Empty| async { Ok(Empty::default()) })
 }
@@ -187,16 +204,7 @@ async fn a_slot_published_with_the_wrong_type_does_not_match_and_changes_nothing
         "the Int32 publisher is not counted"
     );
     right.publish(Empty::default()).unwrap();
-    let st = tokio::time::timeout(DISCOVERY, async {
-        loop {
-            let s = state.recv().await.unwrap();
-            if s.exits == 1 {
-                return s;
-            }
-        }
-    })
-    .await
-    .unwrap();
+    let st = first_state(&state, |s| s.exits == 1).await;
     assert_eq!(st.starts, 1);
 }
 
@@ -387,16 +395,7 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
     let state = a
         .state_subscription::<ResponseState>("/echo/state")
         .unwrap();
-    let st = tokio::time::timeout(DISCOVERY, async {
-        loop {
-            let s = state.recv().await.unwrap();
-            if s.exits == 1 {
-                return s;
-            }
-        }
-    })
-    .await
-    .unwrap();
+    let st = first_state(&state, |s| s.exits == 1).await;
     assert_eq!(st.malformed, sent_start + sent_empty, "{st:?}");
     assert_eq!(st.starts, 1);
     let counts = host.query("malformed").await;

@@ -135,18 +135,32 @@ async fn a_signal_sent_just_before_the_component_exits_is_delivered_not_reported
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_connection_whose_target_is_killed_is_lost_and_a_new_target_of_that_name_gets_nothing() {
-    let radar = radar(39);
+/// `whenever /go/triggered start arm` (re-arming if asked), `arm` in a peer process, `/go` published here.
+async fn go_starts_arm_in_a_peer(
+    domain: u16,
+    rearm: bool,
+) -> (
+    radar_ros::Radar,
+    radar_ros::SignalPublisher<Empty>,
+    HostPeer,
+    radar_ros::ConnectionGuard,
+) {
+    let radar = radar(domain);
     let go = radar.signal_publisher::<Empty>("/go/triggered").unwrap();
-    let mut peer = HostPeer::start(PEER, 39).await;
+    let mut peer = HostPeer::start(PEER, domain).await;
     peer.run("response arm 0").await;
     let arm = radar.response("arm").timeout(DISCOVERY).await.unwrap();
-    let c = radar
-        .whenever(empty("/go/triggered"))
-        .start(&arm)
-        .await
-        .unwrap();
+    let mut request = radar.whenever(empty("/go/triggered")).start(&arm);
+    if rearm {
+        request = request.rearm();
+    }
+    let c = request.await.unwrap();
+    (radar, go, peer, c)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_connection_whose_target_is_killed_is_lost_and_a_new_target_of_that_name_gets_nothing() {
+    let (radar, go, peer, c) = go_starts_arm_in_a_peer(39, false).await;
     go.publish(Empty::default()).unwrap();
     eventually_state(&radar, "arm", "one start", |s| s.exits == 1).await;
     assert_eq!(c.link(), Some(Link::Armed));
@@ -192,17 +206,7 @@ async fn a_connection_whose_target_is_killed_is_lost_and_a_new_target_of_that_na
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_rearming_connection_delivers_to_the_new_target_only_what_comes_after_it() {
-    let radar = radar(47);
-    let go = radar.signal_publisher::<Empty>("/go/triggered").unwrap();
-    let mut peer = HostPeer::start(PEER, 47).await;
-    peer.run("response arm 0").await;
-    let arm = radar.response("arm").timeout(DISCOVERY).await.unwrap();
-    let c = radar
-        .whenever(empty("/go/triggered"))
-        .start(&arm)
-        .rearm()
-        .await
-        .unwrap();
+    let (radar, go, mut peer, c) = go_starts_arm_in_a_peer(47, true).await;
     // clean exit this time
     peer.send("quit").await;
     let d = c

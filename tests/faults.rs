@@ -160,6 +160,10 @@ async fn one_round(observer: &radar_ros::Radar, victim: Victim, fault: Fault, at
         .timeout(DISCOVERY)
         .await
         .unwrap();
+    // and the responses' writers have matched the observer's readers (nothing is sent to a reader a writer
+    // has not matched)
+    r.run("wait-peers arm 0 1").await;
+    r.run("wait-peers q 0 1").await;
     let recorder = {
         let seen = seen.clone();
         tokio::spawn(async move {

@@ -17,6 +17,8 @@
 //!   `connect-via MANAGER SOURCE TARGET` (a whenever made through a manager node's service, owned by this
 //!   process; answers `id N`), `once SOURCE RESPONSE` (an embedded `once SOURCE start RESPONSE` for an Int64
 //!   SOURCE; answers `before_ns T`, the time just before arming),
+//!   `wait-peers NAME SLOT_PUBLISHERS SIGNAL_SUBSCRIBERS` (until response NAME's slots and signals are
+//!   matched both ways with that many peers each, see `ResponseHandle::wait_for_peers`),
 //!   `publisher TOPIC` (an Empty
 //!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-exit TOPIC`
 //!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
@@ -141,7 +143,7 @@ async fn subscribe<M: radar_ros::msg::RosMessage>(
 async fn host(radar: Radar) {
     use std::{collections::HashMap, io::Write};
     use tokio::io::{AsyncBufReadExt, BufReader};
-    let mut responses = Vec::new();
+    let mut responses: HashMap<String, radar_ros::ResponseHandle> = HashMap::new();
     let mut managers = Vec::new();
     let mut guards = Vec::new();
     let mut events = Vec::new();
@@ -171,7 +173,7 @@ async fn host(radar: Radar) {
                 );
                 match r {
                     Ok(h) => {
-                        responses.push(h);
+                        responses.insert(name.to_string(), h);
                         say("ok")
                     }
                     Err(e) => say(&format!("err {e}")),
@@ -184,7 +186,7 @@ async fn host(radar: Radar) {
                 );
                 match r {
                     Ok(h) => {
-                        responses.push(h);
+                        responses.insert(name.to_string(), h);
                         say("ok")
                     }
                     Err(e) => say(&format!("err {e}")),
@@ -377,9 +379,27 @@ async fn host(radar: Radar) {
                 );
                 match r {
                     Ok(h) => {
-                        responses.push(h);
+                        responses.insert(name.to_string(), h);
                         say("ok")
                     }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["wait-peers", name, slot_publishers, signal_subscribers] => {
+                let Some(h) = responses.get(*name) else {
+                    say(&format!("err no response {name} here"));
+                    continue;
+                };
+                let (p, sub): (usize, usize) = (
+                    slot_publishers.parse().unwrap(),
+                    signal_subscribers.parse().unwrap(),
+                );
+                match h
+                    .wait_for_peers(p, sub)
+                    .timeout(Duration::from_secs(30))
+                    .await
+                {
+                    Ok(()) => say("ok"),
                     Err(e) => say(&format!("err {e}")),
                 }
             }

@@ -54,6 +54,12 @@ enum Target {
     Anon(u64),
 }
 
+/// One end of connections whose peers come and go.
+enum End {
+    Source(Key),
+    Target(Target),
+}
+
 /// A statement's target, as given.
 pub(crate) enum TargetSpec {
     Slot(Slot),
@@ -311,9 +317,9 @@ impl Manager {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let source = k.clone();
-        let mut matched = sub.matched_watch();
+        let end = End::Source(k.clone());
+        let mut presence = Presence::new(sub.matched_watch());
         tokio::spawn(async move {
-            let mut presence = Presence::new(*matched.borrow_and_update());
             loop {
                 tokio::select! {
                     biased;
@@ -324,25 +330,10 @@ impl Manager {
                         }
                         _ => break,
                     },
-                    c = matched.changed() => {
-                        if c.is_err() {
-                            break;
-                        }
-                        let n = *matched.borrow_and_update();
-                        if presence.count(n) == Some(true) {
-                            if let Some(m) = me.upgrade() {
-                                m.source_back(&source);
-                            }
-                        }
-                    }
-                    _ = presence.deadline() => {
-                        if presence.expired(sub.publishers()) {
-                            match me.upgrade() {
-                                Some(m) => m.source_lost(&source, sub.departure()),
-                                None => break,
-                            }
-                        }
-                    }
+                    change = presence.next() => match (change, me.upgrade()) {
+                        (Some(c), Some(m)) => m.peers_changed(&end, c, || sub.departure()),
+                        _ => break,
+                    },
                 }
             }
         });
@@ -358,73 +349,56 @@ impl Manager {
     ) -> tokio::sync::oneshot::Sender<()> {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
-        let target = Target::Slot(k.clone());
-        let mut matched = publisher.matched_watch();
+        let end = End::Target(Target::Slot(k.clone()));
+        let mut presence = Presence::new(publisher.matched_watch());
         tokio::spawn(async move {
-            let mut presence = Presence::new(*matched.borrow_and_update());
             loop {
                 tokio::select! {
                     biased;
                     _ = &mut stop_rx => break,
-                    c = matched.changed() => {
-                        if c.is_err() {
-                            break;
-                        }
-                        let n = *matched.borrow_and_update();
-                        if presence.count(n) == Some(true) {
-                            match me.upgrade() {
-                                Some(m) => m.target_back(&target),
-                                None => break,
-                            }
-                        }
-                    }
-                    _ = presence.deadline() => {
-                        if presence.expired(publisher.subscribers()) {
-                            match me.upgrade() {
-                                Some(m) => m.target_lost(&target, publisher.departure()),
-                                None => break,
-                            }
-                        }
-                    }
+                    change = presence.next() => match (change, me.upgrade()) {
+                        (Some(c), Some(m)) => m.peers_changed(&end, c, || publisher.departure()),
+                        _ => break,
+                    },
                 }
             }
         });
         stop
     }
 
-    /// Every publisher of `source` has gone: tell the table, and record who left on the connections it changed.
-    fn source_lost(&self, source: &Key, d: Departure) {
+    fn peers_changed(&self, end: &End, change: Change, departure: impl FnOnce() -> Departure) {
+        match change {
+            Change::Gone => self.peers_gone(end, departure()),
+            Change::Back => self.peers_back(end),
+        }
+    }
+
+    /// Every peer of a source (its publishers) or of a target (its subscribers) has gone: tell the table, and
+    /// record who left on the connections it changed.
+    fn peers_gone(&self, end: &End, d: Departure) {
         let mut st = self.state.lock().unwrap();
-        let ids = st.table.source_lost(source);
+        let ids = match end {
+            End::Source(k) => st.table.source_lost(k),
+            End::Target(t) => st.table.target_lost(t),
+        };
         self.note_departure(&mut st, &ids, &d);
         self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
     }
 
-    fn source_back(&self, source: &Key) {
+    /// A peer of a source or target that had gone is back.
+    fn peers_back(&self, end: &End) {
         let mut st = self.state.lock().unwrap();
-        let ids = st.table.source_back(source);
-        self.note_return(&mut st, &ids, &source.topic);
-        drop(st);
-        self.changed.send_modify(|g| *g += 1);
-    }
-
-    fn target_lost(&self, target: &Target, d: Departure) {
-        let mut st = self.state.lock().unwrap();
-        let ids = st.table.target_lost(target);
-        self.note_departure(&mut st, &ids, &d);
-        self.prune(&mut st);
-        drop(st);
-        self.changed.send_modify(|g| *g += 1);
-    }
-
-    fn target_back(&self, target: &Target) {
-        let mut st = self.state.lock().unwrap();
-        let ids = st.table.target_back(target, now_ns());
-        let topic = match target {
-            Target::Slot(k) => k.topic.clone(),
-            Target::Anon(_) => String::new(),
+        let (ids, topic) = match end {
+            End::Source(k) => (st.table.source_back(k), k.topic.clone()),
+            End::Target(t) => (
+                st.table.target_back(t, now_ns()),
+                match t {
+                    Target::Slot(k) => k.topic.clone(),
+                    Target::Anon(_) => String::new(),
+                },
+            ),
         };
         self.note_return(&mut st, &ids, &topic);
         drop(st);
@@ -662,8 +636,17 @@ impl Manager {
     }
 }
 
+/// What a relay or outlet tells the table about its peers.
+enum Change {
+    /// All of them have been gone for [`GONE_AFTER`].
+    Gone,
+    /// One is back after that.
+    Back,
+}
+
 /// Whether a source or slot has peers, with the grace of [`GONE_AFTER`] before it counts as gone.
 struct Presence {
+    matched: tokio::sync::watch::Receiver<usize>,
     /// No peer since this moment (not yet reported).
     empty_since: Option<tokio::time::Instant>,
     /// Reported gone (and not back since).
@@ -671,41 +654,42 @@ struct Presence {
 }
 
 impl Presence {
-    fn new(count: usize) -> Presence {
+    fn new(mut matched: tokio::sync::watch::Receiver<usize>) -> Presence {
+        let empty = *matched.borrow_and_update() == 0;
         Presence {
-            empty_since: (count == 0).then(tokio::time::Instant::now),
+            matched,
+            empty_since: empty.then(tokio::time::Instant::now),
             gone: false,
         }
     }
 
-    /// The count changed to `n`: `Some(true)` if the peers are back after being reported gone.
-    fn count(&mut self, n: usize) -> Option<bool> {
-        if n == 0 {
-            if !self.gone && self.empty_since.is_none() {
-                self.empty_since = Some(tokio::time::Instant::now());
+    /// The next change worth telling; `None` once the endpoint is gone. Cancel-safe: the state lives here.
+    async fn next(&mut self) -> Option<Change> {
+        loop {
+            let deadline = self.empty_since.map(|t| t + GONE_AFTER);
+            tokio::select! {
+                c = self.matched.changed() => {
+                    c.ok()?;
+                    if *self.matched.borrow_and_update() == 0 {
+                        if !self.gone && self.empty_since.is_none() {
+                            self.empty_since = Some(tokio::time::Instant::now());
+                        }
+                    } else {
+                        self.empty_since = None;
+                        if std::mem::take(&mut self.gone) {
+                            return Some(Change::Back);
+                        }
+                    }
+                }
+                _ = async { tokio::time::sleep_until(deadline.expect("guarded")).await }, if deadline.is_some() => {
+                    self.empty_since = None;
+                    if *self.matched.borrow() == 0 {
+                        self.gone = true;
+                        return Some(Change::Gone);
+                    }
+                }
             }
-            None
-        } else {
-            self.empty_since = None;
-            std::mem::take(&mut self.gone).then_some(true)
         }
-    }
-
-    /// When the grace runs out (never, if there are peers or the loss was reported).
-    async fn deadline(&self) {
-        match self.empty_since {
-            Some(t) => tokio::time::sleep_until(t + GONE_AFTER).await,
-            None => std::future::pending().await,
-        }
-    }
-
-    /// The grace ran out; `n` peers now. Whether to report the loss.
-    fn expired(&mut self, n: usize) -> bool {
-        self.empty_since = None;
-        if n == 0 {
-            self.gone = true;
-        }
-        self.gone
     }
 }
 
