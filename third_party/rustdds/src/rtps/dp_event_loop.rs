@@ -751,7 +751,11 @@ impl DPEventLoop {
       if let Some(dpd) = db.find_participant_proxy(participant_guid_prefix) {
         dpd
       } else {
-        error!("Participant was updated, but DB does not have it. Strange.");
+        // RADAR patch 14: not an error. Discovery removed the participant (its lease ran out, or it said
+        // goodbye) between sending this update and our handling it; seen after a SIGSTOP/SIGCONT, when the
+        // lease check and the first announcements heard again race. The removal was sent after this update
+        // and does the rest.
+        debug!("Participant {participant_guid_prefix:?} was updated, then removed before the update was handled");
         return;
       };
 
