@@ -205,6 +205,55 @@ impl Graph {
         &self.malformed
     }
 
+    /// Waits (at most `within`) until a local writer has matched a reader on DDS topic `dds_topic` in the
+    /// participant of `peer`; true if it has. A service reply must wait for this: a fresh client process
+    /// (`ros2 service call`) may send its request before our reply writer has matched its reply reader, and
+    /// a volatile writer sends nothing to a reader it has not matched. Returns at once for a peer in this
+    /// participant (local matches are made when the endpoints are).
+    pub(crate) async fn wait_reader_of(
+        &self,
+        dds_topic: &str,
+        peer: GUID,
+        within: std::time::Duration,
+    ) -> bool {
+        let mut changes = self.changes();
+        let deadline = tokio::time::Instant::now() + within;
+        loop {
+            if self.has_reader_of(dds_topic, peer) {
+                return true;
+            }
+            if tokio::time::timeout_at(deadline, changes.changed())
+                .await
+                .map_or(true, |r| r.is_err())
+            {
+                return self.has_reader_of(dds_topic, peer);
+            }
+        }
+    }
+
+    fn has_reader_of(&self, dds_topic: &str, peer: GUID) -> bool {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return true; // shutting down: nothing to wait for
+        };
+        if rustdds::RTPSEntity::guid(&p).prefix == peer.prefix {
+            return true;
+        }
+        let candidates: BTreeSet<GUID> = {
+            let t = self.table.lock().unwrap();
+            t.writers
+                .values()
+                .flat_map(|e| e.peers.iter())
+                .filter(|g| g.prefix == peer.prefix)
+                .copied()
+                .collect()
+        };
+        !candidates.is_empty()
+            && p.discovered_readers().iter().any(|r| {
+                candidates.contains(&r.reader_proxy.remote_reader_guid)
+                    && r.subscription_topic_data.topic_name() == dds_topic
+            })
+    }
+
     /// Changes after every discovery event, so code waiting for something to appear on the graph can look
     /// again at once instead of polling.
     pub(crate) fn changes(&self) -> watch::Receiver<u64> {

@@ -16,7 +16,7 @@
 //! for a radar_ros program, see [`crate::DEFAULT_LEASE`]; ~20 s for an rclpy one).
 //! Errors come back as `ok = false` with a message saying what to do.
 
-use std::{collections::HashMap, time::Duration};
+use std::{collections::HashMap, sync::Arc, time::Duration};
 
 use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
@@ -146,6 +146,7 @@ impl Radar {
                 q.clone(),
             )
             .map_err(|e| Error::transport(format!("service {fq}/connect"), e))?;
+        let connect_srv = Arc::new(connect_srv);
         let disconnect_srv = node
             .create_server::<DisconnectRequest, DisconnectResponse>(
                 ServiceMapping::Enhanced,
@@ -155,6 +156,7 @@ impl Radar {
                 q.clone(),
             )
             .map_err(|e| Error::transport(format!("service {fq}/disconnect"), e))?;
+        let disconnect_srv = Arc::new(disconnect_srv);
         let list_srv = node
             .create_server::<ListRequest, ListResponse>(
                 ServiceMapping::Enhanced,
@@ -164,6 +166,7 @@ impl Radar {
                 q,
             )
             .map_err(|e| Error::transport(format!("service {fq}/list"), e))?;
+        let list_srv = Arc::new(list_srv);
         let list_pub = typed_publisher::<ConnectionList>(
             self.graph(),
             &mut node,
@@ -223,9 +226,7 @@ impl Radar {
                             }
                             Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
                         };
-                        if let Err(e) = connect_srv.async_send_response(id, resp).await {
-                            tracing::warn!(error = ?e, "could not answer a connect request");
-                        }
+                        reply(&connect_srv, &radar, &fq, "connect", id, resp);
                     }
                     Some(r) = disconnects.next() => match r {
                         Ok((id, req)) => {
@@ -239,18 +240,14 @@ impl Radar {
                                     ),
                                 },
                             };
-                            if let Err(e) = disconnect_srv.async_send_response(id, resp).await {
-                                tracing::warn!(error = ?e, "could not answer a disconnect request");
-                            }
+                            reply(&disconnect_srv, &radar, &fq, "disconnect", id, resp);
                         }
                         Err(e) => malformed(&radar, &fq, "disconnect", &e),
                     },
                     Some(r) = lists.next() => match r {
                         Ok((id, _)) => {
                             let resp = ListResponse { connections: manager.list() };
-                            if let Err(e) = list_srv.async_send_response(id, resp).await {
-                                tracing::warn!(error = ?e, "could not answer a list request");
-                            }
+                            reply(&list_srv, &radar, &fq, "list", id, resp);
                         }
                         Err(e) => malformed(&radar, &fq, "list", &e),
                     },
@@ -291,4 +288,35 @@ fn capitalized(s: &str) -> String {
     c.next()
         .map(|f| f.to_uppercase().chain(c).collect())
         .unwrap_or_default()
+}
+
+/// How long a reply waits for the caller's reply reader to be matched.
+const REPLY_WAIT: Duration = Duration::from_secs(2);
+
+/// Answers request `id` of service `service` once our reply writer has matched the caller's reply reader
+/// (at most [`REPLY_WAIT`]), in a task of its own so other requests are not held up. A fresh client process
+/// (`ros2 service call`, rclpy's `call_async` right after `wait_for_service`) can send its request before
+/// our side has matched its reply reader, and a reply sent then goes nowhere.
+fn reply<Req, Resp>(
+    srv: &Arc<ros2_client::Server<Req, Resp>>,
+    radar: &Radar,
+    manager: &str,
+    service: &'static str,
+    id: ros2_client::RmwRequestId,
+    resp: Resp,
+) where
+    Req: ros2_client::Message + Send + Sync + 'static,
+    Resp: ros2_client::Message + Send + Sync + 'static,
+{
+    let (srv, graph) = (srv.clone(), radar.graph().clone());
+    let topic = format!("rr{manager}/{service}Reply");
+    tokio::spawn(async move {
+        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+        if !graph.wait_reader_of(&topic, caller, REPLY_WAIT).await {
+            tracing::debug!(%topic, "answering before the caller's reply reader is matched");
+        }
+        if let Err(e) = srv.async_send_response(id, resp).await {
+            tracing::warn!(error = ?e, %service, "could not answer a request");
+        }
+    });
 }
