@@ -16,16 +16,23 @@ async fn first_state(
     state: &radar_ros::SignalSubscription<ResponseState>,
     want: impl Fn(&ResponseState) -> bool,
 ) -> ResponseState {
-    tokio::time::timeout(DISCOVERY, async {
+    let last = std::sync::Mutex::new(None);
+    let found = tokio::time::timeout(DISCOVERY, async {
         loop {
             let s = state.recv().await.unwrap();
             if want(&s) {
                 return s;
             }
+            *last.lock().unwrap() = Some(s);
         }
     })
-    .await
-    .expect("the state in time")
+    .await;
+    found.unwrap_or_else(|_| {
+        panic!(
+            "no such state in time; the last was {:?}",
+            last.lock().unwrap()
+        )
+    })
 }
 
 fn noop() -> FnResponse<Empty, Empty> {
@@ -382,7 +389,15 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
     let probe =
         ResponseProbe::<radar_ros::msg::StringMsg, radar_ros::msg::StringMsg>::connect(&a, "/echo")
             .await;
+    // the response's signal writers have matched the probe's readers too (a volatile writer sends only to
+    // readers it has matched)
+    host.run("wait-peers echo 0 1").await;
+    let state = a
+        .state_subscription::<ResponseState>("/echo/state")
+        .unwrap();
     probe.start.publish("fine".into()).unwrap();
+    // the run, as the response's state tells it, then as its signals do
+    let st = first_state(&state, |s| s.exits == 1).await;
     assert_eq!(
         probe.signals(2, Duration::from_secs(10)).await,
         [Seen::Started("fine".into()), Seen::Exited("fine".into())]
@@ -392,10 +407,6 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
     assert!(listed.connections.is_empty());
 
     // counted per topic and publisher
-    let state = a
-        .state_subscription::<ResponseState>("/echo/state")
-        .unwrap();
-    let st = first_state(&state, |s| s.exits == 1).await;
     assert_eq!(st.malformed, sent_start + sent_empty, "{st:?}");
     assert_eq!(st.starts, 1);
     let counts = host.query("malformed").await;

@@ -161,7 +161,12 @@ async fn one_round(observer: &radar_ros::Radar, victim: Victim, fault: Fault, at
         .await
         .unwrap();
     // and the responses' writers have matched the observer's readers (nothing is sent to a reader a writer
-    // has not matched)
+    // has not matched); `wait-peers` waits for a subscriber on each signal, so the observer has one on each
+    let _others: Vec<_> = ["/arm/interrupted", "/q/interrupted"]
+        .iter()
+        .map(|t| observer.signal_subscription::<Empty>(t).unwrap())
+        .collect();
+    let _q_exited = observer.signal_subscription::<Int64>("/q/exited").unwrap();
     r.run("wait-peers arm 0 1").await;
     r.run("wait-peers q 0 1").await;
     let recorder = {

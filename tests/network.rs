@@ -50,12 +50,14 @@ async fn components_on_two_hosts_find_each_other_by_name_and_connect_across() {
          after {:?}",
         t0.elapsed()
     );
-    for _ in 0..3 {
-        b.run("emit /bell/triggered").await; // host B's signal, through host A's connection, to B's arm
-        a.run("emit /door/triggered").await; // and the other way round
+    for n in 1..=3 {
+        // host B's signal, through host A's connection, to B's arm; and the other way round. One run at a
+        // time: a response ignores a start while it runs
+        b.run("emit /bell/triggered").await;
+        a.run("emit /door/triggered").await;
+        b.run(&format!("wait-state arm {n} 10000")).await;
+        a.run(&format!("wait-state lamp {n} 10000")).await;
     }
-    b.run("wait-state arm 3 15000").await;
-    a.run("wait-state lamp 3 15000").await;
     for mut p in [a, b] {
         p.send("quit").await;
         assert!(p.wait().await.success());

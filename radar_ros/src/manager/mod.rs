@@ -785,7 +785,11 @@ impl ConnectionGuard {
     /// let c = radar.whenever(&tick).start(&go).await?;
     /// let d = c.departed().await.expect("a whenever lives until dropped");
     /// eprintln!("{d}");                       // which component left, and why
-    /// assert_eq!(c.link(), Some(Link::TargetLost));
+    /// match c.link() {
+    ///     Some(Link::WaitingForSource) => eprintln!("tick will be heard again when it is back"),
+    ///     Some(Link::TargetLost) => eprintln!("go is gone: make the statement again when it is back"),
+    ///     other => eprintln!("{other:?}"),
+    /// }
     /// # Ok(()) }
     /// ```
     pub fn link(&self) -> Option<Link> {
