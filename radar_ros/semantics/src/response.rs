@@ -21,6 +21,13 @@
 //!    with `exited`.
 //! 8. The exit slot may ask for a restart: after `exited`, start again with the same payload. A queued or
 //!    restart-policy start takes precedence over it (the newer payload wins; a run starts either way).
+//! 9. A response that announces on acceptance ([`Announce::WhenAccepted`]: an action goal, which the server
+//!    may reject) runs the start behaviour without `started`; `started` goes out when the behaviour reports
+//!    [`Input::Accepted`], at most once per run and only while `Running`. A run that ends before that (a
+//!    rejected goal, an interrupt or exit before acceptance) ends with `exited` and no `started`.
+//! 10. A slot may hand over the run's output before it ends ([`Input::Output`]: the result of a goal that is
+//!    being cancelled arrives in the interrupt slot): `exited` carries the last output handed over or returned
+//!    in this run, else the default.
 
 /// Where a response is in its lifecycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,6 +85,16 @@ impl StartPolicy {
             StartPolicy::QueueOne => "queue_one",
         }
     }
+}
+
+/// When a response emits `started` (rule 9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Announce {
+    /// As the start behaviour begins (rule 1). The default.
+    #[default]
+    OnStart,
+    /// When the start behaviour reports [`Input::Accepted`] (an action server accepted the goal).
+    WhenAccepted,
 }
 
 /// Why the exit slot is running.
@@ -144,6 +161,10 @@ pub enum Input<P, O> {
     InterruptEnded(Option<String>),
     /// The exit slot finished with a decision, or panicked (`Err(message)`).
     ExitEnded(Result<ExitAction, String>),
+    /// The start behaviour has really begun (rule 9: emits `started` under [`Announce::WhenAccepted`]).
+    Accepted,
+    /// A slot handed over the run's output before ending (rule 10).
+    Output(O),
 }
 
 /// Something the runtime must do, in the order given.
@@ -235,6 +256,9 @@ pub struct ResponseMachine<P, O> {
     counters: Counters,
     /// Set by [`ResponseMachine::stop`]: no new runs, no restarts.
     stopping: bool,
+    announce: Announce,
+    /// Whether this run's `started` has gone out.
+    announced: bool,
 }
 
 impl<P: Clone, O: Default> ResponseMachine<P, O> {
@@ -249,7 +273,29 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             last_exit: None,
             counters: Counters::default(),
             stopping: false,
+            announce: Announce::OnStart,
+            announced: false,
         }
+    }
+
+    /// A new, idle machine that emits `started` as `announce` says (rule 9).
+    ///
+    /// ```
+    /// use radar_semantics::response::{Announce, Effect, Input, ResponseMachine, StartPolicy};
+    /// let mut r = ResponseMachine::<u32, ()>::with_announce(StartPolicy::Ignore, Announce::WhenAccepted);
+    /// assert_eq!(r.handle(Input::Start(7)), vec![Effect::RunStart(7)]);
+    /// assert_eq!(r.handle(Input::Accepted), vec![Effect::EmitStarted(7)]);
+    /// assert_eq!(r.handle(Input::Accepted), vec![]); // once per run
+    /// ```
+    pub fn with_announce(policy: StartPolicy, announce: Announce) -> Self {
+        let mut m = Self::new(policy);
+        m.announce = announce;
+        m
+    }
+
+    /// When `started` is emitted.
+    pub fn announce(&self) -> Announce {
+        self.announce
     }
 
     /// The current phase.
@@ -378,6 +424,15 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
                     self.begin(p, &mut fx);
                 }
             }
+            (Phase::Running, Input::Accepted) if !self.announced => {
+                self.announced = true;
+                if let Some(p) = &self.current {
+                    fx.push(Effect::EmitStarted(p.clone()));
+                }
+            }
+            (_, Input::Accepted) => {}
+            (Phase::Idle, Input::Output(_)) => {}
+            (_, Input::Output(o)) => self.output = Some(o),
             // A completion that does not belong to the current phase cannot come from a correct runtime
             // (it cancels the start behaviour before moving on); ignoring it keeps the machine consistent.
             (_, Input::StartEnded(_) | Input::InterruptEnded(_) | Input::ExitEnded(_)) => {}
@@ -390,7 +445,10 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         self.phase = Phase::Running;
         self.output = None;
         self.current = Some(p.clone());
-        fx.push(Effect::EmitStarted(p.clone()));
+        self.announced = self.announce == Announce::OnStart;
+        if self.announced {
+            fx.push(Effect::EmitStarted(p.clone()));
+        }
         fx.push(Effect::RunStart(p));
     }
 
@@ -720,5 +778,86 @@ mod tests {
             .handle(Input::StartEnded(StartEnd::Returned(String::new())))
             .is_empty());
         assert_eq!(m.phase(), Phase::Idle);
+    }
+
+    fn announcing(policy: StartPolicy) -> M {
+        let mut m = M::with_announce(policy, Announce::WhenAccepted);
+        assert_eq!(m.handle(Input::Start(7)), vec![RunStart(7)]);
+        m
+    }
+
+    #[test]
+    fn rule9_started_goes_out_on_acceptance_once_per_run() {
+        let mut m = announcing(StartPolicy::Ignore);
+        assert_eq!(m.phase(), Phase::Running);
+        assert_eq!(m.handle(Input::Accepted), vec![EmitStarted(7)]);
+        assert_eq!(m.handle(Input::Accepted), vec![]);
+        m.handle(Input::StartEnded(StartEnd::Returned("r".into())));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Restart))),
+            vec![EmitExited("r".into()), RunStart(7)]
+        );
+        assert_eq!(
+            m.handle(Input::Accepted),
+            vec![EmitStarted(7)],
+            "a new run announces again"
+        );
+    }
+
+    #[test]
+    fn rule9_a_run_ended_before_acceptance_exits_without_started() {
+        // rejected
+        let mut m = announcing(StartPolicy::Ignore);
+        m.handle(Input::StartEnded(StartEnd::Failed("rejected".into())));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited(String::new())]
+        );
+        assert_eq!(
+            m.handle(Input::Accepted),
+            vec![],
+            "nothing runs: no started"
+        );
+        // interrupted before acceptance: interrupted and exited, and a late acceptance says nothing
+        let mut m = announcing(StartPolicy::Ignore);
+        assert_eq!(
+            m.handle(Input::Interrupt),
+            vec![CancelStart, EmitInterrupted, RunInterrupt]
+        );
+        assert_eq!(m.handle(Input::Accepted), vec![]);
+        m.handle(Input::InterruptEnded(None));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited(String::new())]
+        );
+        assert_eq!(m.counters().interrupts, 1);
+    }
+
+    #[test]
+    fn rule10_an_output_handed_over_while_interrupting_is_carried_by_exited() {
+        let mut m = announcing(StartPolicy::Ignore);
+        m.handle(Input::Accepted);
+        m.handle(Input::Interrupt);
+        assert_eq!(m.handle(Input::Output("partial".into())), vec![]);
+        m.handle(Input::InterruptEnded(None));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited("partial".into())]
+        );
+        // a returned output replaces one handed over; an output while idle is dropped
+        let mut m = running(StartPolicy::Ignore);
+        m.handle(Input::Output("early".into()));
+        m.handle(Input::StartEnded(StartEnd::Returned("final".into())));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited("final".into())]
+        );
+        m.handle(Input::Output("stray".into()));
+        m.handle(Input::Start(1));
+        m.handle(Input::StartEnded(StartEnd::Failed("x".into())));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited(String::new())]
+        );
     }
 }

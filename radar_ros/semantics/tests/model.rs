@@ -5,7 +5,9 @@
 use proptest::prelude::*;
 use radar_semantics::{
     connection::{ConnectionTable, Kind, Link, ResponseView, Until},
-    response::{Effect, ExitAction, Input, Phase, ResponseMachine, StartEnd, StartPolicy},
+    response::{
+        Announce, Effect, ExitAction, Input, Phase, ResponseMachine, StartEnd, StartPolicy,
+    },
 };
 
 // ------------------------------------------------------------------------------------------- responses
@@ -18,10 +20,14 @@ enum Wire {
     Exited,
 }
 
-/// The response rules 1-8, as the crate documentation states them.
+/// The response rules 1-10, as the crate documentation states them.
 #[derive(Debug)]
 struct ResponseModel {
     policy: StartPolicy,
+    /// Rule 9: `started` on acceptance instead of at once.
+    on_accept: bool,
+    /// Whether this run has said `started`.
+    announced: bool,
     phase: Phase,
     payload: Option<u8>,
     queued: Option<u8>,
@@ -38,9 +44,11 @@ struct ResponseModel {
 }
 
 impl ResponseModel {
-    fn new(policy: StartPolicy) -> Self {
+    fn new(policy: StartPolicy, on_accept: bool) -> Self {
         ResponseModel {
             policy,
+            on_accept,
+            announced: false,
             phase: Phase::Idle,
             payload: None,
             queued: None,
@@ -57,12 +65,15 @@ impl ResponseModel {
         }
     }
 
-    /// Rule 1: started, then the run.
+    /// Rule 1: started, then the run (rule 9: started waits for acceptance).
     fn begin(&mut self, p: u8, wire: &mut Vec<Wire>) {
         self.starts += 1;
         self.phase = Phase::Running;
         self.payload = Some(p);
-        wire.push(Wire::Started(p));
+        self.announced = !self.on_accept;
+        if self.announced {
+            wire.push(Wire::Started(p));
+        }
     }
 
     /// Rule 3: interrupted as the interrupt slot begins.
@@ -75,6 +86,15 @@ impl ResponseModel {
     fn input(&mut self, i: &Input<u8, ()>) -> Vec<Wire> {
         let mut wire = Vec::new();
         match i {
+            // rule 9: once per run, while running
+            Input::Accepted => {
+                if self.phase == Phase::Running && !self.announced {
+                    self.announced = true;
+                    wire.push(Wire::Started(self.payload.expect("a run has a payload")));
+                }
+            }
+            // rule 10: only what exited carries changes (not seen on this wire)
+            Input::Output(()) => {}
             Input::Start(p) => {
                 if self.stopping {
                     self.ignored_starts += 1;
@@ -157,6 +177,10 @@ enum Step {
     Exit,
     /// The running slot finishes: 0 normally, 1 with an error (start) or a restart (exit), 2 by panicking.
     Finish(u8),
+    /// The start behaviour reports acceptance (rule 9).
+    Accept,
+    /// A slot hands over the output (rule 10).
+    Output,
 }
 
 fn step() -> impl Strategy<Value = Step> {
@@ -165,6 +189,8 @@ fn step() -> impl Strategy<Value = Step> {
         2 => Just(Step::Interrupt),
         1 => Just(Step::Exit),
         5 => (0u8..3).prop_map(Step::Finish),
+        2 => Just(Step::Accept),
+        1 => Just(Step::Output),
     ]
 }
 
@@ -204,13 +230,17 @@ proptest! {
     #[test]
     fn the_response_machine_follows_the_documented_rules(
         policy in policy(),
+        on_accept in any::<bool>(),
         steps in prop::collection::vec(step(), 0..60),
         stop_at in prop::option::of(0usize..60),
     ) {
-        let mut m = ResponseMachine::<u8, ()>::new(policy);
-        let mut model = ResponseModel::new(policy);
+        let announce = if on_accept { Announce::WhenAccepted } else { Announce::OnStart };
+        let mut m = ResponseMachine::<u8, ()>::with_announce(policy, announce);
+        let mut model = ResponseModel::new(policy, on_accept);
         let mut slot = Slot::None;
-        let mut open_runs = 0i64;
+        // runs begun, `started` and `exited` seen
+        let (mut runs, mut started, mut exited) = (0u64, 0u64, 0u64);
+        let mut started_this_run = 0;
         for (k, s) in steps.iter().enumerate() {
             let (fx, expected) = if stop_at == Some(k) {
                 (m.stop(), model.stop())
@@ -219,6 +249,8 @@ proptest! {
                     Step::Start(p) => Input::Start(*p),
                     Step::Interrupt => Input::Interrupt,
                     Step::Exit => Input::Exit,
+                    Step::Accept => Input::Accepted,
+                    Step::Output => Input::Output(()),
                     Step::Finish(how) => match slot {
                         Slot::None => continue,
                         Slot::Start => Input::StartEnded(match how {
@@ -241,22 +273,39 @@ proptest! {
             // the runtime's view: which slot runs after these effects
             for e in &fx {
                 match e {
-                    Effect::RunStart(_) => { prop_assert_eq!(slot, Slot::None, "a start while a slot runs"); slot = Slot::Start }
+                    Effect::RunStart(_) => {
+                        prop_assert_eq!(slot, Slot::None, "a start while a slot runs");
+                        slot = Slot::Start;
+                        runs += 1;
+                        // under rule 1 `started` came just before the run it announces
+                        started_this_run = if on_accept { 0 } else { 1 };
+                    }
                     Effect::CancelStart => { prop_assert_eq!(slot, Slot::Start); slot = Slot::None }
                     Effect::RunInterrupt => { prop_assert_eq!(slot, Slot::None); slot = Slot::Interrupt }
                     Effect::RunExit(_) => {
                         prop_assert!(slot == Slot::None || slot == Slot::Start || slot == Slot::Interrupt);
                         slot = Slot::Exit
                     }
-                    Effect::EmitStarted(_) => open_runs += 1,
+                    Effect::EmitStarted(_) => {
+                        started += 1;
+                        if on_accept {
+                            prop_assert_eq!(slot, Slot::Start, "started on acceptance only while the run runs");
+                            started_this_run += 1;
+                        }
+                        prop_assert!(started_this_run <= 1, "one started per run (rule 9)");
+                    }
                     Effect::EmitExited(_) => {
                         prop_assert_eq!(slot, Slot::Exit, "exited only after the exit slot (rule 7)");
                         slot = Slot::None;
-                        open_runs -= 1;
+                        exited += 1;
                     }
                     _ => {}
                 }
-                prop_assert!((0..=1).contains(&open_runs), "one run at a time");
+            }
+            prop_assert!(runs - exited <= 1, "one run at a time");
+            prop_assert!(started <= runs);
+            if !on_accept {
+                prop_assert_eq!(started, runs, "rule 1: every run says started");
             }
             prop_assert_eq!(m.phase(), model.phase);
             let c = m.counters();
