@@ -1,7 +1,8 @@
-//! Helpers shared by the examples: a timeline printer and log setup.
+//! Helpers shared by the examples: a timeline printer, log setup, and the behaviours the examples share.
 
 use std::time::Instant;
 
+pub mod fibonacci;
 pub mod listing1;
 
 /// Prints timestamped lines, `[  2.003 s] what`, relative to when it was created.

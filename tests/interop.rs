@@ -6,8 +6,6 @@
 //! 33-34.
 
 use std::{
-    path::PathBuf,
-    process::Stdio,
     sync::{atomic::Ordering, Arc, Mutex},
     time::Duration,
 };
@@ -16,148 +14,9 @@ use radar_ros::{
     msg::{ConnectionList, Empty, StringMsg},
     FnResponse, Radar, TimerEvent,
 };
-use radar_test_util::{counter, eventually, radar};
-use serde_json::Value;
-use tokio::io::{AsyncBufReadExt, BufReader, Lines};
+use radar_test_util::{counter, eventually, radar, Py};
 
 const T: Duration = Duration::from_secs(20);
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_owned()
-}
-
-/// The venv's interpreter. Missing venv: fail, saying how to build it.
-fn python() -> PathBuf {
-    let venv = std::env::var_os("RADAR_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("target/ros2-venv"));
-    let py = venv.join("bin/python");
-    assert!(
-        py.exists(),
-        "the rclpy venv is missing at {}: run tests/python_env.sh (tests/isolated.sh runs it before the \
-         tests; see its output for why it failed)",
-        venv.display()
-    );
-    py
-}
-
-/// A Python process whose stdout is JSON lines (or plain lines from the examples).
-struct Py {
-    child: tokio::process::Child,
-    lines: Lines<BufReader<tokio::process::ChildStdout>>,
-    /// Its stdin: a script that waits for the test (`sys.stdin.readline()`) goes on at [`Py::proceed`].
-    stdin: tokio::process::ChildStdin,
-    what: String,
-}
-
-impl Py {
-    fn start(domain: u16, script: &str, args: &[&str]) -> Py {
-        let mut child = tokio::process::Command::new(python())
-            .arg(repo().join(script))
-            .args(args)
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-            .env("PYTHONUNBUFFERED", "1")
-            .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE")
-            .stdout(Stdio::piped())
-            .stdin(Stdio::piped())
-            .kill_on_drop(true)
-            .spawn()
-            .expect("start the venv's python");
-        let lines = BufReader::new(child.stdout.take().unwrap()).lines();
-        let stdin = child.stdin.take().unwrap();
-        Py {
-            child,
-            lines,
-            stdin,
-            what: format!("{script} {}", args.join(" ")),
-        }
-    }
-
-    /// Lets a script waiting on its stdin go on.
-    async fn proceed(&mut self) {
-        use tokio::io::AsyncWriteExt;
-        self.stdin
-            .write_all(b"go\n")
-            .await
-            .expect("the script reads its stdin");
-        self.stdin.flush().await.unwrap();
-    }
-
-    /// Starts one of `examples/python/` and waits until it says it is up.
-    async fn example(domain: u16, script: &str, args: &[&str]) -> Py {
-        let mut py = Py::start(domain, &format!("examples/python/{script}"), args);
-        py.expect_line("up").await;
-        py
-    }
-
-    fn interop(domain: u16, args: &[&str]) -> Py {
-        Py::start(domain, "tests/python/interop.py", args)
-    }
-
-    async fn line(&mut self) -> String {
-        match tokio::time::timeout(T, self.lines.next_line()).await {
-            Ok(Ok(Some(l))) => l,
-            Ok(Ok(None)) => {
-                let status = self.child.wait().await;
-                panic!(
-                    "{} ended ({status:?}) before printing what was expected; its stderr is above",
-                    self.what
-                )
-            }
-            Ok(Err(e)) => panic!("{}: unreadable output: {e}", self.what),
-            Err(_) => panic!("{}: nothing printed for {T:?}", self.what),
-        }
-    }
-
-    async fn json(&mut self) -> Value {
-        let l = self.line().await;
-        serde_json::from_str(&l).unwrap_or_else(|e| panic!("{}: not JSON ({e}): {l}", self.what))
-    }
-
-    /// The next JSON line that has `key`.
-    async fn json_with(&mut self, key: &str) -> Value {
-        loop {
-            let v = self.json().await;
-            if v.get(key).is_some() {
-                return v;
-            }
-        }
-    }
-
-    /// Reads lines until one is `want`, for at most [`T`]; returns the lines before it.
-    async fn expect_line(&mut self, want: &str) -> Vec<String> {
-        let mut before = Vec::new();
-        let found = tokio::time::timeout(T, async {
-            loop {
-                let l = self.line().await;
-                if l == want {
-                    return;
-                }
-                before.push(l);
-            }
-        })
-        .await;
-        assert!(
-            found.is_ok(),
-            "{}: no line {want:?} within {T:?}; last lines: {:?}",
-            self.what,
-            &before[before.len().saturating_sub(5)..]
-        );
-        before
-    }
-
-    async fn succeeds(mut self) {
-        let status = tokio::time::timeout(T, self.child.wait())
-            .await
-            .unwrap_or_else(|_| panic!("{} did not end", self.what))
-            .unwrap();
-        assert!(status.success(), "{} failed: {status}", self.what);
-    }
-}
 
 fn slow_response(r: &Radar, name: &str) -> radar_ros::ResponseHandle {
     r.spawn_response(

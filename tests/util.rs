@@ -5,7 +5,10 @@
 //! parallel. The suite runs inside `tests/isolated.sh` (a private network namespace), so DDS multicast never
 //! leaves the machine; [`radar`] refuses to run outside it.
 
-use std::time::Duration;
+use std::{path::PathBuf, process::Stdio, time::Duration};
+
+use serde_json::Value;
+use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
 use radar_ros::{
     msg::{Empty, ResponseState, RosMessage},
@@ -646,5 +649,160 @@ impl Drop for TwoHosts {
             drop(r.stdin.take()); // it prints its counts and ends
             let _ = r.wait();
         }
+    }
+}
+
+// ------------------------------------------------------------------------------------------------ rclpy
+
+/// How long a Python process may stay silent when a line is expected.
+pub const PY_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// The repository's root.
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_owned()
+}
+
+/// The venv's interpreter. Missing venv: fail, saying how to build it.
+pub fn python() -> PathBuf {
+    let venv = std::env::var_os("RADAR_VENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join("target/ros2-venv"));
+    let py = venv.join("bin/python");
+    assert!(
+        py.exists(),
+        "the rclpy venv is missing at {}: run tests/python_env.sh (tests/isolated.sh runs it before the \
+         tests; see its output for why it failed)",
+        venv.display()
+    );
+    py
+}
+
+/// A Python process (the rclpy venv's interpreter, Fast DDS) whose stdout is JSON lines (or plain lines from the
+/// examples), killed when dropped.
+pub struct Py {
+    child: tokio::process::Child,
+    lines: Lines<BufReader<tokio::process::ChildStdout>>,
+    /// Its stdin: a script that waits for the test (`sys.stdin.readline()`) goes on at [`Py::proceed`].
+    stdin: tokio::process::ChildStdin,
+    what: String,
+}
+
+impl Py {
+    pub fn start(domain: u16, script: &str, args: &[&str]) -> Py {
+        Py::start_with_env(domain, script, args, &[])
+    }
+
+    /// [`Py::start`] with more environment variables.
+    pub fn start_with_env(domain: u16, script: &str, args: &[&str], env: &[(&str, &str)]) -> Py {
+        let mut child = tokio::process::Command::new(python())
+            .envs(env.iter().copied())
+            .arg(repo().join(script))
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+            .env("PYTHONUNBUFFERED", "1")
+            .env_remove("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .stdout(Stdio::piped())
+            .stdin(Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("start the venv's python");
+        let lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let stdin = child.stdin.take().unwrap();
+        Py {
+            child,
+            lines,
+            stdin,
+            what: format!("{script} {}", args.join(" ")),
+        }
+    }
+
+    /// Kills the process (SIGKILL) at once.
+    pub fn kill(&mut self) {
+        self.child.start_kill().expect("kill the python process");
+    }
+
+    /// Lets a script waiting on its stdin go on.
+    pub async fn proceed(&mut self) {
+        use tokio::io::AsyncWriteExt;
+        self.stdin
+            .write_all(b"go\n")
+            .await
+            .expect("the script reads its stdin");
+        self.stdin.flush().await.unwrap();
+    }
+
+    /// Starts one of `examples/python/` and waits until it says it is up.
+    pub async fn example(domain: u16, script: &str, args: &[&str]) -> Py {
+        let mut py = Py::start(domain, &format!("examples/python/{script}"), args);
+        py.expect_line("up").await;
+        py
+    }
+
+    pub fn interop(domain: u16, args: &[&str]) -> Py {
+        Py::start(domain, "tests/python/interop.py", args)
+    }
+
+    pub async fn line(&mut self) -> String {
+        match tokio::time::timeout(PY_TIMEOUT, self.lines.next_line()).await {
+            Ok(Ok(Some(l))) => l,
+            Ok(Ok(None)) => {
+                let status = self.child.wait().await;
+                panic!(
+                    "{} ended ({status:?}) before printing what was expected; its stderr is above",
+                    self.what
+                )
+            }
+            Ok(Err(e)) => panic!("{}: unreadable output: {e}", self.what),
+            Err(_) => panic!("{}: nothing printed for {PY_TIMEOUT:?}", self.what),
+        }
+    }
+
+    pub async fn json(&mut self) -> Value {
+        let l = self.line().await;
+        serde_json::from_str(&l).unwrap_or_else(|e| panic!("{}: not JSON ({e}): {l}", self.what))
+    }
+
+    /// The next JSON line that has `key`.
+    pub async fn json_with(&mut self, key: &str) -> Value {
+        loop {
+            let v = self.json().await;
+            if v.get(key).is_some() {
+                return v;
+            }
+        }
+    }
+
+    /// Reads lines until one is `want`, for at most [`PY_TIMEOUT`]; returns the lines before it.
+    pub async fn expect_line(&mut self, want: &str) -> Vec<String> {
+        let mut before = Vec::new();
+        let found = tokio::time::timeout(PY_TIMEOUT, async {
+            loop {
+                let l = self.line().await;
+                if l == want {
+                    return;
+                }
+                before.push(l);
+            }
+        })
+        .await;
+        assert!(
+            found.is_ok(),
+            "{}: no line {want:?} within {PY_TIMEOUT:?}; last lines: {:?}",
+            self.what,
+            &before[before.len().saturating_sub(5)..]
+        );
+        before
+    }
+
+    pub async fn succeeds(mut self) {
+        let status = tokio::time::timeout(PY_TIMEOUT, self.child.wait())
+            .await
+            .unwrap_or_else(|_| panic!("{} did not end", self.what))
+            .unwrap();
+        assert!(status.success(), "{} failed: {status}", self.what);
     }
 }

@@ -2,11 +2,12 @@
 //! counts, the filter for samples from peers of another type, and the task behind a component handle.
 
 use futures::{Stream, StreamExt};
-use ros2_client::{MessageInfo, MessageTypeName, Name, Node, Publisher, QosProfile, Subscription};
+use ros2_client::{MessageInfo, Name, Node, Publisher, QosProfile, Subscription};
 
 use crate::{
     error::{Error, Result},
     graph::Graph,
+    msg::TypeName,
 };
 
 /// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
@@ -148,14 +149,33 @@ pub(crate) fn topic_name(topic: &str) -> Result<Name> {
     })
 }
 
+/// The DDS topic for the absolute ROS `topic`. Made on the DDS participant directly rather than through
+/// `Node::create_topic`, which can name only `msg` types (not the `action` ones an action's parts have).
 fn topic(
-    node: &mut Node,
+    graph: &Graph,
     topic: &str,
-    ty: &MessageTypeName,
+    ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<ros2_client::dds::rustdds::Topic> {
-    node.create_topic(&topic_name(topic)?, ty.clone(), qos)
-        .map_err(|e| Error::transport(format!("topic {topic} ({})", ty.dds_msg_type()), e))
+    let name = topic_name(topic)?;
+    if !name.is_absolute() {
+        return Err(Error::InvalidName {
+            name: topic.to_owned(),
+            reason: "an endpoint's topic must be absolute here".into(),
+        });
+    }
+    let dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
+    let participant = graph
+        .domain_participant()
+        .ok_or_else(|| Error::Closed(format!("the DDS participant (creating topic {topic})")))?;
+    participant
+        .create_topic(
+            format!("rt{topic}"),
+            ty.dds.clone(),
+            &dds_qos,
+            ros2_client::dds::rustdds::TopicKind::NoKey,
+        )
+        .map_err(|e| Error::transport(format!("topic {topic} ({})", ty.dds), e))
 }
 
 /// Creates a publisher of `M` on the absolute `topic`, announced as type `ty` (the Rust type only has to
@@ -164,15 +184,15 @@ pub(crate) fn publisher<M: serde::Serialize>(
     graph: &Graph,
     node: &mut Node,
     topic_abs: &str,
-    ty: &MessageTypeName,
+    ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Publisher<M>>> {
-    let t = topic(node, topic_abs, ty, qos)?;
+    let t = topic(graph, topic_abs, ty, qos)?;
     let inner = node
         .create_publisher(&t, Some(qos.clone()))
         .map_err(|e| Error::transport(format!("a publisher on {topic_abs}"), e))?;
     let guid = inner.guid();
-    let matched = graph.watch_writer(guid, topic_abs, &ty.dds_msg_type());
+    let matched = graph.watch_writer(guid, topic_abs, &ty.dds);
     Ok(Watched {
         inner,
         guid,
@@ -186,15 +206,15 @@ pub(crate) fn subscription<M: 'static>(
     graph: &Graph,
     node: &mut Node,
     topic_abs: &str,
-    ty: &MessageTypeName,
+    ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Subscription<M>>> {
-    let t = topic(node, topic_abs, ty, qos)?;
+    let t = topic(graph, topic_abs, ty, qos)?;
     let inner = node
         .create_subscription(&t, Some(qos.clone()))
         .map_err(|e| Error::transport(format!("a subscription on {topic_abs}"), e))?;
     let guid = inner.guid();
-    let matched = graph.watch_reader(guid, topic_abs, &ty.dds_msg_type());
+    let matched = graph.watch_reader(guid, topic_abs, &ty.dds);
     Ok(Watched {
         inner,
         guid,
@@ -210,7 +230,7 @@ pub(crate) fn typed_publisher<M: crate::msg::RosMessage>(
     topic_abs: &str,
     qos: &QosProfile,
 ) -> Result<Watched<Publisher<M>>> {
-    publisher(graph, node, topic_abs, &M::message_type_name(), qos)
+    publisher(graph, node, topic_abs, &TypeName::of::<M>(), qos)
 }
 
 /// Creates a subscription of `M` on the absolute `topic`, announced as `M`'s ROS type.
@@ -220,7 +240,7 @@ pub(crate) fn typed_subscription<M: crate::msg::RosMessage>(
     topic_abs: &str,
     qos: &QosProfile,
 ) -> Result<Watched<Subscription<M>>> {
-    subscription(graph, node, topic_abs, &M::message_type_name(), qos)
+    subscription(graph, node, topic_abs, &TypeName::of::<M>(), qos)
 }
 
 /// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.

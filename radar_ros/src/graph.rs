@@ -96,6 +96,7 @@ impl Default for Graph {
 pub(crate) fn ros_type_of_dds(dds: &str) -> String {
     dds.replacen("::msg::dds_::", "/msg/", 1)
         .replacen("::srv::dds_::", "/srv/", 1)
+        .replacen("::action::dds_::", "/action/", 1)
         .trim_end_matches('_')
         .to_owned()
 }
@@ -231,7 +232,7 @@ impl Graph {
         }
     }
 
-    fn has_reader_of(&self, dds_topic: &str, peer: GUID) -> bool {
+    pub(crate) fn has_reader_of(&self, dds_topic: &str, peer: GUID) -> bool {
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return true; // shutting down: nothing to wait for
         };
@@ -254,6 +255,62 @@ impl Graph {
             })
     }
 
+    /// The participants (as participant GUIDs) in which every `(remote_reads, dds_topic)` of `wanted` has an
+    /// endpoint one of ours has matched: a remote reader on the topic that a local writer matched (`true`), or a
+    /// remote writer that a local reader matched (`false`). How a client knows a service or an action server is
+    /// reachable both ways before it sends a request. Endpoints in this participant are not seen here.
+    pub(crate) fn participants_matched_on(&self, wanted: &[(bool, String)]) -> BTreeSet<GUID> {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return BTreeSet::new();
+        };
+        let (writer_peers, reader_peers): (BTreeSet<GUID>, BTreeSet<GUID>) = {
+            let t = self.table.lock().unwrap();
+            (
+                t.writers
+                    .values()
+                    .flat_map(|e| e.peers.iter())
+                    .copied()
+                    .collect(),
+                t.readers
+                    .values()
+                    .flat_map(|e| e.peers.iter())
+                    .copied()
+                    .collect(),
+            )
+        };
+        let participant_of = |g: GUID| {
+            let mut who = GUID::new_participant_guid();
+            who.prefix = g.prefix;
+            who
+        };
+        let (readers, writers) = (p.discovered_readers(), p.discovered_writers());
+        let mut found: Option<BTreeSet<GUID>> = None;
+        for (remote_reads, topic) in wanted {
+            let here: BTreeSet<GUID> = if *remote_reads {
+                readers
+                    .iter()
+                    .filter(|r| r.subscription_topic_data.topic_name() == topic)
+                    .map(|r| r.reader_proxy.remote_reader_guid)
+                    .filter(|g| writer_peers.contains(g))
+                    .map(participant_of)
+                    .collect()
+            } else {
+                writers
+                    .iter()
+                    .filter(|w| &w.publication_topic_data.topic_name == topic)
+                    .map(|w| w.writer_proxy.remote_writer_guid)
+                    .filter(|g| reader_peers.contains(g))
+                    .map(participant_of)
+                    .collect()
+            };
+            found = Some(match found {
+                None => here,
+                Some(f) => f.intersection(&here).copied().collect(),
+            });
+        }
+        found.unwrap_or_default()
+    }
+
     /// Changes after every discovery event, so code waiting for something to appear on the graph can look
     /// again at once instead of polling.
     pub(crate) fn changes(&self) -> watch::Receiver<u64> {
@@ -263,6 +320,11 @@ impl Graph {
     /// Tells of every participant that leaves the graph from now on.
     pub(crate) fn participants_lost(&self) -> tokio::sync::broadcast::Receiver<GUID> {
         self.lost.subscribe()
+    }
+
+    /// The DDS participant, once set (until the participant shuts down).
+    pub(crate) fn domain_participant(&self) -> Option<rustdds::DomainParticipant> {
+        self.participant.lock().unwrap().clone()
     }
 
     pub(crate) fn set_participant(&self, p: rustdds::DomainParticipant) {

@@ -148,6 +148,7 @@
 #![warn(missing_docs)]
 #![deny(rustdoc::broken_intra_doc_links)]
 
+pub mod action;
 mod departure;
 mod endpoints;
 mod error;

@@ -23,25 +23,79 @@ pub trait RosMessage:
     const PACKAGE: &'static str;
     /// The message name within the package, e.g. `"String"`.
     const NAME: &'static str;
+    /// The interface kind the message belongs to: `"msg"`, or `"action"` for the parts of an action
+    /// (`test_msgs/action/Fibonacci_Goal`).
+    const INTERFACE: &'static str = "msg";
 
     /// The ROS interface name as the `ros2` command line shows it, e.g. `"std_msgs/msg/String"`.
     fn ros_type_name() -> String {
-        format!("{}/msg/{}", Self::PACKAGE, Self::NAME)
+        format!("{}/{}/{}", Self::PACKAGE, Self::INTERFACE, Self::NAME)
     }
 
-    /// The ros2-client form of the type name.
+    /// The type name DDS discovery carries, e.g. `"std_msgs::msg::dds_::String_"`.
+    ///
+    /// ```
+    /// use radar_ros::{action::FibonacciGoal, msg::{RosMessage, StringMsg}};
+    /// assert_eq!(StringMsg::dds_type_name(), "std_msgs::msg::dds_::String_");
+    /// assert_eq!(FibonacciGoal::dds_type_name(), "test_msgs::action::dds_::Fibonacci_Goal_");
+    /// ```
+    fn dds_type_name() -> String {
+        format!(
+            "{}::{}::dds_::{}_",
+            Self::PACKAGE,
+            Self::INTERFACE,
+            Self::NAME
+        )
+    }
+
+    /// The ros2-client form of the type name. ros2-client can name only `msg` interfaces this way; use
+    /// [`RosMessage::dds_type_name`] for the others.
     fn message_type_name() -> ros2_client::MessageTypeName {
         ros2_client::MessageTypeName::new(Self::PACKAGE, Self::NAME)
     }
 }
 
-/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`.
+/// A message type as radar_ros creates topics with it: the ROS name and the DDS name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct TypeName {
+    /// `pkg/msg/Name`
+    pub(crate) ros: String,
+    /// `pkg::msg::dds_::Name_`
+    pub(crate) dds: String,
+}
+
+impl TypeName {
+    pub(crate) fn of<M: RosMessage>() -> TypeName {
+        TypeName {
+            ros: M::ros_type_name(),
+            dds: M::dds_type_name(),
+        }
+    }
+
+    /// `pkg`, `msg` or `action`, `Name`.
+    pub(crate) fn new(package: &str, interface: &str, name: &str) -> TypeName {
+        TypeName {
+            ros: format!("{package}/{interface}/{name}"),
+            dds: format!("{package}::{interface}::dds_::{name}_"),
+        }
+    }
+}
+
+/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, or for a part of an
+/// action: `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");`.
 #[macro_export]
 macro_rules! ros_message {
     ($ty:ty, $pkg:literal, $name:literal) => {
         impl $crate::msg::RosMessage for $ty {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = $name;
+        }
+    };
+    ($ty:ty, $pkg:literal, action $name:literal) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+            const INTERFACE: &'static str = "action";
         }
     };
 }

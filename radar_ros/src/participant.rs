@@ -35,6 +35,9 @@ pub(crate) struct Participant {
     /// A plain node for endpoints that belong to no component, made on first use.
     client: Mutex<Option<Node>>,
     pool: Arc<Pool>,
+    /// Actions this process serves (`Radar::serve_as_action`): a client here is matched with them locally,
+    /// which discovery does not show.
+    served_actions: Arc<Mutex<HashSet<String>>>,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
 }
 
@@ -68,6 +71,7 @@ impl Participant {
             names: Mutex::new(HashSet::new()),
             client: Mutex::new(None),
             pool,
+            served_actions: Default::default(),
             stop_graph: Mutex::new(Some(stop)),
         })
     }
@@ -86,6 +90,10 @@ impl Participant {
 
     pub(crate) fn graph(&self) -> &Graph {
         &self.graph
+    }
+
+    pub(crate) fn served_actions(&self) -> Arc<Mutex<HashSet<String>>> {
+        self.served_actions.clone()
     }
 
     pub(crate) fn pool(&self) -> &Pool {

@@ -12,7 +12,6 @@
 
 use std::fmt;
 
-use ros2_client::MessageTypeName;
 use serde::{
     de::{DeserializeSeed, SeqAccess, Visitor},
     ser::SerializeTuple,
@@ -102,17 +101,22 @@ impl<'de> Visitor<'de> for RawVisitor {
     }
 }
 
-/// Parses `pkg/msg/Name` (or `pkg/Name`) into a DDS type name.
-pub(crate) fn parse_type_name(ros_type: &str) -> Result<MessageTypeName> {
+/// Parses `pkg/msg/Name` (or `pkg/Name`, or `pkg/action/Name_Goal` for a part of an action) into a type name.
+pub(crate) fn parse_type_name(ros_type: &str) -> Result<crate::msg::TypeName> {
     let parts: Vec<&str> = ros_type.split('/').collect();
     let ok = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
     match parts[..] {
         [pkg, "msg", name] | [pkg, name] if ok(pkg) && ok(name) => {
-            Ok(MessageTypeName::new(pkg, name))
+            Ok(crate::msg::TypeName::new(pkg, "msg", name))
+        }
+        [pkg, "action", name] if ok(pkg) && ok(name) => {
+            Ok(crate::msg::TypeName::new(pkg, "action", name))
         }
         _ => Err(Error::InvalidName {
             name: ros_type.to_owned(),
-            reason: "a message type is written package/msg/Name, e.g. std_msgs/msg/String".into(),
+            reason: "a message type is written package/msg/Name, e.g. std_msgs/msg/String \
+                     (package/action/Name_Goal for a part of an action)"
+                .into(),
         }),
     }
 }
@@ -124,14 +128,20 @@ mod tests {
     #[test]
     fn type_names_parse_or_say_how_to_write_them() {
         assert_eq!(
-            parse_type_name("std_msgs/msg/String")
-                .unwrap()
-                .dds_msg_type(),
+            parse_type_name("std_msgs/msg/String").unwrap().dds,
             "std_msgs::msg::dds_::String_"
         );
         assert_eq!(
-            parse_type_name("std_msgs/Empty").unwrap().dds_msg_type(),
+            parse_type_name("std_msgs/Empty").unwrap().dds,
             "std_msgs::msg::dds_::Empty_"
+        );
+        let goal = parse_type_name("test_msgs/action/Fibonacci_Goal").unwrap();
+        assert_eq!(
+            (goal.ros.as_str(), goal.dds.as_str()),
+            (
+                "test_msgs/action/Fibonacci_Goal",
+                "test_msgs::action::dds_::Fibonacci_Goal_"
+            )
         );
         for bad in [
             "String",

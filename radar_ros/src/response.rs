@@ -20,7 +20,7 @@ use futures::{future::BoxFuture, FutureExt, StreamExt};
 use tokio::sync::{watch, Mutex};
 
 use radar_semantics::response::{
-    Effect, ExitAction, ExitReason, Input, ResponseMachine, StartEnd, StartPolicy,
+    Announce, Effect, ExitAction, ExitReason, Input, ResponseMachine, StartEnd, StartPolicy,
 };
 
 use crate::{
@@ -28,7 +28,7 @@ use crate::{
         emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, Watched,
     },
     error::{Result, SlotError},
-    msg::{Empty, ResponseState, RosMessage, Time},
+    msg::{Empty, ResponseState, RosMessage, Time, TypeName},
     names::ComponentName,
     participant::Participant,
     qos::{signal_qos, state_qos},
@@ -386,6 +386,44 @@ impl<O> SlotDone<O> {
 
 type Slot<O> = Pin<Box<dyn Future<Output = SlotDone<O>> + Send>>;
 
+/// What a running slot tells the response's driver before it ends (rules 9 and 10).
+enum SlotNote {
+    /// The start behaviour has really begun: say `started` now (responses that announce on acceptance).
+    Accepted,
+    /// The run's output, handed over early (a `Box<R::Output>`).
+    Output(Box<dyn std::any::Any + Send>),
+}
+
+tokio::task_local! {
+    static SLOT_NOTES: tokio::sync::mpsc::UnboundedSender<SlotNote>;
+}
+
+/// Called from a start behaviour of a response spawned with `Announce::WhenAccepted`: `started` goes out now.
+/// Does nothing outside a slot.
+pub(crate) fn accepted() {
+    let _ = SLOT_NOTES.try_with(|tx| tx.send(SlotNote::Accepted));
+}
+
+/// Called from any slot: `exited` will carry `output` unless the start behaviour returns another one.
+/// `O` must be the response's output type (anything else is dropped). Does nothing outside a slot.
+pub(crate) fn hand_over<O: Send + 'static>(output: O) {
+    let _ = SLOT_NOTES.try_with(|tx| tx.send(SlotNote::Output(Box::new(output))));
+}
+
+/// Feeds a slot's note to the machine.
+fn note_input<P, O: 'static>(note: SlotNote) -> Option<Input<P, O>> {
+    match note {
+        SlotNote::Accepted => Some(Input::Accepted),
+        SlotNote::Output(b) => match b.downcast::<O>() {
+            Ok(o) => Some(Input::Output(*o)),
+            Err(_) => {
+                tracing::warn!("a slot handed over an output of another type; dropped");
+                None
+            }
+        },
+    }
+}
+
 impl Radar {
     /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
     ///
@@ -401,13 +439,23 @@ impl Radar {
     /// # Ok(()) }
     /// ```
     pub fn spawn_response<R: Response>(&self, name: &str, response: R) -> Result<ResponseHandle> {
+        self.spawn_response_with(name, Announce::OnStart, |_, _, _| Ok(response))
+    }
+
+    /// Starts the response that `make` builds on the response's node (for responses whose behaviour needs
+    /// endpoints of their own, such as an action client), announcing `started` as `announce` says.
+    pub(crate) fn spawn_response_with<R: Response>(
+        &self,
+        name: &str,
+        announce: Announce,
+        make: impl FnOnce(&mut ros2_client::Node, &crate::graph::Graph, &ComponentName) -> Result<R>,
+    ) -> Result<ResponseHandle> {
         let name = self.resolve(name)?;
         let (mut node, claim) = self.participant().claim_node(&name)?;
         let (g, sq) = (self.graph(), signal_qos());
-        let (start_t, empty_t) = (R::Start::message_type_name(), Empty::message_type_name());
-        let output_t = R::Output::message_type_name();
-        // slots are read as raw bodies and decoded here, so a message that does not decode is known by
-        // its publisher (counted, logged once per publisher)
+        let (start_t, empty_t) = (TypeName::of::<R::Start>(), TypeName::of::<Empty>());
+        let output_t = TypeName::of::<R::Output>();
+        let response = make(&mut node, g, &name)?;
         let start_sub =
             subscription::<RawMessage>(g, &mut node, &name.topic("start"), &start_t, &sq)?;
         let interrupt_sub =
@@ -432,7 +480,7 @@ impl Radar {
             exited.matched.clone(),
         ];
         let policy = response.start_policy();
-        let machine = ResponseMachine::<R::Start, R::Output>::new(policy);
+        let machine = ResponseMachine::<R::Start, R::Output>::with_announce(policy, announce);
         let initial = state_message::<R>(&name, &machine);
         emit(&state_pub, "state", initial.clone());
         let (state_tx, state_rx) = watch::channel(initial);
@@ -564,6 +612,7 @@ async fn drive<R: Response>(
     ));
 
     let mut current: Option<Slot<R::Output>> = None;
+    let (notes_tx, mut notes) = tokio::sync::mpsc::unbounded_channel::<SlotNote>();
     let mut stop_requested = false;
     let mut malformed: u64 = 0;
     let mut last_malformed_report = std::time::Instant::now() - MALFORMED_REPORT_EVERY;
@@ -580,8 +629,20 @@ async fn drive<R: Response>(
                 }
             } => {
                 current = None;
-                machine.handle(done.into_input())
+                // what the slot said before it ended comes first (a goal accepted and finished at once)
+                let mut fx = Vec::new();
+                while let Ok(note) = notes.try_recv() {
+                    if let Some(input) = note_input(note) {
+                        fx.extend(machine.handle(input));
+                    }
+                }
+                fx.extend(machine.handle(done.into_input()));
+                fx
             }
+            Some(note) = notes.recv() => match note_input(note) {
+                Some(input) => machine.handle(input),
+                None => continue,
+            },
             _ = &mut stop, if !stop_requested => {
                 stop_requested = true;
                 machine.stop()
@@ -605,7 +666,7 @@ async fn drive<R: Response>(
                 Effect::EmitStarted(p) => emit(&io.started, "started", p),
                 Effect::RunStart(p) => {
                     let r = Arc::clone(&response);
-                    current = Some(Box::pin(async move {
+                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
                         let mut guard = r.lock_owned().await;
                         let end = match AssertUnwindSafe(guard.start(p)).catch_unwind().await {
                             Ok(Ok(o)) => StartEnd::Returned(o),
@@ -613,28 +674,28 @@ async fn drive<R: Response>(
                             Err(panic) => StartEnd::Panicked(panic_message(panic)),
                         };
                         SlotDone::Start(end)
-                    }));
+                    })));
                 }
                 Effect::CancelStart => current = None,
                 Effect::EmitInterrupted => emit(&io.interrupted, "interrupted", Empty::default()),
                 Effect::RunInterrupt => {
                     let r = Arc::clone(&response);
-                    current = Some(Box::pin(async move {
+                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
                         let mut guard = r.lock_owned().await;
                         let panic = AssertUnwindSafe(guard.interrupt())
                             .catch_unwind()
                             .await
                             .err();
                         SlotDone::Interrupt(panic.map(panic_message))
-                    }));
+                    })));
                 }
                 Effect::RunExit(reason) => {
                     let r = Arc::clone(&response);
-                    current = Some(Box::pin(async move {
+                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
                         let mut guard = r.lock_owned().await;
                         let res = AssertUnwindSafe(guard.exit(reason)).catch_unwind().await;
                         SlotDone::Exit(res.map_err(panic_message))
-                    }));
+                    })));
                 }
                 Effect::EmitExited(o) => emit(&io.exited, "exited", o),
                 Effect::ReportPanic { slot, message } => {

@@ -26,8 +26,8 @@
 //!    [`Input::Accepted`], at most once per run and only while `Running`. A run that ends before that (a
 //!    rejected goal, an interrupt or exit before acceptance) ends with `exited` and no `started`.
 //! 10. A slot may hand over the run's output before it ends ([`Input::Output`]: the result of a goal that is
-//!    being cancelled arrives in the interrupt slot): `exited` carries the last output handed over or returned
-//!    in this run, else the default.
+//!     being cancelled arrives in the interrupt slot): `exited` carries the last output handed over or returned
+//!     in this run, else the default.
 
 /// Where a response is in its lifecycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,0 +1,353 @@
+//! ROS 2 actions and RADAR responses, both ways, over real DDS: an action server as a response
+//! (`Radar::action_response`) and a response as an action server (`Radar::serve_as_action`), against each other
+//! and against real rclpy (`rclpy.action`, `test_msgs/action/Fibonacci` from the ros-jazzy-test-msgs wheel;
+//! `tests/python/actions.py`). Rules A1-A7 and S1-S6 are in `radar_ros::action`. Domains 63-67.
+
+use std::time::Duration;
+
+use radar_ros::{
+    action::{ActionResponseOptions, Fibonacci, FibonacciFeedback, FibonacciGoal, FibonacciResult},
+    msg::ResponseState,
+};
+use radar_ros_examples::fibonacci::fibonacci_response;
+use radar_test_util::{radar, Py, ResponseProbe, Seen, DISCOVERY};
+use serde_json::Value;
+
+const T: Duration = Duration::from_secs(20);
+
+type Probe = ResponseProbe<FibonacciGoal, FibonacciResult>;
+
+fn goal(order: i32) -> FibonacciGoal {
+    FibonacciGoal { order }
+}
+
+fn sequence(order: usize) -> Vec<i32> {
+    let mut s = vec![0, 1];
+    for i in 1..order {
+        s.push(s[i] + s[i - 1]);
+    }
+    s
+}
+
+fn result(order: usize) -> FibonacciResult {
+    FibonacciResult {
+        sequence: sequence(order),
+    }
+}
+
+/// The next state of `probe` whose `exits` reaches `n`.
+async fn after_exits(probe: &Probe, n: u64) -> ResponseState {
+    probe.states_until(T, |s| s.exits >= n).await.1
+}
+
+/// Reads the Python side's JSON lines until one has `event` == `what`.
+async fn event(py: &mut Py, what: &str) -> Value {
+    loop {
+        let v = py.json_with("event").await;
+        if v["event"] == what {
+            return v;
+        }
+    }
+}
+
+/// Rules A1-A4 and S1-S5 against each other: a native response served as an action, driven through an
+/// action response in another participant; goal -> started -> feedback -> exited(result), interrupt ->
+/// cancel -> exited, and a second client's goal rejected while the first runs.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_response_served_as_an_action_is_driven_through_an_action_response() {
+    let (server_side, client_side) = (radar(63), radar(63));
+    let fib = fibonacci_response(&server_side, "/fib_impl", Duration::from_millis(40)).unwrap();
+    let _served = server_side
+        .serve_as_action::<Fibonacci>(&fib, "/fibonacci")
+        .unwrap();
+    let client = client_side
+        .action_response::<Fibonacci>("/fibonacci")
+        .unwrap();
+    let _other = client_side
+        .action_response_with::<Fibonacci>(
+            "/fibonacci",
+            ActionResponseOptions::default().named("/fibonacci_other"),
+        )
+        .unwrap();
+    let probe = Probe::connect(&client_side, "/fibonacci").await;
+    let other_probe = Probe::connect(&client_side, "/fibonacci_other").await;
+    let feedback = client_side
+        .signal_subscription::<FibonacciFeedback>(client.feedback().topic())
+        .unwrap();
+    feedback
+        .wait_for_publishers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+
+    // A1, A2, S1, S5: the goal runs, feedback flows, the result comes back
+    probe.start.publish(goal(6)).unwrap();
+    let seen = probe.signals(2, T).await;
+    assert_eq!(
+        seen,
+        vec![Seen::Started(goal(6)), Seen::Exited(result(6))],
+        "started on acceptance, exited with the result"
+    );
+    let mut sequences = Vec::new();
+    while let Some(f) = feedback.try_recv() {
+        sequences.push(f.sequence);
+    }
+    assert!(
+        !sequences.is_empty(),
+        "feedback arrives on the feedback signal"
+    );
+    assert!(
+        sequences.iter().all(|s| sequence(6).starts_with(s)),
+        "{sequences:?}"
+    );
+    let s = after_exits(&probe, 1).await;
+    assert_eq!((s.completed, s.failures), (1, 0), "{s:?}");
+
+    // S2: a goal while another runs is rejected (A3: exited without started, the run failed)
+    probe.start.publish(goal(200)).unwrap();
+    assert_eq!(probe.signals(1, T).await, vec![Seen::Started(goal(200))]);
+    other_probe.start.publish(goal(3)).unwrap();
+    assert_eq!(
+        other_probe.signals(1, T).await,
+        vec![Seen::Exited(FibonacciResult::default())]
+    );
+    let s = after_exits(&other_probe, 1).await;
+    assert!(
+        s.failures == 1 && s.last_exit_reason.contains("goal rejected"),
+        "{s:?}"
+    );
+
+    // A4, S3: interrupt cancels the goal; the server side's response is interrupted
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    probe.interrupt.publish(Default::default()).unwrap();
+    let seen = probe.signals(2, T).await;
+    assert_eq!(seen[0], Seen::Interrupted);
+    assert!(matches!(seen[1], Seen::Exited(_)), "{seen:?}");
+    let s = after_exits(&probe, 2).await;
+    assert_eq!(
+        (s.interrupts, s.last_exit_reason.as_str()),
+        (1, "interrupted")
+    );
+    assert_eq!(
+        fib.state().interrupts,
+        1,
+        "the served response was interrupted"
+    );
+
+    // and it is free again: the next goal runs to the end
+    probe.start.publish(goal(3)).unwrap();
+    assert_eq!(
+        probe.signals(2, T).await,
+        vec![Seen::Started(goal(3)), Seen::Exited(result(3))]
+    );
+}
+
+/// A fresh Fast DDS participant's profile with a short lease, so that a killed rclpy process is noticed in
+/// about 2 s instead of Fast DDS's 20 s.
+fn short_lease_profile(dir: &std::path::Path) -> std::path::PathBuf {
+    let p = dir.join("fastdds_short_lease.xml");
+    std::fs::write(
+        &p,
+        r#"<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <participant profile_name="short_lease" is_default_profile="true">
+    <rtps>
+      <builtin>
+        <discovery_config>
+          <leaseDuration><sec>2</sec></leaseDuration>
+          <leaseAnnouncement><sec>0</sec><nanosec>500000000</nanosec></leaseAnnouncement>
+        </discovery_config>
+      </builtin>
+    </rtps>
+  </participant>
+</profiles>
+"#,
+    )
+    .unwrap();
+    p
+}
+
+async fn rclpy_server(domain: u16, args: &[&str]) -> Py {
+    let mut py = Py::start(domain, "tests/python/actions.py", args);
+    event(&mut py, "ready").await;
+    py
+}
+
+/// Rules A1-A5 against a real rclpy ActionServer: goal -> result, feedback as a connection source, cancel
+/// mid-goal through `interrupt` (the server's partial result is carried by `exited`), a rejected goal.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_action_server_is_a_radar_response() {
+    let r = radar(64);
+    let mut py = rclpy_server(
+        64,
+        &[
+            "server",
+            "/fibonacci",
+            "--period",
+            "0.05",
+            "--reject-above",
+            "500",
+        ],
+    )
+    .await;
+    let fib = r.action_response::<Fibonacci>("/fibonacci").unwrap();
+    let probe = Probe::connect(&r, "/fibonacci").await;
+
+    // feedback as a connection source: a whenever counts it
+    let counted = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let c = counted.clone();
+    let _count = r
+        .whenever(fib.feedback())
+        .call(move |f: FibonacciFeedback| {
+            assert!(f.sequence.len() >= 3);
+            c.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        })
+        .await
+        .unwrap();
+
+    probe.start.publish(goal(5)).unwrap();
+    assert_eq!(event(&mut py, "execute").await["order"], 5);
+    assert_eq!(
+        probe.signals(2, T).await,
+        vec![Seen::Started(goal(5)), Seen::Exited(result(5))]
+    );
+    radar_test_util::eventually(T, "feedback through the whenever", || {
+        counted.load(std::sync::atomic::Ordering::SeqCst) == 4
+    })
+    .await;
+
+    // A4: cancel mid-goal; the server's partial sequence comes back on exited
+    probe.start.publish(goal(400)).unwrap();
+    assert_eq!(probe.signals(1, T).await, vec![Seen::Started(goal(400))]);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    probe.interrupt.publish(Default::default()).unwrap();
+    let seen = probe.signals(2, T).await;
+    assert_eq!(seen[0], Seen::Interrupted);
+    let Seen::Exited(partial) = &seen[1] else {
+        panic!("{seen:?}")
+    };
+    assert!(
+        partial.sequence.len() > 3 && partial.sequence.len() < 400,
+        "the canceled goal's partial result: {partial:?}"
+    );
+    event(&mut py, "cancel_requested").await;
+    let done = event(&mut py, "done").await;
+    assert_eq!(done["status"], "CANCELED");
+    assert_eq!(
+        done["sequence"].as_array().unwrap().len(),
+        partial.sequence.len(),
+        "exited carries what the server reported"
+    );
+
+    // A3: a rejected goal: no started, exited, the run failed
+    probe.start.publish(goal(501)).unwrap();
+    assert_eq!(
+        probe.signals(1, T).await,
+        vec![Seen::Exited(FibonacciResult::default())]
+    );
+    event(&mut py, "rejected").await;
+    let s = after_exits(&probe, 3).await;
+    assert!(s.last_exit_reason.contains("goal rejected"), "{s:?}");
+    assert_eq!((s.completed, s.interrupts, s.failures), (1, 1, 1), "{s:?}");
+}
+
+/// Rule A7: an rclpy server killed (SIGKILL) mid-goal ends the run with a failure once its lease ends, never
+/// hangs; the next start waits for a server and fails when none comes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_server_killed_mid_goal_ends_the_run_with_a_failure() {
+    let r = radar(65);
+    let dir = std::env::temp_dir().join(format!("radar_actions_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = short_lease_profile(&dir);
+    let mut py = Py::start_with_env(
+        65,
+        "tests/python/actions.py",
+        &["server", "/fibonacci", "--period", "0.1"],
+        &[("FASTRTPS_DEFAULT_PROFILES_FILE", profile.to_str().unwrap())],
+    );
+    event(&mut py, "ready").await;
+    let _fib = r
+        .action_response_with::<Fibonacci>(
+            "/fibonacci",
+            ActionResponseOptions::default().server_timeout(Duration::from_secs(2)),
+        )
+        .unwrap();
+    let probe = Probe::connect(&r, "/fibonacci").await;
+    probe.start.publish(goal(1000)).unwrap();
+    assert_eq!(probe.signals(1, T).await, vec![Seen::Started(goal(1000))]);
+    event(&mut py, "execute").await;
+    py.kill();
+    let t0 = std::time::Instant::now();
+    assert!(matches!(probe.signals(1, T).await[..], [Seen::Exited(_)]));
+    let lost_after = t0.elapsed();
+    let s = after_exits(&probe, 1).await;
+    assert!(
+        s.failures == 1 && s.last_exit_reason.contains("left the ROS graph"),
+        "{s:?}"
+    );
+    println!("server killed mid-goal: exited after {lost_after:?}");
+    assert!(lost_after < Duration::from_secs(8), "{lost_after:?}");
+
+    // no server: the next run waits 2 s for one, then fails
+    probe.start.publish(goal(3)).unwrap();
+    assert!(matches!(probe.signals(1, T).await[..], [Seen::Exited(_)]));
+    let s = after_exits(&probe, 2).await;
+    assert!(
+        s.last_exit_reason.contains("no action server answered"),
+        "{s:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Rules S1-S5 against a real rclpy ActionClient (a fresh process per goal, as `ros2 action send_goal` is):
+/// goal -> feedback -> result; a cancel mid-goal interrupts the response and ends the goal CANCELED; a second
+/// client's goal while one runs is rejected.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_action_client_drives_a_response_served_as_an_action() {
+    let r = radar(66);
+    let fib = fibonacci_response(&r, "/fib_impl", Duration::from_millis(50)).unwrap();
+    let _served = r.serve_as_action::<Fibonacci>(&fib, "/fibonacci").unwrap();
+
+    let mut py = Py::start(
+        66,
+        "tests/python/actions.py",
+        &["client", "/fibonacci", "6"],
+    );
+    assert_eq!(event(&mut py, "answer").await["accepted"], true);
+    let fb = event(&mut py, "feedback").await;
+    assert!(fb["sequence"].as_array().unwrap().len() >= 3, "{fb}");
+    let res = event(&mut py, "result").await;
+    assert_eq!(res["status"], "SUCCEEDED");
+    assert_eq!(
+        res["sequence"],
+        serde_json::to_value(sequence(6)).unwrap(),
+        "the result is exited's payload"
+    );
+    py.succeeds().await;
+    assert_eq!(fib.state().completed, 1);
+
+    // cancel mid-goal, and a second client rejected meanwhile
+    let mut long = Py::start(
+        66,
+        "tests/python/actions.py",
+        &["client", "/fibonacci", "300", "--cancel-after", "1.5"],
+    );
+    assert_eq!(event(&mut long, "answer").await["accepted"], true);
+    let mut second = Py::start(
+        66,
+        "tests/python/actions.py",
+        &["client", "/fibonacci", "3"],
+    );
+    assert_eq!(
+        event(&mut second, "answer").await["accepted"],
+        false,
+        "rule S2"
+    );
+    second.succeeds().await;
+    assert_eq!(event(&mut long, "cancel_answer").await["canceling"], 1);
+    let res = event(&mut long, "result").await;
+    assert_eq!(res["status"], "CANCELED");
+    long.succeeds().await;
+    let s = fib.state();
+    assert_eq!((s.interrupts, s.completed), (1, 1), "{s:?}");
+}
