@@ -9,7 +9,10 @@ use radar_ros::{
     action::{ActionResponseOptions, Fibonacci, FibonacciFeedback, FibonacciGoal, FibonacciResult},
     msg::ResponseState,
 };
-use radar_ros_examples::fibonacci::fibonacci_response;
+use radar_ros_examples::{
+    fibonacci::fibonacci_response,
+    test_support::{assert_no_error_lines, examples_dir},
+};
 use radar_test_util::{radar, Py, ResponseProbe, Seen, DISCOVERY};
 use serde_json::Value;
 
@@ -60,8 +63,12 @@ async fn a_response_served_as_an_action_is_driven_through_an_action_response() {
     let _served = server_side
         .serve_as_action::<Fibonacci>(&fib, "/fibonacci")
         .unwrap();
+    // a cancel must not wait for this limit to end (the server answers the result request sent at the start)
     let client = client_side
-        .action_response::<Fibonacci>("/fibonacci")
+        .action_response_with::<Fibonacci>(
+            "/fibonacci",
+            ActionResponseOptions::default().cancel_timeout(Duration::from_secs(120)),
+        )
         .unwrap();
     let _other = client_side
         .action_response_with::<Fibonacci>(
@@ -350,4 +357,90 @@ async fn an_rclpy_action_client_drives_a_response_served_as_an_action() {
     long.succeeds().await;
     let s = fib.state();
     assert_eq!((s.interrupts, s.completed), (1, 1), "{s:?}");
+}
+
+/// The `fibonacci_action` example, run with no arguments, serves `/fibonacci` to an rclpy ActionClient (a fresh
+/// process, as `ros2 action send_goal --feedback` is) until SIGINT, then ends cleanly.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_fibonacci_action_example_serves_an_rclpy_client() {
+    radar_test_util::require_isolation();
+    let exe = examples_dir("fibonacci_action").join("fibonacci_action");
+    let server = tokio::process::Command::new(&exe)
+        .env("ROS_DOMAIN_ID", "67")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("run the example");
+    let mut py = Py::start(
+        67,
+        "tests/python/actions.py",
+        &["client", "/fibonacci", "4"],
+    );
+    assert_eq!(event(&mut py, "answer").await["accepted"], true);
+    let fb = event(&mut py, "feedback").await;
+    assert_eq!(fb["sequence"], serde_json::json!([0, 1, 1]));
+    let res = event(&mut py, "result").await;
+    assert_eq!(res["status"], "SUCCEEDED");
+    assert_eq!(res["sequence"], serde_json::json!([0, 1, 1, 2, 3]));
+    py.succeeds().await;
+    // Ctrl-C
+    unsafe { libc::kill(server.id().unwrap() as i32, libc::SIGINT) };
+    let out = tokio::time::timeout(T, server.wait_with_output())
+        .await
+        .expect("the example ends on SIGINT")
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    println!("{stdout}");
+    assert!(out.status.success(), "{stderr}");
+    assert_no_error_lines(&stderr, "fibonacci_action");
+    assert!(stdout.contains("goal 1 ended: completed"), "{stdout}");
+}
+
+/// The `goal_until` example drives a real rclpy action server through `once go start fibonacci until bumper`:
+/// the bumper cancels the goal mid-way and `exited` carries the sequence the server had computed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_goal_until_example_cancels_an_rclpy_goal_when_the_bumper_triggers() {
+    radar_test_util::require_isolation();
+    let mut py = rclpy_server(68, &["server", "/fibonacci", "--period", "0.5"]).await;
+    let exe = examples_dir("goal_until").join("goal_until");
+    let out = tokio::time::timeout(
+        T,
+        tokio::process::Command::new(&exe)
+            .env("ROS_DOMAIN_ID", "68")
+            .kill_on_drop(true)
+            .output(),
+    )
+    .await
+    .expect("goal_until ends")
+    .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    println!("{stdout}");
+    assert!(out.status.success(), "{stderr}");
+    assert_no_error_lines(&stderr, "goal_until");
+    assert!(stdout.contains("started: goal order 10"), "{stdout}");
+    assert!(
+        stdout.contains("interrupted: the bumper cancels the goal"),
+        "{stdout}"
+    );
+    let exited = stdout
+        .lines()
+        .find(|l| l.contains("exited: "))
+        .unwrap_or_else(|| panic!("no exited line: {stdout}"));
+    assert!(exited.ends_with("(interrupted)"), "{exited}");
+    let done = event(&mut py, "done").await;
+    assert_eq!(done["status"], "CANCELED");
+    let partial = serde_json::to_string(&done["sequence"])
+        .unwrap()
+        .replace(',', ", ");
+    assert!(
+        exited.contains(&partial) && done["sequence"].as_array().unwrap().len() < 11,
+        "exited carries the server's partial sequence {partial}: {exited}"
+    );
 }

@@ -291,6 +291,9 @@ struct GoalTrack {
     sent: Option<(RmwRequestId, GoalId)>,
     /// `Some(accepted)` once the server answered.
     answer: Option<bool>,
+    /// The result request sent for it: a server may answer only one per goal (ros2-client's does), so a
+    /// cancel waits for the answer to this one rather than asking again.
+    result_req: Option<RmwRequestId>,
     /// Its result has arrived (nothing left to cancel).
     finished: bool,
 }
@@ -408,7 +411,22 @@ impl<A: Action> ActionProxy<A> {
                     tracing::warn!(action = %self.action, error = ?e, "cancel request failed")
                 }
             }
-            match client.async_request_result(goal_id).await {
+            let result_req = match self.goal.lock().unwrap().result_req {
+                Some(r) => Ok(r),
+                None => client.request_result(goal_id),
+            };
+            let result = match result_req {
+                Ok(r) => client
+                    .result_client()
+                    .async_receive_response(r)
+                    .await
+                    .map(|r| (r.status, r.result)),
+                Err(e) => {
+                    tracing::warn!(action = %self.action, error = ?e, "could not ask for the result");
+                    return;
+                }
+            };
+            match result {
                 Ok((status, Wire(result))) => {
                     tracing::debug!(action = %self.action, ?status, "canceled goal ended");
                     self.goal.lock().unwrap().finished = true;
@@ -457,9 +475,14 @@ impl<A: Action> Response for ActionProxy<A> {
             }
             async {}
         });
+        let result_req = client
+            .request_result(goal_id)
+            .map_err(|e| self.failed(format_args!("could not ask for the result: {e:?}")))?;
+        self.goal.lock().unwrap().result_req = Some(result_req);
         let (status, Wire(result)) = futures::select_biased! {
-            r = client.async_request_result(goal_id).fuse() =>
-                r.map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e:?}")))?,
+            r = client.result_client().async_receive_response(result_req).fuse() =>
+                r.map(|r| (r.status, r.result))
+                    .map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e:?}")))?,
             gone = self.server_gone(server).fuse() => return Err(gone),
             _ = forward.fuse() => return Err(self.failed("the feedback stream ended")),
         };
