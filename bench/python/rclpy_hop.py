@@ -3,6 +3,14 @@
 
     rclpy_hop.py sink --topic T      records each std_msgs/msg/Header's age when its callback runs
     rclpy_hop.py source --topic T    publishes stamped Headers
+    rclpy_hop.py action-server --topic A
+                                     a test_msgs/action/Fibonacci server on action A: records when each goal's
+                                     execute callback begins and when a cancel request arrives; a goal of
+                                     order >= 0 succeeds at once, order -(k+1) runs (feedback [k]) until canceled
+    rclpy_hop.py action-client --topic A
+                                     rclpy's ActionClient: `run N` sends goals 0..N one after the other (each
+                                     to its result), `cancel-run N` sends long goals and cancels each once it
+                                     executes; answers when each was sent / canceled
     rclpy_hop.py oneshot --topic T --seq N
                                      `ros2 topic pub --once`, as the ros2 CLI does it: a fresh process that
                                      polls every 0.1 s until its publisher counts one subscription,
@@ -57,20 +65,114 @@ def oneshot(node, topic, seq):
     rclpy.try_shutdown()
 
 
+def wait_future(fut, what, timeout=20.0):
+    """Waits (the executor spins in another thread) until an rclpy future is done."""
+    done = threading.Event()
+    fut.add_done_callback(lambda _: done.set())
+    if not done.wait(timeout):
+        raise RuntimeError(f"no {what} within {timeout} s")
+    return fut.result()
+
+
+def action_server(node, action, lock, record):
+    from rclpy.action import ActionServer, CancelResponse, GoalResponse
+    from rclpy.callback_groups import ReentrantCallbackGroup
+    from test_msgs.action import Fibonacci
+    current = {"seq": None}
+
+    def on_cancel(_):
+        t = now_ns()
+        with lock:
+            record.setdefault("cancel", []).append((current["seq"], t))
+        return CancelResponse.ACCEPT
+
+    def execute(goal_handle):
+        t = now_ns()
+        order = goal_handle.request.order
+        seq = order if order >= 0 else -order - 1
+        with lock:
+            record.setdefault("exec", []).append((seq, t))
+        if order >= 0:
+            goal_handle.succeed()
+            return Fibonacci.Result()
+        current["seq"] = seq
+        goal_handle.publish_feedback(Fibonacci.Feedback(sequence=[seq]))
+        while not goal_handle.is_cancel_requested:
+            time.sleep(0.001)
+        goal_handle.canceled()
+        return Fibonacci.Result()
+
+    return ActionServer(node, Fibonacci, action, execute_callback=execute,
+                        goal_callback=lambda _: GoalResponse.ACCEPT, cancel_callback=on_cancel,
+                        callback_group=ReentrantCallbackGroup())
+
+
+class Driver:
+    """rclpy's ActionClient, driven from the command loop while the executor spins in its thread."""
+
+    def __init__(self, node, action):
+        from rclpy.action import ActionClient
+        from test_msgs.action import Fibonacci
+        self.goal = Fibonacci.Goal
+        self.client = ActionClient(node, Fibonacci, action)
+        self.feedback = threading.Event()
+
+    def wait(self):
+        if not self.client.wait_for_server(timeout_sec=20):
+            raise RuntimeError("no action server within 20 s")
+        return "ok"
+
+    def send(self, order):
+        self.feedback.clear()
+        handle = wait_future(self.client.send_goal_async(self.goal(order=order),
+                                                          feedback_callback=lambda _: self.feedback.set()),
+                             "answer to the goal")
+        if not handle.accepted:
+            raise RuntimeError("goal rejected")
+        return handle
+
+    def run(self, n):
+        sent = []
+        for i in range(n):
+            t0 = now_ns()
+            handle = self.send(i)
+            wait_future(handle.get_result_async(), "result")
+            sent.append((i, t0))
+        return json.dumps({"sent": sent})
+
+    def cancel_run(self, n):
+        sent = []
+        for i in range(n):
+            handle = self.send(-(i + 1))
+            if not self.feedback.wait(20):
+                raise RuntimeError("the long goal never executed")
+            t0 = now_ns()
+            wait_future(handle.cancel_goal_async(), "answer to the cancel")
+            wait_future(handle.get_result_async(), "result of the canceled goal")
+            sent.append((i, t0))
+        return json.dumps({"sent": sent})
+
+
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["sink", "source", "oneshot"])
+    ap.add_argument("role", choices=["sink", "source", "oneshot", "action-server", "action-client"])
     ap.add_argument("--topic", required=True)
     ap.add_argument("--seq", type=int, default=0)
     a = ap.parse_args()
     rclpy.init()
-    node = Node(f"rclpy_{a.role}", namespace="/bench")
+    node = Node(f"rclpy_{a.role.replace('-', '_')}", namespace="/bench")
     if a.role == "oneshot":
         oneshot(node, a.topic, a.seq)
         return
     lock = threading.Lock()
     record = []
-    if a.role == "sink":
+    actions = {}
+    driver = None
+    if a.role == "action-server":
+        server = action_server(node, a.topic, lock, actions)
+    elif a.role == "action-client":
+        driver = Driver(node, a.topic)
+    elif a.role == "sink":
         def on_msg(h):
             age = now_ns() - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
             with lock:
@@ -78,7 +180,11 @@ def main():
         node.create_subscription(Header, a.topic, on_msg, QOS)
     else:
         pub = node.create_publisher(Header, a.topic, QOS)
-    executor = SingleThreadedExecutor()
+    if a.role.startswith("action"):
+        from rclpy.executors import MultiThreadedExecutor
+        executor = MultiThreadedExecutor(num_threads=4)
+    else:
+        executor = SingleThreadedExecutor()
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin)
     spinner.start()
@@ -90,7 +196,17 @@ def main():
         if w[0] == "quit":
             break
         try:
-            if w[0] == "wait" and a.role == "source":
+            if driver is not None and w[0] == "wait":
+                answer = driver.wait()
+            elif driver is not None and w[0] == "run":
+                answer = driver.run(int(w[1]))
+            elif driver is not None and w[0] == "cancel-run":
+                answer = driver.cancel_run(int(w[1]))
+            elif a.role == "action-server" and w[0] == "report":
+                with lock:
+                    answer = json.dumps({"exec": actions.get("exec", []), "cancel": actions.get("cancel", [])})
+                    actions.clear()
+            elif w[0] == "wait" and a.role == "source":
                 deadline = time.monotonic() + 20
                 while pub.get_subscription_count() < 1:
                     if time.monotonic() > deadline:

@@ -7,7 +7,7 @@ use std::{
 
 use anyhow::{anyhow, bail, Context as _, Result};
 use serde::Serialize;
-use serde_json::Value;
+use serde_json::{json, Value};
 
 use crate::{
     proto::{cpu_time, Child},
@@ -46,6 +46,9 @@ struct Plan {
     state_changes: u64,
     /// SIGKILL rounds.
     kill_rounds: usize,
+    /// Goals, and canceled goals, per action client.
+    action_goals: u64,
+    action_cancels: u64,
 }
 
 impl Plan {
@@ -66,6 +69,8 @@ impl Plan {
                 oneshot_n: 4,
                 state_changes: 3_000,
                 kill_rounds: 1,
+                action_goals: 30,
+                action_cancels: 10,
             }
         } else {
             Plan {
@@ -88,6 +93,8 @@ impl Plan {
                 oneshot_n: 100,
                 state_changes: 100_000,
                 kill_rounds: 5,
+                action_goals: 500,
+                action_cancels: 200,
             }
         }
     }
@@ -258,6 +265,7 @@ impl Bench {
             ("oneshot", |b| Box::pin(b.oneshot())),
             ("memory", |b| Box::pin(b.state_memory())),
             ("kill", |b| Box::pin(b.kill())),
+            ("action", |b| Box::pin(b.action())),
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {
@@ -848,6 +856,71 @@ impl Bench {
     }
 
     /// SIGKILL of a deliberative program that made `whenever` through a standalone manager's service: time
+
+    /// Action latency against one rclpy `test_msgs/action/Fibonacci` server: `start` published -> the
+    /// server's execute callback begins, and `interrupt` published -> the server's cancel callback, through
+    /// `Radar::action_response`; next to rclpy's own ActionClient doing the same (`send_goal_async`,
+    /// `cancel_goal_async`) in the same run.
+    async fn action(&mut self) -> Result<()> {
+        let d = self.domain();
+        let (n, m) = (self.plan.action_goals, self.plan.action_cancels);
+        let warm = (n / 10).max(2);
+        let mut server = self
+            .python(d, &["action-server", "--topic", "/bench/fib"])
+            .await?;
+        let timeout = Duration::from_secs(60 + n / 5);
+        for radar_side in [false, true] {
+            let mut client = if radar_side {
+                self.child(d, &["action-driver", "--action", "/bench/fib"])
+                    .await?
+            } else {
+                let mut c = self
+                    .python(d, &["action-client", "--topic", "/bench/fib"])
+                    .await?;
+                c.ask("wait", START).await?;
+                c
+            };
+            let goals = client.ask_json(&format!("run {n}"), timeout).await?;
+            let at = server.ask_json("report", START).await?;
+            let goal_lat = pair_latencies(&goals["sent"], &at["exec"], warm)?;
+            let cancels = client.ask_json(&format!("cancel-run {m}"), timeout).await?;
+            let at = server.ask_json("report", START).await?;
+            let cancel_lat = pair_latencies(&cancels["sent"], &at["cancel"], 1)?;
+            let (who, what) = if radar_side {
+                (
+                    "radar",
+                    "radar_ros `start` -> rclpy server's execute callback (Radar::action_response)",
+                )
+            } else {
+                (
+                    "rclpy",
+                    "rclpy ActionClient send_goal -> rclpy server's execute callback (baseline)",
+                )
+            };
+            let key = format!("action_goal_{who}");
+            self.push_latency(&key, what, &json!({ "lat_ns": goal_lat }), "")?;
+            self.results.latency.last_mut().unwrap().missing =
+                (n - warm).saturating_sub(goal_lat.len() as u64);
+            let (key, what) = if radar_side {
+                (
+                    "action_cancel_radar",
+                    "radar_ros `interrupt` -> rclpy server's cancel callback",
+                )
+            } else {
+                (
+                    "action_cancel_rclpy",
+                    "rclpy ActionClient cancel_goal -> rclpy server's cancel callback (baseline)",
+                )
+            };
+            self.push_latency(key, what, &json!({ "lat_ns": cancel_lat }), "")?;
+            self.results.latency.last_mut().unwrap().missing =
+                (m - 1).saturating_sub(cancel_lat.len() as u64);
+            client.quit().await;
+        }
+        server.quit().await;
+        Ok(())
+    }
+
     /// until the manager has removed its connection, and until the event it listened to reports inactive.
     async fn kill(&mut self) -> Result<()> {
         let (mut removed, mut inactive) = (Vec::new(), Vec::new());
@@ -920,4 +993,21 @@ impl Bench {
         }
         Ok(())
     }
+}
+
+/// Latencies `t1 - t0` of the sequence numbers in both `sent` (`[[seq, t0], ...]`) and `at` (`[[seq, t1], ...]`),
+/// skipping the first `warmup`.
+fn pair_latencies(sent: &Value, at: &Value, warmup: u64) -> Result<Vec<u64>> {
+    let sent: Vec<(u64, u64)> =
+        serde_json::from_value(sent.clone()).context("a report without sent")?;
+    let at: std::collections::HashMap<u64, u64> =
+        serde_json::from_value::<Vec<(u64, u64)>>(at.clone())
+            .context("a server report")?
+            .into_iter()
+            .collect();
+    Ok(sent
+        .iter()
+        .filter(|(seq, _)| *seq >= warmup)
+        .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
+        .collect())
 }

@@ -53,6 +53,7 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "response" => response(&req("--name")?, opt("--connect")).await,
         "long-response" => long_response(&req("--name")?).await,
         "interrupter" => interrupter(&req("--name")?).await,
+        "action-driver" => action_driver(&req("--action")?).await,
         "manager" => manager().await,
         "sources" => sources(&req("--prefix")?, num("--count")?).await,
         "sinks" => sinks(&req("--prefix")?, num("--count")?).await,
@@ -517,6 +518,63 @@ async fn interrupter(name: &str) -> Result<()> {
                 sent.push((i, t0));
             }
             Ok(json!({ "sent": sent, "lost": lost }).to_string())
+        }
+    })
+    .await;
+    Ok(())
+}
+
+/// An action server driven as a RADAR response (`Radar::action_response`): `run N` publishes `start` with
+/// goals 0..N, one after the other (each to its `exited`); `cancel-run N` starts long goals (order -(k+1)) and
+/// publishes `interrupt` once each one's first feedback arrives. Answers when each `start` / `interrupt` was
+/// published, for the server's record to be matched against.
+async fn action_driver(action: &str) -> Result<()> {
+    use radar_ros::action::{Fibonacci, FibonacciFeedback, FibonacciGoal, FibonacciResult};
+    let radar = radar()?;
+    let fib = radar.action_response_with::<Fibonacci>(
+        action,
+        radar_ros::action::ActionResponseOptions::default()
+            .named("/bench/action_driver")
+            .server_timeout(WAIT),
+    )?;
+    let r = fib.reference();
+    let start = radar.signal_publisher::<FibonacciGoal>(r.start_slot().topic())?;
+    let interrupt = radar.signal_publisher::<Empty>(r.interrupt_slot().topic())?;
+    let started = radar.signal_subscription::<FibonacciGoal>(r.started().topic())?;
+    let exited = radar.signal_subscription::<FibonacciResult>(r.exited().topic())?;
+    let feedback = radar.signal_subscription::<FibonacciFeedback>(fib.feedback().topic())?;
+    start.wait_for_subscribers(1).timeout(WAIT).await?;
+    interrupt.wait_for_subscribers(1).timeout(WAIT).await?;
+    started.wait_for_publishers(1).timeout(WAIT).await?;
+    exited.wait_for_publishers(1).timeout(WAIT).await?;
+    feedback.wait_for_publishers(1).timeout(WAIT).await?;
+    serve(|w| {
+        let (start, interrupt, started, exited, feedback) =
+            (&start, &interrupt, &started, &exited, &feedback);
+        async move {
+            let n: u64 = word(&w, 1)?;
+            let mut sent = Vec::new();
+            for i in 0..n as i32 {
+                match w[0].as_str() {
+                    "run" => {
+                        let t0 = now_ns();
+                        start.publish(FibonacciGoal { order: i })?;
+                        exited.recv().timeout(WAIT).await?;
+                        sent.push((i, t0));
+                    }
+                    "cancel-run" => {
+                        start.publish(FibonacciGoal { order: -(i + 1) })?;
+                        started.recv().timeout(WAIT).await?;
+                        feedback.recv().timeout(WAIT).await?;
+                        let t0 = now_ns();
+                        interrupt.publish(Empty::default())?;
+                        exited.recv().timeout(WAIT).await?;
+                        sent.push((i, t0));
+                    }
+                    c => bail!("unknown command {c}"),
+                }
+            }
+            Ok(json!({ "sent": sent }).to_string())
         }
     })
     .await;

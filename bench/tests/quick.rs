@@ -71,7 +71,11 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
             "radar_embedded",
             "radar_interrupt",
             "oneshot_radar",
-            "oneshot_rclpy"
+            "oneshot_rclpy",
+            "action_goal_rclpy",
+            "action_cancel_rclpy",
+            "action_goal_radar",
+            "action_cancel_radar"
         ]
     );
     for l in r["latency"].as_array().unwrap() {
@@ -118,9 +122,13 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     assert!(sc["bytes_per_connection"].as_f64().unwrap() > 0.0, "{sc}");
 
     // one-shot publishes from fresh processes: every one arrived
-    for l in &r["latency"].as_array().unwrap()[6..] {
+    for l in &r["latency"].as_array().unwrap()[6..8] {
         assert_eq!(l["missing"], 0, "{l}");
         assert_eq!(l["summary"]["n"], r["meta"]["oneshot_publishes"], "{l}");
+    }
+    // actions, radar_ros and the rclpy baseline: every goal (after the warm-up) and every cancel measured
+    for l in &r["latency"].as_array().unwrap()[8..] {
+        assert_eq!(l["missing"], 0, "{l}");
     }
     // memory along a run of state changes, and its raw baseline: sampled from start to end
     let mem = r["state_memory"].as_array().unwrap();
