@@ -855,8 +855,6 @@ impl Bench {
         Ok(())
     }
 
-    /// SIGKILL of a deliberative program that made `whenever` through a standalone manager's service: time
-
     /// Action latency against one rclpy `test_msgs/action/Fibonacci` server: `start` published -> the
     /// server's execute callback begins, and `interrupt` published -> the server's cancel callback, through
     /// `Radar::action_response`; next to rclpy's own ActionClient doing the same (`send_goal_async`,
@@ -921,6 +919,7 @@ impl Bench {
         Ok(())
     }
 
+    /// SIGKILL of a deliberative program that made `whenever` through a standalone manager's service: time
     /// until the manager has removed its connection, and until the event it listened to reports inactive.
     async fn kill(&mut self) -> Result<()> {
         let (mut removed, mut inactive) = (Vec::new(), Vec::new());
