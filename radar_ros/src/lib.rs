@@ -108,6 +108,12 @@
 //! Stopping a response ([`ResponseHandle::shutdown`] or dropping the handle) ends a running start behaviour as
 //! an `exit` signal would, so the exit slot still runs.
 //!
+//! A response that stands for a ROS 2 action goal ([`Radar::action_response`]) follows two more rules of the
+//! machine (9 and 10 in [`radar_semantics::response`]): `started` goes out when the server *accepts* the goal
+//! (a rejected goal ends with `exited` and no `started`), and the result of a canceled goal, which arrives
+//! while the interrupt slot runs, is what `exited` carries. How goals, cancels, results and feedback map onto
+//! signals both ways (an action server as a response, a response as an action server) is in [`action`].
+//!
 //! ## Event semantics
 //!
 //! An event is active exactly while at least one subscription is matched on its `triggered` topic, whoever
