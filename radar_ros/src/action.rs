@@ -33,7 +33,7 @@
 //! |---|---|---|
 //! | 1 | goal while the response is idle and no goal of this server runs | accepted, then `start(goal)`; status `EXECUTING` when the response says `started` |
 //! | 2 | goal while a goal runs, or the response is busy | **rejected** (a response runs one thing at a time; cancel the first goal, or wait for its result) |
-//! | 3 | cancel of the running goal | accepted (status `CANCELING`), then `interrupt`; the result is `exited`'s payload with status `CANCELED` |
+//! | 3 | cancel of the running goal (also before the response said `started`) | accepted (status `CANCELING`), then `interrupt` (again when `started` comes, if it had not yet); the result is `exited`'s payload with status `CANCELED` |
 //! | 4 | — | `exited` after a completed run: `SUCCEEDED` with `exited`'s payload; after a failed, panicked, interrupted (by someone else) or exit-signalled run: `ABORTED` |
 //! | 5 | feedback | every message on the response's `feedback` topic while the goal executes |
 //! | 6 | — | the response leaves the graph, or ignores the start: the goal is `ABORTED` |
@@ -309,6 +309,9 @@ struct ActionProxy<A: Action> {
     /// Whether this process serves the action itself (its endpoints are matched locally, unseen by
     /// discovery).
     local: Arc<Mutex<std::collections::HashSet<String>>>,
+    /// The server found by the last start, and the graph's change count then: while nothing on the graph
+    /// changed, it is still there (the scan of discovery data costs tens of microseconds a start).
+    known: Option<(u64, ros2_client::dds::rustdds::GUID)>,
 }
 
 impl<A: Action> ActionProxy<A> {
@@ -322,21 +325,29 @@ impl<A: Action> ActionProxy<A> {
 
     /// The server's participant once it is matched both ways (`None`: served in this process).
     async fn wait_server(
-        &self,
+        &mut self,
     ) -> std::result::Result<Option<ros2_client::dds::rustdds::GUID>, SlotError> {
-        let wanted = server_endpoints(&self.action);
         let mut changes = self.graph.changes();
+        if let Some((v, server)) = self.known {
+            if v == *changes.borrow_and_update() {
+                return Ok(Some(server));
+            }
+        }
+        let wanted = server_endpoints(&self.action);
         let deadline = tokio::time::Instant::now() + self.options.server_timeout;
         loop {
             if self.local.lock().unwrap().contains(&self.action) {
                 return Ok(None);
             }
+            // the count is read before the scan: a change during the scan is seen by the next start
+            let version = *changes.borrow_and_update();
             if let Some(p) = self
                 .graph
                 .participants_matched_on(&wanted)
                 .into_iter()
                 .next()
             {
+                self.known = Some((version, p));
                 return Ok(Some(p));
             }
             // discovery events wake us; a short poll covers matches made between two events
@@ -595,6 +606,7 @@ impl Radar {
                     goal: Default::default(),
                     options,
                     local,
+                    known: None,
                 })
             },
         )?;
@@ -857,6 +869,11 @@ async fn serve<A: Action>(
                             Ok(e) => a.executing = Some(e),
                             Err(e) => tracing::warn!(%action, error = ?e, "could not mark the goal executing"),
                         }
+                    }
+                    // canceled before the response said started: that interrupt may have overtaken the start
+                    // (two topics) and been ignored by an idle response; interrupt the run now
+                    if a.cancel_requested {
+                        let _ = io.interrupt.publish(Empty::default());
                     }
                 }
             }
