@@ -16,27 +16,16 @@
 use std::time::Duration;
 
 use radar_ros::{action::Fibonacci, Radar};
-use radar_ros_examples::{fibonacci::fibonacci_response, init_logs, Timeline};
+use radar_ros_examples::{fibonacci::fibonacci_response, number_arg, run_example, Timeline};
 use tokio::signal::unix::{signal, SignalKind};
-
-fn arg(flag: &str) -> Option<f64> {
-    std::env::args().skip_while(|a| a != flag).nth(1).map(|s| {
-        s.parse()
-            .unwrap_or_else(|_| panic!("{flag} takes a number"))
-    })
-}
 
 #[tokio::main]
 async fn main() {
-    init_logs();
-    if let Err(e) = run().await {
-        eprintln!("fibonacci_action: {e}");
-        std::process::exit(1);
-    }
+    run_example("fibonacci_action", run()).await;
 }
 
 async fn run() -> radar_ros::Result<()> {
-    let period = Duration::from_millis(arg("--period-ms").unwrap_or(500.0) as u64);
+    let period = Duration::from_millis(number_arg("--period-ms").unwrap_or(500.0) as u64);
     let radar = Radar::new()?;
     let tl = Timeline::start();
     let response = fibonacci_response(&radar, "fibonacci_response", period)?;
@@ -53,7 +42,7 @@ async fn run() -> radar_ros::Result<()> {
     let mut states = response.watch_state();
     let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
     let until = async {
-        match arg("--duration") {
+        match number_arg("--duration") {
             Some(d) => tokio::time::sleep(Duration::from_secs_f64(d)).await,
             None => std::future::pending().await,
         }

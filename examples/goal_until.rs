@@ -22,27 +22,16 @@ use radar_ros::{
     msg::Empty,
     Radar,
 };
-use radar_ros_examples::{init_logs, listing1::SleepThenTrigger, Timeline};
-
-fn arg(flag: &str) -> Option<f64> {
-    std::env::args().skip_while(|a| a != flag).nth(1).map(|s| {
-        s.parse()
-            .unwrap_or_else(|_| panic!("{flag} takes a number"))
-    })
-}
+use radar_ros_examples::{listing1::SleepThenTrigger, number_arg, run_example, Timeline};
 
 #[tokio::main]
 async fn main() {
-    init_logs();
-    if let Err(e) = run().await {
-        eprintln!("goal_until: {e}");
-        std::process::exit(1);
-    }
+    run_example("goal_until", run()).await;
 }
 
 async fn run() -> radar_ros::Result<()> {
-    let order = arg("--order").unwrap_or(10.0) as i32;
-    let bumper_after = Duration::from_secs_f64(arg("--bumper-after").unwrap_or(3.0));
+    let order = number_arg("--order").unwrap_or(10.0) as i32;
+    let bumper_after = Duration::from_secs_f64(number_arg("--bumper-after").unwrap_or(3.0));
     let radar = Radar::new()?;
     let fibonacci = radar.action_response::<Fibonacci>("/fibonacci")?;
     let go = radar.spawn_event("go", SleepThenTrigger(Duration::from_secs(1)))?;

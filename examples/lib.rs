@@ -31,6 +31,31 @@ impl Timeline {
     }
 }
 
+/// The number after `flag` on the command line (`--order 5`), if given; exits with a message if it is not a
+/// number.
+pub fn number_arg(flag: &str) -> Option<f64> {
+    let value = std::env::args().skip_while(|a| a != flag).nth(1)?;
+    match value.parse() {
+        Ok(n) => Some(n),
+        Err(_) => {
+            eprintln!("{flag} takes a number, not {value:?}");
+            std::process::exit(64)
+        }
+    }
+}
+
+/// Runs an example's `main` body: logs set up, and an error printed as `NAME: error` with exit status 1.
+pub async fn run_example<F: std::future::Future<Output = radar_ros::Result<()>>>(
+    name: &str,
+    body: F,
+) {
+    init_logs();
+    if let Err(e) = body.await {
+        eprintln!("{name}: {e}");
+        std::process::exit(1);
+    }
+}
+
 /// Logs warnings and errors to stderr (`RUST_LOG` for more).
 pub fn init_logs() {
     let _ = tracing_subscriber::fmt()

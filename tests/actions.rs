@@ -359,6 +359,18 @@ async fn an_rclpy_action_client_drives_a_response_served_as_an_action() {
     assert_eq!((s.interrupts, s.completed), (1, 1), "{s:?}");
 }
 
+/// The stdout of an example that ended; fails unless it ended with success and logged no error line.
+fn ended_cleanly(out: std::process::Output, what: &str) -> String {
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    println!("{stdout}");
+    assert!(out.status.success(), "{what}: {stderr}");
+    assert_no_error_lines(&stderr, what);
+    stdout
+}
+
 /// The `fibonacci_action` example, run with no arguments, serves `/fibonacci` to an rclpy ActionClient (a fresh
 /// process, as `ros2 action send_goal --feedback` is) until SIGINT, then ends cleanly.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -390,13 +402,7 @@ async fn the_fibonacci_action_example_serves_an_rclpy_client() {
         .await
         .expect("the example ends on SIGINT")
         .unwrap();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-    );
-    println!("{stdout}");
-    assert!(out.status.success(), "{stderr}");
-    assert_no_error_lines(&stderr, "fibonacci_action");
+    let stdout = ended_cleanly(out, "fibonacci_action");
     assert!(stdout.contains("goal 1 ended: completed"), "{stdout}");
 }
 
@@ -417,13 +423,7 @@ async fn the_goal_until_example_cancels_an_rclpy_goal_when_the_bumper_triggers()
     .await
     .expect("goal_until ends")
     .unwrap();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-    );
-    println!("{stdout}");
-    assert!(out.status.success(), "{stderr}");
-    assert_no_error_lines(&stderr, "goal_until");
+    let stdout = ended_cleanly(out, "goal_until");
     assert!(stdout.contains("started: goal order 10"), "{stdout}");
     assert!(
         stdout.contains("interrupted: the bumper cancels the goal"),
