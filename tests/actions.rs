@@ -256,6 +256,53 @@ async fn an_rclpy_action_server_is_a_radar_response() {
     let s = after_exits(&probe, 3).await;
     assert!(s.last_exit_reason.contains("goal rejected"), "{s:?}");
     assert_eq!((s.completed, s.interrupts, s.failures), (1, 1, 1), "{s:?}");
+
+    // the graph tells the action's type; a response of another action type on that name fails its runs,
+    // saying what is served there (DDS would match the endpoints whatever their types)
+    assert_eq!(
+        r.action_type("/fibonacci").await.unwrap(),
+        "test_msgs/action/Fibonacci"
+    );
+    let other = radar(64); // one participant cannot hold one topic with two types
+    let wrong = other
+        .action_response_with::<Dock>(
+            "/fibonacci",
+            ActionResponseOptions::default().named("/wrong_type"),
+        )
+        .unwrap();
+    let wrong_probe = ResponseProbe::<DockGoal, DockResult>::connect(&other, "/wrong_type").await;
+    wrong_probe.start.publish(DockGoal::default()).unwrap();
+    assert!(matches!(
+        wrong_probe.signals(1, T).await[..],
+        [Seen::Exited(_)]
+    ));
+    let s = wrong_probe.states_until(T, |s| s.exits >= 1).await.1;
+    assert!(
+        s.last_exit_reason
+            .contains("serves test_msgs/action/Fibonacci"),
+        "{s:?}"
+    );
+    drop(wrong);
+}
+
+/// An action type this test's servers do not serve.
+struct Dock;
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+struct DockGoal {
+    station: String,
+}
+radar_ros::ros_message!(DockGoal, "my_robot", action "Dock_Goal");
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+struct DockResult {
+    docked: bool,
+}
+radar_ros::ros_message!(DockResult, "my_robot", action "Dock_Result");
+impl radar_ros::action::Action for Dock {
+    const PACKAGE: &'static str = "my_robot";
+    const NAME: &'static str = "Dock";
+    type Goal = DockGoal;
+    type Result = DockResult;
+    type Feedback = DockResult;
 }
 
 /// Rule A7: an rclpy server killed (SIGKILL) mid-goal ends the run with a failure once its lease ends, never

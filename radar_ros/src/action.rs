@@ -22,6 +22,9 @@
 //! | 6 | `exit` signal, or the response shut down, while the goal runs | the goal is canceled too (an exit slot always runs, and a goal left running would be an orphan) |
 //! | 7 | `exited`, run failed | the goal ended `ABORTED` or was canceled by someone else (the result is carried), or the server left the graph mid-goal (`failed: the action server ... left`) |
 //!
+//! A server of another action type on that name fails each run with an error that names the type served there
+//! (DDS would match the endpoints anyway); [`Radar::action_type`] tells the type of a named action.
+//!
 //! Feedback is the response's `feedback` signal (`<response>/feedback`, the action's feedback type), usable as
 //! a connection source and in `waitfor`. `start` while a goal runs follows the response's
 //! [`StartPolicy`]: ignored by default, `Restart` cancels the goal and sends the new one,
@@ -49,6 +52,7 @@
 //! ```
 
 use std::{
+    collections::BTreeSet,
     sync::{Arc, Mutex},
     time::Duration,
 };
@@ -145,6 +149,23 @@ fn server_endpoints(action: &str) -> Vec<(bool, String)> {
         (false, format!("rr{action}/_action/get_resultReply")),
         (false, format!("rt{action}/_action/feedback")),
     ]
+}
+
+/// `test_msgs::action::dds_::Fibonacci_SendGoal_Request_` -> `test_msgs/action/Fibonacci`.
+fn action_type_of(send_goal_request_type: &str) -> String {
+    send_goal_request_type
+        .replacen("::action::dds_::", "/action/", 1)
+        .trim_end_matches("_SendGoal_Request_")
+        .to_owned()
+}
+
+/// The ROS action types the graph shows served (goal request readers) at the fully qualified `action`.
+fn served_types(graph: &Graph, action: &str) -> BTreeSet<String> {
+    graph
+        .discovered_reader_types(&format!("rq{action}/_action/send_goalRequest"))
+        .iter()
+        .map(|t| action_type_of(t))
+        .collect()
 }
 
 fn client_qos() -> ActionClientQosPolicies {
@@ -347,6 +368,15 @@ impl<A: Action> ActionProxy<A> {
                 .into_iter()
                 .next()
             {
+                // DDS matches endpoints whatever their types: a server of another action would take goals it
+                // cannot read, and answer with results we cannot read
+                let served = served_types(&self.graph, &self.action);
+                if !served.contains(&A::ros_type_name()) {
+                    return Err(self.failed(format_args!(
+                        "the action server there serves {}: use that action's Rust type, or another action name",
+                        served.into_iter().collect::<Vec<_>>().join(", ")
+                    )));
+                }
                 self.known = Some((version, p));
                 return Ok(Some(p));
             }
@@ -616,6 +646,51 @@ impl Radar {
             handle,
             feedback,
             action: action_fq,
+        })
+    }
+
+    /// The type of the action server `action` (relative names resolve in this Radar's namespace), found on the
+    /// ROS graph, waiting for one to appear (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)`
+    /// to change): what `ros2 action list -t` shows, e.g. `test_msgs/action/Fibonacci`. Several servers of
+    /// different types on one name are an error.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// assert_eq!(radar.action_type("/fibonacci").await?, "test_msgs/action/Fibonacci");
+    /// # Ok(()) }
+    /// ```
+    pub fn action_type(&self, action: &str) -> crate::Wait<'static, String> {
+        let found = self.resolve(action).map(|n| n.fully_qualified());
+        let graph = self.graph().clone();
+        crate::Wait::discovery(move |timeout| async move {
+            let action = found?;
+            let mut changes = graph.changes();
+            let deadline = tokio::time::Instant::now() + timeout;
+            loop {
+                let types = served_types(&graph, &action);
+                match types.len() {
+                    0 => {}
+                    1 => return Ok(types.into_iter().next().expect("one")),
+                    _ => {
+                        return Err(Error::Ambiguous {
+                            topic: format!("{action} (action)"),
+                            types: types.into_iter().collect(),
+                        })
+                    }
+                }
+                match tokio::time::timeout_at(deadline, changes.changed()).await {
+                    Ok(Ok(())) => {}
+                    Ok(Err(_)) => return Err(Error::Closed("the participant".into())),
+                    Err(_) => {
+                        return Err(Error::Timeout {
+                            what: format!(
+                            "an action server on {action} (is it running, in this ROS_DOMAIN_ID?)"
+                        ),
+                            after: timeout,
+                        })
+                    }
+                }
+            }
         })
     }
 

@@ -311,6 +311,19 @@ impl Graph {
         found.unwrap_or_default()
     }
 
+    /// The DDS type names that discovered remote readers on DDS topic `dds_topic` announce (a service's
+    /// servers, for its request topic).
+    pub(crate) fn discovered_reader_types(&self, dds_topic: &str) -> BTreeSet<String> {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return BTreeSet::new();
+        };
+        p.discovered_readers()
+            .into_iter()
+            .filter(|r| r.subscription_topic_data.topic_name() == dds_topic)
+            .map(|r| r.subscription_topic_data.type_name().clone())
+            .collect()
+    }
+
     /// Changes after every discovery event, so code waiting for something to appear on the graph can look
     /// again at once instead of polling.
     pub(crate) fn changes(&self) -> watch::Receiver<u64> {
