@@ -266,3 +266,75 @@ async fn a_killed_deliberative_program_takes_its_connections_with_it() {
         "nothing is delivered any more"
     );
 }
+
+/// Every program is visible: a deliberative program's own (embedded) connections are on its program node's
+/// `connections` topic and `list` service, named after the program, without `serve_manager`; they go when the
+/// statement's guard does.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_program_shows_its_connections_on_its_program_node() {
+    let program = radar_ros::Radar::builder()
+        .domain_id(72)
+        .discovery_range(radar_ros::DiscoveryRange::Subnet)
+        .program("patrol")
+        .build()
+        .unwrap();
+    assert_eq!(program.program_node().fully_qualified(), "/patrol_program");
+    let tick = program
+        .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let (count, _runs) = counter(&program, "count");
+    let guard = program.whenever(&tick).start(&count).await.unwrap();
+
+    let observer = radar(72);
+    let connections = observer
+        .state_subscription::<ConnectionList>("/patrol_program/connections")
+        .unwrap();
+    let shown = tokio::time::timeout(DISCOVERY, async {
+        loop {
+            let l = connections.recv().await.unwrap();
+            if !l.connections.is_empty() {
+                return l;
+            }
+        }
+    })
+    .await
+    .expect("the program's connection shown");
+    assert_eq!(shown.manager, "/patrol_program");
+    let c = &shown.connections[0];
+    assert_eq!(
+        (
+            c.id,
+            c.kind_label.as_str(),
+            c.source.as_str(),
+            c.target.as_str()
+        ),
+        (guard.id(), "whenever", "/tick/triggered", "/count/start")
+    );
+    let client = ManagerClient::new(&observer, "/patrol_program", "radar_cli_stand_in").await;
+    let listed = call_once(&client.list, ListRequest::default(), DISCOVERY).await;
+    assert_eq!(listed.connections.len(), 1);
+    assert_eq!(listed.connections[0].id, guard.id());
+
+    drop(guard);
+    tokio::time::timeout(DISCOVERY, async {
+        loop {
+            if connections.recv().await.unwrap().connections.is_empty() {
+                return;
+            }
+        }
+    })
+    .await
+    .expect("the connection's end shown");
+
+    // the default name is the executable's, and each participant of the process has its own (the other tests
+    // of this binary run in this process too, so which number each gets is not known)
+    let (a, b) = (radar(72), radar(72));
+    let (na, nb) = (a.program_node().base(), b.program_node().base());
+    for n in [na, nb] {
+        assert!(
+            n.starts_with("manager_service") && n.contains("_program"),
+            "{n}"
+        );
+    }
+    assert_ne!(na, nb);
+}

@@ -70,7 +70,7 @@ use serde::{Deserialize, Serialize};
 use radar_semantics::response::Announce;
 
 use crate::{
-    endpoints::{emit, publisher, ComponentTask, Watched},
+    endpoints::{emit, publisher, ComponentTask, Watched, REPLY_WAIT},
     error::{Error, Result, SlotError},
     graph::Graph,
     msg::{Empty, ResponseState, RosMessage, TypeName},
@@ -839,8 +839,6 @@ struct Active<G> {
 
 /// How long the response has to say `started` after the goal's start was sent.
 const STARTED_WITHIN: Duration = Duration::from_secs(5);
-/// How long a reply waits for the caller's reply reader to be matched (see `manager_node::reply`).
-const REPLY_WAIT: Duration = Duration::from_secs(2);
 
 enum Incoming<G> {
     Goal(ros2_client::action::NewGoalHandle<Wire<G>>),

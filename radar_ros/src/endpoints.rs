@@ -348,6 +348,57 @@ impl Drop for ComponentTask {
     }
 }
 
+/// A service request that did not decode: dropped, counted (the transport does not say who sent it) and
+/// logged once per service.
+pub(crate) fn malformed(
+    graph: &crate::graph::Graph,
+    manager: &str,
+    service: &str,
+    e: &dyn std::fmt::Display,
+) {
+    let topic = format!("{manager}/{service}");
+    let expected = format!("radar_msgs/srv/{}_Request", capitalized(service));
+    graph.malformed().note(&topic, &expected, None, e);
+}
+
+fn capitalized(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
+/// How long a reply waits for the caller's reply reader to be matched.
+pub(crate) const REPLY_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Answers request `id` of service `service` once our reply writer has matched the caller's reply reader
+/// (at most [`REPLY_WAIT`]), in a task of its own so other requests are not held up. A fresh client process
+/// (`ros2 service call`, rclpy's `call_async` right after `wait_for_service`) can send its request before
+/// our side has matched its reply reader, and a reply sent then goes nowhere.
+pub(crate) fn reply<Req, Resp>(
+    srv: &std::sync::Arc<ros2_client::Server<Req, Resp>>,
+    graph: &crate::graph::Graph,
+    manager: &str,
+    service: &'static str,
+    id: ros2_client::RmwRequestId,
+    resp: Resp,
+) where
+    Req: ros2_client::Message + Send + Sync + 'static,
+    Resp: ros2_client::Message + Send + Sync + 'static,
+{
+    let (srv, graph) = (srv.clone(), graph.clone());
+    let topic = format!("rr{manager}/{service}Reply");
+    tokio::spawn(async move {
+        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+        if !graph.wait_reader_of(&topic, caller, REPLY_WAIT).await {
+            tracing::debug!(%topic, "answering before the caller's reply reader is matched");
+        }
+        if let Err(e) = srv.async_send_response(id, resp).await {
+            tracing::warn!(error = ?e, %service, "could not answer a request");
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

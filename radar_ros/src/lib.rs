@@ -172,6 +172,7 @@ mod names;
 mod participant;
 mod plain;
 mod pool;
+mod program;
 pub mod qos;
 mod radar;
 mod raw;

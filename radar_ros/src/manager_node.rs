@@ -22,7 +22,7 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{emit, typed_publisher, ComponentTask, Throttle},
+    endpoints::{emit, malformed, reply, typed_publisher, ComponentTask, Throttle},
     error::{Error, Result},
     manager::ConnectionGuard,
     msg::{
@@ -215,7 +215,7 @@ impl Radar {
                                 let _ = done.send((id, caller, r));
                             });
                         }
-                        Err(e) => malformed(&radar, &fq, "connect", &e),
+                        Err(e) => malformed(radar.graph(), &fq, "connect", &e),
                     },
                     Some((id, caller, r)) = done_rx.recv() => {
                         let resp = match r {
@@ -226,7 +226,7 @@ impl Radar {
                             }
                             Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
                         };
-                        reply(&connect_srv, &radar, &fq, "connect", id, resp);
+                        reply(&connect_srv, radar.graph(), &fq, "connect", id, resp);
                     }
                     Some(r) = disconnects.next() => match r {
                         Ok((id, req)) => {
@@ -240,16 +240,16 @@ impl Radar {
                                     ),
                                 },
                             };
-                            reply(&disconnect_srv, &radar, &fq, "disconnect", id, resp);
+                            reply(&disconnect_srv, radar.graph(), &fq, "disconnect", id, resp);
                         }
-                        Err(e) => malformed(&radar, &fq, "disconnect", &e),
+                        Err(e) => malformed(radar.graph(), &fq, "disconnect", &e),
                     },
                     Some(r) = lists.next() => match r {
                         Ok((id, _)) => {
                             let resp = ListResponse { connections: manager.list() };
-                            reply(&list_srv, &radar, &fq, "list", id, resp);
+                            reply(&list_srv, radar.graph(), &fq, "list", id, resp);
                         }
-                        Err(e) => malformed(&radar, &fq, "list", &e),
+                        Err(e) => malformed(radar.graph(), &fq, "list", &e),
                     },
                     Ok(gone) = lost.recv() => {
                         let before = owned.len();
@@ -273,50 +273,4 @@ impl Radar {
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
     }
-}
-
-/// A service request that did not decode: dropped, counted (the transport does not say who sent it) and
-/// logged once per service.
-fn malformed(radar: &Radar, manager: &str, service: &str, e: &dyn std::fmt::Display) {
-    let topic = format!("{manager}/{service}");
-    let expected = format!("radar_msgs/srv/{}_Request", capitalized(service));
-    radar.graph().malformed().note(&topic, &expected, None, e);
-}
-
-fn capitalized(s: &str) -> String {
-    let mut c = s.chars();
-    c.next()
-        .map(|f| f.to_uppercase().chain(c).collect())
-        .unwrap_or_default()
-}
-
-/// How long a reply waits for the caller's reply reader to be matched.
-const REPLY_WAIT: Duration = Duration::from_secs(2);
-
-/// Answers request `id` of service `service` once our reply writer has matched the caller's reply reader
-/// (at most [`REPLY_WAIT`]), in a task of its own so other requests are not held up. A fresh client process
-/// (`ros2 service call`, rclpy's `call_async` right after `wait_for_service`) can send its request before
-/// our side has matched its reply reader, and a reply sent then goes nowhere.
-fn reply<Req, Resp>(
-    srv: &Arc<ros2_client::Server<Req, Resp>>,
-    radar: &Radar,
-    manager: &str,
-    service: &'static str,
-    id: ros2_client::RmwRequestId,
-    resp: Resp,
-) where
-    Req: ros2_client::Message + Send + Sync + 'static,
-    Resp: ros2_client::Message + Send + Sync + 'static,
-{
-    let (srv, graph) = (srv.clone(), radar.graph().clone());
-    let topic = format!("rr{manager}/{service}Reply");
-    tokio::spawn(async move {
-        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
-        if !graph.wait_reader_of(&topic, caller, REPLY_WAIT).await {
-            tracing::debug!(%topic, "answering before the caller's reply reader is matched");
-        }
-        if let Err(e) = srv.async_send_response(id, resp).await {
-            tracing::warn!(error = ?e, %service, "could not answer a request");
-        }
-    });
 }

@@ -39,6 +39,8 @@ pub(crate) struct Participant {
     /// which discovery does not show.
     served_actions: Arc<Mutex<HashSet<String>>>,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
+    /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
+    program_node: Mutex<Option<String>>,
 }
 
 impl Drop for Participant {
@@ -46,8 +48,15 @@ impl Drop for Participant {
         if let Some(stop) = self.stop_graph.lock().unwrap().take() {
             let _ = stop.send(());
         }
+        if let Some(name) = self.program_node.lock().unwrap().take() {
+            PROGRAM_NODES.lock().unwrap().remove(&name);
+        }
     }
 }
+
+/// The program nodes of this process (fully qualified), so that each participant's is distinct.
+static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
+    Mutex::new(std::collections::BTreeSet::new());
 
 impl Participant {
     /// Wraps `ctx`, starting the graph's discovery task and the pool's sweeper on `rt`.
@@ -73,6 +82,7 @@ impl Participant {
             pool,
             served_actions: Default::default(),
             stop_graph: Mutex::new(Some(stop)),
+            program_node: Mutex::new(None),
         })
     }
 
@@ -126,17 +136,39 @@ impl Participant {
             .map_err(|e| Error::transport(format!("node {fq}"), e))
     }
 
-    /// Runs `f` with this participant's client node, creating it on first use (named
-    /// `radar_client_<pid>_<n>`, so several participants in one process stay distinct on the graph).
-    fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
-        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let mut guard = self.client.lock().unwrap();
-        if guard.is_none() {
-            let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let base = format!("radar_client_{}_{k}", std::process::id());
-            *guard = Some(self.new_node(&self.namespace, &base)?);
+    /// Creates this participant's program node: the node of its plain endpoints, which also shows the
+    /// program's connections (see `program.rs`). Named `<program>_program` in the participant's namespace, and
+    /// `<program>_program_<n>` for the n-th participant of the process with that program name, so each is
+    /// distinct on the graph and none takes a name a component may want (process-wide: every participant of
+    /// the process is counted). Returns the node's name.
+    pub(crate) fn start_program_node(self: &Arc<Self>, program: &str) -> Result<ComponentName> {
+        let mut k = 1;
+        loop {
+            let base = match k {
+                1 => format!("{program}_program"),
+                _ => format!("{program}_program_{k}"),
+            };
+            let name = self.resolve(&base)?;
+            let fq = name.fully_qualified();
+            if !self.names.lock().unwrap().contains(&fq)
+                && PROGRAM_NODES.lock().unwrap().insert(fq.clone())
+            {
+                self.names.lock().unwrap().insert(fq.clone());
+                *self.program_node.lock().unwrap() = Some(fq);
+                *self.client.lock().unwrap() = Some(self.new_node(name.namespace(), name.base())?);
+                return Ok(name);
+            }
+            k += 1;
         }
-        f(guard.as_mut().expect("client node was just created"))
+    }
+
+    /// Runs `f` with this participant's program node (made by [`Participant::start_program_node`]).
+    pub(crate) fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
+        let mut guard = self.client.lock().unwrap();
+        let node = guard
+            .as_mut()
+            .ok_or_else(|| Error::Closed("the program node".into()))?;
+        f(node)
     }
 
     /// Claims a name for a component in this process and creates its node.

@@ -155,6 +155,7 @@ pub struct RadarBuilder {
     namespace: Option<String>,
     range: Option<DiscoveryRange>,
     lease: Option<std::time::Duration>,
+    program: Option<String>,
 }
 
 impl RadarBuilder {
@@ -204,6 +205,20 @@ impl RadarBuilder {
         self
     }
 
+    /// Names the program (default: the executable's file name, made a valid ROS name): its program node is
+    /// `<program>_program` (see [`Radar::program_node`]).
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().program("patrol").build()?;
+    /// assert_eq!(radar.program_node().fully_qualified(), "/patrol_program");
+    /// # Ok(()) }
+    /// ```
+    pub fn program(mut self, name: &str) -> Self {
+        self.program = Some(name.to_owned());
+        self
+    }
+
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
         let namespace = validate_namespace(self.namespace.as_deref().unwrap_or("/"))?;
@@ -240,8 +255,31 @@ impl RadarBuilder {
         let ctx = Context::from_domain_participant(participant)
             .map_err(|e| Error::transport(format!("a ROS 2 context in domain {domain_id}"), e))?;
         let participant = Participant::start(ctx, domain_id, namespace, &rt);
+        let program = match self.program {
+            Some(p) => {
+                // one valid ROS name token, as given
+                let bad = |why: String| Error::Config {
+                    setting: "program",
+                    value: p.clone(),
+                    reason: format!("{why}; a program name is one ROS name token, e.g. patrol"),
+                };
+                if p.contains('/') {
+                    return Err(bad("it contains a `/`".into()));
+                }
+                crate::names::ComponentName::resolve(&p, "/").map_err(|e| bad(e.to_string()))?;
+                p
+            }
+            None => crate::program::default_program_name(),
+        };
+        let program_node = participant.start_program_node(&program)?;
+        let manager = Arc::new(Manager::new(participant.clone()));
+        let task = crate::program::serve_program(&participant, &manager, &program_node)?;
         Ok(Radar {
-            manager: Arc::new(Manager::new(participant.clone())),
+            program: Arc::new(ProgramNode {
+                name: program_node,
+                _task: task,
+            }),
+            manager,
             participant,
         })
     }
@@ -261,8 +299,16 @@ impl RadarBuilder {
 /// ```
 #[derive(Clone)]
 pub struct Radar {
+    /// First, so that it stops before the rest goes.
+    program: Arc<ProgramNode>,
     participant: Arc<Participant>,
     manager: Arc<Manager>,
+}
+
+/// The program node and the task that shows its connections.
+struct ProgramNode {
+    name: ComponentName,
+    _task: crate::endpoints::ComponentTask,
 }
 
 impl std::fmt::Debug for Radar {
@@ -305,6 +351,20 @@ impl Radar {
     /// The namespace relative names resolve in.
     pub fn namespace(&self) -> &str {
         self.participant.namespace()
+    }
+
+    /// The program node: it shows this program's connections on `<node>/connections` and serves
+    /// `<node>/list` (see the `program` module docs), and carries the program's plain publishers and
+    /// subscriptions.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::new()?;
+    /// println!("ros2 topic echo {}", radar.program_node().topic("connections"));
+    /// # Ok(()) }
+    /// ```
+    pub fn program_node(&self) -> &ComponentName {
+        &self.program.name
     }
 
     /// The underlying ros2-client context, for creating plain ROS 2 nodes on the same participant.
