@@ -186,6 +186,7 @@ mod waiter;
 pub use departure::{Departure, LossCause};
 pub use error::{Error, Result, SlotError, Source};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
+pub use lookup::Component;
 pub use malformed::MalformedCount;
 pub use manager::ConnectionGuard;
 pub use manager_node::ManagerHandle;

@@ -20,6 +20,7 @@ use std::{collections::BTreeSet, time::Duration};
 use crate::{
     error::{Error, Result},
     graph::ros_type_of_dds,
+    msg::RosMessage,
     names::ComponentName,
     radar::Radar,
     refs::{EventRef, ResponseRef},
@@ -29,6 +30,33 @@ use crate::{
 enum Found {
     Event(String),
     Response(String, String),
+}
+
+/// A RADAR component seen on the ROS graph (from [`Radar::components`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Component {
+    /// An event: a publisher on `<name>/triggered`.
+    Event(EventRef),
+    /// A response: a subscription on `<name>/start` and a publisher on `<name>/exited`.
+    Response(ResponseRef),
+}
+
+impl Component {
+    /// Its name.
+    pub fn name(&self) -> &ComponentName {
+        match self {
+            Component::Event(e) => e.name(),
+            Component::Response(r) => r.name(),
+        }
+    }
+
+    /// `"event"` or `"response"`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Component::Event(_) => "event",
+            Component::Response(_) => "response",
+        }
+    }
 }
 
 /// What the graph shows at `name` now: `Ok(None)` if nothing (yet).
@@ -97,6 +125,80 @@ fn distance(a: &str, b: &str) -> usize {
 }
 
 impl Radar {
+    /// Every RADAR component the ROS graph shows now (this process's own included), by name. A freshly
+    /// created `Radar` sees little until discovery has run: [`Radar::settle`] first.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) {
+    /// use std::time::Duration;
+    /// radar.settle(Duration::from_millis(300), Duration::from_secs(3)).await;
+    /// for c in radar.components() {
+    ///     println!("{} {}", c.kind(), c.name());
+    /// }
+    /// # }
+    /// ```
+    pub fn components(&self) -> Vec<Component> {
+        let eps = self.graph().endpoints();
+        let mut names = BTreeSet::new();
+        for (w, t, _) in &eps {
+            let n = match w {
+                true => t
+                    .strip_suffix("/triggered")
+                    .or_else(|| t.strip_suffix("/exited")),
+                false => t.strip_suffix("/start"),
+            };
+            if let Some(n) = n {
+                names.insert(n.to_owned());
+            }
+        }
+        names
+            .into_iter()
+            .filter_map(|n| {
+                let name = ComponentName::resolve(&n, "/").ok()?;
+                match inspect(&eps, &name) {
+                    Ok(Some(Found::Event(p))) => Some(Component::Event(EventRef::new(name, p))),
+                    Ok(Some(Found::Response(s, o))) => {
+                        Some(Component::Response(ResponseRef::new(name, s, o)))
+                    }
+                    Ok(None) => None,
+                    Err(e) => {
+                        tracing::warn!(component = %name, error = %e, "not listed");
+                        None
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// The topics on which programs and managers show their connections (`<node>/connections`, type
+    /// `radar_msgs/msg/ConnectionList`), this program's own included.
+    pub fn connection_topics(&self) -> Vec<String> {
+        let ty = crate::msg::ConnectionList::dds_type_name();
+        let topics: BTreeSet<String> = self
+            .graph()
+            .endpoints()
+            .into_iter()
+            .filter(|(w, t, d)| *w && *d == ty && t.ends_with("/connections"))
+            .map(|(_, t, _)| t)
+            .collect();
+        topics.into_iter().collect()
+    }
+
+    /// Waits until discovery has been quiet for `quiet` (no participant or endpoint found or lost), or `max`
+    /// has passed: what a command-line tool does before it reports what is on the graph.
+    pub async fn settle(&self, quiet: Duration, max: Duration) {
+        let deadline = tokio::time::Instant::now() + max;
+        let mut changes = self.graph().changes();
+        loop {
+            changes.mark_unchanged();
+            let until = deadline.min(tokio::time::Instant::now() + quiet);
+            match tokio::time::timeout_at(until, changes.changed()).await {
+                Ok(Ok(())) if tokio::time::Instant::now() < deadline => continue,
+                _ => return,
+            }
+        }
+    }
+
     /// Looks at the graph after every discovery event (and every 100 ms, in case an event came before the
     /// data) until `found` says yes or no, for at most `timeout`; `found` gets the endpoints seen so far and
     /// answers `Ok(None)` for "not yet".
@@ -180,6 +282,25 @@ impl Radar {
             },
         )
         .await
+    }
+
+    /// The message type a subscriber on `topic` takes, waiting for one to appear (default
+    /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change): what to publish there.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// assert_eq!(radar.subscriber_type("/count_up/start").await?, "std_msgs/msg/Empty");
+    /// # Ok(()) }
+    /// ```
+    pub fn subscriber_type(&self, topic: &str) -> Wait<'static, String> {
+        let (radar, topic) = (
+            self.clone(),
+            self.resolve(topic).map(|n| n.fully_qualified()),
+        );
+        Wait::discovery(move |timeout| async move {
+            let topic = topic?;
+            radar.topic_type(&topic, false, timeout).await
+        })
     }
 
     /// Finds the event `name` on the ROS graph, waiting for it to appear (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT),

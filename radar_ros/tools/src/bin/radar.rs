@@ -1,0 +1,844 @@
+//! `radar`: RADAR on a ROS 2 graph from the shell, with no ROS installation (like OpenRTM's rtshell).
+//!
+//! ```text
+//! radar ls [NS] [-l]                       events and responses, their types and state     (rtls)
+//! radar cat NAME                           one component: topics, state, connections        (rtcat)
+//! radar act start|interrupt|exit NAME [P]  drive a response, show the signal that follows   (rtact)
+//! radar inject TOPIC [PAYLOAD]             publish into a slot                              (rtinject)
+//! radar watch [NAMES]                      a live timeline of signals and state changes     (rtprint)
+//! ```
+//!
+//! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
+//! message that says what to do when something is wrong.
+
+#[path = "../cli/codec.rs"]
+mod codec;
+
+use std::{collections::BTreeMap, io::IsTerminal, time::Duration};
+
+use clap::{Parser, Subcommand, ValueEnum};
+use radar_ros::{
+    msg::{ConnectionList, EventState, ResponseState},
+    Component, Radar,
+};
+use serde_json::{json, Value};
+
+#[derive(Parser)]
+#[command(
+    name = "radar",
+    version,
+    about = "RADAR on ROS 2 from the shell: see events, responses and connections, and drive them",
+    after_help = "The ROS 2 domain is ROS_DOMAIN_ID's (default 0). Payloads are YAML, as `ros2 topic pub` takes them."
+)]
+struct Cli {
+    /// Print JSON, one document per line, for scripts.
+    #[arg(long, global = true)]
+    json: bool,
+    /// Seconds to let discovery run before answering.
+    #[arg(long, global = true, default_value_t = 1.5, value_name = "SECONDS")]
+    discovery: f64,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// List the events and responses on the graph, by namespace (like rtls).
+    Ls {
+        /// Only names in this namespace (e.g. /robot).
+        namespace: Option<String>,
+        /// Also each one's current state (from its state topic).
+        #[arg(short = 'l', long)]
+        long: bool,
+    },
+    /// Show one component: its topics and types, its state, and every connection touching it, from every
+    /// program (like rtcat).
+    Cat {
+        /// The event or response, e.g. /count_up.
+        name: String,
+    },
+    /// Send start, interrupt or exit to a response and show the signal that follows (like rtact).
+    Act {
+        /// Which slot.
+        slot: ActSlot,
+        /// The response, e.g. /count_up.
+        name: String,
+        /// The start payload as YAML (default: the type's default), e.g. "{data: kitchen}".
+        payload: Option<String>,
+        /// Seconds to wait for the response and for the signal.
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        timeout: f64,
+    },
+    /// Publish a payload into a slot topic, once its subscriber is matched (like rtinject).
+    Inject {
+        /// The topic, e.g. /count_up/start.
+        topic: String,
+        /// The payload as YAML (default: the type's default).
+        payload: Option<String>,
+        /// Seconds to wait for a subscriber.
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        timeout: f64,
+    },
+    /// A live timeline of the signals and state changes of every component (or those named), relative to
+    /// when watching began (like rtprint). Events are watched through their state topics, so watching does
+    /// not make them check; --activate listens to their triggered signal instead (and so activates them).
+    Watch {
+        /// Components to watch (default: all, including ones that appear later).
+        names: Vec<String>,
+        /// Listen to events' triggered signals (this activates them) instead of their state topics.
+        #[arg(long)]
+        activate: bool,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ActSlot {
+    Start,
+    Interrupt,
+    Exit,
+}
+
+impl ActSlot {
+    fn topic(self) -> &'static str {
+        match self {
+            ActSlot::Start => "start",
+            ActSlot::Interrupt => "interrupt",
+            ActSlot::Exit => "exit",
+        }
+    }
+    /// The signal that shows the slot took effect.
+    fn answer(self) -> &'static str {
+        match self {
+            ActSlot::Start => "started",
+            ActSlot::Interrupt => "interrupted",
+            ActSlot::Exit => "exited",
+        }
+    }
+}
+
+type Fallible<T> = Result<T, String>;
+
+#[tokio::main]
+async fn main() {
+    let cli = Cli::parse();
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error"
+                    .into()
+            }),
+        )
+        .with_writer(std::io::stderr)
+        .try_init();
+    if let Err(e) = run(cli).await {
+        eprintln!("radar: {e}");
+        std::process::exit(1);
+    }
+}
+
+async fn run(cli: Cli) -> Fallible<()> {
+    // one program node per invocation: several may run at once (a watch and an act)
+    let radar = Radar::builder()
+        .program(&format!("radar_cli_{}", std::process::id()))
+        .build()
+        .map_err(|e| e.to_string())?;
+    let out = Out { json: cli.json };
+    let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
+    match cli.cmd {
+        Cmd::Ls { namespace, long } => ls(&radar, &out, discovery, namespace, long).await,
+        Cmd::Cat { name } => cat(&radar, &out, discovery, &name).await,
+        Cmd::Act {
+            slot,
+            name,
+            payload,
+            timeout,
+        } => {
+            act(
+                &radar,
+                &out,
+                slot,
+                &name,
+                payload.as_deref(),
+                secs(timeout)?,
+            )
+            .await
+        }
+        Cmd::Inject {
+            topic,
+            payload,
+            timeout,
+        } => inject(&radar, &out, &topic, payload.as_deref(), secs(timeout)?).await,
+        Cmd::Watch {
+            names,
+            activate,
+            duration,
+        } => watch(&radar, &out, names, activate, duration).await,
+    }
+}
+
+fn secs(s: f64) -> Fallible<Duration> {
+    if s.is_finite() && s > 0.0 {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        Err(format!("{s} is not a number of seconds above 0"))
+    }
+}
+
+/// Where answers go: text for people, JSON lines for scripts.
+struct Out {
+    json: bool,
+}
+
+impl Out {
+    fn colour(&self) -> bool {
+        !self.json && std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+    }
+    fn bold(&self, s: &str) -> String {
+        if self.colour() {
+            format!("\x1b[1m{s}\x1b[0m")
+        } else {
+            s.to_owned()
+        }
+    }
+}
+
+/// Shows a status line on stderr while `f` runs longer than a second (discovery), when stderr is a terminal.
+async fn with_status<T>(what: &str, f: impl std::future::IntoFuture<Output = T>) -> T {
+    let show = std::io::stderr().is_terminal();
+    let f = f.into_future();
+    tokio::pin!(f);
+    tokio::select! {
+        t = &mut f => return t,
+        _ = tokio::time::sleep(Duration::from_secs(1)), if show => eprint!("\r{what} ..."),
+    }
+    let t = f.await;
+    eprint!("\r\x1b[2K");
+    t
+}
+
+fn in_namespace(name: &str, ns: &Option<String>) -> bool {
+    match ns {
+        None => true,
+        Some(ns) => {
+            let ns = ns.trim_end_matches('/');
+            ns.is_empty() || name.starts_with(&format!("{ns}/"))
+        }
+    }
+}
+
+fn types_of(c: &Component) -> Value {
+    match c {
+        Component::Event(e) => json!({ "triggered": e.triggered().ros_type() }),
+        Component::Response(r) => json!({
+            "start": r.start_slot().ros_type(),
+            "exited": r.exited().ros_type(),
+        }),
+    }
+}
+
+/// The current state of a component, from its transient-local state topic (`None` if none came in `within`).
+async fn state_of(radar: &Radar, c: &Component, within: Duration) -> Option<Value> {
+    let topic = c.name().topic("state");
+    match c {
+        Component::Event(_) => {
+            let s = radar.state_subscription::<EventState>(&topic).ok()?;
+            let m = s.recv().timeout(within).await.ok()?;
+            serde_json::to_value(m).ok()
+        }
+        Component::Response(_) => {
+            let s = radar.state_subscription::<ResponseState>(&topic).ok()?;
+            let m = s.recv().timeout(within).await.ok()?;
+            serde_json::to_value(m).ok()
+        }
+    }
+}
+
+fn state_summary(c: &Component, s: &Value) -> String {
+    match c {
+        Component::Event(_) => format!(
+            "{}, {} triggers, {} listeners",
+            if s["active"] == true {
+                "active"
+            } else {
+                "inactive"
+            },
+            s["triggers"],
+            s["listeners"]
+        ),
+        Component::Response(_) => format!(
+            "{}, {} starts, {} exits ({})",
+            s["state_label"].as_str().unwrap_or("?"),
+            s["starts"],
+            s["exits"],
+            s["last_exit_reason"]
+                .as_str()
+                .filter(|r| !r.is_empty())
+                .unwrap_or("-")
+        ),
+    }
+}
+
+async fn ls(
+    radar: &Radar,
+    out: &Out,
+    discovery: Duration,
+    namespace: Option<String>,
+    long: bool,
+) -> Fallible<()> {
+    if let Some(ns) = &namespace {
+        if !ns.starts_with('/') {
+            return Err(format!("the namespace is absolute, e.g. /{ns}"));
+        }
+    }
+    with_status(
+        "discovering",
+        radar.settle(Duration::from_millis(300), discovery),
+    )
+    .await;
+    let components: Vec<Component> = radar
+        .components()
+        .into_iter()
+        .filter(|c| in_namespace(&c.name().fully_qualified(), &namespace))
+        .collect();
+    let states: Vec<Option<Value>> = if long {
+        let futs = components
+            .iter()
+            .map(|c| state_of(radar, c, Duration::from_secs(2)));
+        futures::future::join_all(futs).await
+    } else {
+        vec![None; components.len()]
+    };
+    if out.json {
+        let list: Vec<Value> = components
+            .iter()
+            .zip(&states)
+            .map(|(c, s)| {
+                let mut v = json!({
+                    "name": c.name().fully_qualified(),
+                    "kind": c.kind(),
+                    "types": types_of(c),
+                });
+                if long {
+                    v["state"] = s.clone().unwrap_or(Value::Null);
+                }
+                v
+            })
+            .collect();
+        println!("{}", Value::Array(list));
+        return Ok(());
+    }
+    if components.is_empty() {
+        println!(
+            "no RADAR components in ROS_DOMAIN_ID {}{}",
+            radar.domain_id(),
+            namespace.map(|n| format!(" under {n}")).unwrap_or_default()
+        );
+        return Ok(());
+    }
+    let mut by_ns: BTreeMap<String, Vec<(&Component, &Option<Value>)>> = BTreeMap::new();
+    for (c, s) in components.iter().zip(&states) {
+        by_ns
+            .entry(c.name().namespace().to_owned())
+            .or_default()
+            .push((c, s));
+    }
+    for (ns, cs) in by_ns {
+        println!("{}", out.bold(&format!("{ns}:")));
+        for (c, s) in cs {
+            let types = match c {
+                Component::Event(e) => e.triggered().ros_type().to_owned(),
+                Component::Response(r) => {
+                    format!("{} -> {}", r.start_slot().ros_type(), r.exited().ros_type())
+                }
+            };
+            let mut line = format!("  {:<9} {:<28} {}", c.kind(), c.name().base(), types);
+            if long {
+                line.push_str(&format!(
+                    "  [{}]",
+                    s.as_ref()
+                        .map(|s| state_summary(c, s))
+                        .unwrap_or_else(|| "no state".into())
+                ));
+            }
+            println!("{line}");
+        }
+    }
+    Ok(())
+}
+
+/// The component `name`, waiting for discovery.
+async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Component> {
+    let fq = radar.resolve(name).map_err(|e| e.to_string())?;
+    let deadline = tokio::time::Instant::now() + discovery.max(Duration::from_secs(3));
+    loop {
+        if let Some(c) = radar.components().into_iter().find(|c| *c.name() == fq) {
+            return Ok(c);
+        }
+        if tokio::time::Instant::now() >= deadline {
+            let seen: Vec<String> = radar
+                .components()
+                .iter()
+                .map(|c| c.name().fully_qualified())
+                .collect();
+            return Err(format!(
+                "no event or response named {fq} on the graph (ROS_DOMAIN_ID {}); seen: {}",
+                radar.domain_id(),
+                if seen.is_empty() {
+                    "none".to_owned()
+                } else {
+                    seen.join(", ")
+                }
+            ));
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Fallible<()> {
+    let c = with_status("discovering", find(radar, discovery, name)).await?;
+    with_status(
+        "discovering",
+        radar.settle(Duration::from_millis(300), discovery),
+    )
+    .await;
+    let state = state_of(radar, &c, Duration::from_secs(2)).await;
+    let fq = c.name().fully_qualified();
+    let prefix = format!("{fq}/");
+    let touches = |t: &str| t.starts_with(&prefix);
+    // every program's and manager's connections
+    let mut connections = Vec::new();
+    for topic in radar.connection_topics() {
+        let Ok(sub) = radar.state_subscription::<ConnectionList>(&topic) else {
+            continue;
+        };
+        if let Ok(list) = sub.recv().timeout(Duration::from_secs(2)).await {
+            for k in list.connections {
+                if touches(&k.source) || touches(&k.target) || touches(&k.until) {
+                    connections.push((list.manager.clone(), k));
+                }
+            }
+        }
+    }
+    let topics: Vec<(String, &str, String)> = match &c {
+        Component::Event(e) => vec![
+            (
+                e.triggered().topic().to_owned(),
+                "signal",
+                e.triggered().ros_type().to_owned(),
+            ),
+            (
+                c.name().topic("state"),
+                "state",
+                "radar_msgs/msg/EventState".into(),
+            ),
+        ],
+        Component::Response(r) => vec![
+            (
+                r.start_slot().topic().to_owned(),
+                "slot",
+                r.start_slot().ros_type().to_owned(),
+            ),
+            (
+                r.interrupt_slot().topic().to_owned(),
+                "slot",
+                r.interrupt_slot().ros_type().to_owned(),
+            ),
+            (
+                r.exit_slot().topic().to_owned(),
+                "slot",
+                r.exit_slot().ros_type().to_owned(),
+            ),
+            (
+                r.started().topic().to_owned(),
+                "signal",
+                r.started().ros_type().to_owned(),
+            ),
+            (
+                r.interrupted().topic().to_owned(),
+                "signal",
+                r.interrupted().ros_type().to_owned(),
+            ),
+            (
+                r.exited().topic().to_owned(),
+                "signal",
+                r.exited().ros_type().to_owned(),
+            ),
+            (
+                c.name().topic("state"),
+                "state",
+                "radar_msgs/msg/ResponseState".into(),
+            ),
+        ],
+    };
+    if out.json {
+        let v = json!({
+            "name": fq,
+            "kind": c.kind(),
+            "topics": topics.iter().map(|(t, k, ty)| json!({"topic": t, "role": k, "type": ty})).collect::<Vec<_>>(),
+            "state": state.clone().unwrap_or(Value::Null),
+            "connections": connections.iter().map(|(p, k)| {
+                let mut v = serde_json::to_value(k).unwrap_or(Value::Null);
+                v["program"] = json!(p);
+                v
+            }).collect::<Vec<_>>(),
+        });
+        println!("{v}");
+        return Ok(());
+    }
+    println!("{} ({})", out.bold(&fq), c.kind());
+    for (t, k, ty) in &topics {
+        println!("  {k:<6} {t:<36} {ty}");
+    }
+    match &state {
+        Some(s) => {
+            println!("  state: {}", state_summary(&c, s));
+            if let Value::Object(m) = s {
+                let counters: Vec<String> = m
+                    .iter()
+                    .filter(|(_, v)| v.is_u64())
+                    .map(|(k, v)| format!("{k} {v}"))
+                    .collect();
+                println!("  counters: {}", counters.join(", "));
+            }
+        }
+        None => println!("  state: none received"),
+    }
+    if connections.is_empty() {
+        println!("  connections: none");
+    }
+    for (program, k) in &connections {
+        let until = if k.until.is_empty() {
+            String::new()
+        } else {
+            format!(" until {}", k.until)
+        };
+        println!(
+            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered",
+            k.id, program, k.kind_label, k.source, k.target, until, k.state_label, k.delivered
+        );
+    }
+    Ok(())
+}
+
+async fn act(
+    radar: &Radar,
+    out: &Out,
+    slot: ActSlot,
+    name: &str,
+    payload: Option<&str>,
+    timeout: Duration,
+) -> Fallible<()> {
+    let r = with_status(
+        "looking for the response",
+        radar.response(name).timeout(timeout),
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    let (slot_ref, answer) = match slot {
+        ActSlot::Start => (r.start_slot(), r.started()),
+        ActSlot::Interrupt => (r.interrupt_slot(), r.interrupted()),
+        ActSlot::Exit => (r.exit_slot(), r.exited()),
+    };
+    if payload.is_some() && !matches!(slot, ActSlot::Start) {
+        return Err(format!(
+            "only start takes a payload; {} does not",
+            slot.topic()
+        ));
+    }
+    let raw = codec::encode(slot_ref.ros_type(), payload.unwrap_or(""))?;
+    let signal = radar
+        .raw_subscription(answer.topic(), answer.ros_type())
+        .map_err(|e| e.to_string())?;
+    let state = radar
+        .state_subscription::<ResponseState>(&r.name().topic("state"))
+        .map_err(|e| e.to_string())?;
+    let publisher = radar
+        .raw_publisher(slot_ref.topic(), slot_ref.ros_type())
+        .map_err(|e| e.to_string())?;
+    let ready = async {
+        publisher.wait_for_subscribers(1).timeout(timeout).await?;
+        signal.wait_for_publishers(1).timeout(timeout).await
+    };
+    with_status("waiting for the match", ready)
+        .await
+        .map_err(|e| e.to_string())?;
+    let before = state.recv().timeout(timeout).await.ok();
+    publisher.publish(raw).map_err(|e| e.to_string())?;
+    match signal.recv_stamped().timeout(timeout).await {
+        Ok((m, _)) => {
+            let payload = codec::decode(answer.ros_type(), &m);
+            if out.json {
+                println!(
+                    "{}",
+                    json!({ "signal": slot.answer(), "response": r.name().fully_qualified(), "payload": payload })
+                );
+            } else {
+                println!("{} {} {}", r.name(), slot.answer(), codec::inline(&payload));
+            }
+            Ok(())
+        }
+        Err(_) => {
+            // say why, from the state: a busy response ignores a start, an idle one an interrupt
+            let now = state.recv().timeout(Duration::from_millis(500)).await.ok();
+            let why = match (before, now) {
+                (Some(b), Some(n)) if n.ignored_starts > b.ignored_starts => {
+                    format!(
+                        "it ignored the start: it was {} (start policy {})",
+                        b.state_label, b.start_policy
+                    )
+                }
+                (Some(b), Some(n))
+                    if n.ignored_interrupts > b.ignored_interrupts
+                        || n.ignored_exits > b.ignored_exits =>
+                {
+                    format!("it ignored the {}: it was {}", slot.topic(), b.state_label)
+                }
+                (Some(b), _) => format!("it was {}", b.state_label),
+                _ => "its state did not arrive either".into(),
+            };
+            Err(format!(
+                "no {} from {} within {timeout:?}; {why}",
+                slot.answer(),
+                r.name()
+            ))
+        }
+    }
+}
+
+async fn inject(
+    radar: &Radar,
+    out: &Out,
+    topic: &str,
+    payload: Option<&str>,
+    timeout: Duration,
+) -> Fallible<()> {
+    let topic = radar
+        .resolve(topic)
+        .map_err(|e| e.to_string())?
+        .fully_qualified();
+    let ty = with_status(
+        "looking for a subscriber",
+        radar.subscriber_type(&topic).timeout(timeout),
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    let raw = codec::encode(&ty, payload.unwrap_or(""))?;
+    let publisher = radar
+        .raw_publisher(&topic, &ty)
+        .map_err(|e| e.to_string())?;
+    with_status(
+        "waiting for the match",
+        publisher.wait_for_subscribers(1).timeout(timeout),
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    publisher.publish(raw.clone()).map_err(|e| e.to_string())?;
+    let shown = codec::decode(&ty, &raw);
+    if out.json {
+        println!(
+            "{}",
+            json!({ "topic": topic, "type": ty, "payload": shown })
+        );
+    } else {
+        println!("published {ty} on {topic} {}", codec::inline(&shown));
+    }
+    // the sample is written; stay a moment so reliable delivery can repair a loss before we leave
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    Ok(())
+}
+
+/// One line of the timeline.
+struct Seen {
+    component: String,
+    what: String,
+    payload: Value,
+}
+
+async fn watch(
+    radar: &Radar,
+    out: &Out,
+    names: Vec<String>,
+    activate: bool,
+    duration: Option<f64>,
+) -> Fallible<()> {
+    let wanted: Vec<String> = names
+        .iter()
+        .map(|n| {
+            radar
+                .resolve(n)
+                .map(|c| c.fully_qualified())
+                .map_err(|e| e.to_string())
+        })
+        .collect::<Fallible<_>>()?;
+    let t0 = tokio::time::Instant::now();
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Seen>();
+    let mut watched = std::collections::BTreeSet::new();
+    let mut tasks = Vec::new();
+    let end = async {
+        match duration {
+            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))).await,
+            None => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    };
+    tokio::pin!(end);
+    let mut rescan = tokio::time::interval(Duration::from_millis(250));
+    if !out.json {
+        println!(
+            "watching {} in ROS_DOMAIN_ID {} (Ctrl-C to stop)",
+            if wanted.is_empty() {
+                "every component".to_owned()
+            } else {
+                wanted.join(", ")
+            },
+            radar.domain_id()
+        );
+    }
+    loop {
+        tokio::select! {
+            _ = &mut end => break,
+            _ = rescan.tick() => {
+                for c in radar.components() {
+                    let fq = c.name().fully_qualified();
+                    if (!wanted.is_empty() && !wanted.contains(&fq)) || !watched.insert(fq) {
+                        continue;
+                    }
+                    tasks.extend(follow(radar, &c, activate, tx.clone())?);
+                }
+            }
+            Some(s) = rx.recv() => {
+                let t = t0.elapsed().as_secs_f64();
+                if out.json {
+                    println!("{}", json!({ "t": t, "component": s.component, "event": s.what, "payload": s.payload }));
+                } else {
+                    println!("[{t:8.3} s] {} {} {}", s.component, s.what, codec::inline(&s.payload));
+                }
+            }
+        }
+    }
+    for t in tasks {
+        t.abort();
+    }
+    Ok(())
+}
+
+/// Subscribes to what shows `c`'s activity and forwards each to `tx`: a response's signals and state, an
+/// event's state (or, with `activate`, its triggered signal).
+fn follow(
+    radar: &Radar,
+    c: &Component,
+    activate: bool,
+    tx: tokio::sync::mpsc::UnboundedSender<Seen>,
+) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
+    let name = c.name().fully_qualified();
+    let mut tasks = Vec::new();
+    let signals: Vec<(String, String, &'static str)> = match c {
+        Component::Response(r) => vec![
+            (
+                r.started().topic().into(),
+                r.started().ros_type().into(),
+                "started",
+            ),
+            (
+                r.interrupted().topic().into(),
+                r.interrupted().ros_type().into(),
+                "interrupted",
+            ),
+            (
+                r.exited().topic().into(),
+                r.exited().ros_type().into(),
+                "exited",
+            ),
+        ],
+        Component::Event(e) if activate => {
+            vec![(
+                e.triggered().topic().into(),
+                e.triggered().ros_type().into(),
+                "triggered",
+            )]
+        }
+        Component::Event(_) => Vec::new(),
+    };
+    for (topic, ty, what) in signals {
+        let sub = radar
+            .raw_subscription(&topic, &ty)
+            .map_err(|e| e.to_string())?;
+        let (tx, name) = (tx.clone(), name.clone());
+        tasks.push(tokio::spawn(async move {
+            while let Ok((m, _)) = sub.recv_stamped().await {
+                let payload = codec::decode(&ty, &m);
+                let seen = Seen {
+                    component: name.clone(),
+                    what: what.into(),
+                    payload,
+                };
+                if tx.send(seen).is_err() {
+                    break;
+                }
+            }
+        }));
+    }
+    let state_topic = c.name().topic("state");
+    let tx2 = tx.clone();
+    match c {
+        Component::Response(_) => {
+            let sub = radar
+                .state_subscription::<ResponseState>(&state_topic)
+                .map_err(|e| e.to_string())?;
+            tasks.push(tokio::spawn(async move {
+                let mut last = String::new();
+                while let Ok(s) = sub.recv().await {
+                    if s.state_label != last {
+                        last = s.state_label.clone();
+                        let seen = Seen {
+                            component: s.name.clone(),
+                            what: format!("is {}", s.state_label),
+                            payload: Value::Object(Default::default()),
+                        };
+                        if tx2.send(seen).is_err() {
+                            break;
+                        }
+                    }
+                }
+            }));
+        }
+        Component::Event(_) => {
+            let sub = radar
+                .state_subscription::<EventState>(&state_topic)
+                .map_err(|e| e.to_string())?;
+            tasks.push(tokio::spawn(async move {
+                let mut last: Option<EventState> = None;
+                while let Ok(s) = sub.recv().await {
+                    let mut lines = Vec::new();
+                    match &last {
+                        None => lines.push(if s.active { "is active" } else { "is inactive" }),
+                        Some(l) => {
+                            if s.active != l.active {
+                                lines.push(if s.active { "activated" } else { "deactivated" });
+                            }
+                            if !activate && s.triggers > l.triggers {
+                                lines.push("triggered");
+                            }
+                        }
+                    }
+                    for what in lines {
+                        let seen = Seen {
+                            component: s.name.clone(),
+                            what: what.into(),
+                            payload: Value::Object(Default::default()),
+                        };
+                        if tx2.send(seen).is_err() {
+                            return;
+                        }
+                    }
+                    last = Some(s);
+                }
+            }));
+        }
+    }
+    Ok(tasks)
+}

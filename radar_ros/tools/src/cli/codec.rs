@@ -1,0 +1,170 @@
+//! Payloads on the command line: YAML in (as `ros2 topic pub` takes them), JSON or YAML out, for the message
+//! types radar_ros knows. Others are shown as their size in bytes.
+
+use radar_ros::{
+    action::{FibonacciFeedback, FibonacciGoal, FibonacciResult},
+    msg::{
+        Bool, Connection, ConnectionList, Empty, EventState, Float64, Header, Int32, Int64, Point,
+        Pose, PoseStamped, Quaternion, ResponseState, RosMessage, StringMsg, Time,
+    },
+    RawMessage,
+};
+use serde_json::Value;
+
+/// Calls `$m!(Type)` for every known message type.
+macro_rules! known_types {
+    ($m:ident) => {
+        $m!(Empty);
+        $m!(StringMsg);
+        $m!(Bool);
+        $m!(Int32);
+        $m!(Int64);
+        $m!(Float64);
+        $m!(Time);
+        $m!(Header);
+        $m!(Point);
+        $m!(Quaternion);
+        $m!(Pose);
+        $m!(PoseStamped);
+        $m!(ResponseState);
+        $m!(EventState);
+        $m!(Connection);
+        $m!(ConnectionList);
+        $m!(FibonacciGoal);
+        $m!(FibonacciResult);
+        $m!(FibonacciFeedback);
+    };
+}
+
+/// The ROS names of the types the command line can read and write.
+pub fn known() -> Vec<String> {
+    let mut v = Vec::new();
+    macro_rules! name {
+        ($t:ty) => {
+            v.push(<$t>::ros_type_name());
+        };
+    }
+    known_types!(name);
+    v
+}
+
+/// `yaml` (empty: the type's default) as a CDR message of `ros_type`.
+pub fn encode(ros_type: &str, yaml: &str) -> Result<RawMessage, String> {
+    let yaml = if yaml.trim().is_empty() { "{}" } else { yaml };
+    macro_rules! try_type {
+        ($t:ty) => {
+            if ros_type == <$t>::ros_type_name() {
+                if <$t>::ros_type_name() == Empty::ros_type_name() {
+                    if !matches!(yaml.trim(), "{}" | "") {
+                        return Err(format!("{ros_type} carries nothing; leave the payload out"));
+                    }
+                    return RawMessage::encode(&Empty::default()).map_err(|e| e.to_string());
+                }
+                let m: $t = from_yaml(yaml).map_err(|e| {
+                    format!("the payload is not a {ros_type}: {e} (write it as YAML, e.g. \"{{data: kitchen}}\")")
+                })?;
+                return RawMessage::encode(&m).map_err(|e| e.to_string());
+            }
+        };
+    }
+    known_types!(try_type);
+    Err(format!(
+        "radar cannot write {ros_type} payloads; it knows {}",
+        known().join(", ")
+    ))
+}
+
+/// Fields left out of the YAML take their default (as `ros2 topic pub` does).
+fn from_yaml<T: serde::de::DeserializeOwned + serde::Serialize + Default>(
+    yaml: &str,
+) -> Result<T, String> {
+    let given: serde_yaml::Value = serde_yaml::from_str(yaml).map_err(|e| e.to_string())?;
+    let mut full = serde_yaml::to_value(T::default()).map_err(|e| e.to_string())?;
+    merge(&mut full, given)?;
+    serde_yaml::from_value(full).map_err(|e| e.to_string())
+}
+
+fn merge(into: &mut serde_yaml::Value, given: serde_yaml::Value) -> Result<(), String> {
+    match (into, given) {
+        (serde_yaml::Value::Mapping(a), serde_yaml::Value::Mapping(b)) => {
+            for (k, v) in b {
+                match a.get_mut(&k) {
+                    Some(slot) => merge(slot, v)?,
+                    None => {
+                        return Err(format!(
+                            "no field {}",
+                            serde_yaml::to_string(&k).unwrap_or_default().trim()
+                        ))
+                    }
+                }
+            }
+            Ok(())
+        }
+        (slot, v) => {
+            *slot = v;
+            Ok(())
+        }
+    }
+}
+
+/// A CDR message of `ros_type` as JSON (`{"bytes": n}` for a type radar does not know).
+pub fn decode(ros_type: &str, raw: &RawMessage) -> Value {
+    macro_rules! try_type {
+        ($t:ty) => {
+            if ros_type == <$t>::ros_type_name() {
+                return match raw.decode::<$t>() {
+                    Ok(m) if <$t>::ros_type_name() == Empty::ros_type_name() => {
+                        let _ = m;
+                        Value::Object(Default::default())
+                    }
+                    Ok(m) => serde_json::to_value(&m).unwrap_or(Value::Null),
+                    Err(e) => serde_json::json!({ "undecodable": e.to_string(), "bytes": raw.0.len() }),
+                };
+            }
+        };
+    }
+    known_types!(try_type);
+    serde_json::json!({ "bytes": raw.0.len() })
+}
+
+/// A JSON payload as one line of flow-style YAML, as the timeline prints it.
+pub fn inline(v: &Value) -> String {
+    match v {
+        Value::Object(m) if m.is_empty() => String::new(),
+        _ => v.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaml_payloads_encode_and_decode_back() {
+        let raw = encode("std_msgs/msg/String", "{data: kitchen}").unwrap();
+        assert_eq!(decode("std_msgs/msg/String", &raw)["data"], "kitchen");
+        let raw = encode("test_msgs/action/Fibonacci_Goal", "{order: 5}").unwrap();
+        assert_eq!(decode("test_msgs/action/Fibonacci_Goal", &raw)["order"], 5);
+        // fields left out take their defaults
+        let raw = encode(
+            "geometry_msgs/msg/PoseStamped",
+            "{pose: {position: {x: 1.5}}}",
+        )
+        .unwrap();
+        let v = decode("geometry_msgs/msg/PoseStamped", &raw);
+        assert_eq!(v["pose"]["position"]["x"], 1.5);
+        assert_eq!(v["header"]["frame_id"], "");
+        assert_eq!(encode("std_msgs/msg/Empty", "").unwrap().0.len(), 1);
+        assert!(encode("std_msgs/msg/Empty", "{data: 3}").is_err());
+    }
+
+    #[test]
+    fn bad_payloads_say_what_to_write() {
+        let e = encode("std_msgs/msg/Int32", "{data: many}").unwrap_err();
+        assert!(e.contains("not a std_msgs/msg/Int32"), "{e}");
+        let e = encode("std_msgs/msg/Int32", "{value: 3}").unwrap_err();
+        assert!(e.contains("no field value"), "{e}");
+        let e = encode("nav_msgs/msg/Path", "{}").unwrap_err();
+        assert!(e.contains("it knows std_msgs/msg/Empty"), "{e}");
+    }
+}

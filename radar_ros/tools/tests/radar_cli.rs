@@ -1,0 +1,225 @@
+//! The `radar` command line against real components in another process (this test's), over DDS: every verb's
+//! `--json` output and its effect on the wire, and clear errors with a non-zero exit on bad input. Domain 73.
+
+use std::{process::Output, time::Duration};
+
+use radar_ros::{
+    msg::{Empty, StringMsg},
+    DiscoveryRange, Event, FnResponse, Radar, SlotError, TimerEvent,
+};
+use serde_json::Value;
+
+const DOMAIN: &str = "73";
+
+/// An event whose check never ends: it stays armed and never triggers.
+struct Never;
+impl Event for Never {
+    type Payload = Empty;
+    async fn check(&mut self) -> Result<Empty, SlotError> {
+        std::future::pending().await
+    }
+}
+
+async fn radar_cmd(args: &[&str]) -> Output {
+    tokio::time::timeout(
+        Duration::from_secs(30),
+        tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+            .args(args)
+            .env("ROS_DOMAIN_ID", DOMAIN)
+            .env_remove("RUST_LOG")
+            .kill_on_drop(true)
+            .output(),
+    )
+    .await
+    .unwrap_or_else(|_| panic!("radar {args:?} did not end"))
+    .unwrap()
+}
+
+/// The JSON document `radar ARGS --json` printed (its last line); fails unless it succeeded.
+async fn json(args: &[&str]) -> Value {
+    let mut all = args.to_vec();
+    all.push("--json");
+    let out = radar_cmd(&all).await;
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "radar {all:?} failed: {stderr}");
+    assert!(
+        !stderr.contains("ERROR"),
+        "radar {all:?} logged an error: {stderr}"
+    );
+    let last = stdout.lines().last().unwrap_or_default();
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("radar {all:?}: not JSON ({e}): {stdout}"))
+}
+
+/// The error message of `radar ARGS`, which must fail.
+async fn fails(args: &[&str]) -> String {
+    let out = radar_cmd(args).await;
+    assert!(!out.status.success(), "radar {args:?} should have failed");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn names(ls: &Value) -> Vec<String> {
+    ls.as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap().to_owned())
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_verb_sees_and_drives_components_in_another_process() {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+        "run inside tests/isolated.sh (see README.md)"
+    );
+    let r = Radar::builder()
+        .domain_id(DOMAIN.parse().unwrap())
+        .discovery_range(DiscoveryRange::Subnet)
+        .program("cli_host")
+        .build()
+        .unwrap();
+    let tick = r
+        .spawn_event("/cli/tick", TimerEvent::new(Duration::from_millis(200)))
+        .unwrap();
+    let never = r.spawn_event("/cli/never", Never).unwrap();
+    let say = r
+        .spawn_response(
+            "/cli/say",
+            FnResponse::new(|s: StringMsg| async move {
+                tokio::time::sleep(Duration::from_millis(300)).await;
+                Ok(s)
+            }),
+        )
+        .unwrap();
+    let slow = r
+        .spawn_response(
+            "/cli/slow",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_secs(60)).await;
+                Ok(Empty::default())
+            }),
+        )
+        .unwrap();
+    let _armed = r
+        .whenever(&never)
+        .start(&say)
+        .map(|_: Empty| StringMsg::from("never"))
+        .await
+        .unwrap();
+
+    // ls: every component, with kind and types; -l adds the state; a namespace filters
+    let ls = json(&["ls"]).await;
+    assert_eq!(
+        names(&ls),
+        ["/cli/never", "/cli/say", "/cli/slow", "/cli/tick"],
+        "{ls}"
+    );
+    let say_row = &ls[1];
+    assert_eq!(say_row["kind"], "response");
+    assert_eq!(say_row["types"]["start"], "std_msgs/msg/String");
+    assert_eq!(ls[3]["types"]["triggered"], "std_msgs/msg/Empty");
+    let long = json(&["ls", "/cli", "-l"]).await;
+    assert_eq!(long[0]["state"]["active"], true, "never is armed: {long}");
+    assert_eq!(
+        long[3]["state"]["active"], false,
+        "tick is not listened to: {long}"
+    );
+    assert_eq!(long[2]["state"]["state_label"], "idle");
+    assert!(names(&json(&["ls", "/elsewhere"]).await).is_empty());
+
+    // cat: topics, state, and the connection this program made, shown by its program node
+    let cat = json(&["cat", "/cli/say"]).await;
+    assert_eq!(cat["kind"], "response");
+    assert_eq!(cat["topics"].as_array().unwrap().len(), 7);
+    let c = &cat["connections"][0];
+    assert_eq!(
+        (
+            c["program"].as_str(),
+            c["source"].as_str(),
+            c["target"].as_str(),
+            c["kind_label"].as_str()
+        ),
+        (
+            Some("/cli_host_program"),
+            Some("/cli/never/triggered"),
+            Some("/cli/say/start"),
+            Some("whenever")
+        ),
+        "{cat}"
+    );
+
+    // watch (in the background) sees what act does; it does not activate the idle event
+    let watcher = tokio::spawn(radar_cmd(&["watch", "--json", "--duration", "6"]));
+    tokio::time::sleep(Duration::from_secs(2)).await;
+
+    // act start with a payload: started comes back with it, and the response ran
+    let started = json(&["act", "start", "/cli/say", "{data: kitchen}"]).await;
+    assert_eq!(started["signal"], "started");
+    assert_eq!(started["payload"]["data"], "kitchen");
+    // inject straight into a slot: the slow response runs
+    let injected = json(&["inject", "/cli/slow/start"]).await;
+    assert_eq!(injected["type"], "std_msgs/msg/Empty");
+    let mut state = slow.watch_state();
+    tokio::time::timeout(Duration::from_secs(10), state.wait_for(|s| s.starts == 1))
+        .await
+        .expect("the injected start ran")
+        .unwrap();
+    let interrupted = json(&["act", "interrupt", "/cli/slow"]).await;
+    assert_eq!(interrupted["signal"], "interrupted");
+
+    let out = watcher.await.unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let timeline: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let saw = |component: &str, event: &str| {
+        timeline
+            .iter()
+            .any(|v| v["component"] == component && v["event"] == event)
+    };
+    assert!(saw("/cli/say", "started"), "{timeline:?}");
+    assert!(saw("/cli/say", "exited"), "{timeline:?}");
+    assert!(saw("/cli/slow", "interrupted"), "{timeline:?}");
+    assert!(saw("/cli/tick", "is inactive"), "{timeline:?}");
+    assert_eq!(say.state().completed, 1);
+    assert_eq!(
+        tick.state().activations,
+        0,
+        "watching (and every other verb) left the unlistened event inactive"
+    );
+
+    // bad input: a clear message and a non-zero exit
+    let e = fails(&["act", "start", "/cli/nope", "--timeout", "1"]).await;
+    assert!(e.contains("no RADAR response named \"/cli/nope\""), "{e}");
+    assert!(
+        e.contains("/cli/say (response)"),
+        "names what is there: {e}"
+    );
+    let e = fails(&["act", "start", "/cli/say", "{data: [1"]).await;
+    assert!(
+        e.contains("the payload is not a std_msgs/msg/String"),
+        "{e}"
+    );
+    let e = fails(&["act", "interrupt", "/cli/say", "--timeout", "1"]).await;
+    assert!(e.contains("it ignored the interrupt: it was idle"), "{e}");
+    let e = fails(&["ls", "cli"]).await;
+    assert!(e.contains("the namespace is absolute"), "{e}");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .arg("ls")
+        .env("ROS_DOMAIN_ID", "x")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("invalid ROS_DOMAIN_ID \"x\""));
+    let help = radar_cmd(&["act", "--help"]).await;
+    assert!(String::from_utf8_lossy(&help.stdout).contains("like rtact"));
+    drop(never);
+}
