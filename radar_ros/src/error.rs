@@ -142,6 +142,14 @@ pub enum Error {
     /// The component, connection or participant was shut down while the call was in progress.
     #[error("{0} is shut down")]
     Closed(String),
+    /// Another program's manager refused a request (its services answered `ok = false`), saying why.
+    #[error("the manager {manager} refused: {reason}")]
+    Refused {
+        /// The manager node.
+        manager: String,
+        /// Its answer: what is wrong and what to do.
+        reason: String,
+    },
 }
 
 /// A message as an error, for sources that only give text.

@@ -311,6 +311,19 @@ impl Graph {
         found.unwrap_or_default()
     }
 
+    /// The DDS topics of discovered remote readers of DDS type `dds_type` (a service's servers, for its
+    /// request type).
+    pub(crate) fn discovered_reader_topics(&self, dds_type: &str) -> BTreeSet<String> {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return BTreeSet::new();
+        };
+        p.discovered_readers()
+            .into_iter()
+            .filter(|r| r.subscription_topic_data.type_name() == dds_type)
+            .map(|r| r.subscription_topic_data.topic_name().clone())
+            .collect()
+    }
+
     /// The DDS type names that discovered remote readers on DDS topic `dds_topic` announce (a service's
     /// servers, for its request topic).
     pub(crate) fn discovered_reader_types(&self, dds_topic: &str) -> BTreeSet<String> {

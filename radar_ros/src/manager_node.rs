@@ -36,6 +36,18 @@ use crate::{
     wait::DEFAULT_TIMEOUT,
 };
 
+/// Removes a served manager's name from the participant's set when its task ends.
+struct ServedMark(
+    Arc<std::sync::Mutex<std::collections::HashSet<String>>>,
+    String,
+);
+
+impl Drop for ServedMark {
+    fn drop(&mut self) {
+        self.0.lock().unwrap().remove(&self.1);
+    }
+}
+
 /// A running manager node; dropping it removes the node and the connections made through its services.
 #[must_use = "the manager node serves only while its handle lives; bind it (`let _m = radar.serve_manager(..)?`)"]
 pub struct ManagerHandle {
@@ -177,9 +189,12 @@ impl Radar {
         let manager = self.manager().clone();
         let mut changes = manager.changes();
         let mut lost = self.graph().participants_lost();
+        let served = self.participant().served_managers();
+        served.lock().unwrap().insert(fq.clone());
         let task = ComponentTask::spawn(move |mut stop| async move {
             let _claim = claim;
             let _node = node;
+            let _served = ServedMark(served, fq.clone());
             let publish = |list: Vec<ConnectionMsg>| {
                 emit(
                     &list_pub,
@@ -195,9 +210,11 @@ impl Radar {
             // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
             // change always
             let mut throttle = Throttle::new(Duration::from_millis(100));
-            // connections made through the service, with their owner's participant
-            let mut owned: HashMap<u64, (ConnectionGuard, ros2_client::dds::rustdds::GUID)> =
-                HashMap::new();
+            // connections made through the service, with their owner's participant (none: detached)
+            let mut owned: HashMap<
+                u64,
+                (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>),
+            > = HashMap::new();
             let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
             let mut connects = Box::pin(connect_srv.receive_request_stream());
             let mut disconnects = Box::pin(disconnect_srv.receive_request_stream());
@@ -210,9 +227,12 @@ impl Radar {
                             let (radar, done) = (radar.clone(), done_tx.clone());
                             let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
                             tokio::spawn(async move {
-                                let owner = format!("service caller {:?}", caller.prefix);
+                                let owner = match req.detach {
+                                    true => format!("detached, by service caller {:?}", caller.prefix),
+                                    false => format!("service caller {:?}", caller.prefix),
+                                };
                                 let r = connect(&radar, &req, owner).await;
-                                let _ = done.send((id, caller, r));
+                                let _ = done.send((id, (!req.detach).then_some(caller), r));
                             });
                         }
                         Err(e) => malformed(radar.graph(), &fq, "connect", &e),
@@ -253,7 +273,7 @@ impl Radar {
                     },
                     Ok(gone) = lost.recv() => {
                         let before = owned.len();
-                        owned.retain(|_, (_, caller)| caller.prefix != gone.prefix);
+                        owned.retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix));
                         if owned.len() != before {
                             tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
                         }

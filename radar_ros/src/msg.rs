@@ -417,6 +417,8 @@ pub struct ConnectRequest {
     pub timeout: f64,
     /// History depth of the relay; 0 means 10.
     pub depth: u32,
+    /// Keep the connection after the caller leaves the graph (only `Disconnect` ends it).
+    pub detach: bool,
 }
 
 /// Response of `radar_msgs/srv/Connect`.

@@ -38,6 +38,8 @@ pub(crate) struct Participant {
     /// Actions this process serves (`Radar::serve_as_action`): a client here is matched with them locally,
     /// which discovery does not show.
     served_actions: Arc<Mutex<HashSet<String>>>,
+    /// Managers this process serves (`Radar::serve_manager`), matched locally, unseen by discovery.
+    served_managers: Arc<Mutex<HashSet<String>>>,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
     /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
     program_node: Mutex<Option<String>>,
@@ -81,6 +83,7 @@ impl Participant {
             client: Mutex::new(None),
             pool,
             served_actions: Default::default(),
+            served_managers: Default::default(),
             stop_graph: Mutex::new(Some(stop)),
             program_node: Mutex::new(None),
         })
@@ -104,6 +107,10 @@ impl Participant {
 
     pub(crate) fn served_actions(&self) -> Arc<Mutex<HashSet<String>>> {
         self.served_actions.clone()
+    }
+
+    pub(crate) fn served_managers(&self) -> Arc<Mutex<HashSet<String>>> {
+        self.served_managers.clone()
     }
 
     pub(crate) fn pool(&self) -> &Pool {

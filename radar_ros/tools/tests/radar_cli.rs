@@ -223,3 +223,151 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
     assert!(String::from_utf8_lossy(&help.stdout).contains("like rtact"));
     drop(never);
 }
+
+/// `radar con` / `radar dis` through the `radar_manager` binary: a connection that lives while the command
+/// runs, and a detached one that stays under the manager until `radar dis`; signals flow on the wire while
+/// each lives. Domain 74.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn con_and_dis_connect_through_a_manager() {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+        "run inside tests/isolated.sh (see README.md)"
+    );
+    let domain = "74";
+    let manager = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar_manager"))
+        .arg("cli_manager")
+        .env("ROS_DOMAIN_ID", domain)
+        .env_remove("RUST_LOG")
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let r = Radar::builder()
+        .domain_id(domain.parse().unwrap())
+        .discovery_range(DiscoveryRange::Subnet)
+        .build()
+        .unwrap();
+    let _tick = r
+        .spawn_event("/con/tick", TimerEvent::new(Duration::from_millis(50)))
+        .unwrap();
+    let runs = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let n = runs.clone();
+    let _count = r
+        .spawn_response(
+            "/con/count",
+            FnResponse::new(move |_: Empty| {
+                n.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let runs_now = || runs.load(std::sync::atomic::Ordering::SeqCst);
+    let cmd = |args: Vec<&str>| {
+        let args: Vec<String> = args.into_iter().map(str::to_owned).collect();
+        async move {
+            tokio::time::timeout(
+                Duration::from_secs(30),
+                tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+                    .args(&args)
+                    .env("ROS_DOMAIN_ID", domain)
+                    .env_remove("RUST_LOG")
+                    .kill_on_drop(true)
+                    .output(),
+            )
+            .await
+            .unwrap()
+            .unwrap()
+        }
+    };
+    let ok_json = |out: Output| -> Value {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap()).unwrap()
+    };
+
+    // while the command runs (3 s), the count response runs; after it, no more
+    let before = runs_now();
+    let out = cmd(vec![
+        "con",
+        "whenever",
+        "/con/tick/triggered",
+        "/con/count/start",
+        "--duration",
+        "3",
+        "--json",
+    ])
+    .await;
+    let made = ok_json(out);
+    assert_eq!(
+        made["manager"], "/cli_manager",
+        "the only manager, found on the graph"
+    );
+    assert_eq!(made["detached"], false);
+    let during = runs_now() - before;
+    assert!(
+        during >= 5,
+        "the connection delivered while the command ran: {during}"
+    );
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let after = runs_now();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(runs_now(), after, "and nothing once it ended");
+
+    // detached: it stays after the command, until `radar dis`
+    let made = ok_json(
+        cmd(vec![
+            "con",
+            "whenever",
+            "/con/tick/triggered",
+            "/con/count/start",
+            "--detach",
+            "--manager",
+            "/cli_manager",
+            "--json",
+        ])
+        .await,
+    );
+    assert_eq!(made["detached"], true);
+    let id = made["id"].as_u64().unwrap();
+    let t = runs_now();
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    assert!(
+        runs_now() > t + 3,
+        "a detached connection outlives its command"
+    );
+    let removed = ok_json(cmd(vec!["dis", &id.to_string(), "--json"]).await);
+    assert_eq!(removed["removed"], id);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let after = runs_now();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(runs_now(), after, "removed by radar dis");
+
+    // bad input: a mismatched type, an unknown id, an unknown manager
+    let out = cmd(vec![
+        "con",
+        "once",
+        "/con/tick/triggered",
+        "/con/nothing/start",
+        "--json",
+    ])
+    .await;
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(e.contains("the manager /cli_manager refused"), "{e}");
+    let out = cmd(vec!["dis", "999"]).await;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no connection 999"));
+    let out = cmd(vec![
+        "dis",
+        "1",
+        "--manager",
+        "/nobody",
+        "--discovery",
+        "0.5",
+    ])
+    .await;
+    assert!(!out.status.success());
+    drop(manager);
+}

@@ -6,6 +6,8 @@
 //! radar act start|interrupt|exit NAME [P]  drive a response, show the signal that follows   (rtact)
 //! radar inject TOPIC [PAYLOAD]             publish into a slot                              (rtinject)
 //! radar watch [NAMES]                      a live timeline of signals and state changes     (rtprint)
+//! radar con once|whenever SOURCE SLOT      connect through a manager's services             (rtcon)
+//! radar dis ID                             remove a detached connection                     (rtdis)
 //! ```
 //!
 //! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
@@ -92,6 +94,42 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
+    /// Connect a signal to a slot through a manager's services (like rtcon). The connection lives while this
+    /// command runs (Ctrl-C ends it), or with --detach under the manager until `radar dis`.
+    Con {
+        /// once or whenever.
+        kind: ConKind,
+        /// The source signal topic, e.g. /bumper/triggered.
+        source: String,
+        /// The target slot topic, e.g. /dock/start.
+        slot: String,
+        /// Interrupt the started run when this signal comes (only with a start slot).
+        #[arg(long, value_name = "SIGNAL")]
+        until: Option<String>,
+        /// The manager node (default: the only one on the graph).
+        #[arg(long, value_name = "NODE")]
+        manager: Option<String>,
+        /// Leave the connection under the manager and exit at once.
+        #[arg(long)]
+        detach: bool,
+        /// Without --detach: end after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// Remove a connection made through a manager's services (like rtdis).
+    Dis {
+        /// The connection's id, as `radar con` or `radar cat` showed it.
+        id: u64,
+        /// The manager node (default: the only one on the graph).
+        #[arg(long, value_name = "NODE")]
+        manager: Option<String>,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ConKind {
+    Once,
+    Whenever,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -176,7 +214,107 @@ async fn run(cli: Cli) -> Fallible<()> {
             activate,
             duration,
         } => watch(&radar, &out, names, activate, duration).await,
+        Cmd::Con {
+            kind,
+            source,
+            slot,
+            until,
+            manager,
+            detach,
+            duration,
+        } => {
+            let m = manager_of(&radar, discovery, manager).await?;
+            let req = radar_ros::msg::ConnectRequest {
+                kind: match kind {
+                    ConKind::Once => radar_ros::msg::Connection::ONCE,
+                    ConKind::Whenever => radar_ros::msg::Connection::WHENEVER,
+                },
+                source,
+                target: slot,
+                until: until.unwrap_or_default(),
+                detach,
+                ..Default::default()
+            };
+            let id = with_status("connecting", m.connect(req))
+                .await
+                .map_err(|e| e.to_string())?;
+            if out.json {
+                println!(
+                    "{}",
+                    json!({ "id": id, "manager": m.name(), "detached": detach })
+                );
+            } else if detach {
+                println!(
+                    "connection {id} under {} (`radar dis {id}` removes it)",
+                    m.name()
+                );
+            } else {
+                println!(
+                    "connection {id} under {}, while this runs (Ctrl-C ends it)",
+                    m.name()
+                );
+            }
+            if !detach {
+                match duration {
+                    Some(d) => tokio::time::sleep(secs(d)?).await,
+                    None => {
+                        let _ = tokio::signal::ctrl_c().await;
+                    }
+                }
+                // it would go when this process leaves the graph; say so at once
+                m.disconnect(id).await.map_err(|e| e.to_string())?;
+            }
+            Ok(())
+        }
+        Cmd::Dis { id, manager } => {
+            let m = manager_of(&radar, discovery, manager).await?;
+            m.disconnect(id).await.map_err(|e| e.to_string())?;
+            if out.json {
+                println!("{}", json!({ "removed": id, "manager": m.name() }));
+            } else {
+                println!("connection {id} removed from {}", m.name());
+            }
+            Ok(())
+        }
     }
+}
+
+/// The manager named, or the only one on the graph; its services matched.
+async fn manager_of(
+    radar: &Radar,
+    discovery: Duration,
+    named: Option<String>,
+) -> Fallible<radar_ros::RemoteManager> {
+    let name = match named {
+        Some(n) => n,
+        None => {
+            with_status(
+                "discovering",
+                radar.settle(Duration::from_millis(300), discovery),
+            )
+            .await;
+            let found = radar.managers();
+            match found.len() {
+                1 => found.into_iter().next().expect("one"),
+                0 => {
+                    return Err(
+                        "no connection manager on the graph: start one (`radar_manager`, or serve_manager in a \
+                         program), or name one with --manager"
+                            .into(),
+                    )
+                }
+                _ => {
+                    return Err(format!(
+                        "several managers on the graph ({}): pick one with --manager",
+                        found.join(", ")
+                    ))
+                }
+            }
+        }
+    };
+    with_status("waiting for the manager", radar.remote_manager(&name))
+        .await
+        .map_err(|e| e.to_string())
 }
 
 fn secs(s: f64) -> Fallible<Duration> {
