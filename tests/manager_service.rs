@@ -278,7 +278,7 @@ async fn every_program_shows_its_connections_on_its_program_node() {
         .program("patrol")
         .build()
         .unwrap();
-    assert_eq!(program.program_node().fully_qualified(), "/patrol_program");
+    assert_eq!(program.program_node().fully_qualified(), "/patrol");
     let tick = program
         .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
         .unwrap();
@@ -287,7 +287,7 @@ async fn every_program_shows_its_connections_on_its_program_node() {
 
     let observer = radar(72);
     let connections = observer
-        .state_subscription::<ConnectionList>("/patrol_program/connections")
+        .state_subscription::<ConnectionList>("/patrol/connections")
         .unwrap();
     let shown = tokio::time::timeout(DISCOVERY, async {
         loop {
@@ -299,7 +299,7 @@ async fn every_program_shows_its_connections_on_its_program_node() {
     })
     .await
     .expect("the program's connection shown");
-    assert_eq!(shown.manager, "/patrol_program");
+    assert_eq!(shown.manager, "/patrol");
     let c = &shown.connections[0];
     assert_eq!(
         (
@@ -310,7 +310,7 @@ async fn every_program_shows_its_connections_on_its_program_node() {
         ),
         (guard.id(), "whenever", "/tick/triggered", "/count/start")
     );
-    let client = ManagerClient::new(&observer, "/patrol_program", "radar_cli_stand_in").await;
+    let client = ManagerClient::new(&observer, "/patrol", "radar_cli_stand_in").await;
     let listed = call_once(&client.list, ListRequest::default(), DISCOVERY).await;
     assert_eq!(listed.connections.len(), 1);
     assert_eq!(listed.connections[0].id, guard.id());
@@ -326,13 +326,13 @@ async fn every_program_shows_its_connections_on_its_program_node() {
     .await
     .expect("the connection's end shown");
 
-    // the default name is the executable's, and each participant of the process has its own (the other tests
-    // of this binary run in this process too, so which number each gets is not known)
+    // the default name is the executable's and the process id, and each participant of the process has its
+    // own (the other tests of this binary run in this process too, so which number each gets is not known)
     let (a, b) = (radar(72), radar(72));
     let (na, nb) = (a.program_node().base(), b.program_node().base());
     for n in [na, nb] {
         assert!(
-            n.starts_with("manager_service") && n.contains("_program"),
+            n.starts_with("manager_service") && n.contains(&format!("_{}", std::process::id())),
             "{n}"
         );
     }

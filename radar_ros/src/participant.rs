@@ -144,16 +144,16 @@ impl Participant {
     }
 
     /// Creates this participant's program node: the node of its plain endpoints, which also shows the
-    /// program's connections (see `program.rs`). Named `<program>_program` in the participant's namespace, and
-    /// `<program>_program_<n>` for the n-th participant of the process with that program name, so each is
+    /// program's connections (see `program.rs`). Named `node` in the participant's namespace, and
+    /// `<node>_<n>` for the n-th participant of the process with that name, so each is
     /// distinct on the graph and none takes a name a component may want (process-wide: every participant of
     /// the process is counted). Returns the node's name.
-    pub(crate) fn start_program_node(self: &Arc<Self>, program: &str) -> Result<ComponentName> {
+    pub(crate) fn start_program_node(self: &Arc<Self>, node: &str) -> Result<ComponentName> {
         let mut k = 1;
         loop {
             let base = match k {
-                1 => format!("{program}_program"),
-                _ => format!("{program}_program_{k}"),
+                1 => node.to_owned(),
+                _ => format!("{node}_{k}"),
             };
             let name = self.resolve(&base)?;
             let fq = name.fully_qualified();

@@ -3,14 +3,15 @@
 //!
 //! | endpoint | type |
 //! |---|---|
-//! | `<program>_program/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
-//! | `<program>_program/list` (service) | `radar_msgs/srv/List` |
+//! | `<node>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
+//! | `<node>/list` (service) | `radar_msgs/srv/List` |
 //!
-//! The program's name is the executable's (`count_up` -> node `/count_up_program`), or what
-//! [`RadarBuilder::program`](crate::RadarBuilder::program) says; a second participant of that program in one
-//! process gets `_2`, and so on. The node is also the one plain publishers and subscriptions of the program
+//! The node is named after the program: the executable's name and the process id (`count_up` -> node
+//! `/count_up_4242`: several processes of one executable, as a launch of components often is, stay apart), or
+//! exactly what [`RadarBuilder::program`](crate::RadarBuilder::program) says; a second participant of that
+//! name in one process gets `_2`, and so on. The node is also the one plain publishers and subscriptions of the program
 //! live on. Unlike [`Radar::serve_manager`](crate::Radar::serve_manager) it takes no connect requests from
-//! others; it only shows. `ros2 topic echo /count_up_program/connections` (with transient-local durability)
+//! others; it only shows. `ros2 topic echo /count_up_4242/connections` (with transient-local durability)
 //! prints them; the `radar` command line reads them from every program.
 
 use std::{

@@ -205,13 +205,14 @@ impl RadarBuilder {
         self
     }
 
-    /// Names the program (default: the executable's file name, made a valid ROS name): its program node is
-    /// `<program>_program` (see [`Radar::program_node`]).
+    /// Names the program's node (default: the executable's file name, made a valid ROS name, and the process
+    /// id: `count_up_4242`); see [`Radar::program_node`]. The name must not be a component's of this process.
+    /// Give each process of a system its own name.
     ///
     /// ```no_run
     /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
     /// let radar = radar_ros::Radar::builder().program("patrol").build()?;
-    /// assert_eq!(radar.program_node().fully_qualified(), "/patrol_program");
+    /// assert_eq!(radar.program_node().fully_qualified(), "/patrol");
     /// # Ok(()) }
     /// ```
     pub fn program(mut self, name: &str) -> Self {
@@ -269,7 +270,11 @@ impl RadarBuilder {
                 crate::names::ComponentName::resolve(&p, "/").map_err(|e| bad(e.to_string()))?;
                 p
             }
-            None => crate::program::default_program_name(),
+            None => format!(
+                "{}_{}",
+                crate::program::default_program_name(),
+                std::process::id()
+            ),
         };
         let program_node = participant.start_program_node(&program)?;
         let manager = Arc::new(Manager::new(participant.clone()));

@@ -143,7 +143,7 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
             c["kind_label"].as_str()
         ),
         (
-            Some("/cli_host_program"),
+            Some("/cli_host"),
             Some("/cli/never/triggered"),
             Some("/cli/say/start"),
             Some("whenever")

@@ -8,6 +8,7 @@
 //! radar watch [NAMES]                      a live timeline of signals and state changes     (rtprint)
 //! radar con once|whenever SOURCE SLOT      connect through a manager's services             (rtcon)
 //! radar dis ID                             remove a detached connection                     (rtdis)
+//! radar graph [-o FILE.svg|FILE.dot]       components and live connections as a picture     (rtstodot)
 //! ```
 //!
 //! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
@@ -15,6 +16,8 @@
 
 #[path = "../cli/codec.rs"]
 mod codec;
+#[path = "../cli/graph.rs"]
+mod graph;
 
 use std::{collections::BTreeMap, io::IsTerminal, time::Duration};
 
@@ -113,6 +116,20 @@ enum Cmd {
         #[arg(long)]
         detach: bool,
         /// Without --detach: end after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// The components and the live connections of every program as a picture (like rtstodot, but live):
+    /// SVG drawn here (no Graphviz needed) or Graphviz DOT; whenever solid, once dashed, until dotted red,
+    /// active events and running responses filled. Without -o: DOT on stdout (JSON with --json).
+    Graph {
+        /// Write here; .svg or .dot.
+        #[arg(short = 'o', long = "output", value_name = "FILE")]
+        output: Option<std::path::PathBuf>,
+        /// Redraw every second until Ctrl-C (or --duration).
+        #[arg(long)]
+        watch: bool,
+        /// With --watch: stop after this many seconds.
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
@@ -266,6 +283,11 @@ async fn run(cli: Cli) -> Fallible<()> {
             }
             Ok(())
         }
+        Cmd::Graph {
+            output,
+            watch,
+            duration,
+        } => draw(&radar, &out, discovery, output, watch, duration).await,
         Cmd::Dis { id, manager } => {
             let m = manager_of(&radar, discovery, manager).await?;
             m.disconnect(id).await.map_err(|e| e.to_string())?;
@@ -279,6 +301,113 @@ async fn run(cli: Cli) -> Fallible<()> {
     }
 }
 
+/// Every component with its state, and every program's connections.
+async fn picture(radar: &Radar) -> graph::Picture {
+    let components = radar.components();
+    let states = futures::future::join_all(
+        components
+            .iter()
+            .map(|c| state_of(radar, c, Duration::from_secs(3))),
+    )
+    .await;
+    let mut p = graph::Picture::default();
+    for (c, s) in components.iter().zip(states) {
+        p.nodes.push(graph::Node {
+            name: c.name().fully_qualified(),
+            kind: c.kind().into(),
+            active: s.as_ref().and_then(|s| s["active"].as_bool()),
+            state: s
+                .as_ref()
+                .and_then(|s| s["state_label"].as_str().map(str::to_owned)),
+        });
+    }
+    let lists =
+        futures::future::join_all(radar.connection_topics().into_iter().map(|t| async move {
+            latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await
+        }))
+        .await;
+    for list in lists.into_iter().flatten() {
+        for k in list.connections {
+            let (source, signal) = graph::split(&k.source);
+            let (target, slot) = graph::split(&k.target);
+            p.edges.push(graph::Edge {
+                id: k.id,
+                program: list.manager.clone(),
+                kind: k.kind_label.clone(),
+                source,
+                signal,
+                target,
+                slot,
+                until: (!k.until.is_empty()).then(|| graph::split(&k.until).0),
+                state: k.state_label.clone(),
+            });
+        }
+    }
+    // a manager node and its program node show the same connections: keep one of each
+    p.edges.sort_by(|a, b| {
+        (a.id, &a.source, &a.target, &a.program).cmp(&(b.id, &b.source, &b.target, &b.program))
+    });
+    p.edges.dedup_by(|a, b| {
+        (a.id, &a.source, &a.target, &a.kind) == (b.id, &b.source, &b.target, &b.kind)
+    });
+    p.complete();
+    p
+}
+
+async fn draw(
+    radar: &Radar,
+    out: &Out,
+    discovery: Duration,
+    output: Option<std::path::PathBuf>,
+    watch: bool,
+    duration: Option<f64>,
+) -> Fallible<()> {
+    let svg = match output
+        .as_ref()
+        .and_then(|p| p.extension())
+        .and_then(|e| e.to_str())
+    {
+        Some("svg") => true,
+        Some("dot") | Some("gv") => false,
+        None if output.is_none() => false,
+        _ => return Err("the output file ends in .svg or .dot".into()),
+    };
+    with_status("discovering", discover(radar, discovery)).await;
+    let end = tokio::time::Instant::now()
+        + duration
+            .map(Duration::from_secs_f64)
+            .unwrap_or(Duration::from_secs(u64::MAX / 4));
+    loop {
+        let p = picture(radar).await;
+        let text = if svg { p.svg() } else { p.dot() };
+        match &output {
+            Some(path) => std::fs::write(path, &text)
+                .map_err(|e| format!("could not write {}: {e}", path.display()))?,
+            None if !out.json => print!("{text}"),
+            None => {}
+        }
+        if out.json {
+            println!("{}", serde_json::to_string(&p).map_err(|e| e.to_string())?);
+        } else if let Some(path) = &output {
+            if !watch {
+                println!(
+                    "{}: {} components, {} connections",
+                    path.display(),
+                    p.nodes.len(),
+                    p.edges.len()
+                );
+            }
+        }
+        if !watch || tokio::time::Instant::now() >= end {
+            return Ok(());
+        }
+        tokio::select! {
+            _ = tokio::time::sleep_until(end.min(tokio::time::Instant::now() + Duration::from_secs(1))) => {}
+            _ = tokio::signal::ctrl_c() => return Ok(()),
+        }
+    }
+}
+
 /// The manager named, or the only one on the graph; its services matched.
 async fn manager_of(
     radar: &Radar,
@@ -288,11 +417,7 @@ async fn manager_of(
     let name = match named {
         Some(n) => n,
         None => {
-            with_status(
-                "discovering",
-                radar.settle(Duration::from_millis(300), discovery),
-            )
-            .await;
+            with_status("discovering", discover(radar, discovery)).await;
             let found = radar.managers();
             match found.len() {
                 1 => found.into_iter().next().expect("one"),
@@ -377,19 +502,37 @@ fn types_of(c: &Component) -> Value {
     }
 }
 
+/// Lets discovery run: at least one participant-announcement period (others answer a new participant at
+/// their next announcement), then until it has been quiet for 300 ms, at most `discovery` in all.
+async fn discover(radar: &Radar, discovery: Duration) {
+    let first = discovery.min(Duration::from_millis(800));
+    tokio::time::sleep(first).await;
+    radar
+        .settle(Duration::from_millis(300), discovery.saturating_sub(first))
+        .await;
+}
+
+/// The newest sample of a transient-local topic (a state, a connection list): subscribes, waits for the
+/// publisher's match, then for the sample it keeps; `None` if either takes longer than `within`.
+async fn latest<M: radar_ros::msg::RosMessage>(
+    radar: &Radar,
+    topic: &str,
+    within: Duration,
+) -> Option<M> {
+    let s = radar.state_subscription::<M>(topic).ok()?;
+    s.wait_for_publishers(1).timeout(within).await.ok()?;
+    s.recv().timeout(within).await.ok()
+}
+
 /// The current state of a component, from its transient-local state topic (`None` if none came in `within`).
 async fn state_of(radar: &Radar, c: &Component, within: Duration) -> Option<Value> {
     let topic = c.name().topic("state");
     match c {
         Component::Event(_) => {
-            let s = radar.state_subscription::<EventState>(&topic).ok()?;
-            let m = s.recv().timeout(within).await.ok()?;
-            serde_json::to_value(m).ok()
+            serde_json::to_value(latest::<EventState>(radar, &topic, within).await?).ok()
         }
         Component::Response(_) => {
-            let s = radar.state_subscription::<ResponseState>(&topic).ok()?;
-            let m = s.recv().timeout(within).await.ok()?;
-            serde_json::to_value(m).ok()
+            serde_json::to_value(latest::<ResponseState>(radar, &topic, within).await?).ok()
         }
     }
 }
@@ -431,11 +574,7 @@ async fn ls(
             return Err(format!("the namespace is absolute, e.g. /{ns}"));
         }
     }
-    with_status(
-        "discovering",
-        radar.settle(Duration::from_millis(300), discovery),
-    )
-    .await;
+    with_status("discovering", discover(radar, discovery)).await;
     let components: Vec<Component> = radar
         .components()
         .into_iter()
@@ -537,26 +676,22 @@ async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Compon
 
 async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Fallible<()> {
     let c = with_status("discovering", find(radar, discovery, name)).await?;
-    with_status(
-        "discovering",
-        radar.settle(Duration::from_millis(300), discovery),
-    )
-    .await;
+    with_status("discovering", discover(radar, discovery)).await;
     let state = state_of(radar, &c, Duration::from_secs(2)).await;
     let fq = c.name().fully_qualified();
     let prefix = format!("{fq}/");
     let touches = |t: &str| t.starts_with(&prefix);
     // every program's and manager's connections
+    let lists =
+        futures::future::join_all(radar.connection_topics().into_iter().map(|t| async move {
+            latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await
+        }))
+        .await;
     let mut connections = Vec::new();
-    for topic in radar.connection_topics() {
-        let Ok(sub) = radar.state_subscription::<ConnectionList>(&topic) else {
-            continue;
-        };
-        if let Ok(list) = sub.recv().timeout(Duration::from_secs(2)).await {
-            for k in list.connections {
-                if touches(&k.source) || touches(&k.target) || touches(&k.until) {
-                    connections.push((list.manager.clone(), k));
-                }
+    for list in lists.into_iter().flatten() {
+        for k in list.connections {
+            if touches(&k.source) || touches(&k.target) || touches(&k.until) {
+                connections.push((list.manager.clone(), k));
             }
         }
     }
