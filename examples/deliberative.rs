@@ -17,7 +17,7 @@
 //! starts all four.
 //!
 //! Options for `main`: `--loop-secs N` (do_loop's length, default 15), `--duration S` (then exit; default: run
-//! until Ctrl-C).
+//! until Ctrl-C). For the events: `--count N` (seconds counted before triggering; default 5 and 3).
 
 use std::time::Duration;
 
@@ -89,7 +89,11 @@ async fn run(role: &str, args: &[String]) -> radar_ros::Result<()> {
     let tl = Timeline::start();
     match role {
         "test_event" | "test_event2" => {
-            let n = if role == "test_event" { 5 } else { 3 };
+            let n = match arg(args, "--count") {
+                Some(n) => n as u32,
+                None if role == "test_event" => 5,
+                None => 3,
+            };
             let h = radar.spawn_event(role, CountThenTrigger(n))?;
             until_stopped().await;
             h.shutdown().await;
@@ -117,7 +121,7 @@ async fn run(role: &str, args: &[String]) -> radar_ros::Result<()> {
             tl.mark("main ends: its connections go", None);
         }
         _ => {
-            eprintln!("usage: deliberative test_event | test_event2 | test_response | main [--loop-secs N] [--duration S]");
+            eprintln!("usage: deliberative test_event | test_event2 [--count N] | test_response | main [--loop-secs N] [--duration S]");
             std::process::exit(64);
         }
     }

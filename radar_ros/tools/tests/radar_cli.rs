@@ -371,3 +371,104 @@ async fn con_and_dis_connect_through_a_manager() {
     assert!(!out.status.success());
     drop(manager);
 }
+
+/// `radar graph` of the paper's Listings 2/3 (the `deliberative` example, four processes): the SVG shows the
+/// three components and both connections of the deliberative program, `whenever test_event start
+/// test_response` (solid) and `once test_event2 interrupt test_response` (dashed); the DOT and JSON agree.
+/// Domain 75.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn graph_draws_the_deliberative_example() {
+    use radar_ros_examples::test_support::{examples_dir, require_isolation};
+    require_isolation();
+    let exe = examples_dir("deliberative").join("deliberative");
+    let domain = "75";
+    let start = |args: &[&str]| {
+        tokio::process::Command::new(&exe)
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain)
+            .stdout(std::process::Stdio::null())
+            .kill_on_drop(true)
+            .spawn()
+            .unwrap()
+    };
+    // test_event2 counts 60 s here (3 s in the listing), so the `once` waits while we draw
+    let _procs = [
+        start(&["test_event"]),
+        start(&["test_event2", "--count", "60"]),
+        start(&["test_response"]),
+        start(&["main", "--loop-secs", "60"]),
+    ];
+    let dir = std::env::temp_dir().join(format!("radar_graph_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let svg_path = dir.join("deliberative.svg");
+    let svg_arg = svg_path.to_str().unwrap().to_owned();
+    // the deliberative program finds the components and arms both statements within a few seconds
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    let picture = loop {
+        let out = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+            .args(["graph", "-o", &svg_arg, "--json"])
+            .env("ROS_DOMAIN_ID", domain)
+            .env_remove("RUST_LOG")
+            .output()
+            .await
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let p: Value = serde_json::from_slice(&out.stdout).unwrap();
+        if p["edges"].as_array().unwrap().len() == 2 {
+            break p;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "never both connections: {p}"
+        );
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    };
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    for n in ["/test_event", "/test_event2", "/test_response"] {
+        assert!(svg.contains(&format!(">{n}</text>")), "{n} not drawn");
+    }
+    assert!(svg.contains("whenever triggered -&gt; start"), "{svg}");
+    assert!(svg.contains("once triggered -&gt; interrupt"), "{svg}");
+    assert_eq!(svg.matches("class=\"connection\"").count(), 2);
+    let edges = picture["edges"].as_array().unwrap();
+    let find = |kind: &str| edges.iter().find(|e| e["kind"] == kind).unwrap();
+    let (w, o) = (find("whenever"), find("once"));
+    assert_eq!(
+        (w["source"].as_str(), w["slot"].as_str()),
+        (Some("/test_event"), Some("start"))
+    );
+    assert_eq!(
+        (o["source"].as_str(), o["slot"].as_str()),
+        (Some("/test_event2"), Some("interrupt"))
+    );
+    assert!(
+        w["program"].as_str().unwrap().starts_with("/deliberative_"),
+        "shown by the deliberative program's node: {w}"
+    );
+    // both events are active (the connections listen), drawn filled
+    for n in picture["nodes"].as_array().unwrap() {
+        if n["kind"] == "event" {
+            assert_eq!(n["active"], true, "{n}");
+        }
+    }
+    // the same picture as DOT
+    let dot = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["graph"])
+        .env("ROS_DOMAIN_ID", domain)
+        .output()
+        .await
+        .unwrap();
+    let dot = String::from_utf8_lossy(&dot.stdout);
+    assert!(
+        dot.contains("\"/test_event2\" -> \"/test_response\""),
+        "{dot}"
+    );
+    if let Ok(keep) = std::env::var("RADAR_GRAPH_SVG") {
+        std::fs::copy(&svg_path, keep).unwrap();
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
