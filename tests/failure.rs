@@ -121,7 +121,8 @@ async fn a_signal_sent_just_before_the_component_exits_is_delivered_not_reported
     let radar = radar(38);
     let rounds = 15;
     for round in 0..rounds {
-        let mut peer = HostPeer::start(PEER, 38).await;
+        // its warnings (a flush that did not finish, say) are kept for the failure message
+        let mut peer = HostPeer::start_logging(PEER, 38, "warn,rustdds=warn").await;
         peer.run("publisher /last/triggered").await;
         let w = radar
             .waiter::<Empty>(empty("/last/triggered"))
@@ -130,8 +131,13 @@ async fn a_signal_sent_just_before_the_component_exits_is_delivered_not_reported
             .unwrap();
         peer.send("emit-exit /last/triggered").await;
         let got = w.recv().timeout(DISCOVERY).await;
-        assert!(got.is_ok(), "round {round}: {:?}", got.err());
-        peer.wait().await;
+        let stderr = peer.stderr();
+        let status = peer.wait().await;
+        assert!(
+            got.is_ok(),
+            "round {round}: {:?}; the peer exited {status} and logged: {stderr:#?}",
+            got.err()
+        );
     }
 }
 
