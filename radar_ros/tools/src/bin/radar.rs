@@ -9,6 +9,8 @@
 //! radar con once|whenever SOURCE SLOT      connect through a manager's services             (rtcon)
 //! radar dis ID                             remove a detached connection                     (rtdis)
 //! radar graph [-o FILE.svg|FILE.dot]       components and live connections as a picture     (rtstodot)
+//! radar record -o FILE.mcap [NAMES]        signals and state changes to MCAP (ros2msg/cdr)  (rtlog)
+//! radar replay FILE.mcap [--rate R]        publish the recorded signals with their timing   (rtlog)
 //! ```
 //!
 //! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
@@ -18,6 +20,8 @@
 mod codec;
 #[path = "../cli/graph.rs"]
 mod graph;
+#[path = "../cli/schemas.rs"]
+mod schemas;
 
 use std::{collections::BTreeMap, io::IsTerminal, time::Duration};
 
@@ -132,6 +136,35 @@ enum Cmd {
         /// With --watch: stop after this many seconds.
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
+    },
+    /// Record signals, their payloads and state changes to an MCAP file with ROS 2 message schemas (ros2msg
+    /// schemas, cdr messages, as rosbag2 writes them), so Foxglove and ros2 bag tooling open it (like rtlog).
+    /// Events are recorded through their state topics unless --activate (which records triggered, and
+    /// activates them).
+    Record {
+        /// The MCAP file to write.
+        #[arg(short = 'o', long = "output", value_name = "FILE.mcap")]
+        output: std::path::PathBuf,
+        /// Components to record (default: all, including ones that appear later).
+        names: Vec<String>,
+        /// Record events' triggered signals (this activates them).
+        #[arg(long)]
+        activate: bool,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// Publish the signals recorded in an MCAP file (not the states) on their topics, with their recorded
+    /// timing (like rtlog).
+    Replay {
+        /// The MCAP file.
+        input: std::path::PathBuf,
+        /// Speed: 2 plays twice as fast.
+        #[arg(long, default_value_t = 1.0)]
+        rate: f64,
+        /// Seconds to wait for each topic's subscribers before playing.
+        #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
+        wait: f64,
     },
     /// Remove a connection made through a manager's services (like rtdis).
     Dis {
@@ -288,6 +321,13 @@ async fn run(cli: Cli) -> Fallible<()> {
             watch,
             duration,
         } => draw(&radar, &out, discovery, output, watch, duration).await,
+        Cmd::Record {
+            output,
+            names,
+            activate,
+            duration,
+        } => record(&radar, &out, output, names, activate, duration).await,
+        Cmd::Replay { input, rate, wait } => replay(&radar, &out, input, rate, secs(wait)?).await,
         Cmd::Dis { id, manager } => {
             let m = manager_of(&radar, discovery, manager).await?;
             m.disconnect(id).await.map_err(|e| e.to_string())?;
@@ -1114,4 +1154,319 @@ fn follow(
         }
     }
     Ok(tasks)
+}
+
+/// One recorded message.
+struct Recorded {
+    topic: String,
+    ros_type: String,
+    body: radar_ros::RawMessage,
+    /// Source timestamp, nanoseconds since the epoch (0: unknown).
+    published: i64,
+}
+
+fn epoch_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or_default()
+}
+
+/// A CDR message as MCAP stores it: the 4-byte encapsulation header (little-endian CDR), then the body.
+fn cdr(body: &radar_ros::RawMessage) -> Vec<u8> {
+    let mut v = vec![0, 1, 0, 0];
+    v.extend_from_slice(&body.0);
+    v
+}
+
+async fn record(
+    radar: &Radar,
+    out: &Out,
+    output: std::path::PathBuf,
+    names: Vec<String>,
+    activate: bool,
+    duration: Option<f64>,
+) -> Fallible<()> {
+    if output.extension().and_then(|e| e.to_str()) != Some("mcap") {
+        return Err("the output file ends in .mcap".into());
+    }
+    let wanted: Vec<String> = names
+        .iter()
+        .map(|n| {
+            radar
+                .resolve(n)
+                .map(|c| c.fully_qualified())
+                .map_err(|e| e.to_string())
+        })
+        .collect::<Fallible<_>>()?;
+    let file = std::fs::File::create(&output)
+        .map_err(|e| format!("could not create {}: {e}", output.display()))?;
+    let mut writer = mcap::Writer::new(std::io::BufWriter::new(file)).map_err(|e| e.to_string())?;
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Recorded>();
+    let mut watched = std::collections::BTreeSet::new();
+    let mut tasks = Vec::new();
+    let mut channels: BTreeMap<String, u16> = BTreeMap::new();
+    let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
+    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    let end = async {
+        match duration {
+            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))).await,
+            None => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    };
+    tokio::pin!(end);
+    let mut rescan = tokio::time::interval(Duration::from_millis(250));
+    if !out.json {
+        println!("recording to {} (Ctrl-C to stop)", output.display());
+    }
+    loop {
+        tokio::select! {
+            _ = &mut end => break,
+            _ = rescan.tick() => {
+                for c in radar.components() {
+                    let fq = c.name().fully_qualified();
+                    if (!wanted.is_empty() && !wanted.contains(&fq)) || !watched.insert(fq) {
+                        continue;
+                    }
+                    tasks.extend(tap(radar, &c, activate, tx.clone())?);
+                }
+            }
+            Some(m) = rx.recv() => {
+                let Some(def) = schemas::definition(&m.ros_type) else {
+                    continue; // a type radar cannot describe (a user's own): not recorded
+                };
+                let schema = match schemas.get(&m.ros_type) {
+                    Some(id) => *id,
+                    None => {
+                        let id = writer.add_schema(&m.ros_type, "ros2msg", def.as_bytes()).map_err(|e| e.to_string())?;
+                        schemas.insert(m.ros_type.clone(), id);
+                        id
+                    }
+                };
+                let channel = match channels.get(&m.topic) {
+                    Some(id) => *id,
+                    None => {
+                        let id = writer
+                            .add_channel(schema, &m.topic, "cdr", &BTreeMap::new())
+                            .map_err(|e| e.to_string())?;
+                        channels.insert(m.topic.clone(), id);
+                        id
+                    }
+                };
+                let n = counts.entry(m.topic.clone()).or_default();
+                *n += 1;
+                let now = epoch_ns();
+                let header = mcap::records::MessageHeader {
+                    channel_id: channel,
+                    sequence: *n as u32,
+                    log_time: now,
+                    publish_time: if m.published > 0 { m.published as u64 } else { now },
+                };
+                writer.write_to_known_channel(&header, &cdr(&m.body)).map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    for t in tasks {
+        t.abort();
+    }
+    writer.finish().map_err(|e| e.to_string())?;
+    let total: u64 = counts.values().sum();
+    if out.json {
+        println!(
+            "{}",
+            json!({ "file": output, "messages": total, "topics": counts })
+        );
+    } else {
+        println!(
+            "{}: {total} messages on {} topics",
+            output.display(),
+            counts.len()
+        );
+    }
+    Ok(())
+}
+
+/// Subscribes to what `record` keeps of `c`: a response's signals and state, an event's state (and, with
+/// `activate`, its triggered signal), each forwarded raw with its type and source time.
+fn tap(
+    radar: &Radar,
+    c: &Component,
+    activate: bool,
+    tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
+) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
+    let mut signals: Vec<(String, String)> = match c {
+        Component::Response(r) => [r.started(), r.interrupted(), r.exited()]
+            .iter()
+            .map(|s| (s.topic().to_owned(), s.ros_type().to_owned()))
+            .collect(),
+        Component::Event(e) if activate => {
+            vec![(
+                e.triggered().topic().to_owned(),
+                e.triggered().ros_type().to_owned(),
+            )]
+        }
+        Component::Event(_) => Vec::new(),
+    };
+    let state_type = match c {
+        Component::Response(_) => "radar_msgs/msg/ResponseState",
+        Component::Event(_) => "radar_msgs/msg/EventState",
+    };
+    let mut tasks = Vec::new();
+    for (topic, ty) in signals.drain(..) {
+        let sub = radar
+            .raw_subscription(&topic, &ty)
+            .map_err(|e| e.to_string())?;
+        let tx = tx.clone();
+        tasks.push(tokio::spawn(async move {
+            while let Ok((body, published)) = sub.recv_stamped().await {
+                let m = Recorded {
+                    topic: topic.clone(),
+                    ros_type: ty.clone(),
+                    body,
+                    published,
+                };
+                if tx.send(m).is_err() {
+                    break;
+                }
+            }
+        }));
+    }
+    // the state, from its transient-local topic (the current one first)
+    let topic = c.name().topic("state");
+    macro_rules! state_task {
+        ($t:ty) => {{
+            let sub = radar
+                .state_subscription::<$t>(&topic)
+                .map_err(|e| e.to_string())?;
+            let tx = tx.clone();
+            tokio::spawn(async move {
+                while let Ok((m, published)) = sub.recv_stamped().await {
+                    let Ok(body) = radar_ros::RawMessage::encode(&m) else {
+                        continue;
+                    };
+                    let r = Recorded {
+                        topic: topic.clone(),
+                        ros_type: state_type.into(),
+                        body,
+                        published,
+                    };
+                    if tx.send(r).is_err() {
+                        break;
+                    }
+                }
+            })
+        }};
+    }
+    tasks.push(match c {
+        Component::Response(_) => state_task!(ResponseState),
+        Component::Event(_) => state_task!(EventState),
+    });
+    Ok(tasks)
+}
+
+/// Whether a topic is a RADAR signal (what `replay` publishes again), not a state.
+fn is_signal(topic: &str) -> bool {
+    [
+        "/triggered",
+        "/started",
+        "/interrupted",
+        "/exited",
+        "/feedback",
+    ]
+    .iter()
+    .any(|s| topic.ends_with(s))
+}
+
+async fn replay(
+    radar: &Radar,
+    out: &Out,
+    input: std::path::PathBuf,
+    rate: f64,
+    wait: Duration,
+) -> Fallible<()> {
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(format!(
+            "--rate {rate}: give a speed above 0 (1 is as recorded)"
+        ));
+    }
+    let bytes =
+        std::fs::read(&input).map_err(|e| format!("could not read {}: {e}", input.display()))?;
+    let mut plan = Vec::new();
+    for m in mcap::MessageStream::new(&bytes)
+        .map_err(|e| format!("{} is not an MCAP file: {e}", input.display()))?
+    {
+        let m = m.map_err(|e| format!("{}: {e}", input.display()))?;
+        if !is_signal(&m.channel.topic) {
+            continue;
+        }
+        let Some(schema) = m.channel.schema.as_ref() else {
+            continue;
+        };
+        if m.data.len() < 4 {
+            continue;
+        }
+        plan.push((
+            m.log_time,
+            m.channel.topic.clone(),
+            schema.name.clone(),
+            radar_ros::RawMessage(m.data[4..].to_vec()),
+        ));
+    }
+    plan.sort_by_key(|p| p.0);
+    let Some(first) = plan.first().map(|p| p.0) else {
+        return Err(format!(
+            "{} holds no RADAR signals to replay",
+            input.display()
+        ));
+    };
+    let mut publishers = BTreeMap::new();
+    for (_, topic, ty, _) in &plan {
+        if !publishers.contains_key(topic) {
+            let p = radar.raw_publisher(topic, ty).map_err(|e| e.to_string())?;
+            publishers.insert(topic.clone(), p);
+        }
+    }
+    // whoever listens now should hear all of it
+    let ready = futures::future::join_all(
+        publishers
+            .values()
+            .map(|p| async move { p.wait_for_subscribers(1).timeout(wait).await.is_ok() }),
+    )
+    .await;
+    let unheard: Vec<&String> = publishers
+        .keys()
+        .zip(ready)
+        .filter(|(_, ok)| !ok)
+        .map(|(t, _)| t)
+        .collect();
+    let t0 = tokio::time::Instant::now();
+    let mut sent = 0u64;
+    for (at, topic, _, body) in &plan {
+        let offset = Duration::from_nanos(((at - first) as f64 / rate) as u64);
+        tokio::time::sleep_until(t0 + offset).await;
+        publishers[topic]
+            .publish(body.clone())
+            .map_err(|e| e.to_string())?;
+        sent += 1;
+    }
+    // let reliable delivery finish before the writers go
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    if out.json {
+        println!(
+            "{}",
+            json!({ "file": input, "published": sent, "topics": publishers.len(), "without_subscribers": unheard })
+        );
+    } else {
+        println!(
+            "replayed {sent} signals on {} topics from {}",
+            publishers.len(),
+            input.display()
+        );
+        for t in unheard {
+            println!("  nobody listened on {t}");
+        }
+    }
+    Ok(())
 }

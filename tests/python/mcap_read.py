@@ -1,0 +1,42 @@
+#!/usr/bin/env python3
+"""Reads an MCAP file with the independent Python readers (`mcap`, `mcap-ros2-support`) and prints one JSON
+line per message: topic, schema name and encoding, message encoding, log and publish time, and the message
+decoded from its CDR with the schema stored in the file (as Foxglove and rosbag2 tooling would).
+
+    mcap_read.py FILE.mcap
+"""
+import json
+import sys
+
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+
+def plain(v):
+    """A decoded ROS message (dynamic class) as plain JSON values."""
+    if hasattr(v, "__slots__"):
+        return {k: plain(getattr(v, k)) for k in v.__slots__ if not k.startswith("_")}
+    if isinstance(v, (list, tuple)):
+        return [plain(x) for x in v]
+    if isinstance(v, bytes):
+        return list(v)
+    return v
+
+
+def main():
+    with open(sys.argv[1], "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            print(json.dumps({
+                "topic": channel.topic,
+                "schema": schema.name,
+                "schema_encoding": schema.encoding,
+                "message_encoding": channel.message_encoding,
+                "log_time": message.log_time,
+                "publish_time": message.publish_time,
+                "msg": plain(decoded),
+            }), flush=True)
+
+
+if __name__ == "__main__":
+    main()
