@@ -620,3 +620,53 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
     drop((say, count));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The command line sees and drives an rclpy component like its own: `examples/python/radar_response.py`
+/// (plain rclpy, Fast DDS) is listed, shown, started and interrupted. Domain 69.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rclpy_response_is_listed_and_driven() {
+    radar_ros_examples::test_support::require_isolation();
+    let mut py =
+        radar_test_util::Py::example(69, "radar_response.py", &["/py/dock", "--duration", "5"])
+            .await;
+    let run = |args: &[&str]| {
+        let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        async move {
+            let out = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+                .args(&args)
+                .arg("--json")
+                .env("ROS_DOMAIN_ID", "69")
+                .env_remove("RUST_LOG")
+                .kill_on_drop(true)
+                .output()
+                .await
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "radar {args:?}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            serde_json::from_slice::<Value>(&out.stdout).unwrap()
+        }
+    };
+    let ls = run(&["ls"]).await;
+    assert_eq!(names(&ls), ["/py/dock"], "{ls}");
+    assert_eq!(ls[0]["types"]["start"], "std_msgs/msg/Empty");
+    let cat = run(&["cat", "/py/dock"]).await;
+    assert_eq!(cat["kind"], "response");
+    assert_eq!(
+        cat["state"],
+        Value::Null,
+        "the rclpy response publishes no state topic"
+    );
+    assert_eq!(
+        run(&["act", "start", "/py/dock"]).await["signal"],
+        "started"
+    );
+    py.expect_line("started").await;
+    assert_eq!(
+        run(&["act", "interrupt", "/py/dock"]).await["signal"],
+        "interrupted"
+    );
+    py.expect_line("interrupted").await;
+}

@@ -878,7 +878,16 @@ async fn act(
     with_status("waiting for the match", ready)
         .await
         .map_err(|e| e.to_string())?;
-    let before = state.recv().timeout(timeout).await.ok();
+    // the state before, to say why if nothing comes (responses in other libraries may have no state topic)
+    let has_state = state
+        .wait_for_publishers(1)
+        .timeout(timeout.min(Duration::from_secs(1)))
+        .await
+        .is_ok();
+    let before = match has_state {
+        true => state.recv().timeout(timeout).await.ok(),
+        false => None,
+    };
     publisher.publish(raw).map_err(|e| e.to_string())?;
     match signal.recv_stamped().timeout(timeout).await {
         Ok((m, _)) => {
@@ -910,6 +919,7 @@ async fn act(
                     format!("it ignored the {}: it was {}", slot.topic(), b.state_label)
                 }
                 (Some(b), _) => format!("it was {}", b.state_label),
+                _ if !has_state => "it publishes no state topic to tell why".into(),
                 _ => "its state did not arrive either".into(),
             };
             Err(format!(
