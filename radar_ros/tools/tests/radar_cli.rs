@@ -20,12 +20,13 @@ impl Event for Never {
     }
 }
 
-async fn radar_cmd(args: &[&str]) -> Output {
+/// Runs `radar ARGS` in ROS_DOMAIN_ID `domain`.
+async fn radar_in(domain: &str, args: &[&str]) -> Output {
     tokio::time::timeout(
         Duration::from_secs(30),
         tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
             .args(args)
-            .env("ROS_DOMAIN_ID", DOMAIN)
+            .env("ROS_DOMAIN_ID", domain)
             .env_remove("RUST_LOG")
             .kill_on_drop(true)
             .output(),
@@ -36,26 +37,27 @@ async fn radar_cmd(args: &[&str]) -> Output {
 }
 
 /// The JSON document `radar ARGS --json` printed (its last line); fails unless it succeeded.
-async fn json(args: &[&str]) -> Value {
+async fn json(domain: &str, args: &[&str]) -> Value {
     let mut all = args.to_vec();
     all.push("--json");
-    let out = radar_cmd(&all).await;
+    ok_json(radar_in(domain, &all).await)
+}
+
+/// The JSON document a successful `radar ... --json` printed (its last line).
+fn ok_json(out: Output) -> Value {
     let (stdout, stderr) = (
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr),
     );
-    assert!(out.status.success(), "radar {all:?} failed: {stderr}");
-    assert!(
-        !stderr.contains("ERROR"),
-        "radar {all:?} logged an error: {stderr}"
-    );
+    assert!(out.status.success(), "radar failed: {stderr}");
+    assert!(!stderr.contains("ERROR"), "radar logged an error: {stderr}");
     let last = stdout.lines().last().unwrap_or_default();
-    serde_json::from_str(last).unwrap_or_else(|e| panic!("radar {all:?}: not JSON ({e}): {stdout}"))
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("radar printed no JSON ({e}): {stdout}"))
 }
 
 /// The error message of `radar ARGS`, which must fail.
-async fn fails(args: &[&str]) -> String {
-    let out = radar_cmd(args).await;
+async fn fails(domain: &str, args: &[&str]) -> String {
+    let out = radar_in(domain, args).await;
     assert!(!out.status.success(), "radar {args:?} should have failed");
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
@@ -111,7 +113,7 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
         .unwrap();
 
     // ls: every component, with kind and types; -l adds the state; a namespace filters
-    let ls = json(&["ls"]).await;
+    let ls = json(DOMAIN, &["ls"]).await;
     assert_eq!(
         names(&ls),
         ["/cli/never", "/cli/say", "/cli/slow", "/cli/tick"],
@@ -121,17 +123,17 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
     assert_eq!(say_row["kind"], "response");
     assert_eq!(say_row["types"]["start"], "std_msgs/msg/String");
     assert_eq!(ls[3]["types"]["triggered"], "std_msgs/msg/Empty");
-    let long = json(&["ls", "/cli", "-l"]).await;
+    let long = json(DOMAIN, &["ls", "/cli", "-l"]).await;
     assert_eq!(long[0]["state"]["active"], true, "never is armed: {long}");
     assert_eq!(
         long[3]["state"]["active"], false,
         "tick is not listened to: {long}"
     );
     assert_eq!(long[2]["state"]["state_label"], "idle");
-    assert!(names(&json(&["ls", "/elsewhere"]).await).is_empty());
+    assert!(names(&json(DOMAIN, &["ls", "/elsewhere"]).await).is_empty());
 
     // cat: topics, state, and the connection this program made, shown by its program node
-    let cat = json(&["cat", "/cli/say"]).await;
+    let cat = json(DOMAIN, &["cat", "/cli/say"]).await;
     assert_eq!(cat["kind"], "response");
     assert_eq!(cat["topics"].as_array().unwrap().len(), 7);
     let c = &cat["connections"][0];
@@ -152,22 +154,22 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
     );
 
     // watch (in the background) sees what act does; it does not activate the idle event
-    let watcher = tokio::spawn(radar_cmd(&["watch", "--json", "--duration", "6"]));
+    let watcher = tokio::spawn(radar_in(DOMAIN, &["watch", "--json", "--duration", "6"]));
     tokio::time::sleep(Duration::from_secs(2)).await;
 
     // act start with a payload: started comes back with it, and the response ran
-    let started = json(&["act", "start", "/cli/say", "{data: kitchen}"]).await;
+    let started = json(DOMAIN, &["act", "start", "/cli/say", "{data: kitchen}"]).await;
     assert_eq!(started["signal"], "started");
     assert_eq!(started["payload"]["data"], "kitchen");
     // inject straight into a slot: the slow response runs
-    let injected = json(&["inject", "/cli/slow/start"]).await;
+    let injected = json(DOMAIN, &["inject", "/cli/slow/start"]).await;
     assert_eq!(injected["type"], "std_msgs/msg/Empty");
     let mut state = slow.watch_state();
     tokio::time::timeout(Duration::from_secs(10), state.wait_for(|s| s.starts == 1))
         .await
         .expect("the injected start ran")
         .unwrap();
-    let interrupted = json(&["act", "interrupt", "/cli/slow"]).await;
+    let interrupted = json(DOMAIN, &["act", "interrupt", "/cli/slow"]).await;
     assert_eq!(interrupted["signal"], "interrupted");
 
     let out = watcher.await.unwrap();
@@ -197,20 +199,20 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
     );
 
     // bad input: a clear message and a non-zero exit
-    let e = fails(&["act", "start", "/cli/nope", "--timeout", "1"]).await;
+    let e = fails(DOMAIN, &["act", "start", "/cli/nope", "--timeout", "1"]).await;
     assert!(e.contains("no RADAR response named \"/cli/nope\""), "{e}");
     assert!(
         e.contains("/cli/say (response)"),
         "names what is there: {e}"
     );
-    let e = fails(&["act", "start", "/cli/say", "{data: [1"]).await;
+    let e = fails(DOMAIN, &["act", "start", "/cli/say", "{data: [1"]).await;
     assert!(
         e.contains("the payload is not a std_msgs/msg/String"),
         "{e}"
     );
-    let e = fails(&["act", "interrupt", "/cli/say", "--timeout", "1"]).await;
+    let e = fails(DOMAIN, &["act", "interrupt", "/cli/say", "--timeout", "1"]).await;
     assert!(e.contains("it ignored the interrupt: it was idle"), "{e}");
-    let e = fails(&["ls", "cli"]).await;
+    let e = fails(DOMAIN, &["ls", "cli"]).await;
     assert!(e.contains("the namespace is absolute"), "{e}");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
         .arg("ls")
@@ -219,7 +221,7 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("invalid ROS_DOMAIN_ID \"x\""));
-    let help = radar_cmd(&["act", "--help"]).await;
+    let help = radar_in(DOMAIN, &["act", "--help"]).await;
     assert!(String::from_utf8_lossy(&help.stdout).contains("like rtact"));
     drop(never);
 }
@@ -262,43 +264,21 @@ async fn con_and_dis_connect_through_a_manager() {
         )
         .unwrap();
     let runs_now = || runs.load(std::sync::atomic::Ordering::SeqCst);
-    let cmd = |args: Vec<&str>| {
-        let args: Vec<String> = args.into_iter().map(str::to_owned).collect();
-        async move {
-            tokio::time::timeout(
-                Duration::from_secs(30),
-                tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
-                    .args(&args)
-                    .env("ROS_DOMAIN_ID", domain)
-                    .env_remove("RUST_LOG")
-                    .kill_on_drop(true)
-                    .output(),
-            )
-            .await
-            .unwrap()
-            .unwrap()
-        }
-    };
-    let ok_json = |out: Output| -> Value {
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap()).unwrap()
-    };
 
     // while the command runs (3 s), the count response runs; after it, no more
     let before = runs_now();
-    let out = cmd(vec![
-        "con",
-        "whenever",
-        "/con/tick/triggered",
-        "/con/count/start",
-        "--duration",
-        "3",
-        "--json",
-    ])
+    let out = radar_in(
+        domain,
+        &[
+            "con",
+            "whenever",
+            "/con/tick/triggered",
+            "/con/count/start",
+            "--duration",
+            "3",
+            "--json",
+        ],
+    )
     .await;
     let made = ok_json(out);
     assert_eq!(
@@ -318,16 +298,19 @@ async fn con_and_dis_connect_through_a_manager() {
 
     // detached: it stays after the command, until `radar dis`
     let made = ok_json(
-        cmd(vec![
-            "con",
-            "whenever",
-            "/con/tick/triggered",
-            "/con/count/start",
-            "--detach",
-            "--manager",
-            "/cli_manager",
-            "--json",
-        ])
+        radar_in(
+            domain,
+            &[
+                "con",
+                "whenever",
+                "/con/tick/triggered",
+                "/con/count/start",
+                "--detach",
+                "--manager",
+                "/cli_manager",
+                "--json",
+            ],
+        )
         .await,
     );
     assert_eq!(made["detached"], true);
@@ -338,7 +321,7 @@ async fn con_and_dis_connect_through_a_manager() {
         runs_now() > t + 3,
         "a detached connection outlives its command"
     );
-    let removed = ok_json(cmd(vec!["dis", &id.to_string(), "--json"]).await);
+    let removed = ok_json(radar_in(domain, &["dis", &id.to_string(), "--json"]).await);
     assert_eq!(removed["removed"], id);
     tokio::time::sleep(Duration::from_millis(500)).await;
     let after = runs_now();
@@ -346,27 +329,26 @@ async fn con_and_dis_connect_through_a_manager() {
     assert_eq!(runs_now(), after, "removed by radar dis");
 
     // bad input: a mismatched type, an unknown id, an unknown manager
-    let out = cmd(vec![
-        "con",
-        "once",
-        "/con/tick/triggered",
-        "/con/nothing/start",
-        "--json",
-    ])
+    let out = radar_in(
+        domain,
+        &[
+            "con",
+            "once",
+            "/con/tick/triggered",
+            "/con/nothing/start",
+            "--json",
+        ],
+    )
     .await;
     assert!(!out.status.success());
     let e = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(e.contains("the manager /cli_manager refused"), "{e}");
-    let out = cmd(vec!["dis", "999"]).await;
+    let out = radar_in(domain, &["dis", "999"]).await;
     assert!(String::from_utf8_lossy(&out.stderr).contains("no connection 999"));
-    let out = cmd(vec![
-        "dis",
-        "1",
-        "--manager",
-        "/nobody",
-        "--discovery",
-        "0.5",
-    ])
+    let out = radar_in(
+        domain,
+        &["dis", "1", "--manager", "/nobody", "--discovery", "0.5"],
+    )
     .await;
     assert!(!out.status.success());
     drop(manager);
@@ -512,17 +494,7 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("run.mcap");
     let file_s = file.to_str().unwrap().to_owned();
-    let run = |args: Vec<String>| async move {
-        tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
-            .args(&args)
-            .env("ROS_DOMAIN_ID", domain)
-            .env_remove("RUST_LOG")
-            .kill_on_drop(true)
-            .output()
-            .await
-            .unwrap()
-    };
-    let recorder = tokio::spawn(run([
+    let args = [
         "record",
         "-o",
         &file_s,
@@ -533,13 +505,13 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
         "/rec/say",
         "/rec/tick",
     ]
-    .map(str::to_owned)
-    .to_vec()));
+    .map(str::to_owned);
+    let recorder = tokio::spawn(async move {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        radar_in(domain, &args).await
+    });
     tokio::time::sleep(Duration::from_secs(2)).await;
-    let acted = run(["act", "start", "/rec/say", "{data: kitchen}"]
-        .map(str::to_owned)
-        .to_vec())
-    .await;
+    let acted = radar_in(domain, &["act", "start", "/rec/say", "{data: kitchen}"]).await;
     assert!(
         acted.status.success(),
         "{}",
@@ -599,10 +571,7 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
     drop(tick);
     tokio::time::sleep(Duration::from_millis(500)).await;
     let before = runs.load(std::sync::atomic::Ordering::SeqCst);
-    let replayed = run(["replay", &file_s, "--rate", "4", "--json"]
-        .map(str::to_owned)
-        .to_vec())
-    .await;
+    let replayed = radar_in(domain, &["replay", &file_s, "--rate", "4", "--json"]).await;
     assert!(
         replayed.status.success(),
         "{}",
@@ -629,30 +598,10 @@ async fn an_rclpy_response_is_listed_and_driven() {
     let mut py =
         radar_test_util::Py::example(69, "radar_response.py", &["/py/dock", "--duration", "5"])
             .await;
-    let run = |args: &[&str]| {
-        let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
-        async move {
-            let out = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
-                .args(&args)
-                .arg("--json")
-                .env("ROS_DOMAIN_ID", "69")
-                .env_remove("RUST_LOG")
-                .kill_on_drop(true)
-                .output()
-                .await
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "radar {args:?}: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            serde_json::from_slice::<Value>(&out.stdout).unwrap()
-        }
-    };
-    let ls = run(&["ls"]).await;
+    let ls = json("69", &["ls"]).await;
     assert_eq!(names(&ls), ["/py/dock"], "{ls}");
     assert_eq!(ls[0]["types"]["start"], "std_msgs/msg/Empty");
-    let cat = run(&["cat", "/py/dock"]).await;
+    let cat = json("69", &["cat", "/py/dock"]).await;
     assert_eq!(cat["kind"], "response");
     assert_eq!(
         cat["state"],
@@ -660,12 +609,12 @@ async fn an_rclpy_response_is_listed_and_driven() {
         "the rclpy response publishes no state topic"
     );
     assert_eq!(
-        run(&["act", "start", "/py/dock"]).await["signal"],
+        json("69", &["act", "start", "/py/dock"]).await["signal"],
         "started"
     );
     py.expect_line("started").await;
     assert_eq!(
-        run(&["act", "interrupt", "/py/dock"]).await["signal"],
+        json("69", &["act", "interrupt", "/py/dock"]).await["signal"],
         "interrupted"
     );
     py.expect_line("interrupted").await;

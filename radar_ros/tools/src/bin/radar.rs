@@ -735,57 +735,16 @@ async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Falli
             }
         }
     }
-    let topics: Vec<(String, &str, String)> = match &c {
-        Component::Event(e) => vec![
-            (
-                e.triggered().topic().to_owned(),
-                "signal",
-                e.triggered().ros_type().to_owned(),
-            ),
-            (
-                c.name().topic("state"),
-                "state",
-                "radar_msgs/msg/EventState".into(),
-            ),
-        ],
-        Component::Response(r) => vec![
-            (
-                r.start_slot().topic().to_owned(),
-                "slot",
-                r.start_slot().ros_type().to_owned(),
-            ),
-            (
-                r.interrupt_slot().topic().to_owned(),
-                "slot",
-                r.interrupt_slot().ros_type().to_owned(),
-            ),
-            (
-                r.exit_slot().topic().to_owned(),
-                "slot",
-                r.exit_slot().ros_type().to_owned(),
-            ),
-            (
-                r.started().topic().to_owned(),
-                "signal",
-                r.started().ros_type().to_owned(),
-            ),
-            (
-                r.interrupted().topic().to_owned(),
-                "signal",
-                r.interrupted().ros_type().to_owned(),
-            ),
-            (
-                r.exited().topic().to_owned(),
-                "signal",
-                r.exited().ros_type().to_owned(),
-            ),
-            (
-                c.name().topic("state"),
-                "state",
-                "radar_msgs/msg/ResponseState".into(),
-            ),
-        ],
-    };
+    let mut topics: Vec<(String, &str, String)> = Vec::new();
+    if let Component::Response(r) = &c {
+        for slot in [r.start_slot(), r.interrupt_slot(), r.exit_slot()] {
+            topics.push((slot.topic().to_owned(), "slot", slot.ros_type().to_owned()));
+        }
+    }
+    for (topic, ty, _) in signal_topics(&c, true) {
+        topics.push((topic, "signal", ty));
+    }
+    topics.push((c.name().topic("state"), "state", state_type(&c).to_owned()));
     if out.json {
         let v = json!({
             "name": fq,
@@ -973,6 +932,75 @@ async fn inject(
     Ok(())
 }
 
+/// The signals that show a component's activity, `(topic, type, label)`: a response's three; an event's
+/// `triggered` only if `activate` (listening to it makes the event check).
+fn signal_topics(c: &Component, activate: bool) -> Vec<(String, String, &'static str)> {
+    let of = |s: radar_ros::Signal, label| (s.topic().to_owned(), s.ros_type().to_owned(), label);
+    match c {
+        Component::Response(r) => vec![
+            of(r.started(), "started"),
+            of(r.interrupted(), "interrupted"),
+            of(r.exited(), "exited"),
+        ],
+        Component::Event(e) if activate => vec![of(e.triggered(), "triggered")],
+        Component::Event(_) => Vec::new(),
+    }
+}
+
+/// The type of a component's `state` topic.
+fn state_type(c: &Component) -> &'static str {
+    match c {
+        Component::Response(_) => "radar_msgs/msg/ResponseState",
+        Component::Event(_) => "radar_msgs/msg/EventState",
+    }
+}
+
+/// The components a `watch` or `record` follows: those named (all if none), each once, as they appear.
+struct Following {
+    wanted: Vec<String>,
+    seen: std::collections::BTreeSet<String>,
+}
+
+impl Following {
+    fn new(radar: &Radar, names: &[String]) -> Fallible<Following> {
+        let wanted = names
+            .iter()
+            .map(|n| {
+                radar
+                    .resolve(n)
+                    .map(|c| c.fully_qualified())
+                    .map_err(|e| e.to_string())
+            })
+            .collect::<Fallible<_>>()?;
+        Ok(Following {
+            wanted,
+            seen: Default::default(),
+        })
+    }
+
+    /// Components on the graph now that are wanted and not followed yet.
+    fn new_components(&mut self, radar: &Radar) -> Vec<Component> {
+        radar
+            .components()
+            .into_iter()
+            .filter(|c| {
+                let fq = c.name().fully_qualified();
+                (self.wanted.is_empty() || self.wanted.contains(&fq)) && self.seen.insert(fq)
+            })
+            .collect()
+    }
+}
+
+/// Resolves after `duration` seconds, or at Ctrl-C if none is given.
+async fn until_done(duration: Option<f64>) {
+    match duration {
+        Some(d) => tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))).await,
+        None => {
+            let _ = tokio::signal::ctrl_c().await;
+        }
+    }
+}
+
 /// One line of the timeline.
 struct Seen {
     component: String,
@@ -987,36 +1015,20 @@ async fn watch(
     activate: bool,
     duration: Option<f64>,
 ) -> Fallible<()> {
-    let wanted: Vec<String> = names
-        .iter()
-        .map(|n| {
-            radar
-                .resolve(n)
-                .map(|c| c.fully_qualified())
-                .map_err(|e| e.to_string())
-        })
-        .collect::<Fallible<_>>()?;
+    let mut following = Following::new(radar, &names)?;
     let t0 = tokio::time::Instant::now();
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Seen>();
-    let mut watched = std::collections::BTreeSet::new();
     let mut tasks = Vec::new();
-    let end = async {
-        match duration {
-            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))).await,
-            None => {
-                let _ = tokio::signal::ctrl_c().await;
-            }
-        }
-    };
+    let end = until_done(duration);
     tokio::pin!(end);
     let mut rescan = tokio::time::interval(Duration::from_millis(250));
     if !out.json {
         println!(
             "watching {} in ROS_DOMAIN_ID {} (Ctrl-C to stop)",
-            if wanted.is_empty() {
+            if following.wanted.is_empty() {
                 "every component".to_owned()
             } else {
-                wanted.join(", ")
+                following.wanted.join(", ")
             },
             radar.domain_id()
         );
@@ -1025,11 +1037,7 @@ async fn watch(
         tokio::select! {
             _ = &mut end => break,
             _ = rescan.tick() => {
-                for c in radar.components() {
-                    let fq = c.name().fully_qualified();
-                    if (!wanted.is_empty() && !wanted.contains(&fq)) || !watched.insert(fq) {
-                        continue;
-                    }
+                for c in following.new_components(radar) {
                     tasks.extend(follow(radar, &c, activate, tx.clone())?);
                 }
             }
@@ -1059,33 +1067,7 @@ fn follow(
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
     let name = c.name().fully_qualified();
     let mut tasks = Vec::new();
-    let signals: Vec<(String, String, &'static str)> = match c {
-        Component::Response(r) => vec![
-            (
-                r.started().topic().into(),
-                r.started().ros_type().into(),
-                "started",
-            ),
-            (
-                r.interrupted().topic().into(),
-                r.interrupted().ros_type().into(),
-                "interrupted",
-            ),
-            (
-                r.exited().topic().into(),
-                r.exited().ros_type().into(),
-                "exited",
-            ),
-        ],
-        Component::Event(e) if activate => {
-            vec![(
-                e.triggered().topic().into(),
-                e.triggered().ros_type().into(),
-                "triggered",
-            )]
-        }
-        Component::Event(_) => Vec::new(),
-    };
+    let signals = signal_topics(c, activate);
     for (topic, ty, what) in signals {
         let sub = radar
             .raw_subscription(&topic, &ty)
@@ -1200,32 +1182,16 @@ async fn record(
     if output.extension().and_then(|e| e.to_str()) != Some("mcap") {
         return Err("the output file ends in .mcap".into());
     }
-    let wanted: Vec<String> = names
-        .iter()
-        .map(|n| {
-            radar
-                .resolve(n)
-                .map(|c| c.fully_qualified())
-                .map_err(|e| e.to_string())
-        })
-        .collect::<Fallible<_>>()?;
+    let mut following = Following::new(radar, &names)?;
     let file = std::fs::File::create(&output)
         .map_err(|e| format!("could not create {}: {e}", output.display()))?;
     let mut writer = mcap::Writer::new(std::io::BufWriter::new(file)).map_err(|e| e.to_string())?;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Recorded>();
-    let mut watched = std::collections::BTreeSet::new();
     let mut tasks = Vec::new();
     let mut channels: BTreeMap<String, u16> = BTreeMap::new();
     let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
     let mut counts: BTreeMap<String, u64> = BTreeMap::new();
-    let end = async {
-        match duration {
-            Some(d) => tokio::time::sleep(Duration::from_secs_f64(d.max(0.0))).await,
-            None => {
-                let _ = tokio::signal::ctrl_c().await;
-            }
-        }
-    };
+    let end = until_done(duration);
     tokio::pin!(end);
     let mut rescan = tokio::time::interval(Duration::from_millis(250));
     if !out.json {
@@ -1235,11 +1201,7 @@ async fn record(
         tokio::select! {
             _ = &mut end => break,
             _ = rescan.tick() => {
-                for c in radar.components() {
-                    let fq = c.name().fully_qualified();
-                    if (!wanted.is_empty() && !wanted.contains(&fq)) || !watched.insert(fq) {
-                        continue;
-                    }
+                for c in following.new_components(radar) {
                     tasks.extend(tap(radar, &c, activate, tx.clone())?);
                 }
             }
@@ -1306,25 +1268,10 @@ fn tap(
     activate: bool,
     tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
-    let mut signals: Vec<(String, String)> = match c {
-        Component::Response(r) => [r.started(), r.interrupted(), r.exited()]
-            .iter()
-            .map(|s| (s.topic().to_owned(), s.ros_type().to_owned()))
-            .collect(),
-        Component::Event(e) if activate => {
-            vec![(
-                e.triggered().topic().to_owned(),
-                e.triggered().ros_type().to_owned(),
-            )]
-        }
-        Component::Event(_) => Vec::new(),
-    };
-    let state_type = match c {
-        Component::Response(_) => "radar_msgs/msg/ResponseState",
-        Component::Event(_) => "radar_msgs/msg/EventState",
-    };
+    let signals = signal_topics(c, activate);
+    let state_type = state_type(c);
     let mut tasks = Vec::new();
-    for (topic, ty) in signals.drain(..) {
+    for (topic, ty, _) in signals {
         let sub = radar
             .raw_subscription(&topic, &ty)
             .map_err(|e| e.to_string())?;
