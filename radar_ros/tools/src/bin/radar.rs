@@ -140,7 +140,8 @@ enum Cmd {
     /// Record signals, their payloads and state changes to an MCAP file with ROS 2 message schemas (ros2msg
     /// schemas, cdr messages, as rosbag2 writes them), so Foxglove and ros2 bag tooling open it (like rtlog).
     /// Events are recorded through their state topics unless --activate (which records triggered, and
-    /// activates them).
+    /// activates them). Types radar has schemas for: std_msgs basics, geometry_msgs Point, Quaternion, Pose,
+    /// PoseStamped, builtin_interfaces Time, radar_msgs, test_msgs Fibonacci; others are skipped, said once.
     Record {
         /// The MCAP file to write.
         #[arg(short = 'o', long = "output", value_name = "FILE.mcap")]
@@ -1191,6 +1192,7 @@ async fn record(
     let mut channels: BTreeMap<String, u16> = BTreeMap::new();
     let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
     let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    let mut unknown = std::collections::BTreeSet::new();
     let end = until_done(duration);
     tokio::pin!(end);
     let mut rescan = tokio::time::interval(Duration::from_millis(250));
@@ -1207,7 +1209,14 @@ async fn record(
             }
             Some(m) = rx.recv() => {
                 let Some(def) = schemas::definition(&m.ros_type) else {
-                    continue; // a type radar cannot describe (a user's own): not recorded
+                    // a type radar cannot describe (a user's own): said once, not recorded
+                    if unknown.insert(m.ros_type.clone()) {
+                        eprintln!(
+                            "radar: not recording {} ({}): radar has no ROS 2 schema for that type",
+                            m.topic, m.ros_type
+                        );
+                    }
+                    continue;
                 };
                 let schema = match schemas.get(&m.ros_type) {
                     Some(id) => *id,
