@@ -1007,7 +1007,13 @@ struct Seen {
     component: String,
     what: String,
     payload: Value,
+    /// When it was sent: the source timestamp (signals) or the state's stamp, ns since the epoch (0: unknown).
+    stamp: i64,
 }
+
+/// How long `watch` holds what arrived, so that signals and states that came on different topics print in the
+/// order they were sent.
+const REORDER: Duration = Duration::from_millis(60);
 
 async fn watch(
     radar: &Radar,
@@ -1017,12 +1023,14 @@ async fn watch(
     duration: Option<f64>,
 ) -> Fallible<()> {
     let mut following = Following::new(radar, &names)?;
-    let t0 = tokio::time::Instant::now();
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Seen>();
     let mut tasks = Vec::new();
     let end = until_done(duration);
     tokio::pin!(end);
     let mut rescan = tokio::time::interval(Duration::from_millis(250));
+    let mut flush = tokio::time::interval(REORDER / 3);
+    let mut held: Vec<(tokio::time::Instant, Seen)> = Vec::new();
+    let start_ns = epoch_ns() as i64;
     if !out.json {
         println!(
             "watching {} in ROS_DOMAIN_ID {} (Ctrl-C to stop)",
@@ -1042,20 +1050,52 @@ async fn watch(
                     tasks.extend(follow(radar, &c, activate, tx.clone())?);
                 }
             }
-            Some(s) = rx.recv() => {
-                let t = t0.elapsed().as_secs_f64();
-                if out.json {
-                    println!("{}", json!({ "t": t, "component": s.component, "event": s.what, "payload": s.payload }));
-                } else {
-                    println!("[{t:8.3} s] {} {} {}", s.component, s.what, codec::inline(&s.payload));
-                }
-            }
+            Some(s) = rx.recv() => held.push((tokio::time::Instant::now(), s)),
+            _ = flush.tick() => print_held(out, &mut held, start_ns, false),
         }
     }
+    print_held(out, &mut held, start_ns, true);
     for t in tasks {
         t.abort();
     }
     Ok(())
+}
+
+/// Prints, in the order they were sent, the held lines that arrived at least [`REORDER`] ago (all, at the end);
+/// times are relative to when watching began.
+fn print_held(out: &Out, held: &mut Vec<(tokio::time::Instant, Seen)>, start_ns: i64, all: bool) {
+    let now = tokio::time::Instant::now();
+    let (mut due, keep): (Vec<_>, Vec<_>) = held
+        .drain(..)
+        .partition(|(arrived, _)| all || now.duration_since(*arrived) >= REORDER);
+    *held = keep;
+    // when it was sent; for what carries no stamp, when it arrived
+    let sent = |(arrived, s): &(tokio::time::Instant, Seen)| match s.stamp {
+        0 => epoch_ns() as i64 - arrived.elapsed().as_nanos() as i64,
+        t => t,
+    };
+    due.sort_by_key(sent);
+    for x in due {
+        let t = (sent(&x) - start_ns) as f64 / 1e9;
+        let s = x.1;
+        if out.json {
+            println!(
+                "{}",
+                json!({ "t": t, "component": s.component, "event": s.what, "payload": s.payload })
+            );
+        } else {
+            println!(
+                "[{t:8.3} s] {} {} {}",
+                s.component,
+                s.what,
+                codec::inline(&s.payload)
+            );
+        }
+    }
+}
+
+fn stamp_ns(t: &radar_ros::msg::Time) -> i64 {
+    t.sec as i64 * 1_000_000_000 + t.nanosec as i64
 }
 
 /// Subscribes to what shows `c`'s activity and forwards each to `tx`: a response's signals and state, an
@@ -1075,12 +1115,13 @@ fn follow(
             .map_err(|e| e.to_string())?;
         let (tx, name) = (tx.clone(), name.clone());
         tasks.push(tokio::spawn(async move {
-            while let Ok((m, _)) = sub.recv_stamped().await {
+            while let Ok((m, stamp)) = sub.recv_stamped().await {
                 let payload = codec::decode(&ty, &m);
                 let seen = Seen {
                     component: name.clone(),
                     what: what.into(),
                     payload,
+                    stamp,
                 };
                 if tx.send(seen).is_err() {
                     break;
@@ -1104,6 +1145,7 @@ fn follow(
                             component: s.name.clone(),
                             what: format!("is {}", s.state_label),
                             payload: Value::Object(Default::default()),
+                            stamp: stamp_ns(&s.stamp),
                         };
                         if tx2.send(seen).is_err() {
                             break;
@@ -1136,6 +1178,7 @@ fn follow(
                             component: s.name.clone(),
                             what: what.into(),
                             payload: Value::Object(Default::default()),
+                            stamp: stamp_ns(&s.stamp),
                         };
                         if tx2.send(seen).is_err() {
                             return;
