@@ -435,8 +435,13 @@ async fn the_fibonacci_action_example_serves_an_rclpy_client() {
         &["client", "/fibonacci", "4"],
     );
     assert_eq!(event(&mut py, "answer").await["accepted"], true);
+    // feedback is a volatile topic: a fresh client may miss the first one while its reader is being matched
     let fb = event(&mut py, "feedback").await;
-    assert_eq!(fb["sequence"], serde_json::json!([0, 1, 1]));
+    let fb: Vec<i32> = serde_json::from_value(fb["sequence"].clone()).unwrap();
+    assert!(
+        fb.len() >= 3 && sequence(4).starts_with(&fb),
+        "feedback is the sequence so far: {fb:?}"
+    );
     let res = event(&mut py, "result").await;
     assert_eq!(res["status"], "SUCCEEDED");
     assert_eq!(res["sequence"], serde_json::json!([0, 1, 1, 2, 3]));

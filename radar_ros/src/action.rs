@@ -1058,16 +1058,22 @@ async fn exit_reason(
     }
 }
 
-/// Waits (at most [`REPLY_WAIT`]) until every participant that has a request writer on the action's
-/// `service` is matched by our reply writer: a fresh client process (`ros2 action send_goal`) can send its
+/// Waits (at most [`REPLY_WAIT`] each) until every participant that has a request writer on the action's
+/// `service` is matched by our reply writer (and, for goals, our feedback writer): a fresh client process (`ros2 action send_goal`) can send its
 /// request before we have matched its reply reader, and a reply sent then goes nowhere.
 async fn wait_callers(graph: &Graph, action: &str, service: &str) {
     let request = format!("rq{action}/_action/{service}Request");
     let reply = format!("rr{action}/_action/{service}Reply");
+    // a goal's sender also reads feedback (a volatile topic): match it first, or a fresh client (`ros2
+    // action send_goal --feedback`) misses the first feedback of the goal
+    let feedback = format!("rt{action}/_action/feedback");
     let callers = graph.participants_matched_on(&[(false, request)]);
     for c in callers {
         if !graph.wait_reader_of(&reply, c, REPLY_WAIT).await {
             tracing::debug!(%action, %service, "answering before the caller's reply reader is matched");
+        }
+        if service == "send_goal" && !graph.wait_reader_of(&feedback, c, REPLY_WAIT).await {
+            tracing::debug!(%action, "starting a goal before the caller's feedback reader is matched");
         }
     }
 }
