@@ -60,8 +60,7 @@ enum Cmd {
         #[arg(short = 'l', long)]
         long: bool,
     },
-    /// Show one component: its topics and types, its state, and every connection touching it, from every
-    /// program (like rtcat).
+    /// Show one component: topics, types, state, and every program's connections touching it (like rtcat).
     Cat {
         /// The event or response, e.g. /count_up.
         name: String,
@@ -88,8 +87,9 @@ enum Cmd {
         #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
         timeout: f64,
     },
-    /// A live timeline of the signals and state changes of every component (or those named), relative to
-    /// when watching began (like rtprint). Events are watched through their state topics, so watching does
+    /// A live timeline of the signals and state changes of every component, or those named (like rtprint).
+    ///
+    /// Times are relative to when watching began. Events are watched through their state topics, so watching does
     /// not make them check; --activate listens to their triggered signal instead (and so activates them).
     Watch {
         /// Components to watch (default: all, including ones that appear later).
@@ -101,8 +101,9 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
-    /// Connect a signal to a slot through a manager's services (like rtcon). The connection lives while this
-    /// command runs (Ctrl-C ends it), or with --detach under the manager until `radar dis`.
+    /// Connect a signal to a slot through a manager's services (like rtcon).
+    ///
+    /// The connection lives while this command runs (Ctrl-C ends it), or with --detach under the manager until `radar dis`.
     Con {
         /// once or whenever.
         kind: ConKind,
@@ -123,7 +124,8 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
-    /// The components and the live connections of every program as a picture (like rtstodot, but live):
+    /// The components and the live connections of every program as a picture (like rtstodot, but live).
+    ///
     /// SVG drawn here (no Graphviz needed) or Graphviz DOT; whenever solid, once dashed, until dotted red,
     /// active events and running responses filled. Without -o: DOT on stdout (JSON with --json).
     Graph {
@@ -137,9 +139,10 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
-    /// Record signals, their payloads and state changes to an MCAP file with ROS 2 message schemas (ros2msg
-    /// schemas, cdr messages, as rosbag2 writes them), so Foxglove and ros2 bag tooling open it (like rtlog).
-    /// Events are recorded through their state topics unless --activate (which records triggered, and
+    /// Record signals, their payloads and state changes to an MCAP file (like rtlog).
+    ///
+    /// With ROS 2 message schemas (ros2msg schemas, cdr messages, as rosbag2 writes them), so Foxglove and
+    /// ros2 bag tooling open it. Events are recorded through their state topics unless --activate (which records triggered, and
     /// activates them). Types radar has schemas for: std_msgs basics, geometry_msgs Point, Quaternion, Pose,
     /// PoseStamped, builtin_interfaces Time, radar_msgs, test_msgs Fibonacci; others are skipped, said once.
     Record {
@@ -155,8 +158,9 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
     },
-    /// Publish the signals recorded in an MCAP file (not the states) on their topics, with their recorded
-    /// timing (like rtlog).
+    /// Publish the signals recorded in an MCAP file again, with their timing (like rtlog).
+    ///
+    /// The states are not published, only the signals.
     Replay {
         /// The MCAP file.
         input: std::path::PathBuf,
