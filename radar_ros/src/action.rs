@@ -329,7 +329,7 @@ struct ActionProxy<A: Action> {
     options: ActionResponseOptions,
     /// Whether this process serves the action itself (its endpoints are matched locally, unseen by
     /// discovery).
-    local: Arc<Mutex<std::collections::HashSet<String>>>,
+    local: crate::participant::Served,
     /// The server found by the last start, and the graph's change count then: while nothing on the graph
     /// changed, it is still there (the scan of discovery data costs tens of microseconds a start).
     known: Option<(u64, ros2_client::dds::rustdds::GUID)>,
@@ -357,7 +357,7 @@ impl<A: Action> ActionProxy<A> {
         let wanted = server_endpoints(&self.action);
         let deadline = tokio::time::Instant::now() + self.options.server_timeout;
         loop {
-            if self.local.lock().unwrap().contains(&self.action) {
+            if self.local.contains(&self.action) {
                 return Ok(None);
             }
             // the count is read before the scan: a change during the scan is seen by the next start
@@ -759,14 +759,13 @@ impl Radar {
             feedback: self.signal_subscription::<A::Feedback>(&name.topic("feedback"))?,
             state: self.state_subscription::<ResponseState>(&name.topic("state"))?,
         };
-        let local = self.participant().served_actions();
-        local.lock().unwrap().insert(action_fq.clone());
+        let served = self.participant().served_actions().mark(action_fq.clone());
         let (graph, fq) = (self.graph().clone(), action_fq.clone());
         let task = ComponentTask::spawn(move |stop| async move {
             let _claim = claim;
             let _node = node;
-            serve::<A>(server, io, graph, fq.clone(), stop).await;
-            local.lock().unwrap().remove(&fq);
+            let _served = served;
+            serve::<A>(server, io, graph, fq, stop).await;
         });
         tracing::info!(action = %action_fq, response = %name, "serving a response as an action");
         Ok(ActionServerHandle {

@@ -250,6 +250,20 @@ pub(crate) fn emit<M: serde::Serialize>(p: &Publisher<M>, topic: &str, m: M) {
     }
 }
 
+/// Publishes `connections` as the `connections` list of the program or manager node `node`.
+pub(crate) fn publish_connections(
+    p: &Publisher<crate::msg::ConnectionList>,
+    node: &str,
+    connections: Vec<crate::msg::Connection>,
+) {
+    let list = crate::msg::ConnectionList {
+        stamp: crate::msg::Time::now(),
+        manager: node.to_owned(),
+        connections,
+    };
+    emit(p, "connections", list);
+}
+
 /// Text of a caught panic.
 pub(crate) fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
     if let Some(s) = p.downcast_ref::<&str>() {

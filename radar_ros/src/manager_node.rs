@@ -22,12 +22,12 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{emit, malformed, reply, typed_publisher, ComponentTask, Throttle},
+    endpoints::{malformed, publish_connections, reply, typed_publisher, ComponentTask, Throttle},
     error::{Error, Result},
     manager::ConnectionGuard,
     msg::{
         ConnectRequest, ConnectResponse, Connection as ConnectionMsg, ConnectionList,
-        DisconnectRequest, DisconnectResponse, ListRequest, ListResponse, Time,
+        DisconnectRequest, DisconnectResponse, ListRequest, ListResponse,
     },
     names::ComponentName,
     qos::{signal_qos, state_qos},
@@ -35,18 +35,6 @@ use crate::{
     refs::{Signal, Slot},
     wait::DEFAULT_TIMEOUT,
 };
-
-/// Removes a served manager's name from the participant's set when its task ends.
-struct ServedMark(
-    Arc<std::sync::Mutex<std::collections::HashSet<String>>>,
-    String,
-);
-
-impl Drop for ServedMark {
-    fn drop(&mut self) {
-        self.0.lock().unwrap().remove(&self.1);
-    }
-}
 
 /// A running manager node; dropping it removes the node and the connections made through its services.
 #[must_use = "the manager node serves only while its handle lives; bind it (`let _m = radar.serve_manager(..)?`)"]
@@ -189,23 +177,12 @@ impl Radar {
         let manager = self.manager().clone();
         let mut changes = manager.changes();
         let mut lost = self.graph().participants_lost();
-        let served = self.participant().served_managers();
-        served.lock().unwrap().insert(fq.clone());
+        let served = self.participant().served_managers().mark(fq.clone());
         let task = ComponentTask::spawn(move |mut stop| async move {
             let _claim = claim;
             let _node = node;
-            let _served = ServedMark(served, fq.clone());
-            let publish = |list: Vec<ConnectionMsg>| {
-                emit(
-                    &list_pub,
-                    "connections",
-                    ConnectionList {
-                        stamp: Time::now(),
-                        manager: fq.clone(),
-                        connections: list,
-                    },
-                )
-            };
+            let _served = served;
+            let publish = |list| publish_connections(&list_pub, &fq, list);
             publish(manager.list());
             // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
             // change always

@@ -24,6 +24,36 @@ use crate::{
     topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
 };
 
+/// Names this process serves (actions, managers): a client here is matched with them locally, which
+/// discovery does not show, so it asks here.
+#[derive(Clone, Default)]
+pub(crate) struct Served(Arc<Mutex<HashSet<String>>>);
+
+impl Served {
+    pub(crate) fn contains(&self, name: &str) -> bool {
+        self.0.lock().unwrap().contains(name)
+    }
+
+    pub(crate) fn names(&self) -> Vec<String> {
+        self.0.lock().unwrap().iter().cloned().collect()
+    }
+
+    /// Marks `name` served until the returned mark is dropped.
+    pub(crate) fn mark(&self, name: String) -> ServedMark {
+        self.0.lock().unwrap().insert(name.clone());
+        ServedMark(self.clone(), name)
+    }
+}
+
+/// A served name, unmarked on drop.
+pub(crate) struct ServedMark(Served, String);
+
+impl Drop for ServedMark {
+    fn drop(&mut self) {
+        self.0 .0.lock().unwrap().remove(&self.1);
+    }
+}
+
 /// One DDS participant and what hangs off it.
 pub(crate) struct Participant {
     ctx: Context,
@@ -37,9 +67,9 @@ pub(crate) struct Participant {
     pool: Arc<Pool>,
     /// Actions this process serves (`Radar::serve_as_action`): a client here is matched with them locally,
     /// which discovery does not show.
-    served_actions: Arc<Mutex<HashSet<String>>>,
+    served_actions: Served,
     /// Managers this process serves (`Radar::serve_manager`), matched locally, unseen by discovery.
-    served_managers: Arc<Mutex<HashSet<String>>>,
+    served_managers: Served,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
     /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
     program_node: Mutex<Option<String>>,
@@ -105,11 +135,11 @@ impl Participant {
         &self.graph
     }
 
-    pub(crate) fn served_actions(&self) -> Arc<Mutex<HashSet<String>>> {
+    pub(crate) fn served_actions(&self) -> Served {
         self.served_actions.clone()
     }
 
-    pub(crate) fn served_managers(&self) -> Arc<Mutex<HashSet<String>>> {
+    pub(crate) fn served_managers(&self) -> Served {
         self.served_managers.clone()
     }
 

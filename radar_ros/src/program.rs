@@ -23,10 +23,10 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{emit, malformed, reply, typed_publisher, ComponentTask, Throttle},
+    endpoints::{malformed, publish_connections, reply, typed_publisher, ComponentTask, Throttle},
     error::{Error, Result},
     manager::Manager,
-    msg::{ConnectionList, ListRequest, ListResponse, Time},
+    msg::{ConnectionList, ListRequest, ListResponse},
     names::ComponentName,
     participant::Participant,
     qos::{signal_qos, state_qos},
@@ -97,17 +97,7 @@ pub(crate) fn serve_program(
     let mut changes = manager.changes();
     let first = manager.list();
     Ok(ComponentTask::spawn(move |mut stop| async move {
-        let publish = |list| {
-            emit(
-                &list_pub,
-                "connections",
-                ConnectionList {
-                    stamp: Time::now(),
-                    manager: fq.clone(),
-                    connections: list,
-                },
-            )
-        };
+        let publish = |list| publish_connections(&list_pub, &fq, list);
         publish(first);
         let mut throttle = Throttle::new(Duration::from_millis(100));
         let mut lists = Box::pin(list_srv.receive_request_stream());

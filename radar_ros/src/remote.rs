@@ -146,14 +146,7 @@ impl Radar {
                     .map(str::to_owned)
             })
             .collect();
-        names.extend(
-            self.participant()
-                .served_managers()
-                .lock()
-                .unwrap()
-                .iter()
-                .cloned(),
-        );
+        names.extend(self.participant().served_managers().names());
         names.into_iter().collect()
     }
 
@@ -210,7 +203,7 @@ impl Radar {
             let mut changes = radar.graph().changes();
             let deadline = tokio::time::Instant::now() + timeout;
             loop {
-                if local.lock().unwrap().contains(&name)
+                if local.contains(&name)
                     || !radar.graph().participants_matched_on(&wanted).is_empty()
                 {
                     return Ok(m);
