@@ -12,7 +12,7 @@ use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
 use radar_ros::{
     msg::{Empty, ResponseState, RosMessage},
-    DiscoveryRange, Radar, SignalPublisher, SignalSubscription,
+    DiscoveryRange, Radar, RadarBuilder, SignalPublisher, SignalSubscription,
 };
 
 /// How long any wait on DDS discovery may take before a test fails.
@@ -44,13 +44,20 @@ pub fn require_isolation() {
 
 /// A participant in `domain` (subnet discovery, as ROS 2's default; inside the test namespace).
 pub fn radar(domain: u16) -> Radar {
+    radar_with(domain, |b| b)
+}
+
+/// [`radar`] with more settings of the builder.
+pub fn radar_with(domain: u16, more: impl FnOnce(RadarBuilder) -> RadarBuilder) -> Radar {
     init_logs();
     require_isolation();
-    Radar::builder()
-        .domain_id(domain)
-        .discovery_range(DiscoveryRange::Subnet)
-        .build()
-        .expect("participant")
+    more(
+        Radar::builder()
+            .domain_id(domain)
+            .discovery_range(DiscoveryRange::Subnet),
+    )
+    .build()
+    .expect("participant")
 }
 
 /// A signal as seen on the wire.

@@ -160,6 +160,7 @@ mod endpoints;
 mod error;
 mod event;
 mod graph;
+mod local;
 mod lookup;
 mod macros;
 mod malformed;

@@ -73,6 +73,8 @@ pub(crate) struct Participant {
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
     /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
     program_node: Mutex<Option<String>>,
+    /// The slots of this process's responses, for in-process delivery.
+    inlets: crate::local::Inlets,
 }
 
 impl Drop for Participant {
@@ -116,6 +118,7 @@ impl Participant {
             served_managers: Default::default(),
             stop_graph: Mutex::new(Some(stop)),
             program_node: Mutex::new(None),
+            inlets: Default::default(),
         })
     }
 
@@ -141,6 +144,11 @@ impl Participant {
 
     pub(crate) fn served_managers(&self) -> Served {
         self.served_managers.clone()
+    }
+
+    /// The slots of this process's responses, reachable without DDS.
+    pub(crate) fn inlets(&self) -> &crate::local::Inlets {
+        &self.inlets
     }
 
     pub(crate) fn pool(&self) -> &Pool {

@@ -156,6 +156,7 @@ pub struct RadarBuilder {
     range: Option<DiscoveryRange>,
     lease: Option<std::time::Duration>,
     program: Option<String>,
+    relay_only: bool,
 }
 
 impl RadarBuilder {
@@ -220,6 +221,23 @@ impl RadarBuilder {
         self
     }
 
+    /// Whether connections made through this `Radar` hand their signals to the responses of this process
+    /// directly (default `true`): the signal takes one DDS hop (from its source) instead of two (source ->
+    /// manager -> response), and nothing of it is written on the slot's topic. With `false` every delivery is
+    /// written on the slot's topic, as the manager of another process does; a connection made while its
+    /// response runs in this process keeps the way it was armed with until it ends.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// // every start shows on `/<response>/start` (for `ros2 topic echo`, or a recording)
+    /// let radar = radar_ros::Radar::builder().local_delivery(false).build()?;
+    /// # Ok(()) }
+    /// ```
+    pub fn local_delivery(mut self, on: bool) -> Self {
+        self.relay_only = !on;
+        self
+    }
+
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
         let namespace = validate_namespace(self.namespace.as_deref().unwrap_or("/"))?;
@@ -277,7 +295,7 @@ impl RadarBuilder {
             ),
         };
         let program_node = participant.start_program_node(&program)?;
-        let manager = Arc::new(Manager::new(participant.clone()));
+        let manager = Arc::new(Manager::new(participant.clone(), !self.relay_only));
         let task = crate::program::serve_program(&participant, &manager, &program_node)?;
         Ok(Radar {
             program: Arc::new(ProgramNode {

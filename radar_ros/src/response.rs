@@ -28,6 +28,7 @@ use crate::{
         emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, Watched,
     },
     error::{Result, SlotError},
+    local::Inbox,
     msg::{Empty, ResponseState, RosMessage, Time, TypeName},
     names::ComponentName,
     participant::Participant,
@@ -462,6 +463,14 @@ impl Radar {
             subscription::<RawMessage>(g, &mut node, &name.topic("interrupt"), &empty_t, &sq)?;
         let exit_sub =
             subscription::<RawMessage>(g, &mut node, &name.topic("exit"), &empty_t, &sq)?;
+        // what this process's connections deliver without a DDS hop
+        let inlets = self.participant().inlets();
+        let (start_ros, empty_ros) = (R::Start::ros_type_name(), Empty::ros_type_name());
+        let inboxes = Inboxes {
+            start: inlets.open(&name.topic("start"), &start_ros),
+            interrupt: inlets.open(&name.topic("interrupt"), &empty_ros),
+            exit: inlets.open(&name.topic("exit"), &empty_ros),
+        };
         let started = publisher::<R::Start>(g, &mut node, &name.topic("started"), &start_t, &sq)?;
         let interrupted =
             publisher::<Empty>(g, &mut node, &name.topic("interrupted"), &empty_t, &sq)?;
@@ -506,6 +515,7 @@ impl Radar {
                     interrupt: interrupt_sub,
                     exit: exit_sub,
                 },
+                inboxes,
                 stop_rx,
                 participant,
             )
@@ -525,6 +535,13 @@ impl Radar {
             task,
         })
     }
+}
+
+/// What this process's connections hand a response's slots directly (see [`crate::local`]).
+struct Inboxes {
+    start: Inbox,
+    interrupt: Inbox,
+    exit: Inbox,
 }
 
 /// The slot readers of a response.
@@ -580,6 +597,7 @@ async fn drive<R: Response>(
     mut machine: ResponseMachine<R::Start, R::Output>,
     io: Io<R>,
     slots: SlotReaders,
+    mut inboxes: Inboxes,
     mut stop: tokio::sync::oneshot::Receiver<()>,
     participant: Arc<Participant>,
 ) {
@@ -606,9 +624,28 @@ async fn drive<R: Response>(
     let exits = exit_sub
         .decoded::<Empty>(&exit_topic, &empty_t)
         .map(|d| d.map(|_| Input::Exit));
+    let Inboxes {
+        start: local_start,
+        interrupt: local_interrupt,
+        exit: local_exit,
+    } = &mut inboxes;
+    let local_starts = local_start.stream().map(|raw| match raw.decode::<R::Start>() {
+        Ok(m) => Some(Input::Start(m)),
+        Err(e) => {
+            tracing::warn!(response = %name, error = %e, "a start delivered in this process did not decode");
+            None
+        }
+    });
+    let local = futures::stream::select(
+        local_starts,
+        futures::stream::select(
+            local_interrupt.stream().map(|_| Some(Input::Interrupt)),
+            local_exit.stream().map(|_| Some(Input::Exit)),
+        ),
+    );
     let mut signals = Box::pin(futures::stream::select(
-        starts,
-        futures::stream::select(interrupts, exits),
+        local,
+        futures::stream::select(starts, futures::stream::select(interrupts, exits)),
     ));
 
     let mut current: Option<Slot<R::Output>> = None;
@@ -718,6 +755,7 @@ async fn drive<R: Response>(
     // the final `exited` and state were just written: the participant's pool keeps their writers a moment
     // so they are not lost, without holding up the shutdown (the slots are gone already)
     drop(signals);
+    drop(inboxes);
     drop(slots);
     participant.pool().retire(Box::new(io));
 }

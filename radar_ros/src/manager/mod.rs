@@ -30,6 +30,7 @@ use radar_semantics::connection::{ConnId, ConnectionTable, Kind, Link, ResponseV
 use crate::{
     departure::Departure,
     error::{Error, Result},
+    local::Inlet,
     msg::{Empty, ResponseState, RosMessage},
     participant::Participant,
     pool::{Dir, Key},
@@ -113,9 +114,33 @@ struct Relay {
     _stop: tokio::sync::oneshot::Sender<()>,
 }
 
+/// How a slot is reached.
+enum Way {
+    /// A DDS writer on the slot's topic (held in the participant's pool).
+    Dds(Arc<RawPublisher>),
+    /// A response of this process, directly: no DDS hop (see [`crate::local`]).
+    Local(Arc<Inlet>),
+}
+
+impl Way {
+    fn deliver(&self, k: &Key, m: RawMessage) {
+        match self {
+            Way::Dds(p) => {
+                if let Err(e) = p.publish(m) {
+                    tracing::warn!(slot = %k.topic, error = %e, "could not deliver a signal");
+                }
+            }
+            // a response that has just left gets nothing, as over DDS
+            Way::Local(inlet) => {
+                inlet.deliver(m);
+            }
+        }
+    }
+}
+
 /// A slot the table writes.
 struct Outlet {
-    publisher: Arc<RawPublisher>,
+    way: Way,
     /// The slot takes `std_msgs/msg/Empty`: the payload is dropped.
     empty: bool,
     /// Stops the task that watches the slot's subscribers.
@@ -137,6 +162,8 @@ struct State {
 /// The embedded connection manager of one [`Radar`](crate::Radar).
 pub(crate) struct Manager {
     participant: Arc<Participant>,
+    /// Deliver to this process's responses directly (one DDS hop), not through a DDS writer (two).
+    local: bool,
     state: Mutex<State>,
     /// Bumped whenever the table may have changed.
     changed: tokio::sync::watch::Sender<u64>,
@@ -172,9 +199,11 @@ fn check_types(source: &Signal, slot: &Slot) -> Result<()> {
 }
 
 impl Manager {
-    pub(crate) fn new(participant: Arc<Participant>) -> Manager {
+    /// A manager on `participant`; `local`: it hands signals to this process's responses directly.
+    pub(crate) fn new(participant: Arc<Participant>, local: bool) -> Manager {
         Manager {
             participant,
+            local,
             state: Mutex::new(State::default()),
             changed: tokio::sync::watch::channel(0).0,
         }
@@ -218,9 +247,7 @@ impl Manager {
                         } else {
                             payload
                         };
-                        if let Err(e) = o.publisher.publish(m) {
-                            tracing::warn!(slot = %k.topic, error = %e, "could not deliver a signal");
-                        }
+                        o.way.deliver(k, m);
                     }
                 }
                 Target::Anon(k) => {
@@ -297,7 +324,10 @@ impl Manager {
         for t in targets {
             match t {
                 Target::Slot(k) => {
-                    if st.outlets.remove(&k).is_some() {
+                    if let Some(Outlet {
+                        way: Way::Dds(_), ..
+                    }) = st.outlets.remove(&k)
+                    {
                         self.participant.release(&k);
                     }
                 }
@@ -340,24 +370,29 @@ impl Manager {
         Relay { _stop: stop }
     }
 
-    /// Watches the subscribers of the slot `k` (written by `publisher`) and tells the table when they have
-    /// all gone, and when one is back. Stops when the returned sender is dropped.
-    fn watch_outlet(
-        self: &Arc<Self>,
-        k: &Key,
-        publisher: Arc<RawPublisher>,
-    ) -> tokio::sync::oneshot::Sender<()> {
+    /// Watches the subscribers of the slot `k` (reached `way`) and tells the table when they have all gone,
+    /// and when one is back. Stops when the returned sender is dropped.
+    fn watch_outlet(self: &Arc<Self>, k: &Key, way: &Way) -> tokio::sync::oneshot::Sender<()> {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let end = End::Target(Target::Slot(k.clone()));
-        let mut presence = Presence::new(publisher.matched_watch());
+        let (matched, publisher) = match way {
+            Way::Dds(p) => (p.matched_watch(), Some(p.clone())),
+            Way::Local(inlet) => (inlet.presence(), None),
+        };
+        let topic = k.topic.clone();
+        let departure = move || match &publisher {
+            Some(p) => p.departure(),
+            None => Departure::of_subscriber(&topic, crate::departure::LossCause::Left),
+        };
+        let mut presence = Presence::new(matched);
         tokio::spawn(async move {
             loop {
                 tokio::select! {
                     biased;
                     _ = &mut stop_rx => break,
                     change = presence.next() => match (change, me.upgrade()) {
-                        (Some(c), Some(m)) => m.peers_changed(&end, c, || publisher.departure()),
+                        (Some(c), Some(m)) => m.peers_changed(&end, c, &departure),
                         _ => break,
                     },
                 }
@@ -494,7 +529,16 @@ impl Manager {
             .collect::<Result<Vec<_>>>()?;
         let writers = slot_keys
             .iter()
-            .map(|k| held.writer(k))
+            .map(|k| {
+                let inlet = self
+                    .local
+                    .then(|| self.participant.inlets().find(&k.topic, &k.ros_type))
+                    .flatten();
+                match inlet {
+                    Some(inlet) => Ok(Way::Local(inlet)),
+                    None => held.writer(k).map(Way::Dds),
+                }
+            })
             .collect::<Result<Vec<_>>>()?;
         for (r, s) in readers.iter().zip(&sources) {
             r.wait_for_publishers(1)
@@ -510,6 +554,7 @@ impl Manager {
                 })?;
         }
         for (w, s) in writers.iter().zip(&slots) {
+            let Way::Dds(w) = w else { continue };
             w.wait_for_subscribers(1)
                 .timeout(spec.timeout)
                 .await
@@ -540,13 +585,19 @@ impl Manager {
         }
         for (k, w) in slot_keys.iter().zip(&writers) {
             if !st.outlets.contains_key(k) {
-                self.participant.pooled_writer(k)?;
+                let way = match w {
+                    Way::Dds(p) => {
+                        self.participant.pooled_writer(k)?;
+                        Way::Dds(p.clone())
+                    }
+                    Way::Local(inlet) => Way::Local(inlet.clone()),
+                };
                 let empty = k.ros_type == Empty::ros_type_name();
-                let stop = self.watch_outlet(k, w.clone());
+                let stop = self.watch_outlet(k, &way);
                 st.outlets.insert(
                     k.clone(),
                     Outlet {
-                        publisher: w.clone(),
+                        way,
                         empty,
                         _stop: stop,
                     },
