@@ -347,8 +347,15 @@ impl Bench {
                 .errors
                 .push(format!("latency rclpy_1hop: {e:#}")),
         }
-        self.radar_latency(n, p, false).await?;
-        self.radar_latency(n, p, true).await
+        for host in [
+            Host::Third,
+            Host::ResponseRelaying,
+            Host::Response,
+            Host::Event,
+        ] {
+            self.radar_latency(n, p, host).await?;
+        }
+        Ok(())
     }
 
     /// Paced latency from a raw ros2-client publisher to a raw subscriber: one hop, or two through a plain
@@ -392,21 +399,35 @@ impl Bench {
     }
 
     /// Paced trigger -> start latency from a radar_ros event to a response in another process, connected by
-    /// a manager in a third process, or (`embedded`) by the response's own process.
-    async fn radar_latency(&mut self, n: u64, p: u64, embedded: bool) -> Result<()> {
+    /// the manager of `host`.
+    async fn radar_latency(&mut self, n: u64, p: u64, host: Host) -> Result<()> {
         let d = self.domain();
-        let mut ev = self.child(d, &["events", "--names", "/bench/ev"]).await?;
+        let mut ev_args = vec!["events", "--names", "/bench/ev"];
         let mut args = vec!["response", "--name", "/bench/resp"];
-        if embedded {
-            args.extend(["--connect", "/bench/ev"]);
+        match host {
+            Host::Third => {}
+            Host::Response => args.extend(["--connect", "/bench/ev"]),
+            Host::ResponseRelaying => args.extend(["--connect", "/bench/ev", "--relay"]),
+            Host::Event => ev_args.extend(["--connect", "/bench/resp"]),
         }
-        let mut resp = self.child(d, &args).await?;
-        let mgr = if embedded {
-            None
+        // the response first: an event that connects looks it up
+        let mut resp_slot = None;
+        let mut ev = if host == Host::Event {
+            resp_slot = Some(self.child(d, &args).await?);
+            self.child(d, &ev_args).await?
         } else {
+            self.child(d, &ev_args).await?
+        };
+        let mut resp = match resp_slot {
+            Some(r) => r,
+            None => self.child(d, &args).await?,
+        };
+        let mgr = if host == Host::Third {
             let mut m = self.child(d, &["manager"]).await?;
             m.ask("connect /bench/ev /bench/resp", START).await?;
             Some(m)
+        } else {
+            None
         };
         ev.ask("active /bench/ev", START).await?;
         let r = self
@@ -416,16 +437,23 @@ impl Bench {
             "{} starts ignored (response busy)",
             r["extra"]["ignored_starts"]
         );
-        let (key, label) = if embedded {
-            (
-                "radar_embedded",
-                "radar_ros trigger -> start, manager embedded in the response's process",
-            )
-        } else {
-            (
+        let (key, label) = match host {
+            Host::Third => (
                 "radar_manager_process",
-                "radar_ros trigger -> start, manager in a third process",
-            )
+                "radar_ros trigger -> start, manager in a third process (2 hops)",
+            ),
+            Host::ResponseRelaying => (
+                "radar_embedded_relay",
+                "radar_ros trigger -> start, manager in the response's process, relayed (2 hops; `local_delivery(false)`)",
+            ),
+            Host::Response => (
+                "radar_embedded",
+                "radar_ros trigger -> start, manager in the response's process (1 hop)",
+            ),
+            Host::Event => (
+                "radar_embedded_event",
+                "radar_ros trigger -> start, manager in the event's process (1 hop)",
+            ),
         };
         self.push_latency(key, label, &r, &note)?;
         for c in [mgr, Some(resp), Some(ev)].into_iter().flatten() {
@@ -433,7 +461,22 @@ impl Bench {
         }
         Ok(())
     }
+}
 
+/// Which process hosts the manager of a latency run's connection.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Host {
+    /// A third process (two DDS hops).
+    Third,
+    /// The response's, writing on the response's `start` anyway (two hops).
+    ResponseRelaying,
+    /// The response's (one hop: the event's writer to the manager's reader).
+    Response,
+    /// The event's (one hop: the manager's writer to the response's reader).
+    Event,
+}
+
+impl Bench {
     /// `interrupt` published -> `interrupted` emitted (the start behaviour cancelled, the slot begun).
     async fn interrupt(&mut self) -> Result<()> {
         let d = self.domain();

@@ -39,6 +39,7 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
             .position(|a| a == flag)
             .and_then(|i| args.get(i + 1).cloned())
     };
+    let flag = |f: &str| args.iter().any(|a| a == f);
     let req = |flag: &str| opt(flag).ok_or_else(|| anyhow!("role {role} needs {flag} VALUE"));
     let num = |flag: &str| -> Result<usize> {
         req(flag)?
@@ -49,8 +50,8 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "raw-sink" => raw_sink(&req("--topic")?).await,
         "raw-source" => raw_source(&req("--topic")?).await,
         "raw-forward" => raw_forward(&req("--from")?, &req("--to")?).await,
-        "events" => events(&req("--names")?).await,
-        "response" => response(&req("--name")?, opt("--connect")).await,
+        "events" => events(&req("--names")?, opt("--connect"), flag("--relay")).await,
+        "response" => response(&req("--name")?, opt("--connect"), flag("--relay")).await,
         "long-response" => long_response(&req("--name")?).await,
         "interrupter" => interrupter(&req("--name")?).await,
         "action-driver" => action_driver(&req("--action")?).await,
@@ -282,6 +283,15 @@ fn radar() -> Result<Radar> {
     Radar::new().context("a RADAR participant")
 }
 
+/// A participant whose manager, with `relay`, writes every delivery on the slot's topic even to a response
+/// of its own process (two DDS hops), as a manager in another process does.
+fn radar_relaying(relay: bool) -> Result<Radar> {
+    Radar::builder()
+        .local_delivery(!relay)
+        .build()
+        .context("a RADAR participant")
+}
+
 /// An event whose check resolves when the coordinator feeds it a sequence number, stamped at that moment:
 /// the time the condition "became true".
 struct Fed {
@@ -303,9 +313,10 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 
 /// Events named in `names` (comma-separated); `run NAME N PERIOD_US` makes NAME trigger N times,
 /// `spawn NAME` starts another event (answering the clock time the spawn began), `active NAME` waits until
-/// NAME has a listener, `inactive NAME` until it has none (answering when).
-async fn events(names: &str) -> Result<()> {
-    let radar = radar()?;
+/// NAME has a listener, `inactive NAME` until it has none (answering when). With `--connect RESPONSE` this
+/// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process).
+async fn events(names: &str, connect: Option<String>, relay: bool) -> Result<()> {
+    let radar = radar_relaying(relay)?;
     let all: Arc<Mutex<HashMap<String, FedEvent>>> = Default::default();
     let spawn = {
         let (radar, all) = (radar.clone(), all.clone());
@@ -319,6 +330,15 @@ async fn events(names: &str) -> Result<()> {
     for n in names.split(',').filter(|n| !n.is_empty()) {
         spawn(n)?;
     }
+    let _conn: Option<ConnectionGuard> = match connect {
+        None => None,
+        Some(resp) => {
+            let first = names.split(',').next().unwrap_or_default();
+            let r = radar.response(&resp).timeout(WAIT).await?;
+            let triggered = all.lock().unwrap()[first].0.triggered();
+            Some(radar.whenever(triggered).start(&r).timeout(WAIT).await?)
+        }
+    };
     serve(|w| {
         let (all, spawn) = (all.clone(), spawn.clone());
         async move {
@@ -378,9 +398,10 @@ async fn events(names: &str) -> Result<()> {
 }
 
 /// A response whose start behaviour records how long ago its payload was stamped, the moment it begins to
-/// run. With `--connect EVENT` this process also makes `whenever EVENT start` itself (the embedded manager).
-async fn response(name: &str, connect: Option<String>) -> Result<()> {
-    let radar = radar()?;
+/// run. With `--connect EVENT` this process also makes `whenever EVENT start` itself (the embedded manager);
+/// `--relay`: through a DDS writer on its own `start` (two hops), not directly.
+async fn response(name: &str, connect: Option<String>, relay: bool) -> Result<()> {
+    let radar = radar_relaying(relay)?;
     let rec = Record::default();
     let r = rec.clone();
     let handle = radar.spawn_response(

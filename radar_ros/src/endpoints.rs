@@ -7,6 +7,7 @@ use ros2_client::{MessageInfo, Name, Node, Publisher, QosProfile, Subscription};
 use crate::{
     error::{Error, Result},
     graph::Graph,
+    local::{Tap, Taps},
     msg::TypeName,
 };
 
@@ -244,6 +245,39 @@ pub(crate) fn typed_subscription<M: crate::msg::RosMessage>(
 }
 
 /// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.
+/// A component's signal writer: each signal goes to this process's connections first (its [`Tap`]), then
+/// on DDS.
+pub(crate) struct SignalWriter<M: serde::Serialize> {
+    dds: Watched<Publisher<M>>,
+    tap: std::sync::Arc<Tap>,
+}
+
+impl<M: serde::Serialize> SignalWriter<M> {
+    /// `dds`, which writes `ros_type` on `topic`, with its tap in `taps`.
+    pub(crate) fn new(
+        taps: &Taps,
+        dds: Watched<Publisher<M>>,
+        topic: &str,
+        ros_type: &str,
+    ) -> Self {
+        let tap = taps.open(topic, ros_type, dds.guid);
+        SignalWriter { dds, tap }
+    }
+
+    /// Emits `m` (`topic` names it in a warning).
+    pub(crate) fn emit(&self, topic: &str, m: M) {
+        self.tap.emit(&m);
+        emit(&self.dds, topic, m);
+    }
+}
+
+impl<M: serde::Serialize> std::ops::Deref for SignalWriter<M> {
+    type Target = Watched<Publisher<M>>;
+    fn deref(&self) -> &Self::Target {
+        &self.dds
+    }
+}
+
 pub(crate) fn emit<M: serde::Serialize>(p: &Publisher<M>, topic: &str, m: M) {
     if let Err(e) = p.publish(m) {
         tracing::warn!(topic, error = %e.forget_data(), "could not publish");

@@ -19,7 +19,8 @@ use radar_semantics::event::{Activation, Transition};
 
 use crate::{
     endpoints::{
-        emit, panic_message, typed_publisher, typed_subscription, ComponentTask, Throttle, Watched,
+        emit, panic_message, typed_publisher, typed_subscription, ComponentTask, SignalWriter,
+        Throttle, Watched,
     },
     error::{Result, SlotError},
     msg::{Empty, EventState, RosMessage, Time},
@@ -328,12 +329,17 @@ impl Radar {
             node: &mut node,
             radar: self,
         })?;
-        let triggered = typed_publisher::<E::Payload>(
-            self.graph(),
-            &mut node,
+        let triggered = SignalWriter::new(
+            self.participant().taps(),
+            typed_publisher::<E::Payload>(
+                self.graph(),
+                &mut node,
+                &name.topic("triggered"),
+                &signal_qos(),
+            )?,
             &name.topic("triggered"),
-            &signal_qos(),
-        )?;
+            &E::Payload::ros_type_name(),
+        );
         let state_pub = typed_publisher::<EventState>(
             self.graph(),
             &mut node,
@@ -388,7 +394,7 @@ fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<
 
 async fn drive_event<E: Event>(
     event: E,
-    triggered: Watched<ros2_client::Publisher<E::Payload>>,
+    triggered: SignalWriter<E::Payload>,
     state_pub: Watched<ros2_client::Publisher<EventState>>,
     state_tx: watch::Sender<EventState>,
     mut st: EventState,
@@ -442,7 +448,7 @@ async fn drive_event<E: Event>(
             } => {
                 match res {
                     Ok(payload) => {
-                        emit(&triggered, "triggered", payload);
+                        triggered.emit("triggered", payload);
                         st.triggers += 1;
                         check = Some(new_check(&event, None));
                         if throttle.changed() {

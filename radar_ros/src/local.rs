@@ -1,17 +1,25 @@
-//! In-process delivery: the slots of this participant's responses, reachable without a DDS hop.
+//! In-process delivery: the signals and slots of this participant's components, reachable without a DDS hop.
 //!
-//! A response registers each of its slot topics here ([`Inlets::open`]) and reads what arrives on the returned
+//! **Slots.** A response registers each of its slot topics here ([`Inlets::open`]) and reads what arrives on the returned
 //! [`Inbox`] beside its DDS readers. The embedded manager, arming a statement whose target slot is one of
 //! these (same topic, same type), delivers through the [`Inlet`] instead of a DDS writer: one hop (the
 //! source's) instead of two. The inlet outlives the response that opened it, so a connection that holds it
 //! sees the response leave (its presence drops to 0) and a response of the same name come back (1 again),
 //! as it sees DDS subscribers leave and come back.
+//!
+//! **Signals.** An event's `triggered` and a response's `started`, `interrupted` and `exited` writers open a
+//! [`Tap`] on their topic and hand each signal to it before writing it. The manager's relay for that topic
+//! listens to the tap (taking the signal in this process, with its time of emission) and skips the DDS
+//! samples of the writers the tap names, which it already has; samples of other publishers (another
+//! process, `ros2 topic pub`) still come over DDS. The relay keeps its DDS reader either way: it is what the
+//! event counts as a listener.
 
 use std::{
-    collections::HashMap,
+    collections::{HashMap, HashSet},
     sync::{Arc, Mutex},
 };
 
+use ros2_client::dds::rustdds::GUID;
 use tokio::sync::{mpsc, watch};
 
 use crate::raw::RawMessage;
@@ -74,6 +82,81 @@ impl Inlets {
     }
 }
 
+/// One signal topic and type of this process, as emitted by its components.
+#[derive(Default)]
+pub(crate) struct Tap {
+    /// Every writer of this process that has emitted on the topic (kept after it goes: its last samples may
+    /// still be in flight over DDS).
+    writers: Mutex<HashSet<GUID>>,
+    /// The relays listening, each with its queue of (message, emission time in ns since the epoch).
+    listeners: Mutex<Vec<mpsc::UnboundedSender<(RawMessage, i64)>>>,
+}
+
+impl Tap {
+    /// Hands `m` to every relay listening; encodes it once, and only if one listens.
+    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M) {
+        let mut listeners = self.listeners.lock().unwrap();
+        listeners.retain(|l| !l.is_closed());
+        if listeners.is_empty() {
+            return;
+        }
+        let stamp = now_ns();
+        match RawMessage::encode(m) {
+            Ok(raw) => {
+                for l in listeners.iter() {
+                    let _ = l.send((raw.clone(), stamp));
+                }
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "a signal did not encode for this process's connections")
+            }
+        }
+    }
+
+    /// Listens to what the components of this process emit here from now on.
+    pub(crate) fn listen(&self) -> mpsc::UnboundedReceiver<(RawMessage, i64)> {
+        let (tx, rx) = mpsc::unbounded_channel();
+        self.listeners.lock().unwrap().push(tx);
+        rx
+    }
+
+    /// Whether the DDS writer `gid` is one of this process's on the topic (its samples came through the tap).
+    pub(crate) fn is_local(&self, gid: ros2_client::Gid) -> bool {
+        self.writers.lock().unwrap().contains(&GUID::from(gid))
+    }
+}
+
+/// The signal topics of this process, by topic and type.
+#[derive(Default)]
+pub(crate) struct Taps(Mutex<HashMap<(String, String), Arc<Tap>>>);
+
+impl Taps {
+    /// The tap of `topic` and `ros_type`, made on first use.
+    pub(crate) fn get(&self, topic: &str, ros_type: &str) -> Arc<Tap> {
+        self.0
+            .lock()
+            .unwrap()
+            .entry((topic.to_owned(), ros_type.to_owned()))
+            .or_default()
+            .clone()
+    }
+
+    /// The tap for the DDS writer `writer` of a component of this process, before it emits anything.
+    pub(crate) fn open(&self, topic: &str, ros_type: &str, writer: GUID) -> Arc<Tap> {
+        let tap = self.get(topic, ros_type);
+        tap.writers.lock().unwrap().insert(writer);
+        tap
+    }
+}
+
+/// Now, in ns since the epoch (the clock of DDS source timestamps).
+pub(crate) fn now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as i64)
+        .unwrap_or(0)
+}
+
 /// What a response receives on one slot from this process's connections.
 pub(crate) struct Inbox {
     rx: mpsc::UnboundedReceiver<RawMessage>,
@@ -120,5 +203,26 @@ mod tests {
         let _again = inlets.open("/r/start", "std_msgs/msg/Empty");
         assert_eq!(*presence.borrow(), 1);
         assert!(inlet.deliver(RawMessage(vec![0])));
+    }
+
+    #[test]
+    fn a_tap_hands_signals_to_its_listeners_and_names_its_writers() {
+        let taps = Taps::default();
+        let w = GUID::new_participant_guid();
+        let tap = taps.open("/e/triggered", "std_msgs/msg/Int32", w);
+        tap.emit(&crate::msg::Int32 { data: 1 }); // nobody listens: nothing encoded, nothing kept
+        let mut rx = taps.get("/e/triggered", "std_msgs/msg/Int32").listen();
+        tap.emit(&crate::msg::Int32 { data: 7 });
+        let (raw, stamp) = rx.try_recv().unwrap();
+        assert_eq!(raw.decode::<crate::msg::Int32>().unwrap().data, 7);
+        assert!(stamp > 0);
+        assert!(rx.try_recv().is_err(), "only what came after listening");
+        assert!(tap.is_local(ros2_client::Gid::from(w)));
+        assert!(
+            !taps
+                .get("/e/triggered", "std_msgs/msg/String")
+                .is_local(ros2_client::Gid::from(w)),
+            "another type is another tap"
+        );
     }
 }

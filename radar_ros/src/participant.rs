@@ -75,6 +75,8 @@ pub(crate) struct Participant {
     program_node: Mutex<Option<String>>,
     /// The slots of this process's responses, for in-process delivery.
     inlets: crate::local::Inlets,
+    /// The signals of this process's components, for in-process delivery.
+    taps: crate::local::Taps,
 }
 
 impl Drop for Participant {
@@ -119,6 +121,7 @@ impl Participant {
             stop_graph: Mutex::new(Some(stop)),
             program_node: Mutex::new(None),
             inlets: Default::default(),
+            taps: Default::default(),
         })
     }
 
@@ -149,6 +152,11 @@ impl Participant {
     /// The slots of this process's responses, reachable without DDS.
     pub(crate) fn inlets(&self) -> &crate::local::Inlets {
         &self.inlets
+    }
+
+    /// The signals of this process's components, reachable without DDS.
+    pub(crate) fn taps(&self) -> &crate::local::Taps {
+        &self.taps
     }
 
     pub(crate) fn pool(&self) -> &Pool {

@@ -25,7 +25,8 @@ use radar_semantics::response::{
 
 use crate::{
     endpoints::{
-        emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, Watched,
+        emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, SignalWriter,
+        Watched,
     },
     error::{Result, SlotError},
     local::Inbox,
@@ -471,10 +472,29 @@ impl Radar {
             interrupt: inlets.open(&name.topic("interrupt"), &empty_ros),
             exit: inlets.open(&name.topic("exit"), &empty_ros),
         };
-        let started = publisher::<R::Start>(g, &mut node, &name.topic("started"), &start_t, &sq)?;
-        let interrupted =
-            publisher::<Empty>(g, &mut node, &name.topic("interrupted"), &empty_t, &sq)?;
-        let exited = publisher::<R::Output>(g, &mut node, &name.topic("exited"), &output_t, &sq)?;
+        let taps = self.participant().taps();
+        let signal = |what: &str, ty: &TypeName| (name.topic(what), ty.ros.clone());
+        let (t, ty) = signal("started", &start_t);
+        let started = SignalWriter::new(
+            taps,
+            publisher::<R::Start>(g, &mut node, &t, &start_t, &sq)?,
+            &t,
+            &ty,
+        );
+        let (t, ty) = signal("interrupted", &empty_t);
+        let interrupted = SignalWriter::new(
+            taps,
+            publisher::<Empty>(g, &mut node, &t, &empty_t, &sq)?,
+            &t,
+            &ty,
+        );
+        let (t, ty) = signal("exited", &output_t);
+        let exited = SignalWriter::new(
+            taps,
+            publisher::<R::Output>(g, &mut node, &t, &output_t, &sq)?,
+            &t,
+            &ty,
+        );
         let state_pub =
             typed_publisher::<ResponseState>(g, &mut node, &name.topic("state"), &state_qos())?;
 
@@ -553,9 +573,9 @@ struct SlotReaders {
 
 struct Io<R: Response> {
     name: ComponentName,
-    started: Watched<ros2_client::Publisher<R::Start>>,
-    interrupted: Watched<ros2_client::Publisher<Empty>>,
-    exited: Watched<ros2_client::Publisher<R::Output>>,
+    started: SignalWriter<R::Start>,
+    interrupted: SignalWriter<Empty>,
+    exited: SignalWriter<R::Output>,
     state_pub: Watched<ros2_client::Publisher<ResponseState>>,
     state_tx: watch::Sender<ResponseState>,
 }
@@ -649,6 +669,12 @@ async fn drive<R: Response>(
     ));
 
     let mut current: Option<Slot<R::Output>> = None;
+    // the state to write once the slot just begun has run up to its first await
+    let mut pending_state: Option<ResponseState> = None;
+    let publish_state = |st: ResponseState| {
+        emit(&io.state_pub, "state", st.clone());
+        io.state_tx.send_replace(st);
+    };
     let (notes_tx, mut notes) = tokio::sync::mpsc::unbounded_channel::<SlotNote>();
     let mut stop_requested = false;
     let mut malformed: u64 = 0;
@@ -666,6 +692,9 @@ async fn drive<R: Response>(
                 }
             } => {
                 current = None;
+                if let Some(st) = pending_state.take() {
+                    publish_state(st);
+                }
                 // what the slot said before it ended comes first (a goal accepted and finished at once)
                 let mut fx = Vec::new();
                 while let Ok(note) = notes.try_recv() {
@@ -675,6 +704,11 @@ async fn drive<R: Response>(
                 }
                 fx.extend(machine.handle(done.into_input()));
                 fx
+            }
+            // a slot that was just begun has run up to its first await (above): now the state
+            _ = std::future::ready(()), if pending_state.is_some() => {
+                publish_state(pending_state.take().expect("guarded"));
+                continue;
             }
             Some(note) = notes.recv() => match note_input(note) {
                 Some(input) => machine.handle(input),
@@ -698,9 +732,16 @@ async fn drive<R: Response>(
                 None => break,
             },
         };
+        // whether a slot was begun (it runs before the state is written)
+        let began = fx.iter().any(|e| {
+            matches!(
+                e,
+                Effect::RunStart(_) | Effect::RunInterrupt | Effect::RunExit(_)
+            )
+        });
         for effect in fx {
             match effect {
-                Effect::EmitStarted(p) => emit(&io.started, "started", p),
+                Effect::EmitStarted(p) => io.started.emit("started", p),
                 Effect::RunStart(p) => {
                     let r = Arc::clone(&response);
                     current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
@@ -714,7 +755,7 @@ async fn drive<R: Response>(
                     })));
                 }
                 Effect::CancelStart => current = None,
-                Effect::EmitInterrupted => emit(&io.interrupted, "interrupted", Empty::default()),
+                Effect::EmitInterrupted => io.interrupted.emit("interrupted", Empty::default()),
                 Effect::RunInterrupt => {
                     let r = Arc::clone(&response);
                     current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
@@ -734,7 +775,7 @@ async fn drive<R: Response>(
                         SlotDone::Exit(res.map_err(panic_message))
                     })));
                 }
-                Effect::EmitExited(o) => emit(&io.exited, "exited", o),
+                Effect::EmitExited(o) => io.exited.emit("exited", o),
                 Effect::ReportPanic { slot, message } => {
                     tracing::error!(response = %name, slot, %message, "slot panicked; the response carries on")
                 }
@@ -745,8 +786,12 @@ async fn drive<R: Response>(
         }
         let mut st = state_message::<R>(&name, &machine);
         st.malformed = malformed;
-        emit(&io.state_pub, "state", st.clone());
-        io.state_tx.send_replace(st);
+        if began && current.is_some() {
+            // the behaviour first: the state write is not on the way from a signal to its slot
+            pending_state = Some(st);
+        } else {
+            publish_state(st);
+        }
         if stop_requested && current.is_none() {
             break;
         }

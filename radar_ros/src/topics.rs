@@ -190,6 +190,16 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
         &self,
         stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
     ) -> Result<(T, i64)> {
+        self.next_with_info(stream)
+            .await
+            .map(|(m, stamp, _)| (m, stamp))
+    }
+
+    /// [`Self::next_stamped`], with the writer that sent it.
+    async fn next_with_info<T>(
+        &self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
+    ) -> Result<(T, i64, ros2_client::Gid)> {
         let mut accepted = Box::pin(self.subscription.accepted(
             stream,
             &self.topic,
@@ -199,6 +209,7 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
             Some((m, info)) => Ok((
                 m,
                 info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
+                info.publisher_gid(),
             )),
             None => Err(Error::Closed(self.topic.clone())),
         }
@@ -249,5 +260,11 @@ impl SignalSubscription<RawMessage> {
             self.next_stamped(self.subscription.async_stream_seed(RawSeed))
                 .await
         })
+    }
+
+    /// The next message body with its source timestamp and its writer.
+    pub(crate) async fn recv_from(&self) -> Result<(RawMessage, i64, ros2_client::Gid)> {
+        self.next_with_info(self.subscription.async_stream_seed(RawSeed))
+            .await
     }
 }

@@ -169,12 +169,7 @@ pub(crate) struct Manager {
     changed: tokio::sync::watch::Sender<u64>,
 }
 
-fn now_ns() -> i64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as i64)
-        .unwrap_or(0)
-}
+use crate::local::now_ns;
 
 fn key(topic: &str, ros_type: &str, depth: usize, dir: Dir) -> Key {
     Key {
@@ -342,20 +337,36 @@ impl Manager {
     }
 
     /// A relay for `k`, whose reader `sub` is held once more for it; its task feeds the table, and tells it
-    /// when the source's publishers have all gone (and when one is back).
+    /// when the source's publishers have all gone (and when one is back). With local delivery it takes what
+    /// this process's components emit on `k` from their tap, and skips their samples on DDS.
     fn relay(self: &Arc<Self>, k: &Key, sub: Arc<RawSubscription>) -> Relay {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let source = k.clone();
         let end = End::Source(k.clone());
         let mut presence = Presence::new(sub.matched_watch());
+        let tap = self
+            .local
+            .then(|| self.participant.taps().get(&k.topic, &k.ros_type));
+        let mut tapped = tap.as_ref().map(|t| t.listen());
         tokio::spawn(async move {
             loop {
                 tokio::select! {
                     biased;
                     _ = &mut stop_rx => break,
-                    r = sub.recv_stamped() => match (r, me.upgrade()) {
-                        (Ok((raw, stamp)), Some(m)) => {
+                    Some((raw, stamp)) = async {
+                        match tapped.as_mut() {
+                            Some(rx) => rx.recv().await,
+                            None => std::future::pending().await,
+                        }
+                    } => match me.upgrade() {
+                        Some(m) => m.dispatch(&source, raw, stamp),
+                        None => break,
+                    },
+                    r = sub.recv_from() => match (r, me.upgrade()) {
+                        // already taken from the tap
+                        (Ok((_, _, gid)), Some(_)) if tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
+                        (Ok((raw, stamp, _)), Some(m)) => {
                             m.dispatch(&source, raw, if stamp > 0 { stamp } else { now_ns() })
                         }
                         _ => break,
