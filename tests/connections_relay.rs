@@ -40,4 +40,5 @@ async fn every_delivery_is_written_on_the_slot_topic() {
         let m = seen.recv().timeout(Duration::from_secs(10)).await.unwrap();
         assert_eq!(m.data, i);
     }
+    assert_eq!(r.connections()[0].hops, 2);
 }

@@ -355,6 +355,38 @@ impl Bench {
         ] {
             self.radar_latency(n, p, host).await?;
         }
+        // all in one process: what radar_ros itself adds, without DDS
+        let d = self.domain();
+        let mut all = self
+            .child(
+                d,
+                &[
+                    "events",
+                    "--names",
+                    "/bench/ev",
+                    "--local-response",
+                    "/bench/resp",
+                ],
+            )
+            .await?;
+        all.ask("active /bench/ev", START).await?;
+        all.ask(&format!("run /bench/ev {n} {p}"), self.run_timeout(n))
+            .await?;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        let r = all
+            .ask_json(&format!("report {}", self.plan.warmup), START)
+            .await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        self.push_latency(
+            "radar_one_process",
+            "radar_ros trigger -> start, event, manager and response in one process (no DDS hop)",
+            &r,
+            &note,
+        )?;
+        all.quit().await;
         Ok(())
     }
 

@@ -50,7 +50,15 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "raw-sink" => raw_sink(&req("--topic")?).await,
         "raw-source" => raw_source(&req("--topic")?).await,
         "raw-forward" => raw_forward(&req("--from")?, &req("--to")?).await,
-        "events" => events(&req("--names")?, opt("--connect"), flag("--relay")).await,
+        "events" => {
+            events(
+                &req("--names")?,
+                opt("--connect"),
+                opt("--local-response"),
+                flag("--relay"),
+            )
+            .await
+        }
         "response" => response(&req("--name")?, opt("--connect"), flag("--relay")).await,
         "long-response" => long_response(&req("--name")?).await,
         "interrupter" => interrupter(&req("--name")?).await,
@@ -314,8 +322,15 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 /// Events named in `names` (comma-separated); `run NAME N PERIOD_US` makes NAME trigger N times,
 /// `spawn NAME` starts another event (answering the clock time the spawn began), `active NAME` waits until
 /// NAME has a listener, `inactive NAME` until it has none (answering when). With `--connect RESPONSE` this
-/// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process).
-async fn events(names: &str, connect: Option<String>, relay: bool) -> Result<()> {
+/// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process); with
+/// `--local-response NAME` it also runs the recording response NAME (as the role `response` does, answering
+/// `report`) and connects FIRST to it: event, manager and response in one process.
+async fn events(
+    names: &str,
+    connect: Option<String>,
+    local_response: Option<String>,
+    relay: bool,
+) -> Result<()> {
     let radar = radar_relaying(relay)?;
     let all: Arc<Mutex<HashMap<String, FedEvent>>> = Default::default();
     let spawn = {
@@ -330,10 +345,14 @@ async fn events(names: &str, connect: Option<String>, relay: bool) -> Result<()>
     for n in names.split(',').filter(|n| !n.is_empty()) {
         spawn(n)?;
     }
-    let _conn: Option<ConnectionGuard> = match connect {
+    let first = names.split(',').next().unwrap_or_default();
+    let recorder = match &local_response {
+        Some(name) => Some(recorder(&radar, name)?),
+        None => None,
+    };
+    let _conn: Option<ConnectionGuard> = match connect.or(local_response) {
         None => None,
         Some(resp) => {
-            let first = names.split(',').next().unwrap_or_default();
             let r = radar.response(&resp).timeout(WAIT).await?;
             let triggered = all.lock().unwrap()[first].0.triggered();
             Some(radar.whenever(triggered).start(&r).timeout(WAIT).await?)
@@ -341,7 +360,14 @@ async fn events(names: &str, connect: Option<String>, relay: bool) -> Result<()>
     };
     serve(|w| {
         let (all, spawn) = (all.clone(), spawn.clone());
+        let rec = recorder.as_ref().map(|(h, rec)| (rec.clone(), h.state()));
         async move {
+            if let (Some((rec, state)), "report") = (rec, w[0].as_str()) {
+                return Ok(rec.report(
+                    word(&w, 1)?,
+                    json!({ "ignored_starts": state.ignored_starts, "starts": state.starts }),
+                ));
+            }
             let name: String = word(&w, 1)?;
             match w[0].as_str() {
                 "spawn" => {
@@ -402,18 +428,7 @@ async fn events(names: &str, connect: Option<String>, relay: bool) -> Result<()>
 /// `--relay`: through a DDS writer on its own `start` (two hops), not directly.
 async fn response(name: &str, connect: Option<String>, relay: bool) -> Result<()> {
     let radar = radar_relaying(relay)?;
-    let rec = Record::default();
-    let r = rec.clone();
-    let handle = radar.spawn_response(
-        name,
-        FnResponse::new(move |h: Header| {
-            let r = r.clone();
-            async move {
-                r.push(unstamp(&h).0, age_ns(&h));
-                Ok::<_, SlotError>(Empty::default())
-            }
-        }),
-    )?;
+    let (handle, rec) = recorder(&radar, name)?;
     let _conn: Option<ConnectionGuard> = match connect {
         None => None,
         Some(ev) => {
@@ -441,6 +456,23 @@ async fn response(name: &str, connect: Option<String>, relay: bool) -> Result<()
     })
     .await;
     Ok(())
+}
+
+/// The response `name` whose start behaviour records how long ago its payload was stamped.
+fn recorder(radar: &Radar, name: &str) -> Result<(radar_ros::ResponseHandle, Record)> {
+    let rec = Record::default();
+    let r = rec.clone();
+    let handle = radar.spawn_response(
+        name,
+        FnResponse::new(move |h: Header| {
+            let r = r.clone();
+            async move {
+                r.push(unstamp(&h).0, age_ns(&h));
+                Ok::<_, SlotError>(Empty::default())
+            }
+        }),
+    )?;
+    Ok((handle, rec))
 }
 
 /// A response whose start behaviour runs until interrupted; its interrupt slot records when it begins (that

@@ -271,6 +271,12 @@ impl<M: serde::Serialize> SignalWriter<M> {
     }
 }
 
+impl<M: serde::Serialize> Drop for SignalWriter<M> {
+    fn drop(&mut self) {
+        self.tap.close();
+    }
+}
+
 impl<M: serde::Serialize> std::ops::Deref for SignalWriter<M> {
     type Target = Watched<Publisher<M>>;
     fn deref(&self) -> &Self::Target {

@@ -9,14 +9,14 @@
 //!
 //! **Signals.** An event's `triggered` and a response's `started`, `interrupted` and `exited` writers open a
 //! [`Tap`] on their topic and hand each signal to it before writing it. The manager's relay for that topic
-//! listens to the tap (taking the signal in this process, with its time of emission) and skips the DDS
-//! samples of the writers the tap names, which it already has; samples of other publishers (another
+//! listens to the tap (its listener runs in the emitting task, with the time of emission, before the DDS
+//! write) and skips the DDS samples of the writers the tap names, which it already has; samples of other publishers (another
 //! process, `ros2 topic pub`) still come over DDS. The relay keeps its DDS reader either way: it is what the
 //! event counts as a listener.
 
 use std::{
     collections::{HashMap, HashSet},
-    sync::{Arc, Mutex},
+    sync::{Arc, Mutex, Weak},
 };
 
 use ros2_client::dds::rustdds::GUID;
@@ -88,23 +88,34 @@ pub(crate) struct Tap {
     /// Every writer of this process that has emitted on the topic (kept after it goes: its last samples may
     /// still be in flight over DDS).
     writers: Mutex<HashSet<GUID>>,
-    /// The relays listening, each with its queue of (message, emission time in ns since the epoch).
-    listeners: Mutex<Vec<mpsc::UnboundedSender<(RawMessage, i64)>>>,
+    /// Writers of this process on the topic now.
+    live: std::sync::atomic::AtomicUsize,
+    /// The relays listening, each while its token lives.
+    listeners: Mutex<Vec<(Weak<()>, Listener)>>,
 }
 
+/// Called with each signal emitted on a tap and its time of emission (ns since the epoch), in the emitting
+/// task: it must not block.
+pub(crate) type Listener = Arc<dyn Fn(&RawMessage, i64) + Send + Sync>;
+
 impl Tap {
-    /// Hands `m` to every relay listening; encodes it once, and only if one listens.
+    /// Hands `m` to every relay listening, in this task; encodes it once, and only if one listens. (The
+    /// listeners are called outside the tap's lock: a relay is made under its manager's lock, and a listener
+    /// takes that lock.)
     pub(crate) fn emit<M: serde::Serialize>(&self, m: &M) {
-        let mut listeners = self.listeners.lock().unwrap();
-        listeners.retain(|l| !l.is_closed());
+        let listeners: Vec<Listener> = {
+            let mut l = self.listeners.lock().unwrap();
+            l.retain(|(token, _)| token.strong_count() > 0);
+            l.iter().map(|(_, f)| f.clone()).collect()
+        };
         if listeners.is_empty() {
             return;
         }
         let stamp = now_ns();
         match RawMessage::encode(m) {
             Ok(raw) => {
-                for l in listeners.iter() {
-                    let _ = l.send((raw.clone(), stamp));
+                for l in listeners {
+                    l(&raw, stamp);
                 }
             }
             Err(e) => {
@@ -113,11 +124,26 @@ impl Tap {
         }
     }
 
-    /// Listens to what the components of this process emit here from now on.
-    pub(crate) fn listen(&self) -> mpsc::UnboundedReceiver<(RawMessage, i64)> {
-        let (tx, rx) = mpsc::unbounded_channel();
-        self.listeners.lock().unwrap().push(tx);
-        rx
+    /// Calls `f` with what the components of this process emit here from now on, while the returned token
+    /// lives.
+    pub(crate) fn listen(&self, f: Listener) -> Arc<()> {
+        let token = Arc::new(());
+        self.listeners
+            .lock()
+            .unwrap()
+            .push((Arc::downgrade(&token), f));
+        token
+    }
+
+    /// Whether a component of this process emits on the topic now.
+    pub(crate) fn has_emitters(&self) -> bool {
+        self.live.load(std::sync::atomic::Ordering::Relaxed) > 0
+    }
+
+    /// The writer of a component that emitted here is gone (its GUID stays known: its last samples may still
+    /// come over DDS).
+    pub(crate) fn close(&self) {
+        self.live.fetch_sub(1, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Whether the DDS writer `gid` is one of this process's on the topic (its samples came through the tap).
@@ -145,6 +171,7 @@ impl Taps {
     pub(crate) fn open(&self, topic: &str, ros_type: &str, writer: GUID) -> Arc<Tap> {
         let tap = self.get(topic, ros_type);
         tap.writers.lock().unwrap().insert(writer);
+        tap.live.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         tap
     }
 }
@@ -211,12 +238,27 @@ mod tests {
         let w = GUID::new_participant_guid();
         let tap = taps.open("/e/triggered", "std_msgs/msg/Int32", w);
         tap.emit(&crate::msg::Int32 { data: 1 }); // nobody listens: nothing encoded, nothing kept
-        let mut rx = taps.get("/e/triggered", "std_msgs/msg/Int32").listen();
+        let got: Arc<Mutex<Vec<(RawMessage, i64)>>> = Default::default();
+        let g = got.clone();
+        let token = taps
+            .get("/e/triggered", "std_msgs/msg/Int32")
+            .listen(Arc::new(move |raw, stamp| {
+                g.lock().unwrap().push((raw.clone(), stamp))
+            }));
         tap.emit(&crate::msg::Int32 { data: 7 });
-        let (raw, stamp) = rx.try_recv().unwrap();
-        assert_eq!(raw.decode::<crate::msg::Int32>().unwrap().data, 7);
-        assert!(stamp > 0);
-        assert!(rx.try_recv().is_err(), "only what came after listening");
+        {
+            let got = got.lock().unwrap();
+            assert_eq!(got.len(), 1, "only what came after listening");
+            assert_eq!(got[0].0.decode::<crate::msg::Int32>().unwrap().data, 7);
+            assert!(got[0].1 > 0);
+        }
+        drop(token);
+        tap.emit(&crate::msg::Int32 { data: 8 });
+        assert_eq!(
+            got.lock().unwrap().len(),
+            1,
+            "nothing once the token is gone"
+        );
         assert!(tap.is_local(ros2_client::Gid::from(w)));
         assert!(
             !taps

@@ -362,6 +362,9 @@ pub struct Connection {
     pub state_label: String,
     /// Who left and why, while it is not armed (or after its `until`'s response left); else empty.
     pub departure: String,
+    /// DDS hops a signal takes from source to target: 0 (both in the manager's process), 1 (one of them), 2
+    /// (neither: source -> manager -> target).
+    pub hops: u8,
 }
 ros_message!(Connection, "radar_msgs", "Connection");
 

@@ -663,9 +663,11 @@ async fn drive<R: Response>(
             local_exit.stream().map(|_| Some(Input::Exit)),
         ),
     );
-    let mut signals = Box::pin(futures::stream::select(
+    // what this process delivers is looked at first: it is there without polling the DDS readers
+    let mut signals = Box::pin(futures::stream::select_with_strategy(
         local,
         futures::stream::select(starts, futures::stream::select(interrupts, exits)),
+        |_: &mut ()| futures::stream::PollNext::Left,
     ));
 
     let mut current: Option<Slot<R::Output>> = None;

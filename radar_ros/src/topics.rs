@@ -190,16 +190,6 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
         &self,
         stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
     ) -> Result<(T, i64)> {
-        self.next_with_info(stream)
-            .await
-            .map(|(m, stamp, _)| (m, stamp))
-    }
-
-    /// [`Self::next_stamped`], with the writer that sent it.
-    async fn next_with_info<T>(
-        &self,
-        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
-    ) -> Result<(T, i64, ros2_client::Gid)> {
         let mut accepted = Box::pin(self.subscription.accepted(
             stream,
             &self.topic,
@@ -209,7 +199,6 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
             Some((m, info)) => Ok((
                 m,
                 info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
-                info.publisher_gid(),
             )),
             None => Err(Error::Closed(self.topic.clone())),
         }
@@ -262,9 +251,24 @@ impl SignalSubscription<RawMessage> {
         })
     }
 
-    /// The next message body with its source timestamp and its writer.
-    pub(crate) async fn recv_from(&self) -> Result<(RawMessage, i64, ros2_client::Gid)> {
-        self.next_with_info(self.subscription.async_stream_seed(RawSeed))
-            .await
+    /// The message bodies from publishers of the right type, with their source timestamps (ns since the
+    /// epoch, 0 if unknown) and their writers. One stream for a reader's life (making a stream per message
+    /// costs as much as the message).
+    pub(crate) fn stream_from(
+        &self,
+    ) -> impl Stream<Item = (RawMessage, i64, ros2_client::Gid)> + '_ {
+        self.subscription
+            .accepted(
+                self.subscription.async_stream_seed(RawSeed),
+                &self.topic,
+                &self.ros_type,
+            )
+            .map(|(m, info)| {
+                (
+                    m,
+                    info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
+                    info.publisher_gid(),
+                )
+            })
     }
 }

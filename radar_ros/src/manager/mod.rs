@@ -25,6 +25,7 @@ use std::{
     time::Duration,
 };
 
+use futures::StreamExt;
 use radar_semantics::connection::{ConnId, ConnectionTable, Kind, Link, ResponseView, Until};
 
 use crate::{
@@ -109,9 +110,11 @@ struct Record {
     departure: Option<Departure>,
 }
 
-/// A source the table reads: the task that feeds its reader's signals to the table (stopped on drop).
+/// A source the table reads: the task that feeds its reader's signals to the table (stopped on drop), and
+/// its listening to this process's emitters of the source (ends on drop).
 struct Relay {
     _stop: tokio::sync::oneshot::Sender<()>,
+    _tap: Option<Arc<()>>,
 }
 
 /// How a slot is reached.
@@ -270,38 +273,62 @@ impl Manager {
         st.table
             .list()
             .into_iter()
-            .map(|c| C {
-                id: c.id,
-                kind: match c.kind {
-                    Kind::Once => C::ONCE,
-                    Kind::Whenever => C::WHENEVER,
-                },
-                kind_label: match c.kind {
-                    Kind::Once => "once".into(),
-                    Kind::Whenever => "whenever".into(),
-                },
-                source_type: c.source.ros_type.clone(),
-                depth: c.source.depth.min(u32::MAX as usize) as u32,
-                source: c.source.topic,
-                target: match c.target {
-                    Target::Slot(t) => t.topic,
-                    Target::Anon(_) => "(anonymous)".into(),
-                },
-                until: c.until.map(|u| u.topic).unwrap_or_default(),
-                owner: st
-                    .records
-                    .get(&c.id)
-                    .map(|r| r.owner.clone())
-                    .unwrap_or_default(),
-                delivered: c.delivered,
-                state: C::state_of(c.link),
-                state_label: c.link.label().into(),
-                departure: st
-                    .records
-                    .get(&c.id)
-                    .and_then(|r| r.departure.as_ref())
-                    .map(|d| d.to_string())
-                    .unwrap_or_default(),
+            .map(|c| {
+                let hops = {
+                    let source_local = self.local
+                        && self
+                            .participant
+                            .taps()
+                            .get(&c.source.topic, &c.source.ros_type)
+                            .has_emitters();
+                    let target_local = match &c.target {
+                        Target::Anon(_) => true,
+                        Target::Slot(k) => {
+                            matches!(
+                                st.outlets.get(k),
+                                Some(Outlet {
+                                    way: Way::Local(_),
+                                    ..
+                                })
+                            )
+                        }
+                    };
+                    u8::from(!source_local) + u8::from(!target_local)
+                };
+                C {
+                    id: c.id,
+                    kind: match c.kind {
+                        Kind::Once => C::ONCE,
+                        Kind::Whenever => C::WHENEVER,
+                    },
+                    kind_label: match c.kind {
+                        Kind::Once => "once".into(),
+                        Kind::Whenever => "whenever".into(),
+                    },
+                    source_type: c.source.ros_type.clone(),
+                    depth: c.source.depth.min(u32::MAX as usize) as u32,
+                    source: c.source.topic,
+                    target: match c.target {
+                        Target::Slot(t) => t.topic,
+                        Target::Anon(_) => "(anonymous)".into(),
+                    },
+                    until: c.until.map(|u| u.topic).unwrap_or_default(),
+                    owner: st
+                        .records
+                        .get(&c.id)
+                        .map(|r| r.owner.clone())
+                        .unwrap_or_default(),
+                    delivered: c.delivered,
+                    state: C::state_of(c.link),
+                    state_label: c.link.label().into(),
+                    departure: st
+                        .records
+                        .get(&c.id)
+                        .and_then(|r| r.departure.as_ref())
+                        .map(|d| d.to_string())
+                        .unwrap_or_default(),
+                    hops,
+                }
             })
             .collect()
     }
@@ -348,26 +375,25 @@ impl Manager {
         let tap = self
             .local
             .then(|| self.participant.taps().get(&k.topic, &k.ros_type));
-        let mut tapped = tap.as_ref().map(|t| t.listen());
+        let token = tap.as_ref().map(|t| {
+            let (me, source) = (me.clone(), source.clone());
+            t.listen(Arc::new(move |raw: &RawMessage, stamp| {
+                if let Some(m) = me.upgrade() {
+                    m.dispatch(&source, raw.clone(), stamp);
+                }
+            }))
+        });
         tokio::spawn(async move {
+            let mut samples = std::pin::pin!(sub.stream_from());
             loop {
                 tokio::select! {
                     biased;
                     _ = &mut stop_rx => break,
-                    Some((raw, stamp)) = async {
-                        match tapped.as_mut() {
-                            Some(rx) => rx.recv().await,
-                            None => std::future::pending().await,
-                        }
-                    } => match me.upgrade() {
-                        Some(m) => m.dispatch(&source, raw, stamp),
-                        None => break,
-                    },
-                    r = sub.recv_from() => match (r, me.upgrade()) {
+                    r = samples.next() => match (r, me.upgrade()) {
                         // already taken from the tap
-                        (Ok((_, _, gid)), Some(_)) if tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
-                        (Ok((raw, stamp, _)), Some(m)) => {
-                            m.dispatch(&source, raw, if stamp > 0 { stamp } else { now_ns() })
+                        (Some((_, _, gid)), Some(_)) if tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
+                        (Some((raw, stamp, _)), Some(m)) => {
+                            m.dispatch(&source, raw, if stamp > 0 { stamp } else { now_ns() });
                         }
                         _ => break,
                     },
@@ -378,7 +404,10 @@ impl Manager {
                 }
             }
         });
-        Relay { _stop: stop }
+        Relay {
+            _stop: stop,
+            _tap: token,
+        }
     }
 
     /// Watches the subscribers of the slot `k` (reached `way`) and tells the table when they have all gone,

@@ -793,8 +793,16 @@ async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Falli
             format!(" until {}", k.until)
         };
         println!(
-            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered",
-            k.id, program, k.kind_label, k.source, k.target, until, k.state_label, k.delivered
+            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered, {} DDS hop(s)",
+            k.id,
+            program,
+            k.kind_label,
+            k.source,
+            k.target,
+            until,
+            k.state_label,
+            k.delivered,
+            k.hops
         );
     }
     Ok(())
