@@ -90,7 +90,10 @@ pub fn table(r: &Results) -> String {
             lossy
         );
     }
-    if let Some(sc) = &r.scale {
+    if !r.scale.is_empty() {
+        scale_curve_table(&mut s, &r.scale);
+    }
+    if let Some(sc) = r.scale.last() {
         let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
         let _ = writeln!(
             s,
@@ -224,6 +227,147 @@ fn ms_table(s: &mut String, title: &str, rows: &[crate::coord::Latency], base_us
     }
 }
 
+/// One row per step of the scale curve.
+fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
+    let _ = writeln!(
+        s,
+        "\n### Scale curve: components in one process (half events, half responses; each event in two \
+         connections)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | connect all | drop -> all inactive |"
+    );
+    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for sc in steps {
+        let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
+        let n = f("events") + f("responses");
+        let per_k = |k: &str| f(k) * 100.0 * 1000.0 / n;
+        let _ = writeln!(
+            s,
+            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.0} ms ({} connections) | {:.0} ms |",
+            f("spawn_ms"),
+            f("spawn_ms") / n,
+            f("bytes_per_event") / 1024.0,
+            f("bytes_per_response") / 1024.0,
+            sc["fds_components"],
+            sc["fds_participant"],
+            per_k("cpu_idle_components"),
+            per_k("cpu_idle_connected"),
+            f("connect_ms"),
+            sc["connections"],
+            f("all_inactive_ms"),
+        );
+    }
+}
+
+/// One chart of the scale curve: title, unit, and its series (label, points).
+type Panel<'a> = (&'a str, &'a str, Vec<(&'a str, Vec<(f64, f64)>)>);
+
+/// The scale curve: memory, descriptors, spawn time and idle CPU against the number of components.
+fn scale_svg(path: &Path, steps: &[serde_json::Value]) -> Result<()> {
+    let pts = |y: &dyn Fn(&serde_json::Value, f64) -> f64| -> Vec<(f64, f64)> {
+        steps
+            .iter()
+            .map(|sc| {
+                let n =
+                    sc["events"].as_f64().unwrap_or(0.0) + sc["responses"].as_f64().unwrap_or(0.0);
+                (n, y(sc, n))
+            })
+            .filter(|(n, y)| *n > 0.0 && y.is_finite())
+            .collect()
+    };
+    let get = |sc: &serde_json::Value, k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
+    let panels: [Panel; 4] = [
+        (
+            "memory per component",
+            "KiB (RSS)",
+            vec![
+                ("event", pts(&|sc, _| get(sc, "bytes_per_event") / 1024.0)),
+                (
+                    "response",
+                    pts(&|sc, _| get(sc, "bytes_per_response") / 1024.0),
+                ),
+            ],
+        ),
+        (
+            "spawn time per component",
+            "ms",
+            vec![("spawn", pts(&|sc, n| get(sc, "spawn_ms") / n))],
+        ),
+        (
+            "idle CPU per 1,000 components",
+            "% of a core",
+            vec![
+                (
+                    "unconnected",
+                    pts(&|sc, n| get(sc, "cpu_idle_components") * 1e5 / n),
+                ),
+                (
+                    "connected",
+                    pts(&|sc, n| get(sc, "cpu_idle_connected") * 1e5 / n),
+                ),
+            ],
+        ),
+        (
+            "open file descriptors",
+            "count",
+            vec![("with components", pts(&|sc, _| get(sc, "fds_components")))],
+        ),
+    ];
+    let root = SVGBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(
+        "Scale: components in one process (x: components, log scale)",
+        ("sans-serif", 20),
+    )?;
+    let (xlo, xhi) = steps
+        .iter()
+        .map(|sc| sc["events"].as_f64().unwrap_or(1.0) + sc["responses"].as_f64().unwrap_or(1.0))
+        .fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let (xlo, xhi) = if xlo > xhi {
+        (1.0, 10.0)
+    } else {
+        (xlo * 0.7, xhi * 1.4)
+    };
+    for (area, (title, unit, series)) in root.split_evenly((2, 2)).iter().zip(panels) {
+        let ymax = series
+            .iter()
+            .flat_map(|(_, p)| p.iter().map(|(_, y)| *y))
+            .fold(0.0f64, f64::max)
+            .max(1e-3)
+            * 1.25;
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(50)
+            .build_cartesian_2d((xlo..xhi).log_scale(), 0.0..ymax)?;
+        chart.configure_mesh().y_desc(unit).draw()?;
+        for (i, (label, p)) in series.into_iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            chart
+                .draw_series(LineSeries::new(p.clone(), color.stroke_width(2)))?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+            chart.draw_series(
+                p.into_iter()
+                    .map(|(x, y)| Circle::new((x, y), 3, color.filled())),
+            )?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
 /// Draws the CDFs of `series` (label, samples in ns) on a log-scale time axis.
 fn cdf_svg(path: &Path, title: &str, series: &[(&str, &[u64])], unit_ms: bool) -> Result<()> {
     let scale = if unit_ms { 1000.0 } else { 1.0 };
@@ -285,7 +429,7 @@ fn cdf_svg(path: &Path, title: &str, series: &[(&str, &[u64])], unit_ms: bool) -
     Ok(())
 }
 
-/// Writes `results.json`, `table.md`, `latency_cdf.svg` and `setup_cdf.svg` into `dir`.
+/// Writes `results.json`, `table.md`, `latency_cdf.svg`, `setup_cdf.svg` and `scale_curve.svg` into `dir`.
 pub fn write(r: &Results, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     std::fs::write(dir.join("results.json"), serde_json::to_string_pretty(r)?)?;
@@ -312,5 +456,8 @@ pub fn write(r: &Results, dir: &Path) -> Result<()> {
         &setup,
         true,
     )?;
+    if !r.scale.is_empty() {
+        scale_svg(&dir.join("scale_curve.svg"), &r.scale)?;
+    }
     Ok(())
 }

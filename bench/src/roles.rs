@@ -908,6 +908,10 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
     let evs: Vec<EventHandle> = (0..events)
         .map(|i| radar.spawn_event(&format!("/scale/ev_{i}"), Idle))
         .collect::<radar_ros::Result<_>>()?;
+    let events_ms = (now_ns() - t) as f64 / 1e6;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let rss_events = rss_bytes();
+    let t_resp = now_ns();
     let resps: Vec<_> = (0..responses)
         .map(|i| {
             radar.spawn_response(
@@ -916,7 +920,7 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
             )
         })
         .collect::<radar_ros::Result<_>>()?;
-    let spawn_ms = (now_ns() - t) as f64 / 1e6;
+    let spawn_ms = events_ms + (now_ns() - t_resp) as f64 / 1e6;
     let fds1 = open_fds();
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss1 = rss_bytes();
@@ -960,6 +964,9 @@ async fn scale(events: usize, responses: usize, connections: usize, idle: Durati
         "rss_empty_bytes": rss0, "rss_components_bytes": rss1, "rss_connected_bytes": rss2,
         "bytes_per_connection": (rss2 as f64 - rss1 as f64) / connections.max(1) as f64,
         "bytes_per_component": (rss1 as f64 - rss0 as f64) / (events + responses).max(1) as f64,
+        "bytes_per_event": (rss_events as f64 - rss0 as f64) / events.max(1) as f64,
+        "bytes_per_response": (rss1 as f64 - rss_events as f64) / responses.max(1) as f64,
+        "rss_events_bytes": rss_events,
         "fd_limit": fd_limit, "fds_participant": fds0, "fds_components": fds1,
         "cpu_idle_empty": cpu_empty, "cpu_idle_components": cpu_components,
         "cpu_idle_connected": cpu_connected,

@@ -281,6 +281,12 @@ impl<E> Timer<E> {
   pub(crate) fn next_deadline(&self) -> Option<Instant> {
     self.deadlines.keys().next().map(|(when, _)| *when)
   }
+
+  /// Takes every scheduled event, due or not (tests).
+  #[cfg(test)]
+  pub(crate) fn take_all(&mut self) -> Vec<E> {
+    std::mem::take(&mut self.deadlines).into_values().collect()
+  }
 }
 
 pub(crate) type SharedTimer<E> = std::rc::Rc<std::cell::RefCell<Timer<E>>>;

@@ -282,6 +282,9 @@ pub(crate) struct Discovery {
   // per-topic timers and the separate participant/topic cleanup and secure
   // resend timers), so discovery uses a single timer background thread.
   discovery_timer: SharedTimer<DiscoveryTimerEvent>,
+  /// The smallest Automatic liveliness lease of the local writers, and the local writers' generation it was
+  /// computed for.
+  min_auto_lease_cache: Option<(u64, Option<crate::Duration>)>,
 
   // The lease duration this participant announces, and the periods derived
   // from it (see `DomainParticipantBuilder::lease_duration`).
@@ -740,6 +743,7 @@ impl Discovery {
       dcps_participant_message, // liveliness messages
 
       discovery_timer,
+      min_auto_lease_cache: None,
       lease,
 
       security_opt,
@@ -1571,19 +1575,27 @@ impl Discovery {
     // Inspect if we need to send liveness messages
     // See 8.4.13.5 "Implementing Writer Liveliness Protocol .." in the RPTS spec
 
-    // Dig out the smallest lease duration for writers with Automatic liveliness QoS
-    let writer_livelinesses: Vec<Liveliness> = discovery_db_read(&self.discovery_db)
-      .get_all_local_topic_writers()
-      .filter_map(|p| p.publication_topic_data.liveliness)
-      .collect();
-
-    let min_automatic_lease_duration_opt = writer_livelinesses
-      .iter()
-      .filter_map(|liveliness| match liveliness {
-        Liveliness::Automatic { lease_duration } => Some(*lease_duration),
-        _other => None,
-      })
-      .min();
+    // Dig out the smallest lease duration for writers with Automatic liveliness QoS: looked at again only
+    // when the local writers changed (RADAR patch 16: this runs every second, and a participant may have
+    // thousands of writers)
+    let min_automatic_lease_duration_opt = {
+      let db = discovery_db_read(&self.discovery_db);
+      let generation = db.local_writers_generation();
+      match self.min_auto_lease_cache {
+        Some((g, min)) if g == generation => min,
+        _ => {
+          let min = db
+            .get_all_local_topic_writers()
+            .filter_map(|p| match p.publication_topic_data.liveliness {
+              Some(Liveliness::Automatic { lease_duration }) => Some(lease_duration),
+              _ => None,
+            })
+            .min();
+          self.min_auto_lease_cache = Some((generation, min));
+          min
+        }
+      }
+    };
 
     let timenow = Timestamp::now();
 

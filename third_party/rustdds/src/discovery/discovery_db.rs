@@ -58,6 +58,9 @@ pub(crate) struct DiscoveryDB {
 
   // local writer proxies for topics (topic name acts as key)
   local_topic_writers: BTreeMap<GUID, DiscoveredWriterData>,
+  /// Bumped whenever `local_topic_writers` changes (RADAR patch 16: what is derived from every local writer
+  /// is recomputed only then).
+  local_writers_generation: u64,
   // local reader proxies for topics (topic name acts as key)
   local_topic_readers: BTreeMap<GUID, DiscoveredReaderData>,
 
@@ -132,6 +135,7 @@ impl DiscoveryDB {
       #[cfg(feature = "security")]
       authentication_statuses: BTreeMap::new(),
       local_topic_writers: BTreeMap::new(),
+      local_writers_generation: 0,
       local_topic_readers: BTreeMap::new(),
       external_topic_readers: BTreeMap::new(),
       external_topic_writers: BTreeMap::new(),
@@ -400,13 +404,20 @@ impl DiscoveryDB {
   }
 
   pub fn update_local_topic_writer(&mut self, writer: DiscoveredWriterData) {
+    self.local_writers_generation += 1;
     self
       .local_topic_writers
       .insert(writer.writer_proxy.remote_writer_guid, writer);
   }
 
   pub fn remove_local_topic_writer(&mut self, guid: GUID) {
+    self.local_writers_generation += 1;
     self.local_topic_writers.remove(&guid);
+  }
+
+  /// Changes whenever a local writer is added, updated or removed.
+  pub fn local_writers_generation(&self) -> u64 {
+    self.local_writers_generation
   }
 
   // TODO: This is silly. Returns one of the parameters cloned, or None

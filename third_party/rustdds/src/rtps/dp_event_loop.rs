@@ -105,6 +105,11 @@ pub struct DPEventLoop {
   waker: LoopWaker,
 
   writers: HashMap<EntityId, Writer>,
+  /// Bumped when a local writer comes or goes, or matches or unmatches a reader (RADAR patch 16).
+  writer_match_generation: Rc<std::cell::Cell<u64>>,
+  /// The local writers with readers in each participant, as of `writer_match_generation` (the first field):
+  /// an SPDP message refreshes the routes of these only, not of every writer.
+  writers_by_reader_prefix: (u64, HashMap<GuidPrefix, Vec<EntityId>>),
   udp_sender: Rc<UDPSender>,
 
   // nonblocking-transmit: per-socket round-robin of writers that have bulk DATA
@@ -249,6 +254,8 @@ impl DPEventLoop {
       writer_ready,
       waker,
       writers: HashMap::new(),
+      writer_match_generation: Rc::new(std::cell::Cell::new(1)),
+      writers_by_reader_prefix: (0, HashMap::new()),
       bulk_ready: BTreeMap::new(),
       writable_armed: BTreeSet::new(),
       shared_timer,
@@ -887,8 +894,13 @@ impl DPEventLoop {
     // observations; refresh the interface-aware send routes of any writers that
     // already have matched readers behind this participant. Access `writers`
     // directly (not via &mut self) so it stays disjoint from the `db` borrow.
-    for writer in self.writers.values_mut() {
-      writer.recompute_routes_for(participant_guid_prefix);
+    // RADAR patch 16: only the writers with readers there (a participant may have thousands of writers,
+    // and this runs on every SPDP message)
+    drop(db);
+    for eid in self.writers_with_readers_in(participant_guid_prefix) {
+      if let Some(writer) = self.writers.get_mut(&eid) {
+        writer.recompute_routes_for(participant_guid_prefix);
+      }
     }
 
     debug!("update_participant - finished for {participant_guid_prefix:?}");
@@ -1186,10 +1198,40 @@ impl DPEventLoop {
 
     // The doorbell is a shared ready-queue plus the poll waker, not a
     // registration under the writer token.
+    new_writer.match_generation = Some(Rc::clone(&self.writer_match_generation));
+    self.bump_writer_matches();
     self.writers.insert(new_writer.guid().entity_id, new_writer);
   }
 
+  fn bump_writer_matches(&self) {
+    let g = &self.writer_match_generation;
+    g.set(g.get().wrapping_add(1));
+  }
+
+  /// The local writers with a matched reader in participant `prefix`.
+  fn writers_with_readers_in(&mut self, prefix: GuidPrefix) -> Vec<EntityId> {
+    let generation = self.writer_match_generation.get();
+    if self.writers_by_reader_prefix.0 != generation {
+      let mut index: HashMap<GuidPrefix, Vec<EntityId>> = HashMap::new();
+      for (eid, w) in &self.writers {
+        let mut prefixes: Vec<GuidPrefix> = w.reader_prefixes().collect();
+        prefixes.dedup();
+        for p in prefixes {
+          index.entry(p).or_default().push(*eid);
+        }
+      }
+      self.writers_by_reader_prefix = (generation, index);
+    }
+    self
+      .writers_by_reader_prefix
+      .1
+      .get(&prefix)
+      .cloned()
+      .unwrap_or_default()
+  }
+
   fn remove_local_writer(&mut self, writer_guid: &GUID) {
+    self.bump_writer_matches();
     if self.writers.remove(&writer_guid.entity_id).is_some() {
       // The timer is shared and stays with the loop. Stale timeouts are ignored
       // on dispatch (lookup miss).

@@ -115,6 +115,15 @@ impl Default for MessageReceiverState<'_> {
 /// Entities. (See RTPS spec Section 8.3.7)
 pub(crate) struct MessageReceiver {
   pub available_readers: BTreeMap<EntityId, Reader>,
+  /// Bumped when a reader is added or removed, or the writers a reader matched change (RADAR patch 16).
+  match_generation: Rc<std::cell::Cell<u64>>,
+  /// For a writer whose submessages name no reader: the readers they go to, as of `match_generation`
+  /// (the first field). Looking through every reader per submessage cost more than the submessage when a
+  /// participant has thousands of readers (RADAR patch 16).
+  targets_by_writer: (u64, std::collections::HashMap<GUID, Vec<EntityId>>),
+  /// The readers with a matched writer, as of `match_generation` (the first field): the periodic
+  /// preemptive ACKNACKs look at these only (RADAR patch 16).
+  readers_with_writers: (u64, Vec<EntityId>),
   // GuidPrefix sent in this channel needs to be RTPSMessage source_guid_prefix. Writer needs this
   // to locate RTPSReaderProxy if negative acknack.
   acknack_sender: WakeSender<(GuidPrefix, AckSubmessage)>,
@@ -161,6 +170,9 @@ impl MessageReceiver {
   ) -> Self {
     Self {
       available_readers: BTreeMap::new(),
+      match_generation: Rc::new(std::cell::Cell::new(0)),
+      targets_by_writer: (0, std::collections::HashMap::new()),
+      readers_with_writers: (u64::MAX, Vec::new()),
       acknack_sender,
       spdp_liveness_sender,
       security_plugins,
@@ -266,18 +278,60 @@ impl MessageReceiver {
     self.source_timestamp = s.source_timestamp;
   }
 
-  pub fn add_reader(&mut self, new_reader: Reader) {
+  pub fn add_reader(&mut self, mut new_reader: Reader) {
     let eid = new_reader.guid().entity_id;
     match self.available_readers.entry(eid) {
       Entry::Occupied(_) => warn!("Already have Reader {eid:?} - not adding."),
       Entry::Vacant(e) => {
+        new_reader.match_generation = Some(Rc::clone(&self.match_generation));
         e.insert(new_reader);
+        self.bump_match_generation();
       }
     }
   }
 
   pub fn remove_reader(&mut self, old_reader_guid: GUID) -> Option<Reader> {
+    self.bump_match_generation();
     self.available_readers.remove(&old_reader_guid.entity_id)
+  }
+
+  fn bump_match_generation(&self) {
+    let g = &self.match_generation;
+    g.set(g.get().wrapping_add(1));
+  }
+
+  /// The readers that take `sending_writer`'s submessages addressed to no reader in particular.
+  fn targets_of(&mut self, sending_writer: GUID) -> Vec<EntityId> {
+    let generation = self.match_generation.get();
+    if self.targets_by_writer.0 != generation {
+      self.targets_by_writer = (generation, std::collections::HashMap::new());
+    }
+    let readers = &self.available_readers;
+    self
+      .targets_by_writer
+      .1
+      .entry(sending_writer)
+      .or_insert_with(|| {
+        let sending_writer_entity_id = sending_writer.entity_id;
+        readers
+          .values()
+          .filter(|target_reader| {
+            // Reader must have matched the writer
+            target_reader.has_matched_writer(sending_writer)
+              // But there are two exceptions:
+              // 1. SPDP reader must read from unknown SPDP writers
+              //  TODO: This logic here is uglyish. Can we just inject a
+              //  presupposed writer (proxy) to the built-in reader as it is created?
+              || (sending_writer_entity_id == EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER
+                && target_reader.entity_id() == EntityId::SPDP_BUILTIN_PARTICIPANT_READER)
+              // 2. ParticipantStatelessReader does not contain any writers, since it is stateless
+              || (sending_writer_entity_id == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_WRITER
+                && target_reader.entity_id() == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_READER)
+          })
+          .map(Reader::entity_id)
+          .collect()
+      })
+      .clone()
   }
 
   pub fn reader_mut(&mut self, reader_id: EntityId) -> Option<&mut Reader> {
@@ -451,23 +505,7 @@ impl MessageReceiver {
               let sending_writer_entity_id = submessage.sender_entity_id();
 
               let sending_writer = GUID::new(self.source_guid_prefix, sending_writer_entity_id);
-              let available_target_entity_ids: Vec<EntityId> = self
-                .available_readers
-                .values()
-                .filter(|target_reader| {
-                  // Reader must have matched the writer
-                  target_reader.has_matched_writer(sending_writer)
-                    // But there are two exceptions:
-                    // 1. SPDP reader must read from unknown SPDP writers
-                    //  TODO: This logic here is uglyish. Can we just inject a
-                    //  presupposed writer (proxy) to the built-in reader as it is created?
-                    || (sending_writer_entity_id == EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER
-                      && target_reader.entity_id() == EntityId::SPDP_BUILTIN_PARTICIPANT_READER)
-                    // 2. ParticipantStatelessReader does not contain any writers, since it is stateless
-                    || (sending_writer_entity_id == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_WRITER
-                      && target_reader.entity_id() == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_READER)
-                })
-                .map(Reader::entity_id).collect();
+              let available_target_entity_ids = self.targets_of(sending_writer);
 
               if available_target_entity_ids.is_empty()
                 && security_plugins_clone.is_none()
@@ -1165,8 +1203,20 @@ impl MessageReceiver {
 
   // sends 0 seqnum acknacks for those writer that haven't had any action
   pub fn send_preemptive_acknacks(&mut self) {
-    for reader in self.available_readers.values_mut() {
-      reader.send_preemptive_acknacks();
+    let generation = self.match_generation.get();
+    if self.readers_with_writers.0 != generation {
+      let with: Vec<EntityId> = self
+        .available_readers
+        .iter()
+        .filter(|(_, r)| r.has_matched_writers())
+        .map(|(eid, _)| *eid)
+        .collect();
+      self.readers_with_writers = (generation, with);
+    }
+    for eid in &self.readers_with_writers.1 {
+      if let Some(reader) = self.available_readers.get_mut(eid) {
+        reader.send_preemptive_acknacks();
+      }
     }
   }
 
@@ -1402,6 +1452,44 @@ mod tests {
       first_shape_color(&message_receiver, reader).as_deref(),
       Some("RED")
     );
+  }
+
+  // RADAR patch 16: which readers a writer's submessages to no reader in particular reach is cached, and
+  // the cache follows every change of the readers' matches.
+  #[test]
+  fn the_readers_a_writer_reaches_follow_its_matches() {
+    let (mut message_receiver, reader) = shapes_demo_receiver(false);
+    let writer = shapes_demo_writer();
+    assert!(message_receiver.targets_of(writer).is_empty());
+    assert!(message_receiver.targets_of(writer).is_empty(), "cached");
+    message_receiver
+      .reader_mut(reader)
+      .unwrap()
+      .update_writer_proxy(
+        RtpsWriterProxy::new(writer, vec![], vec![], EntityId::UNKNOWN),
+        &QosPolicies::qos_none(),
+      );
+    assert_eq!(message_receiver.targets_of(writer), [reader], "a new match is seen");
+    // the periodic preemptive ACKNACKs look at the readers with writers only
+    message_receiver.send_preemptive_acknacks();
+    assert_eq!(message_receiver.readers_with_writers.1, [reader]);
+    message_receiver.handle_received_packet(&shapes_demo_packet(), PacketOrigin::UNKNOWN);
+    assert_eq!(
+      first_shape_color(&message_receiver, reader).as_deref(),
+      Some("RED")
+    );
+    message_receiver
+      .reader_mut(reader)
+      .unwrap()
+      .remove_writer_proxy(writer);
+    assert!(message_receiver.targets_of(writer).is_empty(), "a lost match is seen");
+    message_receiver.send_preemptive_acknacks();
+    assert!(message_receiver.readers_with_writers.1.is_empty());
+    let removed = message_receiver
+      .remove_reader(GUID::new(GuidPrefix::UNKNOWN, reader))
+      .is_some();
+    assert!(removed);
+    assert!(message_receiver.targets_of(writer).is_empty());
   }
 
   #[test]

@@ -136,6 +136,9 @@ pub(crate) struct Reader {
   fragment_assemblers: BTreeMap<GUID, FragmentAssembler>,
   last_fragment_garbage_collect: Timestamp,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
+  /// Bumped when the set of matched writers changes (RADAR patch 16): the message receiver's cache of which
+  /// readers a writer's multicast reaches is valid while it stays put. Set by the message receiver.
+  pub(crate) match_generation: Option<Rc<std::cell::Cell<u64>>>,
   writer_match_count_total: i32, // total count, never decreases
 
   requested_deadline_missed_count: i32,
@@ -203,6 +206,7 @@ impl Reader {
       fragment_assemblers: BTreeMap::new(),
       last_fragment_garbage_collect: Timestamp::now(),
       matched_writers: BTreeMap::new(),
+      match_generation: None,
       writer_match_count_total: 0,
       requested_deadline_missed_count: 0,
       offered_incompatible_qos_count: 0,
@@ -465,13 +469,22 @@ impl Reader {
       0
     } else {
       self.matched_writers.insert(proxy.remote_writer_guid, proxy);
+      self.matches_changed();
       1
+    }
+  }
+
+  /// Tells the message receiver that this reader's matched writers changed.
+  fn matches_changed(&self) {
+    if let Some(g) = &self.match_generation {
+      g.set(g.get().wrapping_add(1));
     }
   }
 
   pub fn remove_writer_proxy(&mut self, writer_guid: GUID) {
     if self.matched_writers.contains_key(&writer_guid) {
       self.matched_writers.remove(&writer_guid);
+      self.matches_changed();
       self
         .acquire_the_topic_cache_guard()
         .forget_reliable_writer(writer_guid);
@@ -501,6 +514,11 @@ impl Reader {
     for writer in lost_writers {
       self.remove_writer_proxy(writer);
     }
+  }
+
+  /// Whether any writer is matched with this reader.
+  pub fn has_matched_writers(&self) -> bool {
+    !self.matched_writers.is_empty()
   }
 
   /// Whether `writer` is matched with this reader (always false for a

@@ -156,6 +156,16 @@ pub(crate) struct Writer {
   pub heartbeat_period_fast: Option<Duration>,
   /// duration to launch cache change remove from DDSCache
   pub cache_cleaning_period: Duration,
+  /// A Heartbeat tick is scheduled (RADAR patch 16: a writer whose readers have everything, or that has
+  /// none, keeps no timer; a write or a new reader schedules it again).
+  heartbeat_armed: bool,
+  /// A cache cleaning is scheduled (RADAR patch 16: not while nothing was written since the last one).
+  cache_cleaning_armed: bool,
+  /// The last change when the cache was last cleaned.
+  cleaned_up_to: SequenceNumber,
+  /// Bumped when a reader is matched or unmatched (RADAR patch 16): the event loop's index of which writers
+  /// have readers in which participant is valid while it stays put. Set by the event loop.
+  pub(crate) match_generation: Option<Rc<std::cell::Cell<u64>>>,
   /// Protocol tuning parameter that
   /// allows the RTPS Writer to delay
   /// the response to a request for data
@@ -337,6 +347,10 @@ impl Writer {
       heartbeat_period,
       heartbeat_period_fast,
       cache_cleaning_period,
+      heartbeat_armed: heartbeat_period.is_some(),
+      cache_cleaning_armed: true,
+      cleaned_up_to: SequenceNumber::zero(),
+      match_generation: None,
       nack_response_delay: NACK_RESPONSE_DELAY, // default value from dp_event_loop
       nackfrag_response_delay: NACK_RESPONSE_DELAY, // default value from dp_event_loop
       nack_suppression_duration: NACK_SUPPRESSION_DURATION,
@@ -404,6 +418,32 @@ impl Writer {
   // Schedule a timed event for this Writer on the event loop's shared timer.
   // The payload is tagged with this Writer's EntityId so the event loop can
   // route the fired event back to this Writer.
+  /// Heartbeats of a writer with ManualByTopic liveliness assert it (the period is a third of the lease).
+  fn heartbeat_asserts_liveliness(&self) -> bool {
+    matches!(
+      self.qos_policies.liveliness,
+      Some(policy::Liveliness::ManualByTopic { .. })
+    )
+  }
+
+  /// Schedules the Heartbeat tick (after the fast period: something may be unacknowledged) and the cache
+  /// cleaning if they stopped while the writer was idle (RADAR patch 16).
+  fn arm_idle_timers(&mut self) {
+    if !self.heartbeat_armed {
+      if let Some(period) = self.heartbeat_period_fast.or(self.heartbeat_period) {
+        self.heartbeat_armed = true;
+        self.schedule_timed_event(std::time::Duration::from(period), TimedEvent::Heartbeat);
+      }
+    }
+    if !self.cache_cleaning_armed {
+      self.cache_cleaning_armed = true;
+      self.schedule_timed_event(
+        std::time::Duration::from(self.cache_cleaning_period),
+        TimedEvent::CacheCleaning,
+      );
+    }
+  }
+
   fn schedule_timed_event(&self, after: std::time::Duration, event: TimedEvent) {
     self.timed_event_timer.borrow_mut().set_timeout(
       after,
@@ -485,23 +525,34 @@ impl Writer {
         // ^^ false = This is automatic heartbeat by timer, not manual by application
         // call.
         // Adaptive period: reschedule sooner (fast) while some reader still has
-        // unacknowledged data so repair is prompted quickly, and back off to the
-        // slow period once everyone is caught up to keep idle traffic low.
+        // unacknowledged data so repair is prompted quickly. Once everyone is
+        // caught up (or nobody is matched) the timer stops: a write or a newly
+        // matched reader starts it again (RADAR patch 16). A writer whose
+        // heartbeats assert its liveliness keeps ticking.
         let next_period = if readers_behind {
           self.heartbeat_period_fast.or(self.heartbeat_period)
-        } else {
+        } else if self.heartbeat_asserts_liveliness() {
           self.heartbeat_period
+        } else {
+          None
         };
+        self.heartbeat_armed = next_period.is_some();
         if let Some(period) = next_period {
           self.schedule_timed_event(std::time::Duration::from(period), TimedEvent::Heartbeat);
         }
       }
       TimedEvent::CacheCleaning => {
         self.handle_cache_cleaning();
-        self.schedule_timed_event(
-          std::time::Duration::from(self.cache_cleaning_period),
-          TimedEvent::CacheCleaning,
-        );
+        // nothing written since the last cleaning: stop until the next write (RADAR patch 16)
+        let last = self.send_buffer.last_change_sequence_number();
+        self.cache_cleaning_armed = last != self.cleaned_up_to;
+        self.cleaned_up_to = last;
+        if self.cache_cleaning_armed {
+          self.schedule_timed_event(
+            std::time::Duration::from(self.cache_cleaning_period),
+            TimedEvent::CacheCleaning,
+          );
+        }
       }
       TimedEvent::SendRepairData {
         to_reader: reader_guid,
@@ -772,6 +823,9 @@ impl Writer {
   }
 
   pub fn process_pending(&mut self) {
+    if self.last_sent < self.send_buffer.last_change_sequence_number() {
+      self.arm_idle_timers();
+    }
     // The doorbell enqueues this writer's id and then wakes. A sample admitted
     // while we are here pushes another id, so the next wake runs us again. The
     // shared buffer's `last_seq` is the source of truth.
@@ -1986,6 +2040,7 @@ impl Writer {
         // and thus the back-pressure window.
         self.refresh_acked_frontier();
         if new_reader {
+          self.arm_idle_timers();
           self.matched_readers_count_total += 1;
           self.send_status(DataWriterStatus::PublicationMatched {
             // total: How many matches have been detected ever?
@@ -2094,6 +2149,9 @@ impl Writer {
       })
       .or_insert_with(|| {
         is_new = true;
+        if let Some(g) = &self.match_generation {
+          g.set(g.get().wrapping_add(1));
+        }
         let mut new_proxy = updated_reader_proxy.clone();
         // Ensure loopback stays in the gated bucket even for proxies that
         // arrive with it inline (e.g. the built-in get_builtin_reader_proxy path).
@@ -2151,6 +2209,11 @@ impl Writer {
 
   fn matched_reader_remove(&mut self, guid: GUID) -> Option<RtpsReaderProxy> {
     let removed = self.readers.remove(&guid);
+    if removed.is_some() {
+      if let Some(g) = &self.match_generation {
+        g.set(g.get().wrapping_add(1));
+      }
+    }
     if let Some(ref removed_reader) = removed {
       info!(
         "Removed reader proxy. topic={:?} reader={:?}",
@@ -2167,6 +2230,11 @@ impl Writer {
         .unwrap_or_else(|e| error!("{e}"));
     }
     removed
+  }
+
+  /// The participants this writer has matched readers in.
+  pub(crate) fn reader_prefixes(&self) -> impl Iterator<Item = GuidPrefix> + '_ {
+    self.readers.keys().map(|g| g.prefix)
   }
 
   pub fn reader_lost(&mut self, guid: GUID) {
@@ -2723,6 +2791,151 @@ mod tests {
     assert_eq!(interval_ms(None), 10);
     assert_eq!(interval_ms(Some(Duration::INFINITE)), 10);
     assert_eq!(interval_ms(Some(Duration::ZERO)), 10);
+  }
+
+  // RADAR patch 16: an idle writer keeps no timers; a write or a new reader
+  // schedules them again.
+  mod idle_timers {
+    use std::{cell::RefCell, rc::Rc, time::Duration as StdDuration};
+
+    use super::super::*;
+    use crate::{
+      dds::{
+        ddsdata::DDSData,
+        qos::QosPolicyBuilder,
+        statusevents::{sync_status_channel, StatusChannelReceiver},
+        with_key::datawriter::WriteOptions,
+      },
+      messages::submessages::elements::serialized_payload::SerializedPayload,
+      polling::new_shared_timer,
+      rtps::writer_send_buffer::Admission,
+      structure::guid::EntityKind,
+      RepresentationIdentifier,
+    };
+
+    type Kept = (
+      StatusChannelReceiver<DataWriterStatus>,
+      StatusChannelReceiver<DomainParticipantStatusEvent>,
+    );
+
+    fn writer(timer: &SharedTimer<DpTimerEvent>, qos: QosPolicies) -> (Writer, Kept) {
+      let id = EntityId::new([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED);
+      let guid = GUID::new(GuidPrefix::new(&[1; 12]), id);
+      let send_buffer = WriterSendBuffer::new(
+        guid,
+        "idle_test".to_string(),
+        true,
+        false,
+        false,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        false,
+      );
+      let (status_sender, status) = sync_status_channel(4).unwrap();
+      let (participant_status_sender, participant_status) = sync_status_channel(16).unwrap();
+      let w = Writer::new(
+        WriterIngredients {
+          guid,
+          send_buffer,
+          topic_name: "idle_test".to_string(),
+          like_stateless: false,
+          qos_policies: qos,
+          status_sender,
+          security_plugins: None,
+        },
+        Rc::new(UDPSender::new(0).unwrap()),
+        Rc::clone(timer),
+        participant_status_sender,
+        Rc::new(RefCell::new(InterfaceObservations::default())),
+        Rc::from(Vec::<IfAddr>::new()),
+      );
+      (w, (status, participant_status))
+    }
+
+    fn reliable() -> QosPolicies {
+      QosPolicyBuilder::new()
+        .reliability(Reliability::Reliable {
+          max_blocking_time: Duration::from_millis(100),
+        })
+        .history(History::KeepLast { depth: 1 })
+        .build()
+    }
+
+    /// Fires every scheduled event at once, as the event loop would when they
+    /// are due; returns what was scheduled.
+    fn fire_all(timer: &SharedTimer<DpTimerEvent>, w: &mut Writer) -> Vec<TimedEvent> {
+      let due = timer.borrow_mut().take_all();
+      let events: Vec<TimedEvent> = due
+        .into_iter()
+        .filter_map(|e| match e {
+          DpTimerEvent::Writer { event, .. } => Some(event),
+          _ => None,
+        })
+        .collect();
+      for e in &events {
+        w.handle_timed_event(*e);
+      }
+      events
+    }
+
+    fn count(events: &[TimedEvent], heartbeat: bool) -> usize {
+      events
+        .iter()
+        .filter(|e| match e {
+          TimedEvent::Heartbeat => heartbeat,
+          TimedEvent::CacheCleaning => !heartbeat,
+          _ => false,
+        })
+        .count()
+    }
+
+    #[test]
+    fn an_unmatched_writer_stops_its_timers_and_a_write_starts_them_again() {
+      let timer = new_shared_timer();
+      let (mut w, _kept) = writer(&timer, reliable());
+      // created: one heartbeat and one cache cleaning scheduled
+      let first = fire_all(&timer, &mut w);
+      assert_eq!((count(&first, true), count(&first, false)), (1, 1));
+      // nobody to tell anything, nothing written: both stop
+      assert!(
+        fire_all(&timer, &mut w).is_empty(),
+        "an idle writer with no readers rescheduled a timer"
+      );
+      // a write schedules both again, once
+      let data = DDSData::new(SerializedPayload::new(
+        RepresentationIdentifier::CDR_LE,
+        vec![0; 8],
+      ));
+      assert!(matches!(
+        w.send_buffer
+          .admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)),
+        Admission::Admitted(_)
+      ));
+      w.process_pending();
+      w.process_pending();
+      let again = fire_all(&timer, &mut w);
+      assert_eq!((count(&again, true), count(&again, false)), (1, 1), "{again:?}");
+      // the cleaning after the write runs once more, then stops
+      let after = fire_all(&timer, &mut w);
+      assert_eq!(count(&after, true), 0);
+      assert!(fire_all(&timer, &mut w).is_empty());
+    }
+
+    #[test]
+    fn a_newly_matched_reader_starts_the_heartbeat_again() {
+      let timer = new_shared_timer();
+      let (mut w, _kept) = writer(&timer, reliable());
+      fire_all(&timer, &mut w);
+      assert!(fire_all(&timer, &mut w).is_empty());
+      let reader = GUID::new(
+        GuidPrefix::new(&[2; 12]),
+        EntityId::new([0, 0, 2], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      let rp = RtpsReaderProxy::new(reader, reliable(), false);
+      w.update_reader_proxy(&rp, &reliable());
+      assert_eq!(count(&fire_all(&timer, &mut w), true), 1);
+    }
   }
 
   // Repair (ACKNACK response) tests. The Writer runs without an event loop, so

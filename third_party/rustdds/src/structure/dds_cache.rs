@@ -49,7 +49,13 @@ use super::cache_change::CacheChange;
 #[derive(Debug, Default)]
 pub struct DDSCache {
   topic_caches: HashMap<String, Arc<Mutex<TopicCache>>>,
+  /// Topics that got changes the garbage collection has not fully handled (RADAR patch 16: a participant
+  /// may have thousands of topics, nearly all idle; the collection looks only at these).
+  gc_pending: GcPending,
 }
+
+/// Names of the topics the next garbage collection looks at.
+pub(crate) type GcPending = Arc<Mutex<std::collections::HashSet<String>>>;
 
 impl DDSCache {
   pub fn new() -> Self {
@@ -70,11 +76,11 @@ impl DDSCache {
       .topic_caches
       .entry(topic_name.clone())
       .and_modify(|tc| tc.lock().unwrap().update_keep_limits(qos))
-      .or_insert(Arc::new(Mutex::new(TopicCache::new(
-        topic_name,
-        topic_data_type,
-        qos,
-      ))));
+      .or_insert_with(|| {
+        let mut tc = TopicCache::new(topic_name, topic_data_type, qos);
+        tc.gc_pending = Some(Arc::clone(&self.gc_pending));
+        Arc::new(Mutex::new(tc))
+      });
 
     topic_cache_handle.clone()
   }
@@ -100,14 +106,36 @@ impl DDSCache {
   }
 
   pub fn garbage_collect(&mut self) {
-    for tc in self.topic_caches.values_mut() {
+    let pending = std::mem::take(&mut *self.gc_pending.lock().unwrap());
+    let mut again = Vec::new();
+    for name in pending {
+      let Some(tc) = self.topic_caches.get(&name) else {
+        continue;
+      };
       let mut tc = tc.lock().unwrap();
       if let Some((last_timestamp, _)) = tc.changes.iter().next_back() {
         if *last_timestamp > tc.changes_reallocated_up_to {
           tc.remove_changes_before(Timestamp::ZERO);
         }
       }
+      // changes too recent to be reallocated yet: look again next time
+      let unfinished = tc
+        .changes
+        .iter()
+        .next_back()
+        .is_some_and(|(last, _)| *last > tc.changes_reallocated_up_to);
+      tc.gc_listed = unfinished;
+      if unfinished {
+        again.push(name);
+      }
     }
+    self.gc_pending.lock().unwrap().extend(again);
+  }
+
+  /// Topics the next garbage collection looks at (tests).
+  #[cfg(test)]
+  pub(crate) fn gc_pending_topics(&self) -> usize {
+    self.gc_pending.lock().unwrap().len()
   }
 }
 
@@ -162,6 +190,12 @@ pub(crate) struct TopicCache {
   // (reader, writer) -> the first sequence number the writer offered that (durable) reader in its first
   // HEARTBEAT: where the reader's view of the writer's history starts (RADAR patch 6).
   history_offers: BTreeMap<(GUID, GUID), SequenceNumber>,
+
+  /// Where this topic lists itself for the DDSCache's garbage collection (RADAR patch 16); `None` for a
+  /// cache made outside a DDSCache.
+  gc_pending: Option<GcPending>,
+  /// Listed there now.
+  gc_listed: bool,
 }
 
 impl TopicCache {
@@ -180,6 +214,8 @@ impl TopicCache {
       received_reliably_before: BTreeMap::new(),
       departed_writers: BTreeSet::new(),
       history_offers: BTreeMap::new(),
+      gc_pending: None,
+      gc_listed: false,
     };
 
     new_self.update_keep_limits(topic_qos);
@@ -343,6 +379,12 @@ impl TopicCache {
     instant: &Timestamp,
     cache_change: CacheChange,
   ) -> Option<CacheChange> {
+    if !self.gc_listed {
+      if let Some(pending) = &self.gc_pending {
+        self.gc_listed = true;
+        pending.lock().unwrap().insert(self.topic_name.clone());
+      }
+    }
     // First, do garbage collection.
     // But not at every insert, just to save time and effort.
     // Some heuristic to decide if we should collect now.
@@ -839,6 +881,41 @@ mod tests {
     assert_eq!(starts.get(&writer(2)), Some(&SequenceNumber::new(5)), "keeps none");
     let all = cache.read_start_points(|_| 10);
     assert!(all.is_empty(), "keeping more than is cached starts from the beginning");
+  }
+
+  // RADAR patch 16: the garbage collection looks only at topics that got changes.
+  #[test]
+  fn garbage_collection_looks_only_at_topics_with_changes() {
+    let mut dds = DDSCache::new();
+    let qos = QosPolicyBuilder::new()
+      .history(History::KeepLast { depth: 1 })
+      .build();
+    let topics: Vec<_> = (0..1000)
+      .map(|i| dds.add_new_topic(format!("t{i}"), TypeDesc::new("T".to_string()), &qos))
+      .collect();
+    assert_eq!(dds.gc_pending_topics(), 0, "idle topics are not looked at");
+    let sample = |sn| {
+      CacheChange::new(
+        user_writer(),
+        SequenceNumber::new(sn),
+        WriteOptions::default(),
+        DDSData::new(SerializedPayload::default()),
+      )
+    };
+    // written 10 s ago: done with in one pass
+    let old = Timestamp::now() - crate::Duration::from_secs(10);
+    topics[7].lock().unwrap().add_change(&old, sample(1));
+    topics[7]
+      .lock()
+      .unwrap()
+      .add_change(&(old + crate::Duration::from_millis(1)), sample(2));
+    // written now: too recent to finish
+    topics[9].lock().unwrap().add_change(&Timestamp::now(), sample(1));
+    assert_eq!(dds.gc_pending_topics(), 2);
+    dds.garbage_collect();
+    assert_eq!(dds.gc_pending_topics(), 1, "the recent one is looked at again");
+    topics[7].lock().unwrap().add_change(&Timestamp::now(), sample(3));
+    assert_eq!(dds.gc_pending_topics(), 2, "a new change lists a topic again");
   }
 
   fn keep_all_topic_cache() -> TopicCache {
