@@ -150,6 +150,8 @@ pub struct Throughput {
     pub max_lossless: f64,
     /// Relay CPU at that rate.
     pub relay_cpu: f64,
+    /// Time to make all the connections from the manager's process, each found by name (ms; none for raw).
+    pub connect_ms: Option<f64>,
     /// Every step run.
     pub steps: Vec<Step>,
 }
@@ -711,13 +713,21 @@ impl Bench {
         Ok((best, best_cpu, steps))
     }
 
-    fn push_throughput(&mut self, key: &str, label: &str, n: usize, r: (f64, f64, Vec<Step>)) {
+    fn push_throughput(
+        &mut self,
+        key: &str,
+        label: &str,
+        n: usize,
+        r: (f64, f64, Vec<Step>),
+        connect_ms: Option<f64>,
+    ) {
         self.results.throughput.push(Throughput {
             key: key.into(),
             label: label.into(),
             connections: n,
             max_lossless: r.0,
             relay_cpu: r.1,
+            connect_ms,
             steps: r.2,
         });
     }
@@ -734,7 +744,7 @@ impl Bench {
             .await?;
         src.ask("wait", START).await?;
         let r = self.ladder(&mut src, &mut sink, None).await?;
-        self.push_throughput("raw_1hop", "raw ros2-client, 1 hop", 1, r);
+        self.push_throughput("raw_1hop", "raw ros2-client, 1 hop", 1, r, None);
         src.quit().await;
         sink.quit().await;
         // raw two hops
@@ -766,6 +776,7 @@ impl Bench {
             "raw ros2-client, 2 hops (forwarding node)",
             1,
             r,
+            None,
         );
         for c in [src, fwd, sink] {
             c.quit().await;
@@ -787,7 +798,10 @@ impl Bench {
                     Duration::from_secs(300),
                 )
                 .await?;
-            eprintln!("radar_bench: {n} connections {armed} ms");
+            eprintln!("radar_bench: {n} connections {armed}");
+            let connect_ms = armed
+                .strip_prefix("armed ")
+                .and_then(|ms| ms.trim().parse::<f64>().ok());
             src.ask("wait", Duration::from_secs(60)).await?;
             tokio::time::sleep(Duration::from_millis(300)).await;
             let pid = mgr.pid();
@@ -797,6 +811,7 @@ impl Bench {
                 &format!("radar_ros manager process, {n} live connection(s), load spread over all"),
                 n,
                 r,
+                connect_ms,
             );
             for c in [mgr, src, sink] {
                 c.quit().await;

@@ -64,9 +64,9 @@ pub fn table(r: &Results) -> String {
     );
     let _ = writeln!(
         s,
-        "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step |"
+        "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step | connect all (by name, from the manager's process) |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|");
     for t in &r.throughput {
         let lossy = t
             .steps
@@ -81,13 +81,16 @@ pub fn table(r: &Results) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0} | {} | {} | {} |",
+            "| {} | {} | {:.0} | {} | {} | {} | {} |",
             t.label,
             t.connections,
             t.max_lossless,
             ratio(t.max_lossless, base),
             cpu,
-            lossy
+            lossy,
+            t.connect_ms
+                .map(|ms| format!("{ms:.0} ms"))
+                .unwrap_or_else(|| "-".into())
         );
     }
     if !r.scale.is_empty() {

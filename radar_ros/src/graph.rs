@@ -78,6 +78,60 @@ pub(crate) struct Graph {
     changed: Arc<watch::Sender<u64>>,
     /// What arrived that did not decode, from whom.
     malformed: Arc<crate::malformed::Malformed>,
+    /// Every endpoint by topic, for lookups by name.
+    index: Arc<Mutex<TopicIndex>>,
+}
+
+/// How old the topic index may get before a lookup rebuilds it from the discovery data (discovery events,
+/// which keep it current, can be dropped when their channel is full).
+const RESYNC: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// The endpoints of the graph by (is a writer, ROS topic): their DDS types. Kept current from discovery
+/// events and this participant's own endpoints, so that a lookup by name costs the same with 10 or 10,000
+/// endpoints (it used to copy every endpoint discovery knew, per lookup).
+#[derive(Default)]
+struct TopicIndex {
+    by_topic: HashMap<(bool, String), HashMap<GUID, String>>,
+    topic_of: HashMap<GUID, (bool, String)>,
+    synced: Option<std::time::Instant>,
+}
+
+impl TopicIndex {
+    fn insert(&mut self, writer: bool, guid: GUID, topic: String, dds_type: String) {
+        self.remove(&guid);
+        self.by_topic
+            .entry((writer, topic.clone()))
+            .or_default()
+            .insert(guid, dds_type);
+        self.topic_of.insert(guid, (writer, topic));
+    }
+
+    /// The DDS type of endpoint `guid`, if it is known as a writer (`writer`) or reader.
+    fn type_of(&self, guid: &GUID, writer: bool) -> Option<String> {
+        let key = self.topic_of.get(guid)?;
+        if key.0 != writer {
+            return None;
+        }
+        self.by_topic.get(key)?.get(guid).cloned()
+    }
+
+    fn remove(&mut self, guid: &GUID) {
+        if let Some(key) = self.topic_of.remove(guid) {
+            if let Some(m) = self.by_topic.get_mut(&key) {
+                m.remove(guid);
+                if m.is_empty() {
+                    self.by_topic.remove(&key);
+                }
+            }
+        }
+    }
+
+    fn remove_matching(&mut self, pred: impl Fn(&GUID) -> bool) {
+        let gone: Vec<GUID> = self.topic_of.keys().filter(|g| pred(g)).copied().collect();
+        for g in gone {
+            self.remove(&g);
+        }
+    }
 }
 
 impl Default for Graph {
@@ -88,6 +142,7 @@ impl Default for Graph {
             lost: tokio::sync::broadcast::channel(64).0,
             changed: Arc::new(watch::channel(0).0),
             malformed: Default::default(),
+            index: Default::default(),
         }
     }
 }
@@ -148,15 +203,23 @@ impl Graph {
     }
 
     /// Every endpoint on the graph that discovery knows, plus this participant's own registered ones:
-    /// `(is_writer, ROS topic, DDS type)`.
+    /// `(is_writer, ROS topic, DDS type)`. Copies all of discovery's data: for listings, not lookups
+    /// ([`Graph::types_on`]).
     pub(crate) fn endpoints(&self) -> Vec<(bool, String, String)> {
+        self.scan()
+            .into_iter()
+            .map(|(w, _, t, ty)| (w, t, ty))
+            .collect()
+    }
+
+    fn scan(&self) -> Vec<(bool, GUID, String, String)> {
         let mut out = Vec::new();
         {
             let t = self.table.lock().unwrap();
             for (is_writer, map) in [(true, &t.writers), (false, &t.readers)] {
-                for e in map.values() {
+                for (g, e) in map.iter() {
                     if let Some((topic, ty)) = &e.identity {
-                        out.push((is_writer, topic.clone(), ty.clone()));
+                        out.push((is_writer, *g, topic.clone(), ty.clone()));
                     }
                 }
             }
@@ -165,16 +228,55 @@ impl Graph {
         if let Some(p) = self.participant.lock().unwrap().clone() {
             for w in p.discovered_writers() {
                 if let Some(t) = ros(&w.publication_topic_data.topic_name) {
-                    out.push((true, t, w.publication_topic_data.type_name.clone()));
+                    out.push((
+                        true,
+                        w.writer_proxy.remote_writer_guid,
+                        t,
+                        w.publication_topic_data.type_name.clone(),
+                    ));
                 }
             }
             for r in p.discovered_readers() {
                 if let Some(t) = ros(r.subscription_topic_data.topic_name()) {
-                    out.push((false, t, r.subscription_topic_data.type_name().clone()));
+                    out.push((
+                        false,
+                        r.reader_proxy.remote_reader_guid,
+                        t,
+                        r.subscription_topic_data.type_name().clone(),
+                    ));
                 }
             }
         }
         out
+    }
+
+    /// The DDS types of the writers (`writer`) or readers on the ROS `topic`, from the topic index
+    /// (rebuilt from the discovery data when older than [`RESYNC`]).
+    pub(crate) fn types_on(&self, writer: bool, topic: &str) -> BTreeSet<String> {
+        let stale = self
+            .index
+            .lock()
+            .unwrap()
+            .synced
+            .is_none_or(|at| at.elapsed() > RESYNC);
+        if stale {
+            let all = self.scan();
+            let mut index = TopicIndex {
+                synced: Some(std::time::Instant::now()),
+                ..Default::default()
+            };
+            for (w, g, t, ty) in all {
+                index.insert(w, g, t, ty);
+            }
+            *self.index.lock().unwrap() = index;
+        }
+        self.index
+            .lock()
+            .unwrap()
+            .by_topic
+            .get(&(writer, topic.to_owned()))
+            .map(|m| m.values().cloned().collect())
+            .unwrap_or_default()
     }
 
     /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
@@ -367,6 +469,12 @@ impl Graph {
         if let Some((_, ty)) = own.and_then(|e| e.identity.as_ref()) {
             return Some(ty.clone());
         }
+        // the topic index knows nearly every peer (copying all of discovery's data per match made
+        // connecting N endpoints cost N^2)
+        let wanted_writer = matches!(side, Side::Reader);
+        if let Some(ty) = self.index.lock().unwrap().type_of(&peer, wanted_writer) {
+            return Some(ty);
+        }
         let p = self.participant.lock().unwrap().clone()?;
         match side {
             Side::Writer => p
@@ -416,6 +524,12 @@ impl Graph {
         let e = map.entry(guid).or_default();
         if e.identity.is_none() {
             e.identity = Some((topic.to_owned(), dds_type.to_owned()));
+            self.index.lock().unwrap().insert(
+                matches!(side, Side::Writer),
+                guid,
+                topic.to_owned(),
+                dds_type.to_owned(),
+            );
             // peers matched before we knew our type are checked now
             let early: Vec<GUID> = std::mem::take(&mut e.peers).into_iter().collect();
             let typed: Vec<(GUID, Option<String>)> = early
@@ -463,6 +577,7 @@ impl Graph {
 
     /// Forgets a local endpoint that was deleted (also as the peer of other local endpoints).
     pub(crate) fn forget(&self, guid: GUID) {
+        self.index.lock().unwrap().remove(&guid);
         let mut t = self.table.lock().unwrap();
         t.writers.remove(&guid);
         t.readers.remove(&guid);
@@ -480,6 +595,7 @@ impl Graph {
     }
 
     fn apply(&self, ev: DomainParticipantStatusEvent) {
+        self.index_event(&ev);
         let mut t = self.table.lock().unwrap();
         match ev {
             DomainParticipantStatusEvent::RemoteReaderMatched {
@@ -516,6 +632,27 @@ impl Graph {
                 let cause = cause_of(&reason);
                 Self::remove_where(&mut t.writers, |g| g.prefix == id, &cause);
                 Self::remove_where(&mut t.readers, |g| g.prefix == id, &cause);
+            }
+            _ => {}
+        }
+    }
+
+    /// Keeps the topic index current with a discovery event.
+    fn index_event(&self, ev: &DomainParticipantStatusEvent) {
+        let mut index = self.index.lock().unwrap();
+        match ev {
+            DomainParticipantStatusEvent::ReaderDetected { reader: e }
+            | DomainParticipantStatusEvent::WriterDetected { writer: e } => {
+                if let Some(t) = e.topic_name.strip_prefix("rt") {
+                    let writer = matches!(ev, DomainParticipantStatusEvent::WriterDetected { .. });
+                    index.insert(writer, e.guid, t.to_owned(), e.type_name.clone());
+                }
+            }
+            DomainParticipantStatusEvent::ReaderLost { guid, .. }
+            | DomainParticipantStatusEvent::WriterLost { guid, .. } => index.remove(guid),
+            DomainParticipantStatusEvent::ParticipantLost { id, .. } => {
+                let id = *id;
+                index.remove_matching(|g| g.prefix == id)
             }
             _ => {}
         }

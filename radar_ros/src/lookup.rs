@@ -59,14 +59,15 @@ impl Component {
     }
 }
 
+/// The DDS types of the writers (`true`) or readers on a ROS topic.
+type TypesOn<'a> = &'a dyn Fn(bool, &str) -> BTreeSet<String>;
+
 /// What the graph shows at `name` now: `Ok(None)` if nothing (yet).
-fn inspect(endpoints: &[(bool, String, String)], name: &ComponentName) -> Result<Option<Found>> {
+fn inspect(types_on: TypesOn<'_>, name: &ComponentName) -> Result<Option<Found>> {
     let types = |writer: bool, endpoint: &str| -> BTreeSet<String> {
-        let topic = name.topic(endpoint);
-        endpoints
+        types_on(writer, &name.topic(endpoint))
             .iter()
-            .filter(|(w, t, _)| *w == writer && *t == topic)
-            .map(|(_, _, ty)| ros_type_of_dds(ty))
+            .map(|ty| ros_type_of_dds(ty))
             .collect()
     };
     let one = |set: BTreeSet<String>, endpoint: &str| -> Result<Option<String>> {
@@ -87,6 +88,17 @@ fn inspect(endpoints: &[(bool, String, String)], name: &ComponentName) -> Result
     match (start, exited) {
         (Some(s), Some(o)) => Ok(Some(Found::Response(s, o))),
         _ => Ok(None),
+    }
+}
+
+/// [`TypesOn`] for a list of endpoints.
+fn in_list(endpoints: &[(bool, String, String)]) -> impl Fn(bool, &str) -> BTreeSet<String> + '_ {
+    move |writer, topic| {
+        endpoints
+            .iter()
+            .filter(|(w, t, _)| *w == writer && t == topic)
+            .map(|(_, _, ty)| ty.clone())
+            .collect()
     }
 }
 
@@ -139,6 +151,7 @@ impl Radar {
     /// ```
     pub fn components(&self) -> Vec<Component> {
         let eps = self.graph().endpoints();
+        let types_on = in_list(&eps);
         let mut names = BTreeSet::new();
         for (w, t, _) in &eps {
             let n = match w {
@@ -155,7 +168,7 @@ impl Radar {
             .into_iter()
             .filter_map(|n| {
                 let name = ComponentName::resolve(&n, "/").ok()?;
-                match inspect(&eps, &name) {
+                match inspect(&types_on, &name) {
                     Ok(Some(Found::Event(p))) => Some(Component::Event(EventRef::new(name, p))),
                     Ok(Some(Found::Response(s, o))) => {
                         Some(Component::Response(ResponseRef::new(name, s, o)))
@@ -200,24 +213,26 @@ impl Radar {
     }
 
     /// Looks at the graph after every discovery event (and every 100 ms, in case an event came before the
-    /// data) until `found` says yes or no, for at most `timeout`; `found` gets the endpoints seen so far and
-    /// answers `Ok(None)` for "not yet".
+    /// data) until `found` says yes or no, for at most `timeout`; `found` gets the graph's topic index
+    /// (writer or not, ROS topic -> DDS types) and answers `Ok(None)` for "not yet"; `gave_up` gets every
+    /// endpoint seen.
     pub(crate) async fn wait_on_graph<T>(
         &self,
         timeout: Duration,
-        mut found: impl FnMut(&[(bool, String, String)]) -> Result<Option<T>>,
+        mut found: impl FnMut(TypesOn<'_>) -> Result<Option<T>>,
         gave_up: impl FnOnce(&[(bool, String, String)]) -> Error,
     ) -> Result<T> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut changes = self.graph().changes();
+        let graph = self.graph().clone();
+        let types_on = move |writer: bool, topic: &str| graph.types_on(writer, topic);
         loop {
             changes.mark_unchanged();
-            let eps = self.graph().endpoints();
-            if let Some(t) = found(&eps)? {
+            if let Some(t) = found(&types_on)? {
                 return Ok(t);
             }
             if tokio::time::Instant::now() >= deadline {
-                return Err(gave_up(&eps));
+                return Err(gave_up(&self.graph().endpoints()));
             }
             let next = tokio::time::timeout_at(
                 deadline.min(tokio::time::Instant::now() + Duration::from_millis(100)),
@@ -235,7 +250,7 @@ impl Radar {
         let kind = if want_event { "event" } else { "response" };
         self.wait_on_graph(
             timeout,
-            |eps| match inspect(eps, &name)? {
+            |types_on| match inspect(types_on, &name)? {
                 Some(Found::Event(_)) if !want_event => Err(Error::WrongKind {
                     name: name.fully_qualified(),
                     expected: "a response",
@@ -268,11 +283,11 @@ impl Radar {
         let what = if writer { "publisher" } else { "subscriber" };
         self.wait_on_graph(
             timeout,
-            |eps| {
-                Ok(eps
+            |types_on| {
+                Ok(types_on(writer, topic)
                     .iter()
-                    .find(|(w, t, _)| *w == writer && t == topic)
-                    .map(|(_, _, ty)| ros_type_of_dds(ty)))
+                    .next()
+                    .map(|ty| ros_type_of_dds(ty)))
             },
             |_| Error::Timeout {
                 what: format!(
@@ -370,7 +385,7 @@ mod tests {
 
     #[test]
     fn components_are_recognised_by_their_topics_and_types() {
-        match inspect(&eps(), &n("count_up")).unwrap() {
+        match inspect(&in_list(&eps()), &n("count_up")).unwrap() {
             Some(Found::Response(s, o)) => assert_eq!(
                 (s.as_str(), o.as_str()),
                 ("std_msgs/msg/String", "std_msgs/msg/Empty")
@@ -378,10 +393,13 @@ mod tests {
             _ => panic!("count_up is a response"),
         }
         assert!(
-            matches!(inspect(&eps(), &n("start_event")).unwrap(), Some(Found::Event(t)) if t == "std_msgs/msg/Empty")
+            matches!(inspect(&in_list(&eps()), &n("start_event")).unwrap(), Some(Found::Event(t)) if t == "std_msgs/msg/Empty")
         );
-        assert!(inspect(&eps(), &n("nothing")).unwrap().is_none());
-        let e = inspect(&eps(), &n("twice")).err().unwrap().to_string();
+        assert!(inspect(&in_list(&eps()), &n("nothing")).unwrap().is_none());
+        let e = inspect(&in_list(&eps()), &n("twice"))
+            .err()
+            .unwrap()
+            .to_string();
         assert!(
             e.contains("/twice/triggered") && e.contains("std_msgs/msg/String"),
             "{e}"
