@@ -913,7 +913,7 @@ impl Bench {
         let last = self.results.latency.last_mut().unwrap();
         last.missing = n.saturating_sub(last.summary.n as u64);
 
-        // the baseline in the same domain, on its own topic (domains are few: 200-232)
+        // the baseline in the same domain, on its own topic (domains are few)
         let mut sink = self
             .python(d, &["sink", "--topic", "/bench/oneshot_base"])
             .await?;

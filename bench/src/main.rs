@@ -6,7 +6,7 @@
 //! ```
 //!
 //! Options: `--out DIR` (default `target/radar_bench/<mode>`), `--domain N` (first `ROS_DOMAIN_ID`, default
-//! 200; each scenario takes the next), `--only latency,setup,...`, `--venv DIR` (rclpy venv, default
+//! 70; each scenario takes the next), `--only latency,setup,...`, `--venv DIR` (rclpy venv, default
 //! `$RADAR_VENV` or `target/ros2-venv`). Every scenario runs its parts as separate processes (this program
 //! with `child ROLE`), talking real DDS. `oneshot`, `memory` and `kill` try what ROS users do to a system: a
 //! fresh process per one-shot publish, a long run of state changes, a program killed with SIGKILL. See
@@ -69,7 +69,7 @@ fn main() -> Result<()> {
     });
     let domain = match opt("--domain") {
         Some(d) => d.parse().context("--domain must be a number")?,
-        None => 200,
+        None => 70,
     };
     let venv = opt("--venv")
         .or_else(|| std::env::var("RADAR_VENV").ok())
