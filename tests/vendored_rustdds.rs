@@ -40,6 +40,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "an_unmatched_writer_stops_its_timers_and_a_write_starts_them_again",
         "the_readers_a_writer_reaches_follow_its_matches",
         "garbage_collection_looks_only_at_topics_with_changes",
+        "a_participant_closed_while_still_held_sends_what_it_wrote_and_says_goodbye",
+        "a_reader_reports_when_a_matched_writer_is_heard_from",
     ] {
         assert!(
             stdout.contains(&format!("{name} ... ok")),

@@ -455,6 +455,48 @@ impl DomainParticipant {
     dp_builder.build()
   }
 
+  /// Leaves the domain now, as dropping the last handle would: the writers send what they have queued,
+  /// discovery tells the other participants that this one and its endpoints are gone (so they see it leave
+  /// at once, not when its lease runs out), and the participant's threads stop. Handles to it, and its
+  /// readers and writers, may live on: they do nothing more. Calling it again does nothing; so does dropping
+  /// the participant afterwards.
+  ///
+  /// For a program that must leave while parts of it still hold the participant (one told to stop by a
+  /// signal, say). (RADAR patch 17.)
+  ///
+  /// ```
+  /// # use rustdds::DomainParticipant;
+  /// let domain_participant = DomainParticipant::new(0).unwrap();
+  /// let other_handle = domain_participant.clone();
+  /// domain_participant.close(); // gone from the domain, though `other_handle` lives
+  /// domain_participant.close(); // nothing more
+  /// ```
+  pub fn close(&self) {
+    let discovery = match self.dpi.lock() {
+      Ok(mut disc) => disc.begin_close(),
+      Err(_) => return,
+    };
+    let Some(discovery) = discovery else {
+      return;
+    };
+    if let Some(handle) = discovery {
+      if handle.thread().id() != std::thread::current().id() {
+        handle
+          .join()
+          .unwrap_or_else(|e| warn!("Failed to join discovery thread: {e:?}"));
+      }
+    }
+    let ev_loop = match self.dpi.lock() {
+      Ok(mut disc) => disc.dpi.finish_close(),
+      Err(_) => None,
+    };
+    if let Some(handle) = ev_loop {
+      handle
+        .join()
+        .unwrap_or_else(|e| warn!("Failed to join dp_event_loop: {e:?}"));
+    }
+  }
+
   /// Creates DDS Publisher
   ///
   /// # Arguments
@@ -976,6 +1018,8 @@ impl RTPSEntity for DomainParticipantWeak {
 // should be dropped
 pub(crate) struct DomainParticipantDisc {
   dpi: DomainParticipantInner,
+  // RADAR patch 17: set once the participant has been closed (or dropped): nothing more to stop.
+  closed: bool,
   // Discovery control
   discovery_command_sender: WakeSender<DiscoveryCommand>,
   discovery_join_handle: std::sync::mpsc::Receiver<JoinHandle<()>>,
@@ -1023,10 +1067,38 @@ impl DomainParticipantDisc {
 
     Ok(Self {
       dpi,
+      closed: false,
       discovery_command_sender,
       discovery_join_handle,
       entity_id_generator: atomic::AtomicU32::new(0),
     })
+  }
+
+  // RADAR patch 17: the first half of stopping (as a drop does): the event loop prepares to stop, discovery
+  // writes its disposes and stops. Returns discovery's thread to join, outside the participant's lock (the
+  // discovery thread may need it to finish); `None` once closed.
+  fn begin_close(&mut self) -> Option<Option<JoinHandle<()>>> {
+    if std::mem::replace(&mut self.closed, true) {
+      return None;
+    }
+    info!("===== RustDDS shutting down ===== closing DomainParticipant");
+    if self
+      .dpi
+      .stop_poll_sender
+      .send(EventLoopCommand::PrepareStop)
+      .is_err()
+    {
+      error!("dp_event_loop not responding to prepare stop discovery_command");
+    }
+    if self
+      .discovery_command_sender
+      .send(DiscoveryCommand::StopDiscovery)
+      .is_err()
+    {
+      warn!("Failed to send stop signal to Discovery");
+      return Some(None);
+    }
+    Some(self.discovery_join_handle.try_recv().ok())
   }
 
   // This generates identifiers that consist of given EntityKind and arbitrary,
@@ -1146,6 +1218,10 @@ impl DomainParticipantDisc {
 
 impl Drop for DomainParticipantDisc {
   fn drop(&mut self) {
+    // RADAR patch 17: a closed participant has stopped already
+    if std::mem::replace(&mut self.closed, true) {
+      return;
+    }
     info!("===== RustDDS shutting down ===== .drop() DomainParticipantDisc");
 
     debug!("Wan dp_event_loop about stop.");
@@ -1226,8 +1302,25 @@ pub(crate) struct DomainParticipantInner {
   only_networks: Option<Arc<[IpAddr]>>,
 }
 
+impl DomainParticipantInner {
+  // RADAR patch 17: the second half of stopping: the event loop sends what is queued, then stops. Returns its
+  // thread to join outside the participant's lock; `None` if it was stopped before.
+  fn finish_close(&mut self) -> Option<JoinHandle<()>> {
+    let handle = self.ev_loop_handle.take()?;
+    if self.stop_poll_sender.send(EventLoopCommand::Stop).is_err() {
+      error!("dp_event_loop not responding to stop discovery_command");
+      return None;
+    }
+    Some(handle)
+  }
+}
+
 impl Drop for DomainParticipantInner {
   fn drop(&mut self) {
+    // RADAR patch 17: closed before (DomainParticipant::close): the event loop has stopped
+    if self.ev_loop_handle.is_none() {
+      return;
+    }
     // if send has an error simply leave as we have lost control of the
     // ev_loop_thread anyways
     if self.stop_poll_sender.send(EventLoopCommand::Stop).is_err() {

@@ -379,6 +379,13 @@ pub enum DomainParticipantStatusEvent {
     local_reader: GUID,
     remote_writer: GUID,
   },
+  /// A matched remote writer has shown that it sends to this reader: its first HEARTBEAT or DATA arrived.
+  /// Matching is done on each side separately; until this, a volatile writer may not yet have matched the
+  /// reader, and what it writes meanwhile does not reach it. (RADAR patch 18.)
+  RemoteWriterHeard {
+    local_reader: GUID,
+    remote_writer: GUID,
+  },
   RemoteReaderQosIncompatible {
     local_writer: GUID,
     remote_reader: GUID,

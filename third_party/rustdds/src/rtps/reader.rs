@@ -572,6 +572,27 @@ impl Reader {
   }
 
   // handles regular data message and updates history cache
+  // RADAR patch 18: the first HEARTBEAT or DATA of a matched writer says it sends to this reader.
+  fn note_heard(&mut self, writer_guid: GUID) {
+    // the built-in (discovery) readers' writers are of no interest to the application
+    if self.my_guid.entity_id.entity_kind.is_built_in() {
+      return;
+    }
+    let first = match self.matched_writers.get_mut(&writer_guid) {
+      Some(w) if !w.heard => {
+        w.heard = true;
+        true
+      }
+      _ => false,
+    };
+    if first {
+      self.send_participant_status(DomainParticipantStatusEvent::RemoteWriterHeard {
+        local_reader: self.my_guid,
+        remote_writer: writer_guid,
+      });
+    }
+  }
+
   pub fn handle_data_msg(
     &mut self,
     data: Data,
@@ -603,6 +624,7 @@ impl Reader {
 
     let writer_guid = GUID::new_with_prefix_and_id(mr_state.source_guid_prefix, data.writer_id);
     let writer_seq_num = data.writer_sn; // for borrow checker
+    self.note_heard(writer_guid);
 
     match self.data_to_dds_data(data, data_flags) {
       Ok(dds_data) => self.process_received_data(
@@ -623,6 +645,7 @@ impl Reader {
     mr_state: &MessageReceiverState,
   ) {
     let writer_guid = GUID::new_with_prefix_and_id(mr_state.source_guid_prefix, datafrag.writer_id);
+    self.note_heard(writer_guid);
     let seq_num = datafrag.writer_sn;
     let receive_timestamp = Timestamp::now();
     //trace!("DATAFRAG received topic={:?}", self.topic_name);
@@ -941,6 +964,7 @@ impl Reader {
       );
       return false;
     }
+    self.note_heard(writer_guid);
     // sanity check
     if heartbeat.first_sn < SequenceNumber::default() {
       warn!(

@@ -65,6 +65,10 @@ pub(crate) struct RtpsWriterProxy {
   // The changes map is cleaned on heartbeat messages. The changes no longer available are dropped.
   pub received_heartbeat_count: i32,
 
+  /// RADAR patch 18: a HEARTBEAT or DATA of this writer reached the reader: the writer has matched it (or its
+  /// participant) and sends to it.
+  pub heard: bool,
+
   pub sent_ack_nack_count: i32,
 
   ack_base: SequenceNumber, // We can ACK everything before this number.
@@ -91,6 +95,7 @@ impl RtpsWriterProxy {
       remote_group_entity_id,
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
+      heard: false,
       sent_ack_nack_count: 0,
       // Sequence numbering must start at 1.
       // Therefore, we can ACK all sequence numbers below 1 even before receiving anything.
@@ -327,6 +332,7 @@ impl RtpsWriterProxy {
       multicast_locator_list,
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
+      heard: false,
       sent_ack_nack_count: 0,
       ack_base: SequenceNumber::default(),
       last_received_sequence_number: SequenceNumber::new(0),

@@ -237,6 +237,151 @@ fn a_participant_dropped_right_after_writing_still_sends_the_sample_and_its_good
 }
 
 
+/// RADAR patch 17: a participant closed while handles to it (and its writer) still live sends what it wrote
+/// and says goodbye, as a drop would: the peer takes the sample and sees the writer leave at once (the lease is
+/// 50 s); closing again, and dropping everything afterwards, does nothing more.
+#[test]
+fn a_participant_closed_while_still_held_sends_what_it_wrote_and_says_goodbye() -> Result<()> {
+  let domain = test_domain_id(23);
+  let qos = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 10 })
+    .reliability(Reliability::Reliable {
+      max_blocking_time: Duration::from_secs(1).into(),
+    })
+    .durability(Durability::Volatile)
+    .build();
+  let reader_side = DomainParticipant::new(domain)?;
+  let rtopic = reader_side.create_topic(
+    "patch17".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let mut reader = reader_side
+    .create_subscriber(&qos)?
+    .create_datareader_no_key_cdr::<u32>(&rtopic, None)?;
+  for round in 0..5u32 {
+    let writer_side = DomainParticipant::new(domain)?;
+    let still_held = writer_side.clone();
+    let topic = writer_side.create_topic(
+      "patch17".to_string(),
+      "Counter".to_string(),
+      &qos,
+      TopicKind::NoKey,
+    )?;
+    let writer = writer_side
+      .create_publisher(&qos)?
+      .create_datawriter_no_key_cdr::<u32>(&topic, None)?;
+    let mut matched = false;
+    for _ in 0..200 {
+      matched = !reader_side.discovered_writers().is_empty()
+        && !writer_side.discovered_readers().is_empty();
+      if matched {
+        break;
+      }
+      thread::sleep(Duration::from_millis(10));
+    }
+    assert!(matched, "round {round}: discovery");
+    thread::sleep(Duration::from_millis(200)); // both have matched the other's endpoint
+    writer.write(round, None)?;
+    writer_side.close();
+    let t0 = std::time::Instant::now();
+    let mut got = None;
+    while got.is_none() && t0.elapsed() < Duration::from_secs(2) {
+      if let Ok(Some(s)) = reader.take_next_sample() {
+        got = Some(*s.value());
+      }
+      thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(got, Some(round), "round {round}: the sample written before closing");
+    while !reader_side.discovered_writers().is_empty() && t0.elapsed() < Duration::from_secs(5) {
+      thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+      reader_side.discovered_writers().is_empty(),
+      "round {round}: the goodbye was heard though the participant is still held"
+    );
+    still_held.close();
+    assert!(writer.write(99, None).is_err() || reader.take_next_sample()?.is_none());
+    drop(writer);
+    drop(writer_side);
+    drop(still_held);
+  }
+  Ok(())
+}
+
+/// RADAR patch 18: a reader reports when a matched remote writer has shown that it sends to it (its first
+/// HEARTBEAT, which a reliable writer sends to a reader it has just matched, or DATA), once; a reader whose
+/// writer has not matched it back yet has heard nothing.
+#[test]
+fn a_reader_reports_when_a_matched_writer_is_heard_from() -> Result<()> {
+  use crate::{
+    dds::statusevents::{DomainParticipantStatusEvent, StatusEvented},
+    RTPSEntity,
+  };
+  let domain = test_domain_id(25);
+  let qos = QosPolicyBuilder::new()
+    .history(History::KeepLast { depth: 10 })
+    .reliability(Reliability::Reliable {
+      max_blocking_time: Duration::from_secs(1).into(),
+    })
+    .durability(Durability::Volatile)
+    .build();
+  let reader_side = DomainParticipant::new(domain)?;
+  let listener = reader_side.status_listener();
+  let rtopic = reader_side.create_topic(
+    "patch18".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let reader = reader_side
+    .create_subscriber(&qos)?
+    .create_datareader_no_key_cdr::<u32>(&rtopic, None)?;
+  let writer_side = DomainParticipant::new(domain)?;
+  let topic = writer_side.create_topic(
+    "patch18".to_string(),
+    "Counter".to_string(),
+    &qos,
+    TopicKind::NoKey,
+  )?;
+  let writer = writer_side
+    .create_publisher(&qos)?
+    .create_datawriter_no_key_cdr::<u32>(&topic, None)?;
+  let (mut matched, mut heard) = (None, Vec::new());
+  let t0 = std::time::Instant::now();
+  while heard.is_empty() && t0.elapsed() < Duration::from_secs(5) {
+    while let Some(ev) = listener.try_recv_status() {
+      match ev {
+        DomainParticipantStatusEvent::RemoteWriterMatched { local_reader, remote_writer }
+          if local_reader == reader.guid() =>
+        {
+          matched = Some(remote_writer)
+        }
+        DomainParticipantStatusEvent::RemoteWriterHeard { local_reader, remote_writer } => {
+          assert!(matched.is_some(), "heard only after matched: {local_reader:?}");
+          heard.push((local_reader, remote_writer))
+        }
+        _ => {}
+      }
+    }
+    thread::sleep(Duration::from_millis(5));
+  }
+  assert_eq!(heard, [(reader.guid(), writer.guid())], "heard without a sample written");
+  // once: samples do not report it again
+  for i in 0..3 {
+    writer.write(i, None)?;
+  }
+  thread::sleep(Duration::from_millis(300));
+  while let Some(ev) = listener.try_recv_status() {
+    assert!(
+      !matches!(ev, DomainParticipantStatusEvent::RemoteWriterHeard { .. }),
+      "reported once per match"
+    );
+  }
+  Ok(())
+}
+
 /// RADAR patches 12 and 13: stopping the process (SIGSTOP) and continuing it (SIGCONT) interrupts the event
 /// loop's and discovery's waits (EINTR, even without a signal handler); they ended, and the participant was
 /// dead from then on. And a stop longer than the lease makes each participant declare the other lost; when
