@@ -2,39 +2,54 @@
 //!
 //! A connection ties a *source* signal (an event's `triggered`, a response's `started`/`interrupted`/
 //! `exited`) to a *target* slot (a response's `start`/`interrupt`/`exit`, or an anonymous slot). The runtime
-//! feeds every signal it reads to [`ConnectionTable::on_signal`] with the time the signal was emitted, and
-//! performs the [`Delivery`]s it gets back. The rules:
+//! feeds every signal it reads to [`ConnectionTable::on_signal`] with the time the signal was emitted (and, for
+//! a response's signals, the [`Cause`] they carry), and performs the [`Delivery`]s it gets back. The rules,
+//! C1-C7 (the crate documentation, the README and the tests use these numbers):
 //!
-//! 1. A connection delivers only signals emitted at or after it was armed. Older signals (in flight when the
-//!    statement ran, or replayed from a DDS cache) are never delivered.
-//! 2. `whenever` delivers every such signal until it is removed; `once` delivers exactly one, then its source
-//!    is released, even when the source emits a burst, and each of several `once`s on one source gets exactly
-//!    one.
-//! 3. `... until U`: U's signals go to the target response's `interrupt` slot only inside the *window* of a
-//!    run that this connection started: from the response's first `started` after this connection delivered a
-//!    start that the response takes, to the response's next `exited`. A restart requested by the response's own
-//!    exit slot is not a start this connection delivered, so it runs outside the window. A start delivered
-//!    while the response runs and ignores starts (its default policy) is dropped by the response, so it opens
-//!    no window: the response's next `started` (its own restart, or another statement's start) is not this
-//!    connection's run. Under a policy that runs such a start later (queue one, restart), the next `started` is
-//!    this connection's run. U is read (and so active) from arming until removal, also for a `once` that has
-//!    already fired.
-//! 4. [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it returns
-//!    nothing more is delivered through it.
-//! 5. Components leave (they exit, crash, hang, or the network cuts them off; the runtime tells the table with
-//!    [`ConnectionTable::source_lost`] and [`ConnectionTable::target_lost`]). A connection whose source left
-//!    [waits for the source](Link::WaitingForSource): it delivers again what a source of that name emits when
-//!    one comes back. A connection whose target left delivers nothing more: it is
-//!    [lost](Link::TargetLost), unless it was armed to [re-arm](ConnectionTable::set_rearm), in which case it
-//!    [waits for the target](Link::WaitingForTarget) and, when a target of that name comes back, delivers
-//!    signals emitted from that moment on (rule 1 again: nothing emitted while it waited). When the response R
-//!    of an `until` leaves, the window closes: a new R of that name did not take this statement's start.
-//!    A lost connection no longer reads its source (an event whose only listener it was deactivates).
+//! - **C1.** A connection delivers only signals emitted at or after it was armed. Older signals (in flight when
+//!   the statement ran, or replayed from a DDS cache) are never delivered.
+//! - **C2.** `whenever` delivers every such signal until it is removed; `once` delivers exactly one, then its
+//!   source is released, even when the source emits a burst, and each of several `once`s on one source gets
+//!   exactly one. A signal a connection property refuses (a filter, a transform that gives nothing) is not a
+//!   delivery: it does not use up a `once`.
+//! - **C3.** `... until U`: U's signals interrupt the target response R only within a run that this statement
+//!   started, from the moment that run began. A run R starts by itself (an exit-slot restart) or that another
+//!   statement started is not interrupted by this one, nor is a run that begins after the signal of U.
+//!   U is read (and so active) from arming until removal, also for a `once` that has already fired.
+//! - **C4.** [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it
+//!   returns nothing more is delivered through it.
+//! - **C5.** Components leave (they exit, crash, hang, or the network cuts them off; the runtime tells the table
+//!   with [`ConnectionTable::source_lost`] and [`ConnectionTable::target_lost`]). A connection whose source left
+//!   [waits for the source](Link::WaitingForSource): it delivers again what a source of that name emits when
+//!   one comes back. A connection whose target left delivers nothing more: it is [lost](Link::TargetLost),
+//!   unless it was armed to [re-arm](ConnectionTable::set_rearm), in which case it
+//!   [waits for the target](Link::WaitingForTarget) and, when a target of that name comes back, delivers
+//!   signals emitted from that moment on (C1 again: nothing emitted while it waited). When the response R of
+//!   an `until` leaves, its run ends: a new R of that name did not take this statement's start. A lost
+//!   connection no longer reads its source (an event whose only listener it was deactivates).
+//!
+//! How C3 is kept when signals are read in another order than they were sent (they travel on different
+//! topics, from different processes):
+//!
+//! - **C6.** Every start a statement delivers carries its [`Cause`] (the statement and the delivery's number),
+//!   and the interrupts its `until` sends name the statement. A RADAR response (radar_ros) keeps causes
+//!   ([`Until::causes`]): it applies such an interrupt only to a run of that statement that began before the
+//!   signal of U was emitted (response rules R11-R13), so the table only has to send it while a run of the
+//!   statement may be going: from the statement's latest start delivery to R's `exited` carrying that delivery.
+//!   It does not have to know whether R took the start, nor when R's `started` comes.
+//! - **C7.** A signal of U emitted after the start it should interrupt can be read before that start's source
+//!   signal (U's topic is faster): the newest such signal of U is kept for [`HOLD`] and sent right after the
+//!   start, if the start's source was emitted before it. For a response that carries no causes (rclpy), the
+//!   table decides the window itself from R's `started` and `exited` in the order they were emitted (source
+//!   stamps), and a kept signal of U is sent when R's `started` turns out to be older than it; what it cannot
+//!   know is whether R took the start (it assumes so when R was idle, by the stamps, when the start was sent).
 //!
 //! [`ConnectionTable::sources`] says which sources must be read right now; the runtime keeps exactly those
 //! readers, so an event whose only listener was a fired `once` deactivates.
 
 use std::collections::{BTreeMap, BTreeSet};
+
+pub use crate::response::{Cause, StatementId, HOLD};
 
 /// Identifies a connection in a table.
 pub type ConnId = u64;
@@ -59,77 +74,152 @@ pub struct Until<S, T> {
     pub exited: S,
     /// R's `interrupt` slot.
     pub interrupt: T,
-    /// What is known of R when the statement is armed.
-    pub response: ResponseView,
+    /// R keeps causes (a RADAR response: response rules R11-R13): C6. Otherwise (rclpy): the table decides
+    /// the window (C7).
+    pub causes: bool,
 }
 
-/// What an `until` knows of its response R besides R's signals.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ResponseView {
-    /// R runs when the statement is armed (from here on, R's `started` and `exited` tell).
-    pub running: bool,
-    /// A start that arrives while R runs is run later (policies queue one and restart), rather than dropped
-    /// (the default policy, ignore).
-    pub runs_later: bool,
-}
-
-/// The window of rule 3, for one `until`.
+/// The window of C3, for one `until`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct UntilWindow {
-    response: ResponseView,
-    awaiting_started: bool,
-    open: bool,
+    causes: bool,
+    /// C6: the latest start delivery whose run may be going.
+    outstanding: Option<u64>,
+    /// C7: the emission time of the newest signal of U that was not sent.
+    kept: Option<i64>,
+    // C7, for responses without causes:
+    /// R runs, as far as its signals read so far tell (in emission order).
+    running: bool,
+    /// A start was delivered while R was idle: R's next `started` is this statement's run.
+    awaiting: bool,
+    /// A start was delivered (emitted at this time) while R seemed to run: if R's `exited` turns out to be older,
+    /// R was idle and took it.
+    sent_while_running: Option<i64>,
+    /// The window is open, since R's `started` at this time.
+    open_since: Option<i64>,
     /// When R emitted the last of its signals applied here: R's `started` and `exited` come through
     /// different topics and may be read out of order; an older one than what was applied is left alone.
     last_response_signal: i64,
 }
 
+/// What a signal read by the table does to an `until` window.
+enum WindowSignal {
+    /// This statement delivered start number `n`, whose source was emitted at `at`.
+    StartDelivered { n: u64, at: i64 },
+    /// R emitted `started` at `at`, carrying `from`.
+    Started { at: i64 },
+    /// R emitted `exited` at `at`, carrying `from` (the delivery of this statement whose run it ends).
+    Exited { at: i64, ours: Option<u64> },
+    /// U emitted at `at`.
+    U { at: i64 },
+}
+
 impl UntilWindow {
-    /// The window of an `until` whose response is as `response` says when armed.
-    pub fn new(response: ResponseView) -> UntilWindow {
+    /// The window of an `until` whose response keeps causes (or not).
+    pub fn new(causes: bool) -> UntilWindow {
         UntilWindow {
-            response,
+            causes,
+            last_response_signal: i64::MIN,
             ..UntilWindow::default()
         }
     }
-    /// The connection delivered a start to R. R takes it if idle, or later if its policy says so; a start R
-    /// drops (it runs, and ignores starts) opens no window.
-    pub fn start_delivered(&mut self) {
-        if !self.response.running || self.response.runs_later {
-            self.awaiting_started = true;
+
+    /// Applies a signal; returns the emission time of a signal of U (the one given, or a kept one) that goes to
+    /// R's `interrupt` now.
+    fn apply(&mut self, s: WindowSignal) -> Option<i64> {
+        if self.causes {
+            match s {
+                WindowSignal::StartDelivered { n, at } => {
+                    self.outstanding = Some(n);
+                    self.kept.take().filter(|&u| u > at && u - at <= HOLD)
+                }
+                WindowSignal::Exited { ours: Some(m), .. } => {
+                    if self.outstanding.is_some_and(|n| m >= n) {
+                        self.outstanding = None;
+                    }
+                    None
+                }
+                WindowSignal::Exited { .. } | WindowSignal::Started { .. } => None,
+                WindowSignal::U { at } => {
+                    if self.outstanding.is_some() {
+                        Some(at)
+                    } else {
+                        self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
+                        None
+                    }
+                }
+            }
+        } else {
+            match s {
+                WindowSignal::StartDelivered { at, .. } => {
+                    if self.running {
+                        self.sent_while_running = Some(at);
+                    } else {
+                        self.awaiting = true;
+                    }
+                    None
+                }
+                WindowSignal::Started { at } => {
+                    if at < self.last_response_signal {
+                        return None;
+                    }
+                    self.last_response_signal = at;
+                    self.running = true;
+                    self.sent_while_running = None;
+                    // a run starts: it is this connection's if it awaited one; any other run closes the window
+                    // (its `exited` for the run before may still be on its way)
+                    self.open_since = self.awaiting.then_some(at);
+                    self.awaiting = false;
+                    let kept = self.kept.take();
+                    let since = self.open_since?;
+                    kept.filter(|&u| u >= since && u - since <= HOLD)
+                }
+                WindowSignal::Exited { at, .. } => {
+                    if at < self.last_response_signal {
+                        return None;
+                    }
+                    self.last_response_signal = at;
+                    self.running = false;
+                    self.open_since = None;
+                    // R had already ended when the start was sent: it was idle, and took it
+                    if self
+                        .sent_while_running
+                        .take()
+                        .is_some_and(|sent| at <= sent)
+                    {
+                        self.awaiting = true;
+                    }
+                    None
+                }
+                WindowSignal::U { at } => match self.open_since {
+                    Some(since) if at >= since => Some(at),
+                    Some(_) => None,
+                    None => {
+                        if self.awaiting || self.sent_while_running.is_some() {
+                            self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
+                        }
+                        None
+                    }
+                },
+            }
         }
     }
-    /// R emitted `started` at `at`.
-    pub fn response_started(&mut self, at: i64) {
-        if at < self.last_response_signal {
-            return;
-        }
-        self.last_response_signal = at;
-        self.response.running = true;
-        // a run starts: it is this connection's if it awaited one; any other run closes the window (its
-        // `exited` for the run before may still be on its way)
-        self.open = self.awaiting_started;
-        self.awaiting_started = false;
-    }
+
     /// R left the graph: its run (if any) ended without an `exited`, and a new R of that name did not take
     /// this connection's start.
-    pub fn response_lost(&mut self) {
-        self.response.running = false;
-        self.open = false;
-        self.awaiting_started = false;
+    fn response_lost(&mut self) -> bool {
+        let was = self.is_open() || self.awaiting || self.running || self.outstanding.is_some();
+        *self = UntilWindow::new(self.causes);
+        was
     }
-    /// R emitted `exited` at `at`.
-    pub fn response_exited(&mut self, at: i64) {
-        if at < self.last_response_signal {
-            return;
-        }
-        self.last_response_signal = at;
-        self.response.running = false;
-        self.open = false;
-    }
-    /// Whether U's signals reach R's `interrupt` now.
+
+    /// Whether U's signals reach R's `interrupt` now (C6: while a run of this statement may be going).
     pub fn is_open(&self) -> bool {
-        self.open
+        if self.causes {
+            self.outstanding.is_some()
+        } else {
+            self.open_since.is_some()
+        }
     }
 }
 
@@ -166,6 +256,25 @@ pub struct Delivery<T> {
     pub id: ConnId,
     /// To which slot.
     pub target: T,
+    /// What it is: the connection's signal, or its `until`'s interrupt.
+    pub via: Via,
+}
+
+/// What a [`Delivery`] carries, for the runtime to tag it (C6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Via {
+    /// The connection's source signal, its delivery number `n` (from 1): a start slot gets the cause
+    /// `(statement, n)`.
+    Signal {
+        /// The delivery's number.
+        n: u64,
+    },
+    /// A signal of the connection's `until`, emitted at `at`, to R's `interrupt`: it names the statement and
+    /// carries that time (a kept signal of U is sent later than it was read: C7).
+    Until {
+        /// When the signal of U was emitted.
+        at: i64,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -225,6 +334,8 @@ pub struct ConnInfo<S, T> {
 #[derive(Debug)]
 pub struct ConnectionTable<S, T> {
     next: ConnId,
+    /// The high 64 bits of this table's statement ids (C6).
+    base: u64,
     conns: BTreeMap<ConnId, Conn<S, T>>,
     /// Source -> the connections whose delivery or `until` window that source's signals can change.
     by_source: BTreeMap<S, BTreeSet<ConnId>>,
@@ -240,6 +351,7 @@ impl<S, T> Default for ConnectionTable<S, T> {
     fn default() -> Self {
         ConnectionTable {
             next: 1,
+            base: 0,
             conns: BTreeMap::new(),
             by_source: BTreeMap::new(),
             reads: BTreeMap::new(),
@@ -296,6 +408,34 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         Self::default()
     }
 
+    /// An empty table whose statements are named `base` in their ids' high 64 bits (C6): the runtime picks a
+    /// `base` unique on the graph (radar_ros folds its participant's GUID prefix into it).
+    pub fn with_statement_base(base: u64) -> Self {
+        ConnectionTable {
+            base,
+            ..Self::default()
+        }
+    }
+
+    /// The graph-wide id of connection `id`'s statement (C6).
+    pub fn statement(&self, id: ConnId) -> StatementId {
+        (u128::from(self.base) << 64) | u128::from(id)
+    }
+
+    /// The connection of this table that a cause names, if any.
+    fn ours(&self, cause: Option<Cause>) -> Option<(ConnId, u64)> {
+        let c = cause?;
+        ((c.statement >> 64) as u64 == self.base).then_some((c.statement as u64, c.delivery))
+    }
+
+    /// The cause of delivery `n` of connection `id` (C6).
+    pub fn cause(&self, id: ConnId, n: u64) -> Cause {
+        Cause {
+            statement: self.statement(id),
+            delivery: n,
+        }
+    }
+
     /// Arms a connection from `source` to `target` at time `armed_at` (ns, same clock as signal stamps).
     pub fn arm(
         &mut self,
@@ -318,7 +458,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             link: Link::Armed,
             rearm: false,
             until: until.map(|u| {
-                let w = UntilWindow::new(u.response);
+                let w = UntilWindow::new(u.causes);
                 (u, w)
             }),
         };
@@ -449,8 +589,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             }
             if let Some((u, w)) = &mut c.until {
                 if &u.started == source || &u.exited == source {
-                    hit |= w.is_open() || w.awaiting_started || w.response.running;
-                    w.response_lost();
+                    hit |= w.response_lost();
                 }
             }
             if hit {
@@ -493,8 +632,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             }
             if let Some((u, w)) = &mut c.until {
                 if &u.interrupt == target {
-                    hit |= w.is_open() || w.awaiting_started || w.response.running;
-                    w.response_lost();
+                    hit |= w.response_lost();
                 }
             }
             if hit {
@@ -518,21 +656,24 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         changed
     }
 
-    /// A signal from `source`, emitted at `emitted_at`: what to deliver, in connection order.
+    /// A signal from `source`, emitted at `emitted_at` by no statement: what to deliver, in connection order.
     pub fn on_signal(&mut self, source: &S, emitted_at: i64) -> Vec<Delivery<T>> {
-        self.on_signal_with(source, emitted_at, |_| true)
+        self.on_signal_with(source, emitted_at, None, |_| true)
     }
 
-    /// Like [`ConnectionTable::on_signal`], with a per-connection filter (a connection property): a signal
-    /// that `accept(id)` refuses is not delivered through `id` and does not use up a `once`.
+    /// Like [`ConnectionTable::on_signal`], for a signal that carries `from` (a response's `started` and
+    /// `exited` carry the cause of their run: C6), with a per-connection filter (a connection property, C2): a
+    /// signal that `accept(id)` refuses is not delivered through `id` and does not use up a `once`.
     pub fn on_signal_with(
         &mut self,
         source: &S,
         emitted_at: i64,
+        from: Option<Cause>,
         mut accept: impl FnMut(ConnId) -> bool,
     ) -> Vec<Delivery<T>> {
         let mut out = Vec::new();
         let mut finished = Vec::new();
+        let ours = self.ours(from);
         let Some(ids) = self.by_source.get(source) else {
             return out;
         };
@@ -541,21 +682,33 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 continue;
             };
             if emitted_at < c.armed_at {
-                continue; // rule 1
+                continue; // C1
             }
-            // the response's own signals move the until window (before the connection's deliveries)
-            if let Some((u, w)) = &mut c.until {
-                if &u.started == source {
-                    w.response_started(emitted_at);
-                }
-                if &u.exited == source {
-                    w.response_exited(emitted_at);
-                }
-                if &u.source == source && w.is_open() {
+            let until = |out: &mut Vec<Delivery<T>>, u: &Until<S, T>, at: Option<i64>| {
+                if let Some(at) = at {
                     out.push(Delivery {
                         id: *id,
                         target: u.interrupt.clone(),
+                        via: Via::Until { at },
+                    })
+                }
+            };
+            // the response's own signals move the until window (before the connection's deliveries)
+            if let Some((u, w)) = &mut c.until {
+                let mine = ours.and_then(|(cid, n)| (cid == *id).then_some(n));
+                if &u.started == source {
+                    let send = w.apply(WindowSignal::Started { at: emitted_at });
+                    until(&mut out, u, send);
+                }
+                if &u.exited == source {
+                    w.apply(WindowSignal::Exited {
+                        at: emitted_at,
+                        ours: mine,
                     });
+                }
+                if &u.source == source {
+                    let send = w.apply(WindowSignal::U { at: emitted_at });
+                    until(&mut out, u, send);
                 }
             }
             if &c.source == source && !c.spent && c.link == Link::Armed && accept(*id) {
@@ -563,9 +716,15 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 out.push(Delivery {
                     id: *id,
                     target: c.target.clone(),
+                    via: Via::Signal { n: c.delivered },
                 });
-                if let Some((_, w)) = &mut c.until {
-                    w.start_delivered();
+                if let Some((u, w)) = &mut c.until {
+                    // C7: a signal of U read before this start, and emitted after its source, follows it
+                    let send = w.apply(WindowSignal::StartDelivered {
+                        n: c.delivered,
+                        at: emitted_at,
+                    });
+                    until(&mut out, u, send);
                 }
                 if c.kind == Kind::Once {
                     c.spent = true;
@@ -596,7 +755,7 @@ mod tests {
     }
 
     #[test]
-    fn rule1_signals_emitted_before_arming_are_never_delivered() {
+    fn c1_signals_emitted_before_arming_are_never_delivered() {
         let mut t = Table::new();
         t.arm("E", "R.start", Kind::Whenever, None, 100);
         assert!(t.on_signal(&"E", 99).is_empty(), "in flight or replayed");
@@ -608,7 +767,7 @@ mod tests {
     }
 
     #[test]
-    fn rule2_whenever_delivers_every_signal() {
+    fn c2_whenever_delivers_every_signal() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
         for i in 0..5 {
@@ -623,7 +782,7 @@ mod tests {
     }
 
     #[test]
-    fn rule2_once_delivers_exactly_one_of_a_burst_and_releases_its_source() {
+    fn c2_once_delivers_exactly_one_of_a_burst_and_releases_its_source() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Once, None, 0);
         assert_eq!(t.sources(), BTreeSet::from(["E"]));
@@ -634,7 +793,7 @@ mod tests {
     }
 
     #[test]
-    fn rule2_racing_onces_on_one_source_each_get_exactly_one() {
+    fn c2_racing_onces_on_one_source_each_get_exactly_one() {
         let mut t = Table::new();
         t.arm("E", "A.start", Kind::Once, None, 0);
         t.arm("E", "B.start", Kind::Once, None, 0);
@@ -646,48 +805,144 @@ mod tests {
         assert_eq!(targets(t.on_signal(&"E", 2)), ["C.start"]);
     }
 
+    /// An until on R, a response that carries no causes (rclpy): the table decides the window (C7).
     fn until() -> Until<&'static str, &'static str> {
-        until_with(ResponseView::default())
+        until_with(false)
     }
 
-    fn until_with(response: ResponseView) -> Until<&'static str, &'static str> {
+    fn until_with(causes: bool) -> Until<&'static str, &'static str> {
         Until {
             source: "U",
             started: "R.started",
             exited: "R.exited",
             interrupt: "R.interrupt",
-            response,
+            causes,
         }
     }
 
+    fn vias(d: Vec<Delivery<&'static str>>) -> Vec<(&'static str, Via)> {
+        d.into_iter().map(|d| (d.target, d.via)).collect()
+    }
+
     #[test]
-    fn rule3_a_start_the_busy_response_drops_opens_no_window() {
-        // R is busy when the statement delivers its start; R ignores starts while running
+    fn c6_starts_carry_their_cause_and_until_interrupts_go_while_the_run_may_go_on() {
+        let mut t = Table::with_statement_base(42);
+        let id = t.arm("E", "R.start", Kind::Whenever, Some(until_with(true)), 0);
+        let k = t.statement(id);
+        assert_eq!(k >> 64, 42);
+        assert!(
+            t.on_signal(&"U", 1).is_empty(),
+            "no start delivered: nothing to interrupt"
+        );
+        assert_eq!(
+            vias(t.on_signal(&"E", 2)),
+            [("R.start", Via::Signal { n: 1 })]
+        );
+        assert_eq!(
+            t.cause(id, 1),
+            Cause {
+                statement: k,
+                delivery: 1
+            }
+        );
+        // U goes to R as soon as the start is sent, before R's `started` is read: R decides (R11-R13)
+        assert_eq!(
+            vias(t.on_signal(&"U", 3)),
+            [("R.interrupt", Via::Until { at: 3 })]
+        );
+        // R's `exited` of another statement's run (or of none) changes nothing ...
+        let other = Cause {
+            statement: 7 << 64,
+            delivery: 1,
+        };
+        t.on_signal_with(&"R.exited", 4, Some(other), |_| true);
+        t.on_signal_with(&"R.exited", 4, None, |_| true);
+        assert_eq!(targets(t.on_signal(&"U", 5)), ["R.interrupt"]);
+        // ... the `exited` of this statement's run ends it
+        t.on_signal_with(&"R.exited", 6, Some(t.cause(id, 1)), |_| true);
+        assert!(t.on_signal(&"U", 7).is_empty());
+        // a second delivery: its run may go on until its own `exited` (an older run's does not end it)
+        assert_eq!(
+            vias(t.on_signal(&"E", 8)),
+            [("R.start", Via::Signal { n: 2 })]
+        );
+        t.on_signal_with(&"R.exited", 9, Some(t.cause(id, 1)), |_| true);
+        assert_eq!(targets(t.on_signal(&"U", 10)), ["R.interrupt"]);
+    }
+
+    #[test]
+    fn c7_a_signal_of_u_read_before_the_start_it_follows_is_sent_after_it() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+        // U emitted at 20 is read before E emitted at 10 (another topic, a faster path)
+        assert!(t.on_signal(&"U", 20).is_empty());
+        assert_eq!(
+            vias(t.on_signal(&"E", 10)),
+            [
+                ("R.start", Via::Signal { n: 1 }),
+                ("R.interrupt", Via::Until { at: 20 })
+            ]
+        );
+        // U emitted before E: not sent
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+        t.on_signal(&"U", 5);
+        assert_eq!(targets(t.on_signal(&"E", 10)), ["R.start"]);
+        // nor one emitted more than HOLD after
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+        t.on_signal(&"U", 10 + HOLD + 1);
+        assert_eq!(targets(t.on_signal(&"E", 10)), ["R.start"]);
+    }
+
+    #[test]
+    fn c7_without_causes_a_start_the_busy_response_drops_opens_no_window() {
+        // R is busy when the statement delivers its start, and its run ends after that: R dropped the start
         let mut t = Table::new();
         t.arm("E", "R.start", Kind::Once, Some(until()), 0);
         t.on_signal(&"R.started", 1); // some other run of R
         assert_eq!(targets(t.on_signal(&"E", 2)), ["R.start"]);
-        t.on_signal(&"R.exited", 3); // that run ends: the start was dropped
+        t.on_signal(&"R.exited", 3); // that run ends after the start was sent: the start was dropped
         t.on_signal(&"R.started", 4); // R's exit slot restarts it
         assert!(
             t.on_signal(&"U", 5).is_empty(),
             "R's own restart is not the run this statement started"
         );
-        // also when R was already running at arming
-        let mut t = Table::new();
-        let busy = ResponseView {
-            running: true,
-            runs_later: false,
-        };
-        t.arm("E", "R.start", Kind::Once, Some(until_with(busy)), 0);
-        t.on_signal(&"E", 1);
-        t.on_signal(&"R.exited", 2);
-        t.on_signal(&"R.started", 3);
-        assert!(t.on_signal(&"U", 4).is_empty());
     }
 
     #[test]
-    fn rule3_response_signals_read_out_of_order_leave_the_window_as_emitted() {
+    fn c7_without_causes_an_exited_read_after_the_start_it_preceded_opens_the_window() {
+        // R's run ended at 3; the start (emitted at 5) is read before that `exited`: R was idle and took it
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"R.started", 1);
+        t.on_signal(&"E", 5);
+        t.on_signal(&"R.exited", 3);
+        t.on_signal(&"R.started", 6);
+        assert_eq!(targets(t.on_signal(&"U", 7)), ["R.interrupt"]);
+    }
+
+    #[test]
+    fn c7_without_causes_a_signal_of_u_read_before_r_started_is_sent_when_started_is_older() {
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        assert!(
+            t.on_signal(&"U", 5).is_empty(),
+            "R's started (at 3) is still on its way"
+        );
+        assert_eq!(targets(t.on_signal(&"R.started", 3)), ["R.interrupt"]);
+        // a signal of U older than R's started is not
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Once, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal(&"U", 2);
+        assert!(t.on_signal(&"R.started", 3).is_empty());
+        assert!(!t.on_signal(&"U", 4).is_empty(), "later ones are");
+    }
+
+    #[test]
+    fn c3_response_signals_read_out_of_order_leave_the_window_as_emitted() {
         let mut t = Table::new();
         t.arm("E", "R.start", Kind::Whenever, Some(until()), 0);
         t.on_signal(&"E", 1);
@@ -707,22 +962,7 @@ mod tests {
     }
 
     #[test]
-    fn rule3_a_start_a_busy_response_runs_later_opens_the_window_of_that_run() {
-        let queueing = ResponseView {
-            running: true,
-            runs_later: true,
-        };
-        let mut t = Table::new();
-        t.arm("E", "R.start", Kind::Once, Some(until_with(queueing)), 0);
-        t.on_signal(&"E", 1); // queued by R
-        assert!(t.on_signal(&"U", 2).is_empty(), "not yet running");
-        t.on_signal(&"R.exited", 3); // the run before ends ...
-        t.on_signal(&"R.started", 4); // ... and R runs the queued start: this statement's run
-        assert_eq!(targets(t.on_signal(&"U", 5)), ["R.interrupt"]);
-    }
-
-    #[test]
-    fn rule3_until_interrupts_only_the_run_this_connection_started() {
+    fn c3_until_interrupts_only_the_run_this_connection_started() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
         assert_eq!(
@@ -738,10 +978,6 @@ mod tests {
             t.sources(),
             BTreeSet::from(["U", "R.started", "R.exited"]),
             "E is released"
-        );
-        assert!(
-            t.on_signal(&"U", 3).is_empty(),
-            "start delivered, but R has not started yet"
         );
         t.on_signal(&"R.started", 4);
         assert_eq!(targets(t.on_signal(&"U", 5)), ["R.interrupt"]);
@@ -761,21 +997,24 @@ mod tests {
     }
 
     #[test]
-    fn rule3_whenever_until_opens_a_window_for_each_start_it_delivers() {
-        let mut t = Table::new();
-        t.arm("E", "R.start", Kind::Whenever, Some(until()), 0);
-        for round in 0..3 {
-            let base = round * 10;
-            t.on_signal(&"E", base + 1);
-            t.on_signal(&"R.started", base + 2);
-            assert_eq!(targets(t.on_signal(&"U", base + 3)), ["R.interrupt"]);
-            t.on_signal(&"R.exited", base + 4);
-            assert!(t.on_signal(&"U", base + 5).is_empty());
+    fn c3_whenever_until_opens_a_window_for_each_start_it_delivers() {
+        for causes in [false, true] {
+            let mut t = Table::new();
+            let id = t.arm("E", "R.start", Kind::Whenever, Some(until_with(causes)), 0);
+            for round in 0..3 {
+                let base = round * 10;
+                t.on_signal(&"E", base + 1);
+                let run = Some(t.cause(id, round as u64 + 1));
+                t.on_signal_with(&"R.started", base + 2, run, |_| true);
+                assert_eq!(targets(t.on_signal(&"U", base + 3)), ["R.interrupt"]);
+                t.on_signal_with(&"R.exited", base + 4, run, |_| true);
+                assert!(t.on_signal(&"U", base + 5).is_empty(), "causes: {causes}");
+            }
         }
     }
 
     #[test]
-    fn rule3_the_window_ignores_response_signals_from_before_arming() {
+    fn c1_the_window_ignores_response_signals_from_before_arming() {
         let mut t = Table::new();
         t.arm("E", "R.start", Kind::Once, Some(until()), 100);
         t.on_signal(&"E", 101);
@@ -827,7 +1066,7 @@ mod tests {
     }
 
     #[test]
-    fn rule4_removed_connections_deliver_nothing() {
+    fn c4_removed_connections_deliver_nothing() {
         let mut t = Table::new();
         let a = t.arm("E", "A.start", Kind::Whenever, None, 0);
         let b = t.arm("E", "B.start", Kind::Whenever, None, 0);
@@ -839,14 +1078,17 @@ mod tests {
     }
 
     #[test]
-    fn a_filtered_out_signal_does_not_use_up_a_once() {
+    fn c2_a_filtered_out_signal_does_not_use_up_a_once() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Once, None, 0);
         let other = t.arm("E", "Q.start", Kind::Whenever, None, 0);
-        assert_eq!(targets(t.on_signal_with(&"E", 1, |c| c != id)), ["Q.start"]);
+        assert_eq!(
+            targets(t.on_signal_with(&"E", 1, None, |c| c != id)),
+            ["Q.start"]
+        );
         assert!(t.contains(id), "still waiting for a signal it accepts");
         assert_eq!(
-            targets(t.on_signal_with(&"E", 2, |_| true)),
+            targets(t.on_signal_with(&"E", 2, None, |_| true)),
             ["R.start", "Q.start"]
         );
         assert!(!t.contains(id) && t.contains(other));
@@ -874,7 +1116,7 @@ mod tests {
     }
 
     #[test]
-    fn rule5_a_source_that_leaves_is_waited_for() {
+    fn c5_a_source_that_leaves_is_waited_for() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
         assert_eq!(t.source_lost(&"E"), [id]);
@@ -885,7 +1127,7 @@ mod tests {
     }
 
     #[test]
-    fn rule5_a_target_that_leaves_is_lost_and_its_source_released() {
+    fn c5_a_target_that_leaves_is_lost_and_its_source_released() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
         assert_eq!(t.target_lost(&"R.start"), [id]);
@@ -906,7 +1148,7 @@ mod tests {
     }
 
     #[test]
-    fn rule5_a_rearming_connection_delivers_only_what_comes_after_the_target_is_back() {
+    fn c5_a_rearming_connection_delivers_only_what_comes_after_the_target_is_back() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Whenever, None, 0);
         t.set_rearm(id, true);
@@ -919,7 +1161,7 @@ mod tests {
     }
 
     #[test]
-    fn rule5_the_until_window_closes_when_its_response_leaves() {
+    fn c5_the_until_window_closes_when_its_response_leaves() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
         t.on_signal(&"E", 1);

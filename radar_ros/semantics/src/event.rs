@@ -1,6 +1,6 @@
 //! The RADAR event activation rule, with no I/O.
 //!
-//! An event checks its condition only while something listens to its `triggered` signal. In ROS 2 terms
+//! **E1.** An event checks its condition only while something listens to its `triggered` signal. In ROS 2 terms
 //! "something listens" means at least one subscription is matched with the event's `triggered` writer: a
 //! connection relay, an rclpy node, `ros2 topic echo`. The count comes from DDS discovery (see
 //! the crate docs); this type turns count changes into activate / deactivate transitions.

@@ -7,16 +7,19 @@
 //! dependencies, no async runtime and no DDS, so every rule is tested here on its own, line by line. The ROS 2
 //! binding (the `radar_ros` crate) runs slots, moves messages and carries out what these machines decide.
 //!
-//! - [`response`]: the response state machine ([`response::ResponseMachine`], rules 1-8).
-//! - [`event`]: the event activation rule ([`event::Activation`]).
-//! - [`connection`]: the connection table ([`connection::ConnectionTable`]: once, whenever, until windows,
-//!   no stale signals, removal).
+//! - [`response`]: the response state machine ([`response::ResponseMachine`], rules R1-R13).
+//! - [`event`]: the event activation rule ([`event::Activation`], rule E1).
+//! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,
+//!   until windows, no stale signals, removal, components that leave, signals read out of order).
+//!
+//! The rules are numbered once, here, and the `radar_ros` documentation, the README and the tests (named
+//! `r3_...`, `c6_...`) use these numbers.
 //!
 //! ```
-//! use radar_semantics::response::{Effect, Input, ResponseMachine, StartPolicy};
+//! use radar_semantics::response::{Effect, Input, ResponseMachine, Sent, StartPolicy};
 //! let mut r = ResponseMachine::<&str, ()>::new(StartPolicy::Ignore);
-//! let fx = r.handle(Input::Start("go"));
-//! assert!(matches!(fx[..], [Effect::EmitStarted("go"), Effect::RunStart("go")]));
+//! let fx = r.handle(Input::Start("go", Sent::at(1_000)));
+//! assert!(matches!(fx[..], [Effect::EmitStarted("go", None), Effect::RunStart("go")]));
 //! ```
 
 #![warn(missing_docs)]

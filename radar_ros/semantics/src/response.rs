@@ -5,29 +5,103 @@
 //! out, in order. The runtime (`radar_ros`'s response node) runs slots, publishes signals, and feeds completions
 //! back; this file alone decides *what happens when*.
 //!
-//! The rules (numbered as in the crate documentation):
+//! The rules, R1-R13 (the crate documentation, the README and the tests use these numbers):
 //!
-//! 1. `Idle` + `start(p)` → emit `started(p)`, run the start behaviour with `p` → `Running`.
-//! 2. Start behaviour returns → run the exit slot → `Exiting`; the exit slot completes → emit `exited` → `Idle`.
-//! 3. `Running` + `interrupt` → cancel the start behaviour, emit `interrupted`, run the interrupt slot →
-//!    `Interrupting`; it completes → run the exit slot → `Exiting` → `exited` → `Idle`.
-//! 4. `Running` + `exit` → cancel the start behaviour, run the exit slot (no interrupt slot) → `Exiting`.
-//! 5. `interrupt` or `exit` while `Idle`, `Interrupting` or `Exiting` → ignored, counted.
-//! 6. `start` while not `Idle` → by [`StartPolicy`]: `Ignore` (counted), `Restart` (interrupt as in rule 3,
-//!    then start anew with the newest payload), `QueueOne` (run the newest payload after `exited`; a start that
-//!    replaces a queued one counts as ignored).
-//! 7. The exit slot always runs, whatever ended the run: completion, interrupt, exit signal, error, panic. A
-//!    panic in any slot is reported and treated as that slot finishing; a panic in the exit slot still ends
-//!    with `exited`.
-//! 8. The exit slot may ask for a restart: after `exited`, start again with the same payload. A queued or
-//!    restart-policy start takes precedence over it (the newer payload wins; a run starts either way).
-//! 9. A response that announces on acceptance ([`Announce::WhenAccepted`]: an action goal, which the server
-//!    may reject) runs the start behaviour without `started`; `started` goes out when the behaviour reports
-//!    [`Input::Accepted`], at most once per run and only while `Running`. A run that ends before that (a
-//!    rejected goal, an interrupt or exit before acceptance) ends with `exited` and no `started`.
-//! 10. A slot may hand over the run's output before it ends ([`Input::Output`]: the result of a goal that is
-//!     being cancelled arrives in the interrupt slot): `exited` carries the last output handed over or returned
-//!     in this run, else the default.
+//! - **R1.** `Idle` + `start(p)` → emit `started(p)`, run the start behaviour with `p` → `Running`. The start
+//!   behaviour runs up to its first await point before the response takes its next signal, so `started`
+//!   never announces a behaviour that did not run at all.
+//! - **R2.** Start behaviour returns → run the exit slot → `Exiting`; the exit slot completes → emit `exited`
+//!   → `Idle`.
+//! - **R3.** `Running` + `interrupt` → cancel the start behaviour, emit `interrupted`, run the interrupt slot →
+//!   `Interrupting`; it completes → run the exit slot → `Exiting` → `exited` → `Idle`.
+//! - **R4.** `Running` + `exit` → cancel the start behaviour, run the exit slot (no interrupt slot) → `Exiting`.
+//! - **R5.** `interrupt` or `exit` while `Idle`, `Interrupting` or `Exiting` → ignored, counted.
+//! - **R6.** `start` while not `Idle` → by [`StartPolicy`]: `Ignore` (counted), `Restart` (interrupt as in R3,
+//!   then start anew with the newest payload), `QueueOne` (run the newest payload after `exited`; a start that
+//!   replaces a queued one counts as ignored).
+//! - **R7.** The exit slot always runs, whatever ended the run: completion, interrupt, exit signal, error,
+//!   panic, or the response being stopped ([`ResponseMachine::stop`]; the runtime stops every response when
+//!   its process is told to stop). A panic in any slot is reported and treated as that slot finishing; a panic
+//!   in the exit slot still ends with `exited`.
+//! - **R8.** The exit slot may ask for a restart: after `exited`, start again with the same payload. A queued or
+//!   restart-policy start takes precedence over it (the newer payload wins; a run starts either way). A
+//!   restarted run has no [cause](Cause): no statement started it.
+//! - **R9.** A response that announces on acceptance ([`Announce::WhenAccepted`]: an action goal, which the
+//!   server may reject) runs the start behaviour without `started`; `started` goes out when the behaviour
+//!   reports [`Input::Accepted`], at most once per run and only while `Running`. A run that ends before that (a
+//!   rejected goal, an interrupt or exit before acceptance) ends with `exited` and no `started`.
+//! - **R10.** A slot may hand over the run's output before it ends ([`Input::Output`]: the result of a goal that
+//!   is being cancelled arrives in the interrupt slot): `exited` carries the last output handed over or
+//!   returned in this run, else the default.
+//!
+//! Slot signals travel on three topics and may be read in another order than they were sent. Each carries
+//! when the signal that caused it was emitted ([`Sent::at`]; a relay keeps the original time), so the response
+//! orders them by cause, not by arrival:
+//!
+//! - **R11.** Every run *begins* at the later of the time its start signal was emitted and the end of the run
+//!   before it (for a queued start or an R8 restart: when it actually starts). An `interrupt` or `exit` emitted
+//!   before the current run began is not for this run: ignored, counted.
+//! - **R12.** An `interrupt` or `exit` that reaches an idle response is kept (the newest few, for
+//!   [`HOLD`]): a `start` emitted before it (at most [`HOLD`] before) that arrives afterwards begins its run,
+//!   which then takes the kept signal as soon as it has run up to its first await (R1;
+//!   [`ResponseMachine::resume`]), as if the two had arrived in the order they were sent. A kept signal that is
+//!   used this way is no longer counted as ignored.
+//! - **R13.** A run started by a statement carries that statement's [`Cause`], and so do its `started`,
+//!   `interrupted` and `exited`. An `interrupt` sent by an `until` names its statement ([`Sent::by`]): it
+//!   interrupts only a run begun by a start of that statement (and, by R11, only if it was emitted after that
+//!   run began); any other run, or none, ignores it. Untargeted interrupts (injected, `whenever X interrupt R`)
+//!   interrupt whatever runs.
+
+use std::collections::VecDeque;
+
+/// A statement (a connection) that delivers signals, unique on the ROS graph: the binding makes it from its
+/// manager's participant and the connection's number.
+pub type StatementId = u128;
+
+/// Which statement delivered a slot signal, and which of its deliveries it was (R13). On the wire it is the
+/// DDS sample's related sample identity; peers that know nothing of it (rclpy) send none and ignore it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Cause {
+    /// The statement.
+    pub statement: StatementId,
+    /// Its delivery, counted from 1 (0 on an `until`'s interrupt, which names the statement only).
+    pub delivery: u64,
+}
+
+/// When, and by which statement, a slot signal was sent (R11-R13).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sent {
+    /// When the signal that caused it was emitted, in ns since the epoch: the DDS source timestamp of the
+    /// original signal (a relay keeps it).
+    pub at: i64,
+    /// For a `start`: the statement delivery that sent it (`None`: injected, or sent by a peer that carries no
+    /// cause). For an `interrupt`: the `until` statement whose run it is meant for (`None`: whatever runs).
+    /// Not looked at for `exit`.
+    pub by: Option<Cause>,
+}
+
+impl Sent {
+    /// A signal emitted at `at` by no statement.
+    pub fn at(at: i64) -> Sent {
+        Sent { at, by: None }
+    }
+
+    /// A signal emitted at `at`, sent by `cause`.
+    pub fn by(at: i64, cause: Cause) -> Sent {
+        Sent {
+            at,
+            by: Some(cause),
+        }
+    }
+}
+
+/// How long an `interrupt` or `exit` that reached an idle response is kept for a start sent before it that
+/// is still on its way (R12), in ns: far above a DDS hop (well under a millisecond on a host, a few on a
+/// network), below anything a person or a robot would call "at the same time".
+pub const HOLD: i64 = 1_000_000_000;
+
+/// How many kept signals an idle response remembers (R12).
+const KEPT: usize = 8;
 
 /// Where a response is in its lifecycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,10 +161,10 @@ impl StartPolicy {
     }
 }
 
-/// When a response emits `started` (rule 9).
+/// When a response emits `started` (R9).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Announce {
-    /// As the start behaviour begins (rule 1). The default.
+    /// As the start behaviour begins (R1). The default.
     #[default]
     OnStart,
     /// When the start behaviour reports [`Input::Accepted`] (an action server accepted the goal).
@@ -104,7 +178,7 @@ pub enum ExitReason {
     Completed,
     /// An `interrupt` signal ended the run (the interrupt slot has run).
     Interrupted,
-    /// An `exit` signal ended the run.
+    /// An `exit` signal ended the run, or the response was stopped.
     ExitSignal,
     /// The start behaviour returned an error.
     Failed(String),
@@ -150,40 +224,53 @@ pub enum ExitAction {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Input<P, O> {
     /// A `start` signal with its payload.
-    Start(P),
+    Start(P, Sent),
     /// An `interrupt` signal.
-    Interrupt,
+    Interrupt(Sent),
     /// An `exit` signal.
-    Exit,
+    Exit(Sent),
     /// The start behaviour ended by itself.
     StartEnded(StartEnd<O>),
     /// The interrupt slot finished (`Some(message)` if it panicked).
     InterruptEnded(Option<String>),
     /// The exit slot finished with a decision, or panicked (`Err(message)`).
     ExitEnded(Result<ExitAction, String>),
-    /// The start behaviour has really begun (rule 9: emits `started` under [`Announce::WhenAccepted`]).
+    /// The start behaviour has really begun (R9: emits `started` under [`Announce::WhenAccepted`]).
     Accepted,
-    /// A slot handed over the run's output before ending (rule 10).
+    /// A slot handed over the run's output before ending (R10).
     Output(O),
+}
+
+/// Why a signal was ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IgnoreReason {
+    /// Nothing it could act on: an `interrupt` or `exit` while not running (R5), a `start` while busy (R6), or
+    /// anything while stopping.
+    Phase,
+    /// It was emitted before the current run began (R11).
+    Before,
+    /// An `until`'s interrupt for runs of another statement than the one running (R13).
+    OtherRun,
 }
 
 /// Something the runtime must do, in the order given.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Effect<P, O> {
-    /// Publish `started` with the payload.
-    EmitStarted(P),
+    /// Publish `started` with the payload, carrying the run's cause (R13).
+    EmitStarted(P, Option<Cause>),
     /// Begin the start behaviour with the payload.
     RunStart(P),
     /// Cancel the running start behaviour (drop it at its current await point).
     CancelStart,
-    /// Publish `interrupted`.
-    EmitInterrupted,
+    /// Publish `interrupted`, carrying the run's cause.
+    EmitInterrupted(Option<Cause>),
     /// Begin the interrupt slot.
     RunInterrupt,
     /// Begin the exit slot.
     RunExit(ExitReason),
-    /// Publish `exited` with the output of the run (the start behaviour's result, or the default).
-    EmitExited(O),
+    /// Publish `exited` with the output of the run (the start behaviour's result, or the default), carrying
+    /// the run's cause.
+    EmitExited(O, Option<Cause>),
     /// A slot panicked: log it (it is already counted).
     ReportPanic {
         /// Which slot.
@@ -197,6 +284,8 @@ pub enum Effect<P, O> {
         signal: &'static str,
         /// The phase it arrived in.
         phase: Phase,
+        /// Why.
+        why: IgnoreReason,
     },
 }
 
@@ -227,18 +316,33 @@ pub struct Counters {
     pub ignored_exits: u64,
 }
 
+/// A slot signal kept by an idle response (R12).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kept {
+    Interrupt(Sent),
+    Exit(Sent),
+}
+
+impl Kept {
+    fn sent(&self) -> Sent {
+        match self {
+            Kept::Interrupt(s) | Kept::Exit(s) => *s,
+        }
+    }
+}
+
 /// The response state machine. `P` is the start payload, `O` the output carried on `exited`.
 ///
 /// ```
-/// use radar_semantics::response::{Effect, Input, Phase, ResponseMachine, StartEnd, StartPolicy, ExitAction};
+/// use radar_semantics::response::{Effect, Input, Phase, ResponseMachine, Sent, StartEnd, StartPolicy, ExitAction};
 /// let mut r = ResponseMachine::<u32, ()>::new(StartPolicy::Ignore);
-/// assert_eq!(r.handle(Input::Start(7)), vec![Effect::EmitStarted(7), Effect::RunStart(7)]);
+/// assert_eq!(r.handle(Input::Start(7, Sent::at(10))), vec![Effect::EmitStarted(7, None), Effect::RunStart(7)]);
 /// assert_eq!(r.phase(), Phase::Running);
-/// r.handle(Input::Interrupt); // rule 3: cancel, emit interrupted, run the interrupt slot
+/// r.handle(Input::Interrupt(Sent::at(20))); // R3: cancel, emit interrupted, run the interrupt slot
 /// assert_eq!(r.phase(), Phase::Interrupting);
 /// r.handle(Input::InterruptEnded(None)); // then the exit slot
 /// let fx = r.handle(Input::ExitEnded(Ok(ExitAction::Done)));
-/// assert!(fx.contains(&Effect::EmitExited(())));
+/// assert!(fx.contains(&Effect::EmitExited((), None)));
 /// assert_eq!((r.phase(), r.counters().interrupts), (Phase::Idle, 1));
 /// # let _ = StartEnd::<()>::Returned(());
 /// ```
@@ -249,7 +353,7 @@ pub struct ResponseMachine<P, O> {
     /// Payload of the current run, kept for a restart.
     current: Option<P>,
     /// A start to run after the current run's `exited`.
-    pending: Option<P>,
+    pending: Option<(P, Sent)>,
     /// Output of the current run, set when the start behaviour returned.
     output: Option<O>,
     last_exit: Option<ExitReason>,
@@ -259,6 +363,18 @@ pub struct ResponseMachine<P, O> {
     announce: Announce,
     /// Whether this run's `started` has gone out.
     announced: bool,
+    /// The current run's cause (R13).
+    cause: Option<Cause>,
+    /// When the current run began (R11).
+    began: i64,
+    /// When the last run ended (its `exited`).
+    ended: i64,
+    /// The latest time known: the clock given to [`ResponseMachine::handle_at`], or the newest stamp seen.
+    now: i64,
+    /// Signals kept while idle (R12), oldest first.
+    kept: VecDeque<Kept>,
+    /// A kept signal the run just begun takes once it has run to its first await (R12).
+    held: Option<Kept>,
 }
 
 impl<P: Clone, O: Default> ResponseMachine<P, O> {
@@ -275,16 +391,22 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             stopping: false,
             announce: Announce::OnStart,
             announced: false,
+            cause: None,
+            began: i64::MIN,
+            ended: i64::MIN,
+            now: i64::MIN,
+            kept: VecDeque::new(),
+            held: None,
         }
     }
 
-    /// A new, idle machine that emits `started` as `announce` says (rule 9).
+    /// A new, idle machine that emits `started` as `announce` says (R9).
     ///
     /// ```
-    /// use radar_semantics::response::{Announce, Effect, Input, ResponseMachine, StartPolicy};
+    /// use radar_semantics::response::{Announce, Effect, Input, ResponseMachine, Sent, StartPolicy};
     /// let mut r = ResponseMachine::<u32, ()>::with_announce(StartPolicy::Ignore, Announce::WhenAccepted);
-    /// assert_eq!(r.handle(Input::Start(7)), vec![Effect::RunStart(7)]);
-    /// assert_eq!(r.handle(Input::Accepted), vec![Effect::EmitStarted(7)]);
+    /// assert_eq!(r.handle(Input::Start(7, Sent::at(1))), vec![Effect::RunStart(7)]);
+    /// assert_eq!(r.handle(Input::Accepted), vec![Effect::EmitStarted(7, None)]);
     /// assert_eq!(r.handle(Input::Accepted), vec![]); // once per run
     /// ```
     pub fn with_announce(policy: StartPolicy, announce: Announce) -> Self {
@@ -323,12 +445,24 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         self.pending.is_some()
     }
 
+    /// The cause of the current run (or of the run that just ended), if a statement started it (R13).
+    pub fn cause(&self) -> Option<Cause> {
+        self.cause
+    }
+
+    /// When the current run began (R11), if one has.
+    pub fn began(&self) -> Option<i64> {
+        (self.began != i64::MIN).then_some(self.began)
+    }
+
     /// Begins shutting down: a running start behaviour ends as if an `exit` signal arrived (so the exit slot
     /// still runs), a queued start is dropped, and no further run starts (not even an exit-slot restart).
     /// The runtime stops once the phase is back to [`Phase::Idle`].
     pub fn stop(&mut self) -> Vec<Effect<P, O>> {
         self.stopping = true;
         self.pending = None;
+        self.held = None;
+        self.kept.clear();
         let mut fx = Vec::new();
         if self.phase == Phase::Running {
             self.counters.exit_signals += 1;
@@ -338,36 +472,83 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         fx
     }
 
+    /// The runtime lost the slot that was running (its task was torn down with the runtime): what is left of
+    /// the run so that R7 holds. Running: the exit slot runs (as for [`ResponseMachine::stop`]); interrupting:
+    /// the exit slot runs; exiting: the exit slot, which did not reach its end, runs again from the start. The
+    /// machine stops as by [`ResponseMachine::stop`]. Empty when idle.
+    pub fn abandon(&mut self) -> Vec<Effect<P, O>> {
+        let phase = self.phase;
+        let mut fx = self.stop();
+        match phase {
+            Phase::Interrupting => self.run_exit(ExitReason::Interrupted, &mut fx),
+            Phase::Exiting => {
+                let reason = self.last_exit.clone().unwrap_or(ExitReason::ExitSignal);
+                fx.push(Effect::RunExit(reason));
+            }
+            Phase::Idle | Phase::Running => {}
+        }
+        fx
+    }
+
     /// Whether [`ResponseMachine::stop`] was called.
     pub fn is_stopping(&self) -> bool {
         self.stopping
     }
 
-    /// Feeds one input and returns what to do.
+    /// Feeds one input and returns what to do, with the clock at the newest time the machine has seen.
     pub fn handle(&mut self, input: Input<P, O>) -> Vec<Effect<P, O>> {
+        self.handle_at(input, self.now)
+    }
+
+    /// Feeds one input at time `now` (ns since the epoch, the clock of [`Sent::at`]) and returns what to do.
+    pub fn handle_at(&mut self, input: Input<P, O>, now: i64) -> Vec<Effect<P, O>> {
+        self.now = self.now.max(now);
+        if let Input::Start(_, s) | Input::Interrupt(s) | Input::Exit(s) = &input {
+            self.now = self.now.max(s.at);
+        }
         let mut fx = Vec::new();
         match (self.phase, input) {
-            (_, Input::Start(_)) if self.stopping => self.ignore("start", &mut fx),
-            (Phase::Idle, Input::Start(p)) => self.begin(p, &mut fx),
-            (_, Input::Start(p)) => match self.policy {
-                StartPolicy::Ignore => self.ignore("start", &mut fx),
-                StartPolicy::QueueOne => self.queue(p),
+            (_, Input::Start(_, _)) if self.stopping => {
+                self.ignore("start", IgnoreReason::Phase, &mut fx)
+            }
+            (Phase::Idle, Input::Start(p, s)) => {
+                self.begin(p, s, &mut fx);
+                self.take_kept(s);
+            }
+            (_, Input::Start(p, s)) => match self.policy {
+                StartPolicy::Ignore => self.ignore("start", IgnoreReason::Phase, &mut fx),
+                StartPolicy::QueueOne => self.queue(p, s),
                 StartPolicy::Restart => {
-                    self.queue(p);
+                    self.queue(p, s);
                     if self.phase == Phase::Running {
                         self.interrupt(&mut fx);
                     }
                 }
             },
-            (Phase::Running, Input::Interrupt) => self.interrupt(&mut fx),
-            (_, Input::Interrupt) => self.ignore("interrupt", &mut fx),
-            (Phase::Running, Input::Exit) => {
-                self.counters.exit_signals += 1;
-                fx.push(Effect::CancelStart);
-                self.run_exit(ExitReason::ExitSignal, &mut fx);
+            (Phase::Running, Input::Interrupt(s)) => match self.applies(&s, true) {
+                Ok(()) => self.interrupt(&mut fx),
+                Err(why) => self.ignore("interrupt", why, &mut fx),
+            },
+            (Phase::Idle, Input::Interrupt(s)) => {
+                self.keep(Kept::Interrupt(s));
+                self.ignore("interrupt", IgnoreReason::Phase, &mut fx)
             }
-            (_, Input::Exit) => self.ignore("exit", &mut fx),
+            (_, Input::Interrupt(_)) => self.ignore("interrupt", IgnoreReason::Phase, &mut fx),
+            (Phase::Running, Input::Exit(s)) => match self.applies(&s, false) {
+                Ok(()) => {
+                    self.counters.exit_signals += 1;
+                    fx.push(Effect::CancelStart);
+                    self.run_exit(ExitReason::ExitSignal, &mut fx);
+                }
+                Err(why) => self.ignore("exit", why, &mut fx),
+            },
+            (Phase::Idle, Input::Exit(s)) => {
+                self.keep(Kept::Exit(s));
+                self.ignore("exit", IgnoreReason::Phase, &mut fx)
+            }
+            (_, Input::Exit(_)) => self.ignore("exit", IgnoreReason::Phase, &mut fx),
             (Phase::Running, Input::StartEnded(end)) => {
+                self.held = None;
                 let reason = match end {
                     StartEnd::Returned(o) => {
                         self.counters.completed += 1;
@@ -412,22 +593,26 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
                     }
                 };
                 self.counters.exits += 1;
-                fx.push(Effect::EmitExited(self.output.take().unwrap_or_default()));
+                fx.push(Effect::EmitExited(
+                    self.output.take().unwrap_or_default(),
+                    self.cause,
+                ));
                 self.phase = Phase::Idle;
+                self.ended = self.now;
                 let finished = self.current.take();
                 if self.stopping {
                     // shutting down: the run is over and nothing starts again
-                } else if let Some(p) = self.pending.take() {
-                    self.begin(p, &mut fx);
+                } else if let Some((p, s)) = self.pending.take() {
+                    self.begin(p, s, &mut fx);
                 } else if let (ExitAction::Restart, Some(p)) = (action, finished) {
                     self.counters.restarts += 1;
-                    self.begin(p, &mut fx);
+                    self.begin(p, Sent::at(self.now), &mut fx);
                 }
             }
             (Phase::Running, Input::Accepted) if !self.announced => {
                 self.announced = true;
                 if let Some(p) = &self.current {
-                    fx.push(Effect::EmitStarted(p.clone()));
+                    fx.push(Effect::EmitStarted(p.clone(), self.cause));
                 }
             }
             (_, Input::Accepted) => {}
@@ -440,14 +625,83 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         fx
     }
 
-    fn begin(&mut self, p: P, fx: &mut Vec<Effect<P, O>>) {
+    /// R12: the run just begun has reached its first await; if it took a kept `interrupt` or `exit` (sent
+    /// after its start, read before it), that signal applies now. The runtime calls this once after each
+    /// [`Effect::RunStart`] has run to its first await point.
+    pub fn resume(&mut self) -> Vec<Effect<P, O>> {
+        match self.held.take() {
+            Some(Kept::Interrupt(s)) if self.phase == Phase::Running => {
+                self.counters.ignored_interrupts =
+                    self.counters.ignored_interrupts.saturating_sub(1);
+                self.handle(Input::Interrupt(s))
+            }
+            Some(Kept::Exit(s)) if self.phase == Phase::Running => {
+                self.counters.ignored_exits = self.counters.ignored_exits.saturating_sub(1);
+                self.handle(Input::Exit(s))
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// Whether a kept signal waits for [`ResponseMachine::resume`].
+    pub fn resume_due(&self) -> bool {
+        self.held.is_some()
+    }
+
+    /// R11 and R13: whether an `interrupt` (`targeted`: it may name a statement) or `exit` sent as `s` is for
+    /// the current run.
+    fn applies(&self, s: &Sent, targeted: bool) -> Result<(), IgnoreReason> {
+        if s.at < self.began {
+            return Err(IgnoreReason::Before);
+        }
+        match (targeted, s.by) {
+            (true, Some(by)) if self.cause.map(|c| c.statement) != Some(by.statement) => {
+                Err(IgnoreReason::OtherRun)
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// R12: keeps a signal that reached the idle response, dropping what is too old to be used.
+    fn keep(&mut self, k: Kept) {
+        let horizon = self.now.saturating_sub(HOLD);
+        self.kept.retain(|k| k.sent().at >= horizon);
+        if self.kept.len() == KEPT {
+            self.kept.pop_front();
+        }
+        self.kept.push_back(k);
+    }
+
+    /// R12: the run begun by a start sent as `s` takes the earliest kept signal that was sent after it (within
+    /// [`HOLD`]) and is for it; kept signals sent before the start are of no use any more.
+    fn take_kept(&mut self, s: Sent) {
+        let cause = self.cause;
+        let began = self.began;
+        let pos = self.kept.iter().position(|k| {
+            let k_at = k.sent().at;
+            let for_run = match k {
+                Kept::Interrupt(Sent { by: Some(by), .. }) => {
+                    cause.map(|c| c.statement) == Some(by.statement)
+                }
+                _ => true,
+            };
+            k_at > s.at && k_at >= began && k_at - s.at <= HOLD && for_run
+        });
+        self.held = pos.and_then(|i| self.kept.remove(i));
+        self.kept.retain(|k| k.sent().at > s.at);
+    }
+
+    fn begin(&mut self, p: P, s: Sent, fx: &mut Vec<Effect<P, O>>) {
         self.counters.starts += 1;
         self.phase = Phase::Running;
         self.output = None;
         self.current = Some(p.clone());
+        self.cause = s.by;
+        self.began = s.at.max(self.ended);
+        self.held = None;
         self.announced = self.announce == Announce::OnStart;
         if self.announced {
-            fx.push(Effect::EmitStarted(p.clone()));
+            fx.push(Effect::EmitStarted(p.clone(), self.cause));
         }
         fx.push(Effect::RunStart(p));
     }
@@ -455,24 +709,26 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     fn interrupt(&mut self, fx: &mut Vec<Effect<P, O>>) {
         self.counters.interrupts += 1;
         self.phase = Phase::Interrupting;
+        self.held = None;
         fx.push(Effect::CancelStart);
-        fx.push(Effect::EmitInterrupted);
+        fx.push(Effect::EmitInterrupted(self.cause));
         fx.push(Effect::RunInterrupt);
     }
 
     fn run_exit(&mut self, reason: ExitReason, fx: &mut Vec<Effect<P, O>>) {
         self.phase = Phase::Exiting;
+        self.held = None;
         self.last_exit = Some(reason.clone());
         fx.push(Effect::RunExit(reason));
     }
 
-    fn queue(&mut self, p: P) {
-        if self.pending.replace(p).is_some() {
+    fn queue(&mut self, p: P, s: Sent) {
+        if self.pending.replace((p, s)).is_some() {
             self.counters.ignored_starts += 1;
         }
     }
 
-    fn ignore(&mut self, signal: &'static str, fx: &mut Vec<Effect<P, O>>) {
+    fn ignore(&mut self, signal: &'static str, why: IgnoreReason, fx: &mut Vec<Effect<P, O>>) {
         match signal {
             "start" => self.counters.ignored_starts += 1,
             "interrupt" => self.counters.ignored_interrupts += 1,
@@ -481,6 +737,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         fx.push(Effect::Ignored {
             signal,
             phase: self.phase,
+            why,
         });
     }
 }
@@ -494,42 +751,45 @@ mod tests {
 
     fn running(policy: StartPolicy) -> M {
         let mut m = M::new(policy);
-        assert_eq!(m.handle(Input::Start(7)), vec![EmitStarted(7), RunStart(7)]);
+        assert_eq!(
+            m.handle(Input::Start(7, Sent::default())),
+            vec![EmitStarted(7, None), RunStart(7)]
+        );
         m
     }
 
     #[test]
-    fn rule1_start_while_idle_emits_started_then_runs_with_the_payload() {
+    fn r1_start_while_idle_emits_started_then_runs_with_the_payload() {
         let m = running(StartPolicy::Ignore);
         assert_eq!(m.phase(), Phase::Running);
         assert_eq!(m.counters().starts, 1);
     }
 
     #[test]
-    fn rule2_normal_end_runs_exit_slot_then_emits_exited_with_the_output() {
+    fn r2_normal_end_runs_exit_slot_then_emits_exited_with_the_output() {
         let mut m = running(StartPolicy::Ignore);
         let fx = m.handle(Input::StartEnded(StartEnd::Returned("done".into())));
         assert_eq!(fx, vec![RunExit(ExitReason::Completed)]);
         assert_eq!(m.phase(), Phase::Exiting);
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
-        assert_eq!(fx, vec![EmitExited("done".into())]);
+        assert_eq!(fx, vec![EmitExited("done".into(), None)]);
         assert_eq!(m.phase(), Phase::Idle);
         assert_eq!(m.counters().completed, 1);
         assert_eq!(m.counters().exits, 1);
     }
 
     #[test]
-    fn rule3_interrupt_cancels_start_emits_interrupted_runs_interrupt_then_exit() {
+    fn r3_interrupt_cancels_start_emits_interrupted_runs_interrupt_then_exit() {
         let mut m = running(StartPolicy::Ignore);
-        let fx = m.handle(Input::Interrupt);
-        assert_eq!(fx, vec![CancelStart, EmitInterrupted, RunInterrupt]);
+        let fx = m.handle(Input::Interrupt(Sent::default()));
+        assert_eq!(fx, vec![CancelStart, EmitInterrupted(None), RunInterrupt]);
         assert_eq!(m.phase(), Phase::Interrupting);
         let fx = m.handle(Input::InterruptEnded(None));
         assert_eq!(fx, vec![RunExit(ExitReason::Interrupted)]);
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
         assert_eq!(
             fx,
-            vec![EmitExited(String::new())],
+            vec![EmitExited(String::new(), None)],
             "interrupted runs carry the default output"
         );
         assert_eq!(m.counters().interrupts, 1);
@@ -537,9 +797,9 @@ mod tests {
     }
 
     #[test]
-    fn rule4_exit_signal_skips_the_interrupt_slot() {
+    fn r4_exit_signal_skips_the_interrupt_slot() {
         let mut m = running(StartPolicy::Ignore);
-        let fx = m.handle(Input::Exit);
+        let fx = m.handle(Input::Exit(Sent::default()));
         assert_eq!(fx, vec![CancelStart, RunExit(ExitReason::ExitSignal)]);
         assert_eq!(m.phase(), Phase::Exiting);
         m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
@@ -548,33 +808,35 @@ mod tests {
     }
 
     #[test]
-    fn rule5_interrupt_and_exit_are_ignored_when_idle_interrupting_or_exiting() {
+    fn r5_interrupt_and_exit_are_ignored_when_idle_interrupting_or_exiting() {
         let mut m = M::new(StartPolicy::Ignore);
         assert!(matches!(
-            m.handle(Input::Interrupt)[..],
+            m.handle(Input::Interrupt(Sent::default()))[..],
             [Ignored {
                 signal: "interrupt",
-                phase: Phase::Idle
+                phase: Phase::Idle,
+                ..
             }]
         ));
         assert!(matches!(
-            m.handle(Input::Exit)[..],
+            m.handle(Input::Exit(Sent::default()))[..],
             [Ignored {
                 signal: "exit",
-                phase: Phase::Idle
+                phase: Phase::Idle,
+                ..
             }]
         ));
-        m.handle(Input::Start(1));
-        m.handle(Input::Interrupt);
+        m.handle(Input::Start(1, Sent::default()));
+        m.handle(Input::Interrupt(Sent::default()));
         assert!(matches!(
-            m.handle(Input::Interrupt)[..],
+            m.handle(Input::Interrupt(Sent::default()))[..],
             [Ignored {
                 phase: Phase::Interrupting,
                 ..
             }]
         ));
         assert!(matches!(
-            m.handle(Input::Exit)[..],
+            m.handle(Input::Exit(Sent::default()))[..],
             [Ignored {
                 phase: Phase::Interrupting,
                 ..
@@ -582,14 +844,14 @@ mod tests {
         ));
         m.handle(Input::InterruptEnded(None));
         assert!(matches!(
-            m.handle(Input::Interrupt)[..],
+            m.handle(Input::Interrupt(Sent::default()))[..],
             [Ignored {
                 phase: Phase::Exiting,
                 ..
             }]
         ));
         assert!(matches!(
-            m.handle(Input::Exit)[..],
+            m.handle(Input::Exit(Sent::default()))[..],
             [Ignored {
                 phase: Phase::Exiting,
                 ..
@@ -601,10 +863,10 @@ mod tests {
     }
 
     #[test]
-    fn rule6_ignore_policy_counts_starts_while_busy() {
+    fn r6_ignore_policy_counts_starts_while_busy() {
         let mut m = running(StartPolicy::Ignore);
         assert!(matches!(
-            m.handle(Input::Start(8))[..],
+            m.handle(Input::Start(8, Sent::default()))[..],
             [Ignored {
                 signal: "start",
                 ..
@@ -612,7 +874,7 @@ mod tests {
         ));
         m.handle(Input::StartEnded(StartEnd::Returned(String::new())));
         assert!(matches!(
-            m.handle(Input::Start(9))[..],
+            m.handle(Input::Start(9, Sent::default()))[..],
             [Ignored {
                 phase: Phase::Exiting,
                 ..
@@ -620,27 +882,31 @@ mod tests {
         ));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited(String::new())]
+            vec![EmitExited(String::new(), None)]
         );
         assert_eq!(m.counters().ignored_starts, 2);
         assert_eq!(m.phase(), Phase::Idle);
     }
 
     #[test]
-    fn rule6_restart_policy_interrupts_then_starts_the_new_payload() {
+    fn r6_restart_policy_interrupts_then_starts_the_new_payload() {
         let mut m = running(StartPolicy::Restart);
         assert_eq!(
-            m.handle(Input::Start(8)),
-            vec![CancelStart, EmitInterrupted, RunInterrupt]
+            m.handle(Input::Start(8, Sent::default())),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
         );
         // a further start while interrupting replaces the pending payload
-        assert!(m.handle(Input::Start(9)).is_empty());
+        assert!(m.handle(Input::Start(9, Sent::default())).is_empty());
         assert!(m.start_queued());
         m.handle(Input::InterruptEnded(None));
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
         assert_eq!(
             fx,
-            vec![EmitExited(String::new()), EmitStarted(9), RunStart(9)]
+            vec![
+                EmitExited(String::new(), None),
+                EmitStarted(9, None),
+                RunStart(9)
+            ]
         );
         assert_eq!(
             m.counters().ignored_starts,
@@ -651,29 +917,33 @@ mod tests {
     }
 
     #[test]
-    fn rule6_queue_one_runs_the_newest_payload_after_exited() {
+    fn r6_queue_one_runs_the_newest_payload_after_exited() {
         let mut m = running(StartPolicy::QueueOne);
-        assert!(m.handle(Input::Start(8)).is_empty());
-        assert!(m.handle(Input::Start(9)).is_empty());
+        assert!(m.handle(Input::Start(8, Sent::default())).is_empty());
+        assert!(m.handle(Input::Start(9, Sent::default())).is_empty());
         assert_eq!(m.phase(), Phase::Running, "queue-one does not interrupt");
         m.handle(Input::StartEnded(StartEnd::Returned("a".into())));
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
         assert_eq!(
             fx,
-            vec![EmitExited("a".into()), EmitStarted(9), RunStart(9)]
+            vec![
+                EmitExited("a".into(), None),
+                EmitStarted(9, None),
+                RunStart(9)
+            ]
         );
         assert_eq!(m.counters().ignored_starts, 1);
     }
 
     #[test]
-    fn rule7_exit_slot_runs_after_error_and_panic_and_exited_follows_an_exit_panic() {
+    fn r7_exit_slot_runs_after_error_and_panic_and_exited_follows_an_exit_panic() {
         let mut m = running(StartPolicy::Ignore);
         assert_eq!(
             m.handle(Input::StartEnded(StartEnd::Failed("no path".into()))),
             vec![RunExit(ExitReason::Failed("no path".into()))]
         );
         m.handle(Input::ExitEnded(Ok(ExitAction::Done)));
-        m.handle(Input::Start(1));
+        m.handle(Input::Start(1, Sent::default()));
         assert_eq!(
             m.handle(Input::StartEnded(StartEnd::Panicked("boom".into()))),
             vec![
@@ -692,7 +962,7 @@ mod tests {
                     slot: "exit",
                     message: "exit boom".into()
                 },
-                EmitExited(String::new())
+                EmitExited(String::new(), None)
             ]
         );
         assert_eq!(m.phase(), Phase::Idle);
@@ -702,9 +972,9 @@ mod tests {
     }
 
     #[test]
-    fn rule7_interrupt_slot_panic_still_runs_the_exit_slot() {
+    fn r7_interrupt_slot_panic_still_runs_the_exit_slot() {
         let mut m = running(StartPolicy::Ignore);
-        m.handle(Input::Interrupt);
+        m.handle(Input::Interrupt(Sent::default()));
         assert_eq!(
             m.handle(Input::InterruptEnded(Some("oops".into()))),
             vec![
@@ -718,28 +988,36 @@ mod tests {
     }
 
     #[test]
-    fn rule8_exit_slot_restart_starts_again_with_the_same_payload() {
+    fn r8_exit_slot_restart_starts_again_with_the_same_payload() {
         let mut m = running(StartPolicy::Ignore);
-        m.handle(Input::Interrupt);
+        m.handle(Input::Interrupt(Sent::default()));
         m.handle(Input::InterruptEnded(None));
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Restart)));
         assert_eq!(
             fx,
-            vec![EmitExited(String::new()), EmitStarted(7), RunStart(7)]
+            vec![
+                EmitExited(String::new(), None),
+                EmitStarted(7, None),
+                RunStart(7)
+            ]
         );
         assert_eq!(m.counters().restarts, 1);
         assert_eq!(m.phase(), Phase::Running);
     }
 
     #[test]
-    fn rule8_a_queued_start_takes_precedence_over_an_exit_restart() {
+    fn r8_a_queued_start_takes_precedence_over_an_exit_restart() {
         let mut m = running(StartPolicy::QueueOne);
-        m.handle(Input::Start(9));
+        m.handle(Input::Start(9, Sent::default()));
         m.handle(Input::StartEnded(StartEnd::Returned(String::new())));
         let fx = m.handle(Input::ExitEnded(Ok(ExitAction::Restart)));
         assert_eq!(
             fx,
-            vec![EmitExited(String::new()), EmitStarted(9), RunStart(9)]
+            vec![
+                EmitExited(String::new(), None),
+                EmitStarted(9, None),
+                RunStart(9)
+            ]
         );
         assert_eq!(m.counters().restarts, 0);
     }
@@ -747,11 +1025,11 @@ mod tests {
     #[test]
     fn stop_runs_the_exit_slot_and_then_starts_nothing() {
         let mut m = running(StartPolicy::QueueOne);
-        m.handle(Input::Start(9));
+        m.handle(Input::Start(9, Sent::default()));
         assert_eq!(m.stop(), vec![CancelStart, RunExit(ExitReason::ExitSignal)]);
         assert!(!m.start_queued());
         assert!(matches!(
-            m.handle(Input::Start(10))[..],
+            m.handle(Input::Start(10, Sent::default()))[..],
             [Ignored {
                 signal: "start",
                 ..
@@ -759,7 +1037,7 @@ mod tests {
         ));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Restart))),
-            vec![EmitExited(String::new())]
+            vec![EmitExited(String::new(), None)]
         );
         assert_eq!(m.phase(), Phase::Idle);
         assert!(
@@ -782,36 +1060,39 @@ mod tests {
 
     fn announcing(policy: StartPolicy) -> M {
         let mut m = M::with_announce(policy, Announce::WhenAccepted);
-        assert_eq!(m.handle(Input::Start(7)), vec![RunStart(7)]);
+        assert_eq!(
+            m.handle(Input::Start(7, Sent::default())),
+            vec![RunStart(7)]
+        );
         m
     }
 
     #[test]
-    fn rule9_started_goes_out_on_acceptance_once_per_run() {
+    fn r9_started_goes_out_on_acceptance_once_per_run() {
         let mut m = announcing(StartPolicy::Ignore);
         assert_eq!(m.phase(), Phase::Running);
-        assert_eq!(m.handle(Input::Accepted), vec![EmitStarted(7)]);
+        assert_eq!(m.handle(Input::Accepted), vec![EmitStarted(7, None)]);
         assert_eq!(m.handle(Input::Accepted), vec![]);
         m.handle(Input::StartEnded(StartEnd::Returned("r".into())));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Restart))),
-            vec![EmitExited("r".into()), RunStart(7)]
+            vec![EmitExited("r".into(), None), RunStart(7)]
         );
         assert_eq!(
             m.handle(Input::Accepted),
-            vec![EmitStarted(7)],
+            vec![EmitStarted(7, None)],
             "a new run announces again"
         );
     }
 
     #[test]
-    fn rule9_a_run_ended_before_acceptance_exits_without_started() {
+    fn r9_a_run_ended_before_acceptance_exits_without_started() {
         // rejected
         let mut m = announcing(StartPolicy::Ignore);
         m.handle(Input::StartEnded(StartEnd::Failed("rejected".into())));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited(String::new())]
+            vec![EmitExited(String::new(), None)]
         );
         assert_eq!(
             m.handle(Input::Accepted),
@@ -821,28 +1102,28 @@ mod tests {
         // interrupted before acceptance: interrupted and exited, and a late acceptance says nothing
         let mut m = announcing(StartPolicy::Ignore);
         assert_eq!(
-            m.handle(Input::Interrupt),
-            vec![CancelStart, EmitInterrupted, RunInterrupt]
+            m.handle(Input::Interrupt(Sent::default())),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
         );
         assert_eq!(m.handle(Input::Accepted), vec![]);
         m.handle(Input::InterruptEnded(None));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited(String::new())]
+            vec![EmitExited(String::new(), None)]
         );
         assert_eq!(m.counters().interrupts, 1);
     }
 
     #[test]
-    fn rule10_an_output_handed_over_while_interrupting_is_carried_by_exited() {
+    fn r10_an_output_handed_over_while_interrupting_is_carried_by_exited() {
         let mut m = announcing(StartPolicy::Ignore);
         m.handle(Input::Accepted);
-        m.handle(Input::Interrupt);
+        m.handle(Input::Interrupt(Sent::default()));
         assert_eq!(m.handle(Input::Output("partial".into())), vec![]);
         m.handle(Input::InterruptEnded(None));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited("partial".into())]
+            vec![EmitExited("partial".into(), None)]
         );
         // a returned output replaces one handed over; an output while idle is dropped
         let mut m = running(StartPolicy::Ignore);
@@ -850,14 +1131,260 @@ mod tests {
         m.handle(Input::StartEnded(StartEnd::Returned("final".into())));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited("final".into())]
+            vec![EmitExited("final".into(), None)]
         );
         m.handle(Input::Output("stray".into()));
-        m.handle(Input::Start(1));
+        m.handle(Input::Start(1, Sent::default()));
         m.handle(Input::StartEnded(StartEnd::Failed("x".into())));
         assert_eq!(
             m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
-            vec![EmitExited(String::new())]
+            vec![EmitExited(String::new(), None)]
         );
+    }
+
+    // ---- R11-R13: order by cause, not by arrival
+
+    const K: Cause = Cause {
+        statement: 7,
+        delivery: 1,
+    };
+    const OTHER: Cause = Cause {
+        statement: 8,
+        delivery: 1,
+    };
+
+    fn started_by(policy: StartPolicy, s: Sent) -> M {
+        let mut m = M::new(policy);
+        let fx = m.handle(Input::Start(7, s));
+        assert_eq!(fx, vec![EmitStarted(7, s.by), RunStart(7)]);
+        m
+    }
+
+    #[test]
+    fn r11_an_interrupt_or_exit_sent_before_the_run_began_is_not_for_it() {
+        let mut m = started_by(StartPolicy::Ignore, Sent::at(100));
+        assert!(matches!(
+            m.handle(Input::Interrupt(Sent::at(90)))[..],
+            [Ignored {
+                why: IgnoreReason::Before,
+                ..
+            }]
+        ));
+        assert!(matches!(
+            m.handle(Input::Exit(Sent::at(99)))[..],
+            [Ignored {
+                signal: "exit",
+                why: IgnoreReason::Before,
+                ..
+            }]
+        ));
+        assert_eq!(m.phase(), Phase::Running);
+        assert_eq!(
+            (m.counters().ignored_interrupts, m.counters().ignored_exits),
+            (1, 1)
+        );
+        // sent at or after the run began: for this run
+        assert_eq!(
+            m.handle(Input::Interrupt(Sent::at(100))),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+    }
+
+    #[test]
+    fn r11_a_run_begins_no_earlier_than_the_end_of_the_run_before_it() {
+        // a start sent at 100 arrives while a run goes on; it is queued, and that run ends at 300
+        let mut m = started_by(StartPolicy::QueueOne, Sent::at(50));
+        assert!(m.handle_at(Input::Start(8, Sent::at(100)), 110).is_empty());
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 290);
+        let fx = m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 300);
+        assert_eq!(
+            fx,
+            vec![
+                EmitExited(String::new(), None),
+                EmitStarted(8, None),
+                RunStart(8)
+            ]
+        );
+        assert_eq!(m.began(), Some(300));
+        // an interrupt sent at 200 was meant for the run before (it arrived late): not for this one
+        assert!(matches!(
+            m.handle_at(Input::Interrupt(Sent::at(200)), 310)[..],
+            [Ignored { .. }]
+        ));
+        // a restart (R8) begins when it starts, and has no cause
+        let mut m = started_by(StartPolicy::Ignore, Sent::by(50, K));
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 60);
+        let fx = m.handle_at(Input::ExitEnded(Ok(ExitAction::Restart)), 70);
+        assert_eq!(
+            fx,
+            vec![
+                EmitExited(String::new(), Some(K)),
+                EmitStarted(7, None),
+                RunStart(7)
+            ]
+        );
+        assert_eq!((m.began(), m.cause()), (Some(70), None));
+    }
+
+    #[test]
+    fn r12_an_interrupt_read_before_the_start_it_follows_interrupts_that_run() {
+        let mut m = M::new(StartPolicy::Ignore);
+        // the interrupt (sent at 200) is read first, while idle: ignored for now, kept
+        assert!(matches!(
+            m.handle_at(Input::Interrupt(Sent::at(200)), 210)[..],
+            [Ignored { .. }]
+        ));
+        assert_eq!(m.counters().ignored_interrupts, 1);
+        // the start sent at 150 arrives: its run begins, runs to its first await, then takes the interrupt
+        assert_eq!(
+            m.handle_at(Input::Start(1, Sent::at(150)), 220),
+            vec![EmitStarted(1, None), RunStart(1)]
+        );
+        assert!(m.resume_due());
+        assert_eq!(
+            m.resume(),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+        assert!(m.resume().is_empty(), "once");
+        assert_eq!(
+            (m.counters().interrupts, m.counters().ignored_interrupts),
+            (1, 0)
+        );
+        // the same with an exit signal
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Exit(Sent::at(200)), 210);
+        m.handle_at(Input::Start(1, Sent::at(150)), 220);
+        assert_eq!(
+            m.resume(),
+            vec![CancelStart, RunExit(ExitReason::ExitSignal)]
+        );
+        assert_eq!(m.counters().ignored_exits, 0);
+    }
+
+    #[test]
+    fn r12_kept_signals_do_not_reach_starts_sent_after_them_or_long_before() {
+        // sent after the interrupt: the interrupt came first, the run is not interrupted
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(Sent::at(200)), 210);
+        m.handle_at(Input::Start(1, Sent::at(250)), 260);
+        assert!(!m.resume_due() && m.resume().is_empty());
+        // a start sent more than HOLD before the interrupt is not its cause
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(Sent::at(HOLD + 200)), HOLD + 210);
+        m.handle_at(Input::Start(1, Sent::at(100)), HOLD + 220);
+        assert!(m.resume().is_empty());
+        // an interrupt sent before the previous run ended is not for the next run (R11)
+        let mut m = started_by(StartPolicy::Ignore, Sent::at(10));
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 20);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 300);
+        m.handle_at(Input::Interrupt(Sent::at(200)), 310); // read late, while idle
+        m.handle_at(Input::Start(1, Sent::at(150)), 320); // begins at 300 (the end of the run before)
+        assert!(m.resume().is_empty());
+    }
+
+    #[test]
+    fn r13_an_until_interrupt_interrupts_only_runs_of_its_statement() {
+        let until_k = Sent::by(
+            500,
+            Cause {
+                statement: K.statement,
+                delivery: 0,
+            },
+        );
+        // a run of another statement, or of none, is not interrupted
+        for run in [Sent::by(100, OTHER), Sent::at(100)] {
+            let mut m = started_by(StartPolicy::Ignore, run);
+            assert!(matches!(
+                m.handle(Input::Interrupt(until_k))[..],
+                [Ignored {
+                    why: IgnoreReason::OtherRun,
+                    ..
+                }]
+            ));
+            assert_eq!(m.phase(), Phase::Running);
+        }
+        // a run of K is, with its cause on every signal of the run
+        let mut m = started_by(StartPolicy::Ignore, Sent::by(100, K));
+        assert_eq!(
+            m.handle(Input::Interrupt(until_k)),
+            vec![CancelStart, EmitInterrupted(Some(K)), RunInterrupt]
+        );
+        m.handle(Input::InterruptEnded(None));
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Done))),
+            vec![EmitExited(String::new(), Some(K))]
+        );
+        // untargeted interrupts interrupt any run
+        let mut m = started_by(StartPolicy::Ignore, Sent::by(100, OTHER));
+        assert_eq!(m.handle(Input::Interrupt(Sent::at(200))).len(), 3);
+    }
+
+    #[test]
+    fn r13_a_kept_until_interrupt_is_taken_only_by_a_start_of_its_statement() {
+        let until_k = Sent::by(
+            500,
+            Cause {
+                statement: K.statement,
+                delivery: 0,
+            },
+        );
+        // another statement's start sent before it: not its run
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(until_k), 510);
+        m.handle_at(Input::Start(1, Sent::by(400, OTHER)), 520);
+        assert!(!m.resume_due() && m.resume().is_empty());
+        // K's start sent before it: interrupted
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(until_k), 510);
+        m.handle_at(Input::Start(2, Sent::by(450, K)), 530);
+        assert_eq!(
+            m.resume(),
+            vec![CancelStart, EmitInterrupted(Some(K)), RunInterrupt]
+        );
+    }
+
+    #[test]
+    fn r9_an_until_interrupt_before_acceptance_interrupts_the_goal() {
+        // an action goal awaiting acceptance is a run of the statement that sent it
+        let mut m = M::with_announce(StartPolicy::Ignore, Announce::WhenAccepted);
+        assert_eq!(
+            m.handle(Input::Start(7, Sent::by(100, K))),
+            vec![RunStart(7)]
+        );
+        let until_k = Sent::by(
+            150,
+            Cause {
+                statement: K.statement,
+                delivery: 0,
+            },
+        );
+        assert_eq!(
+            m.handle(Input::Interrupt(until_k)),
+            vec![CancelStart, EmitInterrupted(Some(K)), RunInterrupt]
+        );
+    }
+
+    #[test]
+    fn r7_abandoned_runs_still_run_their_exit_slot() {
+        // running: the exit slot runs
+        let mut m = running(StartPolicy::QueueOne);
+        assert_eq!(
+            m.abandon(),
+            vec![CancelStart, RunExit(ExitReason::ExitSignal)]
+        );
+        // interrupting: the exit slot runs after the interrupt slot that was cut short
+        let mut m = running(StartPolicy::Ignore);
+        m.handle(Input::Interrupt(Sent::default()));
+        assert_eq!(m.abandon(), vec![RunExit(ExitReason::Interrupted)]);
+        // exiting: the exit slot did not reach its end: it runs again
+        let mut m = running(StartPolicy::Ignore);
+        m.handle(Input::StartEnded(StartEnd::Failed("x".into())));
+        assert_eq!(m.abandon(), vec![RunExit(ExitReason::Failed("x".into()))]);
+        assert_eq!(
+            m.handle(Input::ExitEnded(Ok(ExitAction::Restart))),
+            vec![EmitExited(String::new(), None)]
+        );
+        assert_eq!(m.phase(), Phase::Idle, "and nothing starts again");
+        assert!(M::new(StartPolicy::Ignore).abandon().is_empty());
     }
 }

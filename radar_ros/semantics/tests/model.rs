@@ -4,34 +4,53 @@
 
 use proptest::prelude::*;
 use radar_semantics::{
-    connection::{ConnectionTable, Kind, Link, ResponseView, Until},
+    connection::{ConnectionTable, Kind, Link, Until, Via},
     response::{
-        Announce, Effect, ExitAction, Input, Phase, ResponseMachine, StartEnd, StartPolicy,
+        Announce, Cause, Effect, ExitAction, Input, Phase, ResponseMachine, Sent, StartEnd,
+        StartPolicy, HOLD,
     },
 };
 
 // ------------------------------------------------------------------------------------------- responses
 
-/// What the wire shows of a response: its three signals.
+/// What the wire shows of a response: its three signals, with the cause they carry (its statement).
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Wire {
-    Started(u8),
-    Interrupted,
-    Exited,
+    Started(u8, Option<u128>),
+    Interrupted(Option<u128>),
+    Exited(Option<u128>),
 }
 
-/// The response rules 1-10, as the crate documentation states them.
+/// A slot signal an idle response keeps (R12).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct KeptSignal {
+    exit: bool,
+    at: i64,
+    /// The `until` statement an interrupt names (R13).
+    by: Option<u128>,
+}
+
+/// The response rules R1-R13, as the crate documentation states them.
 #[derive(Debug)]
 struct ResponseModel {
     policy: StartPolicy,
-    /// Rule 9: `started` on acceptance instead of at once.
+    /// R9: `started` on acceptance instead of at once.
     on_accept: bool,
     /// Whether this run has said `started`.
     announced: bool,
     phase: Phase,
     payload: Option<u8>,
-    queued: Option<u8>,
+    queued: Option<(u8, Sent)>,
     stopping: bool,
+    /// R11: when the run began, when the last one ended; the clock.
+    began: i64,
+    ended: i64,
+    now: i64,
+    /// R13: the statement whose start began this run.
+    cause: Option<u128>,
+    /// R12: what an idle response keeps, and what the run just begun takes at its first await.
+    kept: Vec<KeptSignal>,
+    held: Option<KeptSignal>,
     starts: u64,
     exits: u64,
     interrupts: u64,
@@ -53,6 +72,12 @@ impl ResponseModel {
             payload: None,
             queued: None,
             stopping: false,
+            began: i64::MIN,
+            ended: i64::MIN,
+            now: i64::MIN,
+            cause: None,
+            kept: Vec::new(),
+            held: None,
             starts: 0,
             exits: 0,
             interrupts: 0,
@@ -65,47 +90,75 @@ impl ResponseModel {
         }
     }
 
-    /// Rule 1: started, then the run (rule 9: started waits for acceptance).
-    fn begin(&mut self, p: u8, wire: &mut Vec<Wire>) {
+    /// R1: started, then the run (R9: started waits for acceptance); R11: the run begins no earlier than the
+    /// end of the one before; R13: it carries its statement.
+    fn begin(&mut self, p: u8, s: Sent, wire: &mut Vec<Wire>) {
         self.starts += 1;
         self.phase = Phase::Running;
         self.payload = Some(p);
+        self.cause = s.by.map(|c| c.statement);
+        self.began = s.at.max(self.ended);
+        self.held = None;
         self.announced = !self.on_accept;
         if self.announced {
-            wire.push(Wire::Started(p));
+            wire.push(Wire::Started(p, self.cause));
         }
     }
 
-    /// Rule 3: interrupted as the interrupt slot begins.
+    /// R3: interrupted as the interrupt slot begins.
     fn interrupt(&mut self, wire: &mut Vec<Wire>) {
         self.interrupts += 1;
         self.phase = Phase::Interrupting;
-        wire.push(Wire::Interrupted);
+        self.held = None;
+        wire.push(Wire::Interrupted(self.cause));
     }
 
-    fn input(&mut self, i: &Input<u8, ()>) -> Vec<Wire> {
+    /// R11 and R13: whether a signal sent at `at` (an interrupt naming `by`) is for the current run.
+    fn for_this_run(&self, at: i64, by: Option<u128>) -> bool {
+        at >= self.began && by.is_none_or(|k| self.cause == Some(k))
+    }
+
+    fn input(&mut self, i: &Input<u8, ()>, now: i64) -> Vec<Wire> {
+        self.now = self.now.max(now);
+        if let Input::Start(_, s) | Input::Interrupt(s) | Input::Exit(s) = i {
+            self.now = self.now.max(s.at);
+        }
         let mut wire = Vec::new();
         match i {
-            // rule 9: once per run, while running
+            // R9: once per run, while running
             Input::Accepted => {
                 if self.phase == Phase::Running && !self.announced {
                     self.announced = true;
-                    wire.push(Wire::Started(self.payload.expect("a run has a payload")));
+                    wire.push(Wire::Started(
+                        self.payload.expect("a run has a payload"),
+                        self.cause,
+                    ));
                 }
             }
-            // rule 10: only what exited carries changes (not seen on this wire)
+            // R10: only what exited carries changes (not seen on this wire)
             Input::Output(()) => {}
-            Input::Start(p) => {
+            Input::Start(p, s) => {
                 if self.stopping {
                     self.ignored_starts += 1;
                 } else if self.phase == Phase::Idle {
-                    self.begin(*p, &mut wire);
+                    self.begin(*p, *s, &mut wire);
+                    // R12: the earliest kept signal sent after this start (within HOLD) and meant for its run
+                    let (began, cause) = (self.began, self.cause);
+                    if let Some(i) = self.kept.iter().position(|k| {
+                        k.at > s.at
+                            && k.at >= began
+                            && k.at - s.at <= HOLD
+                            && (k.exit || k.by.is_none_or(|b| cause == Some(b)))
+                    }) {
+                        self.held = Some(self.kept.remove(i));
+                    }
+                    self.kept.retain(|k| k.at > s.at);
                 } else {
-                    // rule 6
+                    // R6
                     match self.policy {
                         StartPolicy::Ignore => self.ignored_starts += 1,
                         StartPolicy::QueueOne | StartPolicy::Restart => {
-                            if self.queued.replace(*p).is_some() {
+                            if self.queued.replace((*p, *s)).is_some() {
                                 self.ignored_starts += 1;
                             }
                             if self.policy == StartPolicy::Restart && self.phase == Phase::Running {
@@ -115,20 +168,45 @@ impl ResponseModel {
                     }
                 }
             }
-            Input::Interrupt if self.phase == Phase::Running => self.interrupt(&mut wire),
-            Input::Interrupt => self.ignored_interrupts += 1, // rule 5
-            Input::Exit if self.phase == Phase::Running => {
-                // rule 4
-                self.exit_signals += 1;
-                self.phase = Phase::Exiting;
+            Input::Interrupt(s) | Input::Exit(s) => {
+                let exit = matches!(i, Input::Exit(_));
+                let by = if exit {
+                    None
+                } else {
+                    s.by.map(|c| c.statement)
+                };
+                if self.phase == Phase::Running && self.for_this_run(s.at, by) {
+                    if exit {
+                        // R4
+                        self.exit_signals += 1;
+                        self.phase = Phase::Exiting;
+                        self.held = None;
+                    } else {
+                        self.interrupt(&mut wire);
+                    }
+                } else {
+                    // R5, R11, R13 (and R12: an idle response keeps it)
+                    if self.phase == Phase::Idle && !self.stopping {
+                        self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
+                        if self.kept.len() == 8 {
+                            self.kept.remove(0);
+                        }
+                        self.kept.push(KeptSignal { exit, at: s.at, by });
+                    }
+                    if exit {
+                        self.ignored_exits += 1;
+                    } else {
+                        self.ignored_interrupts += 1;
+                    }
+                }
             }
-            Input::Exit => self.ignored_exits += 1, // rule 5
             Input::StartEnded(end) => {
-                // rule 2 (and 7: the exit slot runs after an error or a panic too)
+                // R2 (and R7: the exit slot runs after an error or a panic too)
                 if let StartEnd::Panicked(_) = end {
                     self.panics += 1;
                 }
                 self.phase = Phase::Exiting;
+                self.held = None;
             }
             Input::InterruptEnded(panic) => {
                 if panic.is_some() {
@@ -137,21 +215,40 @@ impl ResponseModel {
                 self.phase = Phase::Exiting;
             }
             Input::ExitEnded(r) => {
-                // rules 2, 7, 8
+                // R2, R7, R8
                 if r.is_err() {
                     self.panics += 1;
                 }
                 self.exits += 1;
-                wire.push(Wire::Exited);
+                wire.push(Wire::Exited(self.cause));
                 self.phase = Phase::Idle;
+                self.ended = self.now;
                 let finished = self.payload.take();
                 if self.stopping {
-                } else if let Some(p) = self.queued.take() {
-                    self.begin(p, &mut wire);
+                } else if let Some((p, s)) = self.queued.take() {
+                    self.begin(p, s, &mut wire);
                 } else if let (Ok(ExitAction::Restart), Some(p)) = (r, finished) {
                     self.restarts += 1;
-                    self.begin(p, &mut wire);
+                    self.begin(p, Sent::at(self.now), &mut wire);
                 }
+            }
+        }
+        wire
+    }
+
+    /// R12: the run just begun reached its first await: a signal it took applies now.
+    fn resume(&mut self) -> Vec<Wire> {
+        let mut wire = Vec::new();
+        if let (Some(k), Phase::Running) = (self.held.take(), self.phase) {
+            if k.exit {
+                self.exit_signals += 1;
+                self.phase = Phase::Exiting;
+            } else {
+                self.ignored_interrupts -= 1;
+                self.interrupt(&mut wire);
+            }
+            if k.exit {
+                self.ignored_exits -= 1;
             }
         }
         wire
@@ -161,6 +258,8 @@ impl ResponseModel {
     fn stop(&mut self) -> Vec<Wire> {
         self.stopping = true;
         self.queued = None;
+        self.kept.clear();
+        self.held = None;
         if self.phase == Phase::Running {
             self.exit_signals += 1;
             self.phase = Phase::Exiting;
@@ -169,25 +268,40 @@ impl ResponseModel {
     }
 }
 
+/// Two statements, as R13 sees them: their starts carry these, their `until`s name them.
+const STATEMENTS: [u128; 2] = [1 << 64 | 1, 1 << 64 | 2];
+
+fn by(k: u8) -> Option<Cause> {
+    (k > 0).then(|| Cause {
+        statement: STATEMENTS[k as usize - 1],
+        delivery: 1,
+    })
+}
+
+/// How late a signal is read, in steps of 10: it was emitted before the signals read before it (R11, R12).
+const LATE: [i64; 4] = [0, 3, 12, 25];
+
 /// What the test harness asks for at each step; completions apply to whichever slot runs.
 #[derive(Clone, Debug)]
 enum Step {
-    Start(u8),
-    Interrupt,
-    Exit,
+    /// A start with a payload, read `LATE[late]` after it was sent, by no statement (0) or one of two.
+    Start(u8, usize, u8),
+    /// An interrupt read late, naming no statement (0) or one of two (an until's).
+    Interrupt(usize, u8),
+    Exit(usize),
     /// The running slot finishes: 0 normally, 1 with an error (start) or a restart (exit), 2 by panicking.
     Finish(u8),
-    /// The start behaviour reports acceptance (rule 9).
+    /// The start behaviour reports acceptance (R9).
     Accept,
-    /// A slot hands over the output (rule 10).
+    /// A slot hands over the output (R10).
     Output,
 }
 
 fn step() -> impl Strategy<Value = Step> {
     prop_oneof![
-        3 => (0u8..4).prop_map(Step::Start),
-        2 => Just(Step::Interrupt),
-        1 => Just(Step::Exit),
+        3 => (0u8..4, 0usize..4, 0u8..3).prop_map(|(p, l, b)| Step::Start(p, l, b)),
+        2 => (0usize..4, 0u8..3).prop_map(|(l, b)| Step::Interrupt(l, b)),
+        1 => (0usize..4).prop_map(Step::Exit),
         5 => (0u8..3).prop_map(Step::Finish),
         2 => Just(Step::Accept),
         1 => Just(Step::Output),
@@ -211,11 +325,12 @@ enum Slot {
 }
 
 fn wire_of(fx: &[Effect<u8, ()>]) -> Vec<Wire> {
+    let st = |c: &Option<Cause>| c.map(|c| c.statement);
     fx.iter()
         .filter_map(|e| match e {
-            Effect::EmitStarted(p) => Some(Wire::Started(*p)),
-            Effect::EmitInterrupted => Some(Wire::Interrupted),
-            Effect::EmitExited(()) => Some(Wire::Exited),
+            Effect::EmitStarted(p, c) => Some(Wire::Started(*p, st(c))),
+            Effect::EmitInterrupted(c) => Some(Wire::Interrupted(st(c))),
+            Effect::EmitExited((), c) => Some(Wire::Exited(st(c))),
             _ => None,
         })
         .collect()
@@ -225,8 +340,9 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
     /// The machine emits exactly what the rules say, in order, and counts what they say, for any sequence of
-    /// signals and slot completions a runtime can feed it; and the runtime's slot bookkeeping (which slot runs,
-    /// from the effects) never sees two slots at once or a completion out of place.
+    /// signals (read in another order than they were sent, from two statements and from none) and slot
+    /// completions a runtime can feed it; and the runtime's slot bookkeeping (which slot runs, from the
+    /// effects) never sees two slots at once or a completion out of place.
     #[test]
     fn the_response_machine_follows_the_documented_rules(
         policy in policy(),
@@ -242,13 +358,15 @@ proptest! {
         let (mut runs, mut started, mut exited) = (0u64, 0u64, 0u64);
         let mut started_this_run = 0;
         for (k, s) in steps.iter().enumerate() {
-            let (fx, expected) = if stop_at == Some(k) {
+            let now = 1000 + k as i64 * 10;
+            let sent = |late: usize, b: u8| Sent { at: now - LATE[late], by: by(b) };
+            let (mut fx, mut expected) = if stop_at == Some(k) {
                 (m.stop(), model.stop())
             } else {
                 let input = match s {
-                    Step::Start(p) => Input::Start(*p),
-                    Step::Interrupt => Input::Interrupt,
-                    Step::Exit => Input::Exit,
+                    Step::Start(p, late, b) => Input::Start(*p, sent(*late, *b)),
+                    Step::Interrupt(late, b) => Input::Interrupt(sent(*late, *b)),
+                    Step::Exit(late) => Input::Exit(sent(*late, 0)),
                     Step::Accept => Input::Accepted,
                     Step::Output => Input::Output(()),
                     Step::Finish(how) => match slot {
@@ -266,9 +384,14 @@ proptest! {
                         }),
                     },
                 };
-                let expected = model.input(&input);
-                (m.handle(input), expected)
+                let expected = model.input(&input, now);
+                (m.handle_at(input, now), expected)
             };
+            // the runtime: a run just begun runs to its first await, then the machine resumes (R12)
+            if fx.iter().any(|e| matches!(e, Effect::RunStart(_))) {
+                fx.extend(m.resume());
+                expected.extend(model.resume());
+            }
             prop_assert_eq!(wire_of(&fx), expected, "step {} {:?}", k, s);
             // the runtime's view: which slot runs after these effects
             for e in &fx {
@@ -277,7 +400,7 @@ proptest! {
                         prop_assert_eq!(slot, Slot::None, "a start while a slot runs");
                         slot = Slot::Start;
                         runs += 1;
-                        // under rule 1 `started` came just before the run it announces
+                        // under R1 `started` came just before the run it announces
                         started_this_run = if on_accept { 0 } else { 1 };
                     }
                     Effect::CancelStart => { prop_assert_eq!(slot, Slot::Start); slot = Slot::None }
@@ -286,16 +409,16 @@ proptest! {
                         prop_assert!(slot == Slot::None || slot == Slot::Start || slot == Slot::Interrupt);
                         slot = Slot::Exit
                     }
-                    Effect::EmitStarted(_) => {
+                    Effect::EmitStarted(..) => {
                         started += 1;
                         if on_accept {
                             prop_assert_eq!(slot, Slot::Start, "started on acceptance only while the run runs");
                             started_this_run += 1;
                         }
-                        prop_assert!(started_this_run <= 1, "one started per run (rule 9)");
+                        prop_assert!(started_this_run <= 1, "one started per run (R9)");
                     }
-                    Effect::EmitExited(_) => {
-                        prop_assert_eq!(slot, Slot::Exit, "exited only after the exit slot (rule 7)");
+                    Effect::EmitExited(..) => {
+                        prop_assert_eq!(slot, Slot::Exit, "exited only after the exit slot (R7)");
                         slot = Slot::None;
                         exited += 1;
                     }
@@ -305,7 +428,7 @@ proptest! {
             prop_assert!(runs - exited <= 1, "one run at a time");
             prop_assert!(started <= runs);
             if !on_accept {
-                prop_assert_eq!(started, runs, "rule 1: every run says started");
+                prop_assert_eq!(started, runs, "R1: every run says started");
             }
             prop_assert_eq!(m.phase(), model.phase);
             let c = m.counters();
@@ -321,7 +444,7 @@ proptest! {
 
 // ------------------------------------------------------------------------------------------ connections
 
-/// Connection rules 1-5, as the crate documentation states them, for signals read in the order emitted.
+/// Connection rules C1-C7, as the crate documentation states them.
 #[derive(Clone, Debug)]
 struct ModelConn {
     id: u64,
@@ -332,6 +455,7 @@ struct ModelConn {
     spent: bool,
     link: Link,
     rearm: bool,
+    delivered: u64,
     until: Option<ModelWindow>,
 }
 
@@ -343,12 +467,112 @@ impl ModelConn {
     }
 }
 
-#[derive(Clone, Debug)]
+/// C3 for one until, as C6 (a response that keeps causes) and C7 (one that does not) say.
+#[derive(Clone, Debug, Default)]
 struct ModelWindow {
+    causes: bool,
+    // C6
+    /// The latest start delivery whose run may be going.
+    outstanding: Option<u64>,
+    /// C7: the newest signal of U that was not sent.
+    kept: Option<i64>,
+    // C7, without causes: R's runs by their signals in emission order
+    last: Option<i64>,
     running: bool,
-    runs_later: bool,
     awaiting: bool,
-    open: bool,
+    sent_while_running: Option<i64>,
+    open_since: Option<i64>,
+}
+
+impl ModelWindow {
+    fn new(causes: bool) -> Self {
+        ModelWindow {
+            causes,
+            ..Default::default()
+        }
+    }
+    /// Whether R's signal at `at` is newer than those applied (older ones are left alone).
+    fn newer(&mut self, at: i64) -> bool {
+        if self.last.is_some_and(|l| at < l) {
+            return false;
+        }
+        self.last = Some(at);
+        true
+    }
+    fn keep(&mut self, u: i64) {
+        self.kept = Some(self.kept.map_or(u, |k| k.max(u)));
+    }
+    /// C6/C7: this statement delivered start `n`, its source emitted at `at`. A kept U that follows it.
+    fn start_delivered(&mut self, n: u64, at: i64) -> Option<i64> {
+        if self.causes {
+            self.outstanding = Some(n);
+            self.kept.take().filter(|&u| u > at && u - at <= HOLD)
+        } else {
+            if self.running {
+                self.sent_while_running = Some(at);
+            } else {
+                self.awaiting = true;
+            }
+            None
+        }
+    }
+    /// R's `started` at `at`: a kept U that goes now.
+    fn started(&mut self, at: i64) -> Option<i64> {
+        if self.causes || !self.newer(at) {
+            return None;
+        }
+        self.running = true;
+        self.sent_while_running = None;
+        self.open_since = self.awaiting.then_some(at);
+        self.awaiting = false;
+        let kept = self.kept.take();
+        match (self.open_since, kept) {
+            (Some(since), Some(u)) if u >= since && u - since <= HOLD => Some(u),
+            _ => None,
+        }
+    }
+    /// R's `exited` at `at`, ending this statement's delivery `ours` (if it says so).
+    fn exited(&mut self, at: i64, ours: Option<u64>) {
+        if self.causes {
+            if let (Some(n), Some(m)) = (self.outstanding, ours) {
+                if m >= n {
+                    self.outstanding = None;
+                }
+            }
+            return;
+        }
+        if !self.newer(at) {
+            return;
+        }
+        self.running = false;
+        self.open_since = None;
+        if self
+            .sent_while_running
+            .take()
+            .is_some_and(|sent| at <= sent)
+        {
+            self.awaiting = true;
+        }
+    }
+    /// U at `at`: whether it goes to R's interrupt.
+    fn u(&mut self, at: i64) -> bool {
+        if self.causes {
+            if self.outstanding.is_some() {
+                return true;
+            }
+            self.keep(at);
+            return false;
+        }
+        match self.open_since {
+            Some(since) => at >= since,
+            None => {
+                if self.awaiting || self.sent_while_running.is_some() {
+                    self.keep(at);
+                }
+                false
+            }
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -358,12 +582,16 @@ enum Op {
         target: usize,
         once: bool,
         until: bool,
-        runs_later: bool,
+        causes: bool,
         rearm: bool,
     },
     Remove(usize),
+    /// E1, E2, U, R.started read now, as emitted now.
     Signal(usize),
-    /// A signal of E1, E2 or U read now but emitted that many steps ago (it was in flight).
+    /// R.exited read now, carrying the cause of the latest start delivered to R (true) or none.
+    RExited(bool),
+    /// A signal of E1, E2 or U, or R's started or exited, read now but emitted that many steps ago (it was in
+    /// flight).
     LateSignal(usize, i64),
     /// E1 or E2 leaves the graph / comes back.
     SourceLeaves(usize),
@@ -382,8 +610,8 @@ const TARGETS: [&str; 2] = ["R.start", "Q.start"];
 fn op() -> impl Strategy<Value = Op> {
     prop_oneof![
         2 => (0usize..2, 0usize..2, any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>())
-            .prop_map(|(source, target, once, until, runs_later, rearm)|
-                Op::Arm { source, target, once, until, runs_later, rearm }),
+            .prop_map(|(source, target, once, until, causes, rearm)|
+                Op::Arm { source, target, once, until, causes, rearm }),
         1 => prop_oneof![
             (0usize..2).prop_map(Op::SourceLeaves),
             (0usize..2).prop_map(Op::SourceBack),
@@ -393,9 +621,10 @@ fn op() -> impl Strategy<Value = Op> {
             Just(Op::RBack),
         ],
         1 => (0usize..8).prop_map(Op::Remove),
-        // E1, E2, U, R.started, R.exited
-        6 => (0usize..5).prop_map(Op::Signal),
-        1 => (0usize..3, 1i64..4).prop_map(|(k, back)| Op::LateSignal(k, back)),
+        // E1, E2, U, R.started
+        6 => (0usize..4).prop_map(Op::Signal),
+        2 => any::<bool>().prop_map(Op::RExited),
+        2 => (0usize..5, 1i64..4).prop_map(|(k, back)| Op::LateSignal(k, back)),
     ]
 }
 
@@ -403,40 +632,37 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(4000))]
 
     /// What a table delivers, and which connections it keeps, is what the rules say: nothing emitted before a
-    /// connection was armed, every signal for `whenever`, exactly one for `once`, U to R's `interrupt` only
-    /// within a run the connection started, nothing after removal; and when components leave and come back,
-    /// what rule 5 says.
+    /// connection was armed, every signal for `whenever`, exactly one for `once`, U to R's `interrupt` as C6
+    /// and C7 say (signals read out of order included), nothing after removal; and when components leave and
+    /// come back, what C5 says.
     #[test]
     fn the_connection_table_follows_the_documented_rules(ops in prop::collection::vec(op(), 0..80)) {
-        let mut t = ConnectionTable::<&'static str, &'static str>::new();
+        let mut t = ConnectionTable::<&'static str, &'static str>::with_statement_base(9);
         let mut model: Vec<ModelConn> = Vec::new();
         let mut ids: Vec<u64> = Vec::new();
-        let mut r_running = false; // R's signals alternate: started, exited, started, ...
+        // the cause of the latest start delivered to R
+        let mut r_cause: Option<Cause> = None;
         for (now, o) in ops.iter().enumerate() {
             let now = now as i64 * 10;
             match *o {
-                Op::Arm { source, target, once, until, runs_later, rearm } => {
+                Op::Arm { source, target, once, until, causes, rearm } => {
                     let kind = if once { Kind::Once } else { Kind::Whenever };
                     let (source, target) = (SOURCES[source], TARGETS[target]);
-                    // an until only on R (its started/exited are the ones generated here), seeing R as it is
+                    // an until only on R (its started/exited are the ones generated here)
                     let until = (until && target == "R.start").then_some(Until {
                         source: "U",
                         started: "R.started",
                         exited: "R.exited",
                         interrupt: "R.interrupt",
-                        response: ResponseView { running: r_running, runs_later },
+                        causes,
                     });
-                    let window = until.as_ref().map(|u| ModelWindow {
-                        running: u.response.running,
-                        runs_later,
-                        awaiting: false,
-                        open: false,
-                    });
+                    let window = until.as_ref().map(|_| ModelWindow::new(causes));
                     let id = t.arm(source, target, kind, until, now);
                     t.set_rearm(id, rearm);
                     ids.push(id);
                     model.push(ModelConn {
-                        id, source, target, kind, armed_at: now, spent: false, link: Link::Armed, rearm, until: window,
+                        id, source, target, kind, armed_at: now, spent: false, link: Link::Armed, rearm,
+                        delivered: 0, until: window,
                     });
                 }
                 Op::Remove(k) => {
@@ -472,14 +698,14 @@ proptest! {
                         t.target_lost(&"R.interrupt");
                         t.source_lost(&"R.started");
                         t.source_lost(&"R.exited");
-                        r_running = false;
                     }
                     for c in model.iter_mut() {
                         if c.target == target && matches!(c.link, Link::Armed | Link::WaitingForSource) {
                             c.link = if c.rearm { Link::WaitingForTarget } else { Link::TargetLost };
                         }
+                        // C5: R's run ended with it; a new R did not take this statement's start
                         if let (Some(w), "R.start") = (&mut c.until, target) {
-                            *w = ModelWindow { running: false, runs_later: w.runs_later, awaiting: false, open: false };
+                            *w = ModelWindow::new(w.causes);
                         }
                     }
                 }
@@ -498,46 +724,51 @@ proptest! {
                         }
                     }
                 }
-                Op::Signal(_) | Op::LateSignal(..) => {
+                Op::Signal(_) | Op::LateSignal(..) | Op::RExited(_) => {
                     let (k, emitted) = match *o {
                         Op::LateSignal(k, back) => (k, now - back * 10 + 5),
                         Op::Signal(k) => (k, now),
+                        Op::RExited(_) => (4, now),
                         _ => unreachable!(),
                     };
-                    let source = match k {
-                        0 => "E1",
-                        1 => "E2",
-                        2 => "U",
-                        3 if !r_running => { r_running = true; "R.started" }
-                        4 if r_running => { r_running = false; "R.exited" }
-                        _ => continue,
+                    let source = ["E1", "E2", "U", "R.started", "R.exited"][k];
+                    let from = match *o {
+                        Op::RExited(true) => r_cause,
+                        _ => None,
                     };
-                    let got: Vec<(u64, &str)> =
-                        t.on_signal(&source, emitted).into_iter().map(|d| (d.id, d.target)).collect();
+                    let got: Vec<(u64, &str, Via)> = t
+                        .on_signal_with(&source, emitted, from, |_| true)
+                        .into_iter()
+                        .map(|d| (d.id, d.target, d.via))
+                        .collect();
                     let mut want = Vec::new();
                     for c in model.iter_mut() {
                         if emitted < c.armed_at {
-                            continue;
+                            continue; // C1
                         }
                         if let Some(w) = &mut c.until {
                             if source == "R.started" {
-                                w.running = true;
-                                w.open = w.awaiting;
-                                w.awaiting = false;
+                                if let Some(at) = w.started(emitted) {
+                                    want.push((c.id, "R.interrupt", Via::Until { at }));
+                                }
                             }
                             if source == "R.exited" {
-                                w.running = false;
-                                w.open = false;
+                                let ours = from.filter(|f| f.statement == t.statement(c.id)).map(|f| f.delivery);
+                                w.exited(emitted, ours);
                             }
-                            if source == "U" && w.open {
-                                want.push((c.id, "R.interrupt"));
+                            if source == "U" && w.u(emitted) {
+                                want.push((c.id, "R.interrupt", Via::Until { at: emitted }));
                             }
                         }
                         if c.source == source && !c.spent && c.link == Link::Armed {
-                            want.push((c.id, c.target));
+                            c.delivered += 1;
+                            want.push((c.id, c.target, Via::Signal { n: c.delivered }));
+                            if c.target == "R.start" {
+                                r_cause = Some(t.cause(c.id, c.delivered));
+                            }
                             if let Some(w) = &mut c.until {
-                                if !w.running || w.runs_later {
-                                    w.awaiting = true;
+                                if let Some(at) = w.start_delivered(c.delivered, emitted) {
+                                    want.push((c.id, "R.interrupt", Via::Until { at }));
                                 }
                             }
                             if c.kind == Kind::Once {
@@ -557,6 +788,169 @@ proptest! {
                 prop_assert_eq!(t.reads(s), model.iter().any(|c| c.reads(s)), "reads {}", s);
             }
             prop_assert_eq!(t.len(), model.len());
+        }
+    }
+}
+
+// ------------------------------------------------------------------------- the two, over a reordering network
+
+/// What happens at each step of the network simulation.
+#[derive(Clone, Debug)]
+enum Net {
+    /// E, U or the plain injector P emits now.
+    EmitE,
+    EmitU,
+    EmitP,
+    /// The oldest message on one channel is read (each channel keeps its order; channels do not).
+    Deliver(usize),
+    /// The response's running slot finishes (0 normally, 1 with a restart from the exit slot).
+    Finish(u8),
+}
+
+fn net() -> impl Strategy<Value = Net> {
+    prop_oneof![
+        2 => Just(Net::EmitE),
+        3 => Just(Net::EmitU),
+        1 => Just(Net::EmitP),
+        10 => (0usize..CHANNELS).prop_map(Net::Deliver),
+        3 => (0u8..2).prop_map(Net::Finish),
+    ]
+}
+
+/// The channels: E, U, R's started and exited to the manager; the manager's starts and interrupts, and P's
+/// starts, to the response.
+const CHANNELS: usize = 7;
+const E_M: usize = 0;
+const U_M: usize = 1;
+const STARTED_M: usize = 2;
+const EXITED_M: usize = 3;
+const M_START: usize = 4;
+const M_INTERRUPT: usize = 5;
+const P_START: usize = 6;
+
+#[derive(Clone, Copy, Debug)]
+enum Msg {
+    /// A signal of E, U, or R's `started`/`exited` (with its cause), emitted at `at`.
+    Signal { at: i64, from: Option<Cause> },
+    /// A slot signal to R.
+    Slot(Sent),
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// `once|whenever E start R until U` through a manager, with every message on its own channel and the
+    /// channels read in any interleaving (a signal of U can be read before the E it follows, R's `started` after
+    /// a U that came after it, the manager's interrupt before its start): whatever the order of arrival,
+    /// - R is interrupted only in a run this statement started, by a signal of U emitted after that run began
+    ///   (never another statement's run, P's, or an exit-slot restart), and
+    /// - once everything in flight has been read, no run of this statement is left running although a signal of
+    ///   U was emitted after it began (nothing is lost because it was read in the wrong order).
+    #[test]
+    fn until_follows_cause_not_arrival_order(
+        once in any::<bool>(),
+        policy in prop_oneof![Just(StartPolicy::Ignore), Just(StartPolicy::QueueOne)],
+        steps in prop::collection::vec(net(), 0..80),
+    ) {
+        let mut t = ConnectionTable::<&'static str, &'static str>::with_statement_base(5);
+        let kind = if once { Kind::Once } else { Kind::Whenever };
+        let until = Until { source: "U", started: "R.started", exited: "R.exited", interrupt: "R.interrupt", causes: true };
+        let id = t.arm("E", "R.start", kind, Some(until), 0);
+        let k = t.statement(id);
+        let mut r = ResponseMachine::<u8, ()>::new(policy);
+        let mut chan: Vec<std::collections::VecDeque<Msg>> = vec![Default::default(); CHANNELS];
+        let mut slot = Slot::None;
+        let mut us: Vec<i64> = Vec::new();
+        let mut now = 10i64;
+        // R's effects: signals go to the manager, the slot bookkeeping of a runtime; returns whether R said
+        // `interrupted`, and with which cause
+        let run_effects = |fx: Vec<Effect<u8, ()>>, r: &mut ResponseMachine<u8, ()>, now: i64,
+                               chan: &mut Vec<std::collections::VecDeque<Msg>>, slot: &mut Slot| {
+            let mut interrupted = Vec::new();
+            let mut queue = fx;
+            while !queue.is_empty() {
+                let mut more = Vec::new();
+                for e in queue {
+                    match e {
+                        Effect::EmitStarted(_, c) => chan[STARTED_M].push_back(Msg::Signal { at: now, from: c }),
+                        Effect::EmitExited((), c) => chan[EXITED_M].push_back(Msg::Signal { at: now, from: c }),
+                        Effect::EmitInterrupted(c) => interrupted.push(c),
+                        Effect::RunStart(_) => {
+                            *slot = Slot::Start;
+                            // the run reaches its first await: R12
+                            more.extend(r.resume());
+                        }
+                        Effect::CancelStart => *slot = Slot::None,
+                        Effect::RunInterrupt => *slot = Slot::Interrupt,
+                        Effect::RunExit(_) => *slot = Slot::Exit,
+                        _ => {}
+                    }
+                }
+                queue = more;
+            }
+            interrupted
+        };
+        let drain: Vec<Net> = (0..400).map(|i| Net::Deliver(i % CHANNELS)).collect();
+        for (i, s) in steps.iter().chain(drain.iter()).enumerate() {
+            let draining = i >= steps.len();
+            now += 10;
+            match s {
+                Net::EmitE => chan[E_M].push_back(Msg::Signal { at: now, from: None }),
+                Net::EmitU => { us.push(now); chan[U_M].push_back(Msg::Signal { at: now, from: None }) }
+                Net::EmitP => chan[P_START].push_back(Msg::Slot(Sent::at(now))),
+                Net::Finish(how) => {
+                    let input = match slot {
+                        Slot::None => continue,
+                        Slot::Start => Input::StartEnded(StartEnd::Returned(())),
+                        Slot::Interrupt => Input::InterruptEnded(None),
+                        Slot::Exit => Input::ExitEnded(Ok(if *how == 1 { ExitAction::Restart } else { ExitAction::Done })),
+                    };
+                    let fx = r.handle_at(input, now);
+                    run_effects(fx, &mut r, now, &mut chan, &mut slot);
+                }
+                Net::Deliver(c) => {
+                    let Some(m) = chan[*c].pop_front() else { continue };
+                    match (*c, m) {
+                        (E_M | U_M | STARTED_M | EXITED_M, Msg::Signal { at, from }) => {
+                            let source = ["E", "U", "R.started", "R.exited"][*c];
+                            for d in t.on_signal_with(&source, at, from, |_| true) {
+                                match d.via {
+                                    // the relay keeps the source's time and adds the cause (C6)
+                                    Via::Signal { n } => chan[M_START].push_back(Msg::Slot(Sent::by(at, t.cause(id, n)))),
+                                    // the interrupt carries the time of U's signal, and names the statement
+                                    Via::Until { at: u } => chan[M_INTERRUPT].push_back(Msg::Slot(Sent::by(
+                                        u,
+                                        Cause { statement: k, delivery: 0 },
+                                    ))),
+                                }
+                            }
+                        }
+                        (M_START | P_START, Msg::Slot(sent)) => {
+                            let fx = r.handle_at(Input::Start(0, sent), now);
+                            run_effects(fx, &mut r, now, &mut chan, &mut slot);
+                        }
+                        (M_INTERRUPT, Msg::Slot(sent)) => {
+                            let fx = r.handle_at(Input::Interrupt(sent), now);
+                            for c in run_effects(fx, &mut r, now, &mut chan, &mut slot) {
+                                // safety: only a run of this statement, and only by a signal of U sent after it began
+                                prop_assert_eq!(c.map(|c| c.statement), Some(k), "interrupted a run that is not the statement's");
+                                prop_assert!(sent.at >= r.began().unwrap_or(i64::MIN), "interrupted by a U sent before the run began");
+                            }
+                        }
+                        _ => unreachable!(),
+                    }
+                }
+            }
+            let _ = draining;
+        }
+        prop_assert!(chan.iter().all(|c| c.is_empty()), "everything in flight was read");
+        // liveness: a run of the statement still going, with a U emitted after it began, was not interrupted
+        if r.phase() == Phase::Running && r.cause().map(|c| c.statement) == Some(k) {
+            let began = r.began().unwrap();
+            prop_assert!(
+                !us.iter().any(|&u| u >= began),
+                "a run of the statement began at {} and U was emitted at {:?}, but it runs on", began, us
+            );
         }
     }
 }
