@@ -17,7 +17,9 @@
 //! CountUp's exit slot is CountUp's own doing, not the statement's, so it runs outside that window: after the
 //! interrupt at 4 s, CountUp restarts and counts to 10 undisturbed, though `end_event` triggers again at 8 s.
 //!
-//! Run: `cargo run --example count_up` (`-- --duration 12` to change how long it runs; Ctrl-C stops it).
+//! Run: `cargo run --example count_up` (`-- --duration 12` to change how long it runs). Ctrl-C (or SIGTERM)
+//! stops it at any time as it stops every radar_ros program: CountUp's exit slot runs (it prints
+//! `count_up exit slot (exit_signal)`), `exited` is sent, and the program leaves the ROS graph.
 
 use std::time::Duration;
 
@@ -64,11 +66,8 @@ async fn run(duration: f64) -> radar_ros::Result<()> {
         .start(&count_up)
         .until(end_event.triggered())
         .await?;
-    let stop = tokio::time::sleep(Duration::from_secs_f64(duration));
-    tokio::select! {
-        _ = stop => {}
-        _ = tokio::signal::ctrl_c() => {}
-    }
+    // Ctrl-C needs nothing here: radar_ros stops the components (exit slots run) and ends the program
+    tokio::time::sleep(Duration::from_secs_f64(duration)).await;
     for p in printers {
         p.abort();
     }

@@ -18,7 +18,6 @@ use radar_ros_examples::{
     listing1::{watch_count_up, watch_event, CountUp, SleepThenTrigger},
     Timeline,
 };
-use tokio::signal::unix::{signal, SignalKind};
 
 #[tokio::main]
 async fn main() {
@@ -37,12 +36,10 @@ async fn main() {
     }
 }
 
+/// Runs until the program is told to stop: on SIGINT or SIGTERM radar_ros stops every component (a running
+/// response's exit slot runs, `exited` is sent), leaves the ROS graph and ends the process.
 async fn until_stopped() {
-    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-    tokio::select! {
-        _ = term.recv() => {}
-        _ = tokio::signal::ctrl_c() => {}
-    }
+    std::future::pending().await
 }
 
 async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
@@ -50,15 +47,13 @@ async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
     let tl = Timeline::start();
     match role {
         "count_up" => {
-            let h = radar.spawn_response("count_up", CountUp { tl })?;
+            let _h = radar.spawn_response("count_up", CountUp { tl })?;
             until_stopped().await;
-            h.shutdown().await;
         }
         "start_event" | "end_event" => {
             let secs = if role == "start_event" { 2 } else { 4 };
-            let h = radar.spawn_event(role, SleepThenTrigger(Duration::from_secs(secs)))?;
+            let _h = radar.spawn_event(role, SleepThenTrigger(Duration::from_secs(secs)))?;
             until_stopped().await;
-            h.shutdown().await;
         }
         "statement" => {
             // the components are in other processes: find them by name on the ROS graph

@@ -23,7 +23,6 @@ use std::time::Duration;
 
 use radar_ros::{msg::Empty, Event, ExitReason, Radar, Response, ResponseRef, SlotError};
 use radar_ros_examples::{init_logs, Timeline};
-use tokio::signal::unix::{signal, SignalKind};
 
 /// Counts to `n`, one count a second, then triggers.
 struct CountThenTrigger(u32);
@@ -65,12 +64,10 @@ fn arg(args: &[String], flag: &str) -> Option<f64> {
         .map(|s| s.parse().expect("a number"))
 }
 
+/// Runs until the program is told to stop: on SIGINT or SIGTERM radar_ros stops every component (a running
+/// response's exit slot runs, `exited` is sent), leaves the ROS graph and ends the process.
 async fn until_stopped() {
-    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-    tokio::select! {
-        _ = term.recv() => {}
-        _ = tokio::signal::ctrl_c() => {}
-    }
+    std::future::pending().await
 }
 
 #[tokio::main]
@@ -94,14 +91,12 @@ async fn run(role: &str, args: &[String]) -> radar_ros::Result<()> {
                 None if role == "test_event" => 5,
                 None => 3,
             };
-            let h = radar.spawn_event(role, CountThenTrigger(n))?;
+            let _h = radar.spawn_event(role, CountThenTrigger(n))?;
             until_stopped().await;
-            h.shutdown().await;
         }
         "test_response" => {
-            let h = radar.spawn_response("test_response", TestResponse(tl))?;
+            let _h = radar.spawn_response("test_response", TestResponse(tl))?;
             until_stopped().await;
-            h.shutdown().await;
         }
         "main" => {
             let loop_secs = arg(args, "--loop-secs").unwrap_or(15.0);

@@ -17,7 +17,6 @@ use std::time::Duration;
 
 use radar_ros::{action::Fibonacci, Radar};
 use radar_ros_examples::{fibonacci::fibonacci_response, number_arg, run_example, Timeline};
-use tokio::signal::unix::{signal, SignalKind};
 
 #[tokio::main]
 async fn main() {
@@ -40,7 +39,8 @@ async fn run() -> radar_ros::Result<()> {
         None,
     );
     let mut states = response.watch_state();
-    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+    // Ctrl-C and SIGTERM need nothing here: radar_ros stops the response (an unfinished goal's run ends
+    // through its exit slot, the goal is aborted) and ends the program
     let until = async {
         match number_arg("--duration") {
             Some(d) => tokio::time::sleep(Duration::from_secs_f64(d)).await,
@@ -51,8 +51,6 @@ async fn run() -> radar_ros::Result<()> {
     let mut last = response.state();
     loop {
         tokio::select! {
-            _ = tokio::signal::ctrl_c() => break,
-            _ = term.recv() => break,
             _ = &mut until => break,
             changed = states.changed() => {
                 if changed.is_err() {

@@ -1,7 +1,7 @@
 //! ROS 2 actions and RADAR responses, both ways, over real DDS: an action server as a response
 //! (`Radar::action_response`) and a response as an action server (`Radar::serve_as_action`), against each other
 //! and against real rclpy (`rclpy.action`, `test_msgs/action/Fibonacci` from the ros-jazzy-test-msgs wheel;
-//! `tests/python/actions.py`). Rules A1-A7 and S1-S6 are in `radar_ros::action`. Domains 63-67.
+//! `tests/python/actions.py`). Rules A1-A7 and S1-S7 are in `radar_ros::action`. Domains 63-67, 16-17.
 
 use std::time::Duration;
 
@@ -493,4 +493,113 @@ async fn the_goal_until_example_cancels_an_rclpy_goal_when_the_bumper_triggers()
         exited.contains(&partial) && done["sequence"].as_array().unwrap().len() < 11,
         "exited carries the server's partial sequence {partial}: {exited}"
     );
+}
+
+/// Issue 19, B4 (rule A5 with `until`): `once go start fib until bumper`, the bumper right after the start,
+/// while the action response still waits for its server. The run is the statement's from its start, not from
+/// the server's acceptance: it is interrupted, and no goal runs when the server comes. Before, the window
+/// opened only at `started` (acceptance), the bumper was dropped, and the goal ran to its end.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn b4_until_interrupts_a_goal_still_waiting_for_its_server() {
+    use radar_ros::{msg::Empty, Signal};
+    let (client_side, server_side) = (radar(16), radar(16));
+    let fib = client_side
+        .action_response_with::<Fibonacci>(
+            "/b4_fibonacci",
+            ActionResponseOptions::default().server_timeout(Duration::from_secs(30)),
+        )
+        .unwrap();
+    let probe = Probe::connect(&client_side, "/b4_fibonacci").await;
+    let (go, bumper) = (
+        client_side.signal_publisher::<Empty>("/b4_go").unwrap(),
+        client_side.signal_publisher::<Empty>("/b4_bumper").unwrap(),
+    );
+    let _c = client_side
+        .once(Signal::new("/b4_go", "std_msgs/msg/Empty"))
+        .start(&*fib)
+        .map(|_: Empty| goal(5))
+        .until(Signal::new("/b4_bumper", "std_msgs/msg/Empty"))
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    go.publish(Empty::default()).unwrap();
+    bumper.publish(Empty::default()).unwrap();
+    // interrupted before any server answered: `interrupted` and `exited`, no `started`
+    let st = after_exits(&probe, 1).await;
+    assert_eq!((st.starts, st.interrupts), (1, 1), "{st:?}");
+    // the server comes now: no goal reaches it
+    let impl_ = fibonacci_response(&server_side, "/b4_impl", Duration::from_millis(20)).unwrap();
+    let _served = server_side
+        .serve_as_action::<Fibonacci>(&impl_, "/b4_fibonacci")
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    assert_eq!(
+        impl_.state().starts,
+        0,
+        "no goal was sent after the interrupt"
+    );
+}
+
+/// Issue 19, B11 (rule S7): a response served as an action runs another statement's start when a goal comes,
+/// and its state still says idle (a start behaviour that blocks before its first await): the goal is accepted,
+/// the response queues its start (policy queue-one), and the other run's `exited` does not answer the goal:
+/// the goal's own run does, after it. Before, any `exited` of the response answered the running goal, which
+/// then SUCCEEDED with the other run's result.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn b11_another_run_of_a_served_response_does_not_answer_the_goal() {
+    let (server_side, client_side) = (radar(17), radar(17));
+    let slow = server_side
+        .spawn_response(
+            "/b11_impl",
+            radar_ros::FnResponse::new(|g: FibonacciGoal| async move {
+                // blocks before its first await: the response's state says idle meanwhile
+                std::thread::sleep(Duration::from_millis(400));
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                Ok(FibonacciResult {
+                    sequence: vec![g.order],
+                })
+            })
+            .start_policy(radar_ros::StartPolicy::QueueOne),
+        )
+        .unwrap();
+    let _served = server_side
+        .serve_as_action::<Fibonacci>(&slow, "/b11_fibonacci")
+        .unwrap();
+    let fib = client_side
+        .action_response::<Fibonacci>("/b11_fibonacci")
+        .unwrap();
+    let probe = Probe::connect(&client_side, "/b11_fibonacci").await;
+    let other = client_side
+        .signal_publisher::<FibonacciGoal>("/b11_impl/start")
+        .unwrap();
+    let started = client_side
+        .signal_subscription::<FibonacciGoal>("/b11_impl/started")
+        .unwrap();
+    other
+        .wait_for_subscribers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    started
+        .wait_for_publishers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    // another statement's run (its result would be [99]) ...
+    other.publish(goal(99)).unwrap();
+    started.recv().timeout(T).await.unwrap();
+    // ... and a goal while it runs
+    probe.start.publish(goal(3)).unwrap();
+    let seen = probe.signals(2, T).await;
+    assert_eq!(
+        seen,
+        [
+            Seen::Started(goal(3)),
+            Seen::Exited(FibonacciResult { sequence: vec![3] })
+        ],
+        "the goal is answered by its own run, not the other one"
+    );
+    let st = after_exits(&probe, 1).await;
+    assert_eq!(st.last_exit_reason, "completed", "{st:?}");
+    drop(fib);
 }

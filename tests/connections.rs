@@ -4,6 +4,8 @@
 
 #[path = "connection_cases.rs"]
 mod cases;
+#[path = "ordering_cases.rs"]
+mod ordering;
 
 use std::time::Duration;
 

@@ -1,6 +1,6 @@
 //! The connection manager as a ROS node: connect/disconnect/list services called from another participant,
-//! the `connections` topic, errors as answers, and a caller that exits taking its connections with it.
-//! Domains 90-92 and 32.
+//! the `connections` topic, errors as answers, and a caller that exits taking its connections with it (also
+//! while its connection is still arming). Domains 90-92, 32 and 13.
 
 use std::{sync::atomic::Ordering, time::Duration};
 
@@ -337,4 +337,42 @@ async fn every_program_shows_its_connections_on_its_program_node() {
         );
     }
     assert_ne!(na, nb);
+}
+
+/// Issue 19, B7: a caller that leaves while its connection is still arming owns nothing: when the arming ends,
+/// the connection is dropped, not kept for a dead owner. Before, the caller's departure was handled first (it
+/// owned nothing yet) and the connection, recorded afterwards, lived on for ever.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_caller_that_leaves_while_its_connection_arms_owns_nothing() {
+    use radar_ros::msg::Empty;
+    use radar_test_util::HostPeer;
+    let host = radar(13);
+    let (_target, _runs) = counter(&host, "b7_target");
+    let _manager = host.serve_manager("b7_manager").unwrap();
+    let mut peer = HostPeer::start(env!("CARGO_BIN_EXE_radar_test_peer"), 13).await;
+    // the source does not exist yet: the connection arms for as long as it takes to come (up to 10 s)
+    peer.run("connect-send /b7_manager /b7_source/triggered /b7_target/start 10")
+        .await;
+    peer.send("quit").await;
+    peer.wait().await;
+    // the manager has seen the caller leave: a fresh participant's goodbye is heard in milliseconds
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let source = host
+        .signal_publisher::<Empty>("/b7_source/triggered")
+        .unwrap();
+    let _ = &source;
+    // the connection arms now (its source is there, matched in milliseconds): it must not stay
+    let _source = source;
+    for _ in 0..2 {
+        tokio::time::sleep(Duration::from_millis(1000)).await;
+        let live: Vec<_> = host
+            .connections()
+            .into_iter()
+            .filter(|c| c.source == "/b7_source/triggered")
+            .collect();
+        assert!(
+            live.is_empty(),
+            "a connection of a caller that left: {live:?}"
+        );
+    }
 }

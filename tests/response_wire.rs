@@ -1,6 +1,6 @@
-//! Drives a response through every numbered rule of the crate docs over real DDS: the response runs on one
-//! participant, the test publishes on its slot topics from another, and asserts the exact signals and state
-//! messages seen on the wire. Domains 20-31.
+//! Drives a response through every numbered rule (R1-R10 of `radar_semantics::response`; R11-R13 are in
+//! `ordering_cases.rs`) over real DDS: the response runs on one participant, the test publishes on its slot
+//! topics from another, and asserts the exact signals and state messages seen on the wire. Domains 20-31, 12.
 
 use std::{
     sync::{Arc, Mutex},
@@ -147,7 +147,7 @@ fn log(r: &Scripted) -> Vec<String> {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule1_2_start_runs_with_the_payload_and_exited_follows_the_exit_slot() {
+async fn r1_r2_start_runs_with_the_payload_and_exited_follows_the_exit_slot() {
     let rig = rig(
         20,
         Scripted {
@@ -179,7 +179,7 @@ async fn rule1_2_start_runs_with_the_payload_and_exited_follows_the_exit_slot() 
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule2_exited_is_sent_after_the_exit_slot_completes() {
+async fn r2_exited_is_sent_after_the_exit_slot_completes() {
     let rig = rig(
         21,
         Scripted {
@@ -211,7 +211,7 @@ async fn rule2_exited_is_sent_after_the_exit_slot_completes() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule3_interrupt_cancels_start_then_interrupt_and_exit_slots_run() {
+async fn r3_interrupt_cancels_start_then_interrupt_and_exit_slots_run() {
     let rig = rig(22, Scripted::default()).await;
     rig.probe.start.publish(s("forever")).unwrap();
     assert_eq!(rig.probe.signals(1, T).await, [Seen::Started(s("forever"))]);
@@ -236,7 +236,7 @@ async fn rule3_interrupt_cancels_start_then_interrupt_and_exit_slots_run() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule4_exit_signal_cancels_start_and_skips_the_interrupt_slot() {
+async fn r4_exit_signal_cancels_start_and_skips_the_interrupt_slot() {
     let rig = rig(23, Scripted::default()).await;
     rig.probe.start.publish(s("forever")).unwrap();
     assert_eq!(rig.probe.signals(1, T).await, [Seen::Started(s("forever"))]);
@@ -258,7 +258,7 @@ async fn rule4_exit_signal_cancels_start_and_skips_the_interrupt_slot() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule5_interrupt_and_exit_are_ignored_unless_running() {
+async fn r5_interrupt_and_exit_are_ignored_unless_running() {
     let rig = rig(
         24,
         Scripted {
@@ -302,7 +302,7 @@ async fn rule5_interrupt_and_exit_are_ignored_unless_running() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule6_start_while_running_is_ignored_by_default() {
+async fn r6_start_while_running_is_ignored_by_default() {
     let rig = rig(25, Scripted::default()).await;
     rig.probe.start.publish(s("wait")).unwrap();
     assert_eq!(rig.probe.signals(1, T).await, [Seen::Started(s("wait"))]);
@@ -319,7 +319,7 @@ async fn rule6_start_while_running_is_ignored_by_default() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule6_restart_policy_interrupts_and_starts_the_new_payload() {
+async fn r6_restart_policy_interrupts_and_starts_the_new_payload() {
     let rig = rig(
         26,
         Scripted {
@@ -356,7 +356,7 @@ async fn rule6_restart_policy_interrupts_and_starts_the_new_payload() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule6_queue_one_keeps_the_newest_start_for_after_exited() {
+async fn r6_queue_one_keeps_the_newest_start_for_after_exited() {
     let rig = rig(
         27,
         Scripted {
@@ -383,7 +383,7 @@ async fn rule6_queue_one_keeps_the_newest_start_for_after_exited() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule7_exit_slot_runs_after_error_and_panic_and_the_node_keeps_serving() {
+async fn r7_exit_slot_runs_after_error_and_panic_and_the_node_keeps_serving() {
     let rig = rig(28, Scripted::default()).await;
     rig.probe.start.publish(s("fail")).unwrap();
     assert_eq!(
@@ -432,7 +432,7 @@ async fn rule7_exit_slot_runs_after_error_and_panic_and_the_node_keeps_serving()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rule8_exit_slot_restart_starts_again_with_the_same_payload() {
+async fn r8_exit_slot_restart_starts_again_with_the_same_payload() {
     let r = Scripted::default();
     *r.restart_once.lock().unwrap() = true;
     let rig = rig(29, r).await;
@@ -451,7 +451,7 @@ async fn rule8_exit_slot_restart_starts_again_with_the_same_payload() {
 }
 
 #[tokio::test(flavor = "current_thread")]
-async fn rule9_slots_sleep_on_the_runtime_without_blocking_each_other() {
+async fn slots_sleep_on_the_runtime_without_blocking_each_other() {
     // one runtime thread, three responses sleeping 500 ms each at the same time
     let host = radar(30);
     let probe_radar = radar(30);
@@ -518,4 +518,49 @@ async fn shutdown_ends_a_running_start_through_the_exit_slot() {
         .timeout(T)
         .await
         .unwrap();
+}
+
+/// R7 (issue 19, B5): a start closure that panics before it returns its future is a start behaviour that
+/// panicked: the exit slot runs, `exited` is sent, and the response keeps serving. Before, the panic happened
+/// outside the unwind guard: no exit slot, no `exited`, and the response was gone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn r7_a_start_closure_that_panics_before_returning_its_future_still_runs_the_exit_slot() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let host = radar(12);
+    let exits = Arc::new(AtomicU64::new(0));
+    let e = exits.clone();
+    let _resp = host
+        .spawn_response(
+            "b5",
+            radar_ros::FnResponse::new(|p: StringMsg| {
+                if p.data == "panic" {
+                    panic!("sync boom");
+                }
+                async move { Ok(p) }
+            })
+            .on_exit(move |_| {
+                e.fetch_add(1, Ordering::SeqCst);
+                async { ExitAction::Done }
+            }),
+        )
+        .unwrap();
+    let probe_radar = radar(12);
+    let probe = ResponseProbe::<StringMsg, StringMsg>::connect(&probe_radar, "/b5").await;
+    probe.start.publish(s("panic")).unwrap();
+    assert_eq!(
+        probe.signals(2, T).await,
+        [Seen::Started(s("panic")), Seen::Exited(s(""))]
+    );
+    let (_, st) = probe.states_until(T, |st| st.exits == 1).await;
+    assert_eq!(
+        (st.panics, st.last_exit_reason.as_str()),
+        (1, "panicked: sync boom")
+    );
+    assert_eq!(exits.load(Ordering::SeqCst), 1, "the exit slot ran");
+    // and the response keeps serving
+    probe.start.publish(s("again")).unwrap();
+    assert_eq!(
+        probe.signals(2, T).await,
+        [Seen::Started(s("again")), Seen::Exited(s("again"))]
+    );
 }

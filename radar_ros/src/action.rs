@@ -15,11 +15,11 @@
 //! | A | RADAR | action protocol |
 //! |---|---|---|
 //! | 1 | `start(goal)` while idle | sends the goal (after waiting, up to the server timeout, for the server to be matched both ways) |
-//! | 2 | `started(goal)` | the server **accepted** the goal (response rule 9); never before |
+//! | 2 | `started(goal)` | the server **accepted** the goal (response rule R9); never before |
 //! | 3 | `exited(result)`, run failed | the server **rejected** the goal: no `started`, state `failed: goal rejected` |
 //! | 4 | `interrupt` while the goal runs | `interrupted` at once, then a cancel request; `exited` carries the result the server reports for the canceled (or meanwhile finished) goal |
-//! | 5 | `interrupt` before the server answered | `interrupted`; the goal is canceled as soon as it is accepted (or dropped if rejected); no `started` |
-//! | 6 | `exit` signal, or the response shut down, while the goal runs | the goal is canceled too (an exit slot always runs, and a goal left running would be an orphan) |
+//! | 5 | `interrupt` before the server answered (also the `until` of the statement that sent the goal: the run is that statement's from the start, not from acceptance, R13) | `interrupted`; the goal is canceled as soon as it is accepted (or dropped if rejected, or never sent if the server has not appeared yet); no `started` |
+//! | 6 | the run ends otherwise while the goal may still run: an `exit` signal, the response or its program stopping, a failure on this side (a result that does not decode) | the goal is canceled too (an exit slot always runs, and a goal left running would be an orphan); not when the server has left |
 //! | 7 | `exited`, run failed | the goal ended `ABORTED` or was canceled by someone else (the result is carried), or the server left the graph mid-goal (`failed: the action server ... left`) |
 //!
 //! A server of another action type on that name fails each run with an error that names the type served there
@@ -40,6 +40,7 @@
 //! | 4 | — | `exited` after a completed run: `SUCCEEDED` with `exited`'s payload; after a failed, panicked, interrupted (by someone else) or exit-signalled run: `ABORTED` |
 //! | 5 | feedback | every message on the response's `feedback` topic while the goal executes |
 //! | 6 | — | the response leaves the graph, or ignores the start: the goal is `ABORTED` |
+//! | 7 | — | only the run the goal started answers it: the goal's start carries a cause (R13) that the run's `started` and `exited` carry back; another run of the response (another statement's, overlapping) does not end the goal. A response that carries no causes (rclpy) is taken at its word: its next `started` and `exited` are the goal's |
 //!
 //! ```no_run
 //! # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventHandle) -> radar_ros::Result<()> {
@@ -67,10 +68,10 @@ use ros2_client::{
 };
 use serde::{Deserialize, Serialize};
 
-use radar_semantics::response::Announce;
+use radar_semantics::response::{Announce, Cause, Sent};
 
 use crate::{
-    endpoints::{emit, publisher, ComponentTask, Watched, REPLY_WAIT},
+    endpoints::{emit, publisher, Watched, REPLY_WAIT},
     error::{Error, Result, SlotError},
     graph::Graph,
     msg::{Empty, ResponseState, RosMessage, TypeName},
@@ -79,6 +80,7 @@ use crate::{
     radar::Radar,
     refs::{AsResponse, ResponseRef, Signal},
     response::{accepted, hand_over, Response, ResponseHandle},
+    shutdown::ComponentTask,
     StartPolicy,
 };
 
@@ -317,6 +319,25 @@ struct GoalTrack {
     result_req: Option<RmwRequestId>,
     /// Its result has arrived (nothing left to cancel).
     finished: bool,
+    /// The server left the graph mid-goal (nobody to cancel with).
+    server_left: bool,
+}
+
+impl GoalTrack {
+    /// Rule A6: whether the exit slot, run for `reason`, cancels this goal: one that the server may still be
+    /// running (sent, not rejected, no result yet, the server still there), unless the interrupt slot has
+    /// canceled it already. Whatever else ended the run (an exit signal, the program stopping, a failure on
+    /// this side such as a result that does not decode) leaves no goal running behind it.
+    fn exit_cancels(&self, reason: &crate::ExitReason) -> bool {
+        self.sent.is_some()
+            && self.answer != Some(false)
+            && !self.finished
+            && !self.server_left
+            && !matches!(
+                reason,
+                crate::ExitReason::Completed | crate::ExitReason::Interrupted
+            )
+    }
 }
 
 /// The response behaviour that drives an action server.
@@ -502,7 +523,10 @@ impl<A: Action> Response for ActionProxy<A> {
         let answer = futures::select_biased! {
             r = client.goal_client().async_receive_response(req).fuse() =>
                 r.map_err(|e| self.failed(format_args!("the goal's answer did not decode: {e:?}")))?,
-            gone = self.server_gone(server).fuse() => return Err(gone),
+            gone = self.server_gone(server).fuse() => {
+                self.goal.lock().unwrap().server_left = true;
+                return Err(gone);
+            }
         };
         self.goal.lock().unwrap().answer = Some(answer.accepted);
         if !answer.accepted {
@@ -510,12 +534,16 @@ impl<A: Action> Response for ActionProxy<A> {
         }
         accepted(); // rule A2: started now
         let feedback = self.feedback.clone();
-        let forward = client.feedback_stream(goal_id).for_each(|f| {
-            if let Ok(Wire(f)) = f {
-                emit(&feedback, "feedback", f);
-            }
-            async {}
-        });
+        // feedback is forwarded while the goal runs; if its stream ended the result is still awaited (B10)
+        let forward = client
+            .feedback_stream(goal_id)
+            .for_each(|f| {
+                if let Ok(Wire(f)) = f {
+                    emit(&feedback, "feedback", f);
+                }
+                async {}
+            })
+            .then(|()| std::future::pending::<()>());
         let result_req = client
             .request_result(goal_id)
             .map_err(|e| self.failed(format_args!("could not ask for the result: {e:?}")))?;
@@ -524,8 +552,11 @@ impl<A: Action> Response for ActionProxy<A> {
             r = client.result_client().async_receive_response(result_req).fuse() =>
                 r.map(|r| (r.status, r.result))
                     .map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e:?}")))?,
-            gone = self.server_gone(server).fuse() => return Err(gone),
-            _ = forward.fuse() => return Err(self.failed("the feedback stream ended")),
+            gone = self.server_gone(server).fuse() => {
+                self.goal.lock().unwrap().server_left = true;
+                return Err(gone);
+            }
+            () = forward.fuse() => unreachable!("forwarding feedback never ends"),
         };
         self.goal.lock().unwrap().finished = true;
         match status {
@@ -542,7 +573,8 @@ impl<A: Action> Response for ActionProxy<A> {
     }
 
     async fn exit(&mut self, reason: crate::ExitReason) -> crate::ExitAction {
-        if reason == crate::ExitReason::ExitSignal {
+        let cancels = self.goal.lock().unwrap().exit_cancels(&reason);
+        if cancels {
             self.cancel_current().await; // rule A6
         }
         crate::ExitAction::Done
@@ -761,12 +793,16 @@ impl Radar {
         };
         let served = self.participant().served_actions().mark(action_fq.clone());
         let (graph, fq) = (self.graph().clone(), action_fq.clone());
-        let task = ComponentTask::spawn(move |stop| async move {
-            let _claim = claim;
-            let _node = node;
-            let _served = served;
-            serve::<A>(server, io, graph, fq, stop).await;
-        });
+        let task = ComponentTask::spawn(
+            self.participant().components(),
+            &node_name.fully_qualified(),
+            move |stop| async move {
+                let _claim = claim;
+                let _node = node;
+                let _served = served;
+                serve::<A>(server, io, graph, fq, stop).await;
+            },
+        );
         tracing::info!(action = %action_fq, response = %name, "serving a response as an action");
         Ok(ActionServerHandle {
             action: action_fq,
@@ -834,10 +870,35 @@ struct Active<G> {
     ignored_before: u64,
     /// Until when `started` may take.
     started_by: tokio::time::Instant,
+    /// The cause the goal's start carries: the run it begins carries it back on `started` and `exited` (R13).
+    cause: Cause,
+}
+
+impl<G> Active<G> {
+    /// Whether a `started` or `exited` sent as `sent` belongs to this goal's run: one that carries this goal's
+    /// cause; or, from a response that carries no causes (rclpy), any (rule S7).
+    fn owns(&self, sent: &Sent, response_keeps_causes: bool) -> bool {
+        match sent.by {
+            Some(c) => c == self.cause,
+            None => !response_keeps_causes,
+        }
+    }
 }
 
 /// How long the response has to say `started` after the goal's start was sent.
 const STARTED_WITHIN: Duration = Duration::from_secs(5);
+
+/// Numbers the statements of served actions (R13): far above any connection's number, so that a manager of
+/// the same participant never takes one for its own.
+static SERVER_STATEMENTS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1 << 48);
+
+fn graph_guid(graph: &Graph) -> ros2_client::dds::rustdds::GUID {
+    use ros2_client::dds::rustdds::RTPSEntity;
+    graph
+        .domain_participant()
+        .map(|p| p.guid())
+        .unwrap_or_else(ros2_client::dds::rustdds::GUID::new_participant_guid)
+}
 
 enum Incoming<G> {
     Goal(ros2_client::action::NewGoalHandle<Wire<G>>),
@@ -874,7 +935,25 @@ async fn serve<A: Action>(
     };
     let mut state = io.state.try_recv();
     let mut active: Option<Active<A::Goal>> = None;
+    // this server's starts carry causes of its own (R13): its participant's statement base, and a number no
+    // connection of its manager has
+    let statement = (u128::from(crate::cause::statement_base(graph_guid(&graph))) << 64)
+        | u128::from(SERVER_STATEMENTS.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
+    let mut goals: u64 = 0;
+    // a cancel interrupts the goal's run only (R13), not another statement's run of the response
+    let interrupt = |io: &ServerIo<A>| {
+        let sent = Sent::by(
+            crate::local::now_ns(),
+            Cause {
+                statement,
+                delivery: 0,
+            },
+        );
+        io.interrupt.publish_sent(Empty::default(), sent)
+    };
     loop {
+        // a RADAR response publishes its state, and carries causes
+        let keeps_causes = io.state.publishers() > 0;
         let started_by = active
             .as_ref()
             .filter(|a| a.executing.is_none())
@@ -892,7 +971,10 @@ async fn serve<A: Action>(
                         Some(Wire(goal)) if !busy => match server.accept_goal(g).await {
                             Ok(h) => {
                                 let s = state.clone().unwrap_or_default();
-                                if let Err(e) = io.start.publish(goal) {
+                                goals += 1;
+                                let cause = Cause { statement, delivery: goals };
+                                let sent = Sent::by(crate::local::now_ns(), cause);
+                                if let Err(e) = io.start.publish_sent(goal, sent) {
                                     tracing::warn!(%action, error = %e, "could not start the response");
                                 }
                                 active = Some(Active {
@@ -903,6 +985,7 @@ async fn serve<A: Action>(
                                     exits_before: s.exits,
                                     ignored_before: s.ignored_starts,
                                     started_by: tokio::time::Instant::now() + STARTED_WITHIN,
+                                    cause,
                                 });
                             }
                             Err(e) => tracing::warn!(%action, error = ?e, "could not accept a goal"),
@@ -928,14 +1011,14 @@ async fn serve<A: Action>(
                     }
                     if let (Some(a), false) = (active.as_mut(), ours.is_empty()) {
                         a.cancel_requested = true;
-                        if let Err(e) = io.interrupt.publish(Empty::default()) {
+                        if let Err(e) = interrupt(&io) {
                             tracing::warn!(%action, error = %e, "could not interrupt the response");
                         }
                     }
                 }
             },
-            Ok(_) = io.started.recv() => {
-                if let Some(a) = active.as_mut() {
+            Ok((_, sent)) = io.started.recv_sent() => {
+                if let Some(a) = active.as_mut().filter(|a| a.owns(&sent, keeps_causes)) {
                     if let Some(h) = a.accepted.take() {
                         match server.start_executing_goal(h).await {
                             Ok(e) => a.executing = Some(e),
@@ -945,7 +1028,7 @@ async fn serve<A: Action>(
                     // canceled before the response said started: that interrupt may have overtaken the start
                     // (two topics) and been ignored by an idle response; interrupt the run now
                     if a.cancel_requested {
-                        let _ = io.interrupt.publish(Empty::default());
+                        let _ = interrupt(&io);
                     }
                 }
             }
@@ -956,8 +1039,9 @@ async fn serve<A: Action>(
                     }
                 }
             }
-            Ok(result) = io.exited.recv() => {
-                if let Some(a) = active.take() {
+            Ok((result, sent)) = io.exited.recv_sent() => {
+                // S7: only the run this goal started answers it
+                if let Some(a) = active.take_if(|a| a.owns(&sent, keeps_causes)) {
                     // why the run ended: the state that follows this `exited`
                     let reason = exit_reason(&io.state, &mut state, a.exits_before).await;
                     let status = if a.cancel_requested {
@@ -997,7 +1081,7 @@ async fn serve<A: Action>(
         }
     }
     if let Some(a) = active.take() {
-        let _ = io.interrupt.publish(Empty::default());
+        let _ = interrupt(&io);
         finish::<A>(
             &server,
             &action,
@@ -1115,4 +1199,55 @@ impl Action for Fibonacci {
     type Goal = FibonacciGoal;
     type Result = FibonacciResult;
     type Feedback = FibonacciFeedback;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ExitReason;
+
+    fn running_goal() -> GoalTrack {
+        GoalTrack {
+            sent: Some((RmwRequestId::default(), GoalId::new_random())),
+            answer: Some(true),
+            ..GoalTrack::default()
+        }
+    }
+
+    #[test]
+    fn a6_an_exit_leaves_no_goal_running_whatever_ended_the_run() {
+        let g = running_goal();
+        for reason in [
+            ExitReason::ExitSignal,
+            ExitReason::Failed("the goal's result did not arrive".into()),
+            ExitReason::Failed("the feedback stream ended".into()),
+            ExitReason::Panicked("boom".into()),
+        ] {
+            assert!(g.exit_cancels(&reason), "{reason:?}");
+        }
+        // nothing to cancel: the interrupt slot did, the goal ended, was rejected, never sent, or the server left
+        assert!(!g.exit_cancels(&ExitReason::Interrupted));
+        assert!(!g.exit_cancels(&ExitReason::Completed));
+        let finished = GoalTrack {
+            finished: true,
+            ..running_goal()
+        };
+        let rejected = GoalTrack {
+            answer: Some(false),
+            ..running_goal()
+        };
+        let left = GoalTrack {
+            server_left: true,
+            ..running_goal()
+        };
+        for g in [finished, rejected, left, GoalTrack::default()] {
+            assert!(!g.exit_cancels(&ExitReason::ExitSignal), "{g:?}");
+        }
+        // sent and not answered yet (A5): canceled once accepted
+        let unanswered = GoalTrack {
+            answer: None,
+            ..running_goal()
+        };
+        assert!(unanswered.exit_cancels(&ExitReason::ExitSignal));
+    }
 }

@@ -4,10 +4,12 @@
 use futures::{Stream, StreamExt};
 use ros2_client::{MessageInfo, Name, Node, Publisher, QosProfile, Subscription};
 
+use radar_semantics::response::{Cause, Sent};
+
 use crate::{
     error::{Error, Result},
     graph::Graph,
-    local::{Tap, Taps},
+    local::{TapWriter, Taps},
     msg::TypeName,
 };
 
@@ -244,12 +246,11 @@ pub(crate) fn typed_subscription<M: crate::msg::RosMessage>(
     subscription(graph, node, topic_abs, &TypeName::of::<M>(), qos)
 }
 
-/// Publishes, logging (not failing) on error: a signal that cannot be sent must not stop the component.
-/// A component's signal writer: each signal goes to this process's connections first (its [`Tap`]), then
-/// on DDS.
+/// A component's signal writer: each signal goes to this process's connections first (its tap), then on DDS,
+/// stamped with the time of emission and carrying the run's cause (rules R11-R13, C6; see [`crate::cause`]).
 pub(crate) struct SignalWriter<M: serde::Serialize> {
     dds: Watched<Publisher<M>>,
-    tap: std::sync::Arc<Tap>,
+    tap: TapWriter,
 }
 
 impl<M: serde::Serialize> SignalWriter<M> {
@@ -264,16 +265,19 @@ impl<M: serde::Serialize> SignalWriter<M> {
         SignalWriter { dds, tap }
     }
 
-    /// Emits `m` (`topic` names it in a warning).
-    pub(crate) fn emit(&self, topic: &str, m: M) {
-        self.tap.emit(&m);
-        emit(&self.dds, topic, m);
-    }
-}
-
-impl<M: serde::Serialize> Drop for SignalWriter<M> {
-    fn drop(&mut self) {
-        self.tap.close();
+    /// Emits `m` now, carrying `cause` (`topic` names it in a warning).
+    pub(crate) fn emit(&self, topic: &str, m: M, cause: Option<Cause>) {
+        let sent = Sent {
+            at: crate::local::now_ns(),
+            by: cause,
+        };
+        self.tap.emit(&m, sent.at, cause);
+        if let Err(e) = self
+            .dds
+            .publish_with_options(m, crate::cause::write_options(sent))
+        {
+            tracing::warn!(topic, error = %e.forget_data(), "could not publish");
+        }
     }
 }
 
@@ -284,6 +288,7 @@ impl<M: serde::Serialize> std::ops::Deref for SignalWriter<M> {
     }
 }
 
+/// Publishes, logging (not failing) on error: a message that cannot be sent must not stop the component.
 pub(crate) fn emit<M: serde::Serialize>(p: &Publisher<M>, topic: &str, m: M) {
     if let Err(e) = p.publish(m) {
         tracing::warn!(topic, error = %e.forget_data(), "could not publish");
@@ -358,47 +363,6 @@ impl Throttle {
         } else {
             std::future::pending().await
         }
-    }
-}
-
-/// The task behind a component handle: asks it to stop on drop, or stops it and waits.
-pub(crate) struct ComponentTask {
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: Option<tokio::task::JoinHandle<()>>,
-}
-
-impl ComponentTask {
-    /// Spawns `f(stop)`, where `stop` resolves when the handle asks the component to stop (or is dropped).
-    pub(crate) fn spawn<F, Fut>(f: F) -> ComponentTask
-    where
-        F: FnOnce(tokio::sync::oneshot::Receiver<()>) -> Fut,
-        Fut: std::future::Future<Output = ()> + Send + 'static,
-    {
-        let (stop, rx) = tokio::sync::oneshot::channel();
-        ComponentTask {
-            stop: Some(stop),
-            task: Some(tokio::spawn(f(rx))),
-        }
-    }
-
-    fn request_stop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-    }
-
-    /// Asks the component to stop and waits until its task has ended.
-    pub(crate) async fn stop_and_wait(mut self) {
-        self.request_stop();
-        if let Some(task) = self.task.take() {
-            let _ = task.await;
-        }
-    }
-}
-
-impl Drop for ComponentTask {
-    fn drop(&mut self) {
-        self.request_stop();
     }
 }
 

@@ -19,8 +19,7 @@ use radar_semantics::event::{Activation, Transition};
 
 use crate::{
     endpoints::{
-        emit, panic_message, typed_publisher, typed_subscription, ComponentTask, SignalWriter,
-        Throttle, Watched,
+        emit, panic_message, typed_publisher, typed_subscription, SignalWriter, Throttle, Watched,
     },
     error::{Result, SlotError},
     msg::{Empty, EventState, RosMessage, Time},
@@ -28,6 +27,7 @@ use crate::{
     qos::{signal_qos, state_qos},
     radar::Radar,
     refs::{AsSignal, Signal},
+    shutdown::ComponentTask,
 };
 
 /// A condition check.
@@ -357,15 +357,19 @@ impl Radar {
         let (state_tx, state_rx) = watch::channel(st.clone());
         let graph = self.graph().clone();
         let guid = triggered.guid();
-        let task = ComponentTask::spawn(move |stop_rx| async move {
-            let _claim = claim;
-            let _node = node;
-            drive_event(
-                event, triggered, state_pub, state_tx, st, listeners, stop_rx,
-            )
-            .await;
-            graph.forget(guid);
-        });
+        let task = ComponentTask::spawn(
+            self.participant().components(),
+            &name.fully_qualified(),
+            move |stop_rx| async move {
+                let _claim = claim;
+                let _node = node;
+                drive_event(
+                    event, triggered, state_pub, state_tx, st, listeners, stop_rx,
+                )
+                .await;
+                graph.forget(guid);
+            },
+        );
         tracing::info!(event = %name, payload = %E::Payload::ros_type_name(), "event up");
         Ok(EventHandle {
             name,
@@ -448,7 +452,7 @@ async fn drive_event<E: Event>(
             } => {
                 match res {
                     Ok(payload) => {
-                        triggered.emit("triggered", payload);
+                        triggered.emit("triggered", payload, None);
                         st.triggers += 1;
                         check = Some(new_check(&event, None));
                         if throttle.changed() {

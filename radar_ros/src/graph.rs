@@ -48,6 +48,8 @@ struct Entry {
     /// (topic, DDS type name) once registered.
     identity: Option<(String, String)>,
     tx: Option<watch::Sender<usize>>,
+    /// For a reader: the writers of other participants that have shown they send to it (RustDDS patch 18).
+    heard: BTreeSet<GUID>,
 }
 
 impl Entry {
@@ -64,7 +66,21 @@ struct Table {
     writers: HashMap<GUID, Entry>,
     /// Local reader -> matched remote writers.
     readers: HashMap<GUID, Entry>,
+    /// Local endpoints deleted lately, and when. DDS may still report a match with one (a writer made just
+    /// before a reader of this participant was deleted is matched with it by the event loop afterwards, and no
+    /// loss is reported for a local endpoint): such a match is not counted, or the count would never drop.
+    forgotten: HashMap<GUID, std::time::Instant>,
+    /// Participants (by their participant GUID) and remote endpoints that left the graph lately, and when: a
+    /// caller whose request is answered after it left owns nothing (B7). A participant that exits cleanly is
+    /// known gone by its endpoints' disposes at once, by itself only when its lease runs out.
+    left: HashMap<GUID, std::time::Instant>,
 }
+
+/// How long a participant that left is remembered.
+const LEFT_FOR: std::time::Duration = std::time::Duration::from_secs(600);
+
+/// How long a deleted local endpoint is remembered (far above the event loop's delay).
+const FORGOTTEN_FOR: std::time::Duration = std::time::Duration::from_secs(30);
 
 /// Shared match table of one DDS participant.
 #[derive(Clone)]
@@ -185,20 +201,25 @@ impl Graph {
         self.watch(Side::Reader, reader, topic, dds_type)
     }
 
-    /// Whether every peer of `guid` that lives in this participant has matched `guid` back. DDS discovery
-    /// completes on each side separately, and a volatile writer only sends to readers it has matched (a reader
-    /// drops samples from writers it does not know yet), so one side's view is not enough for nothing to be
-    /// lost. Peers in other participants cannot be asked; their side is assumed.
+    /// Whether every peer of `guid` has matched `guid` back, as far as can be known. DDS discovery completes on
+    /// each side separately, and a volatile writer only sends to readers it has matched, so one side's view is
+    /// not enough for nothing to be lost. A peer in this participant is asked; a writer of another participant
+    /// has matched a reader of ours once it has been heard from (its first HEARTBEAT or DATA to us, RustDDS
+    /// patch 18); a reader of another participant cannot show it, and is assumed to have.
     pub(crate) fn reciprocated(&self, guid: GUID) -> bool {
         let t = self.table.lock().unwrap();
-        let (mine, theirs) = match (t.writers.get(&guid), t.readers.get(&guid)) {
-            (Some(e), _) => (e, &t.readers),
-            (None, Some(e)) => (e, &t.writers),
+        let (mine, theirs, reader) = match (t.writers.get(&guid), t.readers.get(&guid)) {
+            (Some(e), _) => (e, &t.readers, false),
+            (None, Some(e)) => (e, &t.writers, true),
             (None, None) => return true,
         };
         mine.peers.iter().all(|p| match theirs.get(p) {
+            // a peer of this participant: it has matched us back
             Some(o) if o.identity.is_some() => o.peers.contains(&guid),
-            _ => true,
+            // a writer of another participant, for a reader: it has shown it sends to us (B8: a volatile writer
+            // that has not matched us yet would not send what it writes now); a reader of another participant
+            // cannot show that it matched a writer
+            _ => !reader || p.prefix == guid.prefix || mine.heard.contains(p),
         })
     }
 
@@ -575,10 +596,33 @@ impl Graph {
         }
     }
 
+    /// Whether the remote endpoint `guid`, or its participant, has left the graph (and not come back).
+    pub(crate) fn has_left(&self, guid: GUID) -> bool {
+        let t = self.table.lock().unwrap();
+        t.left.contains_key(&guid) || t.left.contains_key(&participant_of(guid))
+    }
+
+    fn note_left(t: &mut Table, guid: GUID) {
+        let now = std::time::Instant::now();
+        if t.left.len() > 1024 {
+            t.left.retain(|_, at| now.duration_since(*at) < LEFT_FOR);
+            if t.left.len() > 4096 {
+                // a graph where endpoints come and go very often: remember the last minute only
+                t.left
+                    .retain(|_, at| now.duration_since(*at) < std::time::Duration::from_secs(60));
+            }
+        }
+        t.left.insert(guid, now);
+    }
+
     /// Forgets a local endpoint that was deleted (also as the peer of other local endpoints).
     pub(crate) fn forget(&self, guid: GUID) {
         self.index.lock().unwrap().remove(&guid);
         let mut t = self.table.lock().unwrap();
+        let now = std::time::Instant::now();
+        t.forgotten
+            .retain(|_, at| now.duration_since(*at) < FORGOTTEN_FOR);
+        t.forgotten.insert(guid, now);
         t.writers.remove(&guid);
         t.readers.remove(&guid);
         Self::remove_where(&mut t.writers, |g| *g == guid, &LossCause::Left);
@@ -602,6 +646,9 @@ impl Graph {
                 local_writer,
                 remote_reader,
             } => {
+                if t.forgotten.contains_key(&remote_reader) {
+                    return;
+                }
                 let ty = self.peer_type(&t, Side::Writer, remote_reader);
                 let e = t.writers.entry(local_writer).or_default();
                 if Self::admit(e, Side::Writer, remote_reader, ty) {
@@ -612,22 +659,41 @@ impl Graph {
                 local_reader,
                 remote_writer,
             } => {
+                if t.forgotten.contains_key(&remote_writer) {
+                    return;
+                }
                 let ty = self.peer_type(&t, Side::Reader, remote_writer);
                 let e = t.readers.entry(local_reader).or_default();
                 if Self::admit(e, Side::Reader, remote_writer, ty) {
                     e.notify();
                 }
             }
+            DomainParticipantStatusEvent::RemoteWriterHeard {
+                local_reader,
+                remote_writer,
+            } => {
+                t.readers
+                    .entry(local_reader)
+                    .or_default()
+                    .heard
+                    .insert(remote_writer);
+            }
             DomainParticipantStatusEvent::ReaderLost { guid, reason } => {
+                Self::note_left(&mut t, guid);
                 Self::remove_where(&mut t.writers, |g| *g == guid, &cause_of(&reason));
             }
             DomainParticipantStatusEvent::WriterLost { guid, reason } => {
+                Self::note_left(&mut t, guid);
                 Self::remove_where(&mut t.readers, |g| *g == guid, &cause_of(&reason));
+            }
+            DomainParticipantStatusEvent::ParticipantDiscovered { dpd } => {
+                t.left.remove(&participant_of(dpd.guid));
             }
             DomainParticipantStatusEvent::ParticipantLost { id, reason } => {
                 tracing::debug!(participant = ?id, ?reason, "DDS participant lost");
                 let mut who = GUID::new_participant_guid();
                 who.prefix = id;
+                Self::note_left(&mut t, participant_of(who));
                 let _ = self.lost.send(who);
                 let cause = cause_of(&reason);
                 Self::remove_where(&mut t.writers, |g| g.prefix == id, &cause);
@@ -665,6 +731,7 @@ impl Graph {
     ) {
         for e in map.values_mut() {
             e.rejected.retain(|g| !pred(g));
+            e.heard.retain(|g| !pred(g));
             let before = e.peers.len();
             e.peers.retain(|g| !pred(g));
             if e.peers.len() != before {
@@ -696,4 +763,11 @@ impl Graph {
         }
         self.participant.lock().unwrap().take();
     }
+}
+
+/// The participant GUID of any GUID (its prefix, with the participant's entity id).
+fn participant_of(guid: GUID) -> GUID {
+    let mut p = GUID::new_participant_guid();
+    p.prefix = guid.prefix;
+    p
 }

@@ -37,17 +37,24 @@
 //! or an event, for its `triggered`); a [`Slot`] is a different type and is never accepted as a source.
 //! The statements can also be written in the paper's syntax: [`once!`], [`whenever!`], [`waitfor!`].
 //!
-//! The rules, each tested ([`radar_semantics::connection`]):
+//! The rules, numbered once in [`radar_semantics`] and each tested ([`radar_semantics::connection`]):
 //!
-//! 1. A connection delivers only signals emitted after it was armed; nothing stale, nothing replayed.
-//! 2. `whenever` delivers every signal while it lives; `once` delivers exactly one, then lets go of its source
-//!    (an event whose only listener it was stops checking).
-//! 3. <span id="until-windows"></span>**`once E start R until U`**: U's signals go to R's `interrupt` only
-//!    within the *window* of the run this statement started: from R's first `started` after the statement
-//!    delivered E, to R's next `exited`. A run R starts by itself (its exit slot asking for a restart) or that
-//!    another statement started is not interrupted by this one. If R was already running when E arrived and
-//!    drops the start (start policy `ignore`), no window opens: this statement started nothing.
-//! 4. Dropping the guard ends the connection at once: when the drop returns, nothing more is delivered.
+//! - **C1.** A connection delivers only signals emitted after it was armed; nothing stale, nothing replayed.
+//! - **C2.** `whenever` delivers every signal while it lives; `once` delivers exactly one, then lets go of its
+//!   source (an event whose only listener it was stops checking). A signal a connection property refuses (a
+//!   filter, a transform that gives nothing, a payload an anonymous slot cannot read) is not a delivery.
+//! - **C3.** <span id="until-windows"></span>**`once E start R until U`**: U's signals interrupt R only in the
+//!   run this statement started, from the moment that run began. A run R starts by itself (its exit slot asking
+//!   for a restart) or that another statement started is not interrupted by this one.
+//! - **C4.** Dropping the guard ends the connection at once: when the drop returns, nothing more is delivered.
+//! - **C5.** Components that leave: see [below](#when-components-leave).
+//! - **C6, C7.** Signals travel on different topics, from different processes, and are read in another order
+//!   than they were sent. Every start a statement delivers carries its cause (the statement, the delivery) and
+//!   the time its source signal was emitted, and the `until`'s interrupts name the statement: a RADAR response
+//!   orders its slot signals by when they were sent and interrupts only its runs of that statement (response
+//!   rules R11-R13 below), so `until` holds whichever topic is read first, with the manager in R's process, in
+//!   E's, or in a third. For a response that carries no causes (rclpy) the manager decides from the source
+//!   times of R's `started` and `exited`; what that cannot know is said in docs/reliability.md.
 //!
 //! Connection properties: [`ConnectionRequest::filter`], [`ConnectionRequest::map`] (typed payload transform),
 //! [`ConnectionRequest::depth`] (QoS history depth). Another program's manager can be used through a served
@@ -60,7 +67,7 @@
 //! subscriber of its target slot, goes (after a 100 ms grace, so a signal sent just before leaving is
 //! delivered first); DDS says why ([`LossCause`]): it said goodbye (milliseconds), or its lease ran out
 //! (3-3.6 s for radar_ros peers, ~20 s for rclpy/Fast DDS peers; see the table below). What the deliberative
-//! code sees (rule 5 of [`radar_semantics::connection`], each case tested):
+//! code sees (rule C5 of [`radar_semantics::connection`], each case tested):
 //!
 //! | what left | what happens | what the code sees |
 //! |---|---|---|
@@ -83,36 +90,59 @@
 //!
 //! ## Response semantics
 //!
-//! Decided in one place, the [`radar_semantics`] crate's `ResponseMachine`, and tested line by line:
+//! Decided in one place, the [`radar_semantics`] crate's `ResponseMachine`, and tested line by line (the
+//! numbers are the crate's, R1-R13):
 //!
-//! 1. Idle + `start` → emit `started` (carrying the payload), then run the start behaviour with the payload.
-//!    The start behaviour always runs up to its first await point before the response takes the next signal,
-//!    so `started` never announces a behaviour that did not run at all.
-//! 2. The start behaviour returns → run the exit slot → emit `exited` *after* the exit slot completed → idle.
-//!    `exited` carries the start behaviour's output (or the output type's default if the run did not
-//!    complete).
-//! 3. Running + `interrupt` → the start behaviour is cancelled at its current await point → emit `interrupted`
-//!    as the interrupt slot begins → interrupt slot → exit slot → `exited`.
-//! 4. Running + `exit` → the start behaviour is cancelled → exit slot (no interrupt slot) → `exited`.
-//! 5. `interrupt` or `exit` while idle, interrupting or exiting: ignored, counted in the state message.
-//! 6. `start` while not idle: per-response [`StartPolicy`]: `Ignore` (default, counted), `Restart` (interrupt
-//!    the current run as in 3, then start with the new payload), `QueueOne` (run the newest payload after
-//!    `exited`; one replaced in the queue counts as ignored).
-//! 7. The exit slot always runs: after a normal end, an interrupt, an exit signal, an error returned by the
-//!    start behaviour, or a panic in it. A panic in any slot is caught, logged, counted in the state, `exited`
-//!    is still sent, and the node keeps serving.
-//! 8. The exit slot may return [`ExitAction::Restart`] (the paper's `on exit: restart`): after `exited` the
-//!    response starts again with the same payload. A queued start (policy 6) takes precedence.
-//! 9. Slots are plain async Rust on tokio; sleeping in them never blocks a thread.
+//! - **R1.** Idle + `start` → emit `started` (carrying the payload), then run the start behaviour with the
+//!   payload. The start behaviour always runs up to its first await point before the response takes the next
+//!   signal, so `started` never announces a behaviour that did not run at all.
+//! - **R2.** The start behaviour returns → run the exit slot → emit `exited` *after* the exit slot completed →
+//!   idle. `exited` carries the start behaviour's output (or the output type's default if the run did not
+//!   complete).
+//! - **R3.** Running + `interrupt` → the start behaviour is cancelled at its current await point → emit
+//!   `interrupted` as the interrupt slot begins → interrupt slot → exit slot → `exited`.
+//! - **R4.** Running + `exit` → the start behaviour is cancelled → exit slot (no interrupt slot) → `exited`.
+//! - **R5.** `interrupt` or `exit` while idle, interrupting or exiting: ignored, counted in the state message.
+//! - **R6.** `start` while not idle: per-response [`StartPolicy`]: `Ignore` (default, counted), `Restart`
+//!   (interrupt the current run as in R3, then start with the new payload), `QueueOne` (run the newest payload
+//!   after `exited`; one replaced in the queue counts as ignored).
+//! - **R7.** The exit slot always runs: after a normal end, an interrupt, an exit signal, an error returned by
+//!   the start behaviour, a panic in it (also one raised before its future exists), and when the response or
+//!   its program stops (see [below](#when-the-program-is-told-to-stop)). A panic in any slot is caught, logged,
+//!   counted in the state, `exited` is still sent, and the node keeps serving.
+//! - **R8.** The exit slot may return [`ExitAction::Restart`] (the paper's `on exit: restart`): after `exited`
+//!   the response starts again with the same payload. A queued start (R6) takes precedence.
+//! - **R9, R10.** A response that stands for a ROS 2 action goal ([`Radar::action_response`]) announces
+//!   `started` when the server *accepts* the goal (a rejected goal ends with `exited` and no `started`), and the
+//!   result of a canceled goal, which arrives while the interrupt slot runs, is what `exited` carries. How
+//!   goals, cancels, results and feedback map onto signals both ways is in [`action`].
+//! - **R11.** Slot signals are applied in the order they were sent (the source time of the signal that caused
+//!   them; a relay keeps it): an `interrupt` or `exit` sent before the current run began is not for it.
+//! - **R12.** An `interrupt` or `exit` that reaches an idle response is kept for a moment: a `start` sent before
+//!   it that arrives afterwards runs, and is then interrupted, as if the two had arrived in order.
+//! - **R13.** A run started by a statement carries its cause on `started`, `interrupted` and `exited`, and an
+//!   `until`'s interrupt only interrupts runs of its own statement.
 //!
-//! Stopping a response ([`ResponseHandle::shutdown`] or dropping the handle) ends a running start behaviour as
-//! an `exit` signal would, so the exit slot still runs.
+//! Slots are plain async Rust on tokio: sleeping in them never blocks a thread.
 //!
-//! A response that stands for a ROS 2 action goal ([`Radar::action_response`]) follows two more rules of the
-//! machine (9 and 10 in [`radar_semantics::response`]): `started` goes out when the server *accepts* the goal
-//! (a rejected goal ends with `exited` and no `started`), and the result of a canceled goal, which arrives
-//! while the interrupt slot runs, is what `exited` carries. How goals, cancels, results and feedback map onto
-//! signals both ways (an action server as a response, a response as an action server) is in [`action`].
+//! ## When the program is told to stop
+//!
+//! A robot stops its motors in an exit slot, so the exit slot runs however the program ends (R7;
+//! [`RadarBuilder::handle_signals`], [`RadarBuilder::shutdown_timeout`], [`Radar::shutdown`]):
+//!
+//! | how the program ends | what happens |
+//! |---|---|
+//! | SIGINT (Ctrl-C, `ros2 launch`) or SIGTERM (systemd, docker, launch's escalation) | every component of every `Radar` of the process stops: running responses end as an `exit` signal would end them, their exit slots run, `exited` and the final `state` are sent and acknowledged, the program leaves the ROS graph (peers see it at once) and the process exits with status 0 |
+//! | a second SIGINT or SIGTERM while that runs | the process exits at once (status 130 or 143), as rclpy does |
+//! | an exit slot that takes longer than the shutdown timeout (5 s) | an error line names what did not finish; the process exits with status 1 |
+//! | `main` returns, or panics (the runtime drops every task) | a response in the middle of a run finishes it while its task is dropped: the exit slot runs on a thread of its own, `exited` is sent; an exit slot that was cut short runs again from its start |
+//! | [`Radar::shutdown`] | as for a signal, without ending the process |
+//! | a response handle is dropped, or [`ResponseHandle::shutdown`] | that response stops: its exit slot runs, `exited` is sent |
+//!
+//! Nothing is needed in `main` for this: the README's program, stopped with Ctrl-C, runs its exit slots. A
+//! program that handles signals itself builds its `Radar` with `handle_signals(false)` and calls
+//! [`Radar::shutdown`] when told to stop. Only `SIGKILL` (and power loss) skips exit slots: no process can act
+//! on it.
 //!
 //! ## Event semantics
 //!
@@ -155,6 +185,7 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 
 pub mod action;
+mod cause;
 mod departure;
 mod endpoints;
 mod error;
@@ -180,6 +211,7 @@ mod raw;
 mod refs;
 mod remote;
 mod response;
+mod shutdown;
 mod statement;
 mod topics;
 mod wait;
@@ -200,6 +232,7 @@ pub use raw::RawMessage;
 pub use refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub use remote::RemoteManager;
 pub use response::{FnResponse, Response, ResponseHandle};
+pub use shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
 pub use statement::{ConnectionRequest, Statement};
 pub use topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription};
 pub use wait::{Wait, DEFAULT_TIMEOUT};

@@ -22,7 +22,7 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{malformed, publish_connections, reply, typed_publisher, ComponentTask, Throttle},
+    endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
     error::{Error, Result},
     manager::ConnectionGuard,
     msg::{
@@ -33,6 +33,7 @@ use crate::{
     qos::{signal_qos, state_qos},
     radar::Radar,
     refs::{Signal, Slot},
+    shutdown::ComponentTask,
     wait::DEFAULT_TIMEOUT,
 };
 
@@ -178,95 +179,113 @@ impl Radar {
         let mut changes = manager.changes();
         let mut lost = self.graph().participants_lost();
         let served = self.participant().served_managers().mark(fq.clone());
-        let task = ComponentTask::spawn(move |mut stop| async move {
-            let _claim = claim;
-            let _node = node;
-            let _served = served;
-            let publish = |list| publish_connections(&list_pub, &fq, list);
-            publish(manager.list());
-            // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
-            // change always
-            let mut throttle = Throttle::new(Duration::from_millis(100));
-            // connections made through the service, with their owner's participant (none: detached)
-            let mut owned: HashMap<
-                u64,
-                (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>),
-            > = HashMap::new();
-            let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
-            let mut connects = Box::pin(connect_srv.receive_request_stream());
-            let mut disconnects = Box::pin(disconnect_srv.receive_request_stream());
-            let mut lists = Box::pin(list_srv.receive_request_stream());
-            loop {
-                tokio::select! {
-                    _ = &mut stop => break,
-                    Some(r) = connects.next() => match r {
-                        Ok((id, req)) => {
-                            let (radar, done) = (radar.clone(), done_tx.clone());
-                            let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
-                            tokio::spawn(async move {
-                                let owner = match req.detach {
-                                    true => format!("detached, by service caller {:?}", caller.prefix),
-                                    false => format!("service caller {:?}", caller.prefix),
-                                };
-                                let r = connect(&radar, &req, owner).await;
-                                let _ = done.send((id, (!req.detach).then_some(caller), r));
-                            });
-                        }
-                        Err(e) => malformed(radar.graph(), &fq, "connect", &e),
-                    },
-                    Some((id, caller, r)) = done_rx.recv() => {
-                        let resp = match r {
-                            Ok(c) => {
-                                let cid = c.id();
-                                owned.insert(cid, (c, caller));
-                                ConnectResponse { ok: true, error: String::new(), id: cid }
+        let task = ComponentTask::spawn(
+            self.participant().components(),
+            &name.fully_qualified(),
+            move |mut stop| async move {
+                let _claim = claim;
+                let _node = node;
+                let _served = served;
+                let publish = |list| publish_connections(&list_pub, &fq, list);
+                publish(manager.list());
+                // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
+                // change always
+                let mut throttle = Throttle::new(Duration::from_millis(100));
+                // connections made through the service, with their owner's participant (none: detached)
+                let mut owned: HashMap<
+                    u64,
+                    (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>),
+                > = HashMap::new();
+                let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
+                let mut connects = Box::pin(connect_srv.receive_request_stream());
+                let mut disconnects = Box::pin(disconnect_srv.receive_request_stream());
+                let mut lists = Box::pin(list_srv.receive_request_stream());
+                loop {
+                    tokio::select! {
+                        _ = &mut stop => break,
+                        Some(r) = connects.next() => match r {
+                            Ok((id, req)) => {
+                                let (radar, done) = (radar.clone(), done_tx.clone());
+                                let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+                                tokio::spawn(async move {
+                                    let owner = match req.detach {
+                                        true => format!("detached, by service caller {:?}", caller.prefix),
+                                        false => format!("service caller {:?}", caller.prefix),
+                                    };
+                                    let r = connect(&radar, &req, owner).await;
+                                    let _ = done.send((id, (!req.detach).then_some(caller), r));
+                                });
                             }
-                            Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
-                        };
-                        reply(&connect_srv, radar.graph(), &fq, "connect", id, resp);
-                    }
-                    Some(r) = disconnects.next() => match r {
-                        Ok((id, req)) => {
-                            let resp = match owned.remove(&req.id) {
-                                Some(_) => DisconnectResponse { ok: true, error: String::new() },
-                                None => DisconnectResponse {
-                                    ok: false,
-                                    error: format!(
-                                        "no connection {} made through this service; the list service shows the live ones",
-                                        req.id
-                                    ),
-                                },
+                            Err(e) => malformed(radar.graph(), &fq, "connect", &e),
+                        },
+                        Some((id, caller, r)) = done_rx.recv() => {
+                            let resp = match r {
+                                // B7: the caller left while the connection armed: it is not kept for nobody
+                                Ok(c) if caller.is_some_and(|c| radar.graph().has_left(c)) => {
+                                    tracing::info!(connection = c.id(), "the caller left while its connection armed; it is gone");
+                                    drop(c);
+                                    continue;
+                                }
+                                Ok(c) => {
+                                    let cid = c.id();
+                                    owned.insert(cid, (c, caller));
+                                    ConnectResponse { ok: true, error: String::new(), id: cid }
+                                }
+                                Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
                             };
-                            reply(&disconnect_srv, radar.graph(), &fq, "disconnect", id, resp);
+                            reply(&connect_srv, radar.graph(), &fq, "connect", id, resp);
                         }
-                        Err(e) => malformed(radar.graph(), &fq, "disconnect", &e),
-                    },
-                    Some(r) = lists.next() => match r {
-                        Ok((id, _)) => {
-                            let resp = ListResponse { connections: manager.list() };
-                            reply(&list_srv, radar.graph(), &fq, "list", id, resp);
+                        Some(r) = disconnects.next() => match r {
+                            Ok((id, req)) => {
+                                let resp = match owned.remove(&req.id) {
+                                    Some(_) => DisconnectResponse { ok: true, error: String::new() },
+                                    None => DisconnectResponse {
+                                        ok: false,
+                                        error: format!(
+                                            "no connection {} made through this service; the list service shows the live ones",
+                                            req.id
+                                        ),
+                                    },
+                                };
+                                reply(&disconnect_srv, radar.graph(), &fq, "disconnect", id, resp);
+                            }
+                            Err(e) => malformed(radar.graph(), &fq, "disconnect", &e),
+                        },
+                        Some(r) = lists.next() => match r {
+                            Ok((id, _)) => {
+                                let resp = ListResponse { connections: manager.list() };
+                                reply(&list_srv, radar.graph(), &fq, "list", id, resp);
+                            }
+                            Err(e) => malformed(radar.graph(), &fq, "list", &e),
+                        },
+                        gone = lost.recv() => {
+                            let before = owned.len();
+                            match gone {
+                                Ok(gone) => owned.retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix)),
+                                // B7: departures were missed: ask the graph about every owner
+                                Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => {
+                                    let graph = radar.graph();
+                                    owned.retain(|_, (_, caller)| caller.is_none_or(|c| !graph.has_left(c)))
+                                }
+                                Err(tokio::sync::broadcast::error::RecvError::Closed) => break,
+                            }
+                            if owned.len() != before {
+                                tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
+                            }
                         }
-                        Err(e) => malformed(radar.graph(), &fq, "list", &e),
-                    },
-                    Ok(gone) = lost.recv() => {
-                        let before = owned.len();
-                        owned.retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix));
-                        if owned.len() != before {
-                            tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
+                        Ok(()) = changes.changed() => {
+                            if throttle.changed() {
+                                publish(manager.list());
+                            }
                         }
-                    }
-                    Ok(()) = changes.changed() => {
-                        if throttle.changed() {
+                        _ = throttle.due() => {
                             publish(manager.list());
+                            throttle.published();
                         }
-                    }
-                    _ = throttle.due() => {
-                        publish(manager.list());
-                        throttle.published();
                     }
                 }
-            }
-        });
+            },
+        );
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
     }

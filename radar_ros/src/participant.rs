@@ -74,9 +74,27 @@ pub(crate) struct Participant {
     /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
     program_node: Mutex<Option<String>>,
     /// The slots of this process's responses, for in-process delivery.
-    inlets: crate::local::Inlets,
+    inlets: Arc<crate::local::Inlets>,
     /// The signals of this process's components, for in-process delivery.
     taps: crate::local::Taps,
+    /// The components of this participant, so that they can all be stopped at once.
+    components: crate::shutdown::Components,
+    /// How long they may take to stop (exit slots included).
+    shutdown_timeout: std::time::Duration,
+}
+
+impl crate::shutdown::Stoppable for Participant {
+    fn components(&self) -> &crate::shutdown::Components {
+        &self.components
+    }
+
+    fn shutdown_timeout(&self) -> std::time::Duration {
+        self.shutdown_timeout
+    }
+
+    fn leave(&self) {
+        self.ctx.domain_participant().close();
+    }
 }
 
 impl Drop for Participant {
@@ -100,6 +118,7 @@ impl Participant {
         ctx: Context,
         domain_id: u16,
         namespace: String,
+        shutdown_timeout: std::time::Duration,
         rt: &tokio::runtime::Handle,
     ) -> Arc<Participant> {
         let graph = Graph::default();
@@ -122,7 +141,25 @@ impl Participant {
             program_node: Mutex::new(None),
             inlets: Default::default(),
             taps: Default::default(),
+            components: Default::default(),
+            shutdown_timeout,
         })
+    }
+
+    /// The components of this participant.
+    pub(crate) fn components(&self) -> &crate::shutdown::Components {
+        &self.components
+    }
+
+    /// How long its components may take to stop.
+    pub(crate) fn shutdown_timeout(&self) -> std::time::Duration {
+        self.shutdown_timeout
+    }
+
+    /// The DDS participant's GUID.
+    pub(crate) fn guid(&self) -> ros2_client::dds::rustdds::GUID {
+        use ros2_client::dds::rustdds::RTPSEntity;
+        self.ctx.domain_participant().guid()
     }
 
     pub(crate) fn context(&self) -> &Context {
@@ -150,7 +187,7 @@ impl Participant {
     }
 
     /// The slots of this process's responses, reachable without DDS.
-    pub(crate) fn inlets(&self) -> &crate::local::Inlets {
+    pub(crate) fn inlets(&self) -> &Arc<crate::local::Inlets> {
         &self.inlets
     }
 

@@ -23,13 +23,14 @@ use futures::StreamExt;
 use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{malformed, publish_connections, reply, typed_publisher, ComponentTask, Throttle},
+    endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
     error::{Error, Result},
     manager::Manager,
     msg::{ConnectionList, ListRequest, ListResponse},
     names::ComponentName,
     participant::Participant,
     qos::{signal_qos, state_qos},
+    shutdown::ComponentTask,
 };
 
 /// The program name from the executable: its file name, made a valid ROS name (`my-tool` -> `my_tool`).
@@ -96,37 +97,41 @@ pub(crate) fn serve_program(
     let weak: Weak<Manager> = Arc::downgrade(manager);
     let mut changes = manager.changes();
     let first = manager.list();
-    Ok(ComponentTask::spawn(move |mut stop| async move {
-        let publish = |list| publish_connections(&list_pub, &fq, list);
-        publish(first);
-        let mut throttle = Throttle::new(Duration::from_millis(100));
-        let mut lists = Box::pin(list_srv.receive_request_stream());
-        loop {
-            let Some(manager) = weak.upgrade() else { break };
-            tokio::select! {
-                _ = &mut stop => break,
-                Some(r) = lists.next() => match r {
-                    Ok((id, _)) => {
-                        let resp = ListResponse { connections: manager.list() };
-                        reply(&list_srv, &graph, &fq, "list", id, resp);
+    Ok(ComponentTask::spawn(
+        participant.components(),
+        &name.fully_qualified(),
+        move |mut stop| async move {
+            let publish = |list| publish_connections(&list_pub, &fq, list);
+            publish(first);
+            let mut throttle = Throttle::new(Duration::from_millis(100));
+            let mut lists = Box::pin(list_srv.receive_request_stream());
+            loop {
+                let Some(manager) = weak.upgrade() else { break };
+                tokio::select! {
+                    _ = &mut stop => break,
+                    Some(r) = lists.next() => match r {
+                        Ok((id, _)) => {
+                            let resp = ListResponse { connections: manager.list() };
+                            reply(&list_srv, &graph, &fq, "list", id, resp);
+                        }
+                        Err(e) => malformed(&graph, &fq, "list", &e),
+                    },
+                    changed = changes.changed() => {
+                        if changed.is_err() {
+                            break;
+                        }
+                        if throttle.changed() {
+                            publish(manager.list());
+                        }
                     }
-                    Err(e) => malformed(&graph, &fq, "list", &e),
-                },
-                changed = changes.changed() => {
-                    if changed.is_err() {
-                        break;
-                    }
-                    if throttle.changed() {
+                    _ = throttle.due() => {
                         publish(manager.list());
+                        throttle.published();
                     }
-                }
-                _ = throttle.due() => {
-                    publish(manager.list());
-                    throttle.published();
                 }
             }
-        }
-    }))
+        },
+    ))
 }
 
 #[cfg(test)]

@@ -157,6 +157,9 @@ pub struct RadarBuilder {
     lease: Option<std::time::Duration>,
     program: Option<String>,
     relay_only: bool,
+    /// `Some(false)`: the program handles SIGINT/SIGTERM itself.
+    signals: Option<bool>,
+    shutdown_timeout: Option<std::time::Duration>,
 }
 
 impl RadarBuilder {
@@ -238,6 +241,43 @@ impl RadarBuilder {
         self
     }
 
+    /// Whether SIGINT and SIGTERM stop this `Radar`'s components (default `true`): the exit slots of running
+    /// responses run, `exited` and the final states are sent, the program leaves the ROS graph, and the process
+    /// exits (status 0; see [the shutdown rules](crate#when-the-program-is-told-to-stop)). The handler is the
+    /// process's: the first `Radar` that asks for it installs it, and it stops every `Radar` that asked.
+    ///
+    /// With `false`, the program handles the signals itself (before this `Radar` is built), and calls
+    /// [`Radar::shutdown`] when told to stop, so that the exit slots still run:
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().handle_signals(false).build()?;
+    /// // ... spawn components, make connections ...
+    /// tokio::signal::ctrl_c().await.ok();
+    /// radar.shutdown().await?; // exit slots run, `exited` is sent, the program leaves the graph
+    /// # Ok(()) }
+    /// ```
+    pub fn handle_signals(mut self, on: bool) -> Self {
+        self.signals = Some(on);
+        self
+    }
+
+    /// How long a program told to stop waits for its components, exit slots included (default
+    /// [`DEFAULT_SHUTDOWN_TIMEOUT`](crate::DEFAULT_SHUTDOWN_TIMEOUT), 5 s); after that it names what did not
+    /// finish, and exits with status 1.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// use std::time::Duration;
+    /// // the arm's exit slot parks it, which takes up to 10 s
+    /// let radar = radar_ros::Radar::builder().shutdown_timeout(Duration::from_secs(15)).build()?;
+    /// # Ok(()) }
+    /// ```
+    pub fn shutdown_timeout(mut self, d: std::time::Duration) -> Self {
+        self.shutdown_timeout = Some(d);
+        self
+    }
+
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
         let namespace = validate_namespace(self.namespace.as_deref().unwrap_or("/"))?;
@@ -273,7 +313,20 @@ impl RadarBuilder {
             .map_err(|e| Error::transport(format!("a DDS participant in domain {domain_id}"), e))?;
         let ctx = Context::from_domain_participant(participant)
             .map_err(|e| Error::transport(format!("a ROS 2 context in domain {domain_id}"), e))?;
-        let participant = Participant::start(ctx, domain_id, namespace, &rt);
+        let shutdown_timeout = self
+            .shutdown_timeout
+            .unwrap_or(crate::shutdown::DEFAULT_SHUTDOWN_TIMEOUT);
+        let participant = Participant::start(ctx, domain_id, namespace, shutdown_timeout, &rt);
+        if self.signals != Some(false) {
+            let weak: std::sync::Weak<dyn crate::shutdown::Stoppable> =
+                Arc::downgrade(&participant) as _;
+            crate::shutdown::on_signals(weak).map_err(|e| Error::Transport {
+                what: "install a SIGINT/SIGTERM handler".into(),
+                source: Box::new(e),
+                hint: "; or build with RadarBuilder::handle_signals(false) and call Radar::shutdown when told to stop"
+                    .into(),
+            })?;
+        }
         let program = match self.program {
             Some(p) => {
                 // one valid ROS name token, as given
@@ -331,7 +384,7 @@ pub struct Radar {
 /// The program node and the task that shows its connections.
 struct ProgramNode {
     name: ComponentName,
-    _task: crate::endpoints::ComponentTask,
+    _task: crate::shutdown::ComponentTask,
 }
 
 impl std::fmt::Debug for Radar {
@@ -442,6 +495,50 @@ impl Radar {
     /// ```
     pub fn malformed_messages(&self) -> Vec<crate::malformed::MalformedCount> {
         self.graph().malformed().counts()
+    }
+
+    /// Stops every component of this `Radar` and leaves the ROS graph, as a SIGINT would (without ending the
+    /// process): running responses end as an `exit` signal would end them, their exit slots run, `exited` and
+    /// the final states are sent and acknowledged, then the participant says goodbye. Waits at most the
+    /// shutdown timeout ([`RadarBuilder::shutdown_timeout`], 5 s; `.timeout(d)` to change), then fails naming
+    /// the components that did not finish. Nothing works on this `Radar` afterwards.
+    ///
+    /// For programs that handle signals themselves ([`RadarBuilder::handle_signals`]), or that want their
+    /// components stopped before `main` ends (returning from `main` stops them too, see
+    /// [the shutdown rules](crate#when-the-program-is-told-to-stop)).
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::new()?;
+    /// // ...
+    /// radar.shutdown().await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn shutdown(&self) -> crate::Wait<'static, ()> {
+        let participant = self.participant.clone();
+        let default = participant.shutdown_timeout();
+        crate::Wait::new(Some(default), move |t| async move {
+            let t = t.unwrap_or(default);
+            let all: [Arc<dyn crate::shutdown::Stoppable>; 1] = [participant.clone()];
+            let late = crate::shutdown::stop(&all, t).await;
+            tokio::task::spawn_blocking(move || {
+                use crate::shutdown::Stoppable;
+                participant.leave()
+            })
+            .await
+            .map_err(|e| Error::Transport {
+                what: "leave the ROS graph".into(),
+                source: Box::new(e),
+                hint: String::new(),
+            })?;
+            match late.is_empty() {
+                true => Ok(()),
+                false => Err(Error::Timeout {
+                    what: format!("{} to stop (exit slots included)", late.join(", ")),
+                    after: t,
+                }),
+            }
+        })
     }
 
     pub(crate) fn participant(&self) -> &Arc<Participant> {

@@ -25,10 +25,10 @@ use radar_semantics::response::{
 
 use crate::{
     endpoints::{
-        emit, panic_message, publisher, subscription, typed_publisher, ComponentTask, SignalWriter,
-        Watched,
+        emit, panic_message, publisher, subscription, typed_publisher, SignalWriter, Watched,
     },
     error::{Result, SlotError},
+    local::now_ns,
     local::Inbox,
     msg::{Empty, ResponseState, RosMessage, Time, TypeName},
     names::ComponentName,
@@ -37,6 +37,7 @@ use crate::{
     radar::Radar,
     raw::RawMessage,
     refs::{AsResponse, ResponseRef},
+    shutdown::ComponentTask,
     wait::Wait,
 };
 
@@ -388,7 +389,7 @@ impl<O> SlotDone<O> {
 
 type Slot<O> = Pin<Box<dyn Future<Output = SlotDone<O>> + Send>>;
 
-/// What a running slot tells the response's driver before it ends (rules 9 and 10).
+/// What a running slot tells the response's driver before it ends (rules R9 and R10).
 enum SlotNote {
     /// The start behaviour has really begun: say `started` now (responses that announce on acceptance).
     Accepted,
@@ -472,6 +473,10 @@ impl Radar {
             interrupt: inlets.open(&name.topic("interrupt"), &empty_ros),
             exit: inlets.open(&name.topic("exit"), &empty_ros),
         };
+        // the state writer is made (so announced) before the signal writers: whoever has discovered those has
+        // discovered it, and knows this response keeps causes (C6)
+        let state_pub =
+            typed_publisher::<ResponseState>(g, &mut node, &name.topic("state"), &state_qos())?;
         let taps = self.participant().taps();
         let signal = |what: &str, ty: &TypeName| (name.topic(what), ty.ros.clone());
         let (t, ty) = signal("started", &start_t);
@@ -495,8 +500,6 @@ impl Radar {
             &t,
             &ty,
         );
-        let state_pub =
-            typed_publisher::<ResponseState>(g, &mut node, &name.topic("state"), &state_qos())?;
 
         let slot_publishers = [
             start_sub.matched.clone(),
@@ -523,24 +526,29 @@ impl Radar {
             state_pub,
             state_tx,
         };
-        let task = ComponentTask::spawn(move |stop_rx| async move {
-            let _claim = claim;
-            let _node = node;
-            drive(
-                Arc::new(Mutex::new(response)),
-                machine,
-                io,
-                SlotReaders {
-                    start: start_sub,
-                    interrupt: interrupt_sub,
-                    exit: exit_sub,
-                },
-                inboxes,
-                stop_rx,
-                participant,
-            )
-            .await;
-        });
+        let components = self.participant().components();
+        let task = ComponentTask::spawn(
+            components,
+            &name.fully_qualified(),
+            move |stop_rx| async move {
+                let _claim = claim;
+                let _node = node;
+                drive(
+                    Arc::new(Mutex::new(response)),
+                    machine,
+                    io,
+                    SlotReaders {
+                        start: start_sub,
+                        interrupt: interrupt_sub,
+                        exit: exit_sub,
+                    },
+                    inboxes,
+                    stop_rx,
+                    participant,
+                )
+                .await;
+            },
+        );
         tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
         Ok(ResponseHandle {
             reference: ResponseRef::new(
@@ -612,9 +620,198 @@ fn state_message<R: Response>(
 /// How often a response republishes its state for malformed slot messages alone.
 const MALFORMED_REPORT_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
 
+/// How long a response that stops with its program waits for its last signals to be acknowledged.
+const FLUSH_LIMIT: std::time::Duration = std::time::Duration::from_secs(1);
+
+impl<R: Response> Io<R> {
+    /// Waits (blocking the thread, at most `limit`) until the subscribers of the signals and the state have
+    /// acknowledged what was sent: the program is about to leave.
+    fn flush(&self, limit: std::time::Duration) {
+        let deadline = std::time::Instant::now() + limit;
+        let left = || deadline.saturating_duration_since(std::time::Instant::now());
+        let _ = self.exited.wait_for_acknowledgments(left());
+        let _ = self.interrupted.wait_for_acknowledgments(left());
+        let _ = self.started.wait_for_acknowledgments(left());
+        let _ = self.state_pub.wait_for_acknowledgments(left());
+    }
+
+    fn publish_state(&self, st: ResponseState) {
+        emit(&self.state_pub, "state", st.clone());
+        self.state_tx.send_replace(st);
+    }
+}
+
+/// What a response's task owns that must outlive a cancelled task: if the runtime drops the task in the middle
+/// of a run (the program's `main` returned), the drop finishes the run (R7; [`crate::shutdown`]).
+struct Driver<R: Response> {
+    name: ComponentName,
+    response: Arc<Mutex<R>>,
+    machine: Option<ResponseMachine<R::Start, R::Output>>,
+    io: Option<Io<R>>,
+    /// The slot running now.
+    current: Option<Slot<R::Output>>,
+    participant: Arc<Participant>,
+    /// The task ended by itself: nothing to finish.
+    finished: bool,
+}
+
+impl<R: Response> Driver<R> {
+    fn machine(&mut self) -> &mut ResponseMachine<R::Start, R::Output> {
+        self.machine
+            .as_mut()
+            .expect("the machine lives until the driver ends")
+    }
+
+    fn io(&self) -> &Io<R> {
+        self.io
+            .as_ref()
+            .expect("the writers live until the driver ends")
+    }
+
+    /// Carries out the machine's effects; whether a slot was begun.
+    fn apply(&mut self, fx: Vec<Effect<R::Start, R::Output>>, notes: &NotesTx) -> bool {
+        let mut began = false;
+        for effect in fx {
+            match effect {
+                Effect::EmitStarted(p, cause) => self.io().started.emit("started", p, cause),
+                Effect::RunStart(p) => {
+                    let r = Arc::clone(&self.response);
+                    began = true;
+                    // the start slot is called inside the unwind guard: a closure that panics before it returns
+                    // its future is a panicking start behaviour too (R7)
+                    self.current = Some(Box::pin(SLOT_NOTES.scope(notes.clone(), async move {
+                        let mut guard = r.lock_owned().await;
+                        let end = match AssertUnwindSafe(async { guard.start(p).await })
+                            .catch_unwind()
+                            .await
+                        {
+                            Ok(Ok(o)) => StartEnd::Returned(o),
+                            Ok(Err(e)) => StartEnd::Failed(e.0),
+                            Err(panic) => StartEnd::Panicked(panic_message(panic)),
+                        };
+                        SlotDone::Start(end)
+                    })));
+                }
+                Effect::CancelStart => self.current = None,
+                Effect::EmitInterrupted(cause) => {
+                    self.io()
+                        .interrupted
+                        .emit("interrupted", Empty::default(), cause)
+                }
+                Effect::RunInterrupt => {
+                    let r = Arc::clone(&self.response);
+                    began = true;
+                    self.current = Some(Box::pin(SLOT_NOTES.scope(notes.clone(), async move {
+                        let mut guard = r.lock_owned().await;
+                        let panic = AssertUnwindSafe(async { guard.interrupt().await })
+                            .catch_unwind()
+                            .await
+                            .err();
+                        SlotDone::Interrupt(panic.map(panic_message))
+                    })));
+                }
+                Effect::RunExit(reason) => {
+                    let r = Arc::clone(&self.response);
+                    began = true;
+                    self.current = Some(Box::pin(SLOT_NOTES.scope(notes.clone(), async move {
+                        let mut guard = r.lock_owned().await;
+                        let res = AssertUnwindSafe(async { guard.exit(reason).await })
+                            .catch_unwind()
+                            .await;
+                        SlotDone::Exit(res.map_err(panic_message))
+                    })));
+                }
+                Effect::EmitExited(o, cause) => self.io().exited.emit("exited", o, cause),
+                Effect::ReportPanic { slot, message } => {
+                    tracing::error!(response = %self.name, slot, %message, "slot panicked; the response carries on")
+                }
+                Effect::Ignored { signal, phase, why } => {
+                    tracing::debug!(response = %self.name, signal, phase = phase.label(), ?why, "signal ignored")
+                }
+            }
+        }
+        began
+    }
+
+    /// The task ends by itself: the last signals are acknowledged if the program is leaving, and the writers
+    /// linger a moment in the participant's pool so that nothing just written is lost.
+    async fn finish(mut self) {
+        self.finished = true;
+        let Some(io) = self.io.take() else {
+            return;
+        };
+        let io = if self.participant.components().stopping() {
+            match tokio::task::spawn_blocking(move || {
+                io.flush(FLUSH_LIMIT);
+                io
+            })
+            .await
+            {
+                Ok(io) => io,
+                Err(_) => return,
+            }
+        } else {
+            io
+        };
+        self.participant.pool().retire(Box::new(io));
+    }
+}
+
+impl<R: Response> Drop for Driver<R> {
+    fn drop(&mut self) {
+        if self.finished {
+            return;
+        }
+        // the runtime dropped the task: cancel the slot that ran (it holds the response), then finish the run
+        self.current = None;
+        let (Some(mut machine), Some(io)) = (self.machine.take(), self.io.take()) else {
+            return;
+        };
+        let reason = machine.abandon().into_iter().find_map(|e| match e {
+            Effect::RunExit(r) => Some(r),
+            _ => None,
+        });
+        let Some(reason) = reason else {
+            return; // idle: nothing to finish
+        };
+        let (response, name) = (Arc::clone(&self.response), self.name.clone());
+        let timeout = self.participant.shutdown_timeout();
+        tracing::debug!(response = %name, "the runtime went in the middle of a run: the exit slot runs");
+        let what = format!("the exit slot of {name}");
+        let finished = crate::shutdown::run_detached(what, timeout, async move {
+            let mut guard = response.lock_owned().await;
+            let res = AssertUnwindSafe(async { guard.exit(reason).await })
+                .catch_unwind()
+                .await;
+            drop(guard);
+            let fx = machine.handle_at(Input::ExitEnded(res.map_err(panic_message)), now_ns());
+            for e in fx {
+                match e {
+                    Effect::EmitExited(o, cause) => io.exited.emit("exited", o, cause),
+                    Effect::ReportPanic { slot, message } => {
+                        tracing::error!(response = %name, slot, %message, "slot panicked")
+                    }
+                    _ => {}
+                }
+            }
+            io.publish_state(state_message::<R>(&name, &machine));
+            io.flush(FLUSH_LIMIT);
+        });
+        if !finished {
+            tracing::error!(
+                response = %self.name,
+                "the runtime went in the middle of a run and the exit slot did not finish within {timeout:?}; raise \
+                 RadarBuilder::shutdown_timeout if it needs longer"
+            );
+        }
+    }
+}
+
+type NotesTx = tokio::sync::mpsc::UnboundedSender<SlotNote>;
+
 async fn drive<R: Response>(
     response: Arc<Mutex<R>>,
-    mut machine: ResponseMachine<R::Start, R::Output>,
+    machine: ResponseMachine<R::Start, R::Output>,
     io: Io<R>,
     slots: SlotReaders,
     mut inboxes: Inboxes,
@@ -622,45 +819,62 @@ async fn drive<R: Response>(
     participant: Arc<Participant>,
 ) {
     let name = io.name.clone();
+    // declared first, dropped last: if the runtime drops this task, the slots' readers go first, then the
+    // driver finishes the run
+    let mut d = Driver {
+        name: name.clone(),
+        response,
+        machine: Some(machine),
+        io: Some(io),
+        current: None,
+        participant,
+        finished: false,
+    };
     let (start_topic, int_topic, exit_topic) = (
         name.topic("start"),
         name.topic("interrupt"),
         name.topic("exit"),
     );
     let (start_t, empty_t) = (R::Start::ros_type_name(), Empty::ros_type_name());
-    // samples from publishers of another type (see graph), and malformed ones, are dropped
+    // samples from publishers of another type (see graph), and malformed ones, are dropped; each signal comes
+    // with when and by which statement it was sent (R11-R13)
     let SlotReaders {
         start: start_sub,
         interrupt: interrupt_sub,
         exit: exit_sub,
     } = &slots;
+    let sent = |info: &ros2_client::MessageInfo| crate::cause::sent(info, now_ns());
     // `None`: a message that did not decode (counted)
     let starts = start_sub
         .decoded::<R::Start>(&start_topic, &start_t)
-        .map(|d| d.map(|(m, _)| Input::Start(m)));
+        .map(move |d| d.map(|(m, info)| Input::Start(m, sent(&info))));
     let interrupts = interrupt_sub
         .decoded::<Empty>(&int_topic, &empty_t)
-        .map(|d| d.map(|_| Input::Interrupt));
+        .map(move |d| d.map(|(_, info)| Input::Interrupt(sent(&info))));
     let exits = exit_sub
         .decoded::<Empty>(&exit_topic, &empty_t)
-        .map(|d| d.map(|_| Input::Exit));
+        .map(move |d| d.map(|(_, info)| Input::Exit(sent(&info))));
     let Inboxes {
         start: local_start,
         interrupt: local_interrupt,
         exit: local_exit,
     } = &mut inboxes;
-    let local_starts = local_start.stream().map(|raw| match raw.decode::<R::Start>() {
-        Ok(m) => Some(Input::Start(m)),
-        Err(e) => {
-            tracing::warn!(response = %name, error = %e, "a start delivered in this process did not decode");
-            None
-        }
-    });
+    let local_starts = local_start
+        .stream()
+        .map(|(raw, s)| match raw.decode::<R::Start>() {
+            Ok(m) => Some(Input::Start(m, s)),
+            Err(e) => {
+                tracing::warn!(response = %name, error = %e, "a start delivered in this process did not decode");
+                None
+            }
+        });
     let local = futures::stream::select(
         local_starts,
         futures::stream::select(
-            local_interrupt.stream().map(|_| Some(Input::Interrupt)),
-            local_exit.stream().map(|_| Some(Input::Exit)),
+            local_interrupt
+                .stream()
+                .map(|(_, s)| Some(Input::Interrupt(s))),
+            local_exit.stream().map(|(_, s)| Some(Input::Exit(s))),
         ),
     );
     // what this process delivers is looked at first: it is there without polling the DDS readers
@@ -670,13 +884,10 @@ async fn drive<R: Response>(
         |_: &mut ()| futures::stream::PollNext::Left,
     ));
 
-    let mut current: Option<Slot<R::Output>> = None;
     // the state to write once the slot just begun has run up to its first await
     let mut pending_state: Option<ResponseState> = None;
-    let publish_state = |st: ResponseState| {
-        emit(&io.state_pub, "state", st.clone());
-        io.state_tx.send_replace(st);
-    };
+    // a slot was just begun: once it has run to its first await, the state goes out and the machine resumes
+    let mut first_await = false;
     let (notes_tx, mut notes) = tokio::sync::mpsc::unbounded_channel::<SlotNote>();
     let mut stop_requested = false;
     let mut malformed: u64 = 0;
@@ -688,40 +899,48 @@ async fn drive<R: Response>(
         let fx = tokio::select! {
             biased;
             done = async {
-                match current.as_mut() {
+                match d.current.as_mut() {
                     Some(slot) => slot.await,
                     None => std::future::pending().await,
                 }
             } => {
-                current = None;
+                d.current = None;
+                first_await = false;
                 if let Some(st) = pending_state.take() {
-                    publish_state(st);
+                    d.io().publish_state(st);
                 }
                 // what the slot said before it ended comes first (a goal accepted and finished at once)
                 let mut fx = Vec::new();
                 while let Ok(note) = notes.try_recv() {
                     if let Some(input) = note_input(note) {
-                        fx.extend(machine.handle(input));
+                        fx.extend(d.machine().handle_at(input, now_ns()));
                     }
                 }
-                fx.extend(machine.handle(done.into_input()));
+                fx.extend(d.machine().handle_at(done.into_input(), now_ns()));
                 fx
             }
-            // a slot that was just begun has run up to its first await (above): now the state
-            _ = std::future::ready(()), if pending_state.is_some() => {
-                publish_state(pending_state.take().expect("guarded"));
-                continue;
+            // a slot that was just begun has run up to its first await (above): the state, and R12
+            _ = std::future::ready(()), if first_await => {
+                first_await = false;
+                if let Some(st) = pending_state.take() {
+                    d.io().publish_state(st);
+                }
+                let fx = d.machine().resume();
+                if fx.is_empty() {
+                    continue;
+                }
+                fx
             }
             Some(note) = notes.recv() => match note_input(note) {
-                Some(input) => machine.handle(input),
+                Some(input) => d.machine().handle_at(input, now_ns()),
                 None => continue,
             },
             _ = &mut stop, if !stop_requested => {
                 stop_requested = true;
-                machine.stop()
+                d.machine().stop()
             }
             sig = signals.next() => match sig {
-                Some(Some(input)) => machine.handle(input),
+                Some(Some(input)) => d.machine().handle_at(input, now_ns()),
                 Some(None) => {
                     malformed += 1;
                     // shown at the next change; at most once a second for a flood of garbage alone
@@ -734,75 +953,23 @@ async fn drive<R: Response>(
                 None => break,
             },
         };
-        // whether a slot was begun (it runs before the state is written)
-        let began = fx.iter().any(|e| {
-            matches!(
-                e,
-                Effect::RunStart(_) | Effect::RunInterrupt | Effect::RunExit(_)
-            )
-        });
-        for effect in fx {
-            match effect {
-                Effect::EmitStarted(p) => io.started.emit("started", p),
-                Effect::RunStart(p) => {
-                    let r = Arc::clone(&response);
-                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
-                        let mut guard = r.lock_owned().await;
-                        let end = match AssertUnwindSafe(guard.start(p)).catch_unwind().await {
-                            Ok(Ok(o)) => StartEnd::Returned(o),
-                            Ok(Err(e)) => StartEnd::Failed(e.0),
-                            Err(panic) => StartEnd::Panicked(panic_message(panic)),
-                        };
-                        SlotDone::Start(end)
-                    })));
-                }
-                Effect::CancelStart => current = None,
-                Effect::EmitInterrupted => io.interrupted.emit("interrupted", Empty::default()),
-                Effect::RunInterrupt => {
-                    let r = Arc::clone(&response);
-                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
-                        let mut guard = r.lock_owned().await;
-                        let panic = AssertUnwindSafe(guard.interrupt())
-                            .catch_unwind()
-                            .await
-                            .err();
-                        SlotDone::Interrupt(panic.map(panic_message))
-                    })));
-                }
-                Effect::RunExit(reason) => {
-                    let r = Arc::clone(&response);
-                    current = Some(Box::pin(SLOT_NOTES.scope(notes_tx.clone(), async move {
-                        let mut guard = r.lock_owned().await;
-                        let res = AssertUnwindSafe(guard.exit(reason)).catch_unwind().await;
-                        SlotDone::Exit(res.map_err(panic_message))
-                    })));
-                }
-                Effect::EmitExited(o) => io.exited.emit("exited", o),
-                Effect::ReportPanic { slot, message } => {
-                    tracing::error!(response = %name, slot, %message, "slot panicked; the response carries on")
-                }
-                Effect::Ignored { signal, phase } => {
-                    tracing::debug!(response = %name, signal, phase = phase.label(), "signal ignored")
-                }
-            }
-        }
-        let mut st = state_message::<R>(&name, &machine);
+        let began = d.apply(fx, &notes_tx);
+        let mut st = state_message::<R>(&name, d.machine());
         st.malformed = malformed;
-        if began && current.is_some() {
+        if began && d.current.is_some() {
             // the behaviour first: the state write is not on the way from a signal to its slot
             pending_state = Some(st);
+            first_await = true;
         } else {
-            publish_state(st);
+            d.io().publish_state(st);
         }
-        if stop_requested && current.is_none() {
+        if stop_requested && d.current.is_none() {
             break;
         }
     }
     tracing::info!(response = %name, "response stopped");
-    // the final `exited` and state were just written: the participant's pool keeps their writers a moment
-    // so they are not lost, without holding up the shutdown (the slots are gone already)
     drop(signals);
     drop(inboxes);
     drop(slots);
-    participant.pool().retire(Box::new(io));
+    d.finish().await;
 }

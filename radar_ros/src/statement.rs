@@ -11,10 +11,11 @@
 //! ```
 //!
 //! **`until U` interrupts only runs this statement started.** `once E start R until U` delivers one `E` to R's
-//! `start`; then U's signals go to R's `interrupt` only inside the *window* of the run it started: from R's
-//! first `started` after the delivery to R's next `exited`. A run R starts by itself (its exit slot asking
-//! for a restart) or that another statement started is not interrupted by this one. The rules, each tested:
-//! [`radar_semantics::connection`].
+//! `start`; then U's signals interrupt R only in the run that start began, and only if they were emitted after
+//! it began (whichever topic's sample is read first: the start carries the statement's cause and E's time, the
+//! interrupt names the statement). A run R starts by itself (its exit slot asking for a restart) or that another
+//! statement started is not interrupted by this one. The rules, each tested: C3, C6, C7 in
+//! [`radar_semantics::connection`], R11-R13 in [`radar_semantics::response`].
 
 use std::{
     future::{Future, IntoFuture},
@@ -78,6 +79,7 @@ impl Statement {
                 kind: self.kind,
                 source: self.source,
                 target,
+                starts,
                 until: None,
                 timeout: DEFAULT_TIMEOUT,
                 depth: SIGNAL_DEPTH,
@@ -167,15 +169,26 @@ impl Statement {
                 } else {
                     raw.decode::<M>()
                 };
-                match decoded {
-                    Ok(m) => f(m),
-                    Err(e) => {
-                        graph.malformed().note(&topic, &ty, None, &e);
-                    }
+                // checked before delivery (below): a payload that reaches here decodes
+                if let Ok(m) = decoded {
+                    f(m)
                 }
             })),
             None,
         );
+        if !empty {
+            // C2: a payload that does not decode as `M` is not a delivery (it does not use up a `once`, nor end
+            // a waiter); it is reported like every malformed message (counted per publisher, logged once)
+            let graph = graph.clone();
+            let expected = ty.clone();
+            c.spec.filter = Some(Arc::new(move |raw: &RawMessage| match raw.decode::<M>() {
+                Ok(_) => true,
+                Err(e) => {
+                    graph.malformed().note(&topic, &expected, None, &e);
+                    false
+                }
+            }));
+        }
         c.error = error;
         c
     }
@@ -183,7 +196,7 @@ impl Statement {
 
 impl ConnectionRequest {
     /// `... until U`: U's signals interrupt R while a run this statement started is in progress (see
-    /// [until windows](crate#connections), rule 3). Only for `start` targets.
+    /// [until windows](crate#connections), rules C3, C6, C7). Only for `start` targets.
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, go: radar_ros::EventRef, stop: radar_ros::EventRef,
@@ -237,14 +250,21 @@ impl ConnectionRequest {
         }
         let topic = self.spec.source.topic().to_owned();
         let graph = self.manager.graph().clone();
-        self.spec.filter = Some(Arc::new(move |raw: &RawMessage| match raw.decode::<M>() {
-            Ok(m) => f(&m),
-            Err(e) => {
-                // not delivered
-                graph
-                    .malformed()
-                    .note(&topic, &M::ros_type_name(), None, &e);
-                false
+        // after the check an anonymous slot makes, if any
+        let before = self.spec.filter.take();
+        self.spec.filter = Some(Arc::new(move |raw: &RawMessage| {
+            if before.as_ref().is_some_and(|b| !b(raw)) {
+                return false;
+            }
+            match raw.decode::<M>() {
+                Ok(m) => f(&m),
+                Err(e) => {
+                    // not delivered
+                    graph
+                        .malformed()
+                        .note(&topic, &M::ros_type_name(), None, &e);
+                    false
+                }
             }
         }));
         self

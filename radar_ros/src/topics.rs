@@ -77,6 +77,15 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
             .map_err(|e| Error::send(&self.topic, e.forget_data()))
     }
 
+    /// Sends one message as `sent` says: with that source time, and carrying that cause (see
+    /// [`crate::cause`]).
+    pub(crate) fn publish_sent(&self, m: M, sent: radar_semantics::response::Sent) -> Result<()> {
+        self.publisher
+            .publish_with_options(m, crate::cause::write_options(sent))
+            .map(|_| ())
+            .map_err(|e| Error::send(&self.topic, e.forget_data()))
+    }
+
     /// Subscriptions (of the same type) matched now.
     pub fn subscribers(&self) -> usize {
         self.publisher.matched_now()
@@ -190,18 +199,27 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
         &self,
         stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
     ) -> Result<(T, i64)> {
+        self.next_info(stream).await.map(|(m, info)| {
+            (
+                m,
+                info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
+            )
+        })
+    }
+
+    async fn next_info<T>(
+        &self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
+    ) -> Result<(T, MessageInfo)> {
         let mut accepted = Box::pin(self.subscription.accepted(
             stream,
             &self.topic,
             &self.ros_type,
         ));
-        match accepted.next().await {
-            Some((m, info)) => Ok((
-                m,
-                info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
-            )),
-            None => Err(Error::Closed(self.topic.clone())),
-        }
+        accepted
+            .next()
+            .await
+            .ok_or_else(|| Error::Closed(self.topic.clone()))
     }
 }
 
@@ -239,6 +257,12 @@ impl<M: RosMessage> SignalSubscription<M> {
     pub fn try_recv(&self) -> Option<M> {
         self.subscription.take_accepted()
     }
+
+    /// The next message with when and by which statement it was sent (see [`crate::cause`]).
+    pub(crate) async fn recv_sent(&self) -> Result<(M, radar_semantics::response::Sent)> {
+        let (m, info) = self.next_info(self.subscription.async_stream()).await?;
+        Ok((m, crate::cause::sent(&info, crate::local::now_ns())))
+    }
 }
 
 impl SignalSubscription<RawMessage> {
@@ -251,12 +275,18 @@ impl SignalSubscription<RawMessage> {
         })
     }
 
-    /// The message bodies from publishers of the right type, with their source timestamps (ns since the
-    /// epoch, 0 if unknown) and their writers. One stream for a reader's life (making a stream per message
-    /// costs as much as the message).
+    /// The message bodies from publishers of the right type, with when and by which statement they were sent
+    /// (see [`crate::cause`]; the time of reading if the sample has no source time) and their writers. One
+    /// stream for a reader's life (making a stream per message costs as much as the message).
     pub(crate) fn stream_from(
         &self,
-    ) -> impl Stream<Item = (RawMessage, i64, ros2_client::Gid)> + '_ {
+    ) -> impl Stream<
+        Item = (
+            RawMessage,
+            radar_semantics::response::Sent,
+            ros2_client::Gid,
+        ),
+    > + '_ {
         self.subscription
             .accepted(
                 self.subscription.async_stream_seed(RawSeed),
@@ -266,7 +296,7 @@ impl SignalSubscription<RawMessage> {
             .map(|(m, info)| {
                 (
                     m,
-                    info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0),
+                    crate::cause::sent(&info, crate::local::now_ns()),
                     info.publisher_gid(),
                 )
             })

@@ -2,9 +2,11 @@
 //!
 //! - `radar_test_peer subscribe TOPIC [empty|int32]`: subscribes to TOPIC (std_msgs/msg/Empty or Int32,
 //!   signal QoS), prints `matched`
-//!   once a publisher is matched, and stays until SIGTERM/SIGINT (then leaves the graph cleanly) or SIGKILL.
+//!   once a publisher is matched, and stays until SIGTERM/SIGINT (radar_ros then leaves the graph cleanly and
+//!   ends the process) or SIGKILL.
 //! - `radar_test_peer host`: hosts components as told on stdin, one command per line, answering `ok` (or
-//!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `echo NAME` (a response
+//!   `err ...`) on stdout: `response NAME MS` (a response whose run takes MS ms), `response-alt NAME ODD EVEN` (its
+//!   1st, 3rd, ... runs take ODD ms, the others EVEN ms), `echo NAME` (a response
 //!   whose start takes a std_msgs/msg/String and returns it), `manager NAME` (serves a connection manager
 //!   node), `malformed` (one line per count of dropped messages, `TOPIC PUBLISHER COUNT`, then `ok`),
 //!   `whenever SOURCE RESPONSE` (finds RESPONSE by name, arms `whenever SOURCE start RESPONSE` for an Empty
@@ -15,12 +17,14 @@
 //!   `event NAME PERIOD_MS` (an event triggering every PERIOD_MS with a std_msgs/msg/Int64 payload: the
 //!   emission time in ns), `echo-i64 NAME` (a response whose start takes an Int64 and returns it),
 //!   `connect-via MANAGER SOURCE TARGET` (a whenever made through a manager node's service, owned by this
-//!   process; answers `id N`), `once SOURCE RESPONSE` (an embedded `once SOURCE start RESPONSE` for an Int64
+//!   process; answers `id N`), `connect-send MANAGER SOURCE TARGET TIMEOUT_S` (sends that request and
+//!   answers at once, without waiting for the reply), `once SOURCE RESPONSE` (an embedded `once SOURCE start RESPONSE` for an Int64
 //!   SOURCE; answers `before_ns T`, the time just before arming),
 //!   `wait-peers NAME SLOT_PUBLISHERS SIGNAL_SUBSCRIBERS` (until response NAME's slots and signals are
 //!   matched both ways with that many peers each, see `ResponseHandle::wait_for_peers`),
 //!   `publisher TOPIC` (an Empty
-//!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-exit TOPIC`
+//!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-now TOPIC`
+//!   (publish once at once, without waiting), `emit-exit TOPIC`
 //!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
 //! - `radar_test_peer check-env`: creates a participant from the environment (ROS_DOMAIN_ID, ...) and prints
 //!   `ok`, or prints the error and exits with status 2.
@@ -31,7 +35,6 @@ use radar_ros::{
     msg::{Empty, Int32},
     Radar,
 };
-use tokio::signal::unix::{signal, SignalKind};
 
 #[tokio::main]
 async fn main() {
@@ -61,17 +64,9 @@ async fn main() {
                 Some(other) => panic!("unknown type {other}: use empty or int32"),
             };
             println!("matched");
-            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-            tokio::select! {
-                _ = term.recv() => {}
-                _ = tokio::signal::ctrl_c() => {}
-            }
-            drop(sub);
-            drop(radar);
-            // let RustDDS send its dispose messages
-            tokio::time::sleep(Duration::from_millis(200)).await;
-            use std::io::Write;
-            let _ = writeln!(std::io::stdout(), "bye");
+            // until SIGTERM/SIGINT: radar_ros then leaves the graph (the goodbye) and ends the process
+            let _sub = sub;
+            std::future::pending::<()>().await;
         }
         Some("whenever") => {
             // whenever EVENT start RESPONSE, with this process's embedded manager; stays until killed
@@ -92,8 +87,7 @@ async fn main() {
                 .await
                 .expect("the connection");
             println!("connected");
-            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-            term.recv().await;
+            std::future::pending::<()>().await;
         }
         Some("connect") => {
             // connect MANAGER SOURCE TARGET: make a whenever connection through the manager's service
@@ -113,11 +107,8 @@ async fn main() {
             let resp =
                 radar_test_util::call_once(&client.connect, req, Duration::from_secs(20)).await;
             println!("connected {} {}", resp.ok, resp.id);
-            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-            term.recv().await;
-            drop(client);
-            drop(radar);
-            tokio::time::sleep(Duration::from_millis(200)).await;
+            let _client = client;
+            std::future::pending::<()>().await;
         }
         Some("host") => host(radar).await,
         _ => {
@@ -169,6 +160,29 @@ async fn host(radar: Radar) {
                     radar_ros::FnResponse::new(move |_: Empty| async move {
                         tokio::time::sleep(Duration::from_millis(ms)).await;
                         Ok(Empty::default())
+                    }),
+                );
+                match r {
+                    Ok(h) => {
+                        responses.insert(name.to_string(), h);
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
+                }
+            }
+            ["response-alt", name, odd, even] => {
+                // runs alternate: the 1st, 3rd, ... take ODD ms, the 2nd, 4th, ... EVEN ms
+                let (odd, even): (u64, u64) = (odd.parse().expect("MS"), even.parse().expect("MS"));
+                let runs = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+                let r = radar.spawn_response(
+                    name,
+                    radar_ros::FnResponse::new(move |_: Empty| {
+                        let k = runs.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                        let ms = if k % 2 == 1 { odd } else { even };
+                        async move {
+                            tokio::time::sleep(Duration::from_millis(ms)).await;
+                            Ok(Empty::default())
+                        }
                     }),
                 );
                 match r {
@@ -349,6 +363,27 @@ async fn host(radar: Radar) {
                     say(&format!("err {}", resp.error))
                 }
             }
+            ["connect-send", manager, source, target, timeout] => {
+                // sends a connect request and answers at once, without waiting for the reply
+                let client = radar_test_util::ManagerClient::new(
+                    &radar,
+                    manager,
+                    &format!("peer_{}_{}", std::process::id(), clients.len()),
+                )
+                .await;
+                let req = radar_ros::msg::ConnectRequest {
+                    kind: radar_ros::msg::Connection::WHENEVER,
+                    source: source.to_string(),
+                    target: target.to_string(),
+                    timeout: timeout.parse().expect("seconds"),
+                    ..Default::default()
+                };
+                match client.connect.async_send_request(req).await {
+                    Ok(_) => say("ok"),
+                    Err(e) => say(&format!("err {e:?}")),
+                }
+                clients.push(client);
+            }
             ["once", source, response] => {
                 let r = radar
                     .response(response)
@@ -433,6 +468,14 @@ async fn host(radar: Radar) {
                     Err(e) => say(&format!("err {e}")),
                 }
             }
+            ["emit-now", topic] => match publishers.get(*topic) {
+                // publish at once, without waiting for a subscriber (the caller knows it has matched)
+                Some(p) => match p.publish(Empty::default()) {
+                    Ok(()) => say("ok"),
+                    Err(e) => say(&format!("err {e}")),
+                },
+                None => say(&format!("err no publisher on {topic}")),
+            },
             ["quit"] => break,
             _ => say(&format!("err unknown command {line:?}")),
         }

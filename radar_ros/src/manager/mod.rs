@@ -2,20 +2,28 @@
 //!
 //! What is delivered when is decided by [`radar_semantics::connection::ConnectionTable`]; this module moves the
 //! messages. For every source the table needs it keeps one relay (a pooled raw reader and the task that feeds
-//! each signal to the table), and for every slot one outlet (a pooled raw writer); connections on the same
-//! topic, type and QoS depth share them. Messages are forwarded as serialized bodies ([`RawMessage`]), so the
-//! manager needs no Rust type for them. A slot of type `std_msgs/msg/Empty` (interrupt, exit, or an Empty
-//! start) accepts a source of any type: the signal counts, its payload is dropped. Any other slot needs the
-//! source's type.
+//! each signal to the table), and for every slot one outlet; connections on the same topic, type and QoS
+//! depth share them. Messages are forwarded as serialized bodies ([`RawMessage`]), so the manager needs no
+//! Rust type for them. A slot of type `std_msgs/msg/Empty` (interrupt, exit, or an Empty start) accepts a
+//! source of any type: the signal counts, its payload is dropped. Any other slot needs the source's type.
+//!
+//! Every delivery keeps the time its source signal was emitted, and a start carries its statement's cause
+//! (rules R11-R13, C6; [`crate::cause`]), whichever way it goes.
+//!
+//! **How a slot is reached.** An outlet hands a signal to the response of this process that reads the slot
+//! (see [`crate::local`]: no DDS hop), and otherwise writes it on the slot's topic with a pooled DDS writer.
+//! The way is chosen at each delivery, so it follows the response: when the response of this process stops
+//! and one of the same name runs in another process, the outlet makes its DDS writer and delivers there; when
+//! one of this process comes back, it is handed the signals again.
 //!
 //! A statement ([`crate::ConnectionRequest`]) is armed when its relay readers have matched the sources'
-//! writers and its outlet writers have matched the slots' readers; only signals emitted after that are
-//! delivered (by source timestamp against this host's clock: hosts of one ROS graph are assumed to be in time
-//! sync).
+//! writers and its slots are reached (a response of this process reads them, or the outlet's writer has
+//! matched the slots' readers); only signals emitted after that are delivered (by source timestamp against
+//! this host's clock: hosts of one ROS graph are assumed to be in time sync).
 //!
-//! Each relay and outlet also watches its DDS match count: when the last publisher of a source, or the last
-//! subscriber of a slot, has been gone for [`GONE_AFTER`], the table is told (connection rule 5) and the
-//! connections it changes record the [`Departure`]; when one comes back, the table is told again.
+//! Each relay and outlet also watches its peers: when the last publisher of a source, or the last reader of
+//! a slot, has been gone for [`GONE_AFTER`], the table is told (rule C5) and the connections it changes record
+//! the [`Departure`]; when one comes back, the table is told again.
 
 mod anon;
 
@@ -26,16 +34,18 @@ use std::{
 };
 
 use futures::StreamExt;
-use radar_semantics::connection::{ConnId, ConnectionTable, Kind, Link, ResponseView, Until};
+use radar_semantics::{
+    connection::{ConnId, ConnectionTable, Kind, Link, Until, Via},
+    response::Sent,
+};
 
 use crate::{
     departure::Departure,
     error::{Error, Result},
     local::Inlet,
-    msg::{Empty, ResponseState, RosMessage},
+    msg::{Empty, ResponseState, RosMessage, TypeName},
     participant::Participant,
     pool::{Dir, Key},
-    qos::state_qos,
     raw::RawMessage,
     refs::{Signal, Slot},
     topics::{RawPublisher, RawSubscription},
@@ -46,7 +56,7 @@ use anon::AnonQueue;
 pub(crate) type AnonFn = Box<dyn FnMut(RawMessage) + Send>;
 /// A connection's filter: whether to deliver a payload.
 pub(crate) type FilterFn = Arc<dyn Fn(&RawMessage) -> bool + Send + Sync>;
-/// A connection's transform: what to deliver instead of a payload (`None`: nothing).
+/// A connection's transform: what to deliver instead of a payload (`None`: nothing, and no delivery: C2).
 pub(crate) type MapFn = Arc<dyn Fn(&RawMessage) -> Option<RawMessage> + Send + Sync>;
 
 /// Where a connection delivers.
@@ -74,7 +84,7 @@ pub(crate) struct UntilSpec {
     pub(crate) started: Signal,
     pub(crate) exited: Signal,
     pub(crate) interrupt: Slot,
-    /// R's `state` topic: whether R runs when armed, and its policy for starts while running.
+    /// R's `state` topic: a response that publishes a `radar_msgs/msg/ResponseState` there keeps causes (C6).
     pub(crate) state: String,
 }
 
@@ -88,6 +98,8 @@ pub(crate) struct Spec {
     pub(crate) kind: Kind,
     pub(crate) source: Signal,
     pub(crate) target: TargetSpec,
+    /// The target is a response's `start` slot: each delivery carries the statement's cause (R13).
+    pub(crate) starts: bool,
     pub(crate) until: Option<UntilSpec>,
     pub(crate) timeout: Duration,
     /// History depth of the relay's endpoints.
@@ -106,6 +118,8 @@ struct Record {
     owner: String,
     filter: Option<FilterFn>,
     map: Option<MapFn>,
+    /// Its deliveries carry the statement's cause (a start target).
+    starts: bool,
     /// The component whose leaving put the connection out of `Armed`, while it is out.
     departure: Option<Departure>,
 }
@@ -117,37 +131,46 @@ struct Relay {
     _tap: Option<Arc<()>>,
 }
 
-/// How a slot is reached.
-enum Way {
-    /// A DDS writer on the slot's topic (held in the participant's pool).
-    Dds(Arc<RawPublisher>),
-    /// A response of this process, directly: no DDS hop (see [`crate::local`]).
-    Local(Arc<Inlet>),
+/// A slot the table writes: to the response of this process that reads it, or on its topic.
+struct Outlet {
+    key: Key,
+    /// The slot in this process (with local delivery): a response of this process reads it, or may.
+    inlet: Option<Arc<Inlet>>,
+    /// A DDS writer on the slot's topic (held in the participant's pool), once one is needed: when no response
+    /// of this process reads the slot.
+    dds: Option<Arc<RawPublisher>>,
+    /// The slot takes `std_msgs/msg/Empty`: the payload is dropped.
+    empty: bool,
+    /// Tells the watcher of the slot's readers about a DDS writer made later (its match count).
+    more: tokio::sync::mpsc::UnboundedSender<tokio::sync::watch::Receiver<usize>>,
+    /// Stops the task that watches the slot's readers.
+    _stop: tokio::sync::oneshot::Sender<()>,
 }
 
-impl Way {
-    fn deliver(&self, k: &Key, m: RawMessage) {
-        match self {
-            Way::Dds(p) => {
-                if let Err(e) = p.publish(m) {
-                    tracing::warn!(slot = %k.topic, error = %e, "could not deliver a signal");
-                }
+impl Outlet {
+    /// Whether a response of this process reads the slot now.
+    fn local(&self) -> bool {
+        self.inlet
+            .as_ref()
+            .is_some_and(|i| i.reads(&self.key.ros_type))
+    }
+
+    fn deliver(&self, m: RawMessage, sent: Sent) {
+        let m = if self.empty { RawMessage(vec![0]) } else { m };
+        if let Some(inlet) = &self.inlet {
+            if inlet.reads(&self.key.ros_type) {
+                inlet.deliver(&self.key.ros_type, m, sent);
+                return;
             }
-            // a response that has just left gets nothing, as over DDS
-            Way::Local(inlet) => {
-                inlet.deliver(m);
+        }
+        // (no writer: the response of this process has just left and none is made yet; as over DDS with no
+        // reader, nothing is delivered)
+        if let Some(p) = &self.dds {
+            if let Err(e) = p.publish_sent(m, sent) {
+                tracing::warn!(slot = %self.key.topic, error = %e, "could not deliver a signal");
             }
         }
     }
-}
-
-/// A slot the table writes.
-struct Outlet {
-    way: Way,
-    /// The slot takes `std_msgs/msg/Empty`: the payload is dropped.
-    empty: bool,
-    /// Stops the task that watches the slot's subscribers.
-    _stop: tokio::sync::oneshot::Sender<()>,
 }
 
 #[derive(Default)]
@@ -156,7 +179,7 @@ struct State {
     records: HashMap<ConnId, Record>,
     /// One per source the table reads, each holding the pooled reader once.
     relays: HashMap<Key, Relay>,
-    /// One per slot the table writes, each holding the pooled writer once.
+    /// One per slot the table writes, each holding its pooled writer (if it has one) once.
     outlets: HashMap<Key, Outlet>,
     anon: HashMap<u64, Arc<AnonQueue>>,
     next_anon: u64,
@@ -199,10 +222,14 @@ fn check_types(source: &Signal, slot: &Slot) -> Result<()> {
 impl Manager {
     /// A manager on `participant`; `local`: it hands signals to this process's responses directly.
     pub(crate) fn new(participant: Arc<Participant>, local: bool) -> Manager {
+        let base = crate::cause::statement_base(participant.guid());
         Manager {
             participant,
             local,
-            state: Mutex::new(State::default()),
+            state: Mutex::new(State {
+                table: ConnectionTable::with_statement_base(base),
+                ..State::default()
+            }),
             changed: tokio::sync::watch::channel(0).0,
         }
     }
@@ -217,35 +244,51 @@ impl Manager {
         self.changed.subscribe()
     }
 
-    /// One signal read on `source`: deliver it. Publishing happens under the lock, so a connection removed
-    /// before this takes the lock gets nothing, and one removed after got this signal already.
-    fn dispatch(&self, source: &Key, raw: RawMessage, stamp: i64) {
+    /// One signal read on `source`, sent as `sent`: deliver it. Publishing happens under the lock, so a
+    /// connection removed before this takes the lock gets nothing, and one removed after got this signal
+    /// already.
+    fn dispatch(&self, source: &Key, raw: RawMessage, sent: Sent) {
         let mut guard = self.state.lock().unwrap();
         let st = &mut *guard;
         let records = &st.records;
-        let deliveries = st.table.on_signal_with(source, stamp, |id| {
-            records
-                .get(&id)
-                .and_then(|r| r.filter.as_ref())
-                .is_none_or(|f| f(&raw))
+        // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
+        let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
+        let deliveries = st.table.on_signal_with(source, sent.at, sent.by, |id| {
+            let Some(r) = records.get(&id) else {
+                return true;
+            };
+            if r.filter.as_ref().is_some_and(|f| !f(&raw)) {
+                return false;
+            }
+            match &r.map {
+                Some(map) => match map(&raw) {
+                    Some(p) => {
+                        mapped.push((id, p));
+                        true
+                    }
+                    None => false, // the transform warned
+                },
+                None => true,
+            }
         });
         for d in &deliveries {
-            let payload = match st.records.get(&d.id).and_then(|r| r.map.as_ref()) {
-                Some(map) => match map(&raw) {
-                    Some(p) => p,
-                    None => continue, // the transform warned
-                },
-                None => raw.clone(),
+            let (payload, slot_sent) = match d.via {
+                Via::Signal { n } => {
+                    let payload = match mapped.iter().position(|(id, _)| *id == d.id) {
+                        Some(i) => mapped.swap_remove(i).1,
+                        None => raw.clone(),
+                    };
+                    let starts = st.records.get(&d.id).is_some_and(|r| r.starts);
+                    let by = starts.then(|| st.table.cause(d.id, n));
+                    (payload, Sent { at: sent.at, by })
+                }
+                // an until's interrupt names the statement, with the time of U's signal (R13, C7)
+                Via::Until { at } => (RawMessage(vec![0]), Sent::by(at, st.table.cause(d.id, 0))),
             };
             match &d.target {
                 Target::Slot(k) => {
                     if let Some(o) = st.outlets.get(k) {
-                        let m = if o.empty {
-                            RawMessage(vec![0])
-                        } else {
-                            payload
-                        };
-                        o.way.deliver(k, m);
+                        o.deliver(payload, slot_sent);
                     }
                 }
                 Target::Anon(k) => {
@@ -279,19 +322,11 @@ impl Manager {
                         && self
                             .participant
                             .taps()
-                            .get(&c.source.topic, &c.source.ros_type)
-                            .has_emitters();
+                            .find(&c.source.topic, &c.source.ros_type)
+                            .is_some_and(|t| t.has_emitters());
                     let target_local = match &c.target {
                         Target::Anon(_) => true,
-                        Target::Slot(k) => {
-                            matches!(
-                                st.outlets.get(k),
-                                Some(Outlet {
-                                    way: Way::Local(_),
-                                    ..
-                                })
-                            )
-                        }
+                        Target::Slot(k) => st.outlets.get(k).is_some_and(Outlet::local),
                     };
                     u8::from(!source_local) + u8::from(!target_local)
                 };
@@ -346,11 +381,14 @@ impl Manager {
         for t in targets {
             match t {
                 Target::Slot(k) => {
-                    if let Some(Outlet {
-                        way: Way::Dds(_), ..
-                    }) = st.outlets.remove(&k)
-                    {
-                        self.participant.release(&k);
+                    if let Some(o) = st.outlets.remove(&k) {
+                        if o.dds.is_some() {
+                            self.participant.release(&k);
+                        }
+                        if o.inlet.is_some() {
+                            drop(o);
+                            self.participant.inlets().release(&k.topic);
+                        }
                     }
                 }
                 // closing the queue lets a delivery already queued (a `once` that just fired) still run
@@ -371,15 +409,15 @@ impl Manager {
         let me = Arc::downgrade(self);
         let source = k.clone();
         let end = End::Source(k.clone());
-        let mut presence = Presence::new(sub.matched_watch());
+        let mut presence = Presence::new(vec![sub.matched_watch()]);
         let tap = self
             .local
             .then(|| self.participant.taps().get(&k.topic, &k.ros_type));
         let token = tap.as_ref().map(|t| {
             let (me, source) = (me.clone(), source.clone());
-            t.listen(Arc::new(move |raw: &RawMessage, stamp| {
+            t.listen(Arc::new(move |raw: &RawMessage, at, by| {
                 if let Some(m) = me.upgrade() {
-                    m.dispatch(&source, raw.clone(), stamp);
+                    m.dispatch(&source, raw.clone(), Sent { at, by });
                 }
             }))
         });
@@ -392,9 +430,7 @@ impl Manager {
                     r = samples.next() => match (r, me.upgrade()) {
                         // already taken from the tap
                         (Some((_, _, gid)), Some(_)) if tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
-                        (Some((raw, stamp, _)), Some(m)) => {
-                            m.dispatch(&source, raw, if stamp > 0 { stamp } else { now_ns() });
-                        }
+                        (Some((raw, sent, _)), Some(m)) => m.dispatch(&source, raw, sent),
                         _ => break,
                     },
                     change = presence.next() => match (change, me.upgrade()) {
@@ -410,27 +446,80 @@ impl Manager {
         }
     }
 
-    /// Watches the subscribers of the slot `k` (reached `way`) and tells the table when they have all gone,
-    /// and when one is back. Stops when the returned sender is dropped.
-    fn watch_outlet(self: &Arc<Self>, k: &Key, way: &Way) -> tokio::sync::oneshot::Sender<()> {
+    /// An outlet for the slot `k`, reached through `inlet` (a slot of this process) and/or `dds` (a writer held
+    /// once more for it); its task tells the table when the slot's readers have all gone, and when one is back.
+    /// When the response of this process that read the slot goes and the outlet has no DDS writer, the task
+    /// makes one, so that a response of that name in another process is reached.
+    fn outlet(
+        self: &Arc<Self>,
+        k: &Key,
+        inlet: Option<Arc<Inlet>>,
+        dds: Option<Arc<RawPublisher>>,
+    ) -> Outlet {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
+        let (more, mut more_rx) = tokio::sync::mpsc::unbounded_channel();
         let me = Arc::downgrade(self);
         let end = End::Target(Target::Slot(k.clone()));
-        let (matched, publisher) = match way {
-            Way::Dds(p) => (p.matched_watch(), Some(p.clone())),
-            Way::Local(inlet) => (inlet.presence(), None),
+        let mut counts = Vec::new();
+        let mut inlet_presence = None;
+        if let Some(i) = &inlet {
+            let p = i.presence();
+            inlet_presence = Some(p.clone());
+            counts.push(p);
+        }
+        if let Some(d) = &dds {
+            counts.push(d.matched_watch());
+        }
+        let needs_writer = dds.is_none();
+        let mut presence = Presence::new(counts);
+        let key = k.clone();
+        let departure = {
+            let (me, key) = (me.clone(), key.clone());
+            move || {
+                let writer = me.upgrade().and_then(|m| {
+                    m.state
+                        .lock()
+                        .unwrap()
+                        .outlets
+                        .get(&key)
+                        .and_then(|o| o.dds.clone())
+                });
+                match writer {
+                    Some(p) => p.departure(),
+                    None => Departure::of_subscriber(&key.topic, crate::departure::LossCause::Left),
+                }
+            }
         };
-        let topic = k.topic.clone();
-        let departure = move || match &publisher {
-            Some(p) => p.departure(),
-            None => Departure::of_subscriber(&topic, crate::departure::LossCause::Left),
-        };
-        let mut presence = Presence::new(matched);
         tokio::spawn(async move {
+            let mut needs_writer = needs_writer;
+            let mut inlet_presence = inlet_presence;
             loop {
+                // B1: the response of this process left: reach the slot over DDS from now on
+                if needs_writer
+                    && inlet_presence
+                        .as_mut()
+                        .is_some_and(|p| *p.borrow_and_update() == 0)
+                {
+                    match me.upgrade() {
+                        Some(m) => {
+                            if let Some(w) = m.add_writer(&key) {
+                                presence.add(w);
+                            }
+                            needs_writer = false;
+                        }
+                        None => break,
+                    }
+                }
                 tokio::select! {
                     biased;
                     _ = &mut stop_rx => break,
+                    Some(w) = more_rx.recv() => presence.add(w),
+                    _ = async {
+                        match inlet_presence.as_mut() {
+                            Some(p) if needs_writer => { let _ = p.changed().await; }
+                            _ => std::future::pending::<()>().await,
+                        }
+                    } => {}
                     change = presence.next() => match (change, me.upgrade()) {
                         (Some(c), Some(m)) => m.peers_changed(&end, c, &departure),
                         _ => break,
@@ -438,7 +527,35 @@ impl Manager {
                 }
             }
         });
-        stop
+        Outlet {
+            key: k.clone(),
+            empty: k.ros_type == Empty::ros_type_name(),
+            inlet,
+            dds,
+            more,
+            _stop: stop,
+        }
+    }
+
+    /// Gives the outlet of `k` a DDS writer, if it has none: the writer's match count, for its watcher.
+    fn add_writer(&self, k: &Key) -> Option<tokio::sync::watch::Receiver<usize>> {
+        let mut st = self.state.lock().unwrap();
+        let o = st.outlets.get_mut(k)?;
+        if o.dds.is_some() {
+            return None;
+        }
+        match self.participant.pooled_writer(k) {
+            Ok(w) => {
+                let matched = w.matched_watch();
+                o.dds = Some(w);
+                tracing::debug!(slot = %k.topic, "the slot's response of this process left: reaching it over DDS");
+                Some(matched)
+            }
+            Err(e) => {
+                tracing::warn!(slot = %k.topic, error = %e, "no DDS writer for a slot whose response left this process");
+                None
+            }
+        }
     }
 
     fn peers_changed(&self, end: &End, change: Change, departure: impl FnOnce() -> Departure) {
@@ -509,27 +626,21 @@ impl Manager {
         }
     }
 
-    /// What R's `state` says when an `until` statement is armed: whether it runs, and whether it runs a start
-    /// that arrives meanwhile later. A response that publishes no state (not a RADAR response, say) counts as
-    /// idle and dropping such starts.
-    async fn response_view(&self, state_topic: &str, timeout: Duration) -> ResponseView {
-        let look = async {
-            let s = self
+    /// Whether the response whose `state` topic is `state_topic` keeps causes (C6): one of this process (its
+    /// slot is read here), or one that publishes a `radar_msgs/msg/ResponseState` (a RADAR response; its state
+    /// writer is announced before its signal writers, which arming has waited for). An rclpy response does not.
+    fn keeps_causes(&self, state_topic: &str, interrupt: &Slot) -> bool {
+        if self.local
+            && self
                 .participant
-                .subscription::<ResponseState>(state_topic, &state_qos())?;
-            s.wait_for_publishers(1).timeout(timeout).await?;
-            s.recv().timeout(timeout).await
-        };
-        match look.await {
-            Ok(st) => ResponseView {
-                running: st.state != ResponseState::STATE_IDLE,
-                runs_later: st.start_policy != "ignore",
-            },
-            Err(e) => {
-                tracing::debug!(topic = %state_topic, error = %e, "no state from the until's response");
-                ResponseView::default()
-            }
+                .inlets()
+                .find(interrupt.topic(), interrupt.ros_type())
+                .is_some()
+        {
+            return true;
         }
+        let state_t = TypeName::of::<ResponseState>().dds;
+        self.graph().types_on(true, state_topic).contains(&state_t)
     }
 
     /// Arms a statement: holds its endpoints while discovery matches them, then enters it in the table.
@@ -542,45 +653,66 @@ impl Manager {
             check_types(&delivered, slot)?;
         }
         let depth = spec.depth;
-        let mut sources = vec![spec.source.clone()];
-        if let Some(u) = &spec.until {
-            sources.extend([u.source.clone(), u.started.clone(), u.exited.clone()]);
-        }
-        let mut slots: Vec<Slot> = Vec::new();
-        if let TargetSpec::Slot(s) = &spec.target {
-            slots.push(s.clone());
-        }
-        if let Some(u) = &spec.until {
-            slots.push(u.interrupt.clone());
-        }
-        let source_keys: Vec<Key> = sources
-            .iter()
-            .map(|s| key(s.topic(), s.ros_type(), depth, Dir::Reader))
-            .collect();
-        let slot_keys: Vec<Key> = slots
-            .iter()
-            .map(|s| key(s.topic(), s.ros_type(), depth, Dir::Writer))
-            .collect();
+        let source_key = key(
+            spec.source.topic(),
+            spec.source.ros_type(),
+            depth,
+            Dir::Reader,
+        );
+        let mut sources = vec![(source_key.clone(), spec.source.clone())];
+        let until_keys = spec.until.as_ref().map(|u| {
+            let k = |s: &Signal| key(s.topic(), s.ros_type(), depth, Dir::Reader);
+            let keys = (k(&u.source), k(&u.started), k(&u.exited));
+            sources.extend([
+                (keys.0.clone(), u.source.clone()),
+                (keys.1.clone(), u.started.clone()),
+                (keys.2.clone(), u.exited.clone()),
+            ]);
+            keys
+        });
+        let mut slots: Vec<(Key, Slot)> = Vec::new();
+        let target_key = match &spec.target {
+            TargetSpec::Slot(s) => {
+                let k = key(s.topic(), s.ros_type(), depth, Dir::Writer);
+                slots.push((k.clone(), s.clone()));
+                Some(k)
+            }
+            TargetSpec::Anon(_) => None,
+        };
+        let interrupt_key = spec.until.as_ref().map(|u| {
+            let k = key(
+                u.interrupt.topic(),
+                u.interrupt.ros_type(),
+                depth,
+                Dir::Writer,
+            );
+            slots.push((k.clone(), u.interrupt.clone()));
+            k
+        });
         // this statement's own holds while it arms: released whatever happens
         let held = Holds::new(&self.participant);
-        let readers = source_keys
+        let readers = sources
             .iter()
-            .map(|k| held.reader(k))
+            .map(|(k, _)| held.reader(k))
             .collect::<Result<Vec<_>>>()?;
-        let writers = slot_keys
+        // a slot is reached through a response of this process that reads it, or else over DDS
+        let writers = slots
             .iter()
-            .map(|k| {
-                let inlet = self
-                    .local
-                    .then(|| self.participant.inlets().find(&k.topic, &k.ros_type))
-                    .flatten();
-                match inlet {
-                    Some(inlet) => Ok(Way::Local(inlet)),
-                    None => held.writer(k).map(Way::Dds),
+            .map(|(k, _)| {
+                let local = self.local
+                    && self
+                        .participant
+                        .inlets()
+                        .find(&k.topic, &k.ros_type)
+                        .is_some();
+                if local {
+                    Ok(None)
+                } else {
+                    held.writer(k).map(Some)
                 }
             })
             .collect::<Result<Vec<_>>>()?;
-        for (r, s) in readers.iter().zip(&sources) {
+        for (r, (_, s)) in readers.iter().zip(&sources) {
             r.wait_for_publishers(1)
                 .timeout(spec.timeout)
                 .await
@@ -593,8 +725,8 @@ impl Manager {
                     after: spec.timeout,
                 })?;
         }
-        for (w, s) in writers.iter().zip(&slots) {
-            let Way::Dds(w) = w else { continue };
+        for (w, (_, s)) in writers.iter().zip(&slots) {
+            let Some(w) = w else { continue };
             w.wait_for_subscribers(1)
                 .timeout(spec.timeout)
                 .await
@@ -607,45 +739,45 @@ impl Manager {
                     after: spec.timeout,
                 })?;
         }
-        let view = match &spec.until {
-            Some(u) => {
-                self.response_view(&u.state, spec.timeout.min(Duration::from_secs(1)))
-                    .await
-            }
-            None => ResponseView::default(),
-        };
+        let causes = spec
+            .until
+            .as_ref()
+            .is_some_and(|u| self.keeps_causes(&u.state, &u.interrupt));
+        if let Some(u) = &spec.until {
+            tracing::debug!(response = %u.state, causes, "until: the response keeps causes (C6) or not (C7)");
+        }
         let mut st = self.state.lock().unwrap();
         // the table's own holds, once per source and slot
-        for (k, r) in source_keys.iter().zip(&readers) {
+        for ((k, _), r) in sources.iter().zip(&readers) {
             if !st.relays.contains_key(k) {
                 self.participant.pooled_reader(k)?;
                 let relay = self.relay(k, r.clone());
                 st.relays.insert(k.clone(), relay);
             }
         }
-        for (k, w) in slot_keys.iter().zip(&writers) {
-            if !st.outlets.contains_key(k) {
-                let way = match w {
-                    Way::Dds(p) => {
+        for ((k, _), w) in slots.iter().zip(&writers) {
+            match st.outlets.get_mut(k) {
+                // B1: an outlet whose response of this process left, and a new statement reaches the slot over
+                // DDS: the outlet takes the writer
+                Some(o) => {
+                    if let (None, Some(w)) = (&o.dds, w) {
                         self.participant.pooled_writer(k)?;
-                        Way::Dds(p.clone())
+                        o.dds = Some(w.clone());
+                        let _ = o.more.send(w.matched_watch());
                     }
-                    Way::Local(inlet) => Way::Local(inlet.clone()),
-                };
-                let empty = k.ros_type == Empty::ros_type_name();
-                let stop = self.watch_outlet(k, &way);
-                st.outlets.insert(
-                    k.clone(),
-                    Outlet {
-                        way,
-                        empty,
-                        _stop: stop,
-                    },
-                );
+                }
+                None => {
+                    if w.is_some() {
+                        self.participant.pooled_writer(k)?;
+                    }
+                    let inlet = self.local.then(|| self.participant.inlets().hold(&k.topic));
+                    let outlet = self.outlet(k, inlet, w.clone());
+                    st.outlets.insert(k.clone(), outlet);
+                }
             }
         }
         let target = match spec.target {
-            TargetSpec::Slot(_) => Target::Slot(slot_keys[0].clone()),
+            TargetSpec::Slot(_) => Target::Slot(target_key.expect("a slot target has its key")),
             TargetSpec::Anon(mut f) => {
                 let k = st.next_anon;
                 st.next_anon += 1;
@@ -660,16 +792,14 @@ impl Manager {
                 Target::Anon(k)
             }
         };
-        let until = spec.until.as_ref().map(|_| Until {
-            source: source_keys[1].clone(),
-            started: source_keys[2].clone(),
-            exited: source_keys[3].clone(),
-            interrupt: Target::Slot(slot_keys.last().expect("until has its slot").clone()),
-            response: view,
+        let until = until_keys.map(|(source, started, exited)| Until {
+            source,
+            started,
+            exited,
+            interrupt: Target::Slot(interrupt_key.expect("an until has its slot")),
+            causes,
         });
-        let id = st
-            .table
-            .arm(source_keys[0].clone(), target, spec.kind, until, now_ns());
+        let id = st.table.arm(source_key, target, spec.kind, until, now_ns());
         st.table.set_rearm(id, spec.rearm);
         st.records.insert(
             id,
@@ -677,6 +807,7 @@ impl Manager {
                 owner: spec.owner,
                 filter: spec.filter,
                 map: spec.map,
+                starts: spec.starts,
                 departure: None,
             },
         );
@@ -735,9 +866,10 @@ enum Change {
     Back,
 }
 
-/// Whether a source or slot has peers, with the grace of [`GONE_AFTER`] before it counts as gone.
+/// Whether a source or slot has peers (the sum of some match counts), with the grace of [`GONE_AFTER`]
+/// before it counts as gone.
 struct Presence {
-    matched: tokio::sync::watch::Receiver<usize>,
+    counts: Vec<tokio::sync::watch::Receiver<usize>>,
     /// No peer since this moment (not yet reported).
     empty_since: Option<tokio::time::Instant>,
     /// Reported gone (and not back since).
@@ -745,23 +877,44 @@ struct Presence {
 }
 
 impl Presence {
-    fn new(mut matched: tokio::sync::watch::Receiver<usize>) -> Presence {
-        let empty = *matched.borrow_and_update() == 0;
-        Presence {
-            matched,
-            empty_since: empty.then(tokio::time::Instant::now),
+    fn new(counts: Vec<tokio::sync::watch::Receiver<usize>>) -> Presence {
+        let mut p = Presence {
+            counts,
+            empty_since: None,
             gone: false,
+        };
+        if p.total() == 0 {
+            p.empty_since = Some(tokio::time::Instant::now());
         }
+        p
     }
 
-    /// The next change worth telling; `None` once the endpoint is gone. Cancel-safe: the state lives here.
+    fn total(&mut self) -> usize {
+        self.counts.iter_mut().map(|c| *c.borrow_and_update()).sum()
+    }
+
+    /// Another count to add (a writer made later).
+    fn add(&mut self, count: tokio::sync::watch::Receiver<usize>) {
+        self.counts.push(count);
+    }
+
+    /// The next change worth telling; `None` once the endpoints are gone. Cancel-safe: the state lives here.
     async fn next(&mut self) -> Option<Change> {
         loop {
             let deadline = self.empty_since.map(|t| t + GONE_AFTER);
+            let changed = async {
+                if self.counts.is_empty() {
+                    return std::future::pending::<bool>().await;
+                }
+                let all = self.counts.iter_mut().map(|c| Box::pin(c.changed()));
+                futures::future::select_all(all).await.0.is_ok()
+            };
             tokio::select! {
-                c = self.matched.changed() => {
-                    c.ok()?;
-                    if *self.matched.borrow_and_update() == 0 {
+                ok = changed => {
+                    if !ok {
+                        return None;
+                    }
+                    if self.total() == 0 {
                         if !self.gone && self.empty_since.is_none() {
                             self.empty_since = Some(tokio::time::Instant::now());
                         }
@@ -774,7 +927,7 @@ impl Presence {
                 }
                 _ = async { tokio::time::sleep_until(deadline.expect("guarded")).await }, if deadline.is_some() => {
                     self.empty_since = None;
-                    if *self.matched.borrow() == 0 {
+                    if self.total() == 0 {
                         self.gone = true;
                         return Some(Change::Gone);
                     }

@@ -234,8 +234,10 @@ async fn main() {
 
 async fn run(cli: Cli) -> Fallible<()> {
     // one program node per invocation: several may run at once (a watch and an act)
+    // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
     let radar = Radar::builder()
         .program(&format!("radar_cli_{}", std::process::id()))
+        .handle_signals(false)
         .build()
         .map_err(|e| e.to_string())?;
     let out = Out { json: cli.json };

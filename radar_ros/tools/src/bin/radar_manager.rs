@@ -2,8 +2,6 @@
 //! serving connect/disconnect/list and publishing `connections`, until SIGINT or SIGTERM.
 //! Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE.
 
-use tokio::signal::unix::{signal, SignalKind};
-
 #[tokio::main]
 async fn main() {
     let _ = tracing_subscriber::fmt()
@@ -35,10 +33,7 @@ async fn main() {
         manager.name(),
         radar.domain_id()
     );
-    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-    tokio::select! {
-        _ = term.recv() => {}
-        _ = tokio::signal::ctrl_c() => {}
-    }
-    manager.shutdown().await;
+    // until SIGINT or SIGTERM: radar_ros then stops the manager node, leaves the ROS graph and ends the process
+    let _manager = manager;
+    std::future::pending::<()>().await;
 }
