@@ -129,3 +129,108 @@ async fn wait_for_acknowledgments_returns_once_the_reader_has_everything() {
         assert_eq!(m.data, i);
     }
 }
+
+/// Patch 3: a node that creates 60 endpoints back to back sends its participant's `ros_discovery_info` a few
+/// times, not once per endpoint, and the last one lists every endpoint.
+#[tokio::test(flavor = "multi_thread")]
+async fn many_endpoints_at_once_send_ros_discovery_info_a_few_times_not_once_each() {
+    use ros2_client::{builtin_topics::ros_discovery, entities_info::ParticipantEntitiesInfo};
+    init_logs();
+    require_isolation();
+    // the other participant reads every `ros_discovery_info` sample (reliable, keep all)
+    let other = rustdds::DomainParticipant::new(DOMAIN).unwrap();
+    let all = rustdds::QosPolicyBuilder::new()
+        .reliability(rustdds::policy::Reliability::Reliable {
+            max_blocking_time: rustdds::Duration::ZERO,
+        })
+        .history(rustdds::policy::History::KeepAll)
+        .durability(rustdds::policy::Durability::Volatile)
+        .build();
+    let topic = other
+        .create_topic(
+            ros_discovery::TOPIC_NAME.to_string(),
+            ros_discovery::TYPE_NAME.to_string(),
+            &all,
+            rustdds::TopicKind::NoKey,
+        )
+        .unwrap();
+    let mut reader = other
+        .create_subscriber(&all)
+        .unwrap()
+        .create_datareader_no_key_cdr::<ParticipantEntitiesInfo>(&topic, Some(all.clone()))
+        .unwrap();
+    let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
+    let me = ros2_client::Gid::from(rustdds::RTPSEntity::guid(&ctx.domain_participant()));
+    let mut n = node(&ctx, "many_endpoints");
+    let mine = |reader: &mut rustdds::no_key::DataReaderCdr<ParticipantEntitiesInfo>| {
+        let mut v = Vec::new();
+        while let Ok(Some(s)) = reader.take_next_sample() {
+            if s.value().gid() == me {
+                v.push(s.value().clone());
+            }
+        }
+        v
+    };
+    // the node is known: its first update has arrived
+    let t0 = std::time::Instant::now();
+    while mine(&mut reader).is_empty() {
+        assert!(
+            t0.elapsed() < DISCOVERY,
+            "no ros_discovery_info from the node"
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let ty = MessageTypeName::new("std_msgs", "Int32");
+    let mut publishers = Vec::new();
+    let burst = std::time::Instant::now();
+    for i in 0..60 {
+        let t = n
+            .create_topic(
+                &Name::new("/", &format!("p3_{i}")).unwrap(),
+                ty.clone(),
+                &qos(),
+            )
+            .unwrap();
+        publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
+    }
+    let took = burst.elapsed();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let updates = mine(&mut reader);
+    println!(
+        "{} ros_discovery_info updates for 60 endpoints made in {took:?}",
+        updates.len()
+    );
+    // at most one per 50 ms while they were made, and one after (before: one per endpoint)
+    let bound = (took.as_millis() / 50) as usize + 3;
+    assert!(
+        !updates.is_empty() && updates.len() <= bound.min(20),
+        "{} updates for 60 endpoints made in {took:?}",
+        updates.len()
+    );
+    let last = updates.last().unwrap();
+    let listed = last
+        .nodes()
+        .iter()
+        .find(|ni| ni.name() == "many_endpoints")
+        .map(|ni| ni.writers().len())
+        .unwrap_or(0);
+    assert!(listed >= 60, "the last update lists every writer: {listed}");
+}
+
+/// Patch 4: dropping a publisher waits until its subscription has acknowledged what it sent: right after the
+/// drop, everything is in the subscription's cache.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_dropped_publisher_leaves_nothing_unacknowledged() {
+    let ((_a, _na, p), (_b, _nb, s)) = pair("patch4").await;
+    for i in 0..50 {
+        p.publish(Int32 { data: i })
+            .map_err(|e| e.forget_data())
+            .unwrap();
+    }
+    tokio::task::spawn_blocking(move || drop(p)).await.unwrap();
+    let mut got = 0;
+    while let Ok(Some(_)) = s.take() {
+        got += 1;
+    }
+    assert_eq!(got, 50, "all there the moment the drop returned");
+}

@@ -241,6 +241,23 @@ pub use waiter::Waiter;
 /// The RADAR rules themselves, in plain Rust (re-exported from the [`radar_semantics`] crate).
 pub use radar_semantics;
 
+/// The ROS 2 client library radar_ros runs on: ros2-client 0.12.1 with radar_ros's patches (the package
+/// `radar-ros2-client` in radar_ros's `third_party/`). Use this one for your own nodes, topics and services
+/// (`radar.context()` is one of its contexts): a crates.io ros2-client would be a second copy, whose types do
+/// not mix with these.
+///
+/// ```no_run
+/// # async fn f(radar: radar_ros::Radar) {
+/// use radar_ros::ros2_client::{NodeName, NodeOptions};
+/// let node = radar.context().new_node(NodeName::new("/", "my_node").unwrap(), NodeOptions::new());
+/// # }
+/// ```
+pub use ros2_client;
+
+/// The DDS implementation radar_ros runs on: RustDDS 0.15.1 with radar_ros's patches (the package
+/// `radar-rustdds` in radar_ros's `third_party/`), the same as `radar_ros::ros2_client::dds::rustdds`.
+pub use rustdds;
+
 /// The README's code, compiled as a doc test so that it cannot go stale.
 #[doc = include_str!("../../README.md")]
 #[cfg(doctest)]

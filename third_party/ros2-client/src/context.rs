@@ -143,9 +143,15 @@ impl Context {
     ROS_DISTRO_CHECK.call_once(crate::distributions::verify_ros_distro_env);
 
     let i = ContextInner::from_domain_participant(domain_participant)?;
-    Ok(Context {
-      inner: Arc::new(Mutex::new(i)),
-    })
+    let inner = Arc::new(Mutex::new(i));
+    // radar_ros patch 3: `ros_discovery_info` is sent from a thread of its own, coalesced
+    let broadcaster = inner.lock().unwrap().broadcaster.clone();
+    let weak = Arc::downgrade(&inner);
+    std::thread::Builder::new()
+      .name("ros2-discovery-info".into())
+      .spawn(move || broadcaster.run(weak))
+      .map_err(crate::error::CreateError::Io)?;
+    Ok(Context { inner })
   }
 
   /// Create a new ROS2 [`Node`]
@@ -341,6 +347,76 @@ struct ContextInner {
 
   ros_parameter_events_topic: Topic,
   ros_rosout_topic: Topic,
+
+  // radar_ros patch 3: coalesces `ros_discovery_info` updates
+  broadcaster: Arc<Broadcaster>,
+}
+
+/// How soon after a broadcast of `ros_discovery_info` the next one may follow. Changes made meanwhile (a node
+/// that creates its endpoints, a program that spawns a thousand components) go out together in the next one.
+/// (radar_ros patch 3.)
+const DISCOVERY_INFO_INTERVAL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Sends the participant's `ros_discovery_info` when it changed, at most once per
+/// [`DISCOVERY_INFO_INTERVAL`]: the first change after a quiet spell at once, the rest together at the end of
+/// the interval. Every endpoint a node creates used to send the whole participant's entity list, so creating
+/// N endpoints cost O(N^2). (radar_ros patch 3.)
+struct Broadcaster {
+  state: Mutex<BroadcastState>,
+  wake: std::sync::Condvar,
+}
+
+#[derive(Default)]
+struct BroadcastState {
+  pending: bool,
+  last: Option<std::time::Instant>,
+  stop: bool,
+}
+
+impl Broadcaster {
+  fn request(&self) {
+    let mut st = self.state.lock().unwrap();
+    st.pending = true;
+    self.wake.notify_one();
+  }
+
+  fn stop(&self) {
+    self.state.lock().unwrap().stop = true;
+    self.wake.notify_one();
+  }
+
+  fn run(&self, inner: std::sync::Weak<Mutex<ContextInner>>) {
+    let mut st = self.state.lock().unwrap();
+    loop {
+      while !st.pending && !st.stop {
+        st = self.wake.wait(st).unwrap();
+      }
+      if st.stop {
+        return;
+      }
+      // at most one broadcast per interval: what changes meanwhile goes out with it
+      if let Some(due) = st.last.map(|t| t + DISCOVERY_INFO_INTERVAL) {
+        while !st.stop {
+          let now = std::time::Instant::now();
+          if now >= due {
+            break;
+          }
+          st = self.wake.wait_timeout(st, due - now).unwrap().0;
+        }
+        if st.stop {
+          return;
+        }
+      }
+      st.pending = false;
+      st.last = Some(std::time::Instant::now());
+      drop(st);
+      match inner.upgrade() {
+        Some(inner) => inner.lock().unwrap().broadcast_node_infos(),
+        None => return,
+      }
+      st = self.state.lock().unwrap();
+    }
+  }
 }
 
 impl ContextInner {
@@ -381,6 +457,10 @@ impl ContextInner {
     Ok(ContextInner {
       local_nodes: HashMap::new(),
       node_writer,
+      broadcaster: Arc::new(Broadcaster {
+        state: Mutex::new(BroadcastState::default()),
+        wake: std::sync::Condvar::new(),
+      }),
 
       domain_participant,
       ros_discovery_topic,
@@ -407,13 +487,13 @@ impl ContextInner {
     self
       .local_nodes
       .insert(node_info.fully_qualified_name(), node_info);
-    self.broadcast_node_infos();
+    self.broadcaster.request();
   }
 
   /// Removes NodeEntitiesInfo and updates our ContextInfo to ROS2 network
   fn remove_node(&mut self, node_fqn: &str) {
     self.local_nodes.remove(node_fqn);
-    self.broadcast_node_infos();
+    self.broadcaster.request();
   }
 
   fn broadcast_node_infos(&self) {
@@ -429,6 +509,7 @@ impl ContextInner {
 impl Drop for ContextInner {
   fn drop(&mut self) {
     // Clears all nodes and updates our ContextInfo to ROS2 network
+    self.broadcaster.stop();
     self.local_nodes.clear();
     self.broadcast_node_infos();
   }

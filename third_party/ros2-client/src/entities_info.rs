@@ -84,6 +84,16 @@ impl NodeEntitiesInfo {
     self.name.fully_qualified_name()
   }
 
+  /// The node's writers. (radar_ros patch 3: to check what `ros_discovery_info` says.)
+  pub fn writers(&self) -> &[Gid] {
+    &self.writer_gid_seq
+  }
+
+  /// The node's readers. (radar_ros patch 3.)
+  pub fn readers(&self) -> &[Gid] {
+    &self.reader_gid_seq
+  }
+
   pub fn add_writer(&mut self, gid: Gid) {
     if !self.writer_gid_seq.contains(&gid) {
       self.writer_gid_seq.push(gid);

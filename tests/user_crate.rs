@@ -1,0 +1,239 @@
+//! Issue 20: radar_ros in the user's own crate, as the README's "Use radar_ros in your crate" says.
+//!
+//! - A crate generated outside this workspace (in `target/user-crate/`, its own workspace root) from the
+//!   README's `Cargo.toml` lines and `main.rs`, depending on radar_ros by path with no `[patch]`, builds, runs,
+//!   and acts on a start published by a fresh rclpy process (`ros2 topic pub --once`, as
+//!   `python/interop.py pub_once` does it).
+//! - The guard: a crate that depends on radar_ros through git and swaps in the crates.io RustDDS 0.15.1 for
+//!   radar_ros's (a `[patch]`) does not build: radar_ros's build script stops it, saying what to do.
+//!
+//! Both build the stack again in their own target directories (a minute or two each). Domain 18.
+
+use std::{
+    path::{Path, PathBuf},
+    process::Command,
+    time::Duration,
+};
+
+use radar_test_util::{repo, require_isolation, Py};
+use tokio::io::{AsyncBufReadExt, BufReader};
+
+const DOMAIN: u16 = 18;
+
+/// The README block that follows the marker `<!-- user-crate: {what}`.
+fn readme_block(what: &str) -> String {
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let marker = format!("<!-- user-crate: {what}");
+    let after = &readme[readme
+        .find(&marker)
+        .unwrap_or_else(|| panic!("README marker {marker}"))..];
+    let start = after.find("```").unwrap();
+    let body = &after[start..];
+    let body = &body[body.find('\n').unwrap() + 1..];
+    body[..body.find("```").unwrap()].to_owned()
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(env!("CARGO"));
+    c.env_remove("RUSTFLAGS").env_remove("CARGO_TARGET_DIR");
+    c
+}
+
+fn write(path: &Path, text: &str) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, text).unwrap();
+}
+
+/// Runs `cargo build ARGS` in `dir` with its own target directory, offline (the tests run without network:
+/// `tests/isolated.sh` fetched every crate before, and the workspace's `Cargo.lock`, copied in, pins them); the
+/// output.
+fn build(dir: &Path, args: &[&str]) -> std::process::Output {
+    std::fs::copy(repo().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
+    cargo()
+        .args(["build", "--offline"])
+        .args(args)
+        .current_dir(dir)
+        .env("CARGO_TARGET_DIR", dir.join("target"))
+        .output()
+        .expect("run cargo")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclpy() {
+    require_isolation();
+    let dir = repo().join("target/user-crate/hello");
+    let deps = readme_block("Cargo.toml").replace(
+        "path = \"../radar_ros/radar_ros\"",
+        &format!("path = \"{}\"", repo().join("radar_ros").display()),
+    );
+    assert!(
+        deps.contains(&repo().join("radar_ros").display().to_string()),
+        "the README's dependency line names radar_ros by path: {deps}"
+    );
+    write(
+        &dir.join("Cargo.toml"),
+        &format!(
+            "[package]\nname = \"hello\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n{deps}\n\
+             # a workspace of its own (it lives under radar_ros's target directory)\n[workspace]\n"
+        ),
+    );
+    assert!(!deps.contains("[patch"), "no [patch] in the user's crate");
+    write(&dir.join("src/main.rs"), &readme_block("src/main.rs"));
+    let out = tokio::task::spawn_blocking({
+        let dir = dir.clone();
+        move || build(&dir, &[])
+    })
+    .await
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "the user's crate builds: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // it links radar_ros's own stack, not the crates.io one
+    let lock = std::fs::read_to_string(dir.join("Cargo.lock")).unwrap();
+    assert!(
+        lock.contains("name = \"radar-rustdds\"") && lock.contains("name = \"radar-ros2-client\"")
+    );
+    assert!(!lock.contains("name = \"rustdds\"") && !lock.contains("name = \"ros2-client\""));
+
+    let mut hello = tokio::process::Command::new(dir.join("target/debug/hello"))
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("run the user's program");
+    let mut lines = BufReader::new(hello.stdout.take().unwrap()).lines();
+    let mut seen = Vec::new();
+    let mut next = async || {
+        let l = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
+            .await
+            .expect("the program prints in time")
+            .unwrap()
+            .expect("a line");
+        seen.push(l.clone());
+        l
+    };
+    assert!(next().await.starts_with("ready"));
+    // a fresh rclpy process publishes once, as `ros2 topic pub --once /hello/start std_msgs/msg/Empty` does
+    let py = Py::start(
+        DOMAIN,
+        "tests/python/interop.py",
+        &["pub_once", "/hello/start"],
+    );
+    assert_eq!(next().await, "hello: started");
+    assert_eq!(next().await, "hello: exit slot (completed)");
+    let status = tokio::time::timeout(Duration::from_secs(10), hello.wait())
+        .await
+        .expect("the program ends after its run")
+        .unwrap();
+    assert!(status.success(), "{status}: {seen:?}");
+    py.succeeds().await;
+}
+
+/// The crates.io RustDDS 0.15.1, unpacked by cargo into its registry cache (`tests/isolated.sh` fetched it, for
+/// `tests/fixtures/crates_io_rustdds`).
+fn crates_io_rustdds() -> PathBuf {
+    let out = cargo()
+        .args([
+            "metadata",
+            "--offline",
+            "--format-version",
+            "1",
+            "--manifest-path",
+        ])
+        .arg(repo().join("tests/fixtures/crates_io_rustdds/Cargo.toml"))
+        .output()
+        .expect("cargo metadata");
+    assert!(
+        out.status.success(),
+        "the crates.io RustDDS is not in cargo's cache (tests/isolated.sh fetches it): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let manifest = meta["packages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "rustdds")
+        .expect("rustdds in the metadata")["manifest_path"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    PathBuf::from(manifest).parent().unwrap().to_owned()
+}
+
+fn copy(from: &Path, to: &Path) {
+    let _ = std::fs::remove_dir_all(to);
+    std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+    let status = Command::new("cp")
+        .arg("-r")
+        .arg(from)
+        .arg(to)
+        .status()
+        .unwrap();
+    assert!(
+        status.success(),
+        "cp -r {} {}",
+        from.display(),
+        to.display()
+    );
+}
+
+/// A user who puts the crates.io RustDDS where radar_ros's goes (as a `[patch]` of radar_ros's git source
+/// would): a copy of radar_ros, radar_semantics and the vendored ros2-client whose RustDDS is the crates.io
+/// 0.15.1 (under radar_ros's package name, as a patch must be). The build stops in radar_ros's build script,
+/// saying what to do, before anything of radar_ros is compiled.
+#[test]
+fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
+    let ws = repo().join("target/user-crate/guard");
+    copy(&crates_io_rustdds(), &ws.join("rustdds"));
+    let manifest = std::fs::read_to_string(ws.join("rustdds/Cargo.toml")).unwrap();
+    assert!(
+        !manifest.contains("links"),
+        "the crates.io RustDDS has no marker"
+    );
+    let manifest = manifest
+        .replacen("name = \"rustdds\"", "name = \"radar-rustdds\"", 1)
+        .replacen("version = \"0.15.1\"", "version = \"0.15.1-radar.1\"", 1);
+    std::fs::write(ws.join("rustdds/Cargo.toml"), manifest).unwrap();
+    for part in [
+        "radar_ros/src",
+        "radar_ros/semantics",
+        "third_party/ros2-client",
+    ] {
+        copy(&repo().join(part), &ws.join(part));
+    }
+    for file in ["radar_ros/Cargo.toml", "radar_ros/build.rs", "README.md"] {
+        std::fs::copy(repo().join(file), ws.join(file)).unwrap();
+    }
+    // the workspace as radar_ros's, with the RustDDS swapped
+    let root = std::fs::read_to_string(repo().join("Cargo.toml")).unwrap();
+    let root = root
+        .replace("path = \"third_party/rustdds\"", "path = \"rustdds\"")
+        .replace(
+            "exclude = [\"third_party\"]",
+            "exclude = [\"third_party\", \"rustdds\"]",
+        )
+        .replacen(
+            "members = [",
+            "members = [\"radar_ros\", \"radar_ros/semantics\"]\n# was: [",
+            1,
+        );
+    std::fs::write(ws.join("Cargo.toml"), root).unwrap();
+    let r2c = ws.join("third_party/ros2-client/Cargo.toml");
+    let m = std::fs::read_to_string(&r2c)
+        .unwrap()
+        .replace("path = \"../rustdds\"", "path = \"../../rustdds\"");
+    std::fs::write(r2c, m).unwrap();
+    let out = build(&ws, &["-p", "radar_ros"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "the build goes through: {stderr}");
+    assert!(
+        stderr.contains("radar_ros is being built against a RustDDS without radar_ros's patches (none of 19 found)")
+            && stderr.contains("remove the `[patch]`")
+            && !stderr.contains("error[E"),
+        "radar_ros's build script stops it first, saying what to do: {stderr}"
+    );
+}
