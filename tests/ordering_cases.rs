@@ -46,36 +46,82 @@ async fn state_until(
     }
 }
 
+/// A response R in another process (`radar_test_peer host`, `command` names it `name`), seen from this one: its
+/// state and signals, and two publishers of this process, E and U.
+struct Remote {
+    r: radar_ros::Radar,
+    peer: HostPeer,
+    resp: radar_ros::ResponseRef,
+    state: SignalSubscription<ResponseState>,
+    started: SignalSubscription<Empty>,
+    exited: SignalSubscription<Empty>,
+    e: radar_ros::SignalPublisher<Empty>,
+    u: radar_ros::SignalPublisher<Empty>,
+}
+
+impl Remote {
+    async fn start(domain: u16, name: &str, command: &str) -> Remote {
+        let r = radar(domain);
+        let mut peer = HostPeer::start(peer_exe(), domain).await;
+        peer.run(command).await;
+        let resp = r
+            .response(&format!("/{name}"))
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
+        let sub = |what: &str| {
+            r.signal_subscription::<Empty>(&format!("/{name}/{what}"))
+                .unwrap()
+        };
+        let rig = Remote {
+            state: r.state_subscription(&format!("/{name}/state")).unwrap(),
+            started: sub("started"),
+            exited: sub("exited"),
+            e: r.signal_publisher(&format!("/{name}_e")).unwrap(),
+            u: r.signal_publisher(&format!("/{name}_u")).unwrap(),
+            resp,
+            peer,
+            r,
+        };
+        for s in [&rig.started, &rig.exited] {
+            s.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
+        }
+        rig
+    }
+
+    fn e_signal(&self) -> Signal {
+        Signal::new(self.e.topic(), EMPTY)
+    }
+
+    fn u_signal(&self) -> Signal {
+        Signal::new(self.u.topic(), EMPTY)
+    }
+}
+
 /// B2 (a): `until` with its response R in another process and U in this one. U is emitted right after E,
 /// before R's `started` can have come back: the statement's run is interrupted all the same (U came after the
 /// start). Before: the manager read U before R's `started`, found no window open, and dropped it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn b2_until_interrupts_a_remote_run_when_u_comes_right_after_the_start() {
-    let r = radar(5);
-    let mut peer = HostPeer::start(peer_exe(), 5).await;
-    peer.run("response b2a 5000").await;
-    let resp = r.response("/b2a").timeout(DISCOVERY).await.unwrap();
-    let state = r.state_subscription::<ResponseState>("/b2a/state").unwrap();
-    let e = r.signal_publisher::<Empty>("/b2a_e").unwrap();
-    let u = r.signal_publisher::<Empty>("/b2a_u").unwrap();
-    let _c = r
-        .whenever(Signal::new("/b2a_e", EMPTY))
-        .start(&resp)
-        .until(Signal::new("/b2a_u", EMPTY))
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
+    let mut x = Remote::start(5, "b2a", "response b2a 5000").await;
+    let _c =
+        x.r.whenever(x.e_signal())
+            .start(&x.resp)
+            .until(x.u_signal())
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
     for round in 1..=ROUNDS {
-        e.publish(Empty::default()).unwrap();
-        u.publish(Empty::default()).unwrap();
-        let s = state_until(&state, "the run to end", |s| s.exits >= round).await;
+        x.e.publish(Empty::default()).unwrap();
+        x.u.publish(Empty::default()).unwrap();
+        let s = state_until(&x.state, "the run to end", |s| s.exits >= round).await;
         assert_eq!(
             (s.starts, s.interrupts),
             (round, round),
             "round {round}: the statement's run was interrupted by U: {s:?}"
         );
     }
-    peer.send("quit").await;
+    x.peer.send("quit").await;
 }
 
 /// B2 (b): E is emitted the moment R's previous run (started by someone else) has sent `exited`, so the
@@ -83,53 +129,35 @@ async fn b2_until_interrupts_a_remote_run_when_u_comes_right_after_the_start() {
 /// manager still believed R busy, opened no window, and U never interrupted it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn b2_until_interrupts_a_run_whose_start_was_read_before_the_previous_exited() {
-    let r = radar(6);
-    let mut peer = HostPeer::start(peer_exe(), 6).await;
     // the runs nobody's statement starts take 30 ms; the statement's run would take 30 s if U did not end it
-    peer.run("response-alt b2b 30 30000").await;
-    let resp = r.response("/b2b").timeout(DISCOVERY).await.unwrap();
-    let state = r.state_subscription::<ResponseState>("/b2b/state").unwrap();
-    let exited = r.signal_subscription::<Empty>("/b2b/exited").unwrap();
-    let started = r.signal_subscription::<Empty>("/b2b/started").unwrap();
-    let e = r.signal_publisher::<Empty>("/b2b_e").unwrap();
-    let u = r.signal_publisher::<Empty>("/b2b_u").unwrap();
-    let _c = r
-        .whenever(Signal::new("/b2b_e", EMPTY))
-        .start(&resp)
-        .until(Signal::new("/b2b_u", EMPTY))
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
-    exited
-        .wait_for_publishers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
-    started
-        .wait_for_publishers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
+    let mut x = Remote::start(6, "b2b", "response-alt b2b 30 30000").await;
+    let _c =
+        x.r.whenever(x.e_signal())
+            .start(&x.resp)
+            .until(x.u_signal())
+            .timeout(DISCOVERY)
+            .await
+            .unwrap();
     for round in 1..=ROUNDS {
         // a run the statement did not start (30 ms)
-        r.inject(resp.start_slot(), Empty::default())
+        x.r.inject(x.resp.start_slot(), Empty::default())
             .timeout(T)
             .await
             .unwrap();
-        started.recv().timeout(T).await.unwrap();
-        exited.recv().timeout(T).await.unwrap();
+        x.started.recv().timeout(T).await.unwrap();
+        x.exited.recv().timeout(T).await.unwrap();
         // its `exited` is here: E at once; U once R has said `started`
-        e.publish(Empty::default()).unwrap();
-        started.recv().timeout(T).await.unwrap();
-        u.publish(Empty::default()).unwrap();
-        exited.recv().timeout(T).await.unwrap();
-        let s = state_until(&state, "both runs to end", |s| s.exits >= 2 * round).await;
+        x.e.publish(Empty::default()).unwrap();
+        x.started.recv().timeout(T).await.unwrap();
+        x.u.publish(Empty::default()).unwrap();
+        x.exited.recv().timeout(T).await.unwrap();
+        let s = state_until(&x.state, "both runs to end", |s| s.exits >= 2 * round).await;
         assert_eq!(
             s.interrupts, round,
             "round {round}: the run E started was interrupted by U: {s:?}"
         );
     }
-    peer.send("quit").await;
+    x.peer.send("quit").await;
 }
 
 /// B3: the statement is armed while R's run (someone else's) is about to end, so that it ends during arming.
@@ -137,47 +165,29 @@ async fn b2_until_interrupts_a_run_whose_start_was_read_before_the_previous_exit
 /// discarded, so the table believed R busy for ever and the statement's run was never interrupted.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn b3_a_run_that_ends_while_the_statement_arms_does_not_hide_the_next_one() {
-    let r = radar(7);
-    let mut peer = HostPeer::start(peer_exe(), 7).await;
     // the runs nobody's statement starts take 20 ms; the statement's run would take 30 s if U did not end it
-    peer.run("response-alt b3 20 30000").await;
-    let resp = r.response("/b3").timeout(DISCOVERY).await.unwrap();
-    let state = r.state_subscription::<ResponseState>("/b3/state").unwrap();
-    let exited = r.signal_subscription::<Empty>("/b3/exited").unwrap();
-    let started = r.signal_subscription::<Empty>("/b3/started").unwrap();
-    let e = r.signal_publisher::<Empty>("/b3_e").unwrap();
-    let u = r.signal_publisher::<Empty>("/b3_u").unwrap();
-    exited
-        .wait_for_publishers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
-    started
-        .wait_for_publishers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
+    let mut x = Remote::start(7, "b3", "response-alt b3 20 30000").await;
     for round in 1..=ROUNDS {
-        r.inject(resp.start_slot(), Empty::default())
+        x.r.inject(x.resp.start_slot(), Empty::default())
             .timeout(T)
             .await
             .unwrap();
         // armed while that 20 ms run ends
-        let c = r
-            .once(Signal::new("/b3_e", EMPTY))
-            .start(&resp)
-            .until(Signal::new("/b3_u", EMPTY))
-            .timeout(DISCOVERY)
-            .await
-            .unwrap();
-        started.recv().timeout(T).await.unwrap();
-        exited.recv().timeout(T).await.unwrap();
+        let c =
+            x.r.once(x.e_signal())
+                .start(&x.resp)
+                .until(x.u_signal())
+                .timeout(DISCOVERY)
+                .await
+                .unwrap();
+        x.started.recv().timeout(T).await.unwrap();
+        x.exited.recv().timeout(T).await.unwrap();
         // U once R has said `started` for the statement's run
-        e.publish(Empty::default()).unwrap();
-        started.recv().timeout(T).await.unwrap();
-        u.publish(Empty::default()).unwrap();
-        exited.recv().timeout(T).await.unwrap();
-        let s = state_until(&state, "the statement's run to end", |s| {
+        x.e.publish(Empty::default()).unwrap();
+        x.started.recv().timeout(T).await.unwrap();
+        x.u.publish(Empty::default()).unwrap();
+        x.exited.recv().timeout(T).await.unwrap();
+        let s = state_until(&x.state, "the statement's run to end", |s| {
             s.exits >= 2 * round
         })
         .await;
@@ -187,7 +197,7 @@ async fn b3_a_run_that_ends_while_the_statement_arms_does_not_hide_the_next_one(
         );
         drop(c);
     }
-    peer.send("quit").await;
+    x.peer.send("quit").await;
 }
 
 /// B6: a start sent over DDS from another process, and right after it an interrupt delivered in this process
