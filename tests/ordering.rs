@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use radar_ros::{msg::StringMsg, RawMessage, Signal};
-use radar_test_util::{eventually, radar, HostPeer, DISCOVERY};
+use radar_test_util::{publish_unreadable_string, radar, HostPeer, DISCOVERY};
 
 const T: Duration = Duration::from_secs(5);
 
@@ -52,17 +52,7 @@ async fn b8_a_bad_payload_is_reported_and_skipped_not_the_end_of_a_wait() {
         .timeout(DISCOVERY)
         .await
         .unwrap();
-    raw.wait_for_subscribers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
-    // a string of 2^31 - 1 bytes in a 4-byte message
-    raw.publish(RawMessage(vec![0xff, 0xff, 0xff, 0x7f]))
-        .unwrap();
-    eventually(T, "the bad payload to be counted", || {
-        r.malformed_messages().iter().any(|m| m.topic == "/b8_bad")
-    })
-    .await;
+    publish_unreadable_string(&r, &raw).await;
     raw.publish(RawMessage::encode(&StringMsg::from("dock")).unwrap())
         .unwrap();
     let got = w.recv().timeout(T).await.unwrap();

@@ -13,7 +13,7 @@ use radar_ros::{
     msg::{Empty, ResponseState, StringMsg},
     FnResponse, RawMessage, Signal, SignalSubscription,
 };
-use radar_test_util::{counter, eventually, HostPeer, DISCOVERY};
+use radar_test_util::{counter, eventually, publish_unreadable_string, HostPeer, DISCOVERY};
 
 const ROUNDS: u64 = 30;
 const T: Duration = Duration::from_secs(10);
@@ -89,6 +89,17 @@ impl Remote {
         rig
     }
 
+    /// `whenever E start R until U`, armed.
+    async fn whenever_e_start_until_u(&self) -> radar_ros::ConnectionGuard {
+        self.r
+            .whenever(self.e_signal())
+            .start(&self.resp)
+            .until(self.u_signal())
+            .timeout(DISCOVERY)
+            .await
+            .unwrap()
+    }
+
     fn e_signal(&self) -> Signal {
         Signal::new(self.e.topic(), EMPTY)
     }
@@ -104,13 +115,7 @@ impl Remote {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn b2_until_interrupts_a_remote_run_when_u_comes_right_after_the_start() {
     let mut x = Remote::start(5, "b2a", "response b2a 5000").await;
-    let _c =
-        x.r.whenever(x.e_signal())
-            .start(&x.resp)
-            .until(x.u_signal())
-            .timeout(DISCOVERY)
-            .await
-            .unwrap();
+    let _c = x.whenever_e_start_until_u().await;
     for round in 1..=ROUNDS {
         x.e.publish(Empty::default()).unwrap();
         x.u.publish(Empty::default()).unwrap();
@@ -131,13 +136,7 @@ async fn b2_until_interrupts_a_remote_run_when_u_comes_right_after_the_start() {
 async fn b2_until_interrupts_a_run_whose_start_was_read_before_the_previous_exited() {
     // the runs nobody's statement starts take 30 ms; the statement's run would take 30 s if U did not end it
     let mut x = Remote::start(6, "b2b", "response-alt b2b 30 30000").await;
-    let _c =
-        x.r.whenever(x.e_signal())
-            .start(&x.resp)
-            .until(x.u_signal())
-            .timeout(DISCOVERY)
-            .await
-            .unwrap();
+    let _c = x.whenever_e_start_until_u().await;
     for round in 1..=ROUNDS {
         // a run the statement did not start (30 ms)
         x.r.inject(x.resp.start_slot(), Empty::default())
@@ -263,17 +262,7 @@ async fn b9_a_signal_the_transform_turns_into_nothing_does_not_use_up_a_once() {
         .timeout(DISCOVERY)
         .await
         .unwrap();
-    raw.wait_for_subscribers(1)
-        .timeout(DISCOVERY)
-        .await
-        .unwrap();
-    // a string of 2^31 - 1 bytes in a 4-byte message: not a std_msgs/msg/String
-    raw.publish(RawMessage(vec![0xff, 0xff, 0xff, 0x7f]))
-        .unwrap();
-    eventually(T, "the malformed signal to be counted", || {
-        r.malformed_messages().iter().any(|m| m.topic == "/b9_e")
-    })
-    .await;
+    publish_unreadable_string(&r, &raw).await;
     assert!(
         c.is_live(),
         "the once did not fire on a signal it could not deliver"

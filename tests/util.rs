@@ -12,7 +12,8 @@ use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
 use radar_ros::{
     msg::{Empty, ResponseState, RosMessage},
-    DiscoveryRange, Radar, RadarBuilder, SignalPublisher, SignalSubscription,
+    DiscoveryRange, Radar, RadarBuilder, RawMessage, RawPublisher, SignalPublisher,
+    SignalSubscription,
 };
 
 /// How long any wait on DDS discovery may take before a test fails.
@@ -217,6 +218,23 @@ pub async fn eventually(timeout: Duration, what: &str, cond: impl Fn() -> bool) 
     })
     .await;
     assert!(r.is_ok(), "timed out after {timeout:?} waiting for {what}");
+}
+
+/// Publishes on `raw` (a `std_msgs/msg/String` topic of `r`'s participant, once a subscriber matched) a payload
+/// that is not a string: a length of 2^31 - 1 bytes in a 4-byte message. Returns once `r` counted it as
+/// malformed on that topic.
+pub async fn publish_unreadable_string(r: &Radar, raw: &RawPublisher) {
+    raw.wait_for_subscribers(1)
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    raw.publish(RawMessage(vec![0xff, 0xff, 0xff, 0x7f]))
+        .unwrap();
+    let topic = raw.topic().to_string();
+    eventually(DISCOVERY, "the malformed payload to be counted", || {
+        r.malformed_messages().iter().any(|m| m.topic == topic)
+    })
+    .await;
 }
 
 /// Calls a service until it answers (the server's discovery takes a moment), failing after `timeout`.
