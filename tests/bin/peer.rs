@@ -153,26 +153,14 @@ async fn host(radar: Radar) {
     while let Ok(Some(line)) = lines.next_line().await {
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.as_slice() {
-            ["response", name, ms] => {
-                let ms: u64 = ms.parse().expect("MS");
-                let r = radar.spawn_response(
-                    name,
-                    radar_ros::FnResponse::new(move |_: Empty| async move {
-                        tokio::time::sleep(Duration::from_millis(ms)).await;
-                        Ok(Empty::default())
-                    }),
-                );
-                match r {
-                    Ok(h) => {
-                        responses.insert(name.to_string(), h);
-                        say("ok")
-                    }
-                    Err(e) => say(&format!("err {e}")),
-                }
-            }
-            ["response-alt", name, odd, even] => {
-                // runs alternate: the 1st, 3rd, ... take ODD ms, the 2nd, 4th, ... EVEN ms
-                let (odd, even): (u64, u64) = (odd.parse().expect("MS"), even.parse().expect("MS"));
+            ["response", name, ms] | ["response-alt", name, ms, _] => {
+                // `response NAME MS`: every run takes MS ms; `response-alt NAME ODD EVEN`: the 1st, 3rd, ...
+                // runs take ODD ms, the 2nd, 4th, ... EVEN ms
+                let odd: u64 = ms.parse().expect("MS");
+                let even: u64 = match words.as_slice() {
+                    [_, _, _, even] => even.parse().expect("MS"),
+                    _ => odd,
+                };
                 let runs = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
                 let r = radar.spawn_response(
                     name,
