@@ -4,6 +4,7 @@ line per message: topic, schema name and encoding, message encoding, log and pub
 decoded from its CDR with the schema stored in the file (as Foxglove and rosbag2 tooling would).
 
     mcap_read.py FILE.mcap
+    mcap_read.py --summary FILE.mcap   one JSON line: whether the file has a summary, and its statistics
 """
 import json
 import sys
@@ -12,7 +13,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 
-def plain(v):
+def plain(v: object) -> object:
     """A decoded ROS message (dynamic class) as plain JSON values."""
     if hasattr(v, "__slots__"):
         return {k: plain(getattr(v, k)) for k in v.__slots__ if not k.startswith("_")}
@@ -23,7 +24,21 @@ def plain(v):
     return v
 
 
-def main():
+def summary(path: str) -> None:
+    with open(path, "rb") as f:
+        s = make_reader(f).get_summary()
+        stats = s.statistics if s is not None else None
+        print(json.dumps({
+            "summary": s is not None,
+            "messages": stats.message_count if stats else None,
+            "chunks": len(s.chunk_indexes) if s is not None else None,
+        }), flush=True)
+
+
+def main() -> None:
+    if sys.argv[1] == "--summary":
+        summary(sys.argv[2])
+        return
     with open(sys.argv[1], "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for schema, channel, message, decoded in reader.iter_decoded_messages():

@@ -14,10 +14,10 @@ const POSE: &str = "Point position\nQuaternion orientation\n";
 pub fn definition(ros_type: &str) -> Option<String> {
     let radar = |file: &str| -> &'static str {
         match file {
-            "ResponseState" => include_str!("../../../../msgs/radar_msgs/msg/ResponseState.msg"),
-            "EventState" => include_str!("../../../../msgs/radar_msgs/msg/EventState.msg"),
-            "Connection" => include_str!("../../../../msgs/radar_msgs/msg/Connection.msg"),
-            _ => include_str!("../../../../msgs/radar_msgs/msg/ConnectionList.msg"),
+            "ResponseState" => include_str!("../../../msgs/radar_msgs/msg/ResponseState.msg"),
+            "EventState" => include_str!("../../../msgs/radar_msgs/msg/EventState.msg"),
+            "Connection" => include_str!("../../../msgs/radar_msgs/msg/Connection.msg"),
+            _ => include_str!("../../../msgs/radar_msgs/msg/ConnectionList.msg"),
         }
     };
     let (main, deps): (&str, Vec<(&str, &str)>) = match ros_type {

@@ -1,7 +1,15 @@
 //! `radar graph`: the components and the live connections of every program as a picture, in SVG (drawn
 //! here, no Graphviz needed) or as Graphviz DOT text.
 
+use std::collections::HashMap;
+
 use serde::Serialize;
+
+/// A box's width and height in the SVG, the space between rows, the first row's top.
+const W: f64 = 270.0;
+const H: f64 = 52.0;
+const GAP: f64 = 78.0;
+const TOP: f64 = 60.0;
 
 /// A component (or a plain topic a connection touches) in the picture.
 #[derive(Clone, Debug, Serialize)]
@@ -120,12 +128,8 @@ impl Picture {
     /// An SVG picture: events on the left, responses on the right, one arrow per connection (whenever solid,
     /// once dashed, until dotted red), active events and running responses filled.
     pub fn svg(&self) -> String {
-        const W: f64 = 270.0;
-        const H: f64 = 52.0;
-        const GAP: f64 = 78.0;
-        const TOP: f64 = 60.0;
         let (left_x, right_x) = (30.0, 470.0);
-        let mut pos = std::collections::HashMap::new();
+        let mut pos = HashMap::new();
         let (mut left, mut right) = (0.0, 0.0);
         for n in &self.nodes {
             let (x, row) = if n.kind == "response" {
@@ -149,43 +153,6 @@ impl Picture {
              <text x=\"{left_x}\" y=\"30\" font-size=\"15\" font-weight=\"bold\">events</text>\n\
              <text x=\"{right_x}\" y=\"30\" font-size=\"15\" font-weight=\"bold\">responses</text>\n"
         );
-        let arrow = |s: &mut String,
-                     from: &str,
-                     to: &str,
-                     colour: &str,
-                     dash: &str,
-                     label: &str,
-                     k: usize| {
-            let (Some(&(x1, y1)), Some(&(x2, y2))) = (pos.get(from), pos.get(to)) else {
-                return;
-            };
-            // labels of several arrows between the same pair are spread along the curve
-            let shift = k as f64 * 14.0;
-            let (path, lx, ly) = if (x1 - x2).abs() < 1.0 {
-                // same column: an arc on the right
-                let (sx, sy, ey) = (x1 + W, y1 + H / 2.0, y2 + H / 2.0);
-                let bulge = sx + 90.0 + shift;
-                (
-                    format!("M {sx} {sy} C {bulge} {sy}, {bulge} {ey}, {sx} {ey}"),
-                    bulge - 20.0,
-                    (sy + ey) / 2.0,
-                )
-            } else {
-                let (sx, sy, ex, ey) = (x1 + W, y1 + H / 2.0, x2, y2 + H / 2.0);
-                let mx = (sx + ex) / 2.0;
-                (
-                    format!("M {sx} {sy} C {mx} {sy}, {mx} {ey}, {ex} {ey}"),
-                    mx - 60.0,
-                    (sy + ey) / 2.0 - 6.0 + shift,
-                )
-            };
-            s.push_str(&format!(
-                "<path class=\"connection\" d=\"{path}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\" \
-                 stroke-dasharray=\"{dash}\" marker-end=\"url(#arrow)\"/>\n\
-                 <text x=\"{lx}\" y=\"{ly}\" fill=\"{colour}\" font-size=\"11\">{}</text>\n",
-                xml(label)
-            ));
-        };
         for (k, e) in self.edges.iter().enumerate() {
             let (colour, dash) = if e.kind == "once" {
                 ("#8250df", "7 4")
@@ -193,14 +160,22 @@ impl Picture {
                 ("#0969da", "none")
             };
             let label = format!("#{} {} {} -> {}", e.id, e.kind, e.signal, e.slot);
-            arrow(&mut s, &e.source, &e.target, colour, dash, &label, k % 3);
+            arrow(
+                &mut s,
+                &pos,
+                &e.source,
+                &e.target,
+                (colour, dash),
+                &label,
+                k % 3,
+            );
             if let Some(u) = &e.until {
                 arrow(
                     &mut s,
+                    &pos,
                     u,
                     &e.target,
-                    "#d1242f",
-                    "2 3",
+                    ("#d1242f", "2 3"),
                     &format!("#{} until", e.id),
                     k % 3,
                 );
@@ -222,25 +197,72 @@ impl Picture {
                 xml(&label)
             ));
         }
-        let ly = height - 30.0;
-        s.push_str(&format!(
-            "<g font-size=\"11\"><line x1=\"30\" y1=\"{ly}\" x2=\"70\" y2=\"{ly}\" stroke=\"#0969da\" stroke-width=\"2\"/>\
-             <text x=\"76\" y=\"{}\">whenever</text>\
-             <line x1=\"150\" y1=\"{ly}\" x2=\"190\" y2=\"{ly}\" stroke=\"#8250df\" stroke-width=\"2\" stroke-dasharray=\"7 4\"/>\
-             <text x=\"196\" y=\"{}\">once</text>\
-             <line x1=\"250\" y1=\"{ly}\" x2=\"290\" y2=\"{ly}\" stroke=\"#d1242f\" stroke-width=\"2\" stroke-dasharray=\"2 3\"/>\
-             <text x=\"296\" y=\"{}\">until</text>\
-             <rect x=\"350\" y=\"{}\" width=\"14\" height=\"10\" fill=\"#dafbe1\" stroke=\"#57606a\"/>\
-             <text x=\"370\" y=\"{}\">active event / running response</text></g>\n",
-            ly + 4.0,
-            ly + 4.0,
-            ly + 4.0,
-            ly - 5.0,
-            ly + 4.0
-        ));
+        s.push_str(&legend(height - 30.0));
         s.push_str("</svg>\n");
         s
     }
+}
+
+/// An arrow from `from` to `to` (by their places in `pos`), in the colour and dash pattern of `look`, with
+/// its label; `k` spreads the labels of several arrows between the same pair.
+fn arrow(
+    s: &mut String,
+    pos: &HashMap<String, (f64, f64)>,
+    from: &str,
+    to: &str,
+    look: (&str, &str),
+    label: &str,
+    k: usize,
+) {
+    let (colour, dash) = look;
+    let (Some(&(x1, y1)), Some(&(x2, y2))) = (pos.get(from), pos.get(to)) else {
+        return;
+    };
+    // labels of several arrows between the same pair are spread along the curve
+    let shift = k as f64 * 14.0;
+    let (path, lx, ly) = if (x1 - x2).abs() < 1.0 {
+        // same column: an arc on the right
+        let (sx, sy, ey) = (x1 + W, y1 + H / 2.0, y2 + H / 2.0);
+        let bulge = sx + 90.0 + shift;
+        (
+            format!("M {sx} {sy} C {bulge} {sy}, {bulge} {ey}, {sx} {ey}"),
+            bulge - 20.0,
+            (sy + ey) / 2.0,
+        )
+    } else {
+        let (sx, sy, ex, ey) = (x1 + W, y1 + H / 2.0, x2, y2 + H / 2.0);
+        let mx = (sx + ex) / 2.0;
+        (
+            format!("M {sx} {sy} C {mx} {sy}, {mx} {ey}, {ex} {ey}"),
+            mx - 60.0,
+            (sy + ey) / 2.0 - 6.0 + shift,
+        )
+    };
+    s.push_str(&format!(
+            "<path class=\"connection\" d=\"{path}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\" \
+             stroke-dasharray=\"{dash}\" marker-end=\"url(#arrow)\"/>\n\
+             <text x=\"{lx}\" y=\"{ly}\" fill=\"{colour}\" font-size=\"11\">{}</text>\n",
+            xml(label)
+        ));
+}
+
+/// The key to the line styles, at height `ly`.
+fn legend(ly: f64) -> String {
+    format!(
+        "<g font-size=\"11\"><line x1=\"30\" y1=\"{ly}\" x2=\"70\" y2=\"{ly}\" stroke=\"#0969da\" stroke-width=\"2\"/>\
+         <text x=\"76\" y=\"{}\">whenever</text>\
+         <line x1=\"150\" y1=\"{ly}\" x2=\"190\" y2=\"{ly}\" stroke=\"#8250df\" stroke-width=\"2\" stroke-dasharray=\"7 4\"/>\
+         <text x=\"196\" y=\"{}\">once</text>\
+         <line x1=\"250\" y1=\"{ly}\" x2=\"290\" y2=\"{ly}\" stroke=\"#d1242f\" stroke-width=\"2\" stroke-dasharray=\"2 3\"/>\
+         <text x=\"296\" y=\"{}\">until</text>\
+         <rect x=\"350\" y=\"{}\" width=\"14\" height=\"10\" fill=\"#dafbe1\" stroke=\"#57606a\"/>\
+         <text x=\"370\" y=\"{}\">active event / running response</text></g>\n",
+        ly + 4.0,
+        ly + 4.0,
+        ly + 4.0,
+        ly - 5.0,
+        ly + 4.0
+    )
 }
 
 fn node_look(n: &Node) -> (&'static str, String) {

@@ -1,0 +1,269 @@
+//! The command line: its arguments (clap) and which verb each runs.
+
+use std::time::Duration;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use radar_ros::Radar;
+
+use crate::{
+    common::{secs, Out},
+    verbs,
+};
+
+/// The arguments of `radar`.
+#[derive(Parser)]
+#[command(
+    name = "radar",
+    version,
+    about = "RADAR on ROS 2 from the shell: see events, responses and connections, and drive them",
+    after_help = "The ROS 2 domain is ROS_DOMAIN_ID's (default 0). Payloads are YAML, as `ros2 topic pub` takes them."
+)]
+pub struct Cli {
+    /// Print JSON, one document per line, for scripts.
+    #[arg(long, global = true)]
+    json: bool,
+    /// Seconds to let discovery run before answering.
+    #[arg(long, global = true, default_value_t = 1.5, value_name = "SECONDS")]
+    discovery: f64,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// List the events and responses on the graph, by namespace (like rtls).
+    Ls {
+        /// Only names in this namespace (e.g. /robot).
+        namespace: Option<String>,
+        /// Also each one's current state (from its state topic).
+        #[arg(short = 'l', long)]
+        long: bool,
+    },
+    /// Show one component: topics, types, state, and every program's connections touching it (like rtcat).
+    Cat {
+        /// The event or response, e.g. /count_up.
+        name: String,
+    },
+    /// Send start, interrupt or exit to a response and show the signal that follows (like rtact).
+    Act {
+        /// Which slot.
+        slot: ActSlot,
+        /// The response, e.g. /count_up.
+        name: String,
+        /// The start payload as YAML (default: the type's default), e.g. "{data: kitchen}".
+        payload: Option<String>,
+        /// Seconds to wait for the response and for the signal.
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        timeout: f64,
+    },
+    /// Publish a payload into a slot topic, once its subscriber is matched (like rtinject).
+    Inject {
+        /// The topic, e.g. /count_up/start.
+        topic: String,
+        /// The payload as YAML (default: the type's default).
+        payload: Option<String>,
+        /// Seconds to wait for a subscriber.
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        timeout: f64,
+    },
+    /// A live timeline of the signals and state changes of every component, or those named (like rtprint).
+    ///
+    /// Times are relative to when watching began. Events are watched through their state topics, so watching does
+    /// not make them check; --activate listens to their triggered signal instead (and so activates them).
+    Watch {
+        /// Components to watch (default: all, including ones that appear later).
+        names: Vec<String>,
+        /// Listen to events' triggered signals (this activates them) instead of their state topics.
+        #[arg(long)]
+        activate: bool,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// Connect a signal to a slot through a manager's services (like rtcon).
+    ///
+    /// The connection lives while this command runs (Ctrl-C ends it), or with --detach under the manager until `radar dis`.
+    Con {
+        /// once or whenever.
+        kind: ConKind,
+        /// The source signal topic, e.g. /bumper/triggered.
+        source: String,
+        /// The target slot topic, e.g. /dock/start.
+        slot: String,
+        /// Interrupt the started run when this signal comes (only with a start slot).
+        #[arg(long, value_name = "SIGNAL")]
+        until: Option<String>,
+        /// The manager node (default: the only one on the graph).
+        #[arg(long, value_name = "NODE")]
+        manager: Option<String>,
+        /// Leave the connection under the manager and exit at once.
+        #[arg(long)]
+        detach: bool,
+        /// Without --detach: end after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// The components and the live connections of every program as a picture (like rtstodot, but live).
+    ///
+    /// SVG drawn here (no Graphviz needed) or Graphviz DOT; whenever solid, once dashed, until dotted red,
+    /// active events and running responses filled. Without -o: DOT on stdout (JSON with --json).
+    Graph {
+        /// Write here; .svg or .dot.
+        #[arg(short = 'o', long = "output", value_name = "FILE")]
+        output: Option<std::path::PathBuf>,
+        /// Redraw every second until Ctrl-C (or --duration).
+        #[arg(long)]
+        watch: bool,
+        /// With --watch: stop after this many seconds.
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// Record signals, their payloads and state changes to an MCAP file (like rtlog).
+    ///
+    /// With ROS 2 message schemas (ros2msg schemas, cdr messages, as rosbag2 writes them), so Foxglove and
+    /// ros2 bag tooling open it. Events are recorded through their state topics unless --activate (which records triggered, and
+    /// activates them). Types radar has schemas for: std_msgs basics, geometry_msgs Point, Quaternion, Pose,
+    /// PoseStamped, builtin_interfaces Time, radar_msgs, test_msgs Fibonacci; others are skipped, said once.
+    Record {
+        /// The MCAP file to write.
+        #[arg(short = 'o', long = "output", value_name = "FILE.mcap")]
+        output: std::path::PathBuf,
+        /// Components to record (default: all, including ones that appear later).
+        names: Vec<String>,
+        /// Record events' triggered signals (this activates them).
+        #[arg(long)]
+        activate: bool,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+    },
+    /// Publish the signals recorded in an MCAP file again, with their timing (like rtlog).
+    ///
+    /// The states are not published, only the signals.
+    Replay {
+        /// The MCAP file.
+        input: std::path::PathBuf,
+        /// Speed: 2 plays twice as fast.
+        #[arg(long, default_value_t = 1.0)]
+        rate: f64,
+        /// Seconds to wait for each topic's subscribers before playing.
+        #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
+        wait: f64,
+    },
+    /// Remove a connection made through a manager's services (like rtdis).
+    Dis {
+        /// The connection's id, as `radar con` or `radar cat` showed it.
+        id: u64,
+        /// The manager node (default: the only one on the graph).
+        #[arg(long, value_name = "NODE")]
+        manager: Option<String>,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum ConKind {
+    Once,
+    Whenever,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum ActSlot {
+    Start,
+    Interrupt,
+    Exit,
+}
+
+impl ActSlot {
+    pub(crate) fn topic(self) -> &'static str {
+        match self {
+            ActSlot::Start => "start",
+            ActSlot::Interrupt => "interrupt",
+            ActSlot::Exit => "exit",
+        }
+    }
+    /// The signal that shows the slot took effect.
+    pub(crate) fn answer(self) -> &'static str {
+        match self {
+            ActSlot::Start => "started",
+            ActSlot::Interrupt => "interrupted",
+            ActSlot::Exit => "exited",
+        }
+    }
+}
+
+/// Runs the verb `cli` names, on a program node of its own (several `radar` commands may run at once).
+pub async fn run(cli: Cli) -> Result<(), String> {
+    // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
+    let radar = Radar::builder()
+        .program(&format!("radar_cli_{}", std::process::id()))
+        .handle_signals(false)
+        .build()
+        .map_err(|e| e.to_string())?;
+    let out = Out { json: cli.json };
+    let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
+    let manager = |named| verbs::con::Manager { named, discovery };
+    match cli.cmd {
+        Cmd::Ls { namespace, long } => {
+            verbs::ls::ls(&radar, &out, discovery, namespace, long).await
+        }
+        Cmd::Cat { name } => verbs::cat::cat(&radar, &out, discovery, &name).await,
+        Cmd::Act {
+            slot,
+            name,
+            payload,
+            timeout,
+        } => {
+            let timeout = secs(timeout)?;
+            verbs::act::act(&radar, &out, slot, &name, payload.as_deref(), timeout).await
+        }
+        Cmd::Inject {
+            topic,
+            payload,
+            timeout,
+        } => {
+            let timeout = secs(timeout)?;
+            verbs::inject::inject(&radar, &out, &topic, payload.as_deref(), timeout).await
+        }
+        Cmd::Watch {
+            names,
+            activate,
+            duration,
+        } => verbs::watch::watch(&radar, &out, names, activate, duration).await,
+        Cmd::Con {
+            kind,
+            source,
+            slot,
+            until,
+            manager: named,
+            detach,
+            duration,
+        } => {
+            let statement = verbs::con::Statement {
+                kind,
+                source,
+                slot,
+                until,
+            };
+            let lifetime = match detach {
+                true => verbs::con::Lifetime::Detached,
+                false => verbs::con::Lifetime::WhileRunning(duration),
+            };
+            verbs::con::con(&radar, &out, manager(named), statement, lifetime).await
+        }
+        Cmd::Graph {
+            output,
+            watch,
+            duration,
+        } => verbs::graph::draw(&radar, &out, discovery, output, watch, duration).await,
+        Cmd::Record {
+            output,
+            names,
+            activate,
+            duration,
+        } => verbs::record::record(&radar, &out, output, names, activate, duration).await,
+        Cmd::Replay { input, rate, wait } => {
+            verbs::replay::replay(&radar, &out, input, rate, secs(wait)?).await
+        }
+        Cmd::Dis { id, manager: named } => verbs::con::dis(&radar, &out, manager(named), id).await,
+    }
+}

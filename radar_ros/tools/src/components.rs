@@ -1,0 +1,65 @@
+//! Which topics show a component's activity, and the components a `watch` or `record` follows.
+
+use radar_ros::{Component, Radar};
+
+use crate::common::Fallible;
+
+/// The signals that show a component's activity, `(topic, type, label)`: a response's three; an event's
+/// `triggered` only if `activate` (listening to it makes the event check).
+pub(crate) fn signal_topics(c: &Component, activate: bool) -> Vec<(String, String, &'static str)> {
+    let of = |s: radar_ros::Signal, label| (s.topic().to_owned(), s.ros_type().to_owned(), label);
+    match c {
+        Component::Response(r) => vec![
+            of(r.started(), "started"),
+            of(r.interrupted(), "interrupted"),
+            of(r.exited(), "exited"),
+        ],
+        Component::Event(e) if activate => vec![of(e.triggered(), "triggered")],
+        Component::Event(_) => Vec::new(),
+    }
+}
+
+/// The type of a component's `state` topic.
+pub(crate) fn state_type(c: &Component) -> &'static str {
+    match c {
+        Component::Response(_) => "radar_msgs/msg/ResponseState",
+        Component::Event(_) => "radar_msgs/msg/EventState",
+    }
+}
+
+/// The components a `watch` or `record` follows: those named (all if none), each once, as they appear.
+pub(crate) struct Following {
+    /// The names asked for (none: every component).
+    pub(crate) wanted: Vec<String>,
+    seen: std::collections::BTreeSet<String>,
+}
+
+impl Following {
+    pub(crate) fn new(radar: &Radar, names: &[String]) -> Fallible<Following> {
+        let wanted = names
+            .iter()
+            .map(|n| {
+                radar
+                    .resolve(n)
+                    .map(|c| c.fully_qualified())
+                    .map_err(|e| e.to_string())
+            })
+            .collect::<Fallible<_>>()?;
+        Ok(Following {
+            wanted,
+            seen: Default::default(),
+        })
+    }
+
+    /// Components on the graph now that are wanted and not followed yet.
+    pub(crate) fn new_components(&mut self, radar: &Radar) -> Vec<Component> {
+        radar
+            .components()
+            .into_iter()
+            .filter(|c| {
+                let fq = c.name().fully_qualified();
+                (self.wanted.is_empty() || self.wanted.contains(&fq)) && self.seen.insert(fq)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,107 @@
+//! `radar act`: send start, interrupt or exit to a response and show the signal that follows (like rtact).
+
+use std::time::Duration;
+
+use radar_ros::{msg::ResponseState, Radar};
+use serde_json::json;
+
+use crate::{
+    cli::ActSlot,
+    codec,
+    common::{with_status, Fallible, Out},
+};
+
+pub(crate) async fn act(
+    radar: &Radar,
+    out: &Out,
+    slot: ActSlot,
+    name: &str,
+    payload: Option<&str>,
+    timeout: Duration,
+) -> Fallible<()> {
+    let r = with_status(
+        "looking for the response",
+        radar.response(name).timeout(timeout),
+    )
+    .await
+    .map_err(|e| e.to_string())?;
+    let (slot_ref, answer) = match slot {
+        ActSlot::Start => (r.start_slot(), r.started()),
+        ActSlot::Interrupt => (r.interrupt_slot(), r.interrupted()),
+        ActSlot::Exit => (r.exit_slot(), r.exited()),
+    };
+    if payload.is_some() && !matches!(slot, ActSlot::Start) {
+        return Err(format!(
+            "only start takes a payload; {} does not",
+            slot.topic()
+        ));
+    }
+    let raw = codec::encode(slot_ref.ros_type(), payload.unwrap_or(""))?;
+    let signal = radar
+        .raw_subscription(answer.topic(), answer.ros_type())
+        .map_err(|e| e.to_string())?;
+    let state = radar
+        .state_subscription::<ResponseState>(&r.name().topic("state"))
+        .map_err(|e| e.to_string())?;
+    let publisher = radar
+        .raw_publisher(slot_ref.topic(), slot_ref.ros_type())
+        .map_err(|e| e.to_string())?;
+    let ready = async {
+        publisher.wait_for_subscribers(1).timeout(timeout).await?;
+        signal.wait_for_publishers(1).timeout(timeout).await
+    };
+    with_status("waiting for the match", ready)
+        .await
+        .map_err(|e| e.to_string())?;
+    // the state before, to say why if nothing comes (responses in other libraries may have no state topic)
+    let has_state = state
+        .wait_for_publishers(1)
+        .timeout(timeout.min(Duration::from_secs(1)))
+        .await
+        .is_ok();
+    let before = match has_state {
+        true => state.recv().timeout(timeout).await.ok(),
+        false => None,
+    };
+    publisher.publish(raw).map_err(|e| e.to_string())?;
+    match signal.recv_stamped().timeout(timeout).await {
+        Ok((m, _)) => {
+            let payload = codec::decode(answer.ros_type(), &m);
+            if out.json {
+                println!(
+                    "{}",
+                    json!({ "signal": slot.answer(), "response": r.name().fully_qualified(), "payload": payload })
+                );
+            } else {
+                println!("{} {} {}", r.name(), slot.answer(), codec::inline(&payload));
+            }
+            Ok(())
+        }
+        Err(_) => {
+            // say why, from the state: a busy response ignores a start, an idle one an interrupt
+            let now = state.recv().timeout(Duration::from_millis(500)).await.ok();
+            let why = match (before, now) {
+                (Some(b), Some(n)) if n.ignored_starts > b.ignored_starts => {
+                    format!(
+                        "it ignored the start: it was {} (start policy {})",
+                        b.state_label, b.start_policy
+                    )
+                }
+                (Some(b), Some(n))
+                    if n.ignored_interrupts > b.ignored_interrupts
+                        || n.ignored_exits > b.ignored_exits =>
+                {
+                    format!("it ignored the {}: it was {}", slot.topic(), b.state_label)
+                }
+                (Some(b), _) => format!("it was {}", b.state_label),
+                _ if !has_state => "it publishes no state topic to tell why".into(),
+                _ => "its state did not arrive either".into(),
+            };
+            Err(format!(
+                "no {} from {} within {timeout:?}; {why}",
+                slot.answer(),
+                r.name()
+            ))
+        }
+    }
+}

@@ -1,0 +1,128 @@
+//! `radar cat`: one component, its topics, state, and every program's connections touching it (like rtcat).
+
+use std::time::Duration;
+
+use radar_ros::{msg::ConnectionList, Component, Radar};
+use serde_json::{json, Value};
+
+use crate::{
+    common::{discover, latest, state_of, state_summary, with_status, Fallible, Out},
+    components::{signal_topics, state_type},
+};
+
+pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Fallible<()> {
+    let c = with_status("discovering", find(radar, discovery, name)).await?;
+    with_status("discovering", discover(radar, discovery)).await;
+    let state = state_of(radar, &c, Duration::from_secs(2)).await;
+    let fq = c.name().fully_qualified();
+    let prefix = format!("{fq}/");
+    let touches = |t: &str| t.starts_with(&prefix);
+    // every program's and manager's connections
+    let lists =
+        futures::future::join_all(radar.connection_topics().into_iter().map(|t| async move {
+            latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await
+        }))
+        .await;
+    let mut connections = Vec::new();
+    for list in lists.into_iter().flatten() {
+        for k in list.connections {
+            if touches(&k.source) || touches(&k.target) || touches(&k.until) {
+                connections.push((list.manager.clone(), k));
+            }
+        }
+    }
+    let mut topics: Vec<(String, &str, String)> = Vec::new();
+    if let Component::Response(r) = &c {
+        for slot in [r.start_slot(), r.interrupt_slot(), r.exit_slot()] {
+            topics.push((slot.topic().to_owned(), "slot", slot.ros_type().to_owned()));
+        }
+    }
+    for (topic, ty, _) in signal_topics(&c, true) {
+        topics.push((topic, "signal", ty));
+    }
+    topics.push((c.name().topic("state"), "state", state_type(&c).to_owned()));
+    if out.json {
+        let v = json!({
+            "name": fq,
+            "kind": c.kind(),
+            "topics": topics.iter().map(|(t, k, ty)| json!({"topic": t, "role": k, "type": ty})).collect::<Vec<_>>(),
+            "state": state.clone().unwrap_or(Value::Null),
+            "connections": connections.iter().map(|(p, k)| {
+                let mut v = serde_json::to_value(k).unwrap_or(Value::Null);
+                v["program"] = json!(p);
+                v
+            }).collect::<Vec<_>>(),
+        });
+        println!("{v}");
+        return Ok(());
+    }
+    println!("{} ({})", out.bold(&fq), c.kind());
+    for (t, k, ty) in &topics {
+        println!("  {k:<6} {t:<36} {ty}");
+    }
+    match &state {
+        Some(s) => {
+            println!("  state: {}", state_summary(&c, s));
+            if let Value::Object(m) = s {
+                let counters: Vec<String> = m
+                    .iter()
+                    .filter(|(_, v)| v.is_u64())
+                    .map(|(k, v)| format!("{k} {v}"))
+                    .collect();
+                println!("  counters: {}", counters.join(", "));
+            }
+        }
+        None => println!("  state: none received"),
+    }
+    if connections.is_empty() {
+        println!("  connections: none");
+    }
+    for (program, k) in &connections {
+        let until = if k.until.is_empty() {
+            String::new()
+        } else {
+            format!(" until {}", k.until)
+        };
+        println!(
+            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered, {} DDS hop(s)",
+            k.id,
+            program,
+            k.kind_label,
+            k.source,
+            k.target,
+            until,
+            k.state_label,
+            k.delivered,
+            k.hops
+        );
+    }
+    Ok(())
+}
+
+/// The component `name`, waiting for discovery.
+async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Component> {
+    let fq = radar.resolve(name).map_err(|e| e.to_string())?;
+    let deadline = tokio::time::Instant::now() + discovery.max(Duration::from_secs(3));
+    loop {
+        if let Some(c) = radar.components().into_iter().find(|c| *c.name() == fq) {
+            return Ok(c);
+        }
+        if tokio::time::Instant::now() >= deadline {
+            let seen: Vec<String> = radar
+                .components()
+                .iter()
+                .map(|c| c.name().fully_qualified())
+                .collect();
+            return Err(format!(
+                "no event or response named {fq} on the graph (ROS_DOMAIN_ID {}); seen: {}",
+                radar.domain_id(),
+                if seen.is_empty() {
+                    "none".to_owned()
+                } else {
+                    seen.join(", ")
+                }
+            ));
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
