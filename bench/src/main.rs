@@ -12,6 +12,7 @@
 //! fresh process per one-shot publish, a long run of state changes, a program killed with SIGKILL. See
 //! `docs/benchmarks.md`.
 
+mod baseline;
 mod clock;
 mod coord;
 mod proto;

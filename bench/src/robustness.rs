@@ -14,9 +14,9 @@ use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
 use serde_json::json;
 
 use crate::{
+    baseline::{raw_node, WAIT},
     clock::{now_ns, stamped},
     proto::{reply, rss_bytes, Commands},
-    roles::{raw_node, WAIT},
 };
 
 /// RSS samples `(work done, bytes)` at ten evenly spaced points of `steps` steps of `per_step` work each.

@@ -172,10 +172,10 @@ impl Error {
     ) -> Error {
         let text = source.to_string();
         let hint = if text.contains("Too many open files") {
-            // seen at scale: RustDDS holds about 3 file descriptors per reader or writer
-            "; this process ran out of file descriptors: every DDS reader or writer holds a few (about 20 per \
-             response, 6 per event), so raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a systemd unit) \
-             or spread components over more processes"
+            // radar_ros's own need is small since RustDDS patch 15 (2,000 components: about 22 descriptors)
+            "; this process ran out of file descriptors: each `Radar` (a DDS participant) holds a few sockets and \
+             its components almost none, so look for what else holds them (many `Radar`s or DDS contexts, open \
+             files), or raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a systemd unit)"
                 .to_owned()
         } else {
             String::new()

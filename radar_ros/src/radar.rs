@@ -156,7 +156,8 @@ pub struct RadarBuilder {
     range: Option<DiscoveryRange>,
     lease: Option<std::time::Duration>,
     program: Option<String>,
-    relay_only: bool,
+    /// `Some(false)`: every delivery goes over the slot's topic.
+    local_delivery: Option<bool>,
     /// `Some(false)`: the program handles SIGINT/SIGTERM itself.
     signals: Option<bool>,
     shutdown_timeout: Option<std::time::Duration>,
@@ -237,7 +238,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn local_delivery(mut self, on: bool) -> Self {
-        self.relay_only = !on;
+        self.local_delivery = Some(on);
         self
     }
 
@@ -348,7 +349,7 @@ impl RadarBuilder {
             ),
         };
         let program_node = participant.start_program_node(&program)?;
-        let manager = Arc::new(Manager::new(participant.clone(), !self.relay_only));
+        let manager = Arc::new(Manager::new(participant.clone(), self.local_delivery.unwrap_or(true)));
         let task = crate::program::serve_program(&participant, &manager, &program_node)?;
         Ok(Radar {
             program: Arc::new(ProgramNode {

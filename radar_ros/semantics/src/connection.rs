@@ -543,6 +543,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
 
     /// The sources and targets no connection needs any more, since the last call: the readers and writers
     /// the runtime may drop (unless it holds them for another reason).
+    #[must_use = "the released sources and targets are to be closed"]
     pub fn take_released(&mut self) -> (Vec<S>, Vec<T>) {
         std::mem::take(&mut self.released)
     }
@@ -579,6 +580,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     /// Every publisher of `source` left the graph (rule 5): connections from it wait for it, and `until`
     /// windows whose response's `started` or `exited` it is close. Returns the connections whose state
     /// changed. (Looks at every connection: components leave rarely.)
+    #[must_use = "the connections whose state changed are to be reported"]
     pub fn source_lost(&mut self, source: &S) -> Vec<ConnId> {
         let mut changed = Vec::new();
         for (id, c) in self.conns.iter_mut() {
@@ -600,6 +602,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     }
 
     /// A publisher of `source` is back: connections waiting for it are armed again. Returns them.
+    #[must_use = "the connections whose state changed are to be reported"]
     pub fn source_back(&mut self, source: &S) -> Vec<ConnId> {
         let mut changed = Vec::new();
         for (id, c) in self.conns.iter_mut() {
@@ -614,6 +617,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     /// Every subscriber of slot `target` left the graph (rule 5): connections to it are lost (or wait for it,
     /// if they re-arm), and `until` windows whose response's `interrupt` it is close. Returns the connections
     /// whose state changed.
+    #[must_use = "the connections whose state changed are to be reported"]
     pub fn target_lost(&mut self, target: &T) -> Vec<ConnId> {
         let mut changed = Vec::new();
         for (id, c) in self.conns.iter_mut() {
@@ -644,6 +648,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
 
     /// A subscriber of slot `target` is back at `now`: connections waiting for it are armed again, for
     /// signals emitted from `now` on. Returns them.
+    #[must_use = "the connections whose state changed are to be reported"]
     pub fn target_back(&mut self, target: &T, now: i64) -> Vec<ConnId> {
         let mut changed = Vec::new();
         for (id, c) in self.conns.iter_mut() {
@@ -657,6 +662,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     }
 
     /// A signal from `source`, emitted at `emitted_at` by no statement: what to deliver, in connection order.
+    #[must_use = "the deliveries are what the binding must carry out"]
     pub fn on_signal(&mut self, source: &S, emitted_at: i64) -> Vec<Delivery<T>> {
         self.on_signal_with(source, emitted_at, None, |_| true)
     }
@@ -664,6 +670,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     /// Like [`ConnectionTable::on_signal`], for a signal that carries `from` (a response's `started` and
     /// `exited` carry the cause of their run: C6), with a per-connection filter (a connection property, C2): a
     /// signal that `accept(id)` refuses is not delivered through `id` and does not use up a `once`.
+    #[must_use = "the deliveries are what the binding must carry out"]
     pub fn on_signal_with(
         &mut self,
         source: &S,
@@ -745,6 +752,8 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
 }
 
 #[cfg(test)]
+// the tests step machines into a state and look at the effects of the steps that matter
+#[allow(unused_must_use)]
 mod tests {
     use super::*;
 

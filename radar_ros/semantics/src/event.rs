@@ -52,6 +52,7 @@ impl Activation {
     }
 
     /// Records a new listener count and says whether the event must change state.
+    #[must_use = "a transition is what the binding must carry out (start or stop checking)"]
     pub fn set_listeners(&mut self, n: usize) -> Option<Transition> {
         let was = self.is_active();
         self.listeners = n;
@@ -67,6 +68,8 @@ impl Activation {
 }
 
 #[cfg(test)]
+// the tests step machines into a state and look at the effects of the steps that matter
+#[allow(unused_must_use)]
 mod tests {
     use super::*;
 

@@ -458,6 +458,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// Begins shutting down: a running start behaviour ends as if an `exit` signal arrived (so the exit slot
     /// still runs), a queued start is dropped, and no further run starts (not even an exit-slot restart).
     /// The runtime stops once the phase is back to [`Phase::Idle`].
+    #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn stop(&mut self) -> Vec<Effect<P, O>> {
         self.stopping = true;
         self.pending = None;
@@ -476,6 +477,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// the run so that R7 holds. Running: the exit slot runs (as for [`ResponseMachine::stop`]); interrupting:
     /// the exit slot runs; exiting: the exit slot, which did not reach its end, runs again from the start. The
     /// machine stops as by [`ResponseMachine::stop`]. Empty when idle.
+    #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn abandon(&mut self) -> Vec<Effect<P, O>> {
         let phase = self.phase;
         let mut fx = self.stop();
@@ -496,11 +498,13 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     }
 
     /// Feeds one input and returns what to do, with the clock at the newest time the machine has seen.
+    #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn handle(&mut self, input: Input<P, O>) -> Vec<Effect<P, O>> {
         self.handle_at(input, self.now)
     }
 
     /// Feeds one input at time `now` (ns since the epoch, the clock of [`Sent::at`]) and returns what to do.
+    #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn handle_at(&mut self, input: Input<P, O>, now: i64) -> Vec<Effect<P, O>> {
         self.now = self.now.max(now);
         if let Input::Start(_, s) | Input::Interrupt(s) | Input::Exit(s) = &input {
@@ -628,6 +632,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// R12: the run just begun has reached its first await; if it took a kept `interrupt` or `exit` (sent
     /// after its start, read before it), that signal applies now. The runtime calls this once after each
     /// [`Effect::RunStart`] has run to its first await point.
+    #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn resume(&mut self) -> Vec<Effect<P, O>> {
         match self.held.take() {
             Some(Kept::Interrupt(s)) if self.phase == Phase::Running => {
@@ -743,6 +748,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
 }
 
 #[cfg(test)]
+// the tests step machines into a state and look at the effects of the steps that matter
+#[allow(unused_must_use)]
 mod tests {
     use super::*;
     use Effect::*;
