@@ -349,7 +349,10 @@ impl RadarBuilder {
             ),
         };
         let program_node = participant.start_program_node(&program)?;
-        let manager = Arc::new(Manager::new(participant.clone(), self.local_delivery.unwrap_or(true)));
+        let manager = Arc::new(Manager::new(
+            participant.clone(),
+            self.local_delivery.unwrap_or(true),
+        ));
         let task = crate::program::serve_program(&participant, &manager, &program_node)?;
         Ok(Radar {
             program: Arc::new(ProgramNode {

@@ -1,11 +1,36 @@
-//! The crate's modules form layers: no module uses (`crate::...`) a module that uses it back, directly or
-//! through others. Reads the sources, so a new import circle fails here, naming it.
+//! The crate's modules form layers: no module uses (`crate::...`, or an item the crate root re-exports from a
+//! module) a module that uses it back, directly or through others. Reads the sources, so a new import circle
+//! fails here, naming it.
 
 use std::collections::{BTreeMap, BTreeSet};
 
-/// The crate modules each module names through `crate::`, outside tests and comments.
+/// The items `lib.rs` re-exports at the root (`pub use module::{A, B}`), by the module they come from: a
+/// `crate::Radar` is an import of `radar` as much as `crate::radar::Radar` is.
+fn root_exports(src: &std::path::Path) -> BTreeMap<String, String> {
+    let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap();
+    let mut items = BTreeMap::new();
+    for line in lib.lines().filter(|l| l.starts_with("pub use ")) {
+        let path = line["pub use ".len()..].trim_end_matches(';');
+        let Some((module, rest)) = path.split_once("::") else {
+            continue;
+        };
+        let names = rest.rsplit("::").next().unwrap_or_default();
+        for name in names.trim_matches(|c| c == '{' || c == '}').split(',') {
+            let name = name.trim();
+            if !name.is_empty() {
+                items.insert(name.to_owned(), module.to_owned());
+            }
+        }
+    }
+    items
+}
+
+/// The crate modules each module names through `crate::` (a module, or an item the root re-exports from one),
+/// outside tests and comments.
 fn imports() -> BTreeMap<String, BTreeSet<String>> {
     let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let exports = root_exports(&src);
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
     let mut files = Vec::new();
     let mut dirs = vec![src.clone()];
     while let Some(d) = dirs.pop() {
@@ -36,13 +61,11 @@ fn imports() -> BTreeMap<String, BTreeSet<String>> {
             let mut rest = line;
             while let Some(i) = rest.find("crate::") {
                 rest = &rest[i + "crate::".len()..];
-                let word: String = rest
-                    .chars()
-                    .take_while(|c| c.is_ascii_lowercase() || *c == '_')
-                    .collect();
-                if !word.is_empty() {
-                    names.insert(word);
-                }
+                let word: String = rest.chars().take_while(|c| ident(*c)).collect();
+                match exports.get(&word) {
+                    Some(module) => names.insert(module.clone()),
+                    None => names.insert(word),
+                };
             }
         }
         // `use crate::{a::X, b, c::{..}}` blocks
@@ -56,17 +79,18 @@ fn imports() -> BTreeMap<String, BTreeSet<String>> {
                     '}' => depth -= 1,
                     _ => {}
                 }
-                if depth == 0 && (c.is_ascii_lowercase() || c == '_') {
+                if depth == 0 && ident(c) {
                     word.push(c);
                 } else {
                     if !word.is_empty() && depth == 0 {
-                        names.insert(std::mem::take(&mut word));
+                        let w = std::mem::take(&mut word);
+                        names.insert(exports.get(&w).cloned().unwrap_or(w));
                     }
                     word.clear();
                 }
             }
             if !word.is_empty() {
-                names.insert(word);
+                names.insert(exports.get(&word).cloned().unwrap_or(word));
             }
         }
         let me = module_of(f);
@@ -144,4 +168,18 @@ fn no_module_imports_a_module_that_imports_it_back() {
         };
         assert!(!reaches(low, high), "{low} must not depend on {high}");
     }
+}
+
+#[test]
+fn root_re_exports_count_as_imports_of_their_module() {
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let exports = root_exports(&src);
+    assert_eq!(exports["Radar"], "radar");
+    assert_eq!(exports["SignalPublisher"], "topics");
+    assert_eq!(exports["Error"], "error");
+    let graph = imports();
+    // the action server names `crate::SignalPublisher` and nothing else of `topics`
+    assert!(graph["action"].contains("topics"), "{:?}", graph["action"]);
+    // a re-export from another crate is no module of this one
+    assert!(graph.values().all(|deps| !deps.contains("radar_semantics")));
 }

@@ -9,6 +9,7 @@
 //!
 //! - [`response`]: the response state machine ([`response::ResponseMachine`], rules R1-R13).
 //! - [`event`]: the event activation rule ([`event::Activation`], rule E1).
+//! - [`served`]: a response served as a ROS 2 action server ([`served::ServedAction`], rules S1-S7).
 //! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,
 //!   until windows, no stale signals, removal, components that leave, signals read out of order).
 //!
@@ -28,3 +29,4 @@
 pub mod connection;
 pub mod event;
 pub mod response;
+pub mod served;

@@ -197,6 +197,28 @@ impl ExitReason {
             ExitReason::Panicked(e) => format!("panicked: {e}"),
         }
     }
+
+    /// The reason a state message shows ([`ExitReason::describe`]'s text), back as a reason; `None` for a
+    /// text that is none of them (an empty one: no run has ended yet).
+    ///
+    /// ```
+    /// use radar_semantics::response::ExitReason;
+    /// let r = ExitReason::Failed("no map".into());
+    /// assert_eq!(ExitReason::parse(&r.describe()), Some(r));
+    /// assert_eq!(ExitReason::parse(""), None);
+    /// ```
+    pub fn parse(text: &str) -> Option<ExitReason> {
+        Some(match text {
+            "completed" => ExitReason::Completed,
+            "interrupted" => ExitReason::Interrupted,
+            "exit_signal" => ExitReason::ExitSignal,
+            _ => match text.split_once(": ") {
+                Some(("failed", e)) => ExitReason::Failed(e.into()),
+                Some(("panicked", e)) => ExitReason::Panicked(e.into()),
+                _ => return None,
+            },
+        })
+    }
 }
 
 /// How the start behaviour ended.

@@ -1,0 +1,82 @@
+//! How an action looks on DDS: ros2-client's message wrapper, the endpoints' topics, the action type a goal
+//! request's DDS type names, the QoS of both ends.
+
+use std::collections::BTreeSet;
+
+use ros2_client::{
+    action::{ActionClientQosPolicies, ActionServerQosPolicies},
+    Name,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    error::{Error, Result},
+    graph::Graph,
+    msg::RosMessage,
+    qos::{signal_qos, state_qos},
+};
+
+/// A RADAR message as ros2-client's action endpoints carry it (ros2-client's own `Message` trait).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(transparent)]
+pub(super) struct Wire<T>(pub(super) T);
+
+impl<T: RosMessage> ros2_client::Message for Wire<T> {}
+
+/// The DDS topics of an action's endpoints: `(is a request or status/feedback reader on the server, topic)`
+/// as a client sees them: `true` for the server's readers (our writers match them), `false` for its writers.
+pub(super) fn server_endpoints(action: &str) -> Vec<(bool, String)> {
+    vec![
+        (true, format!("rq{action}/_action/send_goalRequest")),
+        (true, format!("rq{action}/_action/cancel_goalRequest")),
+        (true, format!("rq{action}/_action/get_resultRequest")),
+        (false, format!("rr{action}/_action/send_goalReply")),
+        (false, format!("rr{action}/_action/cancel_goalReply")),
+        (false, format!("rr{action}/_action/get_resultReply")),
+        (false, format!("rt{action}/_action/feedback")),
+    ]
+}
+
+/// `test_msgs::action::dds_::Fibonacci_SendGoal_Request_` -> `test_msgs/action/Fibonacci`.
+pub(super) fn action_type_of(send_goal_request_type: &str) -> String {
+    send_goal_request_type
+        .replacen("::action::dds_::", "/action/", 1)
+        .trim_end_matches("_SendGoal_Request_")
+        .to_owned()
+}
+
+/// The ROS action types the graph shows served (goal request readers) at the fully qualified `action`.
+pub(super) fn served_types(graph: &Graph, action: &str) -> BTreeSet<String> {
+    graph
+        .discovered_reader_types(&format!("rq{action}/_action/send_goalRequest"))
+        .iter()
+        .map(|t| action_type_of(t))
+        .collect()
+}
+
+pub(super) fn client_qos() -> ActionClientQosPolicies {
+    ActionClientQosPolicies {
+        goal_service: signal_qos(),
+        result_service: signal_qos(),
+        cancel_service: signal_qos(),
+        feedback_subscription: signal_qos(),
+        status_subscription: state_qos(),
+    }
+}
+
+pub(super) fn server_qos() -> ActionServerQosPolicies {
+    ActionServerQosPolicies {
+        goal_service: signal_qos(),
+        result_service: signal_qos(),
+        cancel_service: signal_qos(),
+        feedback_publisher: signal_qos(),
+        status_publisher: state_qos(),
+    }
+}
+
+pub(super) fn ros_name(fq: &str) -> Result<Name> {
+    Name::parse(fq).map_err(|e| Error::InvalidName {
+        name: fq.to_owned(),
+        reason: format!("{e}"),
+    })
+}
