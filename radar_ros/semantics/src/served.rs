@@ -18,7 +18,7 @@
 //!   overtaken the start on another topic, and an idle response ignores it), it is interrupted again. The
 //!   goal ends `Canceled` with `exited`'s payload. A cancel that covers no running goal is answered with none.
 //! - **S4.** `exited` of the goal's run, not canceled → the goal ends when the state that follows it tells why
-//!   the run ended: `Succeeded` (with `exited`'s payload) after a completed run, else `Aborted` (failed,
+//!   the run ended (state and `exited` travel on two topics: that state may have been read already): `Succeeded` (with `exited`'s payload) after a completed run, else `Aborted` (failed,
 //!   panicked, interrupted by someone else, exit signal). If no such state comes within
 //!   [`Timing::reason_within`] (a response without a state topic), `Aborted`.
 //! - **S5.** Feedback goes to the executing goal only.
@@ -37,7 +37,7 @@
 //! let fx = s.goal(1, &idle, 100);
 //! let Effect::Accept { start, .. } = fx[0] else { panic!() };
 //! assert!(matches!(s.started(&start, true, 200)[..], [Effect::Execute(1)]));
-//! assert!(s.exited("done", &start, true, 300).is_empty()); // why did the run end?
+//! assert!(s.exited("done", &start, true, &idle, 300).is_empty()); // why did the run end?
 //! let after = ResponseView { exits: 1, last_exit: Some(ExitReason::Completed), ..idle };
 //! assert!(matches!(
 //!     s.state(&after, 310)[..],
@@ -276,13 +276,15 @@ impl<G: Clone + PartialEq, R> ServedAction<G, R> {
         fx
     }
 
-    /// S3, S4, S7: the response said `exited` with `result`, sent as `sent`.
+    /// S3, S4, S7: the response said `exited` with `result`, sent as `sent`; `response` is what its last state
+    /// read says (the state that follows `exited` may have been read before it).
     #[must_use = "the binding must carry out every effect"]
     pub fn exited(
         &mut self,
         result: R,
         sent: &Sent,
         keeps_causes: bool,
+        response: &ResponseView,
         now: i64,
     ) -> Vec<Effect<G, R>> {
         let Some(r) = self.running.take_if(|r| owns(r, sent, keeps_causes)) else {
@@ -297,7 +299,7 @@ impl<G: Clone + PartialEq, R> ServedAction<G, R> {
             exits_before: r.exits_before,
             until: now.saturating_add(self.timing.reason_within),
         });
-        Vec::new()
+        self.state(response, now)
     }
 
     /// S4, S6: the response's state changed.
@@ -431,7 +433,7 @@ mod tests {
         );
         assert_eq!(s.goal(3, &idle(), 20), [Effect::Reject(3)]);
         // the next goal's start carries the next delivery
-        let _ = s.exited("r", &start, true, 30);
+        let _ = s.exited("r", &start, true, &idle(), 30);
         let _ = s.state(
             &ResponseView {
                 exits: 1,
@@ -469,7 +471,7 @@ mod tests {
             "already canceling"
         );
         assert_eq!(
-            s.exited("partial", &start, true, 9),
+            s.exited("partial", &start, true, &idle(), 9),
             [finish(1, EndStatus::Canceled, Some("partial"))]
         );
     }
@@ -485,7 +487,7 @@ mod tests {
             let mut s = ServedAction::<u32, &str>::new(S);
             let start = accepted(&mut s, 1, 0);
             let _ = s.started(&start, true, 1);
-            assert!(s.exited("r", &start, true, 2).is_empty());
+            assert!(s.exited("r", &start, true, &idle(), 2).is_empty());
             assert_eq!(s.goal(2, &idle(), 3), [Effect::Reject(2)], "still ending");
             // a state from before the exit does not decide
             assert!(s.state(&idle(), 3).is_empty());
@@ -500,13 +502,36 @@ mod tests {
         let mut s = ServedAction::<u32, &str>::new(S);
         let start = accepted(&mut s, 1, 0);
         let _ = s.started(&start, true, 1);
-        let _ = s.exited("r", &start, true, 2);
+        let _ = s.exited("r", &start, true, &idle(), 2);
         assert_eq!(s.next_deadline(), Some(2 + 1_000_000_000));
+        assert!(
+            s.state(&idle(), 3).is_empty(),
+            "a state from before the run ended"
+        );
         assert!(s.tick(1_000_000_001).is_empty());
         assert_eq!(
             s.tick(1_000_000_002),
             [finish(1, EndStatus::Aborted, Some("r"))]
         );
+    }
+
+    #[test]
+    fn s4_the_state_read_before_exited_decides_too() {
+        let mut s = ServedAction::<u32, &str>::new(S);
+        let start = accepted(&mut s, 1, 0);
+        let _ = s.started(&start, true, 1);
+        // the state that follows `exited` came first, on its own topic
+        let after = ResponseView {
+            exits: 1,
+            last_exit: Some(ExitReason::Completed),
+            ..idle()
+        };
+        assert!(s.state(&after, 2).is_empty(), "the run has not said exited");
+        assert_eq!(
+            s.exited("r", &start, true, &after, 3),
+            [finish(1, EndStatus::Succeeded, Some("r"))]
+        );
+        assert_eq!(s.current(), None);
     }
 
     #[test]
@@ -563,7 +588,7 @@ mod tests {
         );
         assert!(s.started(&other, true, 1).is_empty());
         assert!(s.started(&Sent::at(1), true, 1).is_empty(), "injected run");
-        assert!(s.exited("theirs", &other, true, 2).is_empty());
+        assert!(s.exited("theirs", &other, true, &idle(), 2).is_empty());
         assert_eq!(s.current(), Some(&1));
         assert_eq!(s.started(&start, true, 3), [Effect::Execute(1)]);
         // a response that carries no causes is taken at its word

@@ -110,6 +110,15 @@ impl Model {
         }
     }
 
+    /// S4: how a goal whose run ended as `view` says ends.
+    fn status(view: &ResponseView) -> EndStatus {
+        if view.last_exit == Some(ExitReason::Completed) {
+            EndStatus::Succeeded
+        } else {
+            EndStatus::Aborted
+        }
+    }
+
     /// Whether a signal of `run` is the goal's run's (S7).
     fn is_goals(run: Run, keeps_causes: bool) -> bool {
         match run {
@@ -179,6 +188,10 @@ impl Model {
                         return vec![self.end(EndStatus::Canceled, Some(*result))];
                     }
                     g.exited = Some((*result, now));
+                    // the state that says why may have been read first (two topics)
+                    if view.exits > g.exits_before {
+                        return vec![self.end(Self::status(view), Some(*result))];
+                    }
                     vec![]
                 }
                 _ => vec![],
@@ -186,13 +199,8 @@ impl Model {
             // S4, S6
             Op::State(..) => match &self.goal {
                 Some(g) if g.exited.is_some() && view.exits > g.exits_before => {
-                    let status = if view.last_exit == Some(ExitReason::Completed) {
-                        EndStatus::Succeeded
-                    } else {
-                        EndStatus::Aborted
-                    };
                     let result = g.exited.map(|e| e.0);
-                    vec![self.end(status, result)]
+                    vec![self.end(Self::status(view), result)]
                 }
                 Some(g)
                     if g.exited.is_none()
@@ -266,7 +274,7 @@ proptest! {
                     s.cancel(|g| *all || (*covers_current && Some(*g) == current), now)
                 }
                 Op::Started(run) => s.started(&sent(*run), keeps_causes, now),
-                Op::Exited(run, result) => s.exited(*result, &sent(*run), keeps_causes, now),
+                Op::Exited(run, result) => s.exited(*result, &sent(*run), keeps_causes, &view, now),
                 Op::State(ended, ignored) => {
                     if let Some(r) = ended {
                         view.exits += 1;

@@ -432,7 +432,10 @@ async fn serve<A: Action>(
                 s.feedback(f).await;
                 Vec::new()
             }
-            Ok((result, sent)) = s.io.exited.recv_sent() => s.rules.exited(result, &sent, keeps_causes, now()),
+            Ok((result, sent)) = s.io.exited.recv_sent() => {
+                let v = view(&state, s.io.start.subscribers() > 0);
+                s.rules.exited(result, &sent, keeps_causes, &v, now())
+            }
             Ok(st) = s.io.state.recv() => {
                 state = Some(st);
                 let v = view(&state, s.io.start.subscribers() > 0);
