@@ -1,0 +1,148 @@
+//! Starting a response: its node, slot readers, signal writers and state writer, and its task.
+
+use std::sync::Arc;
+
+use tokio::sync::{watch, Mutex};
+
+use radar_semantics::response::{Announce, ResponseMachine};
+
+use super::{
+    driver::{drive, state_message, Endpoints, Inboxes, Io, SlotReaders},
+    Response, ResponseHandle,
+};
+use crate::{
+    endpoints::{emit, publisher, subscription, typed_publisher, SignalWriter},
+    error::Result,
+    msg::{Empty, ResponseState, RosMessage, TypeName},
+    names::ComponentName,
+    qos::{signal_qos, state_qos},
+    radar::Radar,
+    raw::RawMessage,
+    refs::ResponseRef,
+    shutdown::ComponentTask,
+};
+
+impl Radar {
+    /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
+    ///
+    /// Fails before creating anything if the name is not a valid ROS name or is already used in this process.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, StartPolicy, msg::{Empty, StringMsg}};
+    /// let say = radar.spawn_response("say", FnResponse::new(|s: StringMsg| async move {
+    ///     println!("{}", s.data);
+    ///     Ok(Empty::default())
+    /// }).start_policy(StartPolicy::QueueOne))?;
+    /// # Ok(()) }
+    /// ```
+    pub fn spawn_response<R: Response>(&self, name: &str, response: R) -> Result<ResponseHandle> {
+        self.spawn_response_with(name, Announce::OnStart, |_, _, _| Ok(response))
+    }
+
+    /// Starts the response that `make` builds on the response's node (for responses whose behaviour needs
+    /// endpoints of their own, such as an action client), announcing `started` as `announce` says.
+    pub(crate) fn spawn_response_with<R: Response>(
+        &self,
+        name: &str,
+        announce: Announce,
+        make: impl FnOnce(&mut ros2_client::Node, &crate::graph::Graph, &ComponentName) -> Result<R>,
+    ) -> Result<ResponseHandle> {
+        let name = self.resolve(name)?;
+        let (mut node, claim) = self.participant().claim_node(&name)?;
+        let response = make(&mut node, self.graph(), &name)?;
+        let endpoints = self.response_endpoints::<R>(&mut node, &name)?;
+        let slot_publishers = [
+            endpoints.slots.start.matched.clone(),
+            endpoints.slots.interrupt.matched.clone(),
+            endpoints.slots.exit.matched.clone(),
+        ];
+        let signal_subscribers = [
+            endpoints.io.started.matched.clone(),
+            endpoints.io.interrupted.matched.clone(),
+            endpoints.io.exited.matched.clone(),
+        ];
+        let policy = response.start_policy();
+        let machine = ResponseMachine::<R::Start, R::Output>::with_announce(policy, announce);
+        let initial = state_message::<R>(&name, &machine);
+        emit(&endpoints.io.state_pub, "state", initial.clone());
+        let (state_tx, state_rx) = watch::channel(initial);
+        let endpoints = Endpoints {
+            io: Io {
+                state_tx,
+                ..endpoints.io
+            },
+            ..endpoints
+        };
+        let participant = self.participant().clone();
+        let task = ComponentTask::spawn(
+            self.participant().components(),
+            &name.fully_qualified(),
+            move |stop_rx| async move {
+                let _claim = claim;
+                let _node = node;
+                let response = Arc::new(Mutex::new(response));
+                drive(response, machine, endpoints, stop_rx, participant).await;
+            },
+        );
+        tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
+        Ok(ResponseHandle {
+            reference: ResponseRef::new(
+                name.clone(),
+                R::Start::ros_type_name(),
+                R::Output::ros_type_name(),
+            ),
+            name,
+            state: state_rx,
+            slot_publishers,
+            signal_subscribers,
+            task,
+        })
+    }
+
+    /// The endpoints of the response `name` on `node`: slot readers, what this process's connections hand its
+    /// slots, the state writer (made, so announced, before the signal writers: whoever has discovered those
+    /// has discovered it, and knows this response keeps causes, C6), the signal writers.
+    fn response_endpoints<R: Response>(
+        &self,
+        node: &mut ros2_client::Node,
+        name: &ComponentName,
+    ) -> Result<Endpoints<R>> {
+        let (g, sq) = (self.graph(), signal_qos());
+        let (start_t, empty_t) = (TypeName::of::<R::Start>(), TypeName::of::<Empty>());
+        let output_t = TypeName::of::<R::Output>();
+        let slots = SlotReaders {
+            start: subscription::<RawMessage>(g, node, &name.topic("start"), &start_t, &sq)?,
+            interrupt: subscription::<RawMessage>(
+                g,
+                node,
+                &name.topic("interrupt"),
+                &empty_t,
+                &sq,
+            )?,
+            exit: subscription::<RawMessage>(g, node, &name.topic("exit"), &empty_t, &sq)?,
+        };
+        let inlets = self.participant().inlets();
+        let inboxes = Inboxes {
+            start: inlets.open(&name.topic("start"), &start_t.ros),
+            interrupt: inlets.open(&name.topic("interrupt"), &empty_t.ros),
+            exit: inlets.open(&name.topic("exit"), &empty_t.ros),
+        };
+        let state_pub =
+            typed_publisher::<ResponseState>(g, node, &name.topic("state"), &state_qos())?;
+        let taps = self.participant().taps();
+        let t = |what: &str| name.topic(what);
+        let started = publisher::<R::Start>(g, node, &t("started"), &start_t, &sq)?;
+        let interrupted = publisher::<Empty>(g, node, &t("interrupted"), &empty_t, &sq)?;
+        let exited = publisher::<R::Output>(g, node, &t("exited"), &output_t, &sq)?;
+        let io = Io {
+            name: name.clone(),
+            started: SignalWriter::new(taps, started, &t("started"), &start_t.ros),
+            interrupted: SignalWriter::new(taps, interrupted, &t("interrupted"), &empty_t.ros),
+            exited: SignalWriter::new(taps, exited, &t("exited"), &output_t.ros),
+            state_pub,
+            state_tx: watch::channel(ResponseState::default()).0,
+        };
+        Ok(Endpoints { slots, inboxes, io })
+    }
+}
