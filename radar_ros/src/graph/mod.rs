@@ -29,6 +29,11 @@ use tokio::sync::watch;
 
 use crate::departure::LossCause;
 
+mod discovery;
+
+pub(crate) use discovery::ros_type_of_dds;
+use discovery::TopicIndex;
+
 fn cause_of(reason: &rustdds::LostReason) -> LossCause {
     match reason {
         rustdds::LostReason::Disposed => LossCause::Left,
@@ -98,58 +103,6 @@ pub(crate) struct Graph {
     index: Arc<Mutex<TopicIndex>>,
 }
 
-/// How old the topic index may get before a lookup rebuilds it from the discovery data (discovery events,
-/// which keep it current, can be dropped when their channel is full).
-const RESYNC: std::time::Duration = std::time::Duration::from_secs(1);
-
-/// The endpoints of the graph by (is a writer, ROS topic): their DDS types. Kept current from discovery
-/// events and this participant's own endpoints, so that a lookup by name costs the same with 10 or 10,000
-/// endpoints (it used to copy every endpoint discovery knew, per lookup).
-#[derive(Default)]
-struct TopicIndex {
-    by_topic: HashMap<(bool, String), HashMap<GUID, String>>,
-    topic_of: HashMap<GUID, (bool, String)>,
-    synced: Option<std::time::Instant>,
-}
-
-impl TopicIndex {
-    fn insert(&mut self, writer: bool, guid: GUID, topic: String, dds_type: String) {
-        self.remove(&guid);
-        self.by_topic
-            .entry((writer, topic.clone()))
-            .or_default()
-            .insert(guid, dds_type);
-        self.topic_of.insert(guid, (writer, topic));
-    }
-
-    /// The DDS type of endpoint `guid`, if it is known as a writer (`writer`) or reader.
-    fn type_of(&self, guid: &GUID, writer: bool) -> Option<String> {
-        let key = self.topic_of.get(guid)?;
-        if key.0 != writer {
-            return None;
-        }
-        self.by_topic.get(key)?.get(guid).cloned()
-    }
-
-    fn remove(&mut self, guid: &GUID) {
-        if let Some(key) = self.topic_of.remove(guid) {
-            if let Some(m) = self.by_topic.get_mut(&key) {
-                m.remove(guid);
-                if m.is_empty() {
-                    self.by_topic.remove(&key);
-                }
-            }
-        }
-    }
-
-    fn remove_matching(&mut self, pred: impl Fn(&GUID) -> bool) {
-        let gone: Vec<GUID> = self.topic_of.keys().filter(|g| pred(g)).copied().collect();
-        for g in gone {
-            self.remove(&g);
-        }
-    }
-}
-
 impl Default for Graph {
     fn default() -> Self {
         Graph {
@@ -161,15 +114,6 @@ impl Default for Graph {
             index: Default::default(),
         }
     }
-}
-
-/// `std_msgs::msg::dds_::Int32_` -> `std_msgs/msg/Int32`.
-pub(crate) fn ros_type_of_dds(dds: &str) -> String {
-    dds.replacen("::msg::dds_::", "/msg/", 1)
-        .replacen("::srv::dds_::", "/srv/", 1)
-        .replacen("::action::dds_::", "/action/", 1)
-        .trim_end_matches('_')
-        .to_owned()
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -223,83 +167,6 @@ impl Graph {
         })
     }
 
-    /// Every endpoint on the graph that discovery knows, plus this participant's own registered ones:
-    /// `(is_writer, ROS topic, DDS type)`. Copies all of discovery's data: for listings, not lookups
-    /// ([`Graph::types_on`]).
-    pub(crate) fn endpoints(&self) -> Vec<(bool, String, String)> {
-        self.scan()
-            .into_iter()
-            .map(|(w, _, t, ty)| (w, t, ty))
-            .collect()
-    }
-
-    fn scan(&self) -> Vec<(bool, GUID, String, String)> {
-        let mut out = Vec::new();
-        {
-            let t = self.table.lock().unwrap();
-            for (is_writer, map) in [(true, &t.writers), (false, &t.readers)] {
-                for (g, e) in map.iter() {
-                    if let Some((topic, ty)) = &e.identity {
-                        out.push((is_writer, *g, topic.clone(), ty.clone()));
-                    }
-                }
-            }
-        }
-        let ros = |dds: &str| dds.strip_prefix("rt").map(str::to_owned);
-        if let Some(p) = self.participant.lock().unwrap().clone() {
-            for w in p.discovered_writers() {
-                if let Some(t) = ros(&w.publication_topic_data.topic_name) {
-                    out.push((
-                        true,
-                        w.writer_proxy.remote_writer_guid,
-                        t,
-                        w.publication_topic_data.type_name.clone(),
-                    ));
-                }
-            }
-            for r in p.discovered_readers() {
-                if let Some(t) = ros(r.subscription_topic_data.topic_name()) {
-                    out.push((
-                        false,
-                        r.reader_proxy.remote_reader_guid,
-                        t,
-                        r.subscription_topic_data.type_name().clone(),
-                    ));
-                }
-            }
-        }
-        out
-    }
-
-    /// The DDS types of the writers (`writer`) or readers on the ROS `topic`, from the topic index
-    /// (rebuilt from the discovery data when older than [`RESYNC`]).
-    pub(crate) fn types_on(&self, writer: bool, topic: &str) -> BTreeSet<String> {
-        let stale = self
-            .index
-            .lock()
-            .unwrap()
-            .synced
-            .is_none_or(|at| at.elapsed() > RESYNC);
-        if stale {
-            let all = self.scan();
-            let mut index = TopicIndex {
-                synced: Some(std::time::Instant::now()),
-                ..Default::default()
-            };
-            for (w, g, t, ty) in all {
-                index.insert(w, g, t, ty);
-            }
-            *self.index.lock().unwrap() = index;
-        }
-        self.index
-            .lock()
-            .unwrap()
-            .by_topic
-            .get(&(writer, topic.to_owned()))
-            .map(|m| m.values().cloned().collect())
-            .unwrap_or_default()
-    }
-
     /// Whether a sample that `reader` received from `writer` comes from a peer of the right type.
     ///
     /// A sample can arrive before this graph has processed the match of its writer (DDS delivers what a
@@ -327,137 +194,6 @@ impl Graph {
     /// The participant's count of messages that did not decode.
     pub(crate) fn malformed(&self) -> &crate::malformed::Malformed {
         &self.malformed
-    }
-
-    /// Waits (at most `within`) until a local writer has matched a reader on DDS topic `dds_topic` in the
-    /// participant of `peer`; true if it has. A service reply must wait for this: a fresh client process
-    /// (`ros2 service call`) may send its request before our reply writer has matched its reply reader, and
-    /// a volatile writer sends nothing to a reader it has not matched. Returns at once for a peer in this
-    /// participant (local matches are made when the endpoints are).
-    pub(crate) async fn wait_reader_of(
-        &self,
-        dds_topic: &str,
-        peer: GUID,
-        within: std::time::Duration,
-    ) -> bool {
-        let mut changes = self.changes();
-        let deadline = tokio::time::Instant::now() + within;
-        loop {
-            if self.has_reader_of(dds_topic, peer) {
-                return true;
-            }
-            if tokio::time::timeout_at(deadline, changes.changed())
-                .await
-                .map_or(true, |r| r.is_err())
-            {
-                return self.has_reader_of(dds_topic, peer);
-            }
-        }
-    }
-
-    pub(crate) fn has_reader_of(&self, dds_topic: &str, peer: GUID) -> bool {
-        let Some(p) = self.participant.lock().unwrap().clone() else {
-            return true; // shutting down: nothing to wait for
-        };
-        if rustdds::RTPSEntity::guid(&p).prefix == peer.prefix {
-            return true;
-        }
-        let candidates: BTreeSet<GUID> = {
-            let t = self.table.lock().unwrap();
-            t.writers
-                .values()
-                .flat_map(|e| e.peers.iter())
-                .filter(|g| g.prefix == peer.prefix)
-                .copied()
-                .collect()
-        };
-        !candidates.is_empty()
-            && p.discovered_readers().iter().any(|r| {
-                candidates.contains(&r.reader_proxy.remote_reader_guid)
-                    && r.subscription_topic_data.topic_name() == dds_topic
-            })
-    }
-
-    /// The participants (as participant GUIDs) in which every `(remote_reads, dds_topic)` of `wanted` has an
-    /// endpoint one of ours has matched: a remote reader on the topic that a local writer matched (`true`), or a
-    /// remote writer that a local reader matched (`false`). How a client knows a service or an action server is
-    /// reachable both ways before it sends a request. Endpoints in this participant are not seen here.
-    pub(crate) fn participants_matched_on(&self, wanted: &[(bool, String)]) -> BTreeSet<GUID> {
-        let Some(p) = self.participant.lock().unwrap().clone() else {
-            return BTreeSet::new();
-        };
-        let (writer_peers, reader_peers): (BTreeSet<GUID>, BTreeSet<GUID>) = {
-            let t = self.table.lock().unwrap();
-            (
-                t.writers
-                    .values()
-                    .flat_map(|e| e.peers.iter())
-                    .copied()
-                    .collect(),
-                t.readers
-                    .values()
-                    .flat_map(|e| e.peers.iter())
-                    .copied()
-                    .collect(),
-            )
-        };
-        let participant_of = |g: GUID| {
-            let mut who = GUID::new_participant_guid();
-            who.prefix = g.prefix;
-            who
-        };
-        let (readers, writers) = (p.discovered_readers(), p.discovered_writers());
-        let mut found: Option<BTreeSet<GUID>> = None;
-        for (remote_reads, topic) in wanted {
-            let here: BTreeSet<GUID> = if *remote_reads {
-                readers
-                    .iter()
-                    .filter(|r| r.subscription_topic_data.topic_name() == topic)
-                    .map(|r| r.reader_proxy.remote_reader_guid)
-                    .filter(|g| writer_peers.contains(g))
-                    .map(participant_of)
-                    .collect()
-            } else {
-                writers
-                    .iter()
-                    .filter(|w| &w.publication_topic_data.topic_name == topic)
-                    .map(|w| w.writer_proxy.remote_writer_guid)
-                    .filter(|g| reader_peers.contains(g))
-                    .map(participant_of)
-                    .collect()
-            };
-            found = Some(match found {
-                None => here,
-                Some(f) => f.intersection(&here).copied().collect(),
-            });
-        }
-        found.unwrap_or_default()
-    }
-
-    /// The DDS topics of discovered remote readers of DDS type `dds_type` (a service's servers, for its
-    /// request type).
-    pub(crate) fn discovered_reader_topics(&self, dds_type: &str) -> BTreeSet<String> {
-        let Some(p) = self.participant.lock().unwrap().clone() else {
-            return BTreeSet::new();
-        };
-        p.discovered_readers()
-            .into_iter()
-            .filter(|r| r.subscription_topic_data.type_name() == dds_type)
-            .map(|r| r.subscription_topic_data.topic_name().clone())
-            .collect()
-    }
-
-    /// The DDS type names that discovered remote readers on DDS topic `dds_topic` announce (a service's
-    /// servers, for its request topic).
-    pub(crate) fn discovered_reader_types(&self, dds_topic: &str) -> BTreeSet<String> {
-        let Some(p) = self.participant.lock().unwrap().clone() else {
-            return BTreeSet::new();
-        };
-        p.discovered_readers()
-            .into_iter()
-            .filter(|r| r.subscription_topic_data.topic_name() == dds_topic)
-            .map(|r| r.subscription_topic_data.type_name().clone())
-            .collect()
     }
 
     /// Changes after every discovery event, so code waiting for something to appear on the graph can look
