@@ -47,6 +47,13 @@
 //! [`ConnectionTable::sources`] says which sources must be read right now; the runtime keeps exactly those
 //! readers, so an event whose only listener was a fired `once` deactivates.
 
+mod outputs;
+mod window;
+
+pub use outputs::{ConnInfo, Delivery, Link, Via};
+use window::WindowSignal;
+pub use window::{Until, UntilWindow};
+
 use std::collections::{BTreeMap, BTreeSet};
 
 pub use crate::response::{Cause, StatementId, HOLD};
@@ -61,220 +68,6 @@ pub enum Kind {
     Once,
     /// Deliver every signal.
     Whenever,
-}
-
-/// The `until U` part of a statement that starts response R.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Until<S, T> {
-    /// U: the signal that interrupts.
-    pub source: S,
-    /// R's `started`.
-    pub started: S,
-    /// R's `exited`.
-    pub exited: S,
-    /// R's `interrupt` slot.
-    pub interrupt: T,
-    /// R keeps causes (a RADAR response: response rules R11-R13): C6. Otherwise (rclpy): the table decides
-    /// the window (C7).
-    pub causes: bool,
-}
-
-/// The window of C3, for one `until`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct UntilWindow {
-    causes: bool,
-    /// C6: the latest start delivery whose run may be going.
-    outstanding: Option<u64>,
-    /// C7: the emission time of the newest signal of U that was not sent.
-    kept: Option<i64>,
-    // C7, for responses without causes:
-    /// R runs, as far as its signals read so far tell (in emission order).
-    running: bool,
-    /// A start was delivered while R was idle: R's next `started` is this statement's run.
-    awaiting: bool,
-    /// A start was delivered (emitted at this time) while R seemed to run: if R's `exited` turns out to be older,
-    /// R was idle and took it.
-    sent_while_running: Option<i64>,
-    /// The window is open, since R's `started` at this time.
-    open_since: Option<i64>,
-    /// When R emitted the last of its signals applied here: R's `started` and `exited` come through
-    /// different topics and may be read out of order; an older one than what was applied is left alone.
-    last_response_signal: i64,
-}
-
-/// What a signal read by the table does to an `until` window.
-enum WindowSignal {
-    /// This statement delivered start number `n`, whose source was emitted at `at`.
-    StartDelivered { n: u64, at: i64 },
-    /// R emitted `started` at `at`, carrying `from`.
-    Started { at: i64 },
-    /// R emitted `exited` at `at`, carrying `from` (the delivery of this statement whose run it ends).
-    Exited { at: i64, ours: Option<u64> },
-    /// U emitted at `at`.
-    U { at: i64 },
-}
-
-impl UntilWindow {
-    /// The window of an `until` whose response keeps causes (or not).
-    pub fn new(causes: bool) -> UntilWindow {
-        UntilWindow {
-            causes,
-            last_response_signal: i64::MIN,
-            ..UntilWindow::default()
-        }
-    }
-
-    /// Applies a signal; returns the emission time of a signal of U (the one given, or a kept one) that goes to
-    /// R's `interrupt` now.
-    fn apply(&mut self, s: WindowSignal) -> Option<i64> {
-        if self.causes {
-            match s {
-                WindowSignal::StartDelivered { n, at } => {
-                    self.outstanding = Some(n);
-                    self.kept.take().filter(|&u| u > at && u - at <= HOLD)
-                }
-                WindowSignal::Exited { ours: Some(m), .. } => {
-                    if self.outstanding.is_some_and(|n| m >= n) {
-                        self.outstanding = None;
-                    }
-                    None
-                }
-                WindowSignal::Exited { .. } | WindowSignal::Started { .. } => None,
-                WindowSignal::U { at } => {
-                    if self.outstanding.is_some() {
-                        Some(at)
-                    } else {
-                        self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
-                        None
-                    }
-                }
-            }
-        } else {
-            match s {
-                WindowSignal::StartDelivered { at, .. } => {
-                    if self.running {
-                        self.sent_while_running = Some(at);
-                    } else {
-                        self.awaiting = true;
-                    }
-                    None
-                }
-                WindowSignal::Started { at } => {
-                    if at < self.last_response_signal {
-                        return None;
-                    }
-                    self.last_response_signal = at;
-                    self.running = true;
-                    self.sent_while_running = None;
-                    // a run starts: it is this connection's if it awaited one; any other run closes the window
-                    // (its `exited` for the run before may still be on its way)
-                    self.open_since = self.awaiting.then_some(at);
-                    self.awaiting = false;
-                    let kept = self.kept.take();
-                    let since = self.open_since?;
-                    kept.filter(|&u| u >= since && u - since <= HOLD)
-                }
-                WindowSignal::Exited { at, .. } => {
-                    if at < self.last_response_signal {
-                        return None;
-                    }
-                    self.last_response_signal = at;
-                    self.running = false;
-                    self.open_since = None;
-                    // R had already ended when the start was sent: it was idle, and took it
-                    if self
-                        .sent_while_running
-                        .take()
-                        .is_some_and(|sent| at <= sent)
-                    {
-                        self.awaiting = true;
-                    }
-                    None
-                }
-                WindowSignal::U { at } => match self.open_since {
-                    Some(since) if at >= since => Some(at),
-                    Some(_) => None,
-                    None => {
-                        if self.awaiting || self.sent_while_running.is_some() {
-                            self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
-                        }
-                        None
-                    }
-                },
-            }
-        }
-    }
-
-    /// R left the graph: its run (if any) ended without an `exited`, and a new R of that name did not take
-    /// this connection's start.
-    fn response_lost(&mut self) -> bool {
-        let was = self.is_open() || self.awaiting || self.running || self.outstanding.is_some();
-        *self = UntilWindow::new(self.causes);
-        was
-    }
-
-    /// Whether U's signals reach R's `interrupt` now (C6: while a run of this statement may be going).
-    pub fn is_open(&self) -> bool {
-        if self.causes {
-            self.outstanding.is_some()
-        } else {
-            self.open_since.is_some()
-        }
-    }
-}
-
-/// Whether a connection can deliver now (rule 5).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Link {
-    /// Source and target are there: signals are delivered.
-    #[default]
-    Armed,
-    /// Every publisher of the source left; what a source of that name emits when one comes back is delivered.
-    WaitingForSource,
-    /// The target left and the connection re-arms: it delivers again when a target of that name comes back.
-    WaitingForTarget,
-    /// The target left: nothing more is delivered through this connection.
-    TargetLost,
-}
-
-impl Link {
-    /// A short lower-case label: `armed`, `waiting for source`, `waiting for target`, `target lost`.
-    pub fn label(self) -> &'static str {
-        match self {
-            Link::Armed => "armed",
-            Link::WaitingForSource => "waiting for source",
-            Link::WaitingForTarget => "waiting for target",
-            Link::TargetLost => "target lost",
-        }
-    }
-}
-
-/// What the runtime must deliver.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Delivery<T> {
-    /// Through which connection.
-    pub id: ConnId,
-    /// To which slot.
-    pub target: T,
-    /// What it is: the connection's signal, or its `until`'s interrupt.
-    pub via: Via,
-}
-
-/// What a [`Delivery`] carries, for the runtime to tag it (C6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Via {
-    /// The connection's source signal, its delivery number `n` (from 1): a start slot gets the cause
-    /// `(statement, n)`.
-    Signal {
-        /// The delivery's number.
-        n: u64,
-    },
-    /// A signal of the connection's `until`, emitted at `at`, to R's `interrupt`: it names the statement and
-    /// carries that time (a kept signal of U is sent later than it was read: C7).
-    Until {
-        /// When the signal of U was emitted.
-        at: i64,
-    },
 }
 
 #[derive(Clone, Debug)]
@@ -292,25 +85,6 @@ struct Conn<S, T> {
     /// Re-arm when a lost target comes back (rule 5).
     rearm: bool,
     until: Option<(Until<S, T>, UntilWindow)>,
-}
-
-/// One live connection, as listed by [`ConnectionTable::list`].
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ConnInfo<S, T> {
-    /// Its id.
-    pub id: ConnId,
-    /// Source signal.
-    pub source: S,
-    /// Target slot.
-    pub target: T,
-    /// Once or whenever.
-    pub kind: Kind,
-    /// Signals delivered so far through the main source.
-    pub delivered: u64,
-    /// The until source, if any.
-    pub until: Option<S>,
-    /// Whether it can deliver now.
-    pub link: Link,
 }
 
 /// The live connections of one manager.
