@@ -52,25 +52,11 @@ pub struct Departure {
     cause: LossCause,
 }
 
-/// The RADAR endpoint names below a component's name.
-const ENDPOINTS: [&str; 8] = [
-    "triggered",
-    "started",
-    "interrupted",
-    "exited",
-    "start",
-    "interrupt",
-    "exit",
-    "state",
-];
-
 /// `/ns/name/triggered` -> `/ns/name`; a topic that is not a RADAR endpoint names itself.
 fn component_of(topic: &str) -> String {
-    match topic.rsplit_once('/') {
-        Some((parent, last)) if !parent.is_empty() && ENDPOINTS.contains(&last) => {
-            parent.to_owned()
-        }
-        _ => topic.to_owned(),
+    match crate::endpoint::Endpoint::of_topic(topic) {
+        Some((parent, _)) => parent.to_owned(),
+        None => topic.to_owned(),
     }
 }
 
@@ -141,6 +127,8 @@ mod tests {
         assert_eq!(component_of("/count_up/start"), "/count_up");
         assert_eq!(component_of("/scan_ok"), "/scan_ok");
         assert_eq!(component_of("/triggered"), "/triggered");
+        // an action response's feedback is one of its endpoints too
+        assert_eq!(component_of("/fib/feedback"), "/fib");
         let d = Departure::of_subscriber(
             "/arm/start",
             LossCause::Unreachable {

@@ -173,7 +173,7 @@ fn topic(
         .ok_or_else(|| Error::Closed(format!("the DDS participant (creating topic {topic})")))?;
     participant
         .create_topic(
-            format!("rt{topic}"),
+            crate::wire_names::topic(topic),
             ty.dds.clone(),
             &dds_qos,
             ros2_client::dds::rustdds::TopicKind::NoKey,
@@ -405,7 +405,7 @@ pub(crate) fn reply<Req, Resp>(
     Resp: ros2_client::Message + Send + Sync + 'static,
 {
     let (srv, graph) = (srv.clone(), graph.clone());
-    let topic = format!("rr{manager}/{service}Reply");
+    let topic = crate::wire_names::reply(&format!("{manager}/{service}"));
     tokio::spawn(async move {
         let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
         if !graph.wait_reader_of(&topic, caller, REPLY_WAIT).await {

@@ -263,7 +263,10 @@ impl EventHandle {
     /// # Ok(()) }
     /// ```
     pub fn triggered(&self) -> Signal {
-        Signal::new(self.name.topic("triggered"), self.payload_type.clone())
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Triggered),
+            self.payload_type.clone(),
+        )
     }
 
     /// The latest state.
@@ -334,16 +337,16 @@ impl Radar {
             typed_publisher::<E::Payload>(
                 self.graph(),
                 &mut node,
-                &name.topic("triggered"),
+                &name.endpoint(crate::Endpoint::Triggered),
                 &signal_qos(),
             )?,
-            &name.topic("triggered"),
+            &name.endpoint(crate::Endpoint::Triggered),
             &E::Payload::ros_type_name(),
         );
         let state_pub = typed_publisher::<EventState>(
             self.graph(),
             &mut node,
-            &name.topic("state"),
+            &name.endpoint(crate::Endpoint::State),
             &state_qos(),
         )?;
         let listeners = triggered.matched.clone();

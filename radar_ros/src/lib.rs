@@ -187,6 +187,7 @@
 pub mod action;
 mod cause;
 mod departure;
+mod endpoint;
 mod endpoints;
 mod error;
 mod event;
@@ -216,8 +217,10 @@ mod statement;
 mod topics;
 mod wait;
 mod waiter;
+mod wire_names;
 
 pub use departure::{Departure, LossCause};
+pub use endpoint::Endpoint;
 pub use error::{Error, Result, SlotError, Source};
 pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent};
 pub use lookup::Component;

@@ -19,12 +19,12 @@ use std::{collections::BTreeSet, time::Duration};
 
 use crate::{
     error::{Error, Result},
-    graph::ros_type_of_dds,
     msg::RosMessage,
     names::ComponentName,
     radar::Radar,
     refs::{EventRef, ResponseRef},
     wait::Wait,
+    wire_names::ros_type as ros_type_of_dds,
 };
 
 enum Found {
@@ -106,14 +106,11 @@ fn in_list(endpoints: &[(bool, String, String)]) -> impl Fn(bool, &str) -> BTree
 fn candidates(endpoints: &[(bool, String, String)], wanted: &str) -> Vec<String> {
     let mut names = BTreeSet::new();
     for (w, t, _) in endpoints {
-        for (writer, suffix, kind) in [(true, "/triggered", "event"), (false, "/start", "response")]
-        {
-            if *w == writer {
-                if let Some(n) = t.strip_suffix(suffix) {
-                    names.insert(format!("{n} ({kind})"));
-                }
-            }
-        }
+        match (w, crate::Endpoint::of_topic(t)) {
+            (true, Some((n, crate::Endpoint::Triggered))) => names.insert(format!("{n} (event)")),
+            (false, Some((n, crate::Endpoint::Start))) => names.insert(format!("{n} (response)")),
+            _ => false,
+        };
     }
     let mut v: Vec<String> = names.into_iter().collect();
     v.sort_by_key(|c| distance(c.split(' ').next().unwrap_or(c), wanted));
@@ -154,11 +151,12 @@ impl Radar {
         let types_on = in_list(&eps);
         let mut names = BTreeSet::new();
         for (w, t, _) in &eps {
-            let n = match w {
-                true => t
-                    .strip_suffix("/triggered")
-                    .or_else(|| t.strip_suffix("/exited")),
-                false => t.strip_suffix("/start"),
+            use crate::Endpoint as E;
+            let n = match (w, E::of_topic(t)) {
+                (true, Some((n, E::Triggered | E::Exited))) | (false, Some((n, E::Start))) => {
+                    Some(n)
+                }
+                _ => None,
             };
             if let Some(n) = n {
                 names.insert(n.to_owned());

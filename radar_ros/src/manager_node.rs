@@ -100,7 +100,8 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         );
         statement.slot(slot)
     } else {
-        let Some(response) = target_topic.strip_suffix("/start") else {
+        let Some((response, crate::Endpoint::Start)) = crate::Endpoint::of_topic(&target_topic)
+        else {
             return Err(Error::InvalidStatement(format!(
                 "`until` goes with a start slot (…/start), not {target_topic}"
             )));

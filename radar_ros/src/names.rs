@@ -5,7 +5,7 @@
 //! the rules of `rmw_validate_namespace` / `rmw_validate_node_name`: ASCII letters, digits and `_`, not starting
 //! with a digit, not empty. Topics of a component are `<namespace>/<name>/<signal>`.
 
-use crate::error::Error;
+use crate::{endpoint::Endpoint, error::Error};
 
 /// A validated, fully qualified component name (namespace + base name).
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -152,6 +152,17 @@ impl ComponentName {
     /// The absolute topic of one of this component's endpoints, e.g. `/a/b/name/triggered`.
     pub fn topic(&self, endpoint: &str) -> String {
         format!("{}/{}", self.fully_qualified(), endpoint)
+    }
+
+    /// The absolute topic of one of this component's RADAR endpoints.
+    ///
+    /// ```
+    /// use radar_ros::{ComponentName, Endpoint};
+    /// let n = ComponentName::resolve("dock", "/robot").unwrap();
+    /// assert_eq!(n.endpoint(Endpoint::Exited), "/robot/dock/exited");
+    /// ```
+    pub fn endpoint(&self, e: Endpoint) -> String {
+        self.topic(e.name())
     }
 }
 

@@ -135,7 +135,10 @@ impl EventRef {
     }
     /// Its `triggered` signal.
     pub fn triggered(&self) -> Signal {
-        Signal::new(self.name.topic("triggered"), self.payload_type.clone())
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Triggered),
+            self.payload_type.clone(),
+        )
     }
 }
 
@@ -180,27 +183,45 @@ impl ResponseRef {
     }
     /// `started`, carrying the start payload.
     pub fn started(&self) -> Signal {
-        Signal::new(self.name.topic("started"), self.start_type.clone())
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Started),
+            self.start_type.clone(),
+        )
     }
     /// `interrupted`.
     pub fn interrupted(&self) -> Signal {
-        Signal::new(self.name.topic("interrupted"), Empty::ros_type_name())
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Interrupted),
+            Empty::ros_type_name(),
+        )
     }
     /// `exited`, carrying the run's output.
     pub fn exited(&self) -> Signal {
-        Signal::new(self.name.topic("exited"), self.output_type.clone())
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Exited),
+            self.output_type.clone(),
+        )
     }
     /// The `start` slot.
     pub fn start_slot(&self) -> Slot {
-        Slot::new(self.name.topic("start"), self.start_type.clone())
+        Slot::new(
+            self.name.endpoint(crate::Endpoint::Start),
+            self.start_type.clone(),
+        )
     }
     /// The `interrupt` slot.
     pub fn interrupt_slot(&self) -> Slot {
-        Slot::new(self.name.topic("interrupt"), Empty::ros_type_name())
+        Slot::new(
+            self.name.endpoint(crate::Endpoint::Interrupt),
+            Empty::ros_type_name(),
+        )
     }
     /// The `exit` slot.
     pub fn exit_slot(&self) -> Slot {
-        Slot::new(self.name.topic("exit"), Empty::ros_type_name())
+        Slot::new(
+            self.name.endpoint(crate::Endpoint::Exit),
+            Empty::ros_type_name(),
+        )
     }
 }
 

@@ -124,9 +124,10 @@ fn service_topics(manager: &str) -> Vec<(bool, String)> {
     ["connect", "disconnect", "list"]
         .iter()
         .flat_map(|s| {
+            let service = format!("{manager}/{s}");
             [
-                (true, format!("rq{manager}/{s}Request")),
-                (false, format!("rr{manager}/{s}Reply")),
+                (true, crate::wire_names::request(&service)),
+                (false, crate::wire_names::reply(&service)),
             ]
         })
         .collect()
@@ -141,8 +142,8 @@ impl Radar {
             .discovered_reader_topics(CONNECT_REQUEST)
             .into_iter()
             .filter_map(|t| {
-                t.strip_prefix("rq")
-                    .and_then(|t| t.strip_suffix("/connectRequest"))
+                crate::wire_names::service_of_request(&t)
+                    .and_then(|s| s.strip_suffix("/connect"))
                     .map(str::to_owned)
             })
             .collect();

@@ -212,7 +212,7 @@ impl ConnectionRequest {
                     started: r.started(),
                     exited: r.exited(),
                     interrupt: r.interrupt_slot(),
-                    state: r.name().topic("state"),
+                    state: r.name().endpoint(crate::Endpoint::State),
                 })
             }
             _ => {

@@ -489,7 +489,7 @@ impl Radar {
                 let feedback = publisher::<A::Feedback>(
                     g,
                     node,
-                    &name.topic("feedback"),
+                    &name.endpoint(crate::Endpoint::Feedback),
                     &TypeName::of::<A::Feedback>(),
                     &signal_qos(),
                 )?;
@@ -505,7 +505,10 @@ impl Radar {
                 })
             },
         )?;
-        let feedback = Signal::new(handle.topic("feedback"), A::Feedback::ros_type_name());
+        let feedback = Signal::new(
+            handle.name().endpoint(crate::Endpoint::Feedback),
+            A::Feedback::ros_type_name(),
+        );
         tracing::info!(response = %handle.name(), action = %action_fq, "action response up");
         Ok(ActionResponseHandle {
             handle,

@@ -26,6 +26,7 @@ use crate::{
     radar::Radar,
     refs::AsResponse,
     shutdown::ComponentTask,
+    wire_names::{self, ActionService},
 };
 
 impl Radar {
@@ -91,8 +92,10 @@ impl Radar {
             interrupt: self.signal_publisher::<Empty>(r.interrupt_slot().topic())?,
             started: self.signal_subscription::<A::Goal>(r.started().topic())?,
             exited: self.signal_subscription::<A::Result>(exited.topic())?,
-            feedback: self.signal_subscription::<A::Feedback>(&name.topic("feedback"))?,
-            state: self.state_subscription::<ResponseState>(&name.topic("state"))?,
+            feedback: self
+                .signal_subscription::<A::Feedback>(&name.endpoint(crate::Endpoint::Feedback))?,
+            state: self
+                .state_subscription::<ResponseState>(&name.endpoint(crate::Endpoint::State))?,
         };
         let served = self.participant().served_actions().mark(action_fq.clone());
         let (graph, fq) = (self.graph().clone(), action_fq.clone());
@@ -182,18 +185,20 @@ enum Incoming<G> {
 /// Waits (at most [`REPLY_WAIT`] each) until every participant that has a request writer on the action's
 /// `service` is matched by our reply writer (and, for goals, our feedback writer): a fresh client process (`ros2 action send_goal`) can send its
 /// request before we have matched its reply reader, and a reply sent then goes nowhere.
-async fn wait_callers(graph: &Graph, action: &str, service: &str) {
-    let request = format!("rq{action}/_action/{service}Request");
-    let reply = format!("rr{action}/_action/{service}Reply");
+async fn wait_callers(graph: &Graph, action: &str, service: ActionService) {
+    let request = wire_names::request(&service.of(action));
+    let reply = wire_names::reply(&service.of(action));
     // a goal's sender also reads feedback (a volatile topic): match it first, or a fresh client (`ros2
     // action send_goal --feedback`) misses the first feedback of the goal
-    let feedback = format!("rt{action}/_action/feedback");
+    let feedback = wire_names::topic(&wire_names::action_feedback(action));
     let callers = graph.participants_matched_on(&[(false, request)]);
     for c in callers {
         if !graph.wait_reader_of(&reply, c, REPLY_WAIT).await {
-            tracing::debug!(%action, %service, "answering before the caller's reply reader is matched");
+            tracing::debug!(%action, ?service, "answering before the caller's reply reader is matched");
         }
-        if service == "send_goal" && !graph.wait_reader_of(&feedback, c, REPLY_WAIT).await {
+        if service == ActionService::SendGoal
+            && !graph.wait_reader_of(&feedback, c, REPLY_WAIT).await
+        {
             tracing::debug!(%action, "starting a goal before the caller's feedback reader is matched");
         }
     }
@@ -349,7 +354,7 @@ fn read_requests<A: Action>(
     let (s, tx2, g, a) = (server.clone(), tx.clone(), graph.clone(), action.to_owned());
     let goals = tokio::spawn(async move {
         while let Ok(h) = s.receive_new_goal().await {
-            wait_callers(&g, &a, "send_goal").await;
+            wait_callers(&g, &a, ActionService::SendGoal).await;
             if tx2.send(Incoming::Goal(h)).is_err() {
                 break;
             }
@@ -358,7 +363,7 @@ fn read_requests<A: Action>(
     let (s, g, a) = (server.clone(), graph.clone(), action.to_owned());
     let cancels = tokio::spawn(async move {
         while let Ok(c) = s.receive_cancel_request().await {
-            wait_callers(&g, &a, "cancel_goal").await;
+            wait_callers(&g, &a, ActionService::CancelGoal).await;
             if tx.send(Incoming::Cancel(c)).is_err() {
                 break;
             }

@@ -14,6 +14,7 @@ use crate::{
     graph::Graph,
     msg::RosMessage,
     qos::{signal_qos, state_qos},
+    wire_names::{self, ActionService},
 };
 
 /// A RADAR message as ros2-client's action endpoints carry it (ros2-client's own `Message` trait).
@@ -26,31 +27,28 @@ impl<T: RosMessage> ros2_client::Message for Wire<T> {}
 /// The DDS topics of an action's endpoints: `(is a request or status/feedback reader on the server, topic)`
 /// as a client sees them: `true` for the server's readers (our writers match them), `false` for its writers.
 pub(super) fn server_endpoints(action: &str) -> Vec<(bool, String)> {
-    vec![
-        (true, format!("rq{action}/_action/send_goalRequest")),
-        (true, format!("rq{action}/_action/cancel_goalRequest")),
-        (true, format!("rq{action}/_action/get_resultRequest")),
-        (false, format!("rr{action}/_action/send_goalReply")),
-        (false, format!("rr{action}/_action/cancel_goalReply")),
-        (false, format!("rr{action}/_action/get_resultReply")),
-        (false, format!("rt{action}/_action/feedback")),
-    ]
-}
-
-/// `test_msgs::action::dds_::Fibonacci_SendGoal_Request_` -> `test_msgs/action/Fibonacci`.
-pub(super) fn action_type_of(send_goal_request_type: &str) -> String {
-    send_goal_request_type
-        .replacen("::action::dds_::", "/action/", 1)
-        .trim_end_matches("_SendGoal_Request_")
-        .to_owned()
+    let mut e: Vec<(bool, String)> = ActionService::ALL
+        .iter()
+        .map(|s| (true, wire_names::request(&s.of(action))))
+        .collect();
+    e.extend(
+        ActionService::ALL
+            .iter()
+            .map(|s| (false, wire_names::reply(&s.of(action)))),
+    );
+    e.push((
+        false,
+        wire_names::topic(&wire_names::action_feedback(action)),
+    ));
+    e
 }
 
 /// The ROS action types the graph shows served (goal request readers) at the fully qualified `action`.
 pub(super) fn served_types(graph: &Graph, action: &str) -> BTreeSet<String> {
     graph
-        .discovered_reader_types(&format!("rq{action}/_action/send_goalRequest"))
+        .discovered_reader_types(&wire_names::request(&ActionService::SendGoal.of(action)))
         .iter()
-        .map(|t| action_type_of(t))
+        .map(|t| wire_names::action_type_of_goal_request(t))
         .collect()
 }
 

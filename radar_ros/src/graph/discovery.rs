@@ -59,15 +59,6 @@ impl TopicIndex {
     }
 }
 
-/// `std_msgs::msg::dds_::Int32_` -> `std_msgs/msg/Int32`.
-pub(crate) fn ros_type_of_dds(dds: &str) -> String {
-    dds.replacen("::msg::dds_::", "/msg/", 1)
-        .replacen("::srv::dds_::", "/srv/", 1)
-        .replacen("::action::dds_::", "/action/", 1)
-        .trim_end_matches('_')
-        .to_owned()
-}
-
 impl Graph {
     /// Every endpoint on the graph that discovery knows, plus this participant's own registered ones:
     /// `(is_writer, ROS topic, DDS type)`. Copies all of discovery's data: for listings, not lookups
@@ -91,7 +82,7 @@ impl Graph {
                 }
             }
         }
-        let ros = |dds: &str| dds.strip_prefix("rt").map(str::to_owned);
+        let ros = |dds: &str| crate::wire_names::ros_topic(dds).map(str::to_owned);
         if let Some(p) = self.participant.lock().unwrap().clone() {
             for w in p.discovered_writers() {
                 if let Some(t) = ros(&w.publication_topic_data.topic_name) {

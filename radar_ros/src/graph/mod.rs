@@ -31,7 +31,6 @@ use crate::departure::LossCause;
 
 mod discovery;
 
-pub(crate) use discovery::ros_type_of_dds;
 use discovery::TopicIndex;
 
 fn cause_of(reason: &rustdds::LostReason) -> LossCause {
@@ -253,7 +252,10 @@ impl Graph {
             if let Some(theirs) = theirs {
                 if &theirs != ours {
                     if e.rejected.insert(peer) {
-                        let (ours, theirs) = (ros_type_of_dds(ours), ros_type_of_dds(&theirs));
+                        let (ours, theirs) = (
+                            crate::wire_names::ros_type(ours),
+                            crate::wire_names::ros_type(&theirs),
+                        );
                         match side {
                             Side::Reader => tracing::warn!(
                                 %topic, expected = %ours, offered = %theirs, writer = ?peer,
@@ -445,7 +447,7 @@ impl Graph {
         match ev {
             DomainParticipantStatusEvent::ReaderDetected { reader: e }
             | DomainParticipantStatusEvent::WriterDetected { writer: e } => {
-                if let Some(t) = e.topic_name.strip_prefix("rt") {
+                if let Some(t) = crate::wire_names::ros_topic(&e.topic_name) {
                     let writer = matches!(ev, DomainParticipantStatusEvent::WriterDetected { .. });
                     index.insert(writer, e.guid, t.to_owned(), e.type_name.clone());
                 }

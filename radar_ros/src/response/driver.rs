@@ -306,9 +306,9 @@ impl SlotTopics {
     fn of<R: Response>(name: &ComponentName) -> SlotTopics {
         SlotTopics {
             response: name.fully_qualified(),
-            start: name.topic("start"),
-            interrupt: name.topic("interrupt"),
-            exit: name.topic("exit"),
+            start: name.endpoint(crate::Endpoint::Start),
+            interrupt: name.endpoint(crate::Endpoint::Interrupt),
+            exit: name.endpoint(crate::Endpoint::Exit),
             start_type: R::Start::ros_type_name(),
             empty_type: Empty::ros_type_name(),
         }

@@ -112,34 +112,56 @@ impl Radar {
         let (start_t, empty_t) = (TypeName::of::<R::Start>(), TypeName::of::<Empty>());
         let output_t = TypeName::of::<R::Output>();
         let slots = SlotReaders {
-            start: subscription::<RawMessage>(g, node, &name.topic("start"), &start_t, &sq)?,
+            start: subscription::<RawMessage>(
+                g,
+                node,
+                &name.endpoint(crate::Endpoint::Start),
+                &start_t,
+                &sq,
+            )?,
             interrupt: subscription::<RawMessage>(
                 g,
                 node,
-                &name.topic("interrupt"),
+                &name.endpoint(crate::Endpoint::Interrupt),
                 &empty_t,
                 &sq,
             )?,
-            exit: subscription::<RawMessage>(g, node, &name.topic("exit"), &empty_t, &sq)?,
+            exit: subscription::<RawMessage>(
+                g,
+                node,
+                &name.endpoint(crate::Endpoint::Exit),
+                &empty_t,
+                &sq,
+            )?,
         };
         let inlets = self.participant().inlets();
         let inboxes = Inboxes {
-            start: inlets.open(&name.topic("start"), &start_t.ros),
-            interrupt: inlets.open(&name.topic("interrupt"), &empty_t.ros),
-            exit: inlets.open(&name.topic("exit"), &empty_t.ros),
+            start: inlets.open(&name.endpoint(crate::Endpoint::Start), &start_t.ros),
+            interrupt: inlets.open(&name.endpoint(crate::Endpoint::Interrupt), &empty_t.ros),
+            exit: inlets.open(&name.endpoint(crate::Endpoint::Exit), &empty_t.ros),
         };
-        let state_pub =
-            typed_publisher::<ResponseState>(g, node, &name.topic("state"), &state_qos())?;
+        let state_pub = typed_publisher::<ResponseState>(
+            g,
+            node,
+            &name.endpoint(crate::Endpoint::State),
+            &state_qos(),
+        )?;
         let taps = self.participant().taps();
-        let t = |what: &str| name.topic(what);
-        let started = publisher::<R::Start>(g, node, &t("started"), &start_t, &sq)?;
-        let interrupted = publisher::<Empty>(g, node, &t("interrupted"), &empty_t, &sq)?;
-        let exited = publisher::<R::Output>(g, node, &t("exited"), &output_t, &sq)?;
+        let t = |e: crate::Endpoint| name.endpoint(e);
+        let started = publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?;
+        let interrupted =
+            publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?;
+        let exited = publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?;
         let io = Io {
             name: name.clone(),
-            started: SignalWriter::new(taps, started, &t("started"), &start_t.ros),
-            interrupted: SignalWriter::new(taps, interrupted, &t("interrupted"), &empty_t.ros),
-            exited: SignalWriter::new(taps, exited, &t("exited"), &output_t.ros),
+            started: SignalWriter::new(taps, started, &t(crate::Endpoint::Started), &start_t.ros),
+            interrupted: SignalWriter::new(
+                taps,
+                interrupted,
+                &t(crate::Endpoint::Interrupted),
+                &empty_t.ros,
+            ),
+            exited: SignalWriter::new(taps, exited, &t(crate::Endpoint::Exited), &output_t.ros),
             state_pub,
             state_tx: watch::channel(ResponseState::default()).0,
         };

@@ -9,15 +9,7 @@ use crate::common::{Fallible, Out};
 
 /// Whether a topic is a RADAR signal (what `replay` publishes again), not a state.
 fn is_signal(topic: &str) -> bool {
-    [
-        "/triggered",
-        "/started",
-        "/interrupted",
-        "/exited",
-        "/feedback",
-    ]
-    .iter()
-    .any(|s| topic.ends_with(s))
+    radar_ros::Endpoint::of_topic(topic).is_some_and(|(_, e)| e.is_signal())
 }
 
 /// A recorded signal: when it was logged, its topic and type, its CDR body.
