@@ -75,6 +75,6 @@ async fn run(duration: f64) -> radar_ros::Result<()> {
         "done: shutting down (count_up's exit slot runs once more)",
         None,
     );
-    count_up.shutdown().await;
+    count_up.shutdown().await?;
     Ok(())
 }

@@ -68,7 +68,7 @@ async fn run() -> radar_ros::Result<()> {
         }
     }
     tl.mark("stopping", None);
-    server.shutdown().await;
-    response.shutdown().await;
+    server.shutdown().await?;
+    response.shutdown().await?;
     Ok(())
 }

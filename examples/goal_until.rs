@@ -52,7 +52,7 @@ async fn run() -> radar_ros::Result<()> {
         .whenever(r.interrupted())
         .call(move |_: Empty| tl.mark("interrupted: the bumper cancels the goal", None))
         .await?;
-    let exited = radar.waiter::<FibonacciResult>(r.exited()).await?;
+    let mut exited = radar.waiter::<FibonacciResult>(r.exited()).await?;
 
     // once go start fibonacci until bumper
     let _statement = radar

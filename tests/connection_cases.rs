@@ -454,7 +454,7 @@ async fn connection_properties_filter_and_transform_payloads() {
         .filter(|m: &Int32| m.data % 10 == 7)
         .await
         .unwrap();
-    once.closed().await;
+    once.closed().await.unwrap();
     // closed: nothing more will be delivered; the slot's call for the one delivery runs in its own task
     eventually(T, "the once's anonymous slot to run", || {
         !got.lock().unwrap().is_empty()
@@ -506,7 +506,7 @@ async fn a_delivery_arrives_even_when_its_writer_is_no_longer_needed() {
         if round % 2 == 0 {
             // a once fires and its writer is retired at once
             let c = r.once(tick.triggered()).start(&resp).await.unwrap();
-            c.closed().await;
+            c.closed().await.unwrap();
         } else {
             // a whenever whose guard is dropped right after its first delivery
             let w = r.whenever(tick.triggered()).start(&resp).await.unwrap();
@@ -603,7 +603,7 @@ async fn a_waiter_sees_the_signal_emitted_right_after_it_is_armed() {
     let source = r.signal_publisher::<Int32>("/wf/value").unwrap();
     let signal = Signal::new("/wf/value", "std_msgs/msg/Int32");
     for i in 0..200 {
-        let waiter = r.waiter::<Int32>(&signal).timeout(T).await.unwrap();
+        let mut waiter = r.waiter::<Int32>(&signal).timeout(T).await.unwrap();
         source.publish(Int32 { data: i }).unwrap();
         let got = waiter
             .recv()
@@ -690,9 +690,11 @@ async fn a_response_of_this_process_that_stops_loses_its_connections_and_a_rearm
         runs.load(Ordering::SeqCst) == 2
     })
     .await;
-    resp.shutdown().await;
+    resp.shutdown().await.unwrap();
     for c in [&plain, &rearming] {
-        let d = tokio::time::timeout(T, c.departed())
+        let d = c
+            .departed()
+            .timeout(T)
             .await
             .expect("the response's leaving noticed in time")
             .expect("departed");

@@ -56,7 +56,7 @@ async fn waitfor_ends_naming_the_component_when_it_exits_or_is_killed() {
     // clean exit: the goodbye is heard at once
     let mut peer = HostPeer::start(PEER, 37).await;
     peer.run("publisher /beacon/triggered").await;
-    let w = radar
+    let mut w = radar
         .waiter::<Empty>(empty("/beacon/triggered"))
         .timeout(DISCOVERY)
         .await
@@ -124,7 +124,7 @@ async fn a_signal_sent_just_before_the_component_exits_is_delivered_not_reported
         // its warnings (a flush that did not finish, say) are kept for the failure message
         let mut peer = HostPeer::start_logging(PEER, 38, "warn,rustdds=warn").await;
         peer.run("publisher /last/triggered").await;
-        let w = radar
+        let mut w = radar
             .waiter::<Empty>(empty("/last/triggered"))
             .timeout(DISCOVERY)
             .await
@@ -175,8 +175,9 @@ async fn a_connection_whose_target_is_killed_is_lost_and_a_new_target_of_that_na
     peer.signal("KILL");
     let d = c
         .departed()
-        .timeout_or_panic(Duration::from_secs(10))
+        .timeout(Duration::from_secs(10))
         .await
+        .expect("a component left within 10 s")
         .expect("a whenever lives until dropped");
     let took = t0.elapsed();
     println!("target killed: connection lost after {took:?}: {d}");
@@ -217,8 +218,9 @@ async fn a_rearming_connection_delivers_to_the_new_target_only_what_comes_after_
     peer.send("quit").await;
     let d = c
         .departed()
-        .timeout_or_panic(DISCOVERY)
+        .timeout(DISCOVERY)
         .await
+        .expect("a component left in time")
         .expect("departed");
     assert_eq!(d.cause(), &LossCause::Left);
     assert_eq!(c.link(), Some(Link::WaitingForTarget));
@@ -269,8 +271,9 @@ async fn the_until_window_closes_when_its_response_is_killed() {
     peer.signal("KILL");
     let d = c
         .departed()
-        .timeout_or_panic(Duration::from_secs(10))
+        .timeout(Duration::from_secs(10))
         .await
+        .expect("a component left within 10 s")
         .expect("the until lives until dropped");
     println!(
         "until's response killed: window closed after {:?}: {d}",
@@ -321,8 +324,9 @@ async fn a_connection_waits_for_a_source_that_left_and_delivers_when_one_is_back
     peer.send("quit").await;
     let d = c
         .departed()
-        .timeout_or_panic(DISCOVERY)
+        .timeout(DISCOVERY)
         .await
+        .expect("a component left in time")
         .expect("departed");
     assert_eq!(d.component(), "/bell");
     assert_eq!(c.link(), Some(Link::WaitingForSource));

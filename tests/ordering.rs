@@ -24,7 +24,7 @@ async fn b8_a_waiter_armed_on_a_fresh_process_gets_what_it_emits_right_after() {
                 let topic = format!("/b8_{batch}_{i}");
                 let mut p = HostPeer::start(peer, 14).await;
                 p.run(&format!("publisher {topic}")).await;
-                let w = r
+                let mut w = r
                     .waiter::<radar_ros::msg::Empty>(Signal::new(&topic, "std_msgs/msg/Empty"))
                     .timeout(DISCOVERY)
                     .await
@@ -47,7 +47,7 @@ async fn b8_a_waiter_armed_on_a_fresh_process_gets_what_it_emits_right_after() {
 async fn b8_a_bad_payload_is_reported_and_skipped_not_the_end_of_a_wait() {
     let r = radar(15);
     let raw = r.raw_publisher("/b8_bad", "std_msgs/msg/String").unwrap();
-    let w = r
+    let mut w = r
         .waiter::<StringMsg>(Signal::new("/b8_bad", "std_msgs/msg/String"))
         .timeout(DISCOVERY)
         .await

@@ -273,7 +273,7 @@ async fn b9_a_signal_the_transform_turns_into_nothing_does_not_use_up_a_once() {
         runs.load(std::sync::atomic::Ordering::SeqCst) == 1
     })
     .await;
-    c.closed().await;
+    c.closed().await.unwrap();
 }
 
 /// B1 (a): a `.rearm()` connection to a response of this process; the response stops, and one of that name
@@ -291,7 +291,7 @@ async fn b1_a_rearming_connection_follows_its_response_to_another_process() {
         .timeout(DISCOVERY)
         .await
         .unwrap();
-    resp.shutdown().await;
+    resp.shutdown().await.unwrap();
     tokio::time::timeout(T, c.departed())
         .await
         .expect("the response's leaving noticed")
@@ -321,7 +321,7 @@ async fn b1_a_new_statement_reaches_the_response_that_moved_while_an_old_guard_l
         .timeout(DISCOVERY)
         .await
         .unwrap();
-    resp.shutdown().await;
+    resp.shutdown().await.unwrap();
     tokio::time::timeout(T, old.departed())
         .await
         .expect("the response's leaving noticed")

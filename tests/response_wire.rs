@@ -500,7 +500,7 @@ async fn shutdown_ends_a_running_start_through_the_exit_slot() {
         .unwrap();
     probe.start.publish(s("forever")).unwrap();
     assert_eq!(probe.signals(1, T).await, [Seen::Started(s("forever"))]);
-    tokio::time::timeout(T, handle.shutdown()).await.unwrap();
+    handle.shutdown().timeout(T).await.unwrap();
     assert_eq!(probe.signals(1, T).await, [Seen::Exited(s(""))]);
     assert_eq!(
         log(&r),

@@ -120,15 +120,23 @@ impl<M: RosMessage> EventSubscription<M> {
         self.inner.take_accepted()
     }
 
-    /// The next message (skipping malformed ones and publishers of another type).
-    pub async fn recv(&self) -> Result<M> {
-        let expected = M::ros_type_name();
-        let stream = self.inner.async_stream();
-        let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
-        match accepted.next().await {
-            Some((m, _)) => Ok(m),
-            None => Err(crate::Error::Closed(self.topic.clone())),
-        }
+    /// The next message (skipping malformed ones and publishers of another type); unbounded unless
+    /// `.timeout(d)`.
+    ///
+    /// # Cancel safety
+    ///
+    /// Cancel safe: a message is taken from the subscription's queue only when it is returned, so a wait
+    /// that is dropped (a `select!` branch that lost) loses nothing.
+    pub fn recv(&self) -> crate::Wait<'_, M> {
+        crate::Wait::signal(format!("a message on {}", self.topic), async move {
+            let expected = M::ros_type_name();
+            let stream = self.inner.async_stream();
+            let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
+            match accepted.next().await {
+                Some((m, _)) => Ok(m),
+                None => Err(crate::Error::Closed(self.topic.clone())),
+            }
+        })
     }
 }
 
@@ -291,9 +299,14 @@ impl EventHandle {
         self.state.clone()
     }
 
-    /// Stops checking and removes the node; waits until it is gone.
-    pub async fn shutdown(self) {
-        self.task.stop_and_wait().await;
+    /// Stops checking and removes the node; waits until it is gone (unbounded unless `.timeout(d)`).
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> crate::Wait<'static, ()> {
+        self.task.shutdown()
     }
 }
 

@@ -19,7 +19,6 @@ use std::{collections::BTreeSet, time::Duration};
 
 use crate::{
     error::{Error, Result},
-    msg::RosMessage,
     names::ComponentName,
     radar::Radar,
     refs::{EventRef, ResponseRef},
@@ -135,12 +134,13 @@ fn distance(a: &str, b: &str) -> usize {
 
 impl Radar {
     /// Every RADAR component the ROS graph shows now (this process's own included), by name. A freshly
-    /// created `Radar` sees little until discovery has run: [`Radar::settle`] first.
+    /// created `Radar` sees little until discovery has run: [`Introspect::settle`](crate::introspect::Introspect::settle)
+    /// first.
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar) {
     /// use std::time::Duration;
-    /// radar.settle(Duration::from_millis(300), Duration::from_secs(3)).await;
+    /// let _ = radar.introspect().settle(Duration::from_millis(300)).timeout(Duration::from_secs(3)).await;
     /// for c in radar.components() {
     ///     println!("{} {}", c.kind(), c.name());
     /// }
@@ -179,35 +179,6 @@ impl Radar {
                 }
             })
             .collect()
-    }
-
-    /// The topics on which programs and managers show their connections (`<node>/connections`, type
-    /// `radar_msgs/msg/ConnectionList`), this program's own included.
-    pub fn connection_topics(&self) -> Vec<String> {
-        let ty = crate::msg::ConnectionList::dds_type_name();
-        let topics: BTreeSet<String> = self
-            .graph()
-            .endpoints()
-            .into_iter()
-            .filter(|(w, t, d)| *w && *d == ty && t.ends_with("/connections"))
-            .map(|(_, t, _)| t)
-            .collect();
-        topics.into_iter().collect()
-    }
-
-    /// Waits until discovery has been quiet for `quiet` (no participant or endpoint found or lost), or `max`
-    /// has passed: what a command-line tool does before it reports what is on the graph.
-    pub async fn settle(&self, quiet: Duration, max: Duration) {
-        let deadline = tokio::time::Instant::now() + max;
-        let mut changes = self.graph().changes();
-        loop {
-            changes.mark_unchanged();
-            let until = deadline.min(tokio::time::Instant::now() + quiet);
-            match tokio::time::timeout_at(until, changes.changed()).await {
-                Ok(Ok(())) if tokio::time::Instant::now() < deadline => continue,
-                _ => return,
-            }
-        }
     }
 
     /// Looks at the graph after every discovery event (and every 100 ms, in case an event came before the
@@ -295,25 +266,6 @@ impl Radar {
             },
         )
         .await
-    }
-
-    /// The message type a subscriber on `topic` takes, waiting for one to appear (default
-    /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change): what to publish there.
-    ///
-    /// ```no_run
-    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
-    /// assert_eq!(radar.subscriber_type("/count_up/start").await?, "std_msgs/msg/Empty");
-    /// # Ok(()) }
-    /// ```
-    pub fn subscriber_type(&self, topic: &str) -> Wait<'static, String> {
-        let (radar, topic) = (
-            self.clone(),
-            self.resolve(topic).map(|n| n.fully_qualified()),
-        );
-        Wait::discovery(move |timeout| async move {
-            let topic = topic?;
-            radar.topic_type(&topic, false, timeout).await
-        })
     }
 
     /// Finds the event `name` on the ROS graph, waiting for it to appear (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT),

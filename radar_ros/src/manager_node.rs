@@ -51,16 +51,21 @@ impl ManagerHandle {
     /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
     /// let manager = radar.serve_manager("radar_manager")?;
     /// assert_eq!(manager.name().fully_qualified(), "/radar_manager");
-    /// manager.shutdown().await; // its service connections go with it
+    /// manager.shutdown().await?; // its service connections go with it
     /// # Ok(()) }
     /// ```
     pub fn name(&self) -> &ComponentName {
         &self.name
     }
 
-    /// Stops serving and waits until the node is gone.
-    pub async fn shutdown(self) {
-        self.task.stop_and_wait().await;
+    /// Stops serving and waits until the node is gone (unbounded unless `.timeout(d)`).
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> crate::Wait<'static, ()> {
+        self.task.shutdown()
     }
 }
 

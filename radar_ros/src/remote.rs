@@ -3,20 +3,17 @@
 //!
 //! ```no_run
 //! # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
-//! use radar_ros::msg::{ConnectRequest, Connection};
+//! use radar_ros::RemoteStatement;
 //! let m = radar.remote_manager("/radar_manager").await?;
-//! let id = m.connect(ConnectRequest {
-//!     kind: Connection::WHENEVER,
-//!     source: "/bumper/triggered".into(),
-//!     target: "/dock/start".into(),
-//!     detach: true, // stays after this program ends
-//!     ..Default::default()
-//! }).await?;
+//! let whenever = RemoteStatement::whenever("/bumper/triggered").to("/dock/start");
+//! let id = m.connect(whenever.detach()).await?; // stays after this program ends
 //! m.disconnect(id).await?;
 //! # Ok(()) }
 //! ```
-
-use std::collections::BTreeSet;
+//!
+//! Each call waits for the manager's answer, 30 s at most unless `.timeout(d)`. Dropping the wait (a
+//! `select!` branch that lost) does not take back a request already sent: a connection may still be made,
+//! and is listed by [`RemoteManager::list`].
 
 use ros2_client::{Client, Name, Node, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
 
@@ -31,8 +28,101 @@ use crate::{
     wait::Wait,
 };
 
-/// The DDS type name of a `Connect` request, as a manager's `connect` server announces it.
-const CONNECT_REQUEST: &str = "radar_msgs::srv::dds_::Connect_Request_";
+/// How long a call to another manager waits for its answer unless `.timeout(d)`.
+const CALL_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// A statement made through another program's manager: `once` or `whenever` a source signal, to a slot,
+/// optionally `until` a signal; the typed form of the manager's `connect` request
+/// (`radar_msgs/srv/Connect`). Names resolve in the manager's namespace.
+///
+/// ```
+/// use radar_ros::RemoteStatement;
+/// let s = RemoteStatement::once("/go/triggered").to("/arm/start").until("/stop/triggered").depth(20);
+/// let req = s.request();
+/// assert_eq!((req.kind, req.target.as_str(), req.depth), (radar_ros::msg::Connection::ONCE, "/arm/start", 20));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+#[must_use]
+pub struct RemoteStatement {
+    once: bool,
+    source: String,
+    target: String,
+    until: Option<String>,
+    timeout: Option<std::time::Duration>,
+    depth: Option<u32>,
+    detach: bool,
+}
+
+impl RemoteStatement {
+    /// `once source`: delivers the first signal after it is armed, then ends.
+    pub fn once(source: &str) -> Self {
+        Self::new(true, source)
+    }
+
+    /// `whenever source`: delivers every signal until removed.
+    pub fn whenever(source: &str) -> Self {
+        Self::new(false, source)
+    }
+
+    fn new(once: bool, source: &str) -> Self {
+        RemoteStatement {
+            once,
+            source: source.to_owned(),
+            target: String::new(),
+            until: None,
+            timeout: None,
+            depth: None,
+            detach: false,
+        }
+    }
+
+    /// The slot topic the signals go to (`/dock/start`, `/dock/interrupt`, ...).
+    pub fn to(mut self, slot: &str) -> Self {
+        self.target = slot.to_owned();
+        self
+    }
+
+    /// `until signal`: interrupts the run the statement started (only with a start slot).
+    pub fn until(mut self, signal: &str) -> Self {
+        self.until = Some(signal.to_owned());
+        self
+    }
+
+    /// How long the manager waits for the components to appear (default 5 s).
+    pub fn arm_within(mut self, d: std::time::Duration) -> Self {
+        self.timeout = Some(d);
+        self
+    }
+
+    /// History depth of the manager's relay: signals queued while the target lags (default 10).
+    pub fn depth(mut self, n: u32) -> Self {
+        self.depth = Some(n);
+        self
+    }
+
+    /// Leaves the connection under the manager after this program ends (until `disconnect`).
+    pub fn detach(mut self) -> Self {
+        self.detach = true;
+        self
+    }
+
+    /// The manager's `connect` request for it.
+    pub fn request(&self) -> ConnectRequest {
+        ConnectRequest {
+            kind: if self.once {
+                Connection::ONCE
+            } else {
+                Connection::WHENEVER
+            },
+            source: self.source.clone(),
+            target: self.target.clone(),
+            until: self.until.clone().unwrap_or_default(),
+            timeout: self.timeout.map(|d| d.as_secs_f64()).unwrap_or_default(),
+            depth: self.depth.unwrap_or_default(),
+            detach: self.detach,
+        }
+    }
+}
 
 /// Clients of one manager node's `connect`, `disconnect` and `list` services, matched both ways.
 pub struct RemoteManager {
@@ -57,33 +147,54 @@ impl RemoteManager {
         &self.name
     }
 
-    /// Makes a connection; its id. Unless `req.detach`, it belongs to this program and ends when this
-    /// program leaves the graph.
-    pub async fn connect(&self, req: ConnectRequest) -> Result<u64> {
-        let r = self.call(&self.connect, req, "connect").await?;
-        match r.ok {
-            true => Ok(r.id),
-            false => Err(self.refused(r.error)),
-        }
+    /// Makes the connection `statement` asks for; its id. Unless detached, it belongs to this program and
+    /// ends when this program leaves the graph.
+    pub fn connect(&self, statement: RemoteStatement) -> Wait<'_, u64> {
+        let req = statement.request();
+        self.calling(move |limit| async move {
+            let r = self.call(&self.connect, req, "connect", limit).await?;
+            match r.ok {
+                true => Ok(r.id),
+                false => Err(self.refused(r.error)),
+            }
+        })
     }
 
     /// Removes connection `id` (made through these services).
-    pub async fn disconnect(&self, id: u64) -> Result<()> {
-        let r = self
-            .call(&self.disconnect, DisconnectRequest { id }, "disconnect")
-            .await?;
-        match r.ok {
-            true => Ok(()),
-            false => Err(self.refused(r.error)),
-        }
+    pub fn disconnect(&self, id: u64) -> Wait<'_, ()> {
+        self.calling(move |limit| async move {
+            let req = DisconnectRequest { id };
+            let r = self
+                .call(&self.disconnect, req, "disconnect", limit)
+                .await?;
+            match r.ok {
+                true => Ok(()),
+                false => Err(self.refused(r.error)),
+            }
+        })
     }
 
     /// Every live connection of the manager.
-    pub async fn list(&self) -> Result<Vec<Connection>> {
-        Ok(self
-            .call(&self.list, ListRequest::default(), "list")
-            .await?
-            .connections)
+    pub fn list(&self) -> Wait<'_, Vec<Connection>> {
+        self.calling(move |limit| async move {
+            let r = self
+                .call(&self.list, ListRequest::default(), "list", limit)
+                .await?;
+            Ok(r.connections)
+        })
+    }
+
+    /// A call, waiting for the answer [`CALL_TIMEOUT`] unless `.timeout(d)`.
+    fn calling<'a, T: 'a, Fut>(
+        &'a self,
+        f: impl FnOnce(std::time::Duration) -> Fut + Send + 'a,
+    ) -> Wait<'a, T>
+    where
+        Fut: std::future::Future<Output = Result<T>> + Send + 'a,
+    {
+        Wait::new(Some(CALL_TIMEOUT), move |limit| {
+            f(limit.unwrap_or(CALL_TIMEOUT))
+        })
     }
 
     fn refused(&self, reason: String) -> Error {
@@ -98,12 +209,12 @@ impl RemoteManager {
         client: &Client<Req, Resp>,
         req: Req,
         service: &str,
+        limit: std::time::Duration,
     ) -> Result<Resp>
     where
         Req: ros2_client::Message + 'static,
         Resp: ros2_client::Message + 'static,
     {
-        let limit = crate::DEFAULT_TIMEOUT * 6;
         let call = client.async_call_service(req);
         match tokio::time::timeout(limit, call).await {
             Ok(Ok(r)) => Ok(r),
@@ -134,23 +245,6 @@ fn service_topics(manager: &str) -> Vec<(bool, String)> {
 }
 
 impl Radar {
-    /// The manager nodes on the graph that take connect requests (`serve_manager`, `radar_manager`),
-    /// by name; this process's own included.
-    pub fn managers(&self) -> Vec<String> {
-        let mut names: BTreeSet<String> = self
-            .graph()
-            .discovered_reader_topics(CONNECT_REQUEST)
-            .into_iter()
-            .filter_map(|t| {
-                crate::wire_names::service_of_request(&t)
-                    .and_then(|s| s.strip_suffix("/connect"))
-                    .map(str::to_owned)
-            })
-            .collect();
-        names.extend(self.participant().served_managers().names());
-        names.into_iter().collect()
-    }
-
     /// Clients of the manager node `name`'s services, once they are matched both ways (default limit
     /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change), so that no request is lost.
     pub fn remote_manager(&self, name: &str) -> Wait<'static, RemoteManager> {
@@ -215,7 +309,7 @@ impl Radar {
                     return Err(Error::Timeout {
                         what: format!(
                             "the manager {name}'s services (managers seen: {})",
-                            match radar.managers() {
+                            match radar.introspect().managers() {
                                 m if m.is_empty() => "none".to_owned(),
                                 m => m.join(", "),
                             }

@@ -99,6 +99,18 @@ impl ComponentTask {
             let _ = task.await;
         }
     }
+
+    /// What a handle's `shutdown` returns: asks the component to stop at once, and waits (unbounded unless
+    /// `.timeout(d)`) until it has. Cancel safe: the stop has been asked for; a wait that is dropped or runs
+    /// out leaves the component finishing on its own (its exit slot still runs).
+    pub(crate) fn shutdown(self) -> crate::wait::Wait<'static, ()> {
+        self.entry.request_stop();
+        let what = format!("{} to stop", self.entry.name);
+        crate::wait::Wait::signal(what, async move {
+            self.stop_and_wait().await;
+            Ok(())
+        })
+    }
 }
 
 impl Drop for ComponentTask {

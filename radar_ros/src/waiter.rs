@@ -7,7 +7,7 @@
 //! ```no_run
 //! # async fn f(radar: radar_ros::Radar, arm: radar_ros::ResponseRef) -> radar_ros::Result<()> {
 //! use radar_ros::msg::Empty;
-//! let done = radar.waiter::<Empty>(arm.exited()).await?;   // armed
+//! let mut done = radar.waiter::<Empty>(arm.exited()).await?; // armed
 //! radar.inject(arm.start_slot(), Empty::default()).await?;   // start it
 //! let output = done.recv().await?;                         // its exited, whenever it comes
 //! # Ok(()) }
@@ -40,7 +40,7 @@ use crate::{
 pub struct Waiter<M> {
     rx: tokio::sync::oneshot::Receiver<M>,
     topic: String,
-    _connection: ConnectionGuard,
+    connection: ConnectionGuard,
 }
 
 impl<M: RosMessage> Waiter<M> {
@@ -49,38 +49,53 @@ impl<M: RosMessage> Waiter<M> {
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, r: radar_ros::ResponseRef) -> radar_ros::Result<()> {
     /// use radar_ros::msg::Empty;
-    /// let w = radar.waiter::<Empty>(r.exited()).await?;
+    /// let mut w = radar.waiter::<Empty>(r.exited()).await?;
     /// let _ = w.recv().timeout(std::time::Duration::from_secs(60)).await?;
     /// # Ok(()) }
     /// ```
     ///
     /// If every publisher of the signal leaves the graph first (the component exits, crashes, hangs or is cut
     /// off), this fails with [`Error::ComponentLost`], naming the component and the cause: a signal it sent
-    /// before it left is still delivered.
-    pub fn recv(self) -> Wait<'static, M> {
+    /// before it left is still delivered. A waiter gives one signal; asked again, it fails with
+    /// [`Error::Closed`].
+    ///
+    /// # Cancel safety
+    ///
+    /// Cancel safe: if the wait is dropped before it completes (a `select!` branch that lost, a timeout), the
+    /// waiter stays armed, and a signal that came meanwhile is what the next `recv` gives.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, r: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+    /// use std::time::Duration;
+    /// let mut done = radar.waiter::<radar_ros::msg::Empty>(r.exited()).await?;
+    /// loop {
+    ///     tokio::select! {
+    ///         out = done.recv() => { out?; break; }
+    ///         _ = tokio::time::sleep(Duration::from_secs(1)) => println!("still waiting"),
+    ///     }
+    /// }
+    /// # Ok(()) }
+    /// ```
+    pub fn recv(&mut self) -> Wait<'_, M> {
         let what = format!("a signal on {}", self.topic);
-        let Waiter {
-            mut rx,
-            topic,
-            _connection: connection,
-        } = self;
         Wait::signal(what.clone(), async move {
             let m = tokio::select! {
                 biased;
-                m = &mut rx => m,
-                d = connection.departed() => match d {
+                m = &mut self.rx => m,
+                d = self.connection.departure_seen() => match d {
                     Some(departure) => {
                         // a signal the relay read before it saw the source go was sent before it went
-                        match rx.try_recv() {
+                        match self.rx.try_recv() {
                             Ok(m) => Ok(m),
                             Err(_) => return Err(Error::ComponentLost { waiting_for: what, departure }),
                         }
                     }
-                    None => rx.await,
+                    None => (&mut self.rx).await,
                 },
             };
-            drop(connection);
-            m.map_err(|_| Error::Closed(topic))
+            m.map_err(|_| {
+                Error::Closed(format!("{} (this waiter has given its signal)", self.topic))
+            })
         })
     }
 }
@@ -99,7 +114,7 @@ impl Radar {
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, dock: radar_ros::ResponseRef) -> radar_ros::Result<()> {
-    /// let docked = radar.waiter::<radar_ros::msg::Empty>(dock.exited()).await?;
+    /// let mut docked = radar.waiter::<radar_ros::msg::Empty>(dock.exited()).await?;
     /// // ... make the robot dock ...
     /// docked.recv().await?;
     /// # Ok(()) }
@@ -123,7 +138,7 @@ impl Radar {
             Ok(Waiter {
                 rx,
                 topic,
-                _connection: c,
+                connection: c,
             })
         })
     }
@@ -145,7 +160,7 @@ impl Radar {
         Wait::new(None, move |limit| async move {
             let what = format!("a signal on {}", source.topic());
             let start = tokio::time::Instant::now();
-            let waiter = radar
+            let mut waiter = radar
                 .waiter::<M>(source)
                 .timeout(limit.unwrap_or(DEFAULT_TIMEOUT))
                 .await?;

@@ -106,9 +106,15 @@ impl ActionResponseHandle {
     pub fn action(&self) -> &str {
         &self.action
     }
-    /// Stops the response (a running goal is canceled through the exit slot, rule A6) and waits.
-    pub async fn shutdown(self) {
-        self.handle.shutdown().await
+    /// Stops the response (a running goal is canceled through the exit slot, rule A6) and waits (unbounded
+    /// unless `.timeout(d)`).
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> crate::Wait<'static, ()> {
+        self.handle.shutdown()
     }
 }
 

@@ -135,9 +135,15 @@ impl ActionServerHandle {
     pub fn response(&self) -> &ComponentName {
         &self.response
     }
-    /// Stops the server (a running goal is aborted, the response is interrupted) and waits.
-    pub async fn shutdown(self) {
-        self.task.stop_and_wait().await
+    /// Stops the server (a running goal is aborted, the response is interrupted) and waits (unbounded unless
+    /// `.timeout(d)`).
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> crate::Wait<'static, ()> {
+        self.task.shutdown()
     }
 }
 

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use radar_semantics::connection::{ConnId, Link};
 
 use super::Manager;
-use crate::departure::Departure;
+use crate::{departure::Departure, wait::Wait};
 
 /// A live connection. Dropping it removes the connection: once the drop returns, nothing more is delivered
 /// through it (an anonymous slot already running finishes; no new call begins).
@@ -42,17 +42,22 @@ impl ConnectionGuard {
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, go: radar_ros::EventRef, r: radar_ros::ResponseRef) -> radar_ros::Result<()> {
     /// let c = radar.once(&go).start(&r).await?;
-    /// c.closed().await; // the once has fired
+    /// c.closed().await?; // the once has fired
     /// assert!(!c.is_live());
     /// # Ok(()) }
     /// ```
-    pub async fn closed(&self) {
-        let mut rx = self.manager.changed.subscribe();
-        while self.is_live() {
-            if rx.changed().await.is_err() {
-                return;
+    ///
+    /// Unbounded unless `.timeout(d)`. Cancel safe: it only looks.
+    pub fn closed(&self) -> Wait<'_, ()> {
+        Wait::signal(format!("connection {} to close", self.id), async move {
+            let mut rx = self.manager.changed.subscribe();
+            while self.is_live() {
+                if rx.changed().await.is_err() {
+                    break;
+                }
             }
-        }
+            Ok(())
+        })
     }
 
     /// Whether it can deliver now ([`Link::Armed`]), or waits because a component left; `None` once it no
@@ -63,7 +68,7 @@ impl ConnectionGuard {
     /// #     -> radar_ros::Result<()> {
     /// use radar_ros::Link;
     /// let c = radar.whenever(&tick).start(&go).await?;
-    /// let d = c.departed().await.expect("a whenever lives until dropped");
+    /// let d = c.departed().await?.expect("a whenever lives until dropped");
     /// eprintln!("{d}");                       // which component left, and why
     /// match c.link() {
     ///     Some(Link::WaitingForSource) => eprintln!("tick will be heard again when it is back"),
@@ -83,8 +88,15 @@ impl ConnectionGuard {
 
     /// Resolves when a component of this connection leaves the graph (its source's last publisher, or its
     /// target's last subscriber, or the response of its `until`), with who left and why; or with `None` when
-    /// the connection ends without that (a fired `once`). Resolves at once if one has already left.
-    pub async fn departed(&self) -> Option<Departure> {
+    /// the connection ends without that (a fired `once`). Resolves at once if one has already left. Unbounded
+    /// unless `.timeout(d)`. Cancel safe: it only looks.
+    pub fn departed(&self) -> Wait<'_, Option<Departure>> {
+        let what = format!("a component of connection {} to leave", self.id);
+        Wait::signal(what, async move { Ok(self.departure_seen().await) })
+    }
+
+    /// [`ConnectionGuard::departed`], for code of this crate that selects on it.
+    pub(crate) async fn departure_seen(&self) -> Option<Departure> {
         let mut rx = self.manager.changed.subscribe();
         loop {
             match self.manager.link(self.id) {

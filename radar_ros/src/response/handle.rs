@@ -165,17 +165,23 @@ impl ResponseHandle {
     }
 
     /// Stops the response: a running start behaviour is ended as by an `exit` signal (the exit slot runs and
-    /// `exited` is sent), then the node leaves the ROS graph. Waits until it has.
+    /// `exited` is sent), then the node leaves the ROS graph. Waits until it has (unbounded unless
+    /// `.timeout(d)`).
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
     /// use radar_ros::{FnResponse, msg::Empty};
     /// let dock = radar.spawn_response("dock", FnResponse::new(|_: Empty| async { Ok(Empty::default()) }))?;
-    /// dock.shutdown().await; // a running start behaviour ends through the exit slot
+    /// dock.shutdown().await?; // a running start behaviour ends through the exit slot
     /// # Ok(()) }
     /// ```
-    pub async fn shutdown(self) {
-        self.task.stop_and_wait().await;
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> Wait<'static, ()> {
+        self.task.shutdown()
     }
 }
 

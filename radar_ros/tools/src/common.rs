@@ -58,8 +58,11 @@ pub(crate) async fn with_status<T>(what: &str, f: impl std::future::IntoFuture<O
 pub(crate) async fn discover(radar: &Radar, discovery: Duration) {
     let first = discovery.min(Duration::from_millis(800));
     tokio::time::sleep(first).await;
-    radar
-        .settle(Duration::from_millis(300), discovery.saturating_sub(first))
+    // the limit running out only means the graph is as settled as it got
+    let _ = radar
+        .introspect()
+        .settle(Duration::from_millis(300))
+        .timeout(discovery.saturating_sub(first))
         .await;
 }
 

@@ -19,9 +19,9 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
     let touches = |t: &str| t.starts_with(&prefix);
     // every program's and manager's connections
     let lists =
-        futures::future::join_all(radar.connection_topics().into_iter().map(|t| async move {
-            latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await
-        }))
+        futures::future::join_all(radar.introspect().connection_topics().into_iter().map(
+            |t| async move { latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await },
+        ))
         .await;
     let mut connections = Vec::new();
     for list in lists.into_iter().flatten() {

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use radar_ros::Radar;
+use radar_ros::{Radar, RemoteStatement};
 use serde_json::json;
 
 use crate::{
@@ -53,18 +53,18 @@ pub(crate) async fn con(
     };
     let m = manager_of(radar, manager).await?;
     let detach = matches!(lifetime, Lifetime::Detached);
-    let req = radar_ros::msg::ConnectRequest {
-        kind: match statement.kind {
-            ConKind::Once => radar_ros::msg::Connection::ONCE,
-            ConKind::Whenever => radar_ros::msg::Connection::WHENEVER,
-        },
-        source: statement.source,
-        target: statement.slot,
-        until: statement.until.unwrap_or_default(),
-        detach,
-        ..Default::default()
-    };
-    let id = with_status("connecting", m.connect(req))
+    let mut s = match statement.kind {
+        ConKind::Once => RemoteStatement::once(&statement.source),
+        ConKind::Whenever => RemoteStatement::whenever(&statement.source),
+    }
+    .to(&statement.slot);
+    if let Some(u) = &statement.until {
+        s = s.until(u);
+    }
+    if detach {
+        s = s.detach();
+    }
+    let id = with_status("connecting", m.connect(s))
         .await
         .map_err(|e| e.to_string())?;
     if out.json {
@@ -110,7 +110,7 @@ async fn manager_of(radar: &Radar, manager: Manager) -> Fallible<radar_ros::Remo
         Some(n) => n,
         None => {
             with_status("discovering", discover(radar, discovery)).await;
-            let found = radar.managers();
+            let found = radar.introspect().managers();
             match found.len() {
                 1 => found.into_iter().next().expect("one"),
                 0 => {

@@ -90,9 +90,9 @@ async fn gather(radar: &Radar) -> picture::Picture {
         });
     }
     let lists =
-        futures::future::join_all(radar.connection_topics().into_iter().map(|t| async move {
-            latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await
-        }))
+        futures::future::join_all(radar.introspect().connection_topics().into_iter().map(
+            |t| async move { latest::<ConnectionList>(radar, &t, Duration::from_secs(3)).await },
+        ))
         .await;
     for list in lists.into_iter().flatten() {
         for k in list.connections {

@@ -23,7 +23,7 @@ pub(crate) async fn inject(
         .fully_qualified();
     let ty = with_status(
         "looking for a subscriber",
-        radar.subscriber_type(&topic).timeout(timeout),
+        radar.introspect().subscriber_type(&topic).timeout(timeout),
     )
     .await
     .map_err(|e| e.to_string())?;

@@ -1,0 +1,110 @@
+//! Looking at the ROS graph the way a command-line tool does (`radar ls`, `radar cat`, `radar con`): which
+//! managers and connection lists are there, what a topic's subscribers take, when discovery has settled.
+//! Programs that use RADAR rarely need this; [`Radar::introspect`] gives it.
+
+use std::{collections::BTreeSet, time::Duration};
+
+use crate::{msg::RosMessage, radar::Radar, wait::Wait};
+
+/// The DDS type name of a `Connect` request, as a manager's `connect` server announces it.
+const CONNECT_REQUEST: &str = "radar_msgs::srv::dds_::Connect_Request_";
+
+/// A view of the ROS graph from a [`Radar`], for tools.
+///
+/// ```no_run
+/// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+/// use std::time::Duration;
+/// let graph = radar.introspect();
+/// graph.settle(Duration::from_millis(300)).timeout(Duration::from_secs(3)).await?;
+/// println!("managers: {:?}", graph.managers());
+/// # Ok(()) }
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Introspect<'a> {
+    radar: &'a Radar,
+}
+
+impl Radar {
+    /// The graph as a tool looks at it: see [`Introspect`].
+    pub fn introspect(&self) -> Introspect<'_> {
+        Introspect { radar: self }
+    }
+}
+
+impl Introspect<'_> {
+    /// The manager nodes on the graph that take connect requests (`serve_manager`, `radar_manager`),
+    /// by name; this process's own included.
+    pub fn managers(&self) -> Vec<String> {
+        let mut names: BTreeSet<String> = self
+            .radar
+            .graph()
+            .discovered_reader_topics(CONNECT_REQUEST)
+            .into_iter()
+            .filter_map(|t| {
+                crate::wire_names::service_of_request(&t)
+                    .and_then(|s| s.strip_suffix("/connect"))
+                    .map(str::to_owned)
+            })
+            .collect();
+        names.extend(self.radar.participant().served_managers().names());
+        names.into_iter().collect()
+    }
+
+    /// The topics on which programs and managers show their connections (`<node>/connections`, type
+    /// `radar_msgs/msg/ConnectionList`), this program's own included.
+    pub fn connection_topics(&self) -> Vec<String> {
+        let ty = crate::msg::ConnectionList::dds_type_name();
+        let topics: BTreeSet<String> = self
+            .radar
+            .graph()
+            .endpoints()
+            .into_iter()
+            .filter(|(w, t, d)| *w && *d == ty && t.ends_with("/connections"))
+            .map(|(_, t, _)| t)
+            .collect();
+        topics.into_iter().collect()
+    }
+
+    /// Waits until discovery has been quiet for `quiet` (no participant or endpoint found or lost): what a
+    /// command-line tool does before it reports what is on the graph. Unbounded unless `.timeout(d)`; a
+    /// timeout running out is not an error here (the graph is as settled as it got). Cancel safe: it only
+    /// looks.
+    pub fn settle(&self, quiet: Duration) -> Wait<'_, ()> {
+        let graph = self.radar.graph();
+        Wait::new(None, move |max| async move {
+            let deadline = max.map(|m| tokio::time::Instant::now() + m);
+            let mut changes = graph.changes();
+            loop {
+                changes.mark_unchanged();
+                let now = tokio::time::Instant::now();
+                let until = deadline.map_or(now + quiet, |d| d.min(now + quiet));
+                match tokio::time::timeout_at(until, changes.changed()).await {
+                    Ok(Ok(())) if deadline.is_none_or(|d| tokio::time::Instant::now() < d) => {
+                        continue
+                    }
+                    _ => return Ok(()),
+                }
+            }
+        })
+    }
+
+    /// The message type a subscriber on `topic` takes, waiting for one to appear (default
+    /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change): what to publish there.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// let ty = radar.introspect().subscriber_type("/count_up/start").await?;
+    /// assert_eq!(ty, "std_msgs/msg/Empty");
+    /// # Ok(()) }
+    /// ```
+    pub fn subscriber_type(&self, topic: &str) -> Wait<'static, String> {
+        let (radar, topic) = (
+            self.radar.clone(),
+            self.radar.resolve(topic).map(|n| n.fully_qualified()),
+        );
+        Wait::discovery(move |timeout| async move {
+            let topic = topic?;
+            radar.topic_type(&topic, false, timeout).await
+        })
+    }
+}
