@@ -260,14 +260,14 @@ fn garbage(rng: &mut u64) -> Vec<radar_ros::RawMessage> {
     let mut random = |n: usize, claim: u32| {
         let mut v = claim.to_le_bytes().to_vec();
         v.extend((0..n).map(|_| next() as u8));
-        radar_ros::RawMessage(v)
+        radar_ros::RawMessage::from_bytes(v)
     };
     vec![
-        radar_ros::RawMessage(vec![]),                    // nothing at all
-        radar_ros::RawMessage(vec![0x10, 0, 0]),          // a length cut short
-        radar_ros::RawMessage(vec![0x10, 0, 0, 0, b'a']), // claims 16 bytes, has 1
-        random(64, 1_000_000),                            // random, claiming 1 MB
-        random(200_000, 0x7fff_ffff),                     // oversized, claiming 2 GB
+        radar_ros::RawMessage::from_bytes(vec![]), // nothing at all
+        radar_ros::RawMessage::from_bytes(vec![0x10, 0, 0]), // a length cut short
+        radar_ros::RawMessage::from_bytes(vec![0x10, 0, 0, 0, b'a']), // claims 16 bytes, has 1
+        random(64, 1_000_000),                     // random, claiming 1 MB
+        random(200_000, 0x7fff_ffff),              // oversized, claiming 2 GB
     ]
 }
 
@@ -311,7 +311,8 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
         }
         for p in [&interrupt, &exit] {
             // an Empty is one byte; nothing at all does not decode
-            p.publish(radar_ros::RawMessage(vec![])).unwrap();
+            p.publish(radar_ros::RawMessage::from_bytes(vec![]))
+                .unwrap();
             sent_empty += 1;
         }
         // keep the writers until their samples are acknowledged
@@ -365,21 +366,21 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
             _ => radar_ros::RawMessage::encode(&radar_ros::msg::ListRequest::default()),
         }
         .unwrap();
-        radar_test_util::call_service(c, Bytes(valid.0), DISCOVERY).await;
+        radar_test_util::call_service(c, Bytes(valid.into_bytes()), DISCOVERY).await;
         // List's request is one padding byte: only an empty body fails to decode
         let bodies = if *svc == "list" {
-            vec![radar_ros::RawMessage(vec![])]
+            vec![radar_ros::RawMessage::from_bytes(vec![])]
         } else {
             garbage(&mut rng)
         };
         for body in bodies {
             // bodies that happen to decode as the request (random bytes are a fine u64 id) are valid
             let bad = match *svc {
-                "connect" => !decodes::<radar_ros::msg::ConnectRequest>(&body.0),
-                "disconnect" => !decodes::<radar_ros::msg::DisconnectRequest>(&body.0),
-                _ => !decodes::<radar_ros::msg::ListRequest>(&body.0),
+                "connect" => !decodes::<radar_ros::msg::ConnectRequest>(body.as_bytes()),
+                "disconnect" => !decodes::<radar_ros::msg::DisconnectRequest>(body.as_bytes()),
+                _ => !decodes::<radar_ros::msg::ListRequest>(body.as_bytes()),
             };
-            c.send_request(Bytes(body.0)).unwrap();
+            c.send_request(Bytes(body.into_bytes())).unwrap();
             sent_requests += u64::from(bad);
         }
     }

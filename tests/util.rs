@@ -228,7 +228,7 @@ pub async fn publish_unreadable_string(r: &Radar, raw: &RawPublisher) {
         .timeout(DISCOVERY)
         .await
         .unwrap();
-    raw.publish(RawMessage(vec![0xff, 0xff, 0xff, 0x7f]))
+    raw.publish(RawMessage::from_bytes(vec![0xff, 0xff, 0xff, 0x7f]))
         .unwrap();
     let topic = raw.topic().to_string();
     eventually(DISCOVERY, "the malformed payload to be counted", || {

@@ -222,7 +222,7 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 /// assert_eq!(SlotError::msg("blocked").to_string(), "blocked");
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SlotError(pub String);
+pub struct SlotError(String);
 
 impl std::fmt::Display for SlotError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -245,6 +245,16 @@ impl SlotError {
     /// ```
     pub fn msg(m: impl Into<String>) -> SlotError {
         SlotError(m.into())
+    }
+
+    /// The message.
+    pub fn message(&self) -> &str {
+        &self.0
+    }
+
+    /// The message, taken.
+    pub fn into_message(self) -> String {
+        self.0
     }
 }
 

@@ -94,7 +94,7 @@ impl EventNode<'_> {
     ///     async fn check(&mut self) -> Result<Empty, SlotError> {
     ///         let sub = self.0.as_ref().ok_or_else(|| SlotError::msg("not attached"))?;
     ///         loop {
-    ///             if sub.recv().await.map_err(|e| SlotError(e.to_string()))?.data < 0.2 {
+    ///             if sub.recv().await.map_err(|e| SlotError::msg(e.to_string()))?.data < 0.2 {
     ///                 return Ok(Empty::default());
     ///             }
     ///         }
@@ -222,7 +222,10 @@ impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
             .as_ref()
             .ok_or_else(|| SlotError::msg("TopicEvent used before attach"))?;
         loop {
-            let m = sub.recv().await.map_err(|e| SlotError(e.to_string()))?;
+            let m = sub
+                .recv()
+                .await
+                .map_err(|e| SlotError::msg(e.to_string()))?;
             if let Some(p) = (self.predicate)(&m) {
                 return Ok(p);
             }
@@ -407,7 +410,10 @@ fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<
         let mut guard = e.lock_owned().await;
         match AssertUnwindSafe(guard.check()).catch_unwind().await {
             Ok(r) => r,
-            Err(p) => Err(SlotError(format!("check panicked: {}", panic_message(p)))),
+            Err(p) => Err(SlotError::msg(format!(
+                "check panicked: {}",
+                panic_message(p)
+            ))),
         }
     })
 }
@@ -478,7 +484,7 @@ async fn drive_event<E: Event>(
                     Err(e) => {
                         tracing::warn!(event = %name, error = %e, "event check failed; retrying");
                         st.check_errors += 1;
-                        st.last_error = e.0;
+                        st.last_error = e.into_message();
                         let delay = event.lock().await.retry_after();
                         check = Some(new_check(&event, Some(delay)));
                         publish(&mut st);

@@ -328,26 +328,30 @@ mod tests {
         let presence = inlet.presence();
         assert_eq!(*presence.borrow(), 1);
         let e = "std_msgs/msg/Empty";
-        assert!(inlet.deliver(e, RawMessage(vec![0]), Sent::at(5)));
+        assert!(inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(5)));
         assert_eq!(
             inbox.rx.try_recv().unwrap(),
-            (RawMessage(vec![0]), Sent::at(5))
+            (RawMessage::from_bytes(vec![0]), Sent::at(5))
         );
         assert!(
-            !inlet.deliver("std_msgs/msg/String", RawMessage(vec![0]), Sent::at(6)),
+            !inlet.deliver(
+                "std_msgs/msg/String",
+                RawMessage::from_bytes(vec![0]),
+                Sent::at(6)
+            ),
             "a response of another start type does not get it"
         );
         drop(inbox);
         assert_eq!(*presence.borrow(), 0);
         assert!(
-            !inlet.deliver(e, RawMessage(vec![0]), Sent::at(7)),
+            !inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(7)),
             "nobody reads it now"
         );
         assert!(inlets.find("/r/start", e).is_none());
         // a connection held it: a response of the same name comes back to the same inlet, present again
         let _again = inlets.open("/r/start", e);
         assert_eq!(*presence.borrow(), 1);
-        assert!(inlet.deliver(e, RawMessage(vec![0]), Sent::at(8)));
+        assert!(inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(8)));
     }
 
     #[test]

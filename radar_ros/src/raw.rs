@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 /// assert_eq!(back.data, "kitchen");
 /// ```
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct RawMessage(pub Vec<u8>);
+pub struct RawMessage(Vec<u8>);
 
 impl Serialize for RawMessage {
     fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
@@ -42,6 +42,31 @@ impl Serialize for RawMessage {
 }
 
 impl RawMessage {
+    /// A body from its bytes (little-endian CDR, without the 4-byte encapsulation header).
+    pub fn from_bytes(bytes: Vec<u8>) -> RawMessage {
+        RawMessage(bytes)
+    }
+
+    /// Its bytes.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.0
+    }
+
+    /// Its bytes, taken.
+    pub fn into_bytes(self) -> Vec<u8> {
+        self.0
+    }
+
+    /// How many bytes it has.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether it has none.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
     /// Encodes `m` as a little-endian CDR body.
     pub fn encode<M: serde::Serialize>(m: &M) -> Result<RawMessage> {
         ros2_client::dds::rustdds::cdr_encoding::to_vec::<M, byteorder::LittleEndian>(m)
@@ -55,7 +80,7 @@ impl RawMessage {
     /// use radar_ros::{RawMessage, msg::Int32};
     /// let raw = RawMessage::encode(&Int32 { data: 7 }).unwrap();
     /// assert_eq!(raw.decode::<Int32>().unwrap().data, 7);
-    /// assert!(RawMessage(vec![1]).decode::<Int32>().is_err()); // too short: a codec error
+    /// assert!(RawMessage::from_bytes(vec![1]).decode::<Int32>().is_err()); // too short: a codec error
     /// ```
     pub fn decode<M: crate::msg::RosMessage>(&self) -> Result<M> {
         ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(&self.0)

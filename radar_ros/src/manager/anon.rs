@@ -84,7 +84,7 @@ mod tests {
     use super::*;
 
     fn m(b: u8) -> RawMessage {
-        RawMessage(vec![b])
+        RawMessage::from_bytes(vec![b])
     }
 
     #[tokio::test]

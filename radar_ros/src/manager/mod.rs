@@ -217,7 +217,10 @@ impl Manager {
                     (payload, Sent { at: sent.at, by })
                 }
                 // an until's interrupt names the statement, with the time of U's signal (R13, C7)
-                Via::Until { at } => (RawMessage(vec![0]), Sent::by(at, st.table.cause(d.id, 0))),
+                Via::Until { at } => (
+                    RawMessage::from_bytes(vec![0]),
+                    Sent::by(at, st.table.cause(d.id, 0)),
+                ),
             };
             match &d.target {
                 Target::Slot(k) => {

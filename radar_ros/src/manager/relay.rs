@@ -49,7 +49,11 @@ impl Outlet {
     }
 
     pub(super) fn deliver(&self, m: RawMessage, sent: Sent) {
-        let m = if self.empty { RawMessage(vec![0]) } else { m };
+        let m = if self.empty {
+            RawMessage::from_bytes(vec![0])
+        } else {
+            m
+        };
         if let Some(inlet) = &self.inlet {
             if inlet.reads(&self.key.ros_type) {
                 inlet.deliver(&self.key.ros_type, m, sent);

@@ -83,7 +83,7 @@ pub(super) fn start_slot<R: Response>(
             .await
         {
             Ok(Ok(o)) => StartEnd::Returned(o),
-            Ok(Err(e)) => StartEnd::Failed(e.0),
+            Ok(Err(e)) => StartEnd::Failed(e.into_message()),
             Err(panic) => StartEnd::Panicked(panic_message(panic)),
         };
         SlotDone::Start(end)

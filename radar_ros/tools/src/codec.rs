@@ -118,13 +118,13 @@ pub fn decode(ros_type: &str, raw: &RawMessage) -> Value {
                         Value::Object(Default::default())
                     }
                     Ok(m) => serde_json::to_value(&m).unwrap_or(Value::Null),
-                    Err(e) => serde_json::json!({ "undecodable": e.to_string(), "bytes": raw.0.len() }),
+                    Err(e) => serde_json::json!({ "undecodable": e.to_string(), "bytes": raw.len() }),
                 };
             }
         };
     }
     known_types!(try_type);
-    serde_json::json!({ "bytes": raw.0.len() })
+    serde_json::json!({ "bytes": raw.len() })
 }
 
 /// A JSON payload as one line of flow-style YAML, as the timeline prints it.
@@ -154,7 +154,7 @@ mod tests {
         let v = decode("geometry_msgs/msg/PoseStamped", &raw);
         assert_eq!(v["pose"]["position"]["x"], 1.5);
         assert_eq!(v["header"]["frame_id"], "");
-        assert_eq!(encode("std_msgs/msg/Empty", "").unwrap().0.len(), 1);
+        assert_eq!(encode("std_msgs/msg/Empty", "").unwrap().len(), 1);
         assert!(encode("std_msgs/msg/Empty", "{data: 3}").is_err());
     }
 

@@ -30,7 +30,7 @@ struct Recorded {
 /// A CDR message as MCAP stores it: the 4-byte encapsulation header (little-endian CDR), then the body.
 fn cdr(body: &radar_ros::RawMessage) -> Vec<u8> {
     let mut v = vec![0, 1, 0, 0];
-    v.extend_from_slice(&body.0);
+    v.extend_from_slice(body.as_bytes());
     v
 }
 

@@ -40,7 +40,7 @@ fn signals_in(bytes: &[u8]) -> Fallible<(Vec<Planned>, Option<String>)> {
             m.log_time,
             m.channel.topic.clone(),
             schema.name.clone(),
-            radar_ros::RawMessage(m.data[4..].to_vec()),
+            radar_ros::RawMessage::from_bytes(m.data[4..].to_vec()),
         ));
     }
     Ok((plan, None))
