@@ -181,8 +181,7 @@ impl Radar {
             .collect()
     }
 
-    /// Looks at the graph after every discovery event (and every 100 ms, in case an event came before the
-    /// data) until `found` says yes or no, for at most `timeout`; `found` gets the graph's topic index
+    /// Looks at the graph after every discovery event ([`Graph::wait_for`](crate::graph::Graph::wait_for)) until `found` says yes or no, for at most `timeout`; `found` gets the graph's topic index
     /// (writer or not, ROS topic -> DDS types) and answers `Ok(None)` for "not yet"; `gave_up` gets every
     /// endpoint seen.
     pub(crate) async fn wait_on_graph<T>(
@@ -192,25 +191,15 @@ impl Radar {
         gave_up: impl FnOnce(&[(bool, String, String)]) -> Error,
     ) -> Result<T> {
         let deadline = tokio::time::Instant::now() + timeout;
-        let mut changes = self.graph().changes();
         let graph = self.graph().clone();
         let types_on = move |writer: bool, topic: &str| graph.types_on(writer, topic);
-        loop {
-            changes.mark_unchanged();
-            if let Some(t) = found(&types_on)? {
-                return Ok(t);
-            }
-            if tokio::time::Instant::now() >= deadline {
-                return Err(gave_up(&self.graph().endpoints()));
-            }
-            let next = tokio::time::timeout_at(
-                deadline.min(tokio::time::Instant::now() + Duration::from_millis(100)),
-                changes.changed(),
-            );
-            if let Ok(Err(_)) = next.await {
-                // the participant is closing: no more events, fall back to polling
-                tokio::time::sleep(Duration::from_millis(20)).await;
-            }
+        match self
+            .graph()
+            .wait_for(deadline, || found(&types_on).transpose())
+            .await
+        {
+            Some(r) => r,
+            None => Err(gave_up(&self.graph().endpoints())),
         }
     }
 

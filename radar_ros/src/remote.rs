@@ -295,29 +295,24 @@ impl Radar {
             };
             let local = radar.participant().served_managers();
             let wanted = service_topics(&name);
-            let mut changes = radar.graph().changes();
             let deadline = tokio::time::Instant::now() + timeout;
-            loop {
-                if local.contains(&name)
-                    || !radar.graph().participants_matched_on(&wanted).is_empty()
-                {
-                    return Ok(m);
-                }
-                let next = deadline
-                    .min(tokio::time::Instant::now() + std::time::Duration::from_millis(50));
-                if tokio::time::Instant::now() >= deadline {
-                    return Err(Error::Timeout {
-                        what: format!(
-                            "the manager {name}'s services (managers seen: {})",
-                            match radar.introspect().managers() {
-                                m if m.is_empty() => "none".to_owned(),
-                                m => m.join(", "),
-                            }
-                        ),
-                        after: timeout,
-                    });
-                }
-                let _ = tokio::time::timeout_at(next, changes.changed()).await;
+            let matched = || {
+                (local.contains(&name)
+                    || !radar.graph().participants_matched_on(&wanted).is_empty())
+                .then_some(())
+            };
+            match radar.graph().wait_for(deadline, matched).await {
+                Some(()) => Ok(m),
+                None => Err(Error::Timeout {
+                    what: format!(
+                        "the manager {name}'s services (managers seen: {})",
+                        match radar.introspect().managers() {
+                            m if m.is_empty() => "none".to_owned(),
+                            m => m.join(", "),
+                        }
+                    ),
+                    after: timeout,
+                }),
             }
         })
     }

@@ -40,7 +40,8 @@ use crate::{
 pub struct Waiter<M> {
     rx: tokio::sync::oneshot::Receiver<M>,
     topic: String,
-    connection: ConnectionGuard,
+    /// Until it has given its signal (or its source left).
+    connection: Option<ConnectionGuard>,
 }
 
 impl<M: RosMessage> Waiter<M> {
@@ -56,8 +57,8 @@ impl<M: RosMessage> Waiter<M> {
     ///
     /// If every publisher of the signal leaves the graph first (the component exits, crashes, hangs or is cut
     /// off), this fails with [`Error::ComponentLost`], naming the component and the cause: a signal it sent
-    /// before it left is still delivered. A waiter gives one signal; asked again, it fails with
-    /// [`Error::Closed`].
+    /// before it left is still delivered. A waiter gives one signal (or that error), and lets go of its
+    /// connection then; asked again, it fails with [`Error::Closed`].
     ///
     /// # Cancel safety
     ///
@@ -79,23 +80,26 @@ impl<M: RosMessage> Waiter<M> {
     pub fn recv(&mut self) -> Wait<'_, M> {
         let what = format!("a signal on {}", self.topic);
         Wait::signal(what.clone(), async move {
+            let spent =
+                || Error::Closed(format!("{} (this waiter has given its signal)", self.topic));
+            let Some(connection) = self.connection.as_ref() else {
+                return Err(spent());
+            };
             let m = tokio::select! {
                 biased;
-                m = &mut self.rx => m,
-                d = self.connection.departure_seen() => match d {
-                    Some(departure) => {
-                        // a signal the relay read before it saw the source go was sent before it went
-                        match self.rx.try_recv() {
-                            Ok(m) => Ok(m),
-                            Err(_) => return Err(Error::ComponentLost { waiting_for: what, departure }),
-                        }
-                    }
-                    None => (&mut self.rx).await,
+                m = &mut self.rx => m.map_err(|_| spent()),
+                d = connection.departure_seen() => match d {
+                    // a signal the relay read before it saw the source go was sent before it went
+                    Some(departure) => self
+                        .rx
+                        .try_recv()
+                        .map_err(|_| Error::ComponentLost { waiting_for: what, departure }),
+                    None => (&mut self.rx).await.map_err(|_| spent()),
                 },
             };
-            m.map_err(|_| {
-                Error::Closed(format!("{} (this waiter has given its signal)", self.topic))
-            })
+            // it has given what it had: the once connection goes
+            self.connection = None;
+            m
         })
     }
 }
@@ -138,7 +142,7 @@ impl Radar {
             Ok(Waiter {
                 rx,
                 topic,
-                connection: c,
+                connection: Some(c),
             })
         })
     }

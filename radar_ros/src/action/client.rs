@@ -197,7 +197,7 @@ struct ActionProxy<A: Action> {
 
 impl<A: Action> ActionProxy<A> {
     fn failed(&self, what: impl std::fmt::Display) -> SlotError {
-        SlotError(format!(
+        SlotError::msg(format!(
             "{what} (action {} {})",
             self.action,
             A::ros_type_name()
@@ -216,41 +216,44 @@ impl<A: Action> ActionProxy<A> {
         }
         let wanted = server_endpoints(&self.action);
         let deadline = tokio::time::Instant::now() + self.options.server_timeout;
-        loop {
-            if self.local.contains(&self.action) {
-                return Ok(None);
-            }
-            // the count is read before the scan: a change during the scan is seen by the next start
-            let version = *changes.borrow_and_update();
-            if let Some(p) = self
-                .graph
-                .participants_matched_on(&wanted)
-                .into_iter()
-                .next()
-            {
-                // DDS matches endpoints whatever their types: a server of another action would take goals it
-                // cannot read, and answer with results we cannot read
-                let served = served_types(&self.graph, &self.action);
-                if !served.contains(&A::ros_type_name()) {
-                    return Err(self.failed(format_args!(
-                        "the action server there serves {}: use that action's Rust type, or another action name",
-                        served.into_iter().collect::<Vec<_>>().join(", ")
-                    )));
+        let found = self
+            .graph
+            .wait_for(deadline, || {
+                if self.local.contains(&self.action) {
+                    return Some(None);
                 }
-                self.known = Some((version, p));
-                return Ok(Some(p));
-            }
-            // discovery events wake us; a short poll covers matches made between two events
-            let wait = tokio::time::timeout(Duration::from_millis(50), changes.changed());
-            if tokio::time::Instant::now() >= deadline {
+                // the count is read before the scan: a change during the scan is seen by the next start
+                let version = *changes.borrow_and_update();
+                let p = self
+                    .graph
+                    .participants_matched_on(&wanted)
+                    .into_iter()
+                    .next()?;
+                Some(Some((version, p)))
+            })
+            .await;
+        let (version, p) = match found {
+            Some(Some(found)) => found,
+            Some(None) => return Ok(None),
+            None => {
                 return Err(self.failed(format_args!(
                     "no action server answered within {:?}: start it, or check the action's name, type and \
                      ROS_DOMAIN_ID",
                     self.options.server_timeout
-                )));
+                )))
             }
-            let _ = wait.await;
+        };
+        // DDS matches endpoints whatever their types: a server of another action would take goals it cannot
+        // read, and answer with results we cannot read
+        let served = served_types(&self.graph, &self.action);
+        if !served.contains(&A::ros_type_name()) {
+            return Err(self.failed(format_args!(
+                "the action server there serves {}: use that action's Rust type, or another action name",
+                served.into_iter().collect::<Vec<_>>().join(", ")
+            )));
         }
+        self.known = Some((version, p));
+        Ok(Some(p))
     }
 
     /// Resolves when the server's participant no longer offers the action (left, crashed, or cut off).
@@ -259,18 +262,16 @@ impl<A: Action> ActionProxy<A> {
             return std::future::pending().await;
         };
         let wanted = server_endpoints(&self.action);
-        let mut changes = self.graph.changes();
-        loop {
-            if changes.changed().await.is_err() {
-                return self.failed("the participant shut down");
-            }
-            if !self
+        let gone = || {
+            (!self
                 .graph
                 .participants_matched_on(&wanted)
-                .contains(&server)
-            {
-                return self.failed("the action server left the ROS graph mid-goal");
-            }
+                .contains(&server))
+            .then_some(())
+        };
+        match self.graph.wait_for(crate::graph::no_deadline(), gone).await {
+            Some(()) => self.failed("the action server left the ROS graph mid-goal"),
+            None => std::future::pending().await,
         }
     }
 
@@ -538,32 +539,26 @@ impl Radar {
         let graph = self.graph().clone();
         crate::Wait::discovery(move |timeout| async move {
             let action = found?;
-            let mut changes = graph.changes();
             let deadline = tokio::time::Instant::now() + timeout;
-            loop {
+            let one_type = || {
                 let types = served_types(&graph, &action);
                 match types.len() {
-                    0 => {}
-                    1 => return Ok(types.into_iter().next().expect("one")),
-                    _ => {
-                        return Err(Error::Ambiguous {
-                            topic: format!("{action} (action)"),
-                            types: types.into_iter().collect(),
-                        })
-                    }
+                    0 => None,
+                    1 => Some(Ok(types.into_iter().next().expect("one"))),
+                    _ => Some(Err(Error::Ambiguous {
+                        topic: format!("{action} (action)"),
+                        types: types.into_iter().collect(),
+                    })),
                 }
-                match tokio::time::timeout_at(deadline, changes.changed()).await {
-                    Ok(Ok(())) => {}
-                    Ok(Err(_)) => return Err(Error::Closed("the participant".into())),
-                    Err(_) => {
-                        return Err(Error::Timeout {
-                            what: format!(
-                            "an action server on {action} (is it running, in this ROS_DOMAIN_ID?)"
-                        ),
-                            after: timeout,
-                        })
-                    }
-                }
+            };
+            match graph.wait_for(deadline, one_type).await {
+                Some(r) => r,
+                None => Err(Error::Timeout {
+                    what: format!(
+                        "an action server on {action} (is it running, in this ROS_DOMAIN_ID?)"
+                    ),
+                    after: timeout,
+                }),
             }
         })
     }

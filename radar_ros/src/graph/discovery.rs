@@ -148,19 +148,12 @@ impl Graph {
         peer: GUID,
         within: std::time::Duration,
     ) -> bool {
-        let mut changes = self.changes();
         let deadline = tokio::time::Instant::now() + within;
-        loop {
-            if self.has_reader_of(dds_topic, peer) {
-                return true;
-            }
-            if tokio::time::timeout_at(deadline, changes.changed())
-                .await
-                .map_or(true, |r| r.is_err())
-            {
-                return self.has_reader_of(dds_topic, peer);
-            }
-        }
+        self.wait_for(deadline, || {
+            self.has_reader_of(dds_topic, peer).then_some(())
+        })
+        .await
+        .is_some()
     }
 
     pub(crate) fn has_reader_of(&self, dds_topic: &str, peer: GUID) -> bool {

@@ -115,6 +115,14 @@ impl Default for Graph {
     }
 }
 
+/// How often [`Graph::wait_for`] looks again without a discovery event.
+const GRAPH_POLL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// A deadline far enough away to mean "none".
+pub(crate) fn no_deadline() -> tokio::time::Instant {
+    tokio::time::Instant::now() + std::time::Duration::from_secs(86_400 * 365)
+}
+
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Side {
     /// Our writer, their reader.
@@ -199,6 +207,29 @@ impl Graph {
     /// again at once instead of polling.
     pub(crate) fn changes(&self) -> watch::Receiver<u64> {
         self.changed.subscribe()
+    }
+
+    /// The one way to wait on the graph: asks `check` now, then after every discovery event (and every
+    /// [`GRAPH_POLL`], for matches made between two events), until it answers something, or `deadline`
+    /// passes (`None` then). Cancel safe: it only looks.
+    pub(crate) async fn wait_for<T>(
+        &self,
+        deadline: tokio::time::Instant,
+        mut check: impl FnMut() -> Option<T>,
+    ) -> Option<T> {
+        let mut changes = self.changes();
+        loop {
+            changes.mark_unchanged();
+            if let Some(t) = check() {
+                return Some(t);
+            }
+            let now = tokio::time::Instant::now();
+            if now >= deadline {
+                return None;
+            }
+            let _ =
+                tokio::time::timeout_at(deadline.min(now + GRAPH_POLL), changes.changed()).await;
+        }
     }
 
     /// Tells of every participant that leaves the graph from now on.
