@@ -137,162 +137,252 @@ impl Radar {
         let name = self.resolve(name)?;
         let (mut node, claim) = self.participant().claim_node(&name)?;
         let fq = name.fully_qualified();
-        let svc = |n: &str| {
-            Name::new(&fq, n).map_err(|e| Error::InvalidName {
-                name: format!("{fq}/{n}"),
-                reason: format!("{e}"),
-            })
-        };
-        let q = signal_qos();
-        let connect_srv = node
-            .create_server::<ConnectRequest, ConnectResponse>(
-                ServiceMapping::Enhanced,
-                &svc("connect")?,
-                &ServiceTypeName::new("radar_msgs", "Connect"),
-                q.clone(),
-                q.clone(),
-            )
-            .map_err(|e| Error::transport(format!("service {fq}/connect"), e))?;
-        let connect_srv = Arc::new(connect_srv);
-        let disconnect_srv = node
-            .create_server::<DisconnectRequest, DisconnectResponse>(
-                ServiceMapping::Enhanced,
-                &svc("disconnect")?,
-                &ServiceTypeName::new("radar_msgs", "Disconnect"),
-                q.clone(),
-                q.clone(),
-            )
-            .map_err(|e| Error::transport(format!("service {fq}/disconnect"), e))?;
-        let disconnect_srv = Arc::new(disconnect_srv);
-        let list_srv = node
-            .create_server::<ListRequest, ListResponse>(
-                ServiceMapping::Enhanced,
-                &svc("list")?,
-                &ServiceTypeName::new("radar_msgs", "List"),
-                q.clone(),
-                q,
-            )
-            .map_err(|e| Error::transport(format!("service {fq}/list"), e))?;
-        let list_srv = Arc::new(list_srv);
+        let services = Services::create(&mut node, &fq)?;
         let list_pub = typed_publisher::<ConnectionList>(
             self.graph(),
             &mut node,
             &name.topic("connections"),
             &state_qos(),
         )?;
-        let radar = self.clone();
-        let manager = self.manager().clone();
-        let mut changes = manager.changes();
-        let mut lost = self.graph().participants_lost();
         let served = self.participant().served_managers().mark(fq.clone());
+        let serving = Serving {
+            radar: self.clone(),
+            fq,
+            owned: HashMap::new(),
+        };
+        let lost = self.graph().participants_lost();
         let task = ComponentTask::spawn(
             self.participant().components(),
             &name.fully_qualified(),
-            move |mut stop| async move {
+            move |stop| async move {
                 let _claim = claim;
                 let _node = node;
                 let _served = served;
-                let publish = |list| publish_connections(&list_pub, &fq, list);
-                publish(manager.list());
-                // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
-                // change always
-                let mut throttle = Throttle::new(Duration::from_millis(100));
-                // connections made through the service, with their owner's participant (none: detached)
-                let mut owned: HashMap<
-                    u64,
-                    (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>),
-                > = HashMap::new();
-                let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel();
-                let mut connects = Box::pin(connect_srv.receive_request_stream());
-                let mut disconnects = Box::pin(disconnect_srv.receive_request_stream());
-                let mut lists = Box::pin(list_srv.receive_request_stream());
-                loop {
-                    tokio::select! {
-                        _ = &mut stop => break,
-                        Some(r) = connects.next() => match r {
-                            Ok((id, req)) => {
-                                let (radar, done) = (radar.clone(), done_tx.clone());
-                                let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
-                                tokio::spawn(async move {
-                                    let owner = match req.detach {
-                                        true => format!("detached, by service caller {:?}", caller.prefix),
-                                        false => format!("service caller {:?}", caller.prefix),
-                                    };
-                                    let r = connect(&radar, &req, owner).await;
-                                    let _ = done.send((id, (!req.detach).then_some(caller), r));
-                                });
-                            }
-                            Err(e) => malformed(radar.graph(), &fq, "connect", &e),
-                        },
-                        Some((id, caller, r)) = done_rx.recv() => {
-                            let resp = match r {
-                                // B7: the caller left while the connection armed: it is not kept for nobody
-                                Ok(c) if caller.is_some_and(|c| radar.graph().has_left(c)) => {
-                                    tracing::info!(connection = c.id(), "the caller left while its connection armed; it is gone");
-                                    drop(c);
-                                    continue;
-                                }
-                                Ok(c) => {
-                                    let cid = c.id();
-                                    owned.insert(cid, (c, caller));
-                                    ConnectResponse { ok: true, error: String::new(), id: cid }
-                                }
-                                Err(e) => ConnectResponse { ok: false, error: e.to_string(), id: 0 },
-                            };
-                            reply(&connect_srv, radar.graph(), &fq, "connect", id, resp);
-                        }
-                        Some(r) = disconnects.next() => match r {
-                            Ok((id, req)) => {
-                                let resp = match owned.remove(&req.id) {
-                                    Some(_) => DisconnectResponse { ok: true, error: String::new() },
-                                    None => DisconnectResponse {
-                                        ok: false,
-                                        error: format!(
-                                            "no connection {} made through this service; the list service shows the live ones",
-                                            req.id
-                                        ),
-                                    },
-                                };
-                                reply(&disconnect_srv, radar.graph(), &fq, "disconnect", id, resp);
-                            }
-                            Err(e) => malformed(radar.graph(), &fq, "disconnect", &e),
-                        },
-                        Some(r) = lists.next() => match r {
-                            Ok((id, _)) => {
-                                let resp = ListResponse { connections: manager.list() };
-                                reply(&list_srv, radar.graph(), &fq, "list", id, resp);
-                            }
-                            Err(e) => malformed(radar.graph(), &fq, "list", &e),
-                        },
-                        gone = lost.recv() => {
-                            let before = owned.len();
-                            match gone {
-                                Ok(gone) => owned.retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix)),
-                                // B7: departures were missed: ask the graph about every owner
-                                Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => {
-                                    let graph = radar.graph();
-                                    owned.retain(|_, (_, caller)| caller.is_none_or(|c| !graph.has_left(c)))
-                                }
-                                Err(tokio::sync::broadcast::error::RecvError::Closed) => break,
-                            }
-                            if owned.len() != before {
-                                tracing::info!(removed = before - owned.len(), "an owner left the graph; its connections are gone");
-                            }
-                        }
-                        Ok(()) = changes.changed() => {
-                            if throttle.changed() {
-                                publish(manager.list());
-                            }
-                        }
-                        _ = throttle.due() => {
-                            publish(manager.list());
-                            throttle.published();
-                        }
-                    }
-                }
+                serving.run(services, list_pub, lost, stop).await;
             },
         );
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
+    }
+}
+
+/// A manager node's three service servers.
+struct Services {
+    connect: Arc<ros2_client::Server<ConnectRequest, ConnectResponse>>,
+    disconnect: Arc<ros2_client::Server<DisconnectRequest, DisconnectResponse>>,
+    list: Arc<ros2_client::Server<ListRequest, ListResponse>>,
+}
+
+impl Services {
+    fn create(node: &mut ros2_client::Node, fq: &str) -> Result<Services> {
+        Ok(Services {
+            connect: Arc::new(service_server(node, fq, "connect", "Connect")?),
+            disconnect: Arc::new(service_server(node, fq, "disconnect", "Disconnect")?),
+            list: Arc::new(service_server(node, fq, "list", "List")?),
+        })
+    }
+}
+
+/// The server of the manager `fq`'s service `service` (type `radar_msgs/srv/<ty>`).
+fn service_server<Req, Resp>(
+    node: &mut ros2_client::Node,
+    fq: &str,
+    service: &str,
+    ty: &str,
+) -> Result<ros2_client::Server<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    let name = Name::new(fq, service).map_err(|e| Error::InvalidName {
+        name: format!("{fq}/{service}"),
+        reason: format!("{e}"),
+    })?;
+    let q = signal_qos();
+    node.create_server::<Req, Resp>(
+        ServiceMapping::Enhanced,
+        &name,
+        &ServiceTypeName::new("radar_msgs", ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| Error::transport(format!("service {fq}/{service}"), e))
+}
+
+/// A connection made through the service, with its owner's participant (none: detached).
+type Owned = (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>);
+
+/// What a connect request ended with: its request id, its owner, the connection or why not.
+type Done = (
+    ros2_client::RmwRequestId,
+    Option<ros2_client::dds::rustdds::GUID>,
+    Result<ConnectionGuard>,
+);
+
+/// A manager node at work: the connections made through its services, by id.
+struct Serving {
+    radar: Radar,
+    fq: String,
+    owned: HashMap<u64, Owned>,
+}
+
+impl Serving {
+    async fn run(
+        mut self,
+        services: Services,
+        list_pub: crate::endpoints::Watched<ros2_client::Publisher<ConnectionList>>,
+        mut lost: tokio::sync::broadcast::Receiver<ros2_client::dds::rustdds::GUID>,
+        mut stop: tokio::sync::oneshot::Receiver<()>,
+    ) {
+        let manager = self.radar.manager().clone();
+        let mut changes = manager.changes();
+        let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
+        let publish = |list| publish_connections(&list_pub, &fq, list);
+        publish(manager.list());
+        // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
+        // change always
+        let mut throttle = Throttle::new(Duration::from_millis(100));
+        let (done_tx, mut done_rx) = tokio::sync::mpsc::unbounded_channel::<Done>();
+        let mut connects = Box::pin(services.connect.receive_request_stream());
+        let mut disconnects = Box::pin(services.disconnect.receive_request_stream());
+        let mut lists = Box::pin(services.list.receive_request_stream());
+        loop {
+            tokio::select! {
+                _ = &mut stop => break,
+                Some(r) = connects.next() => match r {
+                    Ok((id, req)) => self.connect(id, req, done_tx.clone()),
+                    Err(e) => malformed(&graph, &fq, "connect", &e),
+                },
+                Some(done) = done_rx.recv() => {
+                    if let Some((id, resp)) = self.connected(done) {
+                        reply(&services.connect, &graph, &fq, "connect", id, resp);
+                    }
+                }
+                Some(r) = disconnects.next() => match r {
+                    Ok((id, req)) => {
+                        let resp = self.disconnect(req.id);
+                        reply(&services.disconnect, &graph, &fq, "disconnect", id, resp);
+                    }
+                    Err(e) => malformed(&graph, &fq, "disconnect", &e),
+                },
+                Some(r) = lists.next() => match r {
+                    Ok((id, _)) => {
+                        let resp = ListResponse { connections: manager.list() };
+                        reply(&services.list, &graph, &fq, "list", id, resp);
+                    }
+                    Err(e) => malformed(&graph, &fq, "list", &e),
+                },
+                gone = lost.recv() => {
+                    if !self.owner_left(gone) {
+                        break;
+                    }
+                }
+                Ok(()) = changes.changed() => {
+                    if throttle.changed() {
+                        publish(manager.list());
+                    }
+                }
+                _ = throttle.due() => {
+                    publish(manager.list());
+                    throttle.published();
+                }
+            }
+        }
+    }
+
+    /// Arms the requested connection in a task of its own; `done` gets the outcome.
+    fn connect(
+        &self,
+        id: ros2_client::RmwRequestId,
+        req: ConnectRequest,
+        done: tokio::sync::mpsc::UnboundedSender<Done>,
+    ) {
+        let radar = self.radar.clone();
+        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+        tokio::spawn(async move {
+            let owner = match req.detach {
+                true => format!("detached, by service caller {:?}", caller.prefix),
+                false => format!("service caller {:?}", caller.prefix),
+            };
+            let r = connect(&radar, &req, owner).await;
+            let _ = done.send((id, (!req.detach).then_some(caller), r));
+        });
+    }
+
+    /// A connect request's outcome: the answer to send, if any (none when the caller has left).
+    fn connected(
+        &mut self,
+        (id, caller, r): Done,
+    ) -> Option<(ros2_client::RmwRequestId, ConnectResponse)> {
+        let resp = match r {
+            // B7: the caller left while the connection armed: it is not kept for nobody
+            Ok(c) if caller.is_some_and(|c| self.radar.graph().has_left(c)) => {
+                tracing::info!(
+                    connection = c.id(),
+                    "the caller left while its connection armed; it is gone"
+                );
+                return None;
+            }
+            Ok(c) => {
+                let cid = c.id();
+                self.owned.insert(cid, (c, caller));
+                ConnectResponse {
+                    ok: true,
+                    error: String::new(),
+                    id: cid,
+                }
+            }
+            Err(e) => ConnectResponse {
+                ok: false,
+                error: e.to_string(),
+                id: 0,
+            },
+        };
+        Some((id, resp))
+    }
+
+    /// Removes connection `id`, if it was made through the service.
+    fn disconnect(&mut self, id: u64) -> DisconnectResponse {
+        match self.owned.remove(&id) {
+            Some(_) => DisconnectResponse {
+                ok: true,
+                error: String::new(),
+            },
+            None => DisconnectResponse {
+                ok: false,
+                error: format!(
+                    "no connection {id} made through this service; the list service shows the live ones"
+                ),
+            },
+        }
+    }
+
+    /// A participant left the graph: its connections go. False once departures can no longer be heard.
+    fn owner_left(
+        &mut self,
+        gone: std::result::Result<
+            ros2_client::dds::rustdds::GUID,
+            tokio::sync::broadcast::error::RecvError,
+        >,
+    ) -> bool {
+        use tokio::sync::broadcast::error::RecvError;
+        let before = self.owned.len();
+        match gone {
+            Ok(gone) => self
+                .owned
+                .retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix)),
+            // B7: departures were missed: ask the graph about every owner
+            Err(RecvError::Lagged(_)) => {
+                let graph = self.radar.graph();
+                self.owned
+                    .retain(|_, (_, caller)| caller.is_none_or(|c| !graph.has_left(c)))
+            }
+            Err(RecvError::Closed) => return false,
+        }
+        if self.owned.len() != before {
+            let removed = before - self.owned.len();
+            tracing::info!(removed, "an owner left the graph; its connections are gone");
+        }
+        true
     }
 }

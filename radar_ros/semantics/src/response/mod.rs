@@ -272,16 +272,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
                 self.begin(p, s, &mut fx);
                 self.take_kept(s);
             }
-            (_, Input::Start(p, s)) => match self.policy {
-                StartPolicy::Ignore => self.ignore("start", IgnoreReason::Phase, &mut fx),
-                StartPolicy::QueueOne => self.queue(p, s),
-                StartPolicy::Restart => {
-                    self.queue(p, s);
-                    if self.phase == Phase::Running {
-                        self.interrupt(&mut fx);
-                    }
-                }
-            },
+            (_, Input::Start(p, s)) => self.start_while_busy(p, s, &mut fx),
             (Phase::Running, Input::Interrupt(s)) => match self.applies(&s, true) {
                 Ok(()) => self.interrupt(&mut fx),
                 Err(why) => self.ignore("interrupt", why, &mut fx),
@@ -304,29 +295,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
                 self.ignore("exit", IgnoreReason::Phase, &mut fx)
             }
             (_, Input::Exit(_)) => self.ignore("exit", IgnoreReason::Phase, &mut fx),
-            (Phase::Running, Input::StartEnded(end)) => {
-                self.held = None;
-                let reason = match end {
-                    StartEnd::Returned(o) => {
-                        self.counters.completed += 1;
-                        self.output = Some(o);
-                        ExitReason::Completed
-                    }
-                    StartEnd::Failed(e) => {
-                        self.counters.failures += 1;
-                        ExitReason::Failed(e)
-                    }
-                    StartEnd::Panicked(m) => {
-                        self.counters.panics += 1;
-                        fx.push(Effect::ReportPanic {
-                            slot: "start",
-                            message: m.clone(),
-                        });
-                        ExitReason::Panicked(m)
-                    }
-                };
-                self.run_exit(reason, &mut fx);
-            }
+            (Phase::Running, Input::StartEnded(end)) => self.start_ended(end, &mut fx),
             (Phase::Interrupting, Input::InterruptEnded(panic)) => {
                 if let Some(m) = panic {
                     self.counters.panics += 1;
@@ -337,35 +306,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
                 }
                 self.run_exit(ExitReason::Interrupted, &mut fx);
             }
-            (Phase::Exiting, Input::ExitEnded(result)) => {
-                let action = match result {
-                    Ok(a) => a,
-                    Err(m) => {
-                        self.counters.panics += 1;
-                        fx.push(Effect::ReportPanic {
-                            slot: "exit",
-                            message: m,
-                        });
-                        ExitAction::Done
-                    }
-                };
-                self.counters.exits += 1;
-                fx.push(Effect::EmitExited(
-                    self.output.take().unwrap_or_default(),
-                    self.cause,
-                ));
-                self.phase = Phase::Idle;
-                self.ended = self.now;
-                let finished = self.current.take();
-                if self.stopping {
-                    // shutting down: the run is over and nothing starts again
-                } else if let Some((p, s)) = self.pending.take() {
-                    self.begin(p, s, &mut fx);
-                } else if let (ExitAction::Restart, Some(p)) = (action, finished) {
-                    self.counters.restarts += 1;
-                    self.begin(p, Sent::at(self.now), &mut fx);
-                }
-            }
+            (Phase::Exiting, Input::ExitEnded(result)) => self.exit_ended(result, &mut fx),
             (Phase::Running, Input::Accepted) if !self.announced => {
                 self.announced = true;
                 if let Some(p) = &self.current {
@@ -421,6 +362,76 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     }
 
     /// R12: keeps a signal that reached the idle response, dropping what is too old to be used.
+    /// R6: a `start` while not idle, by the start policy.
+    fn start_while_busy(&mut self, p: P, s: Sent, fx: &mut Vec<Effect<P, O>>) {
+        match self.policy {
+            StartPolicy::Ignore => self.ignore("start", IgnoreReason::Phase, fx),
+            StartPolicy::QueueOne => self.queue(p, s),
+            StartPolicy::Restart => {
+                self.queue(p, s);
+                if self.phase == Phase::Running {
+                    self.interrupt(fx);
+                }
+            }
+        }
+    }
+
+    /// R2, R7: the start behaviour ended: the exit slot runs, for the reason it ended.
+    fn start_ended(&mut self, end: StartEnd<O>, fx: &mut Vec<Effect<P, O>>) {
+        self.held = None;
+        let reason = match end {
+            StartEnd::Returned(o) => {
+                self.counters.completed += 1;
+                self.output = Some(o);
+                ExitReason::Completed
+            }
+            StartEnd::Failed(e) => {
+                self.counters.failures += 1;
+                ExitReason::Failed(e)
+            }
+            StartEnd::Panicked(m) => {
+                self.counters.panics += 1;
+                fx.push(Effect::ReportPanic {
+                    slot: "start",
+                    message: m.clone(),
+                });
+                ExitReason::Panicked(m)
+            }
+        };
+        self.run_exit(reason, fx);
+    }
+
+    /// R2, R6, R7, R8: the exit slot ended: `exited`, then a queued start, or a restart.
+    fn exit_ended(&mut self, result: Result<ExitAction, String>, fx: &mut Vec<Effect<P, O>>) {
+        let action = match result {
+            Ok(a) => a,
+            Err(m) => {
+                self.counters.panics += 1;
+                fx.push(Effect::ReportPanic {
+                    slot: "exit",
+                    message: m,
+                });
+                ExitAction::Done
+            }
+        };
+        self.counters.exits += 1;
+        fx.push(Effect::EmitExited(
+            self.output.take().unwrap_or_default(),
+            self.cause,
+        ));
+        self.phase = Phase::Idle;
+        self.ended = self.now;
+        let finished = self.current.take();
+        if self.stopping {
+            // shutting down: the run is over and nothing starts again
+        } else if let Some((p, s)) = self.pending.take() {
+            self.begin(p, s, fx);
+        } else if let (ExitAction::Restart, Some(p)) = (action, finished) {
+            self.counters.restarts += 1;
+            self.begin(p, Sent::at(self.now), fx);
+        }
+    }
+
     fn keep(&mut self, k: Kept) {
         let horizon = self.now.saturating_sub(HOLD);
         self.kept.retain(|k| k.sent().at >= horizon);
