@@ -1,0 +1,301 @@
+//! Latency scenarios: one signal's hop (radar and the raw baselines), an interrupt, an action goal.
+
+use super::*;
+
+/// Which process hosts the manager of a latency run's connection.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Host {
+    /// A third process (two DDS hops).
+    Third,
+    /// The response's, writing on the response's `start` anyway (two hops).
+    ResponseRelaying,
+    /// The response's (one hop: the event's writer to the manager's reader).
+    Response,
+    /// The event's (one hop: the manager's writer to the response's reader).
+    Event,
+}
+
+impl Bench {
+    /// Trigger -> start latency through radar_ros, and the three baselines.
+    pub(super) async fn latency(&mut self) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        let run = format!("run {n} {p}");
+        self.raw_latency(&run, false).await?;
+        self.raw_latency(&run, true).await?;
+        // rclpy, one hop
+        let d = self.domain();
+        let py = async {
+            let mut sink = self.python(d, &["sink", "--topic", "/bench/lat"]).await?;
+            let mut src = self.python(d, &["source", "--topic", "/bench/lat"]).await?;
+            src.ask("wait", START).await?;
+            let r = self.paced(&mut src, &run, &mut sink).await?;
+            src.quit().await;
+            sink.quit().await;
+            Ok::<_, anyhow::Error>(r)
+        }
+        .await;
+        match py {
+            Ok(r) => self.push_latency(
+                "rclpy_1hop",
+                "rclpy, 1 hop (publisher -> subscriber)",
+                &r,
+                "",
+            )?,
+            Err(e) => self
+                .results
+                .errors
+                .push(format!("latency rclpy_1hop: {e:#}")),
+        }
+        for host in [
+            Host::Third,
+            Host::ResponseRelaying,
+            Host::Response,
+            Host::Event,
+        ] {
+            self.radar_latency(n, p, host).await?;
+        }
+        // all in one process: what radar_ros itself adds, without DDS
+        let d = self.domain();
+        let mut all = self
+            .child(
+                d,
+                &[
+                    "events",
+                    "--names",
+                    "/bench/ev",
+                    "--local-response",
+                    "/bench/resp",
+                ],
+            )
+            .await?;
+        all.ask("active /bench/ev", START).await?;
+        all.ask(&format!("run /bench/ev {n} {p}"), self.run_timeout(n))
+            .await?;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        let r = all
+            .ask_json(&format!("report {}", self.plan.warmup), START)
+            .await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        self.push_latency(
+            "radar_one_process",
+            "radar_ros trigger -> start, event, manager and response in one process (no DDS hop)",
+            &r,
+            &note,
+        )?;
+        all.quit().await;
+        Ok(())
+    }
+
+    /// Paced latency from a raw ros2-client publisher to a raw subscriber: one hop, or two through a plain
+    /// forwarding node.
+    async fn raw_latency(&mut self, run: &str, forward: bool) -> Result<()> {
+        let d = self.domain();
+        let mut sink = self
+            .child(d, &["raw-sink", "--topic", "/bench/lat"])
+            .await?;
+        let (fwd, topic) = if forward {
+            let args = [
+                "raw-forward",
+                "--from",
+                "/bench/lat_in",
+                "--to",
+                "/bench/lat",
+            ];
+            (Some(self.child(d, &args).await?), "/bench/lat_in")
+        } else {
+            (None, "/bench/lat")
+        };
+        let mut src = self.child(d, &["raw-source", "--topic", topic]).await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        let (key, label) = if forward {
+            (
+                "raw_2hop",
+                "raw ros2-client, 2 hops (through a forwarding node)",
+            )
+        } else {
+            (
+                "raw_1hop",
+                "raw ros2-client, 1 hop (publisher -> subscriber)",
+            )
+        };
+        self.push_latency(key, label, &r, "")?;
+        for c in [Some(src), fwd, Some(sink)].into_iter().flatten() {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// Paced trigger -> start latency from a radar_ros event to a response in another process, connected by
+    /// the manager of `host`.
+    async fn radar_latency(&mut self, n: u64, p: u64, host: Host) -> Result<()> {
+        let d = self.domain();
+        let mut ev_args = vec!["events", "--names", "/bench/ev"];
+        let mut args = vec!["response", "--name", "/bench/resp"];
+        match host {
+            Host::Third => {}
+            Host::Response => args.extend(["--connect", "/bench/ev"]),
+            Host::ResponseRelaying => args.extend(["--connect", "/bench/ev", "--relay"]),
+            Host::Event => ev_args.extend(["--connect", "/bench/resp"]),
+        }
+        // the response first: an event that connects looks it up
+        let mut resp_slot = None;
+        let mut ev = if host == Host::Event {
+            resp_slot = Some(self.child(d, &args).await?);
+            self.child(d, &ev_args).await?
+        } else {
+            self.child(d, &ev_args).await?
+        };
+        let mut resp = match resp_slot {
+            Some(r) => r,
+            None => self.child(d, &args).await?,
+        };
+        let mgr = if host == Host::Third {
+            let mut m = self.child(d, &["manager"]).await?;
+            m.ask("connect /bench/ev /bench/resp", START).await?;
+            Some(m)
+        } else {
+            None
+        };
+        ev.ask("active /bench/ev", START).await?;
+        let r = self
+            .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
+            .await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        let (key, label) = match host {
+            Host::Third => (
+                "radar_manager_process",
+                "radar_ros trigger -> start, manager in a third process (2 hops)",
+            ),
+            Host::ResponseRelaying => (
+                "radar_embedded_relay",
+                "radar_ros trigger -> start, manager in the response's process, relayed (2 hops; `local_delivery(false)`)",
+            ),
+            Host::Response => (
+                "radar_embedded",
+                "radar_ros trigger -> start, manager in the response's process (1 hop)",
+            ),
+            Host::Event => (
+                "radar_embedded_event",
+                "radar_ros trigger -> start, manager in the event's process (1 hop)",
+            ),
+        };
+        self.push_latency(key, label, &r, &note)?;
+        for c in [mgr, Some(resp), Some(ev)].into_iter().flatten() {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// `interrupt` published -> `interrupted` emitted (the start behaviour cancelled, the slot begun).
+    pub(super) async fn interrupt(&mut self) -> Result<()> {
+        let d = self.domain();
+        let mut long = self
+            .child(d, &["long-response", "--name", "/bench/long"])
+            .await?;
+        let mut drv = self
+            .child(d, &["interrupter", "--name", "/bench/long"])
+            .await?;
+        let (n, w) = (
+            self.plan.interrupt_n,
+            self.plan.warmup.min(self.plan.interrupt_n / 5),
+        );
+        let sent = drv
+            .ask_json(&format!("run {}", n + w), Duration::from_secs(60 + n / 50))
+            .await?;
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        let at = long.ask_json("report", START).await?;
+        let sent: Vec<(u64, u64)> = serde_json::from_value(sent["sent"].clone())?;
+        let at: std::collections::HashMap<u64, u64> =
+            serde_json::from_value::<Vec<(u64, u64)>>(at["at"].clone())?
+                .into_iter()
+                .collect();
+        let lat: Vec<u64> = sent
+            .iter()
+            .filter(|(seq, _)| *seq >= w)
+            .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
+            .collect();
+        let report = serde_json::json!({ "lat_ns": lat });
+        self.push_latency(
+            "radar_interrupt",
+            "radar_ros interrupt -> interrupted (start behaviour cancelled), 1 hop",
+            &report,
+            "",
+        )?;
+        let last = self.results.latency.last_mut().unwrap();
+        last.missing = n.saturating_sub(lat.len() as u64);
+        drv.quit().await;
+        long.quit().await;
+        Ok(())
+    }
+
+    /// Action latency against one rclpy `test_msgs/action/Fibonacci` server: `start` published -> the
+    /// server's execute callback begins, and `interrupt` published -> the server's cancel callback, through
+    /// `Radar::action_response`; next to rclpy's own ActionClient doing the same (`send_goal_async`,
+    /// `cancel_goal_async`) in the same run.
+    pub(super) async fn action(&mut self) -> Result<()> {
+        let d = self.domain();
+        let (n, m) = (self.plan.action_goals, self.plan.action_cancels);
+        let warm = (n / 10).max(2);
+        let mut server = self
+            .python(d, &["action-server", "--topic", "/bench/fib"])
+            .await?;
+        let timeout = Duration::from_secs(60 + n / 5);
+        for radar_side in [false, true] {
+            let mut client = if radar_side {
+                self.child(d, &["action-driver", "--action", "/bench/fib"])
+                    .await?
+            } else {
+                let mut c = self
+                    .python(d, &["action-client", "--topic", "/bench/fib"])
+                    .await?;
+                c.ask("wait", START).await?;
+                c
+            };
+            let goals = client.ask_json(&format!("run {n}"), timeout).await?;
+            let at = server.ask_json("report", START).await?;
+            let goal_lat = pair_latencies(&goals["sent"], &at["exec"], warm)?;
+            let cancels = client.ask_json(&format!("cancel-run {m}"), timeout).await?;
+            let at = server.ask_json("report", START).await?;
+            let cancel_lat = pair_latencies(&cancels["sent"], &at["cancel"], 1)?;
+            let (who, what) = if radar_side {
+                (
+                    "radar",
+                    "radar_ros `start` -> rclpy server's execute callback (Radar::action_response)",
+                )
+            } else {
+                (
+                    "rclpy",
+                    "rclpy ActionClient send_goal -> rclpy server's execute callback (baseline)",
+                )
+            };
+            let key = format!("action_goal_{who}");
+            self.push_latency(&key, what, &json!({ "lat_ns": goal_lat }), "")?;
+            self.results.latency.last_mut().unwrap().missing =
+                (n - warm).saturating_sub(goal_lat.len() as u64);
+            let (key, what) = if radar_side {
+                (
+                    "action_cancel_radar",
+                    "radar_ros `interrupt` -> rclpy server's cancel callback",
+                )
+            } else {
+                (
+                    "action_cancel_rclpy",
+                    "rclpy ActionClient cancel_goal -> rclpy server's cancel callback (baseline)",
+                )
+            };
+            self.push_latency(key, what, &json!({ "lat_ns": cancel_lat }), "")?;
+            self.results.latency.last_mut().unwrap().missing =
+                (m - 1).saturating_sub(cancel_lat.len() as u64);
+            client.quit().await;
+        }
+        server.quit().await;
+        Ok(())
+    }
+}

@@ -1,0 +1,357 @@
+//! The coordinator: starts the processes of each scenario, drives them, and collects the numbers. One file per
+//! kind of scenario: [`latency`] (signal hops, interrupts, actions), [`setup`] (making connections),
+//! [`throughput`], [`scale`] (many components, memory), [`failures`] (one-shot publishers, kills).
+
+mod failures;
+mod latency;
+mod scale;
+mod setup;
+mod throughput;
+
+use std::{
+    path::{Path, PathBuf},
+    time::{Duration, Instant},
+};
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use serde::Serialize;
+use serde_json::{json, Value};
+
+use crate::{
+    proto::{cpu_time, Child},
+    stats::{summarize, Summary},
+};
+
+/// What to run and where to write.
+#[derive(Clone, Debug)]
+pub struct Opts {
+    /// Seconds instead of minutes: fewer samples, shorter windows, smaller scale.
+    pub quick: bool,
+    /// First `ROS_DOMAIN_ID`; each scenario uses the next one.
+    pub domain: u16,
+    /// Only scenarios whose name starts with one of these (all when empty).
+    pub only: Vec<String>,
+    /// The venv with rclpy (for the rclpy baseline).
+    pub venv: PathBuf,
+}
+
+/// Sizes of one mode.
+struct Plan {
+    latency_n: u64,
+    warmup: u64,
+    period_us: u64,
+    interrupt_n: u64,
+    setup_n: usize,
+    fresh_n: usize,
+    rates: Vec<f64>,
+    window_ms: u64,
+    fanouts: Vec<usize>,
+    /// (events, responses, connections) per step of the scale curve.
+    scale: Vec<(usize, usize, usize)>,
+    idle_ms: u64,
+    /// One-shot publishes, each from a fresh process.
+    oneshot_n: u64,
+    /// State changes of the memory run.
+    state_changes: u64,
+    /// SIGKILL rounds.
+    kill_rounds: usize,
+    /// Goals, and canceled goals, per action client.
+    action_goals: u64,
+    action_cancels: u64,
+}
+
+impl Plan {
+    fn new(quick: bool) -> Plan {
+        if quick {
+            Plan {
+                latency_n: 300,
+                warmup: 20,
+                period_us: 2000,
+                interrupt_n: 50,
+                setup_n: 20,
+                fresh_n: 5,
+                rates: vec![500.0, 2000.0],
+                window_ms: 300,
+                fanouts: vec![1, 100],
+                scale: vec![(5, 5, 10), (25, 25, 50)],
+                idle_ms: 300,
+                oneshot_n: 4,
+                state_changes: 3_000,
+                kill_rounds: 1,
+                action_goals: 30,
+                action_cancels: 10,
+            }
+        } else {
+            Plan {
+                latency_n: 10_000,
+                warmup: 200,
+                period_us: 1000,
+                interrupt_n: 2000,
+                setup_n: 200,
+                fresh_n: 30,
+                rates: vec![
+                    1000.0, 2000.0, 5000.0, 10_000.0, 15_000.0, 20_000.0, 30_000.0, 50_000.0,
+                    100_000.0,
+                ],
+                window_ms: 2000,
+                fanouts: vec![1, 100, 1000],
+                // 10, 100, 1,000 and 2,000 components, half events, half responses, each event in two
+                // connections
+                scale: vec![
+                    (5, 5, 10),
+                    (50, 50, 100),
+                    (500, 500, 1000),
+                    (1000, 1000, 2000),
+                ],
+                idle_ms: 3000,
+                oneshot_n: 100,
+                state_changes: 100_000,
+                kill_rounds: 5,
+                action_goals: 500,
+                action_cancels: 200,
+            }
+        }
+    }
+}
+
+/// One latency distribution.
+#[derive(Clone, Debug, Serialize)]
+pub struct Latency {
+    /// Short key, e.g. `radar_manager_process`.
+    pub key: String,
+    /// What was measured.
+    pub label: String,
+    /// The distribution.
+    pub summary: Summary,
+    /// Samples expected but not measured (lost, ignored, timed out).
+    pub missing: u64,
+    /// Notes for the table.
+    pub note: String,
+    /// The raw samples (ns), for plots; not written to JSON.
+    #[serde(skip)]
+    pub samples: Vec<u64>,
+}
+
+/// One step of a throughput ladder.
+#[derive(Clone, Debug, Serialize)]
+pub struct Step {
+    /// Offered rate (signals per second, all connections together).
+    pub rate: f64,
+    /// Published.
+    pub sent: u64,
+    /// Arrived at the sinks.
+    pub received: u64,
+    /// CPU of the relaying process (share of one core) during the step; 0 for one hop.
+    pub relay_cpu: f64,
+}
+
+/// One throughput ladder.
+#[derive(Clone, Debug, Serialize)]
+pub struct Throughput {
+    /// Short key.
+    pub key: String,
+    /// What was measured.
+    pub label: String,
+    /// Live connections (relayed topics).
+    pub connections: usize,
+    /// Highest offered rate with every signal delivered (0 if none).
+    pub max_lossless: f64,
+    /// Relay CPU at that rate.
+    pub relay_cpu: f64,
+    /// Time to make all the connections from the manager's process, each found by name (ms; none for raw).
+    pub connect_ms: Option<f64>,
+    /// Every step run.
+    pub steps: Vec<Step>,
+}
+
+/// Everything one run measured.
+#[derive(Debug, Default, Serialize)]
+pub struct Results {
+    /// Mode, build profile, machine.
+    pub meta: Value,
+    /// Latencies of signals (trigger to start, interrupt, baselines).
+    pub latency: Vec<Latency>,
+    /// Connection setup and teardown times.
+    pub setup: Vec<Latency>,
+    /// Throughput ladders.
+    pub throughput: Vec<Throughput>,
+    /// The scale scenario's report, one per step.
+    pub scale: Vec<Value>,
+    /// Memory over a long run of state changes, radar_ros and the raw baseline.
+    pub state_memory: Vec<Value>,
+    /// SIGKILL of a deliberative program -> its connections and listeners gone (milliseconds).
+    pub kill: Vec<Latency>,
+    /// Scenarios that failed, with why.
+    pub errors: Vec<String>,
+}
+
+/// The whole run.
+pub struct Bench {
+    opts: Opts,
+    plan: Plan,
+    exe: PathBuf,
+    next_domain: u16,
+    /// What was measured so far.
+    pub results: Results,
+}
+
+const START: Duration = Duration::from_secs(30);
+
+impl Bench {
+    /// A run with `opts`.
+    pub fn new(opts: Opts) -> Result<Bench> {
+        let exe = std::env::current_exe().context("finding this program")?;
+        let plan = Plan::new(opts.quick);
+        let meta = serde_json::json!({
+            "mode": if opts.quick { "quick" } else { "full" },
+            "profile": if cfg!(debug_assertions) { "debug" } else { "release" },
+            "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0),
+            "latency_signals": plan.latency_n,
+            "latency_period_us": plan.period_us,
+            "throughput_window_ms": plan.window_ms,
+            "oneshot_publishes": plan.oneshot_n,
+            "state_changes": plan.state_changes,
+            "lease_s": radar_ros::DEFAULT_LEASE.as_secs_f64(),
+        });
+        Ok(Bench {
+            next_domain: opts.domain,
+            opts,
+            plan,
+            exe,
+            results: Results {
+                meta,
+                ..Default::default()
+            },
+        })
+    }
+
+    fn wants(&self, key: &str) -> bool {
+        self.opts.only.is_empty() || self.opts.only.iter().any(|o| key.starts_with(o.as_str()))
+    }
+
+    fn domain(&mut self) -> u16 {
+        let d = self.next_domain;
+        // Fast DDS (rclpy) cannot compute ports above 232
+        assert!(
+            d <= 232,
+            "the scenarios need more ROS domains than remain above --domain: start lower"
+        );
+        self.next_domain += 1;
+        d
+    }
+
+    async fn child(&self, domain: u16, args: &[&str]) -> Result<Child> {
+        let mut all = vec!["child"];
+        all.extend_from_slice(args);
+        Child::start(&self.exe, &all, domain, &[], START).await
+    }
+
+    async fn python(&self, domain: u16, args: &[&str]) -> Result<Child> {
+        let py = self.opts.venv.join("bin/python");
+        if !py.exists() {
+            bail!(
+                "the rclpy venv is missing at {}: run tests/python_env.sh (or pass --venv DIR)",
+                self.opts.venv.display()
+            );
+        }
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/rclpy_hop.py");
+        let script = script.to_string_lossy().into_owned();
+        let mut all = vec![script.as_str()];
+        all.extend_from_slice(args);
+        Child::start(
+            &py,
+            &all,
+            domain,
+            &[
+                ("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp"),
+                ("PYTHONUNBUFFERED", "1"),
+            ],
+            START,
+        )
+        .await
+    }
+
+    /// Runs every scenario (or those `--only` names); a failing scenario is recorded and the rest go on.
+    pub async fn run_all(&mut self) {
+        type Scenario = (
+            &'static str,
+            fn(&mut Bench) -> futures::future::BoxFuture<'_, Result<()>>,
+        );
+        let scenarios: Vec<Scenario> = vec![
+            ("latency", |b| Box::pin(b.latency())),
+            ("interrupt", |b| Box::pin(b.interrupt())),
+            ("setup", |b| Box::pin(b.setup())),
+            ("throughput", |b| Box::pin(b.throughput())),
+            ("scale", |b| Box::pin(b.scale())),
+            ("oneshot", |b| Box::pin(b.oneshot())),
+            ("memory", |b| Box::pin(b.state_memory())),
+            ("kill", |b| Box::pin(b.kill())),
+            ("action", |b| Box::pin(b.action())),
+        ];
+        for (key, f) in scenarios {
+            if !self.wants(key) {
+                continue;
+            }
+            eprintln!("radar_bench: {key} ...");
+            let t = Instant::now();
+            if let Err(e) = f(self).await {
+                eprintln!("radar_bench: {key} FAILED: {e:#}");
+                self.results.errors.push(format!("{key}: {e:#}"));
+            }
+            eprintln!("radar_bench: {key} took {:.1} s", t.elapsed().as_secs_f64());
+        }
+    }
+
+    fn run_timeout(&self, n: u64) -> Duration {
+        Duration::from_micros(n * self.plan.period_us) + Duration::from_secs(60)
+    }
+
+    /// Sends `run` to `source`, waits for the deliveries to drain, and reads `sink`'s report.
+    async fn paced(&self, source: &mut Child, run: &str, sink: &mut Child) -> Result<Value> {
+        let n = self.plan.latency_n + self.plan.warmup;
+        source.ask(run, self.run_timeout(n)).await?;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        sink.ask_json(&format!("report {}", self.plan.warmup), START)
+            .await
+    }
+
+    fn push_latency(
+        &mut self,
+        key: &str,
+        label: &str,
+        report: &Value,
+        extra_note: &str,
+    ) -> Result<()> {
+        let samples: Vec<u64> =
+            serde_json::from_value(report["lat_ns"].clone()).context("a report without lat_ns")?;
+        let summary =
+            summarize(&samples).ok_or_else(|| anyhow!("{label}: no signal arrived ({report})"))?;
+        let missing = self.plan.latency_n.saturating_sub(samples.len() as u64);
+        self.results.latency.push(Latency {
+            key: key.into(),
+            label: label.into(),
+            summary,
+            missing,
+            note: extra_note.into(),
+            samples,
+        });
+        Ok(())
+    }
+}
+
+/// Latencies `t1 - t0` of the sequence numbers in both `sent` (`[[seq, t0], ...]`) and `at` (`[[seq, t1], ...]`),
+/// skipping the first `warmup`.
+fn pair_latencies(sent: &Value, at: &Value, warmup: u64) -> Result<Vec<u64>> {
+    let sent: Vec<(u64, u64)> =
+        serde_json::from_value(sent.clone()).context("a report without sent")?;
+    let at: std::collections::HashMap<u64, u64> =
+        serde_json::from_value::<Vec<(u64, u64)>>(at.clone())
+            .context("a server report")?
+            .into_iter()
+            .collect();
+    Ok(sent
+        .iter()
+        .filter(|(seq, _)| *seq >= warmup)
+        .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
+        .collect())
+}

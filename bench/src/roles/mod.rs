@@ -1,0 +1,173 @@
+//! The child processes of a benchmark run. Each role sets up its endpoints, prints `ready`, then serves the
+//! coordinator's commands ([`crate::proto`]). Latencies are taken with the shared monotonic clock
+//! ([`crate::clock`]): stamped right before a publish (or when an event's check resolves), read where the
+//! receiving code begins to run. The roles by kind: [`raw`] (the baseline), [`signals`] (latency), [`setup`]
+//! (connecting), [`scale`].
+
+mod raw;
+mod scale;
+mod setup;
+mod signals;
+
+use std::{
+    collections::HashMap,
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc, Mutex,
+    },
+    time::Duration,
+};
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use futures::{StreamExt, TryStreamExt};
+use radar_ros::{
+    msg::{Empty, EventState, Header},
+    ConnectionGuard, Event, EventHandle, FnResponse, Radar, Response, SlotError,
+};
+use serde_json::json;
+use tokio::sync::mpsc;
+
+use crate::{
+    baseline::{raw_node, raw_publisher, raw_subscription, WAIT},
+    clock::{age_ns, now_ns, stamped, unstamp},
+    proto::{reply, rss_bytes, Commands},
+    robustness,
+};
+
+/// Runs the child role `role` with its arguments.
+pub async fn run(role: &str, args: &[String]) -> Result<()> {
+    let opt = |flag: &str| -> Option<String> {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let flag = |f: &str| args.iter().any(|a| a == f);
+    let req = |flag: &str| opt(flag).ok_or_else(|| anyhow!("role {role} needs {flag} VALUE"));
+    let num = |flag: &str| -> Result<usize> {
+        req(flag)?
+            .parse()
+            .with_context(|| format!("{flag} must be a number"))
+    };
+    match role {
+        "raw-sink" => raw::raw_sink(&req("--topic")?).await,
+        "raw-source" => raw::raw_source(&req("--topic")?).await,
+        "raw-forward" => raw::raw_forward(&req("--from")?, &req("--to")?).await,
+        "events" => {
+            signals::events(
+                &req("--names")?,
+                opt("--connect"),
+                opt("--local-response"),
+                flag("--relay"),
+            )
+            .await
+        }
+        "response" => signals::response(&req("--name")?, opt("--connect"), flag("--relay")).await,
+        "long-response" => signals::long_response(&req("--name")?).await,
+        "interrupter" => signals::interrupter(&req("--name")?).await,
+        "action-driver" => signals::action_driver(&req("--action")?).await,
+        "manager" => setup::manager().await,
+        "sources" => scale::sources(&req("--prefix")?, num("--count")?).await,
+        "sinks" => scale::sinks(&req("--prefix")?, num("--count")?).await,
+        "state-churn" => robustness::state_churn(num("--changes")? as u64).await,
+        "raw-latched" => robustness::raw_latched(num("--writes")? as u64).await,
+        "service-manager" => robustness::service_manager(&req("--name")?).await,
+        "service-caller" => {
+            robustness::service_caller(&req("--manager")?, &req("--source")?, &req("--target")?)
+                .await
+        }
+        "scale" => {
+            scale::scale(
+                num("--events")?,
+                num("--responses")?,
+                num("--connections")?,
+                Duration::from_millis(num("--idle-ms")? as u64),
+            )
+            .await
+        }
+        other => bail!("unknown role {other:?}"),
+    }
+}
+
+/// Serves commands with `f` until `quit`; an error answers `error ...` and the role goes on.
+async fn serve<F, Fut>(mut f: F)
+where
+    F: FnMut(Vec<String>) -> Fut,
+    Fut: std::future::Future<Output = Result<String>>,
+{
+    reply("ready");
+    let mut cmds = Commands::new();
+    while let Some(words) = cmds.next().await {
+        match f(words).await {
+            Ok(answer) => reply(answer),
+            Err(e) => reply(format!("error {e:#}").replace('\n', " ")),
+        }
+    }
+}
+
+fn word<T: std::str::FromStr>(words: &[String], i: usize) -> Result<T> {
+    words
+        .get(i)
+        .ok_or_else(|| anyhow!("command {:?} needs argument {i}", words.join(" ")))?
+        .parse()
+        .map_err(|_| anyhow!("argument {i} of {:?} is not valid", words.join(" ")))
+}
+
+/// Calls `f(i)` for `i` in `0..n`, one every `period`, on schedule (late calls are not bunched up).
+async fn paced(n: u64, period: Duration, mut f: impl FnMut(u64)) {
+    let start = tokio::time::Instant::now();
+    for i in 0..n {
+        tokio::time::sleep_until(start + period * i as u32).await;
+        f(i);
+    }
+}
+
+/// Calls `f(i)` at `rate` per second for `window`, in 1 ms batches; returns how many calls were made.
+async fn at_rate(rate: f64, window: Duration, mut f: impl FnMut(u64)) -> u64 {
+    let start = tokio::time::Instant::now();
+    let mut sent = 0u64;
+    loop {
+        let elapsed = start.elapsed();
+        if elapsed >= window {
+            return sent;
+        }
+        let due = (rate * elapsed.as_secs_f64()) as u64;
+        while sent < due {
+            f(sent);
+            sent += 1;
+        }
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+}
+
+/// Latencies recorded by a receiver: `(sequence, nanoseconds)`.
+#[derive(Clone, Default)]
+struct Record(Arc<Mutex<Vec<(u64, u64)>>>);
+
+impl Record {
+    fn push(&self, seq: u64, ns: u64) {
+        self.0.lock().unwrap().push((seq, ns));
+    }
+    /// The latencies of samples at or after `warmup`, as JSON, and forgets all.
+    fn report(&self, warmup: u64, extra: serde_json::Value) -> String {
+        let all = std::mem::take(&mut *self.0.lock().unwrap());
+        let lat: Vec<u64> = all
+            .iter()
+            .filter(|(s, _)| *s >= warmup && *s != u64::MAX)
+            .map(|(_, l)| *l)
+            .collect();
+        json!({ "lat_ns": lat, "received": all.len(), "extra": extra }).to_string()
+    }
+}
+
+fn radar() -> Result<Radar> {
+    Radar::new().context("a RADAR participant")
+}
+
+/// A participant whose manager, with `relay`, writes every delivery on the slot's topic even to a response
+/// of its own process (two DDS hops), as a manager in another process does.
+fn radar_relaying(relay: bool) -> Result<Radar> {
+    Radar::builder()
+        .local_delivery(!relay)
+        .build()
+        .context("a RADAR participant")
+}
