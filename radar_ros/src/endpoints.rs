@@ -13,6 +13,60 @@ use crate::{
     msg::TypeName,
 };
 
+/// The ROS name of the radar_msgs service `<fq>/<service>` (a manager's `connect`, `disconnect`, `list`), checked.
+fn service_name(fq: &str, service: &str) -> Result<Name> {
+    Name::new(fq, service).map_err(|e| Error::InvalidName {
+        name: format!("{fq}/{service}"),
+        reason: format!("{e}"),
+    })
+}
+
+/// The server of the radar_msgs service `<fq>/<service>` of type `radar_msgs/srv/<ty>` on `node`: the one way
+/// radar_ros makes one (enhanced mapping as rmw does, the signal QoS both ways).
+pub(crate) fn service_server<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    ty: &str,
+) -> Result<ros2_client::Server<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    let q = crate::qos::signal_qos();
+    node.create_server::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &service_name(fq, service)?,
+        &ros2_client::ServiceTypeName::new("radar_msgs", ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| Error::transport(format!("service {fq}/{service}"), e))
+}
+
+/// A client of the radar_msgs service `<fq>/<service>` of type `radar_msgs/srv/<ty>` on `node`, made as
+/// [`service_server`] makes the server.
+pub(crate) fn service_client<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    ty: &str,
+) -> Result<ros2_client::Client<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    let q = crate::qos::signal_qos();
+    node.create_client::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &service_name(fq, service)?,
+        &ros2_client::ServiceTypeName::new("radar_msgs", ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| Error::transport(format!("a client of {fq}/{service}"), e))
+}
+
 /// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
 /// Dropping it removes it from the graph.
 pub(crate) struct Watched<T> {

@@ -19,10 +19,9 @@
 use std::{collections::HashMap, sync::Arc, time::Duration};
 
 use futures::StreamExt;
-use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
 
 use crate::{
-    endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
+    endpoints::{malformed, publish_connections, reply, service_server, typed_publisher, Throttle},
     error::{Error, Result},
     manager::ConnectionGuard,
     msg::{
@@ -30,7 +29,7 @@ use crate::{
         DisconnectRequest, DisconnectResponse, ListRequest, ListResponse,
     },
     names::ComponentName,
-    qos::{signal_qos, state_qos},
+    qos::state_qos,
     radar::Radar,
     refs::{Signal, Slot},
     shutdown::ComponentTask,
@@ -181,32 +180,6 @@ impl Services {
             list: Arc::new(service_server(node, fq, "list", "List")?),
         })
     }
-}
-
-/// The server of the manager `fq`'s service `service` (type `radar_msgs/srv/<ty>`).
-fn service_server<Req, Resp>(
-    node: &mut ros2_client::Node,
-    fq: &str,
-    service: &str,
-    ty: &str,
-) -> Result<ros2_client::Server<Req, Resp>>
-where
-    Req: ros2_client::Message + Clone + 'static,
-    Resp: ros2_client::Message + Clone + 'static,
-{
-    let name = Name::new(fq, service).map_err(|e| Error::InvalidName {
-        name: format!("{fq}/{service}"),
-        reason: format!("{e}"),
-    })?;
-    let q = signal_qos();
-    node.create_server::<Req, Resp>(
-        ServiceMapping::Enhanced,
-        &name,
-        &ServiceTypeName::new("radar_msgs", ty),
-        q.clone(),
-        q,
-    )
-    .map_err(|e| Error::transport(format!("service {fq}/{service}"), e))
 }
 
 /// A connection made through the service, with its owner's participant (none: detached).

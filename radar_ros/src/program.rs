@@ -19,19 +19,17 @@ use std::{
     time::Duration,
 };
 
-use futures::StreamExt;
-use ros2_client::{service::ServiceMapping, Name, ServiceTypeName};
-
 use crate::{
-    endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
-    error::{Error, Result},
+    endpoints::{malformed, publish_connections, reply, service_server, typed_publisher, Throttle},
+    error::Result,
     manager::Manager,
     msg::{ConnectionList, ListRequest, ListResponse},
     names::ComponentName,
     participant::Participant,
-    qos::{signal_qos, state_qos},
+    qos::state_qos,
     shutdown::ComponentTask,
 };
+use futures::StreamExt;
 
 /// The program name from the executable: its file name, made a valid ROS name (`my-tool` -> `my_tool`).
 pub(crate) fn default_program_name() -> String {
@@ -72,20 +70,7 @@ pub(crate) fn serve_program(
     let fq = name.fully_qualified();
     let graph = participant.graph().clone();
     let (list_srv, list_pub) = participant.with_client_node(|node| {
-        let svc = Name::new(&fq, "list").map_err(|e| Error::InvalidName {
-            name: format!("{fq}/list"),
-            reason: format!("{e}"),
-        })?;
-        let q = signal_qos();
-        let srv = node
-            .create_server::<ListRequest, ListResponse>(
-                ServiceMapping::Enhanced,
-                &svc,
-                &ServiceTypeName::new("radar_msgs", "List"),
-                q.clone(),
-                q,
-            )
-            .map_err(|e| Error::transport(format!("service {fq}/list"), e))?;
+        let srv = service_server::<ListRequest, ListResponse>(node, &fq, "list", "List")?;
         let publisher = typed_publisher::<ConnectionList>(
             &graph,
             node,

@@ -15,15 +15,15 @@
 //! `select!` branch that lost) does not take back a request already sent: a connection may still be made,
 //! and is listed by [`RemoteManager::list`].
 
-use ros2_client::{Client, Name, Node, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
+use ros2_client::{Client, Node, NodeName, NodeOptions};
 
 use crate::{
+    endpoints::service_client,
     error::{Error, Result},
     msg::{
         ConnectRequest, ConnectResponse, Connection, DisconnectRequest, DisconnectResponse,
         ListRequest, ListResponse,
     },
-    qos::signal_qos,
     radar::Radar,
     wait::Wait,
 };
@@ -252,12 +252,6 @@ impl Radar {
         let name = self.resolve(name).map(|n| n.fully_qualified());
         Wait::discovery(move |timeout| async move {
             let name = name?;
-            let svc = |s: &str| {
-                Name::new(&name, s).map_err(|e| Error::InvalidName {
-                    name: format!("{name}/{s}"),
-                    reason: format!("{e}"),
-                })
-            };
             static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
             let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let base = format!("{}_client_{k}", radar.program_node().base());
@@ -273,23 +267,10 @@ impl Radar {
                         .start_parameter_services(false),
                 )
                 .map_err(|e| Error::transport(format!("node {base}"), e))?;
-            let q = signal_qos();
-            macro_rules! client {
-                ($s:literal, $t:literal) => {
-                    node.create_client(
-                        ServiceMapping::Enhanced,
-                        &svc($s)?,
-                        &ServiceTypeName::new("radar_msgs", $t),
-                        q.clone(),
-                        q.clone(),
-                    )
-                    .map_err(|e| Error::transport(format!("a client of {name}/{}", $s), e))?
-                };
-            }
             let m = RemoteManager {
-                connect: client!("connect", "Connect"),
-                disconnect: client!("disconnect", "Disconnect"),
-                list: client!("list", "List"),
+                connect: service_client(&mut node, &name, "connect", "Connect")?,
+                disconnect: service_client(&mut node, &name, "disconnect", "Disconnect")?,
+                list: service_client(&mut node, &name, "list", "List")?,
                 _node: node,
                 name: name.clone(),
             };
