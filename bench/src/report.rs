@@ -17,8 +17,43 @@ fn ratio(x: f64, base: Option<f64>) -> String {
 /// The results as Markdown tables (what `docs/benchmarks.md` shows).
 pub fn table(r: &Results) -> String {
     let mut s = String::new();
-    let hop = r
-        .latency
+    let hop = latency_table(&mut s, &r.latency);
+    ms_table(
+        &mut s,
+        "Connections (milliseconds; ratio = p50 / raw 1-hop p50)",
+        &r.setup,
+        hop,
+    );
+    throughput_table(&mut s, &r.throughput);
+    if !r.scale.is_empty() {
+        scale_curve_table(&mut s, &r.scale);
+    }
+    if let Some(sc) = r.scale.last() {
+        scale_table(&mut s, sc);
+    }
+    if !r.state_memory.is_empty() {
+        memory_table(&mut s, &r.state_memory);
+    }
+    if !r.kill.is_empty() {
+        ms_table(
+            &mut s,
+            "A deliberative program killed (SIGKILL; milliseconds)",
+            &r.kill,
+            None,
+        );
+    }
+    if !r.errors.is_empty() {
+        let _ = writeln!(s, "\n### Failed\n");
+        for e in &r.errors {
+            let _ = writeln!(s, "- {e}");
+        }
+    }
+    s
+}
+
+/// The latency table; returns the raw 1-hop p50 that ratios are taken against.
+fn latency_table(s: &mut String, latency: &[crate::coord::Latency]) -> Option<f64> {
+    let hop = latency
         .iter()
         .find(|l| l.key == "raw_1hop")
         .map(|l| l.summary.p50_us);
@@ -31,7 +66,7 @@ pub fn table(r: &Results) -> String {
         "| path | n | p50 | p90 | p99 | max | ratio | missing | note |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---|");
-    for l in &r.latency {
+    for l in latency {
         let m = &l.summary;
         let _ = writeln!(
             s,
@@ -47,14 +82,12 @@ pub fn table(r: &Results) -> String {
             l.note
         );
     }
-    ms_table(
-        &mut s,
-        "Connections (milliseconds; ratio = p50 / raw 1-hop p50)",
-        &r.setup,
-        hop,
-    );
-    let base = r
-        .throughput
+    hop
+}
+
+/// The throughput table, ratios against the raw 1-hop row.
+fn throughput_table(s: &mut String, throughput: &[crate::coord::Throughput]) {
+    let base = throughput
         .iter()
         .find(|t| t.key == "raw_1hop")
         .map(|t| t.max_lossless);
@@ -67,7 +100,7 @@ pub fn table(r: &Results) -> String {
         "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step | connect all (by name, from the manager's process) |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|");
-    for t in &r.throughput {
+    for t in throughput {
         let lossy = t
             .steps
             .iter()
@@ -93,121 +126,107 @@ pub fn table(r: &Results) -> String {
                 .unwrap_or_else(|| "-".into())
         );
     }
-    if !r.scale.is_empty() {
-        scale_curve_table(&mut s, &r.scale);
+}
+
+/// The largest scale step in detail.
+fn scale_table(s: &mut String, sc: &serde_json::Value) {
+    let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
+    let _ = writeln!(
+        s,
+        "\n### Scale: {} events, {} responses, {} connections in one process\n",
+        sc["events"], sc["responses"], sc["connections"]
+    );
+    let _ = writeln!(s, "| measure | value |");
+    let _ = writeln!(s, "|---|---:|");
+    let rows = [
+        ("spawn all components", format!("{:.0} ms", f("spawn_ms"))),
+        (
+            "memory per component (RSS)",
+            format!("{:.1} KiB", f("bytes_per_component") / 1024.0),
+        ),
+        (
+            "file descriptors: participant / with components (limit)",
+            format!(
+                "{} / {} ({})",
+                sc["fds_participant"], sc["fds_components"], sc["fd_limit"]
+            ),
+        ),
+        (
+            "create all connections (to armed)",
+            format!("{:.0} ms", f("connect_ms")),
+        ),
+        (
+            "memory per connection (RSS)",
+            format!("{:.2} KiB", f("bytes_per_connection") / 1024.0),
+        ),
+        (
+            "events active while connected",
+            format!("{}", sc["active_while_connected"]),
+        ),
+        ("drop all guards", format!("{:.1} ms", f("drop_ms"))),
+        (
+            "drop -> every event inactive",
+            format!("{:.0} ms", f("all_inactive_ms")),
+        ),
+        (
+            "events still active after teardown",
+            format!("{}", sc["still_active_after_teardown"]),
+        ),
+        (
+            "idle CPU, participant only",
+            format!("{:.2}% of a core", f("cpu_idle_empty") * 100.0),
+        ),
+        (
+            "idle CPU, components, no listeners",
+            format!("{:.2}% of a core", f("cpu_idle_components") * 100.0),
+        ),
+        (
+            "idle CPU, all connected, no signals",
+            format!("{:.2}% of a core", f("cpu_idle_connected") * 100.0),
+        ),
+        (
+            "RSS: participant / + components / + connections",
+            format!(
+                "{:.1} / {:.1} / {:.1} MiB",
+                f("rss_empty_bytes") / 1048576.0,
+                f("rss_components_bytes") / 1048576.0,
+                f("rss_connected_bytes") / 1048576.0
+            ),
+        ),
+    ];
+    for (k, v) in rows {
+        let _ = writeln!(s, "| {k} | {v} |");
     }
-    if let Some(sc) = r.scale.last() {
-        let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
+}
+
+/// Memory over long runs.
+fn memory_table(s: &mut String, runs: &[serde_json::Value]) {
+    let _ = writeln!(
+        s,
+        "\n### Memory over a long run (RSS; nobody subscribed to the latched topic)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| run | writes | RSS at start | after 10% | at the end | end - 10% | time |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+    for m in runs {
+        let rss: Vec<(u64, u64)> = serde_json::from_value(m["rss"].clone()).unwrap_or_default();
+        let at = |i: usize| {
+            rss.get(i)
+                .map(|x| x.1 as f64 / 1048576.0)
+                .unwrap_or(f64::NAN)
+        };
+        let (first, tenth, last) = (at(0), at(1), at(rss.len().saturating_sub(1)));
         let _ = writeln!(
             s,
-            "\n### Scale: {} events, {} responses, {} connections in one process\n",
-            sc["events"], sc["responses"], sc["connections"]
-        );
-        let _ = writeln!(s, "| measure | value |");
-        let _ = writeln!(s, "|---|---:|");
-        let rows = [
-            ("spawn all components", format!("{:.0} ms", f("spawn_ms"))),
-            (
-                "memory per component (RSS)",
-                format!("{:.1} KiB", f("bytes_per_component") / 1024.0),
-            ),
-            (
-                "file descriptors: participant / with components (limit)",
-                format!(
-                    "{} / {} ({})",
-                    sc["fds_participant"], sc["fds_components"], sc["fd_limit"]
-                ),
-            ),
-            (
-                "create all connections (to armed)",
-                format!("{:.0} ms", f("connect_ms")),
-            ),
-            (
-                "memory per connection (RSS)",
-                format!("{:.2} KiB", f("bytes_per_connection") / 1024.0),
-            ),
-            (
-                "events active while connected",
-                format!("{}", sc["active_while_connected"]),
-            ),
-            ("drop all guards", format!("{:.1} ms", f("drop_ms"))),
-            (
-                "drop -> every event inactive",
-                format!("{:.0} ms", f("all_inactive_ms")),
-            ),
-            (
-                "events still active after teardown",
-                format!("{}", sc["still_active_after_teardown"]),
-            ),
-            (
-                "idle CPU, participant only",
-                format!("{:.2}% of a core", f("cpu_idle_empty") * 100.0),
-            ),
-            (
-                "idle CPU, components, no listeners",
-                format!("{:.2}% of a core", f("cpu_idle_components") * 100.0),
-            ),
-            (
-                "idle CPU, all connected, no signals",
-                format!("{:.2}% of a core", f("cpu_idle_connected") * 100.0),
-            ),
-            (
-                "RSS: participant / + components / + connections",
-                format!(
-                    "{:.1} / {:.1} / {:.1} MiB",
-                    f("rss_empty_bytes") / 1048576.0,
-                    f("rss_components_bytes") / 1048576.0,
-                    f("rss_connected_bytes") / 1048576.0
-                ),
-            ),
-        ];
-        for (k, v) in rows {
-            let _ = writeln!(s, "| {k} | {v} |");
-        }
-    }
-    if !r.state_memory.is_empty() {
-        let _ = writeln!(
-            s,
-            "\n### Memory over a long run (RSS; nobody subscribed to the latched topic)\n"
-        );
-        let _ = writeln!(
-            s,
-            "| run | writes | RSS at start | after 10% | at the end | end - 10% | time |"
-        );
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
-        for m in &r.state_memory {
-            let rss: Vec<(u64, u64)> = serde_json::from_value(m["rss"].clone()).unwrap_or_default();
-            let at = |i: usize| {
-                rss.get(i)
-                    .map(|x| x.1 as f64 / 1048576.0)
-                    .unwrap_or(f64::NAN)
-            };
-            let (first, tenth, last) = (at(0), at(1), at(rss.len().saturating_sub(1)));
-            let _ = writeln!(
-                s,
-                "| {} | {} | {first:.1} MiB | {tenth:.1} MiB | {last:.1} MiB | {:+.0} KiB | {:.1} s |",
-                m["label"].as_str().unwrap_or("?"),
-                rss.last().map(|x| x.0).unwrap_or(0),
-                (last - tenth) * 1024.0,
-                m["secs"].as_f64().unwrap_or(f64::NAN)
-            );
-        }
-    }
-    if !r.kill.is_empty() {
-        ms_table(
-            &mut s,
-            "A deliberative program killed (SIGKILL; milliseconds)",
-            &r.kill,
-            None,
+            "| {} | {} | {first:.1} MiB | {tenth:.1} MiB | {last:.1} MiB | {:+.0} KiB | {:.1} s |",
+            m["label"].as_str().unwrap_or("?"),
+            rss.last().map(|x| x.0).unwrap_or(0),
+            (last - tenth) * 1024.0,
+            m["secs"].as_f64().unwrap_or(f64::NAN)
         );
     }
-    if !r.errors.is_empty() {
-        let _ = writeln!(s, "\n### Failed\n");
-        for e in &r.errors {
-            let _ = writeln!(s, "- {e}");
-        }
-    }
-    s
 }
 
 /// A table of durations in milliseconds, one row per distribution.
