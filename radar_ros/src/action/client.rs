@@ -9,13 +9,13 @@ use std::{
 use futures::{FutureExt, StreamExt};
 use ros2_client::{
     action::{GoalId, GoalStatusEnum},
-    ActionTypeName, RmwRequestId, ServiceMapping,
+    RmwRequestId,
 };
 
 use radar_semantics::response::Announce;
 
 use super::{
-    wire::{client_qos, ros_name, served_types, server_endpoints, Wire},
+    wire::{action_client, served_types, server_endpoints, Client, Wire},
     Action,
 };
 use crate::{
@@ -139,12 +139,6 @@ impl std::fmt::Debug for ActionResponseHandle {
             .finish()
     }
 }
-
-type Client<A> = ros2_client::ActionClient<
-    Wire<<A as Action>::Goal>,
-    Wire<<A as Action>::Result>,
-    Wire<<A as Action>::Feedback>,
->;
 
 /// The goal of the current run, as far as the client knows it.
 #[derive(Clone, Copy, Debug, Default)]
@@ -477,7 +471,6 @@ impl Radar {
         options: ActionResponseOptions,
     ) -> Result<ActionResponseHandle> {
         let action_fq = self.resolve(action)?.fully_qualified();
-        let action_name = ros_name(&action_fq)?;
         let response_name = options.name.clone().unwrap_or_else(|| action_fq.clone());
         let (graph, local) = (self.graph().clone(), self.participant().served_actions());
         let fq = action_fq.clone();
@@ -485,14 +478,7 @@ impl Radar {
             &response_name,
             Announce::WhenAccepted,
             move |node, g, name| {
-                let client = node
-                    .create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-                        ServiceMapping::Enhanced,
-                        &action_name,
-                        &ActionTypeName::new(A::PACKAGE, A::NAME),
-                        client_qos(),
-                    )
-                    .map_err(|e| Error::transport(format!("an action client for {fq}"), e))?;
+                let client = action_client::<A>(node, &fq)?;
                 let feedback = publisher::<A::Feedback>(
                     g,
                     node,

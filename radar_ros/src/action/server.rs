@@ -3,10 +3,7 @@
 
 use std::{sync::Arc, time::Duration};
 
-use ros2_client::{
-    action::{AsyncActionServer, GoalEndStatus, GoalId},
-    ActionTypeName, ServiceMapping,
-};
+use ros2_client::action::{AsyncActionServer, GoalEndStatus, GoalId};
 
 use radar_semantics::{
     response::ExitReason,
@@ -14,7 +11,7 @@ use radar_semantics::{
 };
 
 use super::{
-    wire::{ros_name, server_qos, Wire},
+    wire::{action_server, Wire},
     Action,
 };
 use crate::{
@@ -77,14 +74,7 @@ impl Radar {
             action_c.namespace(),
         )?;
         let (mut node, claim) = self.participant().claim_node(&node_name)?;
-        let server = node
-            .create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-                ServiceMapping::Enhanced,
-                &ros_name(&action_fq)?,
-                &ActionTypeName::new(A::PACKAGE, A::NAME),
-                server_qos(),
-            )
-            .map_err(|e| Error::transport(format!("an action server for {action_fq}"), e))?;
+        let server = action_server::<A>(&mut node, &action_fq)?;
         let server = Arc::new(AsyncActionServer::new(server));
         let name = r.name().clone();
         let io = ServerIo::<A> {

@@ -9,6 +9,7 @@ use ros2_client::{
 };
 use serde::{Deserialize, Serialize};
 
+use super::Action;
 use crate::{
     error::{Error, Result},
     graph::Graph,
@@ -52,7 +53,7 @@ pub(super) fn served_types(graph: &Graph, action: &str) -> BTreeSet<String> {
         .collect()
 }
 
-pub(super) fn client_qos() -> ActionClientQosPolicies {
+fn client_qos() -> ActionClientQosPolicies {
     ActionClientQosPolicies {
         goal_service: signal_qos(),
         result_service: signal_qos(),
@@ -62,7 +63,7 @@ pub(super) fn client_qos() -> ActionClientQosPolicies {
     }
 }
 
-pub(super) fn server_qos() -> ActionServerQosPolicies {
+fn server_qos() -> ActionServerQosPolicies {
     ActionServerQosPolicies {
         goal_service: signal_qos(),
         result_service: signal_qos(),
@@ -72,9 +73,53 @@ pub(super) fn server_qos() -> ActionServerQosPolicies {
     }
 }
 
-pub(super) fn ros_name(fq: &str) -> Result<Name> {
+fn ros_name(fq: &str) -> Result<Name> {
     Name::parse(fq).map_err(|e| Error::InvalidName {
         name: fq.to_owned(),
         reason: format!("{e}"),
     })
+}
+
+/// ros2-client's action client of `A`.
+pub(super) type Client<A> = ros2_client::ActionClient<
+    Wire<<A as Action>::Goal>,
+    Wire<<A as Action>::Result>,
+    Wire<<A as Action>::Feedback>,
+>;
+
+/// ros2-client's action server of `A` (before it is made async).
+pub(super) type SyncServer<A> = ros2_client::ActionServer<
+    Wire<<A as Action>::Goal>,
+    Wire<<A as Action>::Result>,
+    Wire<<A as Action>::Feedback>,
+>;
+
+/// The action client of `A` at the fully qualified `action` on `node`: the one way radar_ros makes one
+/// (enhanced mapping, signal QoS for the services and feedback, state QoS for the status).
+pub(super) fn action_client<A: Action>(
+    node: &mut ros2_client::Node,
+    action: &str,
+) -> Result<Client<A>> {
+    node.create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+        ros2_client::ServiceMapping::Enhanced,
+        &ros_name(action)?,
+        &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
+        client_qos(),
+    )
+    .map_err(|e| Error::transport(format!("an action client for {action}"), e))
+}
+
+/// The action server of `A` at the fully qualified `action` on `node`, made as [`action_client`] makes the
+/// client.
+pub(super) fn action_server<A: Action>(
+    node: &mut ros2_client::Node,
+    action: &str,
+) -> Result<SyncServer<A>> {
+    node.create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+        ros2_client::ServiceMapping::Enhanced,
+        &ros_name(action)?,
+        &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
+        server_qos(),
+    )
+    .map_err(|e| Error::transport(format!("an action server for {action}"), e))
 }
