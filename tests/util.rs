@@ -461,8 +461,13 @@ impl HostPeer {
         p
     }
 
+    /// The peer's next line. Waits longer than any command of the peer does (30 s for discovery, or the
+    /// milliseconds a command names, 60 s at most in these tests), so that a slow peer answers with its own
+    /// `err ...` saying what it waited for instead of the test giving up first (seen on a loaded machine: a
+    /// `collect-arm` over the lossy link outlived a 15 s wait here).
     async fn line(&mut self) -> String {
-        tokio::time::timeout(DISCOVERY, self.lines.next_line())
+        const ANSWER: Duration = Duration::from_secs(90);
+        tokio::time::timeout(ANSWER, self.lines.next_line())
             .await
             .expect("the peer answers in time")
             .expect("readable output")
