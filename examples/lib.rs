@@ -56,12 +56,20 @@ pub async fn run_example<F: std::future::Future<Output = radar_ros::Result<()>>>
     }
 }
 
-/// Logs warnings and errors to stderr (`RUST_LOG` for more).
+/// Logs warnings and errors to stderr; `--ros-args --log-level LEVEL` (as `ros2 launch` passes it) or
+/// `RUST_LOG` for more.
 pub fn init_logs() {
+    let quiet =
+        "rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error";
+    // a malformed --ros-args is reported by Radar::new, with what to do
+    let level = radar_ros::ros_args::RosArgs::from_env()
+        .ok()
+        .and_then(|a| a.tracing_filter())
+        .unwrap_or_else(|| "warn".into());
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error".into()),
+                .unwrap_or_else(|_| format!("{level},{quiet}").into()),
         )
         .with_writer(std::io::stderr)
         .try_init();

@@ -57,7 +57,7 @@ pub fn watch_event(
     tl: Timeline,
     name: &str,
 ) -> radar_ros::Result<impl std::future::Future<Output = radar_ros::Result<()>>> {
-    let state = radar.state_subscription::<EventState>(&format!("/{name}/state"))?;
+    let state = radar.state_subscription::<EventState>(&format!("{name}/state"))?;
     let name = name.to_owned();
     Ok(async move {
         let (mut active, mut triggers) = (None, 0);
@@ -91,9 +91,9 @@ pub fn watch_count_up(
     radar: &Radar,
     tl: Timeline,
 ) -> radar_ros::Result<impl std::future::Future<Output = radar_ros::Result<()>>> {
-    let started = radar.signal_subscription::<Empty>("/count_up/started")?;
-    let interrupted = radar.signal_subscription::<Empty>("/count_up/interrupted")?;
-    let exited = radar.signal_subscription::<Empty>("/count_up/exited")?;
+    let started = radar.signal_subscription::<Empty>("count_up/started")?;
+    let interrupted = radar.signal_subscription::<Empty>("count_up/interrupted")?;
+    let exited = radar.signal_subscription::<Empty>("count_up/exited")?;
     Ok(async move {
         let mut n_started = 0;
         loop {

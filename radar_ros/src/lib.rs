@@ -213,6 +213,7 @@ mod raw;
 mod refs;
 mod remote;
 mod response;
+pub mod ros_args;
 mod shutdown;
 mod statement;
 mod topics;

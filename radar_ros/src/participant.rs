@@ -81,6 +81,9 @@ pub(crate) struct Participant {
     components: crate::shutdown::Components,
     /// How long they may take to stop (exit slots included).
     shutdown_timeout: std::time::Duration,
+    /// The process's `--ros-args`, and the program node's name that node-specific rules match.
+    ros_args: Arc<crate::ros_args::RosArgs>,
+    rule_node: String,
 }
 
 impl crate::shutdown::Stoppable for Participant {
@@ -118,6 +121,7 @@ impl Participant {
         ctx: Context,
         domain_id: u16,
         namespace: String,
+        (ros_args, rule_node): (Arc<crate::ros_args::RosArgs>, String),
         shutdown_timeout: std::time::Duration,
         rt: &tokio::runtime::Handle,
     ) -> Arc<Participant> {
@@ -143,6 +147,8 @@ impl Participant {
             taps: Default::default(),
             components: Default::default(),
             shutdown_timeout,
+            ros_args,
+            rule_node,
         })
     }
 
@@ -200,9 +206,22 @@ impl Participant {
         &self.pool
     }
 
-    /// Resolves and validates a component name against this participant's namespace.
+    /// Resolves and validates a component name against this participant's namespace, then applies the
+    /// process's `-r from:=to` remapping rules (see [`crate::ros_args`]).
     pub(crate) fn resolve(&self, name: &str) -> Result<ComponentName> {
-        ComponentName::resolve(name, &self.namespace)
+        let n = ComponentName::resolve(name, &self.namespace)?;
+        match self
+            .ros_args
+            .remap_name(&n.fully_qualified(), &self.rule_node, &self.namespace)
+        {
+            Some(to) => ComponentName::resolve(&to, "/"),
+            None => Ok(n),
+        }
+    }
+
+    /// The process's ROS arguments.
+    pub(crate) fn ros_args(&self) -> &Arc<crate::ros_args::RosArgs> {
+        &self.ros_args
     }
 
     /// Resolves a topic like a component name (relative topics in this participant's namespace).
@@ -238,7 +257,8 @@ impl Participant {
                 1 => node.to_owned(),
                 _ => format!("{node}_{k}"),
             };
-            let name = self.resolve(&base)?;
+            // a node's own name is not remapped by `from:=to` rules (only by __node, before this)
+            let name = ComponentName::resolve(&base, &self.namespace)?;
             let fq = name.fully_qualified();
             if !self.names.lock().unwrap().contains(&fq)
                 && PROGRAM_NODES.lock().unwrap().insert(fq.clone())

@@ -161,9 +161,28 @@ pub struct RadarBuilder {
     /// `Some(false)`: the program handles SIGINT/SIGTERM itself.
     signals: Option<bool>,
     shutdown_timeout: Option<std::time::Duration>,
+    /// `None`: the process's own (`std::env::args`).
+    ros_args: Option<crate::ros_args::RosArgs>,
 }
 
 impl RadarBuilder {
+    /// Uses these ROS arguments instead of the process's own `--ros-args` (which [`RadarBuilder::build`] reads
+    /// from `std::env::args` otherwise). `-r __ns:=` and `-r __node:=` there override
+    /// [`RadarBuilder::namespace`] and [`RadarBuilder::program`], as the command line overrides code in rclcpp.
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// use radar_ros::ros_args::RosArgs;
+    /// let args = RosArgs::parse(["patrol", "--ros-args", "-r", "__ns:=/robot1"])?;
+    /// let radar = radar_ros::Radar::builder().ros_args(args).build()?;
+    /// assert_eq!(radar.namespace(), "/robot1");
+    /// # Ok(()) }
+    /// ```
+    pub fn ros_args(mut self, args: crate::ros_args::RosArgs) -> Self {
+        self.ros_args = Some(args);
+        self
+    }
+
     /// Uses this DDS domain instead of `ROS_DOMAIN_ID`.
     ///
     /// ```no_run
@@ -281,7 +300,21 @@ impl RadarBuilder {
 
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
-        let namespace = validate_namespace(self.namespace.as_deref().unwrap_or("/"))?;
+        let ros_args = match self.ros_args {
+            Some(a) => a,
+            None => crate::ros_args::RosArgs::from_env()?,
+        };
+        // the name node-specific rules (`node:__ns:=...`) match: the program's name before any suffix
+        let rule_node = self
+            .program
+            .clone()
+            .unwrap_or_else(crate::program::default_program_name);
+        let namespace = validate_namespace(
+            ros_args
+                .namespace(&rule_node)
+                .or(self.namespace.as_deref())
+                .unwrap_or("/"),
+        )?;
         let domain_id = match self.domain_id {
             Some(id) => parse_domain_id(&id.to_string())?,
             None => domain_id_from_env()?,
@@ -317,7 +350,15 @@ impl RadarBuilder {
         let shutdown_timeout = self
             .shutdown_timeout
             .unwrap_or(crate::shutdown::DEFAULT_SHUTDOWN_TIMEOUT);
-        let participant = Participant::start(ctx, domain_id, namespace, shutdown_timeout, &rt);
+        let renamed = ros_args.node_name(&rule_node).map(str::to_owned);
+        let participant = Participant::start(
+            ctx,
+            domain_id,
+            namespace,
+            (Arc::new(ros_args), rule_node),
+            shutdown_timeout,
+            &rt,
+        );
         if self.signals != Some(false) {
             let weak: std::sync::Weak<dyn crate::shutdown::Stoppable> =
                 Arc::downgrade(&participant) as _;
@@ -328,7 +369,7 @@ impl RadarBuilder {
                     .into(),
             })?;
         }
-        let program = match self.program {
+        let program = match renamed.or(self.program) {
             Some(p) => {
                 // one valid ROS name token, as given
                 let bad = |why: String| Error::Config {
@@ -426,6 +467,12 @@ impl Radar {
     /// The DDS domain in use.
     pub fn domain_id(&self) -> u16 {
         self.participant.domain_id()
+    }
+
+    /// The ROS arguments this `Radar` was built with (the process's `--ros-args` unless
+    /// [`RadarBuilder::ros_args`] gave others): parameter overrides, the log level, the program's own arguments.
+    pub fn ros_args(&self) -> &crate::ros_args::RosArgs {
+        self.participant.ros_args()
     }
 
     /// The namespace relative names resolve in.

@@ -1,0 +1,105 @@
+//! Two robots from one executable, as `ros2 launch` starts them: the `count_up` example twice at once in one
+//! domain, each with `--ros-args -r __ns:=/robotN -r __node:=counterN` (what a launch file's
+//! `Node(namespace=..., name=...)` passes). Each must run Listing 1 on its own: its components under its
+//! namespace, its program node renamed, its timeline undisturbed by the other robot's signals (without the
+//! namespaces both would be `/count_up`, and each end_event would interrupt both runs). Domain 61.
+
+use std::{process::Command, time::Duration};
+
+use radar_ros::Radar;
+use radar_ros_examples::test_support::{
+    assert_no_error_lines, examples_dir, require_isolation, timeline, times,
+};
+
+const DOMAIN: u16 = 61;
+
+fn robot(n: u32) -> std::process::Child {
+    Command::new(examples_dir("count_up").join("count_up"))
+        .args(["--duration", "9.7", "--ros-args", "-r"])
+        .arg(format!("__ns:=/robot{n}"))
+        .arg("-r")
+        .arg(format!("__node:=counter{n}"))
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run count_up")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_namespaced_count_ups_run_side_by_side() {
+    require_isolation();
+    let robots = [robot(1), robot(2)];
+    // seen from outside, while they run: each robot's components and program node under its namespace
+    let radar = Radar::builder()
+        .domain_id(DOMAIN)
+        .program("observer")
+        .build()
+        .unwrap();
+    for n in [1, 2] {
+        for component in ["count_up", "start_event", "end_event"] {
+            let name = format!("/robot{n}/{component}");
+            let found = if component == "count_up" {
+                radar
+                    .response(&name)
+                    .timeout(Duration::from_secs(10))
+                    .await
+                    .map(|_| ())
+            } else {
+                radar
+                    .event(&name)
+                    .timeout(Duration::from_secs(10))
+                    .await
+                    .map(|_| ())
+            };
+            found.unwrap_or_else(|e| panic!("{name} on the graph: {e}"));
+        }
+    }
+    radar
+        .introspect()
+        .settle(Duration::from_millis(300))
+        .await
+        .unwrap();
+    let programs = radar.introspect().connection_topics();
+    for n in [1, 2] {
+        let want = format!("/robot{n}/counter{n}/connections");
+        assert!(programs.contains(&want), "{want} in {programs:?}");
+    }
+    assert!(
+        !programs.iter().any(|t| t.starts_with("/count_up")),
+        "nothing at the root namespace: {programs:?}"
+    );
+    for (n, child) in robots.into_iter().enumerate() {
+        let out = child.wait_with_output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        println!("robot{}:\n{stdout}", n + 1);
+        assert!(out.status.success(), "robot{} failed: {stderr}", n + 1);
+        assert_no_error_lines(&stderr, "count_up");
+        let tl = timeline(&stdout, None);
+        let started = times(&tl, "count_up started");
+        assert!(
+            started.len() >= 2 && (started[0] - 2.0).abs() <= 0.2,
+            "robot{}: started at 2 s, then again: {started:?}",
+            n + 1
+        );
+        let interrupted = times(&tl, "count_up interrupted");
+        assert_eq!(
+            interrupted.len(),
+            1,
+            "robot{}: only its own end_event interrupts its own run: {interrupted:?}",
+            n + 1
+        );
+        assert!(
+            (interrupted[0] - 4.0).abs() <= 0.2,
+            "robot{}: interrupted at 4 s: {interrupted:?}",
+            n + 1
+        );
+        assert_eq!(
+            times(&tl, "start_event triggered").len(),
+            1,
+            "robot{}: its start_event triggers once (once), the other robot's is not heard",
+            n + 1
+        );
+    }
+}
