@@ -52,9 +52,11 @@ async fn run(duration: f64) -> radar_ros::Result<()> {
     );
     // main begins: the listing's times count from here
     let tl = Timeline::start();
-    let count_up = radar.spawn_response("count_up", CountUp { tl })?;
-    let start_event = radar.spawn_event("start_event", SleepThenTrigger(Duration::from_secs(2)))?;
-    let end_event = radar.spawn_event("end_event", SleepThenTrigger(Duration::from_secs(4)))?;
+    let count_up = radar.spawn_response("count_up", CountUp::new(tl))?;
+    let start_event =
+        radar.spawn_event("start_event", SleepThenTrigger::new(Duration::from_secs(2)))?;
+    let end_event =
+        radar.spawn_event("end_event", SleepThenTrigger::new(Duration::from_secs(4)))?;
     let printers = [
         tokio::spawn(watch_count_up(&radar, tl)?),
         tokio::spawn(watch_event(&radar, tl, "start_event")?),

@@ -2,7 +2,8 @@
 //! domain, each with `--ros-args -r __ns:=/robotN -r __node:=counterN` (what a launch file's
 //! `Node(namespace=..., name=...)` passes). Each must run Listing 1 on its own: its components under its
 //! namespace, its program node renamed, its timeline undisturbed by the other robot's signals (without the
-//! namespaces both would be `/count_up`, and each end_event would interrupt both runs). Domain 61.
+//! namespaces both would be `/count_up`, and each end_event would interrupt both runs), and a `-p` on one
+//! robot's command line setting its CountUp's `limit` parameter only. Domain 61.
 
 use std::{process::Command, time::Duration};
 
@@ -13,12 +14,13 @@ use radar_ros_examples::test_support::{
 
 const DOMAIN: u16 = 61;
 
-fn robot(n: u32) -> std::process::Child {
+fn robot(n: u32, more: &[&str]) -> std::process::Child {
     Command::new(examples_dir("count_up").join("count_up"))
         .args(["--duration", "9.7", "--ros-args", "-r"])
         .arg(format!("__ns:=/robot{n}"))
         .arg("-r")
         .arg(format!("__node:=counter{n}"))
+        .args(more)
         .env("ROS_DOMAIN_ID", DOMAIN.to_string())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -29,7 +31,8 @@ fn robot(n: u32) -> std::process::Child {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_namespaced_count_ups_run_side_by_side() {
     require_isolation();
-    let robots = [robot(1), robot(2)];
+    // robot2 counts to 4 only: `-p` sets its CountUp's `limit` parameter
+    let robots = [robot(1, &[]), robot(2, &["-p", "limit:=4"])];
     // seen from outside, while they run: each robot's components and program node under its namespace
     let radar = Radar::builder()
         .domain_id(DOMAIN)
@@ -95,6 +98,11 @@ async fn two_namespaced_count_ups_run_side_by_side() {
             "robot{}: interrupted at 4 s: {interrupted:?}",
             n + 1
         );
+        let fives = times(&tl, "count_up counts 5");
+        match n {
+            0 => assert!(!fives.is_empty(), "robot1 counts to 10"),
+            _ => assert!(fives.is_empty(), "robot2 counts to its limit 4: {fives:?}"),
+        }
         assert_eq!(
             times(&tl, "start_event triggered").len(),
             1,

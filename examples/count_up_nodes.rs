@@ -47,12 +47,12 @@ async fn run(role: &str, duration: f64) -> radar_ros::Result<()> {
     let tl = Timeline::start();
     match role {
         "count_up" => {
-            let _h = radar.spawn_response("count_up", CountUp { tl })?;
+            let _h = radar.spawn_response("count_up", CountUp::new(tl))?;
             until_stopped().await;
         }
         "start_event" | "end_event" => {
             let secs = if role == "start_event" { 2 } else { 4 };
-            let _h = radar.spawn_event(role, SleepThenTrigger(Duration::from_secs(secs)))?;
+            let _h = radar.spawn_event(role, SleepThenTrigger::new(Duration::from_secs(secs)))?;
             until_stopped().await;
         }
         "statement" => {

@@ -34,8 +34,8 @@ async fn run() -> radar_ros::Result<()> {
     let bumper_after = Duration::from_secs_f64(number_arg("--bumper-after").unwrap_or(3.0));
     let radar = Radar::new()?;
     let fibonacci = radar.action_response::<Fibonacci>("/fibonacci")?;
-    let go = radar.spawn_event("go", SleepThenTrigger(Duration::from_secs(1)))?;
-    let bumper = radar.spawn_event("bumper", SleepThenTrigger(bumper_after))?;
+    let go = radar.spawn_event("go", SleepThenTrigger::new(Duration::from_secs(1)))?;
+    let bumper = radar.spawn_event("bumper", SleepThenTrigger::new(bumper_after))?;
 
     // print what the response says, from its signals
     let tl = Timeline::start();

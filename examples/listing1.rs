@@ -5,25 +5,53 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::{Empty, EventState},
-    Event, ExitAction, ExitReason, Radar, Response, SlotError,
+    params::{ParamDecl, Params},
+    Event, EventNode, ExitAction, ExitReason, Radar, Response, ResponseNode, SlotError,
 };
 
 use crate::Timeline;
 
 /// Lines 1-8: count to 10 at 0.5 s; the interrupt slot does nothing; on exit, restart.
+///
+/// Its parameters (`ros2 param list /count_up`): `limit` (10) and `period` (0.5 s), read when a run begins, so a
+/// change applies from the next run; `-p count_up:limit:=5` (or a params file) sets them at start.
 pub struct CountUp {
-    /// Where counts are printed.
-    pub tl: Timeline,
+    tl: Timeline,
+    params: Option<Params>,
+}
+
+impl CountUp {
+    /// A CountUp printing its counts on `tl`.
+    pub fn new(tl: Timeline) -> CountUp {
+        CountUp { tl, params: None }
+    }
 }
 
 impl Response for CountUp {
     type Start = Empty;
     type Output = Empty;
 
+    fn attach(&mut self, node: &mut ResponseNode<'_>) -> radar_ros::Result<()> {
+        self.params = Some(
+            node.declare([
+                ParamDecl::new("limit", 10)
+                    .description("how far a run counts")
+                    .integer_range(1, 1_000_000, 1),
+                ParamDecl::new("period", 0.5)
+                    .description("seconds between counts")
+                    .float_range(0.001, 3600.0),
+            ])?,
+        );
+        Ok(())
+    }
+
     async fn start(&mut self, _: Empty) -> Result<Empty, SlotError> {
+        let p = self.params.as_ref();
+        let limit = p.and_then(|p| p.i64("limit")).unwrap_or(10);
+        let period = Duration::from_secs_f64(p.and_then(|p| p.f64("period")).unwrap_or(0.5));
         let mut i = 0;
-        while i < 10 {
-            tokio::time::sleep(Duration::from_millis(500)).await;
+        while i < limit {
+            tokio::time::sleep(period).await;
             i += 1;
             self.tl.mark(&format!("count_up counts {i}"), None);
         }
@@ -40,12 +68,40 @@ impl Response for CountUp {
 }
 
 /// Lines 10-12 (`StartEvent`, 2 s) and 14-16 (`EndEvent`, 4 s): sleep, then trigger.
-pub struct SleepThenTrigger(pub Duration);
+///
+/// Its parameter `delay` (seconds) is read when a check begins.
+pub struct SleepThenTrigger {
+    delay: Duration,
+    params: Option<Params>,
+}
+
+impl SleepThenTrigger {
+    /// Sleeps `delay` (the parameter's default), then triggers.
+    pub fn new(delay: Duration) -> SleepThenTrigger {
+        SleepThenTrigger {
+            delay,
+            params: None,
+        }
+    }
+}
 
 impl Event for SleepThenTrigger {
     type Payload = Empty;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
+        self.params = Some(
+            node.declare([ParamDecl::new("delay", self.delay.as_secs_f64())
+                .description("seconds from the check's start to the trigger")
+                .float_range(0.0, 86_400.0)])?,
+        );
+        Ok(())
+    }
     async fn check(&mut self) -> Result<Empty, SlotError> {
-        tokio::time::sleep(self.0).await;
+        let delay = self
+            .params
+            .as_ref()
+            .and_then(|p| p.f64("delay"))
+            .map_or(self.delay, Duration::from_secs_f64);
+        tokio::time::sleep(delay).await;
         Ok(Empty::default())
     }
 }

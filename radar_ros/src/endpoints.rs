@@ -13,7 +13,7 @@ use crate::{
     msg::TypeName,
 };
 
-/// The ROS name of the radar_msgs service `<fq>/<service>` (a manager's `connect`, `disconnect`, `list`), checked.
+/// The ROS name of the service `<fq>/<service>` (a manager's `connect`, a node's `get_parameters`, ...), checked.
 fn service_name(fq: &str, service: &str) -> Result<Name> {
     Name::new(fq, service).map_err(|e| Error::InvalidName {
         name: format!("{fq}/{service}"),
@@ -33,11 +33,26 @@ where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
 {
+    service_server_of(node, fq, service, "radar_msgs", ty)
+}
+
+/// [`service_server`] for a service of another package (`rcl_interfaces/srv/GetParameters`, ...).
+pub(crate) fn service_server_of<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    package: &str,
+    ty: &str,
+) -> Result<ros2_client::Server<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
     let q = crate::qos::signal_qos();
     node.create_server::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
         &service_name(fq, service)?,
-        &ros2_client::ServiceTypeName::new("radar_msgs", ty),
+        &ros2_client::ServiceTypeName::new(package, ty),
         q.clone(),
         q,
     )

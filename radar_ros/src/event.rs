@@ -75,9 +75,20 @@ pub trait Event: Send + 'static {
 pub struct EventNode<'a> {
     node: &'a mut ros2_client::Node,
     radar: &'a Radar,
+    params: &'a mut crate::params::Declared,
 }
 
 impl EventNode<'_> {
+    /// Declares the event's parameters (once, all at once): served on its node for `ros2 param`, with values
+    /// from the command line when it gives them (see [`crate::params`]).
+    pub fn declare(
+        &mut self,
+        decls: impl IntoIterator<Item = crate::params::ParamDecl>,
+    ) -> Result<crate::params::Params> {
+        self.params
+            .declare(self.radar.participant(), self.node, decls)
+    }
+
     /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
     /// QoS (reliable, volatile, keep-last 10).
     ///
@@ -344,9 +355,11 @@ impl Radar {
     pub fn spawn_event<E: Event>(&self, name: &str, mut event: E) -> Result<EventHandle> {
         let name = self.resolve(name)?;
         let (mut node, claim) = self.participant().claim_node(&name)?;
+        let mut params = crate::params::Declared::default();
         event.attach(&mut EventNode {
             node: &mut node,
             radar: self,
+            params: &mut params,
         })?;
         let triggered = SignalWriter::new(
             self.participant().taps(),
@@ -381,6 +394,7 @@ impl Radar {
             &name.fully_qualified(),
             move |stop_rx| async move {
                 let _claim = claim;
+                let _params = params;
                 let _node = node;
                 drive_event(
                     event, triggered, state_pub, state_tx, st, listeners, stop_rx,

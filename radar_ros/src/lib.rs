@@ -203,6 +203,7 @@ pub mod msg;
 #[cfg(test)]
 mod msg_layout;
 mod names;
+pub mod params;
 mod participant;
 mod plain;
 mod pool;
@@ -236,7 +237,7 @@ pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
 pub use raw::RawMessage;
 pub use refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub use remote::{RemoteManager, RemoteStatement};
-pub use response::{FnResponse, Response, ResponseHandle};
+pub use response::{FnResponse, Response, ResponseHandle, ResponseNode};
 pub use shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
 pub use statement::{ConnectionRequest, Statement};
 pub use topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription};

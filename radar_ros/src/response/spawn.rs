@@ -50,7 +50,13 @@ impl Radar {
     ) -> Result<ResponseHandle> {
         let name = self.resolve(name)?;
         let (mut node, claim) = self.participant().claim_node(&name)?;
-        let response = make(&mut node, self.graph(), &name)?;
+        let mut response = make(&mut node, self.graph(), &name)?;
+        let mut params = crate::params::Declared::default();
+        response.attach(&mut super::ResponseNode {
+            node: &mut node,
+            participant: self.participant(),
+            params: &mut params,
+        })?;
         let endpoints = self.response_endpoints::<R>(&mut node, &name)?;
         let slot_publishers = [
             endpoints.slots.start.matched.clone(),
@@ -80,6 +86,7 @@ impl Radar {
             &name.fully_qualified(),
             move |stop_rx| async move {
                 let _claim = claim;
+                let _params = params;
                 let _node = node;
                 let response = Arc::new(Mutex::new(response));
                 drive(response, machine, endpoints, stop_rx, participant).await;
