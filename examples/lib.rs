@@ -56,9 +56,11 @@ pub async fn run_example<F: std::future::Future<Output = radar_ros::Result<()>>>
     }
 }
 
-/// Logs warnings and errors to stderr; `--ros-args --log-level LEVEL` (as `ros2 launch` passes it) or
-/// `RUST_LOG` for more.
+/// Logs warnings and errors to stderr, and info and above to `/rosout` (as rclpy nodes do, so `ros2 topic echo
+/// /rosout` and rqt_console show them); `--ros-args --log-level LEVEL` (as `ros2 launch` passes it) sets both,
+/// `RUST_LOG` the stderr one.
 pub fn init_logs() {
+    use tracing_subscriber::prelude::*;
     let quiet =
         "rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error";
     // a malformed --ros-args is reported by Radar::new, with what to do
@@ -66,12 +68,15 @@ pub fn init_logs() {
         .ok()
         .and_then(|a| a.tracing_filter())
         .unwrap_or_else(|| "warn".into());
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| format!("{level},{quiet}").into()),
+    let stderr = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| format!("{level},{quiet}").into());
+    let _ = tracing_subscriber::registry()
+        .with(
+            tracing_subscriber::fmt::layer()
+                .with_writer(std::io::stderr)
+                .with_filter(stderr),
         )
-        .with_writer(std::io::stderr)
+        .with(radar_ros::rosout::layer())
         .try_init();
 }
 

@@ -79,6 +79,11 @@ pub struct EventNode<'a> {
 }
 
 impl EventNode<'_> {
+    /// The clock the event follows (simulated time with `use_sim_time`, see [`crate::clock`]).
+    pub fn clock(&self) -> crate::clock::Clock {
+        self.radar.participant().clock()
+    }
+
     /// Declares the event's parameters (once, all at once): served on its node for `ros2 param`, with values
     /// from the command line when it gives them (see [`crate::params`]).
     pub fn declare(
@@ -151,11 +156,15 @@ impl<M: RosMessage> EventSubscription<M> {
     }
 }
 
-/// Triggers every `period` while active, first `period` after activation.
+/// Triggers every `period` while active, first `period` after activation. With `use_sim_time` it runs on
+/// simulated time (see [`crate::clock`]): a backward jump of the time starts the period over.
 #[derive(Clone, Debug)]
 pub struct TimerEvent {
     period: Duration,
     next: tokio::time::Instant,
+    clock: crate::clock::Clock,
+    /// The next trigger in simulated time.
+    sim_next: crate::msg::Time,
 }
 
 impl TimerEvent {
@@ -169,18 +178,48 @@ impl TimerEvent {
         TimerEvent {
             period,
             next: tokio::time::Instant::now() + period,
+            clock: crate::clock::Clock::wall(),
+            sim_next: crate::msg::Time::default(),
+        }
+    }
+}
+
+impl TimerEvent {
+    fn sim_after(&self, t: crate::msg::Time) -> crate::msg::Time {
+        let ns =
+            i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec) + self.period.as_nanos() as i64;
+        crate::msg::Time {
+            sec: ns.div_euclid(1_000_000_000) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
         }
     }
 }
 
 impl Event for TimerEvent {
     type Payload = Empty;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        self.clock = node.clock();
+        Ok(())
+    }
     fn on_activate(&mut self) {
         self.next = tokio::time::Instant::now() + self.period;
+        self.sim_next = self.sim_after(self.clock.now());
     }
     async fn check(&mut self) -> Result<Empty, SlotError> {
-        tokio::time::sleep_until(self.next).await;
-        self.next += self.period;
+        if !self.clock.is_simulated() {
+            // the wall clock: tokio's monotonic timer, which no clock adjustment moves
+            tokio::time::sleep_until(self.next).await;
+            self.next += self.period;
+            return Ok(Empty::default());
+        }
+        while self.clock.sleep_until(self.sim_next).await == crate::clock::Woke::JumpedBack {
+            self.sim_next = self.sim_after(self.clock.now());
+        }
+        // periods the time jumped over are skipped, as rclcpp's timers skip them
+        let now = self.clock.now();
+        while self.sim_next <= now {
+            self.sim_next = self.sim_after(self.sim_next);
+        }
         Ok(Empty::default())
     }
 }

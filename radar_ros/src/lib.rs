@@ -186,6 +186,7 @@
 
 pub mod action;
 mod cause;
+pub mod clock;
 mod departure;
 mod endpoint;
 mod endpoints;
@@ -215,6 +216,7 @@ mod refs;
 mod remote;
 mod response;
 pub mod ros_args;
+pub mod rosout;
 mod shutdown;
 mod statement;
 mod topics;

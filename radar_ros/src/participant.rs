@@ -84,6 +84,8 @@ pub(crate) struct Participant {
     /// The process's `--ros-args`, and the program node's name that node-specific rules match.
     ros_args: Arc<crate::ros_args::RosArgs>,
     rule_node: String,
+    /// Simulated time when `use_sim_time` is on (set once the program node exists); the wall clock otherwise.
+    clock: std::sync::OnceLock<crate::clock::Clock>,
 }
 
 impl crate::shutdown::Stoppable for Participant {
@@ -149,6 +151,7 @@ impl Participant {
             shutdown_timeout,
             ros_args,
             rule_node,
+            clock: std::sync::OnceLock::new(),
         })
     }
 
@@ -217,6 +220,19 @@ impl Participant {
             Some(to) => ComponentName::resolve(&to, "/"),
             None => Ok(n),
         }
+    }
+
+    /// The clock components follow.
+    pub(crate) fn clock(&self) -> crate::clock::Clock {
+        self.clock
+            .get()
+            .cloned()
+            .unwrap_or_else(crate::clock::Clock::wall)
+    }
+
+    /// Makes components follow `clock` (simulated time), once.
+    pub(crate) fn set_clock(&self, clock: crate::clock::Clock) {
+        let _ = self.clock.set(clock);
     }
 
     /// The process's ROS arguments.

@@ -39,3 +39,11 @@ pub fn state_qos() -> QosProfile {
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 1 })
 }
+
+/// QoS of `/rosout`, as rcl makes it: reliable, transient-local, keep-last 1000, lines older than 10 s dropped.
+pub fn rosout_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1000 })
+        .lifespan(Some(std::time::Duration::from_secs(10)))
+}

@@ -163,6 +163,8 @@ pub struct RadarBuilder {
     shutdown_timeout: Option<std::time::Duration>,
     /// `None`: the process's own (`std::env::args`).
     ros_args: Option<crate::ros_args::RosArgs>,
+    /// `None`: the `use_sim_time` parameter of the command line, else off.
+    sim_time: Option<bool>,
 }
 
 impl RadarBuilder {
@@ -180,6 +182,14 @@ impl RadarBuilder {
     /// ```
     pub fn ros_args(mut self, args: crate::ros_args::RosArgs) -> Self {
         self.ros_args = Some(args);
+        self
+    }
+
+    /// Whether components follow a simulator's `/clock` instead of the wall clock (see [`crate::clock`]).
+    /// Default: the `use_sim_time` parameter of the command line (`--ros-args -p use_sim_time:=true`), else
+    /// off.
+    pub fn use_sim_time(mut self, on: bool) -> Self {
+        self.sim_time = Some(on);
         self
     }
 
@@ -395,10 +405,27 @@ impl RadarBuilder {
             self.local_delivery.unwrap_or(true),
         ));
         let task = crate::program::serve_program(&participant, &manager, &program_node)?;
+        let rosout = crate::rosout::start(&participant, &program_node.fully_qualified())?;
+        let sim_time = self.sim_time.unwrap_or_else(|| {
+            participant
+                .ros_args()
+                .parameters_for(&program_node.fully_qualified())
+                .get("use_sim_time")
+                == Some(&crate::ros_args::ParameterValue::Boolean(true))
+        });
+        let sim_clock = if sim_time {
+            let sim = crate::clock::SimClock::start(&participant)?;
+            participant.set_clock(sim.clock());
+            Some(sim)
+        } else {
+            None
+        };
         Ok(Radar {
             program: Arc::new(ProgramNode {
                 name: program_node,
                 _task: task,
+                _rosout: rosout,
+                _sim_clock: sim_clock,
             }),
             manager,
             participant,
@@ -426,10 +453,12 @@ pub struct Radar {
     manager: Arc<Manager>,
 }
 
-/// The program node and the task that shows its connections.
+/// The program node, the task that shows its connections, its `/rosout` writer, and what follows `/clock`.
 struct ProgramNode {
     name: ComponentName,
     _task: crate::shutdown::ComponentTask,
+    _rosout: crate::rosout::Publishing,
+    _sim_clock: Option<crate::clock::SimClock>,
 }
 
 impl std::fmt::Debug for Radar {
@@ -473,6 +502,11 @@ impl Radar {
     /// [`RadarBuilder::ros_args`] gave others): parameter overrides, the log level, the program's own arguments.
     pub fn ros_args(&self) -> &crate::ros_args::RosArgs {
         self.participant.ros_args()
+    }
+
+    /// The clock components follow: simulated time with `use_sim_time`, else the wall clock.
+    pub fn clock(&self) -> crate::clock::Clock {
+        self.participant.clock()
     }
 
     /// The namespace relative names resolve in.

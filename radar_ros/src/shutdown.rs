@@ -83,12 +83,16 @@ impl ComponentTask {
         let fut = f(rx);
         ComponentTask {
             entry,
-            task: Some(tokio::spawn(async move {
-                // `done` is declared before the future, so it is dropped after it, also when the runtime
-                // drops the task
-                let _done = done;
-                fut.await;
-            })),
+            task: Some(tokio::spawn(tracing::Instrument::instrument(
+                async move {
+                    // `done` is declared before the future, so it is dropped after it, also when the runtime
+                    // drops the task
+                    let _done = done;
+                    fut.await;
+                },
+                // what the component logs is its node's (crate::rosout)
+                tracing::info_span!(crate::rosout::COMPONENT_SPAN, node = %name),
+            ))),
         }
     }
 

@@ -105,6 +105,11 @@ pub struct ResponseNode<'a> {
 }
 
 impl ResponseNode<'_> {
+    /// The clock the response follows (simulated time with `use_sim_time`, see [`crate::clock`]).
+    pub fn clock(&self) -> crate::clock::Clock {
+        self.participant.clock()
+    }
+
     /// Declares the response's parameters (once, all at once): served on its node for `ros2 param`, with
     /// values from the command line when it gives them (see [`crate::params`]).
     ///
