@@ -17,20 +17,43 @@
 //! starts all four.
 //!
 //! Options for `main`: `--loop-secs N` (do_loop's length, default 15), `--duration S` (then exit; default: run
-//! until Ctrl-C). For the events: `--count N` (seconds counted before triggering; default 5 and 3).
+//! until Ctrl-C). For the events: `--count N` (seconds counted before triggering; default 5 and 3), which is
+//! also their parameter `count` (`--ros-args -p count:=2`, a params file, `ros2 param set /test_event count 2`:
+//! read when a count begins). `launch_scripts/two_robots.sh` runs the whole example twice under two namespaces
+//! with settings from `launch_scripts/robots.yaml`.
 
 use std::time::Duration;
 
-use radar_ros::{msg::Empty, Event, ExitReason, Radar, Response, ResponseRef, SlotError};
+use radar_ros::{
+    msg::Empty,
+    params::{ParamDecl, Params},
+    Event, EventNode, ExitReason, Radar, Response, ResponseRef, SlotError,
+};
 use radar_ros_examples::{init_logs, Timeline};
 
-/// Counts to `n`, one count a second, then triggers.
-struct CountThenTrigger(u32);
+/// Counts to `count` (a parameter, default `n`), one count a second, then triggers.
+struct CountThenTrigger {
+    n: u32,
+    params: Option<Params>,
+}
 
 impl Event for CountThenTrigger {
     type Payload = Empty;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
+        self.params = Some(
+            node.declare([ParamDecl::new("count", self.n)
+                .description("seconds counted before triggering")
+                .integer_range(0, 3600, 1)])?,
+        );
+        Ok(())
+    }
     async fn check(&mut self) -> Result<Empty, SlotError> {
-        for _ in 0..self.0 {
+        let n = self
+            .params
+            .as_ref()
+            .and_then(|p| p.i64("count"))
+            .unwrap_or(i64::from(self.n));
+        for _ in 0..n {
             tokio::time::sleep(Duration::from_secs(1)).await;
         }
         Ok(Empty::default())
@@ -91,7 +114,7 @@ async fn run(role: &str, args: &[String]) -> radar_ros::Result<()> {
                 None if role == "test_event" => 5,
                 None => 3,
             };
-            let _h = radar.spawn_event(role, CountThenTrigger(n))?;
+            let _h = radar.spawn_event(role, CountThenTrigger { n, params: None })?;
             until_stopped().await;
         }
         "test_response" => {
