@@ -3,7 +3,8 @@
 //! `Node(namespace=..., name=...)` passes). Each must run Listing 1 on its own: its components under its
 //! namespace, its program node renamed, its timeline undisturbed by the other robot's signals (without the
 //! namespaces both would be `/count_up`, and each end_event would interrupt both runs), and a `-p` on one
-//! robot's command line setting its CountUp's `limit` parameter only. Domain 61.
+//! robot's command line setting its CountUp's `limit` parameter only. Real rclpy checks the node names, topics
+//! and parameter values where rcl would put them. Domain 61.
 
 use std::{process::Command, time::Duration};
 
@@ -16,7 +17,7 @@ const DOMAIN: u16 = 61;
 
 fn robot(n: u32, more: &[&str]) -> std::process::Child {
     Command::new(examples_dir("count_up").join("count_up"))
-        .args(["--duration", "9.7", "--ros-args", "-r"])
+        .args(["--duration", "14", "--ros-args", "-r"])
         .arg(format!("__ns:=/robot{n}"))
         .arg("-r")
         .arg(format!("__node:=counter{n}"))
@@ -26,6 +27,39 @@ fn robot(n: u32, more: &[&str]) -> std::process::Child {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("run count_up")
+}
+
+/// Runs tests/python/graph_probe.py with the rclpy venv (what `tests/isolated.sh` builds).
+async fn graph_probe(args: &[&str]) -> serde_json::Value {
+    let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_owned();
+    let venv = std::env::var_os("RADAR_VENV")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| repo.join("target/ros2-venv"));
+    let python = venv.join("bin/python");
+    assert!(
+        python.exists(),
+        "the rclpy venv is missing at {}: run tests/python_env.sh",
+        venv.display()
+    );
+    let out = tokio::process::Command::new(python)
+        .arg(repo.join("tests/python/graph_probe.py"))
+        .args(args)
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(Duration::from_secs(60), out)
+        .await
+        .expect("the probe ends")
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "graph_probe.py failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -63,6 +97,58 @@ async fn two_namespaced_count_ups_run_side_by_side() {
         .settle(Duration::from_millis(300))
         .await
         .unwrap();
+    // what rclpy sees: node names, topics and parameter values where rcl would put them
+    let seen = graph_probe(&[
+        "/robot1/count_up:limit,period",
+        "/robot2/count_up:limit,period",
+        "/robot1/start_event:delay",
+    ])
+    .await;
+    let nodes: Vec<&str> = seen["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    for want in [
+        "/robot1/counter1",
+        "/robot2/counter2",
+        "/robot1/count_up",
+        "/robot2/count_up",
+        "/robot1/start_event",
+        "/robot2/end_event",
+    ] {
+        assert!(nodes.contains(&want), "node {want} in {nodes:?}");
+    }
+    let topics: Vec<&str> = seen["topics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    for want in [
+        "/robot1/count_up/start",
+        "/robot2/end_event/triggered",
+        "/robot2/count_up/state",
+    ] {
+        assert!(topics.contains(&want), "topic {want} in {topics:?}");
+    }
+    assert!(
+        !topics.iter().any(|t| t.starts_with("/count_up")),
+        "nothing at the root: {topics:?}"
+    );
+    assert_eq!(
+        seen["params"]["/robot1/count_up"],
+        serde_json::json!({"limit": 10, "period": 0.5})
+    );
+    assert_eq!(
+        seen["params"]["/robot2/count_up"],
+        serde_json::json!({"limit": 4, "period": 0.5})
+    );
+    assert_eq!(
+        seen["params"]["/robot1/start_event"],
+        serde_json::json!({"delay": 2.0})
+    );
     let programs = radar.introspect().connection_topics();
     for n in [1, 2] {
         let want = format!("/robot{n}/counter{n}/connections");

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use radar_ros::{
-    msg::Empty,
+    msg::{Empty, Float64},
     params::{ParamDecl, ParameterValue, Params},
     ros_args::RosArgs,
     Response, ResponseNode, SlotError,
@@ -14,12 +14,12 @@ use radar_ros::{
 use radar_test_util::{python, radar_with, repo};
 use serde_json::{json, Value};
 
-/// Counts to `limit`, a count every `period` seconds; its settings are parameters.
+/// Its settings are parameters; a run answers with the `period` it read when it began.
 struct CountUp(std::sync::Arc<std::sync::Mutex<Option<Params>>>);
 
 impl Response for CountUp {
     type Start = Empty;
-    type Output = Empty;
+    type Output = Float64;
     fn attach(&mut self, node: &mut ResponseNode<'_>) -> radar_ros::Result<()> {
         let p = node.declare([
             ParamDecl::new("period", 0.5)
@@ -31,8 +31,11 @@ impl Response for CountUp {
         *self.0.lock().unwrap() = Some(p);
         Ok(())
     }
-    async fn start(&mut self, _: Empty) -> Result<Empty, SlotError> {
-        Ok(Empty::default())
+    async fn start(&mut self, _: Empty) -> Result<Float64, SlotError> {
+        let p = self.0.lock().unwrap().clone();
+        Ok(Float64 {
+            data: p.and_then(|p| p.f64("period")).unwrap_or(f64::NAN),
+        })
     }
 }
 
@@ -41,7 +44,7 @@ async fn rclpy_lists_gets_describes_and_sets_a_components_parameters() {
     let args = RosArgs::parse(["prog", "--ros-args", "-p", "limit:=20"]).unwrap();
     let radar = radar_with(104, |b| b.ros_args(args));
     let slot = std::sync::Arc::new(std::sync::Mutex::new(None));
-    let _count = radar
+    let count = radar
         .spawn_response("count", CountUp(slot.clone()))
         .unwrap();
     let params = slot.lock().unwrap().clone().expect("declared in attach");
@@ -116,6 +119,26 @@ async fn rclpy_lists_gets_describes_and_sets_a_components_parameters() {
         .await
         .expect("the watch wakes");
     assert_eq!(params.f64("period"), Some(2.0));
+    // and acts on it: the next run reads 2.0
+    let exited = radar
+        .signal_subscription::<Float64>(count.reference().exited().topic())
+        .unwrap();
+    exited
+        .wait_for_publishers(1)
+        .timeout(Duration::from_secs(10))
+        .await
+        .unwrap();
+    radar
+        .inject(count.reference().start_slot(), Empty::default())
+        .timeout(Duration::from_secs(10))
+        .await
+        .unwrap();
+    let out = exited
+        .recv()
+        .timeout(Duration::from_secs(10))
+        .await
+        .unwrap();
+    assert_eq!(out.data, 2.0, "the run used rclpy's period");
     // set from code: checked the same way
     assert!(params.set("limit", 0).is_err());
     params.set("limit", 5).unwrap();
