@@ -71,11 +71,26 @@ where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
 {
+    service_client_of(node, fq, service, "radar_msgs", ty)
+}
+
+/// [`service_client`] for a service of another package.
+pub(crate) fn service_client_of<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    package: &str,
+    ty: &str,
+) -> Result<ros2_client::Client<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
     let q = crate::qos::signal_qos();
     node.create_client::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
         &service_name(fq, service)?,
-        &ros2_client::ServiceTypeName::new("radar_msgs", ty),
+        &ros2_client::ServiceTypeName::new(package, ty),
         q.clone(),
         q,
     )

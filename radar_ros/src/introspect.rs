@@ -50,6 +50,17 @@ impl Introspect<'_> {
         names.into_iter().collect()
     }
 
+    /// Whether the graph shows the node `node` (fully qualified) serving parameters (`<node>/list_parameters`),
+    /// so that [`Radar::parameters_of`] has something to read.
+    pub fn serves_parameters(&self, node: &str) -> bool {
+        let topic = crate::wire_names::request(&format!("{node}/list_parameters"));
+        !self
+            .radar
+            .graph()
+            .discovered_reader_types(&topic)
+            .is_empty()
+    }
+
     /// The topics on which programs and managers show their connections (`<node>/connections`, type
     /// `radar_msgs/msg/ConnectionList`), this program's own included.
     pub fn connection_topics(&self) -> Vec<String> {

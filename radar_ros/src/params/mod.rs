@@ -32,6 +32,7 @@
 //! }
 //! ```
 
+mod client;
 mod serve;
 mod store;
 

@@ -12,9 +12,17 @@ use serde_json::Value;
 const DOMAIN: &str = "73";
 
 /// An event whose check never ends: it stays armed and never triggers.
+/// Never triggers; has two parameters for `radar cat` to show.
 struct Never;
 impl Event for Never {
     type Payload = Empty;
+    fn attach(&mut self, node: &mut radar_ros::EventNode<'_>) -> radar_ros::Result<()> {
+        node.declare([
+            radar_ros::params::ParamDecl::new("gain", 1.5),
+            radar_ros::params::ParamDecl::new("mode", "fast"),
+        ])?;
+        Ok(())
+    }
     async fn check(&mut self) -> Result<Empty, SlotError> {
         std::future::pending().await
     }
@@ -150,6 +158,14 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
             Some("/cli/say/start"),
             Some("whenever")
         ),
+        "{cat}"
+    );
+    assert_eq!(cat["parameters"], serde_json::json!({}), "say has none");
+    // ... and a component's parameters, read through its parameter services
+    let cat = json(DOMAIN, &["cat", "/cli/never"]).await;
+    assert_eq!(
+        cat["parameters"],
+        serde_json::json!({"gain": 1.5, "mode": "fast"}),
         "{cat}"
     );
 

@@ -31,6 +31,16 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
             }
         }
     }
+    // its parameters, when it serves them (ros2 param dump)
+    let params = if radar.introspect().serves_parameters(&fq) {
+        radar
+            .parameters_of(&fq)
+            .timeout(Duration::from_secs(5))
+            .await
+            .map_err(|e| e.to_string())?
+    } else {
+        Vec::new()
+    };
     let mut topics: Vec<(String, &str, String)> = Vec::new();
     if let Component::Response(r) = &c {
         for slot in [r.start_slot(), r.interrupt_slot(), r.exit_slot()] {
@@ -47,6 +57,7 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
             "kind": c.kind(),
             "topics": topics.iter().map(|(t, k, ty)| json!({"topic": t, "role": k, "type": ty})).collect::<Vec<_>>(),
             "state": state.clone().unwrap_or(Value::Null),
+            "parameters": params.iter().map(|(n, v)| (n.clone(), param_json(v))).collect::<serde_json::Map<_, _>>(),
             "connections": connections.iter().map(|(p, k)| {
                 let mut v = serde_json::to_value(k).unwrap_or(Value::Null);
                 v["program"] = json!(p);
@@ -74,6 +85,12 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
         }
         None => println!("  state: none received"),
     }
+    if params.is_empty() {
+        println!("  parameters: none");
+    }
+    for (n, v) in &params {
+        println!("  parameter {n} = {}", param_json(v));
+    }
     if connections.is_empty() {
         println!("  connections: none");
     }
@@ -97,6 +114,23 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
         );
     }
     Ok(())
+}
+
+/// A parameter value as JSON (`ros2 param get` shows the same values).
+fn param_json(v: &radar_ros::params::ParameterValue) -> Value {
+    use radar_ros::params::ParameterValue as P;
+    match v {
+        P::NotSet => Value::Null,
+        P::Boolean(b) => json!(b),
+        P::Integer(i) => json!(i),
+        P::Double(d) => json!(d),
+        P::String(s) => json!(s),
+        P::ByteArray(a) => json!(a),
+        P::BooleanArray(a) => json!(a),
+        P::IntegerArray(a) => json!(a),
+        P::DoubleArray(a) => json!(a),
+        P::StringArray(a) => json!(a),
+    }
 }
 
 /// The component `name`, waiting for discovery.
