@@ -168,3 +168,29 @@ async fn a_command_line_value_of_the_wrong_type_fails_the_spawn_naming_the_param
     let p = slot.lock().unwrap().clone().unwrap();
     assert_eq!(p.f64("period"), Some(0.5));
 }
+
+/// A configurable timer's period is its `period` parameter: the command line's 50 ms, not the code's 10 s.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_configurable_timer_takes_its_period_from_the_command_line() {
+    let args = RosArgs::parse(["prog", "--ros-args", "-p", "tick:period:=0.05"]).unwrap();
+    let radar = radar_with(104, |b| b.ros_args(args));
+    let tick = radar
+        .spawn_event(
+            "tick",
+            radar_ros::TimerEvent::new(Duration::from_secs(10)).configurable(),
+        )
+        .unwrap();
+    let n = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let seen = n.clone();
+    let _w = radar
+        .whenever(tick.triggered())
+        .call(move |_: Empty| {
+            seen.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        })
+        .await
+        .unwrap();
+    radar_test_util::eventually(Duration::from_secs(5), "3 triggers at 50 ms", || {
+        n.load(std::sync::atomic::Ordering::SeqCst) >= 3
+    })
+    .await;
+}

@@ -165,6 +165,8 @@ pub struct TimerEvent {
     clock: crate::clock::Clock,
     /// The next trigger in simulated time.
     sim_next: crate::msg::Time,
+    /// `Some` once [`TimerEvent::configurable`] asked for the `period` parameter (declared in `attach`).
+    params: Option<Option<crate::params::Params>>,
 }
 
 impl TimerEvent {
@@ -180,14 +182,37 @@ impl TimerEvent {
             next: tokio::time::Instant::now() + period,
             clock: crate::clock::Clock::wall(),
             sim_next: crate::msg::Time::default(),
+            params: None,
         }
     }
 }
 
 impl TimerEvent {
+    /// Makes the period the node's parameter `period` (seconds, a `double`): set from the command line
+    /// (`-p tick:period:=0.5`) or `ros2 param set /tick period 0.5`, applied from the next trigger. Off by
+    /// default, because parameters cost a timer six services on the graph.
+    ///
+    /// ```
+    /// use radar_ros::TimerEvent;
+    /// let tick = TimerEvent::new(std::time::Duration::from_secs(1)).configurable();
+    /// ```
+    pub fn configurable(mut self) -> Self {
+        self.params = Some(None);
+        self
+    }
+
+    /// The period now: the parameter's when configurable.
+    fn period(&self) -> Duration {
+        match &self.params {
+            Some(Some(p)) => p.f64("period").map_or(self.period, Duration::from_secs_f64),
+            _ => self.period,
+        }
+    }
+
     fn sim_after(&self, t: crate::msg::Time) -> crate::msg::Time {
-        let ns =
-            i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec) + self.period.as_nanos() as i64;
+        let ns = i64::from(t.sec) * 1_000_000_000
+            + i64::from(t.nanosec)
+            + self.period().as_nanos() as i64;
         crate::msg::Time {
             sec: ns.div_euclid(1_000_000_000) as i32,
             nanosec: ns.rem_euclid(1_000_000_000) as u32,
@@ -199,17 +224,26 @@ impl Event for TimerEvent {
     type Payload = Empty;
     fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
         self.clock = node.clock();
+        if self.params.is_some() {
+            self.params = Some(Some(
+                node.declare([
+                    crate::params::ParamDecl::new("period", self.period.as_secs_f64())
+                        .description("seconds between triggers while the event is active")
+                        .float_range(0.000_001, 86_400.0),
+                ])?,
+            ));
+        }
         Ok(())
     }
     fn on_activate(&mut self) {
-        self.next = tokio::time::Instant::now() + self.period;
+        self.next = tokio::time::Instant::now() + self.period();
         self.sim_next = self.sim_after(self.clock.now());
     }
     async fn check(&mut self) -> Result<Empty, SlotError> {
         if !self.clock.is_simulated() {
             // the wall clock: tokio's monotonic timer, which no clock adjustment moves
             tokio::time::sleep_until(self.next).await;
-            self.next += self.period;
+            self.next += self.period();
             return Ok(Empty::default());
         }
         while self.clock.sleep_until(self.sim_next).await == crate::clock::Woke::JumpedBack {
