@@ -11,7 +11,7 @@
 //! The library's own waits (discovery, acknowledgements, shutdown) stay on the wall clock: they are about the
 //! network, not the simulated world.
 
-use std::{sync::Arc, time::Duration};
+use std::time::Duration;
 
 use tokio::sync::watch;
 
@@ -144,13 +144,13 @@ impl Drop for SimClock {
 }
 
 impl SimClock {
-    pub(crate) fn start(
-        participant: &Arc<crate::participant::Participant>,
-    ) -> crate::Result<SimClock> {
-        // rclcpp's clock QoS: keep-last 1; best effort takes a reliable or a best-effort publisher
-        let qos =
-            crate::qos::signal_qos_depth(1).reliability(ros2_client::qos::Reliability::BestEffort);
-        let sub = participant.subscription::<ClockMsg>("/clock", &qos)?;
+    /// rclcpp's clock QoS: keep-last 1; best effort takes a reliable or a best-effort publisher.
+    pub(crate) fn qos() -> ros2_client::QosProfile {
+        crate::qos::signal_qos_depth(1).reliability(ros2_client::qos::Reliability::BestEffort)
+    }
+
+    /// Follows what `sub` (a subscription to `/clock` with [`SimClock::qos`]) receives.
+    pub(crate) fn start(sub: crate::SignalSubscription<ClockMsg>) -> SimClock {
         let (tx, rx) = watch::channel(0i64);
         let task = tokio::spawn(async move {
             loop {
@@ -166,10 +166,10 @@ impl SimClock {
                 }
             }
         });
-        Ok(SimClock {
+        SimClock {
             clock: Clock { sim: Some(rx) },
             _task: task,
-        })
+        }
     }
 
     pub(crate) fn clock(&self) -> Clock {

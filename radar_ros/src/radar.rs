@@ -405,7 +405,11 @@ impl RadarBuilder {
             self.local_delivery.unwrap_or(true),
         ));
         let task = crate::program::serve_program(&participant, &manager, &program_node)?;
-        let rosout = crate::rosout::start(&participant, &program_node.fully_qualified())?;
+        let rosout = crate::rosout::start(
+            participant
+                .with_client_node(|node| crate::rosout::writer(participant.graph(), node))?,
+            &program_node.fully_qualified(),
+        );
         let sim_time = self.sim_time.unwrap_or_else(|| {
             participant
                 .ros_args()
@@ -414,7 +418,9 @@ impl RadarBuilder {
                 == Some(&crate::ros_args::ParameterValue::Boolean(true))
         });
         let sim_clock = if sim_time {
-            let sim = crate::clock::SimClock::start(&participant)?;
+            let sub = participant
+                .subscription::<crate::clock::ClockMsg>("/clock", &crate::clock::SimClock::qos())?;
+            let sim = crate::clock::SimClock::start(sub);
             participant.set_clock(sim.clock());
             Some(sim)
         } else {

@@ -23,7 +23,7 @@
 //! - Before any `Radar` exists, and after the last one is gone, lines are not sent (stderr still has them). With
 //!   several `Radar`s in a process, the oldest one still alive publishes.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 use ros2_client::log::Log;
 use tracing::{field::Visit, Subscriber};
@@ -32,7 +32,6 @@ use tracing_subscriber::{layer::Context, registry::LookupSpan, Layer};
 use crate::{
     endpoints::{publisher, Watched},
     error::Result,
-    participant::Participant,
 };
 
 /// The span every component's task runs in; its `node` field names the component's node.
@@ -206,19 +205,19 @@ impl Drop for Publishing {
     }
 }
 
-/// Starts publishing the layer's lines from `participant`'s program node `program` (fully qualified).
-pub(crate) fn start(participant: &Arc<Participant>, program: &str) -> Result<Publishing> {
-    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+/// The `/rosout` writer of the program node `node`.
+pub(crate) fn writer(
+    graph: &crate::graph::Graph,
+    node: &mut ros2_client::Node,
+) -> Result<Watched<ros2_client::Publisher<Log>>> {
     let ty = crate::raw::parse_type_name("rcl_interfaces/msg/Log")?;
-    let writer: Watched<ros2_client::Publisher<Log>> = participant.with_client_node(|node| {
-        publisher(
-            participant.graph(),
-            node,
-            "/rosout",
-            &ty,
-            &crate::qos::rosout_qos(),
-        )
-    })?;
+    publisher(graph, node, "/rosout", &ty, &crate::qos::rosout_qos())
+}
+
+/// Starts publishing the layer's lines with `writer` ([`writer`]) of the program node `program` (fully
+/// qualified).
+pub(crate) fn start(writer: Watched<ros2_client::Publisher<Log>>, program: &str) -> Publishing {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Log>();
     let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     SINKS.lock().unwrap().push(Sink {
@@ -232,7 +231,7 @@ pub(crate) fn start(participant: &Arc<Participant>, program: &str) -> Result<Pub
             let _ = writer.publish(line);
         }
     });
-    Ok(Publishing { id, task })
+    Publishing { id, task }
 }
 
 #[cfg(test)]
