@@ -53,24 +53,27 @@ pub fn table(r: &Results) -> String {
 
 /// The latency table; returns the raw 1-hop p50 that ratios are taken against.
 fn latency_table(s: &mut String, latency: &[crate::coord::Latency]) -> Option<f64> {
-    let hop = latency
-        .iter()
-        .find(|l| l.key == "raw_1hop")
-        .map(|l| l.summary.p50_us);
+    let p50_of = |key: &str| {
+        latency
+            .iter()
+            .find(|l| l.key == key)
+            .map(|l| l.summary.p50_us)
+    };
+    let (hop, floor) = (p50_of("raw_1hop"), p50_of("udp_floor"));
     let _ = writeln!(
         s,
-        "### Latency (microseconds; ratio = p50 / raw 1-hop p50)\n"
+        "### Latency (microseconds; ratio = p50 / raw 1-hop p50; x wire = p50 / UDP loopback p50)\n"
     );
     let _ = writeln!(
         s,
-        "| path | n | p50 | p90 | p99 | max | ratio | missing | note |"
+        "| path | n | p50 | p90 | p99 | max | ratio | x wire | missing | note |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for l in latency {
         let m = &l.summary;
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {} | {} | {} |",
+            "| {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {} | {} | {} | {} |",
             l.label,
             m.n,
             m.p50_us,
@@ -78,6 +81,7 @@ fn latency_table(s: &mut String, latency: &[crate::coord::Latency]) -> Option<f6
             m.p99_us,
             m.max_us,
             ratio(m.p50_us, hop),
+            ratio(m.p50_us, floor),
             l.missing,
             l.note
         );

@@ -20,6 +20,7 @@ impl Bench {
     pub(super) async fn latency(&mut self) -> Result<()> {
         let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
         let run = format!("run {n} {p}");
+        self.udp_latency(&run).await?;
         self.raw_latency(&run, false).await?;
         self.raw_latency(&run, true).await?;
         // rclpy, one hop
@@ -91,6 +92,25 @@ impl Bench {
 
     /// Paced latency from a raw ros2-client publisher to a raw subscriber: one hop, or two through a plain
     /// forwarding node.
+    /// The wire's floor: a 100-byte UDP datagram between two processes on loopback, paced like the rest.
+    async fn udp_latency(&mut self, run: &str) -> Result<()> {
+        // a port of its own per run: the first domain's port range is far from DDS's (7400 + 250 * domain)
+        let d = self.domain();
+        let port = (40_000 + u32::from(d) % 20_000).to_string();
+        let mut sink = self.child(d, &["udp-sink", "--port", &port]).await?;
+        let mut src = self.child(d, &["udp-source", "--port", &port]).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        self.push_latency(
+            "udp_floor",
+            "UDP loopback, 1 datagram (the wire's floor, no DDS)",
+            &r,
+            "",
+        )?;
+        src.quit().await;
+        sink.quit().await;
+        Ok(())
+    }
+
     async fn raw_latency(&mut self, run: &str, forward: bool) -> Result<()> {
         let d = self.domain();
         let mut sink = self

@@ -52,6 +52,8 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "raw-sink" => raw::raw_sink(&req("--topic")?).await,
         "raw-source" => raw::raw_source(&req("--topic")?).await,
         "raw-forward" => raw::raw_forward(&req("--from")?, &req("--to")?).await,
+        "udp-sink" => raw::udp_sink(num("--port")? as u16).await,
+        "udp-source" => raw::udp_source(num("--port")? as u16).await,
         "events" => {
             signals::events(
                 &req("--names")?,

@@ -87,3 +87,63 @@ pub(super) async fn raw_forward(from: &str, to: &str) -> Result<()> {
     serve(|w| async move { bail!("unknown command {}", w[0]) }).await;
     Ok(())
 }
+
+/// The wire's floor: receives 100-byte UDP datagrams on `127.0.0.1:port` in a thread of its own (no runtime,
+/// no DDS) and records each one's age from the stamp inside (`seq`, `t0` little-endian). `report WARMUP`.
+pub(super) async fn udp_sink(port: u16) -> Result<()> {
+    let sock = std::net::UdpSocket::bind(("127.0.0.1", port)).context("bind the UDP sink")?;
+    let rec = Record::default();
+    let r = rec.clone();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 256];
+        while let Ok(n) = sock.recv(&mut buf) {
+            let now = now_ns();
+            if n >= 16 {
+                let seq = u64::from_le_bytes(buf[0..8].try_into().unwrap_or_default());
+                let t0 = u64::from_le_bytes(buf[8..16].try_into().unwrap_or_default());
+                r.push(seq, now.saturating_sub(t0));
+            }
+        }
+    });
+    serve(|w| {
+        let rec = rec.clone();
+        async move {
+            match w[0].as_str() {
+                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
+                c => bail!("unknown command {c}"),
+            }
+        }
+    })
+    .await;
+    Ok(())
+}
+
+/// Sends stamped 100-byte UDP datagrams to `127.0.0.1:port`: `wait` (nothing to wait for), `run N PERIOD_US`.
+pub(super) async fn udp_source(port: u16) -> Result<()> {
+    let sock =
+        Arc::new(std::net::UdpSocket::bind(("127.0.0.1", 0)).context("bind the UDP source")?);
+    sock.connect(("127.0.0.1", port))
+        .context("connect the UDP source")?;
+    serve(|w| {
+        let sock = sock.clone();
+        async move {
+            match w[0].as_str() {
+                "wait" => Ok("ok".into()),
+                "run" => {
+                    let (n, period): (u64, u64) = (word(&w, 1)?, word(&w, 2)?);
+                    paced(n, Duration::from_micros(period), |i| {
+                        let mut b = [0u8; 100];
+                        b[0..8].copy_from_slice(&i.to_le_bytes());
+                        b[8..16].copy_from_slice(&now_ns().to_le_bytes());
+                        let _ = sock.send(&b);
+                    })
+                    .await;
+                    Ok(format!("sent {n}"))
+                }
+                c => bail!("unknown command {c}"),
+            }
+        }
+    })
+    .await;
+    Ok(())
+}
