@@ -4,7 +4,7 @@
 //! namespace, its program node renamed, its timeline undisturbed by the other robot's signals (without the
 //! namespaces both would be `/count_up`, and each end_event would interrupt both runs), and a `-p` on one
 //! robot's command line setting its CountUp's `limit` parameter only. Real rclpy checks the node names, topics
-//! and parameter values where rcl would put them. Domain 61.
+//! and parameter values where rcl would put them. Domain 107.
 
 use std::{process::Command, time::Duration};
 
@@ -13,7 +13,7 @@ use radar_ros_examples::test_support::{
     assert_no_error_lines, examples_dir, require_isolation, timeline, times,
 };
 
-const DOMAIN: u16 = 61;
+const DOMAIN: u16 = 107;
 
 fn robot(n: u32, more: &[&str]) -> std::process::Child {
     Command::new(examples_dir("count_up").join("count_up"))

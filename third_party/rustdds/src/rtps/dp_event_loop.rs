@@ -1303,12 +1303,16 @@ impl DPEventLoop {
       DiscoveryCommand::AddLocalReader { guid }
     };
 
-    if let Err(e) = self.discovery_command_sender.try_send(discovery_command) {
-      log::error!(
+    match self.discovery_command_sender.try_send(discovery_command) {
+      Ok(()) => {}
+      // radar_ros patch 20: discovery has ended, the participant is closing (`close()`, or dropped while
+      // handles live): an endpoint made now is never announced, and that is not an error of the program
+      Err(std::sync::mpsc::TrySendError::Disconnected(_)) => log::debug!(
+        "Endpoint {guid:?} made while the participant closes: discovery has ended, not announced"
+      ),
+      Err(e) => log::error!(
         "Failed to inform Discovery about the new endpoint: {e}. Endpoint guid: {guid:?}"
-      );
-      // Improvement TODO: that's it, just an error log entry on failing to
-      // inform discovery?
+      ),
     }
   }
 }
