@@ -63,14 +63,25 @@ impl AnonQueue {
 
     /// The next payload to call the slot with; `None` when closed and drained, or cancelled.
     pub(crate) async fn next(&self) -> Option<RawMessage> {
+        self.next_with(|| {}).await
+    }
+
+    /// [`AnonQueue::next`], calling `between` after each look at the queue that found it empty (a test puts a
+    /// push and a close there).
+    async fn next_with(&self, mut between: impl FnMut()) -> Option<RawMessage> {
         loop {
             if self.cancelled.load(Ordering::SeqCst) {
                 return None;
             }
+            // read `closed` before looking at the queue: every push comes before the close, so a queue seen
+            // empty after a close was seen is drained. (Looked at the other way round, a push and a close
+            // between the two looks lost the push: a fired `once` whose call never came, seen once in CI.)
+            let closed = self.closed.load(Ordering::SeqCst);
             if let Some(m) = self.queue.lock().unwrap().pop_front() {
                 return Some(m);
             }
-            if self.closed.load(Ordering::SeqCst) {
+            between();
+            if closed {
                 return None;
             }
             // a push between the check and here left a permit, so this returns at once
@@ -97,6 +108,28 @@ mod tests {
         assert_eq!(q.next().await, Some(m(3)));
         assert_eq!(q.next().await, Some(m(4)));
         assert_eq!(q.next().await, None, "closed and drained");
+    }
+
+    /// A push and the close right after it (a `once` that fired) landing between the consumer's look at the
+    /// queue and its look at `closed`: the payload is still given, not lost.
+    #[tokio::test]
+    async fn a_push_and_close_between_the_consumers_looks_is_not_lost() {
+        let q = AnonQueue::new("/src".into(), 10);
+        let mut once = true;
+        let got = q
+            .next_with(|| {
+                if std::mem::take(&mut once) {
+                    q.push(m(7));
+                    q.close();
+                }
+            })
+            .await;
+        assert_eq!(
+            got,
+            Some(m(7)),
+            "the payload pushed before the close was lost"
+        );
+        assert_eq!(q.next().await, None, "then closed and drained");
     }
 
     #[tokio::test]
