@@ -107,6 +107,10 @@ impl Clock {
     /// Waits `d` of this clock's time; a backward jump of simulated time starts the wait over from the new
     /// time. Cancel safe.
     pub async fn sleep(&self, d: Duration) {
+        if self.sim.is_none() {
+            // monotonic: no wall-clock adjustment lengthens or cuts it
+            return tokio::time::sleep(d).await;
+        }
         loop {
             let until = time(ns(self.now()).saturating_add(d.as_nanos() as i64));
             if self.sleep_until(until).await == Woke::Reached {

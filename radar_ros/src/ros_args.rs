@@ -451,12 +451,16 @@ fn parse_remap(rule: &str) -> Result<Remap> {
     })
 }
 
-fn check_param_name(name: &str, arg: &str) -> Result<()> {
-    let ok = !name.is_empty()
+/// Whether `name` is a parameter name: tokens of letters, digits and `_` joined by dots (`gains.p`).
+pub(crate) fn valid_param_name(name: &str) -> bool {
+    !name.is_empty()
         && name
             .split('.')
-            .all(|t| !t.is_empty() && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'));
-    if ok {
+            .all(|t| !t.is_empty() && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+}
+
+fn check_param_name(name: &str, arg: &str) -> Result<()> {
+    if valid_param_name(name) {
         Ok(())
     } else {
         Err(bad(

@@ -67,7 +67,7 @@ where
     let min = severity_of_level(level);
     // a filter of this layer only: what it leaves out is still there for the program's other layers, and
     // what no layer wants (the transport's debug lines) is never even formatted
-    RosoutLayer { min }.with_filter(tracing_subscriber::filter::filter_fn(move |meta| {
+    RosoutLayer.with_filter(tracing_subscriber::filter::filter_fn(move |meta| {
         if meta.is_span() {
             meta.name() == COMPONENT_SPAN
         } else {
@@ -78,11 +78,9 @@ where
     }))
 }
 
-/// The layer behind [`layer`].
+/// The layer behind [`layer`]; its filter (in [`layer_at`]) picks the lines.
 #[derive(Clone, Debug)]
-struct RosoutLayer {
-    min: u8,
-}
+struct RosoutLayer;
 
 fn severity_of_level(l: crate::ros_args::LogLevel) -> u8 {
     use crate::ros_args::LogLevel as L;
@@ -162,13 +160,6 @@ where
 
     fn on_event(&self, event: &tracing::Event<'_>, ctx: Context<'_, S>) {
         let meta = event.metadata();
-        let level = severity(meta.level());
-        if level < self.min
-            || meta.target().starts_with("rustdds")
-            || meta.target().starts_with("ros2_client")
-        {
-            return;
-        }
         let mut f = Fields::default();
         event.record(&mut f);
         let node = f.node.clone().or_else(|| {
@@ -182,7 +173,7 @@ where
         let name = logger_name(node.as_deref().unwrap_or(&sink.program));
         let _ = sink.tx.send(Log {
             stamp: ros2_client::builtin_interfaces::Time::now(),
-            level,
+            level: severity(meta.level()),
             name,
             msg: format!("{}{}", f.message, f.rest),
             file: meta.file().unwrap_or_default().to_owned(),

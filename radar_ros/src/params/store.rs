@@ -141,13 +141,6 @@ pub(crate) fn type_name(v: &ParameterValue) -> &'static str {
     }
 }
 
-fn valid_name(name: &str) -> bool {
-    !name.is_empty()
-        && name
-            .split('.')
-            .all(|t| !t.is_empty() && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
-}
-
 impl Store {
     /// Declares `d` with the value `given` (a command-line override) if any, else its default. Refuses a
     /// bad name, a second declaration, an override of another type, or a value outside the range.
@@ -156,7 +149,7 @@ impl Store {
         d: ParamDecl,
         given: Option<ParameterValue>,
     ) -> Result<(), String> {
-        if !valid_name(&d.name) {
+        if !crate::ros_args::valid_param_name(&d.name) {
             return Err(format!(
                 "{:?} is not a parameter name (tokens of letters, digits and _ joined by dots)",
                 d.name
