@@ -231,7 +231,7 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "the build goes through: {stderr}");
     assert!(
-        stderr.contains("radar_ros is being built against a RustDDS without radar_ros's patches (none of 20 found)")
+        stderr.contains("radar_ros is being built against a RustDDS without radar_ros's patches (none of 22 found)")
             && stderr.contains("remove the `[patch]`")
             && !stderr.contains("error[E"),
         "radar_ros's build script stops it first, saying what to do: {stderr}"

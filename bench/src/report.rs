@@ -18,6 +18,9 @@ fn ratio(x: f64, base: Option<f64>) -> String {
 pub fn table(r: &Results) -> String {
     let mut s = String::new();
     let hop = latency_table(&mut s, &r.latency);
+    if !r.breakdown.is_empty() {
+        breakdown_table(&mut s, &r.breakdown);
+    }
     ms_table(
         &mut s,
         "Connections (milliseconds; ratio = p50 / raw 1-hop p50)",
@@ -87,6 +90,37 @@ fn latency_table(s: &mut String, latency: &[crate::coord::Latency]) -> Option<f6
         );
     }
     hop
+}
+
+/// One hop cut into stages (RustDDS's latency probe): a row per stage, p50 and p90 per path.
+fn breakdown_table(s: &mut String, paths: &[serde_json::Value]) {
+    let _ = writeln!(
+        s,
+        "\n### One hop by stage (microseconds, p50 / p90 of each stage; RustDDS probe on)\n"
+    );
+    let mut head = String::from("| stage |");
+    let mut rule = String::from("|---|");
+    for p in paths {
+        let _ = write!(head, " {} |", p["label"].as_str().unwrap_or("?"));
+        rule.push_str("---:|");
+    }
+    let _ = writeln!(s, "{head}\n{rule}");
+    let cell = |v: &serde_json::Value| match (v["p50_us"].as_f64(), v["p90_us"].as_f64()) {
+        (Some(a), Some(b)) => format!("{a:.1} / {b:.1}"),
+        _ => "-".into(),
+    };
+    for (i, (name, _, _)) in crate::coord::SEGMENTS.iter().enumerate() {
+        let mut row = format!("| {name} |");
+        for p in paths {
+            let _ = write!(row, " {} |", cell(&p["segments"][i]["summary"]));
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    let mut row = String::from("| **whole hop** (samples joined) |");
+    for p in paths {
+        let _ = write!(row, " {} ({}) |", cell(&p["total"]), p["joined"]);
+    }
+    let _ = writeln!(s, "{row}");
 }
 
 /// The throughput table, ratios against the raw 1-hop row.

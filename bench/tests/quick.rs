@@ -97,6 +97,23 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     for l in &r["latency"].as_array().unwrap()[..9] {
         assert!(l["summary"]["n"].as_u64().unwrap() >= 290, "{l}");
     }
+    // the stage breakdown (RustDDS's probe, patch 21) joined the stamps of both processes for nearly every
+    // sample of each path, and every stage was measured
+    assert_eq!(
+        keys(&r["breakdown"]),
+        [
+            "raw_1hop_loop_send",
+            "raw_1hop",
+            "radar_embedded",
+            "radar_embedded_event"
+        ]
+    );
+    for b in r["breakdown"].as_array().unwrap() {
+        assert!(b["joined"].as_u64().unwrap() >= 250, "{b}");
+        for seg in b["segments"].as_array().unwrap() {
+            assert!(seg["summary"]["n"].as_u64().unwrap() >= 250, "{seg}");
+        }
+    }
     assert_eq!(
         keys(&r["setup"]),
         [

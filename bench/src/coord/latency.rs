@@ -4,7 +4,7 @@ use super::*;
 
 /// Which process hosts the manager of a latency run's connection.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Host {
+pub(super) enum Host {
     /// A third process (two DDS hops).
     Third,
     /// The response's, writing on the response's `start` anyway (two hops).
@@ -13,6 +13,30 @@ enum Host {
     Response,
     /// The event's (one hop: the manager's writer to the response's reader).
     Event,
+}
+
+impl Host {
+    /// The key and label of this host's latency row.
+    pub(super) fn row(self) -> (&'static str, &'static str) {
+        match self {
+            Host::Third => (
+                "radar_manager_process",
+                "radar_ros trigger -> start, manager in a third process (2 hops)",
+            ),
+            Host::ResponseRelaying => (
+                "radar_embedded_relay",
+                "radar_ros trigger -> start, manager in the response's process, relayed (2 hops; `local_delivery(false)`)",
+            ),
+            Host::Response => (
+                "radar_embedded",
+                "radar_ros trigger -> start, manager in the response's process (1 hop)",
+            ),
+            Host::Event => (
+                "radar_embedded_event",
+                "radar_ros trigger -> start, manager in the event's process (1 hop)",
+            ),
+        }
+    }
 }
 
 impl Bench {
@@ -112,6 +136,31 @@ impl Bench {
     }
 
     async fn raw_latency(&mut self, run: &str, forward: bool) -> Result<()> {
+        let (r, children) = self.raw_hop(run, forward).await?;
+        let (key, label) = if forward {
+            (
+                "raw_2hop",
+                "raw ros2-client, 2 hops (through a forwarding node)",
+            )
+        } else {
+            (
+                "raw_1hop",
+                "raw ros2-client, 1 hop (publisher -> subscriber)",
+            )
+        };
+        self.push_latency(key, label, &r, "")?;
+        for c in children {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// One paced raw run: the sink's report, and the processes (source first, sink last).
+    pub(super) async fn raw_hop(
+        &mut self,
+        run: &str,
+        forward: bool,
+    ) -> Result<(Value, Vec<Child>)> {
         let d = self.domain();
         let mut sink = self
             .child(d, &["raw-sink", "--topic", "/bench/lat"])
@@ -131,27 +180,36 @@ impl Bench {
         let mut src = self.child(d, &["raw-source", "--topic", topic]).await?;
         src.ask("wait", START).await?;
         let r = self.paced(&mut src, run, &mut sink).await?;
-        let (key, label) = if forward {
-            (
-                "raw_2hop",
-                "raw ros2-client, 2 hops (through a forwarding node)",
-            )
-        } else {
-            (
-                "raw_1hop",
-                "raw ros2-client, 1 hop (publisher -> subscriber)",
-            )
-        };
-        self.push_latency(key, label, &r, "")?;
-        for c in [Some(src), fwd, Some(sink)].into_iter().flatten() {
-            c.quit().await;
-        }
-        Ok(())
+        Ok((
+            r,
+            [Some(src), fwd, Some(sink)].into_iter().flatten().collect(),
+        ))
     }
 
     /// Paced trigger -> start latency from a radar_ros event to a response in another process, connected by
     /// the manager of `host`.
     async fn radar_latency(&mut self, n: u64, p: u64, host: Host) -> Result<()> {
+        let (r, children) = self.radar_hop(n, p, host).await?;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        let (key, label) = host.row();
+        self.push_latency(key, label, &r, &note)?;
+        for c in children {
+            c.quit().await;
+        }
+        Ok(())
+    }
+
+    /// One paced run from an event to a response connected by the manager of `host`: the response's
+    /// report, and the processes (the event's first, the response's second).
+    pub(super) async fn radar_hop(
+        &mut self,
+        n: u64,
+        p: u64,
+        host: Host,
+    ) -> Result<(Value, Vec<Child>)> {
         let d = self.domain();
         let mut ev_args = vec!["events", "--names", "/bench/ev"];
         let mut args = vec!["response", "--name", "/bench/resp"];
@@ -184,35 +242,11 @@ impl Bench {
         let r = self
             .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
             .await?;
-        let note = format!(
-            "{} starts ignored (response busy)",
-            r["extra"]["ignored_starts"]
-        );
-        let (key, label) = match host {
-            Host::Third => (
-                "radar_manager_process",
-                "radar_ros trigger -> start, manager in a third process (2 hops)",
-            ),
-            Host::ResponseRelaying => (
-                "radar_embedded_relay",
-                "radar_ros trigger -> start, manager in the response's process, relayed (2 hops; `local_delivery(false)`)",
-            ),
-            Host::Response => (
-                "radar_embedded",
-                "radar_ros trigger -> start, manager in the response's process (1 hop)",
-            ),
-            Host::Event => (
-                "radar_embedded_event",
-                "radar_ros trigger -> start, manager in the event's process (1 hop)",
-            ),
-        };
-        self.push_latency(key, label, &r, &note)?;
-        for c in [mgr, Some(resp), Some(ev)].into_iter().flatten() {
-            c.quit().await;
-        }
-        Ok(())
+        Ok((
+            r,
+            [Some(ev), Some(resp), mgr].into_iter().flatten().collect(),
+        ))
     }
-
     /// `interrupt` published -> `interrupted` emitted (the start behaviour cancelled, the slot begun).
     pub(super) async fn interrupt(&mut self) -> Result<()> {
         let d = self.domain();

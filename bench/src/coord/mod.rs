@@ -1,7 +1,10 @@
 //! The coordinator: starts the processes of each scenario, drives them, and collects the numbers. One file per
 //! kind of scenario: [`latency`] (signal hops, interrupts, actions), [`setup`] (making connections),
-//! [`throughput`], [`scale`] (many components, memory), [`failures`] (one-shot publishers, kills).
+//! [`throughput`], [`scale`] (many components, memory), [`failures`] (one-shot publishers, kills),
+//! [`breakdown`] (one hop's stages inside RustDDS).
 
+mod breakdown;
+pub use breakdown::SEGMENTS;
 mod failures;
 mod latency;
 mod scale;
@@ -181,6 +184,8 @@ pub struct Results {
     pub state_memory: Vec<Value>,
     /// SIGKILL of a deliberative program -> its connections and listeners gone (milliseconds).
     pub kill: Vec<Latency>,
+    /// One hop cut into stages by RustDDS's latency probe, per path.
+    pub breakdown: Vec<Value>,
     /// Scenarios that failed, with why.
     pub errors: Vec<String>,
 }
@@ -191,6 +196,8 @@ pub struct Bench {
     plan: Plan,
     exe: PathBuf,
     next_domain: u16,
+    /// Environment of the children started now (RustDDS's latency probe, its inline send switch).
+    child_env: Vec<(String, String)>,
     /// What was measured so far.
     pub results: Results,
 }
@@ -215,6 +222,7 @@ impl Bench {
         });
         Ok(Bench {
             next_domain: opts.domain,
+            child_env: Vec::new(),
             opts,
             plan,
             exe,
@@ -243,7 +251,12 @@ impl Bench {
     async fn child(&self, domain: u16, args: &[&str]) -> Result<Child> {
         let mut all = vec!["child"];
         all.extend_from_slice(args);
-        Child::start(&self.exe, &all, domain, &[], START).await
+        let envs: Vec<(&str, &str)> = self
+            .child_env
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        Child::start(&self.exe, &all, domain, &envs, START).await
     }
 
     async fn python(&self, domain: u16, args: &[&str]) -> Result<Child> {
@@ -279,6 +292,7 @@ impl Bench {
         );
         let scenarios: Vec<Scenario> = vec![
             ("latency", |b| Box::pin(b.latency())),
+            ("breakdown", |b| Box::pin(b.breakdown())),
             ("interrupt", |b| Box::pin(b.interrupt())),
             ("setup", |b| Box::pin(b.setup())),
             ("throughput", |b| Box::pin(b.throughput())),

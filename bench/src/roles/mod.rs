@@ -99,6 +99,10 @@ where
     reply("ready");
     let mut cmds = Commands::new();
     while let Some(words) = cmds.next().await {
+        if words[0] == "probe" {
+            reply(probe_report());
+            continue;
+        }
         match f(words).await {
             Ok(answer) => reply(answer),
             Err(e) => reply(format!("error {e:#}").replace('\n', " ")),
@@ -141,23 +145,42 @@ async fn at_rate(rate: f64, window: Duration, mut f: impl FnMut(u64)) -> u64 {
     }
 }
 
-/// Latencies recorded by a receiver: `(sequence, nanoseconds)`.
+/// `probe`, answered by every role: the stamps RustDDS's latency probe took in this process since the last
+/// `probe` (`[[stage, sequence number, t_ns], ...]`; empty unless the role runs with `RUSTDDS_PROBE_TOPIC`).
+fn probe_report() -> String {
+    let stamps: Vec<(&str, i64, u64)> = radar_ros::rustdds::probe::drain()
+        .into_iter()
+        .map(|s| (s.stage.name(), s.sn, s.t_ns))
+        .collect();
+    json!({ "stamps": stamps }).to_string()
+}
+
+/// Latencies recorded by a receiver: `(sequence, nanoseconds, when it was recorded)`.
 #[derive(Clone, Default)]
-struct Record(Arc<Mutex<Vec<(u64, u64)>>>);
+struct Record(Arc<Mutex<Vec<(u64, u64, u64)>>>);
 
 impl Record {
     fn push(&self, seq: u64, ns: u64) {
-        self.0.lock().unwrap().push((seq, ns));
+        let now = now_ns();
+        self.0.lock().unwrap().push((seq, ns, now));
     }
-    /// The latencies of samples at or after `warmup`, as JSON, and forgets all.
+    /// The latencies of samples at or after `warmup`, as JSON, and forgets all. Under RustDDS's probe also
+    /// each sample's send and receive times (`at`: `[[seq, t0, t1], ...]`) for the stage breakdown.
     fn report(&self, warmup: u64, extra: serde_json::Value) -> String {
         let all = std::mem::take(&mut *self.0.lock().unwrap());
-        let lat: Vec<u64> = all
-            .iter()
-            .filter(|(s, _)| *s >= warmup && *s != u64::MAX)
-            .map(|(_, l)| *l)
-            .collect();
-        json!({ "lat_ns": lat, "received": all.len(), "extra": extra }).to_string()
+        let kept = || {
+            all.iter()
+                .filter(|(s, _, _)| *s >= warmup && *s != u64::MAX)
+        };
+        let lat: Vec<u64> = kept().map(|(_, l, _)| *l).collect();
+        let mut report = json!({ "lat_ns": lat, "received": all.len(), "extra": extra });
+        if radar_ros::rustdds::probe::on() {
+            let at: Vec<(u64, u64, u64)> = kept()
+                .map(|(s, l, t1)| (*s, t1.saturating_sub(*l), *t1))
+                .collect();
+            report["at"] = json!(at);
+        }
+        report.to_string()
     }
 }
 

@@ -212,7 +212,10 @@ pub(super) async fn long_response(name: &str) -> Result<()> {
             match w[0].as_str() {
                 // the interrupt times themselves (not ages): the coordinator pairs them with the send times
                 "report" => {
-                    let all = std::mem::take(&mut *rec.0.lock().unwrap());
+                    let all: Vec<(u64, u64)> = std::mem::take(&mut *rec.0.lock().unwrap())
+                        .into_iter()
+                        .map(|(seq, t, _)| (seq, t))
+                        .collect();
                     Ok(json!({ "at": all }).to_string())
                 }
                 c => bail!("unknown command {c}"),

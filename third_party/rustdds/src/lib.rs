@@ -178,6 +178,8 @@ mod serialization_test;
 #[macro_use]
 mod checked_impl;
 #[doc(hidden)]
+/// RADAR patch 21: stamps of one sample's stages, for latency breakdowns.
+pub mod probe;
 pub mod discovery; // to access some Discovered data in e.g. ros2-client crate
 mod messages;
 mod network;

@@ -331,6 +331,7 @@ impl DPEventLoop {
       if events.is_empty() {
         debug!("dp_event_loop idling.");
       } else {
+        crate::probe::note_loop_woke();
         for event in events.iter() {
           let token = Token(event.token().0);
           match EntityId::from_token(token) {
@@ -348,6 +349,7 @@ impl DPEventLoop {
                   },
                   |l| l.messages_bounded(usize::MAX),
                 );
+                crate::probe::note_socket_read();
                 for (packet, origin) in udp_messages {
                   ev_wrapper
                     .message_receiver

@@ -817,6 +817,10 @@ impl Reader {
       // stateless reader: nothing to do before making cache change
     }
 
+    let probed = crate::probe::wants(&self.topic_name);
+    if probed {
+      crate::probe::stamp_arrival(writer_sn.into());
+    }
     self.make_cache_change(
       dds_data,
       receive_timestamp,
@@ -824,12 +828,18 @@ impl Reader {
       writer_guid,
       writer_sn,
     );
+    if probed {
+      crate::probe::stamp(crate::probe::Stage::Cached, writer_sn.into());
+    }
 
     // Add to own track-keeping data structure
     #[cfg(test)]
     self.seqnum_instant_map.insert(writer_sn, receive_timestamp);
 
     self.notify_cache_change();
+    if probed {
+      crate::probe::stamp(crate::probe::Stage::Notified, writer_sn.into());
+    }
   }
 
   fn data_to_dds_data(

@@ -4,7 +4,7 @@ use std::{
   collections::{BTreeMap, BTreeSet},
   ops::Bound::Included,
   rc::Rc,
-  sync::{atomic, mpsc::TrySendError},
+  sync::mpsc::TrySendError,
 };
 
 #[allow(unused_imports)]
@@ -37,7 +37,7 @@ use crate::{
     rtps_reader_proxy::RtpsReaderProxy,
     timed_event::DpTimerEvent,
     transmit::{DefaultRouteSelector, InterfaceObservations, RouteKey},
-    writer_send_buffer::WriterSendBuffer,
+    writer_send_buffer::{InlinePlan, WriterSendBuffer},
     Message, MessageBuilder,
   },
   structure::{
@@ -135,7 +135,6 @@ pub(crate) struct WriterIngredients {
 
 pub(crate) struct Writer {
   pub endianness: Endianness,
-  pub heartbeat_message_counter: atomic::AtomicI32,
   /// Configures the mode in which the
   /// Writer operates. If
   /// pushMode==true, then the Writer
@@ -342,7 +341,6 @@ impl Writer {
 
     Self {
       endianness: Endianness::LittleEndian,
-      heartbeat_message_counter: atomic::AtomicI32::new(1),
       push_mode: true,
       heartbeat_period,
       heartbeat_period_fast,
@@ -746,6 +744,10 @@ impl Writer {
       if !self.is_aggregatable(&cc) {
         break;
       }
+      // RADAR patch 22: the DataWriter sent this one itself; the next round skips it
+      if count > 0 && self.send_buffer.is_inline_sent(seq) {
+        break;
+      }
 
       // Build this sample's INFO_TS? + DATA submessages and check the budget.
       let mut sample = MessageBuilder::new();
@@ -835,6 +837,18 @@ impl Writer {
         break;
       }
       let sequence_number = self.last_sent.plus_1();
+      // RADAR patch 22: the DataWriter sent this one itself (DATA and HEARTBEAT, to every matched reader):
+      // what is left is the bookkeeping the coalescing path does for a sample sent to all.
+      if self.send_buffer.take_inline_sent(sequence_number) {
+        self.last_sent = sequence_number;
+        self.sample_cursor = SampleCursor::Fresh;
+        self.send_buffer.set_sent_frontier(sequence_number);
+        continue;
+      }
+      let probed = crate::probe::wants(&self.my_topic_name);
+      if probed {
+        crate::probe::stamp(crate::probe::Stage::LoopSend, sequence_number.into());
+      }
 
       // Item 1 (DATA aggregation): coalesce several consecutive small samples
       // into one datagram to amortize the per-sample RTPS header + syscall.
@@ -849,6 +863,12 @@ impl Writer {
       {
         match self.try_send_aggregated_batch(sequence_number, last_available) {
           Some(BatchOutcome::Sent { last_seq }) | Some(BatchOutcome::Dropped { last_seq }) => {
+            if probed {
+              let t = crate::probe::now_ns();
+              for sn in i64::from(sequence_number)..=i64::from(last_seq) {
+                crate::probe::stamp_at(crate::probe::Stage::SocketSent, sn, t);
+              }
+            }
             // Coalesced samples are multicast-to-all, so per-reader `unsent`
             // bookkeeping is a no-op (notify + mark_sent cancel out); just
             // advance the frontier. Leaves `unsent_changes` empty on the push
@@ -937,6 +957,9 @@ impl Writer {
         };
         match progress {
           SendProgress::Complete => {
+            if probed {
+              crate::probe::stamp(crate::probe::Stage::SocketSent, sequence_number.into());
+            }
             self.last_sent = sequence_number;
             self.sample_cursor = SampleCursor::Fresh;
             self.send_buffer.set_sent_frontier(sequence_number);
@@ -1769,9 +1792,46 @@ impl Writer {
   }
 
   pub(crate) fn next_heartbeat_count(&self) -> i32 {
-    self
-      .heartbeat_message_counter
-      .fetch_add(1, atomic::Ordering::SeqCst)
+    // RADAR patch 22: shared with the DataWriter, which piggybacks HEARTBEATs on the samples it sends itself
+    self.send_buffer.next_heartbeat_count()
+  }
+
+  /// RADAR patch 22: publishes where the DataWriter may send new samples from its own thread (see
+  /// [`InlinePlan`]): only when every matched reader is reached by one unicast datagram, exactly as
+  /// `send_message_to_readers` would reach it.
+  fn refresh_inline_plan(&self) {
+    let plan = (|| {
+      if !inline_send_enabled()
+        || self.like_stateless
+        || !self.push_mode
+        || self.security_plugins.is_some()
+        || self.my_guid.entity_id.kind().is_built_in()
+        || !self.extra_unicast_destinations.is_empty()
+        || self.readers.is_empty()
+      {
+        return None;
+      }
+      let mut dests: Vec<std::net::SocketAddr> = Vec::new();
+      for reader in self.readers.values() {
+        let route = reader.send_route();
+        if route.fallback || route.multicast.is_some() {
+          return None;
+        }
+        let addr = match route.unicast? {
+          Locator::UdpV4(a) => std::net::SocketAddr::V4(a),
+          _ => return None,
+        };
+        if !dests.contains(&addr) {
+          dests.push(addr);
+        }
+      }
+      Some(InlinePlan {
+        dests,
+        max_payload: self.max_unfragmented_serialized_payload(None),
+        heartbeat: self.is_reliable(),
+      })
+    })();
+    self.send_buffer.set_inline_plan(plan);
   }
 
   #[cfg(feature = "security")]
@@ -2015,6 +2075,7 @@ impl Writer {
   /// [`Self::extra_unicast_destinations`].
   pub fn set_extra_unicast_destinations(&mut self, locators: Vec<Locator>) {
     self.extra_unicast_destinations = locators;
+    self.refresh_inline_plan();
   }
 
   /// Enable/disable preferring a same-host peer's loopback locator during route
@@ -2187,6 +2248,7 @@ impl Writer {
       .map(RtpsReaderProxy::max_datagram_payload)
       .min()
       .unwrap_or(FALLBACK_MAX_AGGREGATED_DATAGRAM_SIZE);
+    self.refresh_inline_plan();
   }
 
   /// Refresh the [`SendRoute`](crate::rtps::transmit::SendRoute) of every
@@ -2229,6 +2291,7 @@ impl Writer {
         .unregister_remote_reader(&self.my_guid, &guid)
         .unwrap_or_else(|e| error!("{e}"));
     }
+    self.refresh_inline_plan();
     removed
   }
 
@@ -2327,6 +2390,76 @@ const DATAFRAG_SUBMESSAGE_OVERHEAD: usize = 36;
 // A fifth of a finite, positive Deadline, clamped to
 // [REPAIR_INTERVAL_MIN, REPAIR_INTERVAL_MAX]. No Deadline, INFINITE, zero or
 // negative give REPAIR_INTERVAL_DEFAULT.
+/// RADAR patch 22: whether DataWriters may send new samples from their own thread (on unless the process
+/// starts with `RUSTDDS_INLINE_SEND=0`, which benchmarks use to compare).
+pub(crate) fn inline_send_enabled() -> bool {
+  static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+  *ON.get_or_init(|| std::env::var("RUSTDDS_INLINE_SEND").map_or(true, |v| v != "0"))
+}
+
+/// RADAR patch 22: the socket DataWriters of this process send from (nonblocking, any port: RTPS receivers
+/// know a writer by the GUID in the message, not by its source port).
+fn inline_socket() -> Option<&'static std::net::UdpSocket> {
+  static SOCKET: std::sync::OnceLock<Option<std::net::UdpSocket>> = std::sync::OnceLock::new();
+  SOCKET
+    .get_or_init(|| {
+      let s = std::net::UdpSocket::bind((std::net::Ipv4Addr::UNSPECIFIED, 0)).ok()?;
+      s.set_nonblocking(true).ok()?;
+      Some(s)
+    })
+    .as_ref()
+}
+
+/// RADAR patch 22: sends sample `sn` of `send_buffer` from the calling (DataWriter's) thread as the event
+/// loop's Writer would (INFO_TS if stamped, DATA to all readers, a HEARTBEAT if reliable), to every
+/// destination of `plan`. Returns whether every datagram was taken by the socket; the caller then lets the
+/// event loop skip the sample (`WriterSendBuffer::mark_inline_sent`).
+pub(crate) fn send_inline(
+  send_buffer: &WriterSendBuffer,
+  plan: &InlinePlan,
+  writer_guid: GUID,
+  sn: SequenceNumber,
+) -> bool {
+  let Some(cc) = send_buffer.get_by_sn(sn) else {
+    return false;
+  };
+  if cc.data_value.payload_size() > plan.max_payload || cc.write_options.to_single_reader().is_some()
+  {
+    return false;
+  }
+  let Some(socket) = inline_socket() else {
+    return false;
+  };
+  let endianness = Endianness::LittleEndian;
+  let mut builder = MessageBuilder::new();
+  if let Some(ts) = cc.write_options.source_timestamp() {
+    builder = builder.ts_msg(endianness, Some(ts));
+  }
+  builder = builder.data_msg(&cc, EntityId::UNKNOWN, writer_guid, endianness, None);
+  if plan.heartbeat {
+    builder = builder.heartbeat_msg(
+      writer_guid.entity_id,
+      send_buffer.first_change_sequence_number(),
+      sn,
+      send_buffer.next_heartbeat_count(),
+      endianness,
+      EntityId::UNKNOWN,
+      false, // final_flag: request ACKNACK, as the event loop's piggybacked HEARTBEAT does
+      false,
+    );
+  }
+  let Ok(buffer) = builder
+    .add_header_and_build(writer_guid.prefix)
+    .write_to_vec_fast(endianness)
+  else {
+    return false;
+  };
+  plan
+    .dests
+    .iter()
+    .all(|d| matches!(socket.send_to(&buffer, d), Ok(n) if n == buffer.len()))
+}
+
 fn repair_interval_for(deadline: Option<Duration>) -> std::time::Duration {
   match deadline {
     Some(d) if d != Duration::INFINITE && d > Duration::ZERO => {
@@ -2941,6 +3074,171 @@ mod tests {
   // Repair (ACKNACK response) tests. The Writer runs without an event loop, so
   // the tests poll the shared timer themselves and hand SendRepairData to the
   // Writer as the event loop would.
+  /// RADAR patch 22: a DataWriter sends new samples from its own thread where the Writer says how.
+  mod inline_send {
+    use std::{net::UdpSocket, time::Duration as StdDuration};
+
+    use bytes::Bytes;
+
+    use super::super::*;
+    use crate::{
+      dds::{
+        ddsdata::DDSData,
+        qos::{policy::Reliability, QosPolicyBuilder},
+        statusevents::sync_status_channel,
+        with_key::datawriter::WriteOptions,
+      },
+      messages::submessages::elements::serialized_payload::SerializedPayload,
+      polling::new_shared_timer,
+      messages::submessages::submessages::WriterSubmessage,
+      rtps::{submessage::SubmessageBody, writer_send_buffer::Admission},
+      structure::guid::EntityKind,
+      RepresentationIdentifier,
+    };
+
+    /// A reliable user Writer matched with one reader that listens on `reader`, and its send buffer.
+    fn matched_writer(reader: &UdpSocket) -> (Writer, WriterSendBuffer) {
+      let id = EntityId::new([0, 0, 7], EntityKind::WRITER_NO_KEY_USER_DEFINED);
+      let guid = GUID::new(GuidPrefix::new(&[1; 12]), id);
+      let qos = QosPolicyBuilder::new()
+        .reliability(Reliability::Reliable {
+          max_blocking_time: Duration::from_millis(100),
+        })
+        .build();
+      let send_buffer = WriterSendBuffer::new(
+        guid,
+        "inline_test".to_string(),
+        true,
+        false,
+        true,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        DEFAULT_WRITER_MAX_SAMPLES,
+        true,
+      );
+      let (status_sender, status) = sync_status_channel(4).unwrap();
+      let (participant_status_sender, participant_status) = sync_status_channel(16).unwrap();
+      std::mem::forget((status, participant_status));
+      let reader_prefix = GuidPrefix::new(&[2; 12]);
+      let mut observations = InterfaceObservations::default();
+      observations.record(reader_prefix, None, "127.0.0.1:7777".parse().unwrap());
+      let mut writer = Writer::new(
+        WriterIngredients {
+          guid,
+          send_buffer: send_buffer.clone(),
+          topic_name: "inline_test".to_string(),
+          like_stateless: false,
+          qos_policies: qos.clone(),
+          status_sender,
+          security_plugins: None,
+        },
+        Rc::new(UDPSender::new(0).unwrap()),
+        new_shared_timer(),
+        participant_status_sender,
+        Rc::new(RefCell::new(observations)),
+        Rc::from(Vec::<IfAddr>::new()),
+      );
+      let reader_id = EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED);
+      let mut proxy = RtpsReaderProxy::new(GUID::new(reader_prefix, reader_id), qos.clone(), false);
+      // a reader on this host reached over loopback, as the event loop routes it
+      proxy
+        .unicast_locator_list
+        .push(Locator::from(reader.local_addr().unwrap()));
+      proxy.normalize_loopback();
+      writer.update_reader_proxy(&proxy, &qos);
+      (writer, send_buffer)
+    }
+
+    fn admit(send_buffer: &WriterSendBuffer) -> SequenceNumber {
+      let data = DDSData::new(SerializedPayload::new(
+        RepresentationIdentifier::CDR_LE,
+        vec![7; 16],
+      ));
+      match send_buffer.admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)) {
+        Admission::Admitted(sn) => sn,
+        Admission::WouldBlock => panic!("no room"),
+      }
+    }
+
+    #[test]
+    fn a_matched_writer_publishes_a_plan_and_a_sample_sent_inline_is_data_and_heartbeat_on_the_wire() {
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_secs(2)))
+        .unwrap();
+      let (writer, send_buffer) = matched_writer(&reader);
+      let plan = send_buffer
+        .inline_plan()
+        .expect("one unicast reader: the Writer says how to send inline");
+      assert_eq!(plan.dests, vec![reader.local_addr().unwrap()]);
+      assert!(plan.heartbeat);
+
+      let sn = admit(&send_buffer);
+      assert!(send_inline(&send_buffer, &plan, writer.my_guid, sn));
+      // the Writer announced itself to the new reader (a HEARTBEAT) before: the datagram with the DATA
+      let mut buf = vec![0u8; 65536];
+      let msg = loop {
+        let n = reader.recv(&mut buf).expect("the datagram");
+        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+        if msg
+          .submessages
+          .iter()
+          .any(|sub| matches!(sub.body, SubmessageBody::Writer(WriterSubmessage::Data(..))))
+        {
+          break msg;
+        }
+      };
+      assert_eq!(msg.header.guid_prefix, writer.my_guid.prefix);
+      let kinds: Vec<String> = msg
+        .submessages
+        .iter()
+        .map(|sub| match &sub.body {
+          SubmessageBody::Writer(WriterSubmessage::Data(d, _)) => format!("DATA {}", i64::from(d.writer_sn)),
+          SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) => {
+            format!("HEARTBEAT {}..{}", i64::from(h.first_sn), i64::from(h.last_sn))
+          }
+          other => format!("{other:?}"),
+        })
+        .collect();
+      assert_eq!(kinds, vec![format!("DATA {}", i64::from(sn)), format!("HEARTBEAT 1..{}", i64::from(sn))]);
+    }
+
+    #[test]
+    fn the_event_loop_skips_what_the_writer_sent_and_sends_what_it_did_not() {
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(300)))
+        .unwrap();
+      let (mut writer, send_buffer) = matched_writer(&reader);
+      let (a, b) = (admit(&send_buffer), admit(&send_buffer));
+      // the DataWriter claimed the first (as if it had sent it), not the second
+      send_buffer.mark_inline_sent(a, true);
+      writer.process_pending();
+      let mut got = Vec::new();
+      let mut buf = vec![0u8; 65536];
+      while let Ok(n) = reader.recv(&mut buf) {
+        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+        for sub in msg.submessages {
+          if let SubmessageBody::Writer(WriterSubmessage::Data(d, _)) = sub.body {
+            got.push(d.writer_sn);
+          }
+        }
+      }
+      assert_eq!(got, vec![b], "the loop sent only the sample the writer did not");
+      assert_eq!(writer.last_sent, b);
+      assert!(!send_buffer.is_inline_sent(a), "the claim is forgotten once passed");
+    }
+
+    #[test]
+    fn no_plan_once_the_last_reader_is_gone() {
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      let (mut writer, send_buffer) = matched_writer(&reader);
+      let guid = *writer.readers.keys().next().unwrap();
+      writer.reader_lost(guid);
+      assert!(send_buffer.inline_plan().is_none(), "no readers: nothing to send to");
+    }
+  }
+
   mod repair {
     use std::{
       cell::RefCell,

@@ -81,6 +81,24 @@ struct Inner {
   // Wakers of async producers / ack-waiters parked because the window was full
   // or acknowledgements were still pending. Drained (woken) on any advance.
   wakers: Vec<Waker>,
+
+  /// RADAR patch 22: samples the DataWriter put on the wire itself; the event loop only does their
+  /// bookkeeping.
+  inline_sent: BTreeSet<SequenceNumber>,
+}
+
+/// RADAR patch 22: where a DataWriter may send a new sample from its own thread, as the event loop's Writer
+/// would (the same unicast destinations), without waking the event loop first. Published by the Writer
+/// whenever its matched readers or their routes change; absent when any reader needs more than one plain
+/// unicast datagram (multicast, the legacy all-locators route, security, a built-in or stateless writer).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct InlinePlan {
+  /// One datagram to each.
+  pub dests: Vec<std::net::SocketAddr>,
+  /// The largest serialized payload that fits one datagram to every reader.
+  pub max_payload: usize,
+  /// Whether to piggyback a HEARTBEAT (reliable writer), as the Writer does.
+  pub heartbeat: bool,
 }
 
 struct Shared {
@@ -106,6 +124,10 @@ struct Shared {
   // which this buffer does not track, so keyed writers are not trimmed here.)
   durable_keep_last: bool,
   topic_name: String,
+  /// RADAR patch 22: the Writer's plan for sends from the DataWriter's thread.
+  inline_plan: Mutex<Option<Arc<InlinePlan>>>,
+  /// The Writer's HEARTBEAT count, shared so that a HEARTBEAT sent from the DataWriter's thread counts too.
+  heartbeat_count: std::sync::atomic::AtomicI32,
 }
 
 /// A shared, flow-controlled buffer of samples between a `DataWriter`
@@ -154,6 +176,7 @@ impl WriterSendBuffer {
           sent_frontier: SequenceNumber::new(0),
           max_retain: max_retain.max(1),
           wakers: Vec::new(),
+          inline_sent: BTreeSet::new(),
         }),
         progress: Condvar::new(),
         writer_guid,
@@ -162,6 +185,8 @@ impl WriterSendBuffer {
         volatile,
         durable_keep_last,
         topic_name,
+        inline_plan: Mutex::new(None),
+        heartbeat_count: std::sync::atomic::AtomicI32::new(1),
       }),
     }
   }
@@ -464,6 +489,58 @@ impl WriterSendBuffer {
       inner.sent_frontier = sent_frontier;
       Self::wake_all(&mut inner, &shared.progress);
     }
+  }
+
+  /// The next HEARTBEAT count of this writer.
+  pub fn next_heartbeat_count(&self) -> i32 {
+    self
+      .shared
+      .heartbeat_count
+      .fetch_add(1, std::sync::atomic::Ordering::SeqCst)
+  }
+
+  /// RADAR patch 22: the Writer publishes where its DataWriter may send from its own thread.
+  pub fn set_inline_plan(&self, plan: Option<InlinePlan>) {
+    let mut p = self.shared.inline_plan.lock().unwrap();
+    if p.as_deref() != plan.as_ref() {
+      *p = plan.map(Arc::new);
+    }
+  }
+
+  /// RADAR patch 22: the current plan for sends from the DataWriter's thread, if any.
+  pub fn inline_plan(&self) -> Option<Arc<InlinePlan>> {
+    self.shared.inline_plan.lock().unwrap().clone()
+  }
+
+  /// RADAR patch 22: the DataWriter is about to send sample `sn` itself (`true`), or could not (`false`,
+  /// then the event loop sends it as usual if it has not passed it yet; a reliable reader that missed it
+  /// gets it repaired).
+  pub fn mark_inline_sent(&self, sn: SequenceNumber, sent: bool) {
+    let mut inner = self.shared.inner.lock().unwrap();
+    if sent {
+      inner.inline_sent.insert(sn);
+    } else {
+      inner.inline_sent.remove(&sn);
+    }
+  }
+
+  /// RADAR patch 22: whether the DataWriter sent sample `sn` itself; forgets it (the event loop asks once).
+  pub fn take_inline_sent(&self, sn: SequenceNumber) -> bool {
+    let mut inner = self.shared.inner.lock().unwrap();
+    // claims the loop has passed cannot pile up
+    while let Some(first) = inner.inline_sent.first().copied() {
+      if first < sn {
+        inner.inline_sent.remove(&first);
+      } else {
+        break;
+      }
+    }
+    inner.inline_sent.remove(&sn)
+  }
+
+  /// RADAR patch 22: whether the DataWriter sent sample `sn` itself (the event loop's coalescing stops there).
+  pub fn is_inline_sent(&self, sn: SequenceNumber) -> bool {
+    self.shared.inner.lock().unwrap().inline_sent.contains(&sn)
   }
 
   /// The sequence number of the latest allocated sample (0 if none yet).

@@ -371,6 +371,7 @@ where
     data: D,
     write_options: WriteOptions,
   ) -> WriteResult<SampleIdentity, D> {
+    let probe_t0 = crate::probe::wants(self.my_topic.name().as_str()).then(crate::probe::now_ns);
     // serialize
     let send_buffer = match SA::to_bytes(&data) {
       Ok(b) => b,
@@ -397,6 +398,24 @@ where
     {
       Admission::Admitted(sequence_number) => {
         self.note_instance(sequence_number, &data);
+        if let Some(t0) = probe_t0 {
+          crate::probe::stamp_at(crate::probe::Stage::Write, sequence_number.into(), t0);
+          crate::probe::stamp(crate::probe::Stage::Admitted, sequence_number.into());
+        }
+        // RADAR patch 22: put it on the wire from this thread when the Writer says how (no event loop
+        // wake-up before the send); the event loop, woken after, only does the bookkeeping.
+        if let Some(plan) = self.send_buffer.inline_plan() {
+          if probe_t0.is_some() {
+            crate::probe::stamp(crate::probe::Stage::LoopSend, sequence_number.into());
+          }
+          self.send_buffer.mark_inline_sent(sequence_number, true);
+          let sent = crate::rtps::writer::send_inline(&self.send_buffer, &plan, self.my_guid, sequence_number);
+          if !sent {
+            self.send_buffer.mark_inline_sent(sequence_number, false);
+          } else if probe_t0.is_some() {
+            crate::probe::stamp(crate::probe::Stage::SocketSent, sequence_number.into());
+          }
+        }
         self.ring_doorbell();
         self.refresh_manual_liveliness();
         Ok(SampleIdentity {

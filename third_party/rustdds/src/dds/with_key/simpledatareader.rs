@@ -456,6 +456,9 @@ where
         read_state_ref
           .last_read_sn
           .insert(writer_guid, sequence_number);
+        if crate::probe::wants(self.my_topic.name().as_str()) {
+          crate::probe::stamp(crate::probe::Stage::Taken, sequence_number.into());
+        }
 
         // // Debug sanity check:
         // use crate::Duration;
