@@ -296,16 +296,16 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
     );
     let _ = writeln!(
         s,
-        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | connect all | drop -> all inactive |"
+        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (after) | connect all | drop -> all inactive |"
     );
-    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for sc in steps {
         let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
         let n = f("events") + f("responses");
         let per_k = |k: &str| f(k) * 100.0 * 1000.0 / n;
         let _ = writeln!(
             s,
-            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.0} ms ({} connections) | {:.0} ms |",
+            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.2}% ({:.1} s) | {:.0} ms ({} connections) | {:.0} ms |",
             f("spawn_ms"),
             f("spawn_ms") / n,
             f("bytes_per_event") / 1024.0,
@@ -314,6 +314,8 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
             sc["fds_participant"],
             per_k("cpu_idle_components"),
             per_k("cpu_idle_connected"),
+            per_k("cpu_idle_connected_settled"),
+            f("settle_ms") / 1000.0,
             f("connect_ms"),
             sc["connections"],
             f("all_inactive_ms"),

@@ -180,6 +180,19 @@ pub(super) async fn scale(
     let rss2 = rss_bytes();
     let active = evs.iter().filter(|e| e.state().active).count();
     let cpu_connected = idle_cpu(idle).await;
+    // the same once discovery has settled: 1 s windows until one costs no more than the one before
+    let t = now_ns();
+    let mut last = idle_cpu(Duration::from_secs(1)).await;
+    for _ in 0..30 {
+        let w = idle_cpu(Duration::from_secs(1)).await;
+        let settled = w <= last * 1.1 + 0.001;
+        last = w;
+        if settled {
+            break;
+        }
+    }
+    let settle_ms = (now_ns() - t) as f64 / 1e6;
+    let cpu_settled = idle_cpu(idle).await;
     let t = now_ns();
     drop(made);
     let drop_ms = (now_ns() - t) as f64 / 1e6;
@@ -200,6 +213,7 @@ pub(super) async fn scale(
         "fd_limit": fd_limit, "fds_participant": fds0, "fds_components": fds1,
         "cpu_idle_empty": cpu_empty, "cpu_idle_components": cpu_components,
         "cpu_idle_connected": cpu_connected,
+        "cpu_idle_connected_settled": cpu_settled, "settle_ms": settle_ms,
         "spawn_ms": spawn_ms, "connect_ms": connect_ms, "drop_ms": drop_ms,
         "all_inactive_ms": inactive_ms, "active_while_connected": active,
         "still_active_after_teardown": still_active,

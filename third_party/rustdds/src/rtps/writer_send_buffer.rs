@@ -527,14 +527,8 @@ impl WriterSendBuffer {
   /// RADAR patch 22: whether the DataWriter sent sample `sn` itself; forgets it (the event loop asks once).
   pub fn take_inline_sent(&self, sn: SequenceNumber) -> bool {
     let mut inner = self.shared.inner.lock().unwrap();
-    // claims the loop has passed cannot pile up
-    while let Some(first) = inner.inline_sent.first().copied() {
-      if first < sn {
-        inner.inline_sent.remove(&first);
-      } else {
-        break;
-      }
-    }
+    // claims the loop has passed (a duplicate it already sent) cannot pile up
+    inner.inline_sent = inner.inline_sent.split_off(&sn);
     inner.inline_sent.remove(&sn)
   }
 
