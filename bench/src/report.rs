@@ -298,7 +298,10 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
         s,
         "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (after) | connect all | drop -> all inactive |"
     );
-    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for sc in steps {
         let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
         let n = f("events") + f("responses");

@@ -151,11 +151,19 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
         assert_eq!(sc["connections"], connections);
         assert_eq!(sc["active_while_connected"], sc["events"], "{sc}");
         assert_eq!(sc["still_active_after_teardown"], 0, "{sc}");
-        for k in ["bytes_per_event", "bytes_per_response", "spawn_ms", "settle_ms"] {
+        for k in [
+            "bytes_per_event",
+            "bytes_per_response",
+            "spawn_ms",
+            "settle_ms",
+        ] {
             assert!(sc[k].as_f64().unwrap() > 0.0, "{k}: {sc}");
         }
         // idle CPU once discovery settled was measured (a process never uses less than nothing)
-        assert!(sc["cpu_idle_connected_settled"].as_f64().unwrap() >= 0.0, "{sc}");
+        assert!(
+            sc["cpu_idle_connected_settled"].as_f64().unwrap() >= 0.0,
+            "{sc}"
+        );
     }
 
     // one-shot publishes from fresh processes: every one arrived
