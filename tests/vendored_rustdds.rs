@@ -42,6 +42,7 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "garbage_collection_looks_only_at_topics_with_changes",
         "a_participant_closed_while_still_held_sends_what_it_wrote_and_says_goodbye",
         "a_reader_reports_when_a_matched_writer_is_heard_from",
+        "announcing_the_participant_never_takes_the_applications_handle",
     ] {
         assert!(
             stdout.contains(&format!("{name} ... ok")),

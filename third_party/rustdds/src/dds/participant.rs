@@ -1902,6 +1902,24 @@ mod tests {
   };
   use super::DomainParticipant;
 
+  #[test]
+  fn announcing_the_participant_never_takes_the_applications_handle() {
+    // RADAR patch 23: the discovery thread announces the participant five times per lease; if it held the
+    // participant meanwhile, an application dropping its last handle then would not run the drop (and send
+    // the goodbye) itself, and a process ending right after would leave without it. Announce every 20 ms
+    // and watch the handle count for 50 announcements.
+    let dp = super::DomainParticipantBuilder::new(test_domain_id(26))
+      .lease_duration(std::time::Duration::from_millis(100))
+      .build()
+      .expect("participant");
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(1);
+    let mut most = 0;
+    while std::time::Instant::now() < until {
+      most = most.max(std::sync::Arc::strong_count(&dp.dpi));
+    }
+    assert_eq!(most, 1, "only the application holds the participant");
+  }
+
   // TODO: improve basic test when more or the structure is known
   #[test]
   fn dp_basic_domain_participant() {

@@ -44,7 +44,6 @@ use crate::{
     time::Timestamp,
   },
   with_key::{DataReader, DataWriter, Sample},
-  DomainParticipant,
 };
 // This module implements the control logic of the Discovery process.
 //
@@ -289,6 +288,10 @@ pub(crate) struct Discovery {
   // The lease duration this participant announces, and the periods derived
   // from it (see `DomainParticipantBuilder::lease_duration`).
   lease: ParticipantLease,
+  /// What this participant announces of itself (SPDP), made once at start (RADAR patch 23: announcing it
+  /// does not take the participant, so the application's last handle is always dropped in the
+  /// application's thread, which then waits for the goodbye).
+  local_announcement: Option<SpdpDiscoveredParticipantData>,
 
   // If security is enabled, this field contains a SecureDiscovery struct, an appendix
   // which is used for Secure functionality
@@ -745,6 +748,7 @@ impl Discovery {
       discovery_timer,
       min_auto_lease_cache: None,
       lease,
+      local_announcement: None,
 
       security_opt,
       #[cfg(feature = "security")]
@@ -922,12 +926,7 @@ impl Discovery {
             for timer_event in expired {
               match timer_event {
                 DiscoveryTimerEvent::SendParticipantInfo { reschedule } => {
-                  if let Some(dp) = self.domain_participant.clone().upgrade() {
-                    self.spdp_publish(&dp);
-                  } else {
-                    error!("DomainParticipant doesn't exist anymore, exiting Discovery.");
-                    return;
-                  };
+                  self.spdp_publish();
                   // Only the periodic announce reschedules itself; the one-shot
                   // quick response does not.
                   if reschedule {
@@ -1021,13 +1020,20 @@ impl Discovery {
   // built-in and user-defined.
   // If we did not do this, the Readers and Writers in this participant could not
   // find each other.
-  fn initialize_participant(&self) {
+  fn initialize_participant(&mut self) {
     let dp = if let Some(dp) = self.domain_participant.clone().upgrade() {
       dp
     } else {
       error!("Cannot get actual DomainParticipant in initialize_participant! Giving up.");
       return;
     };
+    // RADAR patch 23: the announcement is made here, while the application still waits for discovery to
+    // start (so it cannot drop its handle meanwhile), and never again from the participant
+    self.local_announcement = Some(SpdpDiscoveredParticipantData::from_local_participant(
+      &dp,
+      &self.security_opt,
+      Duration::from(self.lease.duration),
+    ));
 
     let participant_data = SpdpDiscoveredParticipantData::from_local_participant(
       &dp,
@@ -1548,14 +1554,14 @@ impl Discovery {
     }
   }
 
-  fn spdp_publish(&self, local_dp: &DomainParticipant) {
+  fn spdp_publish(&self) {
     // The lease is 5 announce periods, so it does not break if an announcement
     // is lost once or twice.
-    let data = SpdpDiscoveredParticipantData::from_local_participant(
-      local_dp,
-      &self.security_opt,
-      Duration::from(self.lease.duration),
-    );
+    let Some(mut data) = self.local_announcement.clone() else {
+      error!("Discovery: no announcement of the local participant to publish");
+      return;
+    };
+    data.updated_time = chrono::Utc::now();
 
     #[cfg(feature = "security")]
     if let Some(security) = self.security_opt.as_ref() {
@@ -2288,7 +2294,7 @@ mod tests {
       },
       test_domain::test_domain_id,
     },
-    RepresentationIdentifier, SerializedPayload,
+    DomainParticipant, RepresentationIdentifier, SerializedPayload,
   };
 
   #[test]
