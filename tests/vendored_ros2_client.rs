@@ -234,3 +234,70 @@ async fn a_dropped_publisher_leaves_nothing_unacknowledged() {
     }
     assert_eq!(got, 50, "all there the moment the drop returned");
 }
+
+/// The threads of this process that belong to a DDS participant or its context: RustDDS's event loop and
+/// discovery, ros2-client's `ros_discovery_info` thread (their names as `/proc` shows them: 15 bytes).
+fn participant_threads() -> Vec<String> {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return vec!["(no /proc/self/task)".into()];
+    };
+    tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("comm")).ok())
+        .map(|n| n.trim().to_owned())
+        .filter(|n| n.starts_with("RustDDS") || n.starts_with("ros2-discovery"))
+        .collect()
+}
+
+/// Patch 6: the last handle of a context takes its participant down before it returns, also while the
+/// context's `ros_discovery_info` thread holds the context to broadcast: no thread of it is left. Before, the
+/// participant's drop (its goodbye to the graph) then ran later in that thread, and a process ending right after
+/// left without it (its peers saw it go only when its lease ran out). The thread is made to hold the context
+/// 300 ms after each broadcast (`RADAR_TEST_HOLD_BROADCAST_MS`), and the handle dropped in that window. Runs in
+/// a child process of its own, so that no other test's participant is counted.
+#[test]
+fn the_last_context_handle_takes_the_participant_down_before_it_returns() {
+    const CHILD: &str = "RADAR_TEST_LAST_HANDLE_CHILD";
+    let name = "the_last_context_handle_takes_the_participant_down_before_it_returns";
+    if std::env::var_os(CHILD).is_none() {
+        require_isolation();
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", name, "--nocapture", "--test-threads", "1"])
+            .env(CHILD, "1")
+            .env("RADAR_TEST_HOLD_BROADCAST_MS", "300")
+            .output()
+            .expect("run this test in a child process");
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(
+            out.status.success() && stdout.contains(&format!("{name} ... ok")),
+            "the child failed:\n{stdout}\n{stderr}"
+        );
+        return;
+    }
+    assert!(participant_threads().is_empty(), "none before");
+    for round in 0..3 {
+        let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
+        // the node's creation is broadcast at once: the thread holds the context from then on for 300 ms
+        let n = ctx
+            .new_node(
+                NodeName::new("/", &format!("last_handle_{round}")).unwrap(),
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        assert!(!participant_threads().is_empty(), "round {round}: running");
+        let t = std::time::Instant::now();
+        drop(n);
+        drop(ctx);
+        let left = participant_threads();
+        assert!(
+            left.is_empty(),
+            "round {round}: still running {:?} after the last handle went: {left:?}",
+            t.elapsed()
+        );
+    }
+}

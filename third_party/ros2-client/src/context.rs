@@ -106,6 +106,9 @@ impl Default for ContextOptions {
 /// There should be no need for `ok()` or `shutdown()` methods.
 #[derive(Clone)]
 pub struct Context {
+  // radar_ros patch 6: declared first, so that the last handle stops and joins the `ros_discovery_info`
+  // thread before it lets go of `inner` (which then drops here, in the application's thread)
+  _broadcast_thread: Arc<BroadcastThread>,
   inner: Arc<Mutex<ContextInner>>,
 }
 
@@ -147,11 +150,18 @@ impl Context {
     // radar_ros patch 3: `ros_discovery_info` is sent from a thread of its own, coalesced
     let broadcaster = inner.lock().unwrap().broadcaster.clone();
     let weak = Arc::downgrade(&inner);
-    std::thread::Builder::new()
+    let thread_broadcaster = broadcaster.clone();
+    let handle = std::thread::Builder::new()
       .name("ros2-discovery-info".into())
-      .spawn(move || broadcaster.run(weak))
+      .spawn(move || thread_broadcaster.run(weak))
       .map_err(crate::error::CreateError::Io)?;
-    Ok(Context { inner })
+    Ok(Context {
+      _broadcast_thread: Arc::new(BroadcastThread {
+        broadcaster,
+        handle: Mutex::new(Some(handle)),
+      }),
+      inner,
+    })
   }
 
   /// Create a new ROS2 [`Node`]
@@ -366,6 +376,28 @@ struct Broadcaster {
   wake: std::sync::Condvar,
 }
 
+/// The `ros_discovery_info` thread as the context's handles see it: the last handle to go stops it and waits
+/// for it. The thread holds the context only while it broadcasts; if the application let go of its last handle
+/// then, the context (and its DDS participant, whose drop says goodbye to the graph) would be dropped in that
+/// thread, and a process ending right after would leave without the goodbye: its peers would see it go only
+/// when its lease ran out. (radar_ros patch 6.)
+struct BroadcastThread {
+  broadcaster: Arc<Broadcaster>,
+  handle: Mutex<Option<std::thread::JoinHandle<()>>>,
+}
+
+impl Drop for BroadcastThread {
+  fn drop(&mut self) {
+    self.broadcaster.stop();
+    let handle = self.handle.get_mut().map(Option::take).unwrap_or(None);
+    if let Some(handle) = handle {
+      if handle.thread().id() != std::thread::current().id() {
+        let _ = handle.join();
+      }
+    }
+  }
+}
+
 #[derive(Default)]
 struct BroadcastState {
   pending: bool,
@@ -411,11 +443,30 @@ impl Broadcaster {
       st.last = Some(std::time::Instant::now());
       drop(st);
       match inner.upgrade() {
-        Some(inner) => inner.lock().unwrap().broadcast_node_infos(),
+        Some(inner) => {
+          inner.lock().unwrap().broadcast_node_infos();
+          hold_for_tests();
+        }
         None => return,
       }
       st = self.state.lock().unwrap();
     }
+  }
+}
+
+/// A test hook (radar_ros patch 6): `RADAR_TEST_HOLD_BROADCAST_MS=n` makes the `ros_discovery_info` thread keep
+/// the context n ms after each broadcast, so that a test can drop the application's last handle in that window
+/// every time. Read once; off (no wait) unless set.
+fn hold_for_tests() {
+  static HOLD: std::sync::OnceLock<Option<std::time::Duration>> = std::sync::OnceLock::new();
+  let hold = HOLD.get_or_init(|| {
+    std::env::var("RADAR_TEST_HOLD_BROADCAST_MS")
+      .ok()
+      .and_then(|v| v.parse().ok())
+      .map(std::time::Duration::from_millis)
+  });
+  if let Some(d) = hold {
+    std::thread::sleep(*d);
   }
 }
 
