@@ -5,8 +5,8 @@
 //! release) stops here, saying what to do.
 
 /// The patches radar_ros needs: `third_party/rustdds/RADAR_PATCHES.md` and `third_party/ros2-client/RADAR_PATCHES.md`.
-const RUSTDDS_PATCHES: u32 = 22;
-const ROS2_CLIENT_PATCHES: u32 = 5;
+const RUSTDDS_PATCHES: u32 = 23;
+const ROS2_CLIENT_PATCHES: u32 = 6;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");

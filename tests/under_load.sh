@@ -7,7 +7,8 @@
 #   tests/under_load.sh [N]
 #
 # The tests: a `ros2 topic pub --once` from a fresh rclpy process (30 starts and 30 interrupts per run), a
-# service call from a fresh process, and a signal emitted right before its component exits.
+# service call from a fresh process, a signal emitted right before its component exits, and programs
+# whose main returns (their exit slots run and their goodbye is heard at once).
 set -euo pipefail
 n=${1:-30}
 here=$(cd "$(dirname "$0")" && pwd)
@@ -28,6 +29,7 @@ tests=(
   "interop every_one_shot_publish_from_a_fresh_process_is_acted_on"
   "interop every_service_call_from_a_fresh_process_is_answered"
   "failure a_signal_sent_just_before_the_component_exits_is_delivered_not_reported_lost"
+  "shutdown returning_from_main_runs_the_exit_slot_and_sends_exited"
 )
 failed=0
 for t in "${tests[@]}"; do

@@ -319,6 +319,8 @@ where
                 }
             };
             rt.block_on(f);
+            // what the slot spawned goes too (it may hold the participant), before the caller goes on
+            drop(rt);
             let _ = tx.send(());
         });
     match spawned {
