@@ -193,6 +193,18 @@ pub(super) async fn scale(
     }
     let settle_ms = (now_ns() - t) as f64 / 1e6;
     let cpu_settled = idle_cpu(idle).await;
+    // for profiling the idle connected process (`perf record -p PID`): stay so this long
+    if let Some(hold) = std::env::var("RADAR_BENCH_HOLD_S")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        eprintln!(
+            "scale: {} components connected and settled in process {}; holding {hold} s",
+            events + responses,
+            std::process::id()
+        );
+        tokio::time::sleep(Duration::from_secs(hold)).await;
+    }
     let t = now_ns();
     drop(made);
     let drop_ms = (now_ns() - t) as f64 / 1e6;
