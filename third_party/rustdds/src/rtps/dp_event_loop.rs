@@ -110,6 +110,9 @@ pub struct DPEventLoop {
   /// The local writers with readers in each participant, as of `writer_match_generation` (the first field):
   /// an SPDP message refreshes the routes of these only, not of every writer.
   writers_by_reader_prefix: (u64, HashMap<GuidPrefix, Vec<EntityId>>),
+  /// RADAR patch 24: per participant, the generation of its interface observations at which the send routes
+  /// of the writers with readers there were last resolved.
+  routes_resolved_at: HashMap<GuidPrefix, u64>,
   udp_sender: Rc<UDPSender>,
 
   // nonblocking-transmit: per-socket round-robin of writers that have bulk DATA
@@ -256,6 +259,7 @@ impl DPEventLoop {
       writers: HashMap::new(),
       writer_match_generation: Rc::new(std::cell::Cell::new(1)),
       writers_by_reader_prefix: (0, HashMap::new()),
+      routes_resolved_at: HashMap::new(),
       bulk_ready: BTreeMap::new(),
       writable_armed: BTreeSet::new(),
       shared_timer,
@@ -899,10 +903,23 @@ impl DPEventLoop {
     // RADAR patch 16: only the writers with readers there (a participant may have thousands of writers,
     // and this runs on every SPDP message)
     drop(db);
-    for eid in self.writers_with_readers_in(participant_guid_prefix) {
-      if let Some(writer) = self.writers.get_mut(&eid) {
-        writer.recompute_routes_for(participant_guid_prefix);
+    // RADAR patch 24: and only when what the routes are chosen from has changed since they were last
+    // resolved (readers matched since then got theirs when they matched). A participant announces itself every
+    // fifth of its lease, and so does this one to itself: with thousands of local writers matched to local
+    // readers, that alone kept the event loop busy.
+    let generation = self
+      .interface_observations
+      .borrow()
+      .generation(participant_guid_prefix);
+    if self.routes_resolved_at.get(&participant_guid_prefix) != Some(&generation) {
+      for eid in self.writers_with_readers_in(participant_guid_prefix) {
+        if let Some(writer) = self.writers.get_mut(&eid) {
+          writer.recompute_routes_for(participant_guid_prefix);
+        }
       }
+      self
+        .routes_resolved_at
+        .insert(participant_guid_prefix, generation);
     }
 
     debug!("update_participant - finished for {participant_guid_prefix:?}");
@@ -930,6 +947,7 @@ impl DPEventLoop {
       .interface_observations
       .borrow_mut()
       .remove(participant_guid_prefix);
+    self.routes_resolved_at.remove(&participant_guid_prefix);
 
     #[cfg(feature = "security")]
     if let Some(security_plugins_handle) = &self.security_plugins_opt {

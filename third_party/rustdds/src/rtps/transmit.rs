@@ -114,9 +114,22 @@ pub struct ObservedRoutes {
   /// Used to authorize sending to the peer's loopback locators (see
   /// `src/rtps/loopback_same_host_design.md`).
   seen_from_loopback: bool,
+  /// Changes whenever what a route is chosen from changes (the address of `last_source`, `seen_from_loopback`,
+  /// `current_interface`): a route resolved at this generation is still right (RADAR patch 24). Unique across
+  /// participants (see [`InterfaceObservations::record`]).
+  generation: u64,
 }
 
 impl ObservedRoutes {
+  /// What a route is chosen from, to see whether a record changed it.
+  fn route_inputs(&self) -> (Option<IpAddr>, bool, Option<InterfaceSelector>) {
+    (
+      self.last_source.map(|s| s.ip()),
+      self.seen_from_loopback,
+      self.current_interface,
+    )
+  }
+
   fn record(&mut self, iface: Option<InterfaceSelector>, source: SocketAddr) {
     self.record_at(iface, source, Instant::now(), STICKY_SWITCH_MARGIN);
   }
@@ -204,6 +217,8 @@ impl ObservedRoutes {
 #[derive(Debug, Default)]
 pub struct InterfaceObservations {
   by_participant: BTreeMap<GuidPrefix, ObservedRoutes>,
+  /// The last generation handed out (RADAR patch 24).
+  last_generation: u64,
 }
 
 impl InterfaceObservations {
@@ -219,11 +234,19 @@ impl InterfaceObservations {
     iface: Option<InterfaceSelector>,
     source: SocketAddr,
   ) {
-    self
-      .by_participant
-      .entry(prefix)
-      .or_default()
-      .record(iface, source);
+    let routes = self.by_participant.entry(prefix).or_default();
+    let before = routes.route_inputs();
+    routes.record(iface, source);
+    if routes.route_inputs() != before || routes.generation == 0 {
+      self.last_generation += 1;
+      routes.generation = self.last_generation;
+    }
+  }
+
+  /// Changes whenever what the routes to `prefix` are chosen from changes (0: nothing observed): routes
+  /// resolved at the same generation need not be resolved again. (RADAR patch 24.)
+  pub fn generation(&self, prefix: GuidPrefix) -> u64 {
+    self.by_participant.get(&prefix).map_or(0, |r| r.generation)
   }
 
   pub fn get(&self, prefix: GuidPrefix) -> Option<&ObservedRoutes> {
@@ -527,6 +550,41 @@ mod tests {
     assert_eq!(recorded.interface_count(), 2);
     // Sticky: the first-chosen interface stays.
     assert_eq!(recorded.best_interface(), Some(iface([10, 0, 0, 1])));
+  }
+
+  #[test]
+  fn the_generation_changes_only_when_what_routes_are_chosen_from_changes() {
+    // RADAR patch 24: the event loop resolves routes again only when this changes
+    let mut obs = InterfaceObservations::new();
+    let (p, q) = (GuidPrefix::new(&[1; 12]), GuidPrefix::new(&[2; 12]));
+    assert_eq!(obs.generation(p), 0, "nothing observed");
+    obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 5], 7410));
+    let first = obs.generation(p);
+    assert_ne!(first, 0, "observed");
+    // the same again (what a participant's periodic announcements look like): unchanged
+    for _ in 0..5 {
+      obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 5], 7410));
+    }
+    assert_eq!(obs.generation(p), first);
+    // another participant's observations are counted apart, and never reuse a generation
+    obs.record(q, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 6], 7410));
+    assert_eq!(obs.generation(p), first);
+    assert_ne!(obs.generation(q), first);
+    // another port of the same address (a participant sends from several sockets): unchanged
+    obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 5], 7412));
+    assert_eq!(obs.generation(p), first);
+    // a new source address, the same host seen over loopback: changed
+    obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 7], 7412));
+    let second = obs.generation(p);
+    assert_ne!(second, first);
+    obs.record(p, None, sockaddr([127, 0, 0, 1], 7412));
+    assert_ne!(obs.generation(p), second);
+    // removed and seen again: a generation it never had
+    let last = obs.generation(p);
+    obs.remove(p);
+    assert_eq!(obs.generation(p), 0);
+    obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 5], 7410));
+    assert!(![0, first, second, last].contains(&obs.generation(p)));
   }
 
   #[test]
