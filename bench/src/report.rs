@@ -296,7 +296,7 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
     );
     let _ = writeln!(
         s,
-        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (after) | connect all | drop -> all inactive |"
+        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (measured from, after the last connection) | connect all | drop -> all inactive |"
     );
     let _ = writeln!(
         s,

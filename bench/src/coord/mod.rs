@@ -52,6 +52,10 @@ struct Plan {
     /// (events, responses, connections) per step of the scale curve.
     scale: Vec<(usize, usize, usize)>,
     idle_ms: u64,
+    /// How long after the last connection is armed the settled idle cost is measured (over `settled_ms`).
+    settle_ms: u64,
+    /// The settled idle cost's window.
+    settled_ms: u64,
     /// One-shot publishes, each from a fresh process.
     oneshot_n: u64,
     /// State changes of the memory run.
@@ -78,6 +82,8 @@ impl Plan {
                 fanouts: vec![1, 100],
                 scale: vec![(5, 5, 10), (25, 25, 50)],
                 idle_ms: 300,
+                settle_ms: 1000,
+                settled_ms: 500,
                 oneshot_n: 4,
                 state_changes: 3_000,
                 kill_rounds: 1,
@@ -107,6 +113,8 @@ impl Plan {
                     (1000, 1000, 2000),
                 ],
                 idle_ms: 3000,
+                settle_ms: 15000,
+                settled_ms: 10000,
                 oneshot_n: 100,
                 state_changes: 100_000,
                 kill_rounds: 5,

@@ -22,6 +22,10 @@ impl Bench {
             c.to_string(),
             self.plan.idle_ms.to_string(),
         );
+        let (settle, settled) = (
+            self.plan.settle_ms.to_string(),
+            self.plan.settled_ms.to_string(),
+        );
         let mut s = Child::start(
             &self.exe,
             &[
@@ -35,6 +39,10 @@ impl Bench {
                 &cs,
                 "--idle-ms",
                 &idle,
+                "--settle-ms",
+                &settle,
+                "--settled-ms",
+                &settled,
             ],
             d,
             &[],

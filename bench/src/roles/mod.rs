@@ -83,6 +83,10 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
                 num("--responses")?,
                 num("--connections")?,
                 Duration::from_millis(num("--idle-ms")? as u64),
+                (
+                    Duration::from_millis(num("--settle-ms")? as u64),
+                    Duration::from_millis(num("--settled-ms")? as u64),
+                ),
             )
             .await
         }

@@ -128,6 +128,7 @@ pub(super) async fn scale(
     responses: usize,
     connections: usize,
     idle: Duration,
+    (settle, settled): (Duration, Duration),
 ) -> Result<()> {
     let fd_limit = raise_fd_limit();
     let radar = radar()?;
@@ -176,23 +177,20 @@ pub(super) async fn scale(
         .try_collect()
         .await?;
     let connect_ms = (now_ns() - t) as f64 / 1e6;
+    let connected_at = tokio::time::Instant::now();
+    if std::env::var_os("RADAR_BENCH_HOLD_S").is_some() {
+        eprintln!("scale: connected");
+    }
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss2 = rss_bytes();
     let active = evs.iter().filter(|e| e.state().active).count();
     let cpu_connected = idle_cpu(idle).await;
-    // the same once discovery has settled: 1 s windows until one costs no more than the one before
-    let t = now_ns();
-    let mut last = idle_cpu(Duration::from_secs(1)).await;
-    for _ in 0..30 {
-        let w = idle_cpu(Duration::from_secs(1)).await;
-        let settled = w <= last * 1.1 + 0.001;
-        last = w;
-        if settled {
-            break;
-        }
-    }
-    let settle_ms = (now_ns() - t) as f64 / 1e6;
-    let cpu_settled = idle_cpu(idle).await;
+    // the same once discovery has settled: what the new matches set going (a first heartbeat per matched
+    // writer, cache cleaning, `ros_discovery_info`) is over within about 10 s; measured `settle` after the last
+    // connection was armed, over `settled`
+    tokio::time::sleep_until(connected_at + settle).await;
+    let cpu_settled = idle_cpu(settled).await;
+    let settle_ms = settle.as_secs_f64() * 1e3;
     // for profiling the idle connected process (`perf record -p PID`): stay so this long
     if let Some(hold) = std::env::var("RADAR_BENCH_HOLD_S")
         .ok()
