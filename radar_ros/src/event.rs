@@ -65,6 +65,12 @@ pub trait Event: Send + 'static {
         Ok(())
     }
 
+    /// The ROS type of `triggered`, as `pkg/msg/Name`. Default: `Payload`'s. An event whose `Payload` is a
+    /// [`DynMessage`](crate::DynMessage) says here what it is.
+    fn payload_type(&self) -> String {
+        Self::Payload::ros_type_name()
+    }
+
     /// Pause before checking again after an error or panic. Default 100 ms.
     fn retry_after(&self) -> Duration {
         Duration::from_millis(100)
@@ -427,6 +433,7 @@ impl Radar {
     /// ```
     pub fn spawn_event<E: Event>(&self, name: &str, mut event: E) -> Result<EventHandle> {
         let name = self.resolve(name)?;
+        let payload_t = crate::raw::component_type(&event.payload_type(), "its payload type")?;
         let (mut node, claim) = self.participant().claim_node(&name)?;
         let mut params = crate::params::Declared::default();
         event.attach(&mut EventNode {
@@ -436,14 +443,15 @@ impl Radar {
         })?;
         let triggered = SignalWriter::new(
             self.participant().taps(),
-            typed_publisher::<E::Payload>(
+            crate::endpoints::publisher::<E::Payload>(
                 self.graph(),
                 &mut node,
                 &name.endpoint(crate::Endpoint::Triggered),
+                &payload_t,
                 &signal_qos(),
             )?,
             &name.endpoint(crate::Endpoint::Triggered),
-            &E::Payload::ros_type_name(),
+            &payload_t.ros,
         );
         let state_pub = typed_publisher::<EventState>(
             self.graph(),
@@ -455,7 +463,7 @@ impl Radar {
         let st = EventState {
             stamp: Time::now(),
             name: name.fully_qualified(),
-            trigger_type: E::Payload::ros_type_name(),
+            trigger_type: payload_t.ros.clone(),
             ..Default::default()
         };
         emit(&state_pub, "state", st.clone());
@@ -476,10 +484,10 @@ impl Radar {
                 graph.forget(guid);
             },
         );
-        tracing::info!(event = %name, payload = %E::Payload::ros_type_name(), "event up");
+        tracing::info!(event = %name, payload = %payload_t.ros, "event up");
         Ok(EventHandle {
             name,
-            payload_type: E::Payload::ros_type_name(),
+            payload_type: payload_t.ros,
             state: state_rx,
             task,
         })

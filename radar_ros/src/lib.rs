@@ -236,7 +236,7 @@ pub use names::ComponentName;
 pub use radar::{domain_id_from_env, DiscoveryRange, Radar, RadarBuilder, DEFAULT_LEASE};
 pub use radar_semantics::connection::Link;
 pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
-pub use raw::RawMessage;
+pub use raw::{DynMessage, RawMessage};
 pub use refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub use remote::{RemoteManager, RemoteStatement};
 pub use response::{FnResponse, Response, ResponseHandle, ResponseNode};

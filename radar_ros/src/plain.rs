@@ -101,7 +101,7 @@ impl Radar {
     pub fn inject<M: RosMessage>(&self, slot: Slot, payload: M) -> Wait<'static, ()> {
         let participant = self.participant().clone();
         Wait::discovery(move |t| async move {
-            if slot.ros_type() != M::ros_type_name() {
+            if !crate::raw::carries::<M>(slot.ros_type()) {
                 return Err(Error::PayloadType {
                     what: "an injected payload",
                     topic: slot.topic().to_owned(),

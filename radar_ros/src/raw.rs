@@ -19,6 +19,7 @@ use serde::{
 };
 
 use crate::error::{Error, Result};
+use crate::msg::RosMessage;
 
 /// The serialized CDR body of a ROS message of some type.
 ///
@@ -144,6 +145,60 @@ pub(crate) fn parse_type_name(ros_type: &str) -> Result<crate::msg::TypeName> {
                 .into(),
         }),
     }
+}
+
+/// A message whose ROS type is known only at run time: its CDR body, as [`RawMessage`] holds it.
+///
+/// The payload of components whose types their author gives as names (the Python package's events and
+/// responses): such a component says its types when it is made ([`Response::start_type`](crate::Response::start_type),
+/// [`Response::output_type`](crate::Response::output_type), [`Event::payload_type`](crate::Event::payload_type)),
+/// and its payloads go through as they are, never decoded. The Rust type's own name, `radar_ros/msg/Dynamic`, is
+/// no ROS type: spawning a component that does not say its types is an error.
+///
+/// ```
+/// use radar_ros::{DynMessage, RawMessage, msg::StringMsg};
+/// let body = RawMessage::encode(&StringMsg::from("kitchen")).unwrap();
+/// let dynamic: DynMessage = body.decode().unwrap(); // the same bytes
+/// assert_eq!(dynamic.0, body);
+/// assert_eq!(RawMessage::encode(&dynamic).unwrap(), body);
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct DynMessage(pub crate::RawMessage);
+crate::ros_message!(DynMessage, "radar_ros", "Dynamic");
+
+impl serde::Serialize for DynMessage {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for DynMessage {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::DeserializeSeed;
+        RawSeed.deserialize(d).map(DynMessage)
+    }
+}
+
+/// Whether a payload decoded as `M` can be taken from (or sent to) a topic of type `ros_type`: `M` is that
+/// type, or a [`DynMessage`], which takes any.
+pub(crate) fn carries<M: RosMessage>(ros_type: &str) -> bool {
+    let m = M::ros_type_name();
+    m == ros_type || m == DynMessage::ros_type_name()
+}
+
+/// The ROS type of a component's payload, checked: a valid `pkg/msg/Name`, and not [`DynMessage`]'s placeholder.
+pub(crate) fn component_type(ros_type: &str, what: &str) -> crate::Result<crate::msg::TypeName> {
+    if ros_type == DynMessage::ros_type_name() {
+        return Err(crate::Error::InvalidName {
+            name: ros_type.to_owned(),
+            reason: format!(
+                "{what} is a DynMessage, whose ROS type is known only at run time: say it where the \
+                 component is made (`Response::start_type`/`output_type`, `Event::payload_type`, \
+                 `ConnectionRequest::map_dyn`)"
+            ),
+        });
+    }
+    parse_type_name(ros_type)
 }
 
 #[cfg(test)]

@@ -152,13 +152,13 @@ impl Statement {
     pub fn call<M: RosMessage>(self, mut f: impl FnMut(M) + Send + 'static) -> ConnectionRequest {
         let topic = self.source.topic().to_owned();
         let ty = M::ros_type_name();
-        let error = (ty != self.source.ros_type() && ty != Empty::ros_type_name()).then(|| {
-            Error::PayloadType {
-                what: "an anonymous slot",
-                topic: self.source.topic().to_owned(),
-                expected: self.source.ros_type().to_owned(),
-                given: ty.clone(),
-            }
+        let error = (!crate::raw::carries::<M>(self.source.ros_type())
+            && ty != Empty::ros_type_name())
+        .then(|| Error::PayloadType {
+            what: "an anonymous slot",
+            topic: self.source.topic().to_owned(),
+            expected: self.source.ros_type().to_owned(),
+            given: ty.clone(),
         });
         let empty = ty == Empty::ros_type_name();
         let graph = self.manager.graph().clone();
@@ -284,16 +284,41 @@ impl ConnectionRequest {
     /// # Ok(()) }
     /// ```
     pub fn map<M: RosMessage, N: RosMessage>(
+        self,
+        f: impl Fn(M) -> N + Send + Sync + 'static,
+    ) -> ConnectionRequest {
+        let mapped = N::ros_type_name();
+        self.map_as(&mapped, f)
+    }
+
+    /// [`map`](Self::map) to a payload whose type is known only at run time: `f` returns a
+    /// [`DynMessage`](crate::DynMessage) holding a `ros_type` (`pkg/msg/Name`).
+    pub fn map_dyn<M: RosMessage>(
+        self,
+        ros_type: &str,
+        f: impl Fn(M) -> crate::DynMessage + Send + Sync + 'static,
+    ) -> ConnectionRequest {
+        self.map_as(ros_type, f)
+    }
+
+    fn map_as<M: RosMessage, N: RosMessage>(
         mut self,
+        mapped: &str,
         f: impl Fn(M) -> N + Send + Sync + 'static,
     ) -> ConnectionRequest {
         if let Some(e) = self.source_type_error::<M>("a map") {
             self.error.get_or_insert(e);
             return self;
         }
+        match crate::raw::component_type(mapped, "a map's result type") {
+            Ok(t) => self.spec.mapped_type = Some(t.ros),
+            Err(e) => {
+                self.error.get_or_insert(e);
+                return self;
+            }
+        }
         let topic = self.spec.source.topic().to_owned();
         let graph = self.manager.graph().clone();
-        self.spec.mapped_type = Some(N::ros_type_name());
         self.spec.map = Some(Arc::new(move |raw: &RawMessage| {
             let m = raw
                 .decode::<M>()
@@ -311,7 +336,7 @@ impl ConnectionRequest {
     }
 
     fn source_type_error<M: RosMessage>(&self, what: &'static str) -> Option<Error> {
-        (M::ros_type_name() != self.spec.source.ros_type()).then(|| Error::PayloadType {
+        (!crate::raw::carries::<M>(self.spec.source.ros_type())).then(|| Error::PayloadType {
             what,
             topic: self.spec.source.topic().to_owned(),
             expected: self.spec.source.ros_type().to_owned(),

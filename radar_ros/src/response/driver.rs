@@ -46,6 +46,8 @@ pub(super) struct SlotReaders {
 /// A response's writers: its signals and its state.
 pub(super) struct Io<R: Response> {
     pub(super) name: ComponentName,
+    /// The ROS type of its start slot.
+    pub(super) start_type: String,
     pub(super) started: SignalWriter<R::Start>,
     pub(super) interrupted: SignalWriter<Empty>,
     pub(super) exited: SignalWriter<R::Output>,
@@ -56,6 +58,7 @@ pub(super) struct Io<R: Response> {
 /// The state message of the response `name` whose machine is `m`.
 pub(super) fn state_message<R: Response>(
     name: &ComponentName,
+    start_type: &str,
     m: &ResponseMachine<R::Start, R::Output>,
 ) -> ResponseState {
     let c = m.counters();
@@ -64,7 +67,7 @@ pub(super) fn state_message<R: Response>(
         name: name.fully_qualified(),
         state: m.phase().code(),
         state_label: m.phase().label().to_owned(),
-        start_type: R::Start::ros_type_name(),
+        start_type: start_type.to_owned(),
         start_policy: m.policy().label().to_owned(),
         last_exit_reason: m.last_exit().map(ExitReason::describe).unwrap_or_default(),
         starts: c.starts,
@@ -173,7 +176,8 @@ impl<R: Response> Driver<R> {
             .machine
             .as_ref()
             .expect("the machine lives until the driver ends");
-        let mut st = state_message::<R>(&self.name, machine);
+        let start_type = self.io.as_ref().map_or("", |io| io.start_type.as_str());
+        let mut st = state_message::<R>(&self.name, start_type, machine);
         st.malformed = malformed;
         if began && self.current.is_some() {
             self.pending_state = Some(st);
@@ -279,7 +283,7 @@ impl<R: Response> Drop for Driver<R> {
                     _ => {}
                 }
             }
-            io.publish_state(state_message::<R>(&name, &machine));
+            io.publish_state(state_message::<R>(&name, &io.start_type, &machine));
             io.flush(FLUSH_LIMIT);
         });
         if !finished {
@@ -303,13 +307,13 @@ struct SlotTopics {
 }
 
 impl SlotTopics {
-    fn of<R: Response>(name: &ComponentName) -> SlotTopics {
+    fn of(name: &ComponentName, start_type: &str) -> SlotTopics {
         SlotTopics {
             response: name.fully_qualified(),
             start: name.endpoint(crate::Endpoint::Start),
             interrupt: name.endpoint(crate::Endpoint::Interrupt),
             exit: name.endpoint(crate::Endpoint::Exit),
-            start_type: R::Start::ros_type_name(),
+            start_type: start_type.to_owned(),
             empty_type: Empty::ros_type_name(),
         }
     }
@@ -382,6 +386,7 @@ pub(super) async fn drive<R: Response>(
         io,
     } = endpoints;
     let name = io.name.clone();
+    let topics = SlotTopics::of(&name, &io.start_type);
     // declared first, dropped last: if the runtime drops this task, the slots' readers go first, then the
     // driver finishes the run
     let mut d = Driver {
@@ -394,7 +399,6 @@ pub(super) async fn drive<R: Response>(
         participant,
         finished: false,
     };
-    let topics = SlotTopics::of::<R>(&name);
     let mut signals = Box::pin(slot_signals::<R>(&topics, &slots, &mut inboxes));
     let (notes_tx, mut notes) = tokio::sync::mpsc::unbounded_channel::<SlotNote>();
     let mut stop_requested = false;

@@ -84,6 +84,18 @@ pub trait Response: Send + 'static {
         async { ExitAction::Done }
     }
 
+    /// The ROS type of the `start` slot and of `started`, as `pkg/msg/Name`. Default: `Start`'s. A response
+    /// whose `Start` is a [`DynMessage`](crate::DynMessage) says here what it is.
+    fn start_type(&self) -> String {
+        Self::Start::ros_type_name()
+    }
+
+    /// The ROS type of `exited`. Default: `Output`'s; say it here when that is a
+    /// [`DynMessage`](crate::DynMessage).
+    fn output_type(&self) -> String {
+        Self::Output::ros_type_name()
+    }
+
     /// What `start` does while a run is in progress. Default: ignore.
     fn start_policy(&self) -> StartPolicy {
         StartPolicy::Ignore

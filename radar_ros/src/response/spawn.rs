@@ -13,7 +13,7 @@ use super::{
 use crate::{
     endpoints::{emit, publisher, subscription, typed_publisher, SignalWriter},
     error::Result,
-    msg::{Empty, ResponseState, RosMessage, TypeName},
+    msg::{Empty, ResponseState, TypeName},
     names::ComponentName,
     qos::{signal_qos, state_qos},
     radar::Radar,
@@ -21,6 +21,12 @@ use crate::{
     refs::ResponseRef,
     shutdown::ComponentTask,
 };
+
+/// The ROS types of a response's payloads, as it says them.
+struct SlotTypes {
+    start: TypeName,
+    output: TypeName,
+}
 
 impl Radar {
     /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
@@ -57,7 +63,11 @@ impl Radar {
             participant: self.participant(),
             params: &mut params,
         })?;
-        let endpoints = self.response_endpoints::<R>(&mut node, &name)?;
+        let types = SlotTypes {
+            start: crate::raw::component_type(&response.start_type(), "its start type")?,
+            output: crate::raw::component_type(&response.output_type(), "its output type")?,
+        };
+        let endpoints = self.response_endpoints::<R>(&mut node, &name, &types)?;
         let slot_publishers = [
             endpoints.slots.start.matched.clone(),
             endpoints.slots.interrupt.matched.clone(),
@@ -70,7 +80,7 @@ impl Radar {
         ];
         let policy = response.start_policy();
         let machine = ResponseMachine::<R::Start, R::Output>::with_announce(policy, announce);
-        let initial = state_message::<R>(&name, &machine);
+        let initial = state_message::<R>(&name, &types.start.ros, &machine);
         emit(&endpoints.io.state_pub, "state", initial.clone());
         let (state_tx, state_rx) = watch::channel(initial);
         let endpoints = Endpoints {
@@ -92,13 +102,9 @@ impl Radar {
                 drive(response, machine, endpoints, stop_rx, participant).await;
             },
         );
-        tracing::info!(response = %name, start_type = %R::Start::ros_type_name(), policy = policy.label(), "response up");
+        tracing::info!(response = %name, start_type = %types.start.ros, policy = policy.label(), "response up");
         Ok(ResponseHandle {
-            reference: ResponseRef::new(
-                name.clone(),
-                R::Start::ros_type_name(),
-                R::Output::ros_type_name(),
-            ),
+            reference: ResponseRef::new(name.clone(), types.start.ros, types.output.ros),
             name,
             state: state_rx,
             slot_publishers,
@@ -114,10 +120,11 @@ impl Radar {
         &self,
         node: &mut ros2_client::Node,
         name: &ComponentName,
+        types: &SlotTypes,
     ) -> Result<Endpoints<R>> {
         let (g, sq) = (self.graph(), signal_qos());
-        let (start_t, empty_t) = (TypeName::of::<R::Start>(), TypeName::of::<Empty>());
-        let output_t = TypeName::of::<R::Output>();
+        let (start_t, empty_t) = (types.start.clone(), TypeName::of::<Empty>());
+        let output_t = types.output.clone();
         let slots = SlotReaders {
             start: subscription::<RawMessage>(
                 g,
@@ -161,6 +168,7 @@ impl Radar {
         let exited = publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?;
         let io = Io {
             name: name.clone(),
+            start_type: start_t.ros.clone(),
             started: SignalWriter::new(taps, started, &t(crate::Endpoint::Started), &start_t.ros),
             interrupted: SignalWriter::new(
                 taps,
