@@ -193,3 +193,49 @@ async fn a_component_that_does_not_say_its_run_time_types_is_refused() {
         )
         .unwrap();
 }
+
+/// A run typed at run time that does not complete sends the response's `incomplete_output` on `exited` (a
+/// `DynMessage`'s own default has no bytes, which no peer could read).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_incomplete_run_typed_at_run_time_exits_with_the_types_default() {
+    struct Slow;
+    impl Response for Slow {
+        type Start = DynMessage;
+        type Output = DynMessage;
+        async fn start(&mut self, _: DynMessage) -> Result<DynMessage, SlotError> {
+            std::future::pending().await
+        }
+        fn start_type(&self) -> String {
+            "std_msgs/msg/Empty".into()
+        }
+        fn output_type(&self) -> String {
+            "std_msgs/msg/Int32".into()
+        }
+        fn incomplete_output(&self) -> Option<DynMessage> {
+            Some(DynMessage(RawMessage::encode(&Int32 { data: -1 }).unwrap()))
+        }
+    }
+    let r = radar(108);
+    let slow = r.spawn_response("dyn_slow", Slow).unwrap();
+    let slow = slow.reference().clone();
+    let mut exited = r
+        .waiter::<Int32>(slow.exited())
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    let mut started = r
+        .waiter::<Empty>(slow.started())
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    r.inject(slow.start_slot(), Empty::default())
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    started.recv().timeout(DISCOVERY).await.unwrap();
+    r.inject(slow.interrupt_slot(), Empty::default())
+        .timeout(DISCOVERY)
+        .await
+        .unwrap();
+    assert_eq!(exited.recv().timeout(DISCOVERY).await.unwrap().data, -1);
+}

@@ -48,6 +48,9 @@ pub(super) struct Io<R: Response> {
     pub(super) name: ComponentName,
     /// The ROS type of its start slot.
     pub(super) start_type: String,
+    /// `exited`'s payload for a run that did not complete, if `Output::default()` is not one
+    /// ([`Response::incomplete_output`]).
+    pub(super) incomplete_output: Option<R::Output>,
     pub(super) started: SignalWriter<R::Start>,
     pub(super) interrupted: SignalWriter<Empty>,
     pub(super) exited: SignalWriter<R::Output>,
@@ -93,6 +96,16 @@ const MALFORMED_REPORT_EVERY: std::time::Duration = std::time::Duration::from_se
 const FLUSH_LIMIT: std::time::Duration = std::time::Duration::from_secs(1);
 
 impl<R: Response> Io<R> {
+    /// What `exited` carries for the machine's output `o`: `o`, unless it is the default of a type whose
+    /// default is no message (a `DynMessage` without bytes), then the response's
+    /// [`incomplete_output`](Response::incomplete_output).
+    fn exited_payload(&self, o: R::Output) -> R::Output {
+        match &self.incomplete_output {
+            Some(d) if crate::RawMessage::encode(&o).is_ok_and(|r| r.is_empty()) => d.clone(),
+            _ => o,
+        }
+    }
+
     /// Waits (blocking the thread, at most `limit`) until the subscribers of the signals and the state have
     /// acknowledged what was sent: the program is about to leave.
     fn flush(&self, limit: std::time::Duration) {
@@ -210,7 +223,11 @@ impl<R: Response> Driver<R> {
                     began = true;
                     self.current = Some(exit_slot(Arc::clone(&self.response), reason, notes));
                 }
-                Effect::EmitExited(o, cause) => self.io().exited.emit("exited", o, cause),
+                Effect::EmitExited(o, cause) => {
+                    let io = self.io();
+                    let o = io.exited_payload(o);
+                    io.exited.emit("exited", o, cause)
+                }
                 Effect::ReportPanic { slot, message } => {
                     tracing::error!(response = %self.name, slot, %message, "slot panicked; the response carries on")
                 }
@@ -276,7 +293,10 @@ impl<R: Response> Drop for Driver<R> {
             let fx = machine.handle_at(Input::ExitEnded(res.map_err(panic_message)), now_ns());
             for e in fx {
                 match e {
-                    Effect::EmitExited(o, cause) => io.exited.emit("exited", o, cause),
+                    Effect::EmitExited(o, cause) => {
+                        let o = io.exited_payload(o);
+                        io.exited.emit("exited", o, cause)
+                    }
                     Effect::ReportPanic { slot, message } => {
                         tracing::error!(response = %name, slot, %message, "slot panicked")
                     }

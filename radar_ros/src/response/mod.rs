@@ -96,6 +96,14 @@ pub trait Response: Send + 'static {
         Self::Output::ros_type_name()
     }
 
+    /// The `exited` payload of a run that did not complete (interrupted, failed, ended by an exit signal)
+    /// when `Output::default()` is no message of the output type: a [`DynMessage`](crate::DynMessage)'s
+    /// default has no bytes, so a response whose `Output` is one gives its type's default message here.
+    /// Default `None`: `Output::default()` is sent.
+    fn incomplete_output(&self) -> Option<Self::Output> {
+        None
+    }
+
     /// What `start` does while a run is in progress. Default: ignore.
     fn start_policy(&self) -> StartPolicy {
         StartPolicy::Ignore

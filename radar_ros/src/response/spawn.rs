@@ -67,7 +67,8 @@ impl Radar {
             start: crate::raw::component_type(&response.start_type(), "its start type")?,
             output: crate::raw::component_type(&response.output_type(), "its output type")?,
         };
-        let endpoints = self.response_endpoints::<R>(&mut node, &name, &types)?;
+        let mut endpoints = self.response_endpoints::<R>(&mut node, &name, &types)?;
+        endpoints.io.incomplete_output = response.incomplete_output();
         let slot_publishers = [
             endpoints.slots.start.matched.clone(),
             endpoints.slots.interrupt.matched.clone(),
@@ -169,6 +170,7 @@ impl Radar {
         let io = Io {
             name: name.clone(),
             start_type: start_t.ros.clone(),
+            incomplete_output: None,
             started: SignalWriter::new(taps, started, &t(crate::Endpoint::Started), &start_t.ros),
             interrupted: SignalWriter::new(
                 taps,
