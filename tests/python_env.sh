@@ -69,7 +69,10 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     ros-jazzy-ament-cmake-gmock==2.5.4 \
     ros-jazzy-ament-cmake-pytest==2.5.4 \
     ros-jazzy-ament-package==0.16.4 \
-    catkin_pkg==1.1.1 >&2
+    catkin_pkg==1.1.1 \
+    maturin==1.16.0 \
+    pytest==9.2.0 \
+    mypy==2.4.1 >&2
 
 # The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake
 # refuses because they do not exist here: point them at this venv's.

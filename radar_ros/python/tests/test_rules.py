@@ -1,0 +1,361 @@
+"""Every response rule and statement kind, from Python, over real DDS (domain 215).
+
+The rules are the Rust engine's: these tests check that a Python response and event run under them (start,
+started, interrupt, exit always last, restart, the three start policies, failures and exceptions) and that
+every statement (once, whenever, until, anonymous slots, waitfor, inject) works with Python components.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+from typing import Any, List
+
+import pytest
+from conftest import WAIT, eventually
+
+import radar_ros
+from std_msgs.msg import Empty, Int32, String
+
+DOMAIN = 215
+
+
+def radar() -> radar_ros.Radar:
+    return radar_ros.Radar(domain_id=DOMAIN, args=[])
+
+
+class Recorder(radar_ros.Response):
+    """Records what its slots do, in order; `start` runs `work` seconds (interruptible) and echoes."""
+
+    start_type = String
+    output_type = String
+
+    def __init__(self, work: float = 0.0, restarts: int = 0):
+        self.log: List[str] = []
+        self.work = work
+        self.restarts = restarts
+        self.lock = threading.Lock()
+
+    def add(self, what: str) -> None:
+        with self.lock:
+            self.log.append(what)
+
+    def start(self, payload: Any) -> String:
+        data = getattr(payload, "data", "")
+        self.add(f"start:{data}")
+        try:
+            radar_ros.sleep(self.work)
+        except radar_ros.Cancelled:
+            self.add("cancelled")
+            raise
+        self.add("done")
+        return String(data=f"out:{data}")
+
+    def interrupt(self) -> None:
+        self.add("interrupt")
+
+    def exit(self, reason: radar_ros.ExitReason) -> Any:
+        self.add(f"exit:{reason.kind}")
+        if self.restarts > 0:
+            self.restarts -= 1
+            return radar_ros.Restart
+        return None
+
+
+def test_a_run_starts_completes_and_exits_with_its_output() -> None:
+    with radar() as r:
+        rec = Recorder()
+        c = r.spawn_response("rules_echo", rec)
+        found = r.response("/rules_echo", timeout=WAIT)
+        assert found.start_slot.ros_type == "std_msgs/msg/String"
+        assert found.exited.ros_type == "std_msgs/msg/String"
+        started = r.waiter(c.started, timeout=WAIT)
+        exited = r.waiter(c.exited, timeout=WAIT)
+        r.inject(c.start_slot, String(data="a"), timeout=WAIT)
+        assert started.recv(timeout=WAIT).data == "a"
+        assert exited.recv(timeout=WAIT).data == "out:a"
+        eventually(lambda: c.state()["exits"] == 1, "the state to count the run")
+        st = c.state()
+        assert (st["starts"], st["completed"], st["last_exit_reason"]) == (1, 1, "completed")
+        assert rec.log == ["start:a", "done", "exit:completed"]
+
+
+def test_until_interrupts_the_run_and_the_exit_slot_runs_last() -> None:
+    with radar() as r:
+        rec = Recorder(work=30.0)
+        c = r.spawn_response("rules_until", rec, start_type=Empty)
+        go = r.spawn_event("rules_go", radar_ros.TimerEvent(0.2))
+        stop = r.spawn_event("rules_stop", radar_ros.TimerEvent(0.6))
+        interrupted = r.waiter(c.interrupted, timeout=WAIT)
+        exited = r.waiter(c.exited, timeout=WAIT)
+        with r.once(go).start(c).until(stop):
+            interrupted.recv(timeout=WAIT)
+            out = exited.recv(timeout=WAIT)
+        # an incomplete run's exited carries the output type's default
+        assert out.data == ""
+        eventually(lambda: "exit:interrupted" in rec.log, "the exit slot")
+        assert rec.log == ["start:", "cancelled", "interrupt", "exit:interrupted"], rec.log
+        st = c.state()
+        assert (st["interrupts"], st["last_exit_reason"]) == (1, "interrupted")
+
+
+def test_an_exit_signal_ends_the_run_and_restart_starts_it_again() -> None:
+    with radar() as r:
+        rec = Recorder(work=30.0, restarts=1)
+        c = r.spawn_response("rules_exit", rec)
+        started = r.waiter(c.started, timeout=WAIT)
+        r.inject(c.start_slot, String(data="x"), timeout=WAIT)
+        started.recv(timeout=WAIT)
+        restarted = r.waiter(c.started, timeout=WAIT)
+        r.inject(c.exit_slot, None, timeout=WAIT)
+        # on exit: restart, with the same payload
+        assert restarted.recv(timeout=WAIT).data == "x"
+        eventually(lambda: c.state()["restarts"] == 1 and len(rec.log) >= 4, "the restart")
+        assert rec.log[:4] == ["start:x", "cancelled", "exit:exit_signal", "start:x"], rec.log
+        assert c.state()["exit_signals"] == 1
+
+
+@pytest.mark.parametrize(
+    "policy, expect_starts, expect_ignored",
+    [("ignore", ["start:1"], 1), ("restart", ["start:1", "start:2"], 0), ("queue_one", ["start:1", "start:2"], 0)],
+)
+def test_start_policies(policy: str, expect_starts: List[str], expect_ignored: int) -> None:
+    with radar() as r:
+        rec = Recorder(work=0.6)
+        c = r.spawn_response(f"rules_policy_{policy}", rec, start_policy=policy)
+        assert c.state()["start_policy"] == policy
+        started = r.waiter(c.started, timeout=WAIT)
+        r.inject(c.start_slot, String(data="1"), timeout=WAIT)
+        started.recv(timeout=WAIT)
+        r.inject(c.start_slot, String(data="2"), timeout=WAIT)
+        eventually(lambda: c.state()["state"] == "idle" and c.state()["starts"] >= 1, "the runs to end", 10)
+        time.sleep(0.8)  # a queued or restarted run would begin within this
+        eventually(lambda: c.state()["state"] == "idle", "the last run to end", 10)
+        starts = [e for e in rec.log if e.startswith("start:")]
+        assert starts == expect_starts, rec.log
+        assert c.state()["ignored_starts"] == expect_ignored
+        if policy == "restart":
+            assert "exit:exit_signal" in rec.log or "cancelled" in rec.log, rec.log
+        if policy == "queue_one":
+            assert rec.log.index("exit:completed") < rec.log.index("start:2"), rec.log
+
+
+def test_a_slot_error_fails_the_run_and_an_exception_is_reported_as_a_panic() -> None:
+    class Failing(radar_ros.Response):
+        def __init__(self) -> None:
+            self.exits: List[str] = []
+
+        def start(self, payload: Any) -> None:
+            if isinstance(payload, Empty) and not self.exits:
+                raise radar_ros.SlotError("no path to the dock")
+            raise ValueError("dock sensor unreadable")
+
+        def exit(self, reason: radar_ros.ExitReason) -> None:
+            self.exits.append(str(reason))
+
+    with radar() as r:
+        f = Failing()
+        c = r.spawn_response("rules_fail", f)
+        r.inject(c.start_slot, None, timeout=WAIT)
+        eventually(lambda: c.state()["exits"] == 1, "the failed run to end")
+        assert c.state()["failures"] == 1
+        assert c.state()["last_exit_reason"] == "failed: no path to the dock"
+        r.inject(c.start_slot, None, timeout=WAIT)
+        eventually(lambda: c.state()["exits"] == 2, "the crashed run to end")
+        st = c.state()
+        assert st["panics"] == 1
+        reason = st["last_exit_reason"]
+        # as a Rust panic is reported: the run ends as panicked, with what raised and where
+        assert reason.startswith("panicked: "), reason
+        assert "ValueError('dock sensor unreadable')" in reason and "test_rules.py" in reason, reason
+        # the exit slot ran after each, and the response carries on
+        assert [e.split(":")[0] for e in f.exits] == ["failed", "panicked"]
+
+
+def test_async_slots_are_cancelled_at_their_await() -> None:
+    class Waits(radar_ros.Response):
+        def __init__(self) -> None:
+            self.log: List[str] = []
+
+        async def start(self, payload: Any) -> None:
+            self.log.append("start")
+            try:
+                await asyncio.sleep(3600)
+            except asyncio.CancelledError:
+                self.log.append("cancelled")
+                raise
+
+        async def interrupt(self) -> None:
+            self.log.append("interrupt")
+
+        async def exit(self, reason: radar_ros.ExitReason) -> None:
+            self.log.append(f"exit:{reason}")
+
+    with radar() as r:
+        w = Waits()
+        c = r.spawn_response("rules_async", w)
+        started = r.waiter(c.started, timeout=WAIT)
+        r.inject(c.start_slot, None, timeout=WAIT)
+        started.recv(timeout=WAIT)
+        exited = r.waiter(c.exited, timeout=WAIT)
+        t0 = time.monotonic()
+        r.inject(c.interrupt_slot, None, timeout=WAIT)
+        exited.recv(timeout=WAIT)
+        assert time.monotonic() - t0 < 2.0
+        assert w.log == ["start", "cancelled", "interrupt", "exit:interrupted"]
+
+
+def test_an_event_checks_only_while_listened_to_and_drives_whenever() -> None:
+    class Counter(radar_ros.Event):
+        payload_type = Int32
+
+        def __init__(self) -> None:
+            self.n = 0
+            self.active: List[bool] = []
+
+        async def check(self) -> Int32:
+            await asyncio.sleep(0.05)
+            self.n += 1
+            return Int32(data=self.n)
+
+        def on_activate(self) -> None:
+            self.active.append(True)
+
+        def on_deactivate(self) -> None:
+            self.active.append(False)
+
+    with radar() as r:
+        ev = Counter()
+        e = r.spawn_event("rules_counter", ev)
+        time.sleep(0.3)
+        assert ev.n == 0 and not e.state()["active"], "no listener: no checks"
+        got: List[int] = []
+        seen_async: List[int] = []
+
+        async def on_async(m: Int32) -> None:
+            seen_async.append(m.data)
+
+        with r.whenever(e).call(lambda m: got.append(m.data)), r.whenever(e).call(on_async):
+            eventually(lambda: len(got) >= 5 and len(seen_async) >= 5, "five triggers in each slot")
+        assert got == sorted(got) and len(set(got)) == len(got), got
+        assert seen_async == sorted(seen_async), seen_async
+        eventually(lambda: ev.active == [True, False], "the event to go inactive with its last listener")
+        n = ev.n
+        time.sleep(0.3)
+        assert ev.n == n, "inactive: no more checks"
+
+
+def test_once_delivers_one_signal_and_whenever_every_one() -> None:
+    with radar() as r:
+        e = r.spawn_event("rules_tick", radar_ros.TimerEvent(0.05))
+        once: List[Any] = []
+        every: List[Any] = []
+        with r.once(e).call(lambda: once.append(1)) as c1, r.whenever(e).call(lambda: every.append(1)):
+            c1.wait_closed(timeout=WAIT)
+            assert not c1.live
+            eventually(lambda: len(every) >= 4, "four triggers")
+        assert once == [1]
+
+
+def test_waitfor_gets_the_next_payload() -> None:
+    with radar() as r:
+        doubled = r.spawn_response(
+            "rules_double",
+            lambda m: Int32(data=m.data * 2),
+            start_type="std_msgs/msg/Int32",
+            output_type=Int32,
+        )
+        w = r.waiter(doubled.exited, msg_type=dict, timeout=WAIT)
+        r.inject(doubled.start_slot, {"data": 21}, timeout=WAIT)
+        assert w.recv(timeout=WAIT) == {"data": 42}
+
+        def later() -> None:
+            time.sleep(0.3)
+            r.inject(doubled.start_slot, Int32(data=5), timeout=WAIT)
+
+        threading.Thread(target=later).start()
+        got = r.waitfor(doubled.exited, timeout=WAIT)
+        assert isinstance(got, Int32) and got.data == 10
+        raw = r.waiter(doubled.exited, msg_type=bytes, timeout=WAIT)
+        r.inject(doubled.start_slot, (3).to_bytes(4, "little"), timeout=WAIT)
+        assert raw.recv(timeout=WAIT) == (6).to_bytes(4, "little")
+
+
+NO_RCLPY = """
+import sys
+sys.modules["rclpy"] = None  # as on a machine without ROS 2's Python packages
+import radar_ros
+with radar_ros.Radar(args=[]) as r:
+    assert radar_ros._payload.message_class("std_msgs/msg/Int32") is None
+    c = r.spawn_response("nr_double", lambda m: {"data": m["data"] * 2},
+                         start_type="std_msgs/msg/Int32", output_type="std_msgs/msg/Int32")
+    w = r.waiter(c.exited, timeout=15)
+    r.inject(c.start_slot, {"data": 21}, timeout=15)
+    print("got", w.recv(timeout=15))
+    try:
+        r.inject(c.start_slot, {"date": 1}, timeout=15)
+    except radar_ros.PayloadTypeError as e:
+        print("refused", e)
+    unknown = r.spawn_response("nr_unknown", lambda m: None, start_type="test_msgs/msg/Arrays")
+    try:
+        r.inject(unknown.start_slot, {"x": 1}, timeout=15)
+    except radar_ros.PayloadTypeError as e:
+        print("unknown", e)
+"""
+
+
+def test_dicts_work_without_python_message_packages() -> None:
+    from conftest import run_python
+
+    import os
+    import tempfile
+
+    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
+        f.write(NO_RCLPY)
+    try:
+        out = run_python(f.name, DOMAIN)
+    finally:
+        os.unlink(f.name)
+    assert out.returncode == 0, out.stderr
+    assert "got {'data': 42}" in out.stdout, out.stdout
+    refused = [line for line in out.stdout.splitlines() if line.startswith("refused")]
+    assert refused and "date" in refused[0], out.stdout
+    unknown = [line for line in out.stdout.splitlines() if line.startswith("unknown")]
+    assert unknown and "pass an instance of its rosidl class, or its CDR bytes" in unknown[0], out.stdout
+
+
+def test_bad_input_gets_errors_that_say_what_to_do() -> None:
+    with radar() as r:
+        with pytest.raises(radar_ros.NotFound) as nf:
+            r.response("/no_such_response", timeout=0.5)
+        assert "no_such_response" in str(nf.value)
+        c = r.spawn_response("rules_typed", lambda m: None, start_type=String)
+        with pytest.raises(radar_ros.PayloadTypeError) as pt:
+            r.inject(c.start_slot, Int32(data=1), timeout=WAIT)
+        assert "std_msgs/msg/Int32" in str(pt.value) and "std_msgs/msg/String" in str(pt.value)
+        with pytest.raises(radar_ros.InvalidArgument) as ia:
+            r.spawn_response("bad name!", lambda m: None)
+        assert "bad name!" in str(ia.value)
+        with pytest.raises(radar_ros.InvalidArgument):
+            r.spawn_response("rules_dup", lambda m: None)
+            r.spawn_response("rules_dup", lambda m: None)
+        e = r.spawn_event("rules_payload", radar_ros.TimerEvent(1.0))
+        with pytest.raises(radar_ros.PayloadTypeError):
+            r.whenever(e).start(c).connect()
+        with pytest.raises(radar_ros.InvalidArgument):
+            r.once("not a signal")  # type: ignore[arg-type]
+
+
+def test_a_with_block_ends_its_connection_on_an_exception() -> None:
+    with radar() as r:
+        e = r.spawn_event("rules_exc", radar_ros.TimerEvent(0.05))
+        got: List[int] = []
+        conn: List[radar_ros.Connection] = []
+        with pytest.raises(RuntimeError):
+            with r.whenever(e).call(lambda: got.append(1)) as c:
+                conn.append(c)
+                eventually(lambda: len(got) >= 1, "a trigger")
+                raise RuntimeError("the deliberative code failed")
+        assert not conn[0].live
+        eventually(lambda: not e.state()["active"], "the event to go inactive")

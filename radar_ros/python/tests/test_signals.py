@@ -1,0 +1,81 @@
+"""Ctrl-C and SIGTERM in a Python program run the exit slots before it ends (domain 217): the response's
+exit slot runs (the robot stops its motors there), `exited` reaches the graph, the program leaves."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+from typing import Iterator
+
+import pytest
+from conftest import WAIT
+
+import radar_ros
+
+DOMAIN = 217
+
+PROGRAM = """
+import sys, time
+import radar_ros
+
+class Drive(radar_ros.Response):
+    def start(self, payload):
+        print("driving", flush=True)
+        while True:
+            radar_ros.sleep(0.1)
+
+    def exit(self, reason):
+        print(f"motors stopped ({reason})", flush=True)
+
+with radar_ros.Radar(args=[]) as radar:
+    drive = radar.spawn_response(sys.argv[1], Drive())
+    never = radar.spawn_event(sys.argv[1] + "_never", lambda: radar_ros.sleep(3600))
+    print("ready", flush=True)
+    if sys.argv[2] == "waitfor":
+        radar.waitfor(never)      # blocked in the engine
+    else:
+        time.sleep(3600)          # blocked in Python
+"""
+
+
+@pytest.fixture
+def program() -> Iterator[str]:
+    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
+        f.write(PROGRAM)
+    yield f.name
+    os.unlink(f.name)
+
+
+@pytest.mark.parametrize(
+    "sig, blocked_in, status",
+    [(signal.SIGINT, "waitfor", 130), (signal.SIGTERM, "sleep", 143), (signal.SIGINT, "sleep", 130)],
+)
+def test_a_signal_runs_the_exit_slot_and_sends_exited(program: str, sig: int, blocked_in: str, status: int) -> None:
+    name = f"drive_{sig}_{blocked_in}"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN))
+    p = subprocess.Popen(
+        [sys.executable, program, name, blocked_in], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        assert p.stdout is not None
+        assert p.stdout.readline().strip() == "ready"
+        with radar_ros.Radar(domain_id=DOMAIN, args=[]) as r:
+            drive = r.response(f"/{name}", timeout=WAIT)
+            started = r.waiter(drive.started, timeout=WAIT)
+            exited = r.waiter(drive.exited, timeout=WAIT)
+            r.inject(drive.start_slot, None, timeout=WAIT)
+            started.recv(timeout=WAIT)
+            assert p.stdout.readline().strip() == "driving"
+            p.send_signal(sig)
+            exited.recv(timeout=WAIT)
+        out, err = p.communicate(timeout=WAIT)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert "motors stopped (exit_signal)" in out, (out, err)
+    # Python's own ending for each: KeyboardInterrupt re-raised as SIGINT (130), SystemExit(143) for SIGTERM
+    assert p.returncode in (status, -sig), (p.returncode, err)
+    assert "ERROR" not in err, err
