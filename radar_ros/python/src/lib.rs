@@ -1177,6 +1177,14 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dict_types, m)?)?;
     m.add_function(wrap_pyfunction!(encode_json, m)?)?;
     m.add_function(wrap_pyfunction!(decode_json, m)?)?;
+    m.add(
+        "BUILD",
+        if cfg!(debug_assertions) {
+            "dev"
+        } else {
+            "release"
+        },
+    )?;
     m.add_class::<PyEngine>()?;
     m.add_class::<Signal>()?;
     m.add_class::<Slot>()?;

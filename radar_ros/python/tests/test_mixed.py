@@ -83,3 +83,18 @@ def test_an_rclpy_node_in_the_same_process_talks_to_python_components() -> None:
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=ctx)
+
+
+def test_the_action_example_drives_an_rclpy_action_client_and_an_interrupt_cancels_its_goal() -> None:
+    from conftest import ROOT, error_lines, run_python
+
+    script = str(ROOT / "examples/python/fibonacci_action.py")
+    done = run_python(script, DOMAIN, "--order", "8")
+    assert done.returncode == 0, done.stderr
+    assert "fib: exit slot (completed)" in done.stdout and "fib exited with 21" in done.stdout, done.stdout
+    canceled = run_python(script, DOMAIN, "--order", "30", "--cancel-after", "0.5")
+    assert canceled.returncode == 0, canceled.stderr
+    out = canceled.stdout
+    assert "server: goal canceled after" in out and "fib: exit slot (interrupted)" in out, out
+    assert out.index("fib: interrupted: goal cancel requested") < out.index("fib: exit slot (interrupted)"), out
+    assert not error_lines(done.stderr + canceled.stderr), done.stderr + canceled.stderr

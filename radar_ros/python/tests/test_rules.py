@@ -359,3 +359,40 @@ def test_a_with_block_ends_its_connection_on_an_exception() -> None:
                 raise RuntimeError("the deliberative code failed")
         assert not conn[0].live
         eventually(lambda: not e.state()["active"], "the event to go inactive")
+
+
+def test_asyncio_programs_await_lookups_connections_and_signals() -> None:
+    async def main(r: radar_ros.Radar) -> List[Any]:
+        c = r.spawn_response("rules_aio", lambda m: Int32(data=m.data + 1), start_type=Int32, output_type=Int32)
+        e = r.spawn_event("rules_aio_tick", radar_ros.TimerEvent(0.05))
+        found = await r.response_async("/rules_aio", timeout=WAIT)
+        ticks: List[int] = []
+        ticker = asyncio.get_running_loop()
+        beat = asyncio.Event()
+
+        async def on_tick() -> None:
+            ticks.append(1)
+            ticker.call_soon_threadsafe(beat.set)
+
+        async with r.whenever(e).call(on_tick) as conn:
+            # the caller's loop keeps running while the engine works
+            await asyncio.wait_for(beat.wait(), WAIT)
+            assert conn.live
+        w = r.waiter(found.exited, timeout=WAIT)
+        await r.inject_async(found.start_slot, Int32(data=41), timeout=WAIT)
+        out = await w.recv_async(timeout=WAIT)
+        return [out.data, len(ticks) >= 1, conn.live]
+
+    with radar() as r:
+        assert asyncio.run(main(r)) == [42, True, False]
+
+
+def test_ros_args_place_components_as_rcl_does_and_bad_ones_are_refused() -> None:
+    with radar_ros.Radar(domain_id=DOMAIN, args=["prog", "--ros-args", "-r", "__ns:=/robot7"]) as r:
+        assert r.namespace == "/robot7"
+        r.spawn_response("dock", lambda m: None)
+        assert r.response("/robot7/dock", timeout=WAIT).name == "/robot7/dock"
+        assert r.response("dock", timeout=WAIT).name == "/robot7/dock"
+    with pytest.raises(radar_ros.InvalidArgument) as e:
+        radar_ros.Radar(domain_id=DOMAIN, args=["prog", "--ros-args", "-r", "__ns:=no slash"])
+    assert "no slash" in str(e.value)

@@ -515,6 +515,14 @@ class Connect:
             self._made.close()
             self._made = None
 
+    async def __aenter__(self) -> Connection:
+        """``async with``: makes the connection without blocking the caller's event loop."""
+        self._made = await asyncio.get_running_loop().run_in_executor(None, self.connect)
+        return self._made
+
+    async def __aexit__(self, *exc: Any) -> None:
+        self.__exit__(*exc)
+
 
 def _arity_known(fn: Any) -> bool:
     try:
@@ -572,6 +580,11 @@ class Waiter:
     def recv(self, timeout: Optional[float] = None) -> Any:
         """The payload (waits for it; ``timeout`` in seconds raises :class:`RadarTimeout`)."""
         return decode(bytes(self._native.recv(timeout)), self._ros_type, self._want)
+
+    async def recv_async(self, timeout: Optional[float] = None) -> Any:
+        """:meth:`recv` for ``asyncio`` programs (a ``timeout`` bounds it; cancelling the awaiting task leaves
+        the waiter armed)."""
+        return await asyncio.get_running_loop().run_in_executor(None, self.recv, timeout)
 
     def close(self) -> None:
         """Disarms it."""
@@ -668,6 +681,8 @@ class Radar:
             self._stop_loop()
             raise
         self._closed = False
+        # spawned components live until their shutdown() or this Radar's, whether or not the caller keeps them
+        self._components: List[Any] = []
         _live.add(self)
         _warm(EMPTY)  # rclpy's serializer, if there is one: ~75 ms to import, better now than on a first signal
         if (
@@ -737,6 +752,7 @@ class Radar:
                 f"complete) cannot be made here: {e}"
             ) from None
         native = self._engine_().spawn_response(name, runner, st, ot, output_default, policy)
+        self._components.append(native)
         return Component(native, native.response_ref())
 
     def spawn_event(
@@ -753,6 +769,7 @@ class Radar:
         runner = _EventRunner(name, e, pt)
         _warm(pt)
         native = self._engine_().spawn_event(name, runner, pt)
+        self._components.append(native)
         return Component(native, native.event_ref())
 
     def once(self, source: Source) -> Statement:
@@ -827,6 +844,7 @@ class Radar:
         try:
             self._engine.shutdown(timeout)
         finally:
+            self._components.clear()
             self._stop_loop()
 
     def __enter__(self) -> "Radar":

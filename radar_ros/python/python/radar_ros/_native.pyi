@@ -2,6 +2,9 @@
 
 from typing import Any, Callable, Dict, List, Optional
 
+#: How this module was built: "release" (pip install) or "dev" (tests/python_package.sh).
+BUILD: str
+
 class Signal:
     """A signal: a topic a component publishes, with its message type."""
 
