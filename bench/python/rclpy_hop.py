@@ -11,6 +11,11 @@
                                      rclpy's ActionClient: `run N` sends goals 0..N one after the other (each
                                      to its result), `cancel-run N` sends long goals and cancels each once it
                                      executes; answers when each was sent / canceled
+    rclpy_hop.py radar-sink --topic T
+                                     the radar_ros Python package (issue 24): a Python response (async def
+                                     start, queue_one) whose start slot records each Header's age, started by
+                                     `whenever T start` through the package's own manager (1 hop); rclpy's
+                                     node sits in the same process, unused
     rclpy_hop.py oneshot --topic T --seq N
                                      `ros2 topic pub --once`, as the ros2 CLI does it: a fresh process that
                                      polls every 0.1 s until its publisher counts one subscription,
@@ -107,6 +112,35 @@ def action_server(node, action, lock, record):
                         callback_group=ReentrantCallbackGroup())
 
 
+def radar_sink(topic, lock, record):
+    """A Python response through the radar_ros package, started by `whenever topic start` (1 hop)."""
+    import radar_ros
+
+    class Sink(radar_ros.Response):
+        start_type = Header
+        start_policy = "queue_one"
+
+        async def start(self, h):
+            age = now_ns() - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
+            with lock:
+                record.append((int(h.frame_id), age))
+
+    radar = radar_ros.Radar(args=[])
+    resp = radar.spawn_response("/bench/py_sink", Sink())
+    # the connection arms once the source's publisher is there (it starts after this process)
+    statement = radar.whenever(radar_ros.Signal(topic, "std_msgs/msg/Header")).start(resp).timeout(60)
+    connections = []
+    threading.Thread(target=lambda: connections.append(statement.connect()), daemon=True).start()
+    resp.connections = connections  # kept as long as the response
+    return radar, resp
+
+
+def radar_build():
+    """How the installed package was built: `release` (pip install), or `dev` (tests/python_package.sh)."""
+    from radar_ros import _native
+    return f"{_native.BUILD} build"
+
+
 class Driver:
     """rclpy's ActionClient, driven from the command loop while the executor spins in its thread."""
 
@@ -155,7 +189,7 @@ class Driver:
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["sink", "source", "oneshot", "action-server", "action-client"])
+    ap.add_argument("role", choices=["sink", "source", "oneshot", "action-server", "action-client", "radar-sink"])
     ap.add_argument("--topic", required=True)
     ap.add_argument("--seq", type=int, default=0)
     a = ap.parse_args()
@@ -172,6 +206,8 @@ def main():
         server = action_server(node, a.topic, lock, actions)
     elif a.role == "action-client":
         driver = Driver(node, a.topic)
+    elif a.role == "radar-sink":
+        radar, resp = radar_sink(a.topic, lock, record)
     elif a.role == "sink":
         def on_msg(h):
             age = now_ns() - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
@@ -222,6 +258,15 @@ def main():
                         time.sleep(delay)
                     pub.publish(stamped(i))
                 answer = f"sent {n}"
+            elif w[0] == "report" and a.role == "radar-sink":
+                warmup = int(w[1])
+                with lock:
+                    got = list(record)
+                    record.clear()
+                st = resp.state()
+                answer = json.dumps({"lat_ns": [l for s, l in got if s >= warmup], "received": len(got),
+                                     "extra": {"not_started": st["ignored_starts"],
+                                               "build": radar_build()}})
             elif w[0] == "report" and a.role == "sink":
                 warmup = int(w[1])
                 with lock:
@@ -234,6 +279,8 @@ def main():
         except Exception as e:  # answer, and go on serving
             answer = f"error {e}"
         print(answer, flush=True)
+    if a.role == "radar-sink":
+        radar.shutdown()
     executor.shutdown()
     spinner.join(timeout=5)
     node.destroy_node()

@@ -48,17 +48,7 @@ impl Bench {
         self.raw_latency(&run, false).await?;
         self.raw_latency(&run, true).await?;
         // rclpy, one hop
-        let d = self.domain();
-        let py = async {
-            let mut sink = self.python(d, &["sink", "--topic", "/bench/lat"]).await?;
-            let mut src = self.python(d, &["source", "--topic", "/bench/lat"]).await?;
-            src.ask("wait", START).await?;
-            let r = self.paced(&mut src, &run, &mut sink).await?;
-            src.quit().await;
-            sink.quit().await;
-            Ok::<_, anyhow::Error>(r)
-        }
-        .await;
+        let py = self.rclpy_1hop(&run, "/bench/lat").await;
         match py {
             Ok(r) => self.push_latency(
                 "rclpy_1hop",
@@ -112,6 +102,55 @@ impl Bench {
         )?;
         all.quit().await;
         Ok(())
+    }
+
+    /// rclpy's one hop on `topic`: its source publishing to its sink, paced by `run`.
+    async fn rclpy_1hop(&mut self, run: &str, topic: &str) -> Result<Value> {
+        let d = self.domain();
+        let mut sink = self.python(d, &["sink", "--topic", topic]).await?;
+        let mut src = self.python(d, &["source", "--topic", topic]).await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        src.quit().await;
+        sink.quit().await;
+        Ok(r)
+    }
+
+    /// The Python package (issue 24): rclpy's publisher -> a Python response's start slot through the package,
+    /// next to rclpy's own one hop, in the same run. Needs the package in the venv (`tests/python_package.sh`,
+    /// or `pip install ./radar_ros/python` for a release build).
+    pub(super) async fn python_package(&mut self) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        let run = format!("run {n} {p}");
+        let r = self.rclpy_1hop(&run, "/bench/lat_rclpy").await?;
+        self.push_latency(
+            "rclpy_1hop_same_run",
+            "rclpy, 1 hop (publisher -> subscriber), beside the Python package row",
+            &r,
+            "",
+        )?;
+        let d = self.domain();
+        let mut sink = self
+            .python(d, &["radar-sink", "--topic", "/bench/lat_package"])
+            .await?;
+        let mut src = self
+            .python(d, &["source", "--topic", "/bench/lat_package"])
+            .await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, &run, &mut sink).await?;
+        src.quit().await;
+        sink.quit().await;
+        let note = format!(
+            "radar_ros package {}; {} starts queued or ignored (response busy)",
+            r["extra"]["build"].as_str().unwrap_or("?"),
+            r["extra"]["not_started"]
+        );
+        self.push_latency(
+            "radar_python_1hop",
+            "radar_ros Python package: rclpy publisher -> Python response's start slot (async def; manager in the response's process, 1 hop)",
+            &r,
+            &note,
+        )
     }
 
     /// Paced latency from a raw ros2-client publisher to a raw subscriber: one hop, or two through a plain

@@ -300,6 +300,7 @@ impl Bench {
         );
         let scenarios: Vec<Scenario> = vec![
             ("latency", |b| Box::pin(b.latency())),
+            ("python", |b| Box::pin(b.python_package())),
             ("breakdown", |b| Box::pin(b.breakdown())),
             ("interrupt", |b| Box::pin(b.interrupt())),
             ("setup", |b| Box::pin(b.setup())),
@@ -312,6 +313,14 @@ impl Bench {
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {
+                continue;
+            }
+            // the quick run (a test of the harness) needs no Python package built: `--only python` runs it
+            if key == "python" && self.opts.quick && self.opts.only.is_empty() {
+                eprintln!(
+                    "radar_bench: python left out of quick (it needs the package in the venv: \
+                     tests/python_package.sh); `--only python` runs it"
+                );
                 continue;
             }
             eprintln!("radar_bench: {key} ...");
