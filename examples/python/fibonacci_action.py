@@ -68,9 +68,11 @@ class Fib(radar_ros.Response):
         return Int32(data=result.result.sequence[-1])
 
     async def interrupt(self) -> None:
+        # the run is over when the server has stopped the goal, not when it has heard the request
         if self.goal is not None:
             await asyncio.wrap_future(_future(self.goal.cancel_goal_async()))
-            print("fib: interrupted: goal cancel requested", flush=True)
+            result = await asyncio.wrap_future(_future(self.goal.get_result_async()))
+            print(f"fib: interrupted: goal ended with status {result.status} (5: canceled)", flush=True)
 
     async def exit(self, reason: radar_ros.ExitReason) -> None:
         print(f"fib: exit slot ({reason})", flush=True)

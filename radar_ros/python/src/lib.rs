@@ -56,6 +56,17 @@ impl SlotLoop {
     /// Schedules the coroutine `coro` on the loop; its result (or exception) arrives through the returned
     /// call, which cancels the coroutine if dropped before it finished.
     fn schedule(&self, py: Python<'_>, coro: Bound<'_, PyAny>) -> PyResult<PyCall> {
+        self.schedule_acked(py, coro, None)
+    }
+
+    /// [`schedule`](Self::schedule), also sending on `begun` when the coroutine ends (in case it ended before
+    /// it could say it had begun).
+    fn schedule_acked(
+        &self,
+        py: Python<'_>,
+        coro: Bound<'_, PyAny>,
+        begun: Option<std::sync::mpsc::SyncSender<()>>,
+    ) -> PyResult<PyCall> {
         let fut = self
             .submit
             .bind(py)
@@ -71,6 +82,9 @@ impl SlotLoop {
                 let res = fut.call_method0("result").map(Bound::unbind);
                 if let Some(tx) = tx.lock().unwrap().take() {
                     let _ = tx.send(res);
+                }
+                if let Some(b) = &begun {
+                    let _ = b.try_send(());
                 }
                 Ok(())
             },
@@ -157,6 +171,19 @@ async fn run_slot(
     })
 }
 
+/// Waits (at most 1 s: a loop blocked by user code must not hold up the engine for ever) until a Python
+/// start behaviour says it has begun. Blocking, as the first poll of a Rust slot runs its code: on the
+/// engine's multi-thread runtime the worker hands its other tasks over first.
+fn wait_begun(begun: &std::sync::mpsc::Receiver<()>) {
+    let wait = || {
+        let _ = begun.recv_timeout(Duration::from_secs(1));
+    };
+    match tokio::runtime::Handle::try_current().map(|h| h.runtime_flavor()) {
+        Ok(tokio::runtime::RuntimeFlavor::MultiThread) => tokio::task::block_in_place(wait),
+        _ => wait(),
+    }
+}
+
 /// Ends the Rust slot as a panic does, without the panic hook's printout (the message says it all).
 fn panic_with(msg: String) -> ! {
     std::panic::resume_unwind(Box::new(msg))
@@ -190,13 +217,40 @@ impl Response for PyResponse {
     type Output = DynMessage;
 
     async fn start(&mut self, payload: DynMessage) -> Result<DynMessage, SlotError> {
+        // R12 and "started never announces a behaviour that did not run": this first poll ends only once the
+        // Python behaviour has begun (run up to its first await, or its thread started), as a Rust slot's
+        // first poll runs it up to its first await; an interrupt right after cannot cancel it unrun
+        let (begun_tx, begun) = std::sync::mpsc::sync_channel::<()>(2);
         let runner = self.runner.clone();
-        let ended = run_slot(&self.slots, move |py| {
-            runner
+        let slots = self.slots.clone();
+        let call = Python::attach(|py| {
+            let tx = begun_tx.clone();
+            let ack = PyCFunction::new_closure(
+                py,
+                None,
+                None,
+                move |_: &Bound<'_, PyTuple>, _: Option<&Bound<'_, PyDict>>| -> PyResult<()> {
+                    let _ = tx.try_send(());
+                    Ok(())
+                },
+            )?;
+            let coro = runner
                 .bind(py)
-                .call_method1("start", (PyBytes::new(py, payload.0.as_bytes()),))
-        })
-        .await;
+                .call_method1("start", (PyBytes::new(py, payload.0.as_bytes()), ack))?;
+            slots.schedule_acked(py, coro, Some(begun_tx))
+        });
+        if call.is_ok() {
+            wait_begun(&begun);
+        }
+        let res = match call {
+            Ok(call) => call.result().await,
+            Err(e) => Err(e),
+        };
+        let ended = Python::attach(|py| match res {
+            Ok(v) => Ended::Value(v),
+            Err(e) if is_slot_error(py, &e) => Ended::Failed(e.value(py).to_string()),
+            Err(e) => Ended::Panicked(describe(py, &e)),
+        });
         match ended {
             Ended::Value(v) => Python::attach(|py| body(py, &v, "start")).map_err(SlotError::msg),
             Ended::Failed(m) => Err(SlotError::msg(m)),

@@ -396,3 +396,44 @@ def test_ros_args_place_components_as_rcl_does_and_bad_ones_are_refused() -> Non
     with pytest.raises(radar_ros.InvalidArgument) as e:
         radar_ros.Radar(domain_id=DOMAIN, args=["prog", "--ros-args", "-r", "__ns:=no slash"])
     assert "no slash" in str(e.value)
+
+
+@pytest.mark.parametrize("kind", ["async", "plain"])
+def test_an_interrupt_right_after_a_start_finds_the_behaviour_begun(kind: str) -> None:
+    """`started` never announces a behaviour that did not run: the engine's start slot ends its first step
+    only once the Python behaviour has begun, even while the package's loop is busy elsewhere."""
+
+    class Begins(radar_ros.Response):
+        def __init__(self) -> None:
+            self.log: List[str] = []
+
+        async def interrupt(self) -> None:
+            self.log.append("interrupt")
+
+        async def exit(self, reason: radar_ros.ExitReason) -> None:
+            self.log.append(f"exit:{reason}")
+
+    class AsyncBegins(Begins):
+        async def start(self, payload: Any) -> None:
+            self.log.append("began")
+            await asyncio.sleep(3600)
+
+    class PlainBegins(Begins):
+        def start(self, payload: Any) -> None:
+            self.log.append("began")
+            radar_ros.sleep(3600)
+
+    b = AsyncBegins() if kind == "async" else PlainBegins()
+    with radar() as r:
+        c = r.spawn_response(f"rules_begins_{kind}", b)
+        for i in range(10):
+            started = r.waiter(c.started, timeout=WAIT)
+            exited = r.waiter(c.exited, timeout=WAIT)
+            # the slot loop busy for a moment (a slow slot elsewhere), then start and interrupt back to back
+            r._loop.call_soon_threadsafe(time.sleep, 0.1)
+            r.inject(c.start_slot, None, timeout=WAIT)
+            r.inject(c.interrupt_slot, None, timeout=WAIT)
+            started.recv(timeout=WAIT)
+            exited.recv(timeout=WAIT)
+            eventually(lambda: len(b.log) == 3 * (i + 1), "the run's slots")
+            assert b.log[-3:] == ["began", "interrupt", "exit:interrupted"], (i, b.log)

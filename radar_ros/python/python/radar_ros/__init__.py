@@ -199,7 +199,9 @@ def _is_async(fn: Any) -> bool:
     return inspect.iscoroutinefunction(fn) or inspect.iscoroutinefunction(getattr(fn, "__call__", None))
 
 
-async def _in_thread(fn: Callable[..., Any], args: Tuple[Any, ...], name: str) -> Any:
+async def _in_thread(
+    fn: Callable[..., Any], args: Tuple[Any, ...], name: str, begun: Optional[Callable[[], None]] = None
+) -> Any:
     """Runs the plain function ``fn`` in a thread of its own; if this is cancelled, raises
     :class:`Cancelled` in that thread and waits until it has stopped before passing the cancel on."""
     loop = asyncio.get_running_loop()
@@ -215,6 +217,8 @@ async def _in_thread(fn: Callable[..., Any], args: Tuple[Any, ...], name: str) -
     def work() -> None:
         try:
             try:
+                if begun is not None:
+                    begun()
                 value, error = fn(*args), None
             except BaseException as e:  # noqa: BLE001 - handed to the slot's caller
                 value, error = None, e
@@ -249,10 +253,16 @@ class _Runner:
             self._lock_ = asyncio.Lock()
         return self._lock_
 
-    async def _call(self, fn: Callable[..., Any], *args: Any) -> Any:
+    async def _call(self, fn: Callable[..., Any], *args: Any, begun: Optional[Callable[[], None]] = None) -> Any:
+        """Runs the slot ``fn``; ``begun()`` is called once it has begun: an ``async def`` run up to its first
+        ``await``, a plain function's thread started."""
         if _is_async(fn):
-            return await fn(*args)
-        return await _in_thread(fn, args, self._name)
+            task = asyncio.ensure_future(fn(*args))
+            if begun is not None:
+                # after the task's first step, which ensure_future scheduled just before
+                asyncio.get_running_loop().call_soon(begun)
+            return await task
+        return await _in_thread(fn, args, self._name, begun)
 
 
 class _ResponseRunner(_Runner):
@@ -264,10 +274,10 @@ class _ResponseRunner(_Runner):
         self._start_type = start_type
         self._output_type = output_type
 
-    async def start(self, body: bytes) -> bytes:
+    async def start(self, body: bytes, begun: Callable[[], None]) -> bytes:
         async with self._lock():
             payload = decode(body, self._start_type)
-            out = await self._call(self._r.start, payload)
+            out = await self._call(self._r.start, payload, begun=begun)
             try:
                 return encode(out, self._output_type)
             except PayloadTypeError as e:
