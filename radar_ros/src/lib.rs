@@ -217,6 +217,7 @@ mod remote;
 mod response;
 pub mod ros_args;
 pub mod rosout;
+pub mod security;
 mod shutdown;
 mod statement;
 mod topics;

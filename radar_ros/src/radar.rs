@@ -165,6 +165,8 @@ pub struct RadarBuilder {
     ros_args: Option<crate::ros_args::RosArgs>,
     /// `None`: the `use_sim_time` parameter of the command line, else off.
     sim_time: Option<bool>,
+    /// `None`: as the environment says (`ROS_SECURITY_*`); `Some(None)`: plain.
+    security: Option<Option<crate::security::SecurityOptions>>,
 }
 
 impl RadarBuilder {
@@ -308,6 +310,23 @@ impl RadarBuilder {
         self
     }
 
+    /// DDS Security from this enclave (`Some`), or none (`None`), instead of what `ROS_SECURITY_ENABLE`,
+    /// `ROS_SECURITY_KEYSTORE`, `ROS_SECURITY_STRATEGY`, `ROS_SECURITY_ENCLAVE_OVERRIDE` and `--enclave` say
+    /// (see [`crate::security`]).
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// use radar_ros::security::SecurityOptions;
+    /// let radar = radar_ros::Radar::builder()
+    ///     .security(Some(SecurityOptions::enforce("/etc/robot/keystore", "/robot/planner")))
+    ///     .build()?;
+    /// # Ok(()) }
+    /// ```
+    pub fn security(mut self, opts: Option<crate::security::SecurityOptions>) -> Self {
+        self.security = Some(opts);
+        self
+    }
+
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
         let ros_args = match self.ros_args {
@@ -352,9 +371,40 @@ impl RadarBuilder {
             );
             dpb = dpb.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
         }
-        let participant = dpb
-            .build()
-            .map_err(|e| Error::transport(format!("a DDS participant in domain {domain_id}"), e))?;
+        let security = match self.security {
+            Some(s) => s,
+            None => crate::security::SecurityOptions::from_env(&ros_args)?,
+        };
+        let enclave = match &security {
+            Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
+            None => None,
+        };
+        if let Some((name, dir)) = &enclave {
+            #[cfg(feature = "security")]
+            {
+                dpb = crate::security::secure(dpb, dir);
+                tracing::info!(enclave = %name, dir = %dir.display(), "DDS Security: on");
+            }
+            #[cfg(not(feature = "security"))]
+            {
+                let _ = (name, dir);
+                crate::security::unsupported(
+                    security.as_ref().expect("an enclave comes from options"),
+                )?;
+            }
+        }
+        let participant = dpb.build().map_err(|e| match &enclave {
+            Some((name, dir)) if cfg!(feature = "security") => Error::Config {
+                setting: "enclave",
+                value: name.clone(),
+                reason: format!(
+                    "its files in {} do not make a secure participant: {e}. Check that they come from one \
+                     keystore (`radar security create_enclave`) and were not changed since they were signed",
+                    dir.display()
+                ),
+            },
+            _ => Error::transport(format!("a DDS participant in domain {domain_id}"), e),
+        })?;
         let ctx = Context::from_domain_participant(participant)
             .map_err(|e| Error::transport(format!("a ROS 2 context in domain {domain_id}"), e))?;
         let shutdown_timeout = self
