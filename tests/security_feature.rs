@@ -1,9 +1,11 @@
 //! Issue 25 (in progress): radar_ros's `security` feature (DDS Security through RustDDS and OpenSSL) builds,
-//! passes clippy, and its unit tests pass: the `ROS_SECURITY_*` rules, and keystores and enclaves made in
+//! passes clippy, and its tests pass: the `ROS_SECURITY_*` rules; keystores and enclaves made in
 //! `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (and a
-//! changed document does not). The workspace's own build leaves the feature off (no OpenSSL by default), so
-//! this builds radar_ros again with it, in `target/security-feature` (a minute or two). Needs libssl-dev
-//! (`.ci/run` installs it); without it the build fails here, saying so.
+//! changed document does not); `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each
+//! other, a plain one is kept out, bad enclaves stop a program at start); and RustDDS's security unit tests
+//! for radar_ros's patch 25. The workspace's own build leaves the feature off (no OpenSSL by default), so this
+//! builds radar_ros and RustDDS again with it, in `target/security-feature` (a few minutes). Needs libssl-dev
+//! (`.ci/run` installs it); without it the build fails here, saying so. Runs inside tests/isolated.sh.
 
 use std::process::Command;
 

@@ -785,8 +785,6 @@ impl CryptoTransform for CryptographicBuiltin {
       return Err(security_error("Encoded payload smaller than minimum size"));
     }
     let (header_bytes, content_and_footer_bytes) = encoded_buffer.split_at(head_len);
-    let (content_bytes, footer_bytes) =
-      content_and_footer_bytes.split_at(content_and_footer_bytes.len() - foot_len);
 
     // Deserialize crypto header and footer
 
@@ -802,8 +800,6 @@ impl CryptoTransform for CryptographicBuiltin {
         },
       builtin_crypto_header_extra: BuiltinCryptoHeaderExtra(initialization_vector),
     } = crypto_header.try_into()?;
-
-    let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
 
     // Get the payload decode key material
     let decode_key_material = self.session_decode_crypto_materials(
@@ -835,15 +831,127 @@ impl CryptoTransform for CryptographicBuiltin {
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => {
-        validate_mac(decode_key, initialization_vector, content_bytes, common_mac)
-          // if validate_mac succeeds, then map result to content bytes
-          .map(|()| Vec::from(content_bytes))
+        // radar_ros patch 25: the signed SerializedPayload has no length of its own; try the splits that
+        // leave 0-3 bytes of submessage padding after the footer
+        let mut last_err = security_error("Encoded payload smaller than minimum size");
+        for (content_bytes, footer_bytes) in payload_splits(content_and_footer_bytes, foot_len) {
+          let result = BuiltinCryptoFooter::try_from(footer_bytes).and_then(
+            |BuiltinCryptoFooter { common_mac, .. }| {
+              validate_mac(decode_key, initialization_vector, content_bytes, common_mac)
+            },
+          );
+          match result {
+            // if validate_mac succeeds, then map result to content bytes
+            Ok(()) => return Ok(Vec::from(content_bytes)),
+            Err(e) => last_err = e,
+          }
+        }
+        Err(last_err)
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => {
+        // radar_ros patch 25: CryptoContent says its length; the footer follows it (any bytes after the
+        // footer are the submessage's padding)
+        let (content_bytes, footer_bytes) = gcm_split(content_and_footer_bytes, foot_len)?;
+        let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
         let ciphertext = CryptoContent::read_from_buffer(content_bytes)?.data;
         decrypt(decode_key, initialization_vector, &ciphertext, common_mac)
       }
+    }
+  }
+}
+
+// radar_ros patch 25: an encoded payload as it arrives may end with up to 3 bytes that are not its own. A
+// DATA submessage that is not the last of its RTPS message is padded to a multiple of 4 bytes (the writer
+// piggybacks a HEARTBEAT after it), and the receiver takes everything up to the next submessage as the
+// payload. A plain CDR payload ignores them; an encoded one must find its footer after its content, not at
+// the end of the buffer.
+
+/// The (content, footer) splits of `content_and_footer` for a signed (GMAC) payload, the one without
+/// padding first.
+fn payload_splits(content_and_footer: &[u8], foot_len: usize) -> Vec<(&[u8], &[u8])> {
+  (0..=3)
+    .filter_map(|pad| {
+      let end = content_and_footer.len().checked_sub(pad)?;
+      let split = end.checked_sub(foot_len)?;
+      Some((&content_and_footer[..split], &content_and_footer[split..end]))
+    })
+    .collect()
+}
+
+/// The (CryptoContent, footer) of an encrypted (GCM) payload: the content's big-endian length says where
+/// the footer starts.
+fn gcm_split(content_and_footer: &[u8], foot_len: usize) -> SecurityResult<(&[u8], &[u8])> {
+  let too_short = || security_error("Encoded payload shorter than its CryptoContent says");
+  let len_bytes: [u8; 4] = content_and_footer
+    .get(..4)
+    .and_then(|b| b.try_into().ok())
+    .ok_or_else(too_short)?;
+  let content_end = usize::try_from(u32::from_be_bytes(len_bytes))
+    .ok()
+    .and_then(|n| n.checked_add(4))
+    .ok_or_else(too_short)?;
+  let footer_end = content_end.checked_add(foot_len).ok_or_else(too_short)?;
+  if footer_end > content_and_footer.len() || content_and_footer.len() - footer_end > 3 {
+    return Err(too_short());
+  }
+  Ok((
+    &content_and_footer[..content_end],
+    &content_and_footer[content_end..footer_end],
+  ))
+}
+
+#[cfg(test)]
+mod padded_payload_tests {
+  use super::*;
+
+  fn iv() -> BuiltinInitializationVector {
+    BuiltinInitializationVector::new(SessionId::new([0, 0, 0, 1]), [7; 8])
+  }
+
+  /// An encoded payload of 5 bytes (`std_msgs/msg/Empty` with its encapsulation header) followed by the 3
+  /// bytes of padding its DATA submessage gets when a HEARTBEAT follows it: the footer is found and the
+  /// payload decrypts (it did not: the last 20 bytes were taken as the footer).
+  #[test]
+  fn an_encrypted_payload_followed_by_submessage_padding_is_split_at_its_footer() {
+    let key = BuiltinKey::generate_random(KeyLength::AES128);
+    let plain = [0u8, 1, 0, 0, 0];
+    let (ciphertext, mac) = encrypt(&key, iv(), &plain).unwrap();
+    let content = CryptoContent { data: ciphertext }.write_to_vec().unwrap();
+    let footer = Vec::<u8>::try_from(BuiltinCryptoFooter::only_common_mac(mac)).unwrap();
+    let foot_len = BuiltinCryptoFooter::minimal_serialized_len();
+    assert_eq!(footer.len(), foot_len);
+    for pad in 0..=3 {
+      let mut buf = [content.clone(), footer.clone()].concat();
+      buf.extend(std::iter::repeat(0).take(pad));
+      let (c, f) = gcm_split(&buf, foot_len).unwrap();
+      let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(f).unwrap();
+      let data = CryptoContent::read_from_buffer(c).unwrap().data;
+      assert_eq!(decrypt(&key, iv(), &data, common_mac).unwrap(), plain, "padding {pad}");
+    }
+    // more than a submessage's padding, or less than the content says: refused
+    let mut long = [content.clone(), footer.clone()].concat();
+    long.extend([0; 4]);
+    assert!(gcm_split(&long, foot_len).is_err());
+    assert!(gcm_split(&content, foot_len).is_err());
+  }
+
+  /// The same for a signed payload: one of the splits that leave 0-3 bytes after the footer validates.
+  #[test]
+  fn a_signed_payload_followed_by_submessage_padding_validates() {
+    let key = BuiltinKey::generate_random(KeyLength::AES128);
+    let plain = [0u8, 1, 0, 0, 0];
+    let mac = compute_mac(&key, iv(), &plain).unwrap();
+    let footer = Vec::<u8>::try_from(BuiltinCryptoFooter::only_common_mac(mac)).unwrap();
+    let foot_len = BuiltinCryptoFooter::minimal_serialized_len();
+    for pad in 0..=3 {
+      let mut buf = [plain.to_vec(), footer.clone()].concat();
+      buf.extend(std::iter::repeat(0).take(pad));
+      let ok = payload_splits(&buf, foot_len).into_iter().find(|(c, f)| {
+        let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(*f).unwrap();
+        validate_mac(&key, iv(), c, common_mac).is_ok()
+      });
+      assert_eq!(ok.map(|(c, _)| c.to_vec()), Some(plain.to_vec()), "padding {pad}");
     }
   }
 }
