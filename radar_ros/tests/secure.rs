@@ -16,6 +16,30 @@ use radar_ros::{
 const DOMAIN: u16 = 109;
 const WAIT: Duration = Duration::from_secs(15);
 
+/// What the process logged at warn level or above (RustDDS's `log` records too), since [`logged`] was last
+/// called. The tests run one at a time (`--test-threads=1`, as tests/security_feature.rs runs them).
+static LOG: std::sync::Mutex<Vec<u8>> = std::sync::Mutex::new(Vec::new());
+
+struct Sink;
+impl std::io::Write for Sink {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        LOG.lock().unwrap().extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+fn logged() -> String {
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::new("warn"))
+        .with_ansi(false)
+        .with_writer(|| Sink)
+        .try_init();
+    String::from_utf8(std::mem::take(&mut *LOG.lock().unwrap())).unwrap()
+}
+
 fn keystore(name: &str) -> PathBuf {
     assert!(
         std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
@@ -41,6 +65,7 @@ fn radar(security: Option<SecurityOptions>) -> radar_ros::Result<Radar> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
     let ks = keystore("pair");
+    logged();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let s = starts.clone();
@@ -64,13 +89,39 @@ async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
         .timeout(WAIT)
         .await
         .unwrap();
+    let t0 = std::time::Instant::now();
     planner
         .inject(dock.start_slot(), Empty::default())
         .timeout(WAIT)
         .await
         .unwrap();
     exited.recv().timeout(WAIT).await.unwrap();
+    println!("secured: first start -> exited in {:?}", t0.elapsed());
     assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
+    // what a program that runs normally logs: nothing at error level (matching before the keys are exchanged
+    // is the usual order, RustDDS patch 26)
+    let log = logged();
+    let errors: Vec<&str> = log.lines().filter(|l| l.contains("ERROR")).collect();
+    assert!(
+        errors.is_empty(),
+        "error lines while secured programs talk:\n{}",
+        errors.join("\n")
+    );
+    // warm: the next start, on endpoints whose keys are exchanged
+    let mut exited = planner
+        .waiter::<Empty>(dock.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let t1 = std::time::Instant::now();
+    planner
+        .inject(dock.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    exited.recv().timeout(WAIT).await.unwrap();
+    println!("secured: second start -> exited in {:?}", t1.elapsed());
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 2);
 
     // a plain participant: it does not see the secured components, and what it publishes is not acted on
     let plain = radar(None).unwrap();
@@ -91,7 +142,7 @@ async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
     }
     assert_eq!(
         starts.load(std::sync::atomic::Ordering::SeqCst),
-        1,
+        2,
         "a plain publisher's start is not acted on"
     );
     std::fs::remove_dir_all(&ks).unwrap();

@@ -902,6 +902,7 @@ impl Discovery {
                       &self.discovery_db,
                     );
                   }
+                  self.notify_keys_ready();
                 }
               };
             }
@@ -1714,6 +1715,22 @@ impl Discovery {
     }
   }
 
+  /// radar_ros patch 26: tells the event loop which endpoints' keys were just set, so that what waited for
+  /// them goes out now rather than at the next periodic heartbeat.
+  #[cfg(feature = "security")]
+  fn notify_keys_ready(&mut self) {
+    let ready = match self.security_opt.as_mut() {
+      Some(security) => security.take_keys_ready(),
+      None => return,
+    };
+    for (local_endpoint_guid, remote_endpoint_guid) in ready {
+      self.send_discovery_notification(DiscoveryNotificationType::EndpointKeysReady {
+        local_endpoint_guid,
+        remote_endpoint_guid,
+      });
+    }
+  }
+
   #[cfg(feature = "security")]
   fn receive_participant_volatile_message(&mut self) {
     if let Some(security) = self.security_opt.as_mut() {
@@ -1728,6 +1745,7 @@ impl Discovery {
           for msg in dr_iter {
             security.volatile_message_secure_read(&msg);
           }
+          self.notify_keys_ready();
         }
         Err(e) => {
           error!("receive_participant_volatile_message: {e:?}");

@@ -111,6 +111,10 @@ pub(crate) struct SecureDiscovery {
 
   // A set for keeping track which remote readers are relay-only
   relay_only_remote_readers: HashSet<GUID>,
+
+  // radar_ros patch 26: (local endpoint, remote endpoint) pairs whose keys were just set, for the event loop
+  // to send what waited for them
+  keys_ready: Vec<(GUID, GUID)>,
 }
 
 impl SecureDiscovery {
@@ -255,6 +259,7 @@ impl SecureDiscovery {
       cached_key_exchange_messages_for_resend: HashSet::new(),
       stored_authentication_messages: HashMap::new(),
       cached_received_key_exchange_messages: HashMap::new(),
+      keys_ready: Vec::new(),
       user_data_endpoints_with_keys_already_sent_to: HashSet::new(),
       relay_only_remote_readers: HashSet::new(),
     })
@@ -1913,6 +1918,11 @@ impl SecureDiscovery {
     }
   }
 
+  /// radar_ros patch 26: the (local endpoint, remote endpoint) pairs whose keys were set since the last call.
+  pub fn take_keys_ready(&mut self) -> Vec<(GUID, GUID)> {
+    std::mem::take(&mut self.keys_ready)
+  }
+
   pub fn volatile_message_secure_read(&mut self, msg: &ParticipantVolatileMessageSecure) {
     // Check is the message meant to us (see 7.4.4.4 Destination of the
     // ParticipantVolatileMessageSecure of the spec)
@@ -1975,7 +1985,8 @@ impl SecureDiscovery {
           );
 
         if let Err(e) = set_result {
-          warn!(
+          // radar_ros patch 26: the usual order when the remote matched first; stored and set on our match
+          debug!(
             "Failed to set remote writer {:?} crypto tokens. Storing them & trying again later. \
              Error message: {e}",
             msg.generic.source_endpoint_guid
@@ -1988,6 +1999,10 @@ impl SecureDiscovery {
             "Set crypto tokens for remote writer {:?}",
             msg.generic.source_endpoint_guid
           );
+          self.keys_ready.push((
+            msg.generic.destination_endpoint_guid,
+            msg.generic.source_endpoint_guid,
+          ));
         }
       }
 
@@ -2004,7 +2019,8 @@ impl SecureDiscovery {
             crypto_tokens,
           );
         if let Err(e) = set_result {
-          warn!(
+          // radar_ros patch 26: the usual order when the remote matched first; stored and set on our match
+          debug!(
             "Failed to set remote reader {:?} crypto tokens. Storing them & trying again later. \
              Error message: {e}",
             msg.generic.source_endpoint_guid
@@ -2017,6 +2033,10 @@ impl SecureDiscovery {
             "Set crypto tokens for remote reader {:?}",
             msg.generic.source_endpoint_guid
           );
+          self.keys_ready.push((
+            msg.generic.destination_endpoint_guid,
+            msg.generic.source_endpoint_guid,
+          ));
         }
       }
       other => {
@@ -2362,6 +2382,7 @@ impl SecureDiscovery {
         );
       } else {
         debug!("Set stored remote crypto tokens. Remote: {remote_endpoint_guid:?}");
+        self.keys_ready.push((local_endpoint_guid, remote_endpoint_guid));
         // Remove the stored message
         self
           .cached_received_key_exchange_messages

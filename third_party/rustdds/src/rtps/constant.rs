@@ -504,6 +504,12 @@ pub(crate) enum DiscoveryNotificationType {
   ParticipantAuthenticationStatusChanged {
     guid_prefix: GuidPrefix,
   },
+  // radar_ros patch 26: the keys between a local and a remote endpoint were just set
+  #[cfg(feature = "security")]
+  EndpointKeysReady {
+    local_endpoint_guid: GUID,
+    remote_endpoint_guid: GUID,
+  },
 }
 
 pub mod builtin_topic_names {

@@ -469,6 +469,23 @@ impl DPEventLoop {
         ParticipantAuthenticationStatusChanged { guid_prefix } => {
           self.on_remote_participant_authentication_status_changed(guid_prefix);
         }
+        // radar_ros patch 26: what was not sent for want of these keys goes now: a writer heartbeats (its
+        // reader asks for what it missed), a reader asks its writer
+        #[cfg(feature = "security")]
+        EndpointKeysReady {
+          local_endpoint_guid,
+          remote_endpoint_guid,
+        } => {
+          let eid = local_endpoint_guid.entity_id;
+          if eid.entity_kind.is_writer() {
+            if let Some(w) = self.writers.get_mut(&eid) {
+              w.handle_heartbeat_tick(false);
+            }
+          } else if let Some(r) = self.message_receiver.reader_mut(eid) {
+            r.send_preemptive_acknacks();
+          }
+          debug!("Keys ready between {local_endpoint_guid:?} and {remote_endpoint_guid:?}");
+        }
       }
     }
 

@@ -1911,7 +1911,32 @@ impl Writer {
     // the incoming iterator directly below, avoiding a per-sample Vec
     // allocation on the send hot path.
     #[cfg(feature = "security")]
-    let readers = readers.collect::<Vec<_>>();
+    let readers = {
+      let all = readers.collect::<Vec<_>>();
+      // radar_ros patch 26: a reader whose keys are not exchanged yet cannot be sent to; leave it out (a
+      // reliable one gets the samples by repair once they are) rather than fail the send for every reader
+      match &self.security_plugins {
+        Some(handle) if self.guid().entity_id.entity_kind.is_user_defined() => {
+          let plugins = handle.get_plugins();
+          let (ready, waiting): (Vec<_>, Vec<_>) = all.into_iter().partition(|r| {
+            plugins.remote_endpoint_keys_ready(&self.guid(), &r.remote_reader_guid)
+          });
+          if !waiting.is_empty() {
+            debug!(
+              "send_message_to_readers: {} reader(s) of {:?} wait for their keys; not sent to now",
+              waiting.len(),
+              self.guid()
+            );
+          }
+          ready
+        }
+        _ => all,
+      }
+    };
+    #[cfg(feature = "security")]
+    if readers.is_empty() {
+      return BTreeSet::new();
+    }
 
     let mut blocked: BTreeSet<SocketId> = BTreeSet::new();
 
@@ -2025,6 +2050,10 @@ impl Writer {
         // Fixed extra unicast destinations (SPDP localhost peers): send the same
         // datagram unconditionally, deduplicated against everything already sent.
         send_legacy!(self.extra_unicast_destinations);
+      }
+      #[cfg(feature = "security")]
+      Err(e) if crate::security::security_plugins::keys_not_exchanged(&e) => {
+        debug!("Not sent to readers whose keys are not exchanged yet: {e:?}")
       }
       Err(e) => error!("Failed to send message to readers. Encoding failed: {e:?}"),
     }

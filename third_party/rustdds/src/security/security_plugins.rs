@@ -256,13 +256,34 @@ impl SecurityPlugins {
       .remote_endpoint_crypto_handle_cache
       .get(&local_and_proxy_guid_pair)
       .ok_or_else(|| {
-        create_security_error_and_log!(
-          "Could not find a remote EndpointCryptoHandle for the (local_endpoint_guid, proxy_guid) \
-           pair {:?}",
+        // radar_ros patch 26: not an error in itself: endpoints match before their keys are exchanged, and
+        // a send or a token set in that window ends here (the caller says what it means)
+        debug!(
+          "No remote EndpointCryptoHandle (yet) for the (local_endpoint_guid, proxy_guid) pair {:?}",
           local_and_proxy_guid_pair
-        )
+        );
+        SecurityError {
+          msg: format!(
+            "{NO_REMOTE_ENDPOINT_KEYS} for the (local_endpoint_guid, proxy_guid) pair \
+             {local_and_proxy_guid_pair:?}"
+          ),
+        }
       })
       .copied()
+  }
+
+  /// radar_ros patch 26: whether `local_endpoint_guid` can protect what it sends to `remote_endpoint_guid`:
+  /// it protects nothing, or the remote's keys are registered.
+  pub fn remote_endpoint_keys_ready(
+    &self,
+    local_endpoint_guid: &GUID,
+    remote_endpoint_guid: &GUID,
+  ) -> bool {
+    (self.submessage_not_protected(local_endpoint_guid)
+      && self.payload_not_protected(local_endpoint_guid))
+      || self
+        .remote_endpoint_crypto_handle_cache
+        .contains_key(&(*local_endpoint_guid, *remote_endpoint_guid))
   }
 
   fn remove_remote_endpoint_crypto_handle(
@@ -1327,6 +1348,14 @@ impl SecurityPlugins {
   pub fn payload_not_protected(&self, local_endpoint_guid: &GUID) -> bool {
     self.payload_not_protected.contains(local_endpoint_guid)
   }
+}
+
+/// radar_ros patch 26: how the error of a send before the endpoints' keys are exchanged begins.
+pub(crate) const NO_REMOTE_ENDPOINT_KEYS: &str = "Could not find a remote EndpointCryptoHandle";
+
+/// radar_ros patch 26: whether `e` says that an endpoint's keys are not exchanged yet.
+pub(crate) fn keys_not_exchanged(e: &SecurityError) -> bool {
+  e.msg.starts_with(NO_REMOTE_ENDPOINT_KEYS)
 }
 
 #[derive(Clone)]
