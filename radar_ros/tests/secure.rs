@@ -159,10 +159,10 @@ async fn a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong() {
         perms.replace("<max>232</max>", "<max>233</max>"),
     )
     .unwrap();
-    let e = radar(Some(SecurityOptions::enforce(&ks, "/robot")))
-        .err()
-        .expect("a tampered permissions document is refused")
-        .to_string();
+    let Err(e) = radar(Some(SecurityOptions::enforce(&ks, "/robot"))) else {
+        panic!("a tampered permissions document is refused")
+    };
+    let e = e.to_string();
     assert!(
         e.contains("enclaves/robot") && e.contains("do not make a secure participant"),
         "{e}"
@@ -180,17 +180,17 @@ async fn a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong() {
         ks.join("enclaves/planner/key.pem"),
     )
     .unwrap();
-    let e = radar(Some(SecurityOptions::enforce(&ks, "/planner")))
-        .err()
-        .expect("a certificate of another CA is refused")
-        .to_string();
+    let Err(e) = radar(Some(SecurityOptions::enforce(&ks, "/planner"))) else {
+        panic!("a certificate of another CA is refused")
+    };
+    let e = e.to_string();
     assert!(e.contains("enclaves/planner"), "{e}");
 
     // a missing file, under Enforce
-    let e = radar(Some(SecurityOptions::enforce(&ks, "/nobody")))
-        .err()
-        .expect("a missing enclave is refused")
-        .to_string();
+    let Err(e) = radar(Some(SecurityOptions::enforce(&ks, "/nobody"))) else {
+        panic!("a missing enclave is refused")
+    };
+    let e = e.to_string();
     assert!(e.contains("identity_ca.cert.pem is missing"), "{e}");
     std::fs::remove_dir_all(&ks).unwrap();
     std::fs::remove_dir_all(&other).unwrap();
