@@ -65,8 +65,9 @@ async fn graph_probe(args: &[&str]) -> serde_json::Value {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_namespaced_count_ups_run_side_by_side() {
     require_isolation();
-    // robot2 counts to 4 only: `-p` sets its CountUp's `limit` parameter
-    let robots = [robot(1, &[]), robot(2, &["-p", "limit:=4"])];
+    // robot2 counts to 6 only: `-p` sets its CountUp's `limit` parameter. (Not 4: a first run of 4 counts ends
+    // 4 s after start_event activated, exactly when end_event's `until` comes, and either may win.)
+    let robots = [robot(1, &[]), robot(2, &["-p", "limit:=6"])];
     // seen from outside, while they run: each robot's components and program node under its namespace
     let radar = Radar::builder()
         .domain_id(DOMAIN)
@@ -145,7 +146,7 @@ async fn two_namespaced_count_ups_run_side_by_side() {
     );
     assert_eq!(
         seen["params"]["/robot2/count_up"],
-        serde_json::json!({"limit": 4, "period": 0.5})
+        serde_json::json!({"limit": 6, "period": 0.5})
     );
     assert_eq!(
         seen["params"]["/robot1/start_event"],
@@ -188,10 +189,13 @@ async fn two_namespaced_count_ups_run_side_by_side() {
             "robot{}: interrupted 4 s after end_event activated: {interrupted:?}",
             n + 1
         );
-        let fives = times(&tl, "count_up counts 5");
+        let sevens = times(&tl, "count_up counts 7");
         match n {
-            0 => assert!(!fives.is_empty(), "robot1 counts to 10"),
-            _ => assert!(fives.is_empty(), "robot2 counts to its limit 4: {fives:?}"),
+            0 => assert!(!sevens.is_empty(), "robot1 counts to 10"),
+            _ => assert!(
+                sevens.is_empty(),
+                "robot2 counts to its limit 6: {sevens:?}"
+            ),
         }
         assert_eq!(
             times(&tl, "start_event triggered").len(),

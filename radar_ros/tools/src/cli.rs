@@ -31,6 +31,11 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// DDS Security keystores and enclaves, as `ros2 security` makes them (needs the `security` feature).
+    Security {
+        #[command(subcommand)]
+        verb: SecurityVerb,
+    },
     /// List the events and responses on the graph, by namespace (like rtls).
     Ls {
         /// Only names in this namespace (e.g. /robot).
@@ -191,18 +196,79 @@ impl ActSlot {
     }
 }
 
+/// `radar security ...`: the verbs of `ros2 security` this build offers.
+#[derive(Subcommand)]
+enum SecurityVerb {
+    /// Make a keystore: one CA for identities and permissions, and the signed governance (no
+    /// unauthenticated participants; discovery and data encrypted).
+    #[command(name = "create_keystore")]
+    CreateKeystore {
+        /// The keystore's directory (made if missing).
+        keystore: std::path::PathBuf,
+    },
+    /// Make an enclave in a keystore: a key and certificate for it, permissions that allow it everything
+    /// (as `ros2 security create_enclave` does), signed by the keystore's CA.
+    #[command(name = "create_enclave")]
+    CreateEnclave {
+        /// The keystore's directory.
+        keystore: std::path::PathBuf,
+        /// The enclave's name, absolute, e.g. /robot/planner (a program uses it with --ros-args --enclave).
+        enclave: String,
+    },
+}
+
+fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
+    #[cfg(feature = "security")]
+    {
+        use radar_ros::security::keystore;
+        match verb {
+            SecurityVerb::CreateKeystore { keystore: dir } => {
+                keystore::create_keystore(&dir).map_err(|e| e.to_string())?;
+                match out.json {
+                    true => println!("{}", serde_json::json!({ "keystore": dir })),
+                    false => println!("keystore made in {}", dir.display()),
+                }
+            }
+            SecurityVerb::CreateEnclave {
+                keystore: dir,
+                enclave,
+            } => {
+                let made = keystore::create_enclave(&dir, &enclave, &keystore::Grant::all())
+                    .map_err(|e| e.to_string())?;
+                match out.json {
+                    true => println!("{}", serde_json::json!({ "enclave": enclave, "dir": made })),
+                    false => println!("enclave {enclave} made in {}", made.display()),
+                }
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(feature = "security"))]
+    {
+        let _ = (verb, out);
+        Err("this radar was built without DDS Security: build it with `cargo build -p radar_tools --features \
+             security` (needs OpenSSL, libssl-dev)"
+            .into())
+    }
+}
+
 /// Runs the verb `cli` names, on a program node of its own (several `radar` commands may run at once).
 pub async fn run(cli: Cli) -> Result<(), String> {
+    let out = Out { json: cli.json };
+    let cmd = match cli.cmd {
+        Cmd::Security { verb } => return security(verb, &out),
+        other => other,
+    };
     // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
     let radar = Radar::builder()
         .program(&format!("radar_cli_{}", std::process::id()))
         .handle_signals(false)
         .build()
         .map_err(|e| e.to_string())?;
-    let out = Out { json: cli.json };
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
     let manager = |named| verbs::con::Manager { named, discovery };
-    match cli.cmd {
+    match cmd {
+        Cmd::Security { .. } => unreachable!("handled above"),
         Cmd::Ls { namespace, long } => {
             verbs::ls::ls(&radar, &out, discovery, namespace, long).await
         }

@@ -239,6 +239,18 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("invalid ROS_DOMAIN_ID \"x\""));
     let help = radar_in(DOMAIN, &["act", "--help"]).await;
     assert!(String::from_utf8_lossy(&help.stdout).contains("like rtact"));
+    // the default build has no DDS Security: `radar security` says how to get it (tests/security_feature.rs
+    // runs the verbs of a build with it)
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["security", "create_keystore", "/nonexistent/radar_keystore"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("built without DDS Security") && e.contains("--features security"),
+        "{e}"
+    );
     drop(never);
 }
 
