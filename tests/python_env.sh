@@ -31,6 +31,10 @@ if [ "$ver" != "3.11" ]; then
 fi
 
 missing=()
+# (not for the venv, but the test suite's other native need: OpenSSL for radar_ros's `security` feature,
+# which tests/security_feature.rs builds)
+dpkg -s libssl-dev >/dev/null 2>&1 || missing+=(libssl-dev)
+command -v pkg-config >/dev/null || missing+=(pkg-config)
 command -v cmake >/dev/null || missing+=(cmake)
 command -v g++ >/dev/null || missing+=(g++)
 "$PY" -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
