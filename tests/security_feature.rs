@@ -1,64 +1,191 @@
-//! Issue 25 (in progress): radar_ros's `security` feature (DDS Security through RustDDS and OpenSSL) builds,
-//! passes clippy, and its tests pass: the `ROS_SECURITY_*` rules; keystores and enclaves made in
-//! `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (and a
-//! changed document does not); `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each
-//! other, a plain one is kept out, bad enclaves stop a program at start); and RustDDS's security unit tests
-//! for radar_ros's patch 25. The workspace's own build leaves the feature off (no OpenSSL by default), so this
-//! builds radar_ros and RustDDS again with it, in `target/security-feature` (a few minutes). Needs libssl-dev
-//! (`.ci/run` installs it); without it the build fails here, saying so. Runs inside tests/isolated.sh.
+//! Issue 25: radar_ros's `security` feature (DDS Security through RustDDS and OpenSSL). The workspace's own
+//! build leaves it off (no OpenSSL by default), so this builds radar_ros, the examples, the `radar` CLI and
+//! RustDDS again with it, in `target/security-feature` (a few minutes), and checks, in order:
+//! - clippy (`-D warnings`) on radar_ros, radar_tools and the examples with the feature;
+//! - radar_ros's security unit tests: the `ROS_SECURITY_*` rules; keystores and enclaves made in
+//!   `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (a
+//!   changed document does not);
+//! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
+//!   of one endpoint within one participant);
+//! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
+//!   out, one secured program hears its own signals on every subscription, bad enclaves stop a program at
+//!   start naming what is wrong), one test at a time;
+//! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
+//!   verbs follows Listing 1.
+//!
+//! Everything is built before anything runs over DDS (a build beside a timed run would load the machine).
+//! Needs libssl-dev and pkg-config (`.ci/run` and tests/python_env.sh install them); without them the build
+//! fails here, saying so. Runs inside tests/isolated.sh.
 
-use std::process::Command;
+use std::process::{Command, Output};
 
 use radar_test_util::repo;
 
-fn cargo(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO"))
-        .args(args)
+fn cargo(args: &[&str], env: &[(&str, &std::path::Path)]) -> Output {
+    let mut c = Command::new(env!("CARGO"));
+    c.args(args)
         .current_dir(repo())
         .env_remove("RUSTFLAGS")
-        .env("CARGO_TARGET_DIR", repo().join("target/security-feature"))
-        .output()
-        .expect("run cargo")
+        .env("CARGO_TARGET_DIR", repo().join("target/security-feature"));
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("run cargo")
 }
 
+fn check(out: &Output, what: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+fn ran_and_passed(out: &str, tests: &[&str]) {
+    for t in tests {
+        assert!(
+            out.lines()
+                .any(|l| l.starts_with("test ") && l.contains(t) && l.ends_with("... ok")),
+            "{t} ran and passed:\n{out}"
+        );
+    }
+}
+
+const FEATURES: &str = "radar_ros/security,radar_tools/security,radar_ros_examples/security";
+
 #[test]
-fn the_security_feature_builds_lints_and_its_unit_tests_pass() {
-    let lint = cargo(&[
-        "clippy",
+fn the_security_feature_builds_lints_and_its_tests_pass() {
+    // build and lint everything first
+    let pkgs = [
         "-p",
         "radar_ros",
+        "-p",
+        "radar_tools",
+        "-p",
+        "radar_ros_examples",
+    ];
+    let mut lint = vec!["clippy"];
+    lint.extend(pkgs);
+    lint.extend([
         "--features",
-        "security",
+        FEATURES,
         "--all-targets",
         "--",
         "-D",
         "warnings",
     ]);
-    assert!(
-        lint.status.success(),
-        "clippy with the security feature (is libssl-dev installed?):\n{}",
-        String::from_utf8_lossy(&lint.stderr)
+    check(
+        &cargo(&lint, &[]),
+        "clippy with the security feature (are libssl-dev and pkg-config installed?)",
     );
-    let test = cargo(&[
+    let mut build = vec!["build"];
+    build.extend(pkgs);
+    build.extend(["--features", FEATURES, "--bins", "--examples"]);
+    check(
+        &cargo(&build, &[]),
+        "building radar and the examples with the feature",
+    );
+    let rustdds = repo().join("third_party/rustdds/Cargo.toml");
+    let rustdds = rustdds.to_str().unwrap();
+    let rustdds_tests = [
+        "test",
+        "--manifest-path",
+        rustdds,
+        "--features",
+        "security",
+        "--lib",
+        "--",
+        "padded_payload_tests",
+        "per_endpoint_handle_tests",
+    ];
+    let mut no_run = rustdds_tests[..6].to_vec();
+    no_run.push("--no-run");
+    check(
+        &cargo(&no_run, &[]),
+        "building RustDDS's tests with security",
+    );
+    let secure = [
         "test",
         "-p",
         "radar_ros",
         "--features",
         "security",
-        "--lib",
+        "--test",
+        "secure",
+        "--",
+        "--test-threads=1",
+    ];
+    let mut no_run = secure[..7].to_vec();
+    no_run.push("--no-run");
+    check(&cargo(&no_run, &[]), "building radar_ros/tests/secure.rs");
+    let timeline = [
+        "test",
+        "-p",
+        "radar_ros_examples",
+        "--features",
         "security",
-    ]);
-    let out = String::from_utf8_lossy(&test.stdout);
-    assert!(
-        test.status.success(),
-        "the security unit tests:\n{out}\n{}",
-        String::from_utf8_lossy(&test.stderr)
+        "--test",
+        "count_up_secured",
+    ];
+    let mut no_run = timeline.to_vec();
+    no_run.push("--no-run");
+    check(
+        &cargo(&no_run, &[]),
+        "building examples/count_up_secured.rs",
     );
-    for t in [
-        "security::tests::the_environment_is_read_as_rcl_reads_it",
-        "security::tests::a_missing_enclave_file_is_named_under_enforce_and_tolerated_under_permissive",
-        "security::keystore::tests::a_keystore_and_an_enclave_are_made_signed_and_verifiable",
-    ] {
-        assert!(out.contains(&format!("test {t} ... ok")), "{t} ran and passed:\n{out}");
-    }
+
+    // then run
+    let out = check(
+        &cargo(
+            &[
+                "test",
+                "-p",
+                "radar_ros",
+                "--features",
+                "security",
+                "--lib",
+                "security",
+            ],
+            &[],
+        ),
+        "radar_ros's security unit tests",
+    );
+    ran_and_passed(
+        &out,
+        &[
+            "security::tests::the_environment_is_read_as_rcl_reads_it",
+            "security::tests::a_missing_enclave_file_is_named_under_enforce_and_tolerated_under_permissive",
+            "security::keystore::tests::a_keystore_and_an_enclave_are_made_signed_and_verifiable",
+        ],
+    );
+    let out = check(
+        &cargo(&rustdds_tests, &[]),
+        "RustDDS's security patch tests",
+    );
+    ran_and_passed(
+        &out,
+        &[
+            "an_encrypted_payload_followed_by_submessage_padding_is_split_at_its_footer",
+            "a_signed_payload_followed_by_submessage_padding_validates",
+            "two_readers_of_one_participant_matched_with_one_writer_each_get_keys_and_decode",
+        ],
+    );
+    let out = check(&cargo(&secure, &[]), "radar_ros/tests/secure.rs");
+    println!("{out}");
+    ran_and_passed(
+        &out,
+        &[
+            "secured_programs_signal_each_other_and_a_plain_one_is_kept_out",
+            "one_secured_program_hears_its_own_signals_on_every_subscription",
+            "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",
+        ],
+    );
+    let cli = repo().join("target/security-feature/debug/radar");
+    let out = check(
+        &cargo(&timeline, &[("RADAR_CLI", &cli)]),
+        "examples/count_up_secured.rs",
+    );
+    ran_and_passed(&out, &["secured_count_up_follows_listing_1"]);
 }

@@ -148,6 +148,79 @@ async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
+/// One secured program whose endpoints match each other (Listing 1 in one process: the response and what
+/// listens to it on one participant), with two subscriptions of one topic: every subscription gets the
+/// signals, and nothing is logged at error level. Before RustDDS patch 27 a participant's own matches got
+/// their keys the wrong way round (nothing arrived) and a second subscription of a topic got none
+/// ("already associated with ... key materials").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
+    let ks = keystore("own");
+    logged();
+    let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let s = starts.clone();
+    let _counter = robot
+        .spawn_response(
+            "secure_counter",
+            FnResponse::new(move |_: Empty| {
+                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let counter = robot
+        .response("/secure_counter")
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let mut started_a = robot
+        .waiter::<Empty>(counter.started())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let mut started_b = robot
+        .waiter::<Empty>(counter.started())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let mut exited = robot
+        .waiter::<Empty>(counter.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    robot
+        .inject(counter.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    started_a
+        .recv()
+        .timeout(WAIT)
+        .await
+        .expect("first subscription of started");
+    started_b
+        .recv()
+        .timeout(WAIT)
+        .await
+        .expect("second subscription of started");
+    exited.recv().timeout(WAIT).await.expect("exited");
+    println!(
+        "secured, one program: start -> exited in {:?}",
+        t0.elapsed()
+    );
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
+    let log = logged();
+    let errors: Vec<&str> = log.lines().filter(|l| l.contains("ERROR")).collect();
+    assert!(
+        errors.is_empty(),
+        "error lines in one secured program:\n{}",
+        errors.join("\n")
+    );
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong() {
     let ks = keystore("bad");

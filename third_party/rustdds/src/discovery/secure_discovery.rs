@@ -107,7 +107,9 @@ pub(crate) struct SecureDiscovery {
 
   // In the key, first GUID is local endpoint's, second is remote endpoint's
   cached_received_key_exchange_messages: HashMap<(GUID, GUID), ParticipantVolatileMessageSecure>,
-  user_data_endpoints_with_keys_already_sent_to: HashSet<GUID>,
+  // (local endpoint, remote endpoint) pairs (radar_ros patch 27: was the remote endpoint alone, so a second
+  // local endpoint matched with the same remote never sent its keys)
+  user_data_endpoints_with_keys_already_sent_to: HashSet<(GUID, GUID)>,
 
   // A set for keeping track which remote readers are relay-only
   relay_only_remote_readers: HashSet<GUID>,
@@ -2393,7 +2395,7 @@ impl SecureDiscovery {
     // See if we have already sent our keys. Do nothing if so.
     let we_have_sent_ours = self
       .user_data_endpoints_with_keys_already_sent_to
-      .contains(&remote_endpoint_guid);
+      .contains(&(local_endpoint_guid, remote_endpoint_guid));
     if we_have_sent_ours {
       return;
     }
@@ -2409,8 +2411,19 @@ impl SecureDiscovery {
         .map(|reader| reader.subscription_topic_data.security_info().clone())
     };
 
+    let remote_is_us = remote_endpoint_guid.prefix == self.local_participant_guid.prefix;
     let sec_attr = match sec_info_opt.flatten() {
       Some(info) => EndpointSecurityAttributes::from(info),
+      // radar_ros patch 27: our own endpoint may not be in the discovery DB yet (its announcement has not
+      // come back to us); its attributes are ours, registered when it was made
+      None if remote_is_us => {
+        let plugins = self.security_plugins.get_plugins();
+        EndpointSecurityAttributes {
+          is_submessage_protected: !plugins.submessage_not_protected(&remote_endpoint_guid),
+          is_payload_protected: !plugins.payload_not_protected(&remote_endpoint_guid),
+          ..EndpointSecurityAttributes::empty()
+        }
+      }
       None => {
         create_security_error_and_log!(
           "Could not find EndpointSecurityAttributes for remote {:?}",
@@ -2442,7 +2455,7 @@ impl SecureDiscovery {
       // Mark as if we have sent keys to the remote
       self
         .user_data_endpoints_with_keys_already_sent_to
-        .insert(remote_endpoint_guid);
+        .insert((local_endpoint_guid, remote_endpoint_guid));
       return;
     }
 
@@ -2471,32 +2484,28 @@ impl SecureDiscovery {
       }
     };
 
-    // Shortcut: if the remote is actually our endpoint, set tokens directly (no
-    // need to send then to the network)
-    let remote_is_us = remote_endpoint_guid.prefix == self.local_participant_guid.prefix;
+    // Shortcut: if the remote is actually our endpoint, hand the tokens to it directly (no
+    // need to send them to the network).
+    // radar_ros patch 27: this set our local endpoint's tokens as the remote's tokens *for our local
+    // endpoint* (the pair the wrong way round: a writer's own keys as its reader's, a reader's as its
+    // writer's), so a participant's endpoints matched with each other never decoded each other's data.
+    // Now they take the path of a token message received from the network: the remote endpoint, as the
+    // local one, gets our tokens for its match with us, or stores them until it has matched.
     if remote_is_us {
-      let set_res = if remote_is_writer {
-        self
-          .security_plugins
-          .get_plugins()
-          .set_remote_writer_crypto_tokens(remote_endpoint_guid, local_endpoint_guid, crypto_tokens)
-      } else {
-        self
-          .security_plugins
-          .get_plugins()
-          .set_remote_reader_crypto_tokens(remote_endpoint_guid, local_endpoint_guid, crypto_tokens)
-      };
-
-      if let Err(e) = set_res {
-        create_security_error_and_log!(
-          "Failed to set our own crypto tokens as remote tokens: {}. Guid: {:?}",
-          e,
-          remote_endpoint_guid
-        );
-        return;
-      } else {
-        debug!("Set our own crypto tokens as remote tokens. Guid: {remote_endpoint_guid:?}");
-      }
+      let own_msg = self.new_volatile_message(
+        if remote_is_writer {
+          GMCLASSID_SECURITY_DATAREADER_CRYPTO_TOKENS
+        } else {
+          GMCLASSID_SECURITY_DATAWRITER_CRYPTO_TOKENS
+        },
+        key_exchange_writer.guid(),
+        local_endpoint_guid,
+        remote_endpoint_guid.prefix,
+        remote_endpoint_guid,
+        &crypto_tokens,
+      );
+      self.volatile_message_secure_read(&own_msg);
+      debug!("Gave our own crypto tokens to our endpoint {remote_endpoint_guid:?}");
     } else {
       // It's a real remote, send tokens over the network
 
@@ -2541,7 +2550,7 @@ impl SecureDiscovery {
     // Remember that we have successfully sent the keys
     self
       .user_data_endpoints_with_keys_already_sent_to
-      .insert(remote_endpoint_guid);
+      .insert((local_endpoint_guid, remote_endpoint_guid));
   }
 
   fn validate_remote_participant_permissions(

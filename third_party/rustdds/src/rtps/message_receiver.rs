@@ -1090,6 +1090,18 @@ impl MessageReceiver {
                 )
               {
                 self.handle_writer_submessage(receiver_entity_id, decoded_writer_submessage);
+              } else if self
+                .available_readers
+                .get(&receiver_entity_id)
+                .is_some_and(|r| r.contains_writer(decoded_writer_submessage.sender_entity_id()))
+              {
+                // radar_ros patch 27: the reader has matched the writer but not yet got its keys (another
+                // of our readers had them, so the submessage decoded): the window of patch 26, not an
+                // error. It is dropped; the writer sends it again once the keys are set.
+                debug!(
+                  "Submessage for reader {receiver_entity_id:?} dropped: its keys for the writer are not \
+                   set yet"
+                );
               } else {
                 error!("Destination GUID did not match the handle used for decoding.");
               }

@@ -20,54 +20,32 @@ impl CryptographicBuiltin {
     self.crypto_handle_counter
   }
 
-  fn get_or_generate_matched_remote_endpoint_crypto_handle(
+  /// radar_ros patch 27: a new handle for each matched remote endpoint. It was one handle per (local
+  /// endpoint, remote participant), so a second endpoint of one remote participant matched with the same
+  /// local endpoint (two subscriptions of a topic in one process, or a participant's own endpoints) got the
+  /// first one's handle, and registering its key materials failed ("already associated"). Callers register a
+  /// (local endpoint, remote endpoint) pair once (`SecurityPlugins::register_matched_remote_*_if_not_already`).
+  fn generate_matched_remote_endpoint_crypto_handle(
     &mut self,
     remote_participant_crypto_handle: ParticipantCryptoHandle,
     local_endpoint_crypto_handle: EndpointCryptoHandle,
   ) -> EndpointCryptoHandle {
-    // If a corresponding handle exists, get and return
-    if let Some(remote_endpoint_crypto_handle) = self
+    let remote_endpoint_crypto_handle = self.generate_crypto_handle();
+    // Associate it with the remote participant
+    self.endpoint_to_participant.insert(
+      remote_endpoint_crypto_handle,
+      remote_participant_crypto_handle,
+    );
+    // Associate it with the local endpoint, both ways
+    self
+      .matched_local_endpoint
+      .insert(remote_endpoint_crypto_handle, local_endpoint_crypto_handle);
+    self
       .matched_remote_endpoint
-      .get(&local_endpoint_crypto_handle)
-      .and_then(|remote_participant_to_remote_endpoint| {
-        remote_participant_to_remote_endpoint.get(&remote_participant_crypto_handle)
-      })
-    {
-      *remote_endpoint_crypto_handle
-    } else {
-      // Otherwise generate a new handle
-      let remote_endpoint_crypto_handle = self.generate_crypto_handle();
-      // Associate it with the remote participant
-      self.endpoint_to_participant.insert(
-        remote_endpoint_crypto_handle,
-        remote_participant_crypto_handle,
-      );
-      // Associate it with the local endpoint
-      self
-        .matched_local_endpoint
-        .insert(remote_endpoint_crypto_handle, local_endpoint_crypto_handle);
-      // Insert it to the HashMap corresponding to the local endpoint
-      if let Some(remote_participant_to_remote_endpoint) = self
-        .matched_remote_endpoint
-        .get_mut(&local_endpoint_crypto_handle)
-      {
-        remote_participant_to_remote_endpoint.insert(
-          remote_participant_crypto_handle,
-          remote_endpoint_crypto_handle,
-        );
-      } else {
-        // Create a new HashMap if one does not yet exist
-        self.matched_remote_endpoint.insert(
-          local_endpoint_crypto_handle,
-          HashMap::from([(
-            remote_participant_crypto_handle,
-            remote_endpoint_crypto_handle,
-          )]),
-        );
-      }
-      // Return the generated handle
-      remote_endpoint_crypto_handle
-    }
+      .entry(local_endpoint_crypto_handle)
+      .or_default()
+      .insert(remote_endpoint_crypto_handle);
+    remote_endpoint_crypto_handle
   }
 
   fn is_volatile(properties: &[Property]) -> bool {
@@ -246,19 +224,19 @@ impl CryptographicBuiltin {
       if let Some(matched_local_endpoint_crypto_handle) =
         self.matched_local_endpoint.remove(&endpoint_crypto_handle)
       {
-        if let Some(remote_participant_to_remote_endpoint) = self
+        if let Some(remote_endpoints) = self
           .matched_remote_endpoint
           .get_mut(&matched_local_endpoint_crypto_handle)
         {
-          remote_participant_to_remote_endpoint.remove(&participant_crypto_handle);
+          remote_endpoints.remove(&endpoint_crypto_handle);
         }
       }
       // If the endpoint is local, unregister all associated remote entities as they serve no
       // purpose on their own. TODO: should we do this or just sever the association?
-      else if let Some(remote_participant_to_remote_endpoint) =
+      else if let Some(remote_endpoints) =
         self.matched_remote_endpoint.remove(&endpoint_crypto_handle)
       {
-        for remote_endpoint_crypto_handle in remote_participant_to_remote_endpoint.values() {
+        for remote_endpoint_crypto_handle in &remote_endpoints {
           self.unregister_endpoint(EndpointInfo {
             crypto_handle: *remote_endpoint_crypto_handle,
             kind: endpoint_info.kind.opposite(),
@@ -439,10 +417,9 @@ impl CryptoKeyFactory for CryptographicBuiltin {
       .get_common_encode_key_materials(&local_datawriter_crypto_handle)
       .cloned()?;
 
-    // Find a handle for the remote datareader corresponding to the (remote
-    // participant, local datawriter) pair, or generate a new one
+    // A handle for this remote datareader (radar_ros patch 27)
     let remote_datareader_crypto_handle = self
-      .get_or_generate_matched_remote_endpoint_crypto_handle(
+      .generate_matched_remote_endpoint_crypto_handle(
         remote_participant_crypto_handle,
         local_datawriter_crypto_handle,
       );
@@ -575,10 +552,9 @@ impl CryptoKeyFactory for CryptographicBuiltin {
       .get_common_encode_key_materials(&local_datareader_crypto_handle)
       .cloned()?;
 
-    // Find a handle for the remote datawriter corresponding to the (remote
-    // participant, local datareader) pair, or generate a new one
+    // A handle for this remote datawriter (radar_ros patch 27)
     let remote_datawriter_crypto_handle: DatareaderCryptoHandle = self
-      .get_or_generate_matched_remote_endpoint_crypto_handle(
+      .generate_matched_remote_endpoint_crypto_handle(
         remote_participant_crypto_handle,
         local_datareader_crypto_handle,
       );
@@ -696,5 +672,127 @@ impl CryptoKeyFactory for CryptographicBuiltin {
       kind: EndpointKind::DataReader,
     });
     Ok(())
+  }
+}
+
+/// radar_ros patch 27: one local writer matched with two readers of one remote participant (here the local
+/// participant itself, registered as remote as RustDDS does so that it reads its own traffic), each reader
+/// with its own keys: both registrations succeed, and the payload the writer encodes decodes at both readers.
+#[cfg(test)]
+mod per_endpoint_handle_tests {
+  use super::*;
+  use crate::{
+    messages::submessages::elements::parameter_list::ParameterList,
+    security::{
+      access_control::access_control_builtin::types::BuiltinPluginParticipantSecurityAttributes,
+      authentication::types::{Challenge, SharedSecret, SharedSecretHandle},
+    },
+  };
+
+  fn secret() -> SharedSecretHandle {
+    SharedSecretHandle {
+      shared_secret: SharedSecret::from([7; 32]),
+      challenge1: Challenge::from([1; 32]),
+      challenge2: Challenge::from([2; 32]),
+    }
+  }
+
+  fn participant_attributes() -> ParticipantSecurityAttributes {
+    ParticipantSecurityAttributes {
+      plugin_participant_attributes: BuiltinPluginParticipantSecurityAttributes {
+        is_rtps_encrypted: false,
+        is_discovery_encrypted: false,
+        is_liveliness_encrypted: false,
+        is_rtps_origin_authenticated: false,
+        is_discovery_origin_authenticated: false,
+        is_liveliness_origin_authenticated: false,
+      }
+      .into(),
+      ..ParticipantSecurityAttributes::empty()
+    }
+  }
+
+  /// What sros2's governance gives a topic: payloads encrypted.
+  fn endpoint_attributes() -> EndpointSecurityAttributes {
+    EndpointSecurityAttributes {
+      is_payload_protected: true,
+      plugin_endpoint_attributes: BuiltinPluginEndpointSecurityAttributes {
+        is_submessage_encrypted: false,
+        is_submessage_origin_authenticated: false,
+        is_payload_encrypted: true,
+      }
+      .into(),
+      ..EndpointSecurityAttributes::empty()
+    }
+  }
+
+  #[test]
+  fn two_readers_of_one_participant_matched_with_one_writer_each_get_keys_and_decode() {
+    let mut c = CryptographicBuiltin::new();
+    let local = c
+      .register_local_participant(1, 1, &[], participant_attributes())
+      .unwrap();
+    let own_as_remote = c
+      .register_matched_remote_participant(local, 1, 1, secret())
+      .unwrap();
+    let w = c
+      .register_local_datawriter(local, &[], endpoint_attributes())
+      .unwrap();
+    let r1 = c
+      .register_local_datareader(local, &[], endpoint_attributes())
+      .unwrap();
+    let r2 = c
+      .register_local_datareader(local, &[], endpoint_attributes())
+      .unwrap();
+
+    // the writer's view of its two readers: the second failed ("already associated with
+    // receiver-specific encode key materials") when both shared one handle per remote participant
+    let r1_at_w = c
+      .register_matched_remote_datareader(w, own_as_remote, secret(), false)
+      .unwrap();
+    let r2_at_w = c
+      .register_matched_remote_datareader(w, own_as_remote, secret(), false)
+      .unwrap();
+    assert_ne!(r1_at_w, r2_at_w);
+    // each reader's view of the writer
+    let w_at_r1 = c
+      .register_matched_remote_datawriter(r1, own_as_remote, secret())
+      .unwrap();
+    let w_at_r2 = c
+      .register_matched_remote_datawriter(r2, own_as_remote, secret())
+      .unwrap();
+    assert_ne!(w_at_r1, w_at_r2);
+
+    // the key exchange, both ways, for both matches
+    for (r, r_at_w, w_at_r) in [(r1, r1_at_w, w_at_r1), (r2, r2_at_w, w_at_r2)] {
+      let writer_tokens = c.create_local_datawriter_crypto_tokens(w, r_at_w).unwrap();
+      c.set_remote_datawriter_crypto_tokens(r, w_at_r, writer_tokens)
+        .unwrap();
+      let reader_tokens = c.create_local_datareader_crypto_tokens(r, w_at_r).unwrap();
+      c.set_remote_datareader_crypto_tokens(w, r_at_w, reader_tokens)
+        .unwrap();
+    }
+
+    let plain = b"\x00\x01\x00\x00radar count 7".to_vec();
+    let (encoded, _) = c.encode_serialized_payload(plain.clone(), w).unwrap();
+    assert!(
+      !encoded.windows(13).any(|x| x == b"radar count 7"),
+      "the payload is encrypted"
+    );
+    for (r, w_at_r) in [(r1, w_at_r1), (r2, w_at_r2)] {
+      let decoded = c
+        .decode_serialized_payload(encoded.clone(), ParameterList::new(), r, w_at_r)
+        .unwrap();
+      assert_eq!(decoded, plain);
+    }
+
+    // unmatching one reader leaves the other's keys in place
+    c.unregister_datareader(r1_at_w).unwrap();
+    let (encoded, _) = c.encode_serialized_payload(plain.clone(), w).unwrap();
+    assert_eq!(
+      c.decode_serialized_payload(encoded, ParameterList::new(), r2, w_at_r2)
+        .unwrap(),
+      plain
+    );
   }
 }

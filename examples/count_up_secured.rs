@@ -1,0 +1,143 @@
+//! Issue 25: the README's example (`count_up`, Listing 1 in one process) secured as docs/security.md says: a
+//! keystore and an enclave made by `radar security create_keystore` and `create_enclave`, the
+//! `ROS_SECURITY_*` variables and `--ros-args --enclave /count_up`. Its timeline follows Listing 1 step by step
+//! within 100 ms, counted from when its events begin to check (a secured program takes ~1 s longer to set up
+//! its participant, endpoints and keys: the listing's clock starts once its statement is armed), and it ends
+//! without an error line. Everything in it talks to itself: every signal is a match of one participant's own
+//! endpoints (RustDDS patch 27). Needs the `security` feature and `RADAR_CLI` (the `radar` binary built with
+//! it): `tests/security_feature.rs` runs it. Domain 220; inside `tests/isolated.sh`.
+
+use std::{path::PathBuf, process::Command};
+
+use radar_ros_examples::test_support::{
+    assert_no_error_lines, examples_dir, require_isolation, timeline, times,
+};
+
+fn radar_cli() -> PathBuf {
+    let p = PathBuf::from(std::env::var("RADAR_CLI").expect(
+        "RADAR_CLI names the radar binary built with `--features security` (tests/security_feature.rs sets it)",
+    ));
+    assert!(p.exists(), "{} is missing", p.display());
+    p
+}
+
+fn radar(args: &[&str]) {
+    let out = Command::new(radar_cli())
+        .args(args)
+        .output()
+        .expect("run radar");
+    assert!(
+        out.status.success(),
+        "radar {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn near(actual: f64, listing: f64, what: &str) {
+    assert!(
+        (actual - listing).abs() <= 0.1,
+        "{what}: at {actual:.3} s, listing says {listing:.1} s"
+    );
+}
+
+#[test]
+fn secured_count_up_follows_listing_1() {
+    require_isolation();
+    let ks = std::env::temp_dir().join(format!("radar_count_up_ks_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&ks);
+    let ks_s = ks.to_str().unwrap();
+    radar(&["security", "create_keystore", ks_s]);
+    radar(&["security", "create_enclave", ks_s, "/count_up"]);
+
+    let out = Command::new(examples_dir("count_up").join("count_up"))
+        .args(["--duration", "12", "--ros-args", "--enclave", "/count_up"])
+        .env("ROS_DOMAIN_ID", "220")
+        .env("ROS_SECURITY_KEYSTORE", &ks)
+        .env("ROS_SECURITY_ENABLE", "true")
+        .env("ROS_SECURITY_STRATEGY", "Enforce")
+        .output()
+        .expect("run count_up");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("{stdout}\n{stderr}");
+    assert!(out.status.success(), "secured count_up failed: {stderr}");
+    assert_no_error_lines(&stderr, "secured count_up");
+    assert!(
+        !stderr.contains("WARN"),
+        "secured, with nothing to warn about: {stderr}"
+    );
+    let tl = timeline(&stdout, None);
+
+    // The listing's clock starts when its events begin to check, once the statement's connections listen to
+    // them. Secured, each event begins when its own listener has matched (secure discovery), so the two may
+    // begin a few hundred ms apart (0-0.45 s in six runs; plain: within 1 ms), and the printers see it late
+    // through the events' state topics. So each event's steps are counted from its own trigger: start_event's
+    // (listing 2.0 s) for the first run, end_event's (listing 4.0 s) for the interrupt and the run after it.
+    let armed = times(&tl, "once start_event start count_up until end_event")[0];
+    let ts = times(&tl, "start_event triggered")[0];
+    let te = times(&tl, "end_event triggered")[0];
+    println!(
+        "secured: the statement armed at {armed:.3} s; start_event triggered at {ts:.3} s, end_event at \
+         {te:.3} s (plain: 2.0 and 4.0 s)"
+    );
+    assert!(
+        ts - armed >= 1.9,
+        "start_event checks for 2 s after the statement listens"
+    );
+    assert!(
+        (te - ts - 2.0).abs() <= 0.6,
+        "the events began to check together (within 0.6 s): {ts:.3} s, {te:.3} s"
+    );
+    let started = times(&tl, "count_up started");
+    assert!(started.len() >= 3, "three runs begin: {started:?}");
+    near(
+        started[0] - ts,
+        0.0,
+        "count_up starts (once start_event start count_up)",
+    );
+    assert!(
+        times(&tl, "start_event inactive")
+            .iter()
+            .any(|t| (t - ts).abs() <= 0.1),
+        "start_event deactivates once the once connection is gone"
+    );
+    // first run: counts 0.5, 1.0, 1.5 s after it began, then end_event interrupts it (until end_event)
+    for k in 1..=3 {
+        near(
+            times(&tl, &format!("count_up counts {k}"))[0] - ts,
+            0.5 * k as f64,
+            &format!("first run, count {k}"),
+        );
+    }
+    let interrupted = times(&tl, "count_up interrupted");
+    assert_eq!(
+        interrupted.len(),
+        1,
+        "only the statement's run is interrupted: {interrupted:?}"
+    );
+    near(interrupted[0] - te, 0.0, "end_event interrupts count_up");
+    // the exit slot restarts it; it counts to 10 undisturbed (end_event's next trigger, 4 s later, is outside
+    // the until window)
+    near(started[1] - te, 0.0, "count_up restarts from its exit slot");
+    near(
+        times(&tl, "end_event triggered")[1] - te,
+        4.0,
+        "end_event triggers again",
+    );
+    for k in 3..=10 {
+        let t = times(&tl, &format!("count_up counts {k}"));
+        let second = t.iter().find(|t| **t > te).expect("second run's count");
+        near(
+            *second - te,
+            0.5 * k as f64,
+            &format!("second run, count {k}"),
+        );
+    }
+    near(
+        times(&tl, "count_up exit slot (completed)")[0] - te,
+        5.0,
+        "second run completes",
+    );
+    near(started[2] - te, 5.0, "count_up restarts again");
+    let _ = std::fs::remove_dir_all(&ks);
+}
