@@ -8,8 +8,10 @@
 //! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
 //!   of one endpoint within one participant);
 //! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
-//!   out, one secured program hears its own signals on every subscription, bad enclaves stop a program at
-//!   start naming what is wrong), one test at a time;
+//!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
+//!   a secured response (not a secured one without the grant, not a plain rclpy one), payloads are not
+//!   readable in frames captured on the wire, bad enclaves stop a program at start naming what is wrong), one
+//!   test at a time;
 //! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
 //!   verbs follows Listing 1.
 //!
@@ -179,6 +181,8 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         &[
             "secured_programs_signal_each_other_and_a_plain_one_is_kept_out",
             "one_secured_program_hears_its_own_signals_on_every_subscription",
+            "only_a_permitted_publisher_starts_a_secured_response",
+            "secured_payloads_are_not_readable_on_the_wire",
             "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",
         ],
     );

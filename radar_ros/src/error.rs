@@ -177,6 +177,11 @@ impl Error {
              its components almost none, so look for what else holds them (many `Radar`s or DDS contexts, open \
              files), or raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a systemd unit)"
                 .to_owned()
+        } else if text.contains("not allowed by security") {
+            "; this program's enclave (ROS_SECURITY_KEYSTORE/enclaves/<enclave>/permissions.xml) does not grant \
+             it: run this part under an enclave whose permissions do (`radar security create_enclave KEYSTORE \
+             ENCLAVE` grants everything), see docs/security.md"
+                .to_owned()
         } else {
             String::new()
         };

@@ -1,8 +1,11 @@
-//! Issue 25: two radar_ros programs secured with enclaves of one keystore (made by
-//! `radar_ros::security::keystore`, sros2's layout) talk over DDS Security; a plain participant neither sees
-//! nor starts their components; a tampered permissions document, a certificate from another CA and a missing
+//! Issue 25: radar_ros programs secured with enclaves of one keystore (made by `radar_ros::security::keystore`,
+//! sros2's layout) talk over DDS Security: two programs signal each other, and one hears its own signals on
+//! every subscription; a plain participant neither sees nor starts their components; only a permitted
+//! publisher starts a secured response (not a secured one without the grant, not a plain rclpy one); payloads
+//! are not readable on the wire; a tampered permissions document, a certificate from another CA and a missing
 //! file stop a program at start, naming what is wrong. Runs only with the `security` feature
-//! (`tests/security_feature.rs` runs it), over real DDS inside tests/isolated.sh. Domain 109.
+//! (`tests/security_feature.rs` runs it), over real DDS inside tests/isolated.sh (root in its namespace, the
+//! rclpy venv as RADAR_VENV). Domain 109.
 #![cfg(feature = "security")]
 
 use std::{path::PathBuf, time::Duration};
@@ -217,6 +220,281 @@ async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
         errors.is_empty(),
         "error lines in one secured program:\n{}",
         errors.join("\n")
+    );
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
+/// Who may start a secured response: a secured program whose permissions grant the `start` topic (the
+/// planner, `Grant::all`) is acted on; a secured program of the same keystore whose permissions do not grant it
+/// cannot publish there (a clear error naming the topic); a plain rclpy publisher (real ROS 2, Fast DDS) is
+/// not acted on, while the same publisher starts a plain response beside it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn only_a_permitted_publisher_starts_a_secured_response() {
+    let ks = keystore("perm");
+    // an enclave allowed what a radar_ros program needs to run, and to interrupt the dock, but not to start it
+    let grant = keystore::Grant {
+        publish: vec![
+            "ros_discovery_info".into(),
+            "rt/rosout".into(),
+            "rt/parameter_events".into(),
+            "rr/*".into(),
+            "rq/*".into(),
+            "rt/*/connections".into(),
+            "rt/*/state".into(),
+            "rt/secure_gate/interrupt".into(),
+        ],
+        subscribe: vec!["*".into()],
+    };
+    keystore::create_enclave(&ks, "/intruder", &grant).unwrap();
+    let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let s = starts.clone();
+    let _gate = robot
+        .spawn_response(
+            "secure_gate",
+            FnResponse::new(move |_: Empty| {
+                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let count = || starts.load(std::sync::atomic::Ordering::SeqCst);
+
+    // the secured program without the grant: it can find the response (it may subscribe to everything),
+    // but not publish to its start
+    let intruder = radar(Some(SecurityOptions::enforce(&ks, "/intruder"))).unwrap();
+    let gate = intruder
+        .response("/secure_gate")
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let refused = intruder.signal_publisher::<Empty>("/secure_gate/start");
+    let e = refused
+        .err()
+        .expect("no publisher for a topic the permissions do not grant")
+        .to_string();
+    println!("unpermitted: {e}");
+    assert!(
+        e.contains("/secure_gate/start") && e.contains("does not grant it"),
+        "{e}"
+    );
+    let refused = intruder.inject(gate.start_slot(), Empty::default()).await;
+    assert!(refused.is_err(), "inject without the grant: {refused:?}");
+
+    // a plain rclpy publisher, and the same publisher to a plain response beside it (it works there)
+    let plain = radar(None).unwrap();
+    let plain_starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let ps = plain_starts.clone();
+    let _plain_gate = plain
+        .spawn_response(
+            "plain_gate",
+            FnResponse::new(move |_: Empty| {
+                ps.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let venv = std::env::var_os("RADAR_VENV").expect(
+        "RADAR_VENV names the rclpy venv (tests/isolated.sh builds it with tests/python_env.sh)",
+    );
+    let py = PathBuf::from(venv).join("bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run tests/python_env.sh",
+        py.display()
+    );
+    let rclpy = tokio::process::Command::new(py)
+        .args(["-c", RCLPY_PUBLISHER])
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .env_remove("ROS_SECURITY_ENABLE")
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(Duration::from_secs(60), rclpy)
+        .await
+        .expect("the rclpy publisher ends within 60 s")
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "rclpy publisher: {stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("rclpy: {stdout}");
+    assert!(
+        stdout.contains("secure_gate subscribers seen: 0"),
+        "a plain rclpy node does not even see the secured subscriber: {stdout}"
+    );
+    let t = std::time::Instant::now();
+    while plain_starts.load(std::sync::atomic::Ordering::SeqCst) == 0 && t.elapsed() < WAIT {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    assert!(
+        plain_starts.load(std::sync::atomic::Ordering::SeqCst) > 0,
+        "the rclpy publisher starts a plain response"
+    );
+    assert_eq!(
+        count(),
+        0,
+        "neither the unpermitted nor the plain publisher started the secured response"
+    );
+
+    // the permitted one is acted on
+    let planner = radar(Some(SecurityOptions::enforce(&ks, "/planner"))).unwrap();
+    let gate = planner
+        .response("/secure_gate")
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let mut exited = planner
+        .waiter::<Empty>(gate.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    planner
+        .inject(gate.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    exited.recv().timeout(WAIT).await.unwrap();
+    assert_eq!(count(), 1, "the permitted planner starts it");
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
+/// Publishes `std_msgs/msg/Empty` to `/secure_gate/start` and `/plain_gate/start` for 3 s from a plain rclpy
+/// node, then prints how many subscribers of the secured topic it saw.
+const RCLPY_PUBLISHER: &str = r#"
+import time
+import rclpy
+from std_msgs.msg import Empty
+rclpy.init()
+node = rclpy.create_node("plain_intruder")
+pubs = [node.create_publisher(Empty, t, 10) for t in ("/secure_gate/start", "/plain_gate/start")]
+end = time.monotonic() + 3.0
+while time.monotonic() < end:
+    for p in pubs:
+        p.publish(Empty())
+    rclpy.spin_once(node, timeout_sec=0.05)
+print("secure_gate subscribers seen:", node.count_subscribers("/secure_gate/start"), flush=True)
+node.destroy_node()
+rclpy.shutdown()
+"#;
+
+/// Every frame on this network namespace's interfaces (lo and the veth pair of tests/isolated.sh), captured
+/// with an AF_PACKET socket (root in the namespace) until `stop` is set.
+fn capture(
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> std::thread::JoinHandle<Vec<Vec<u8>>> {
+    // SAFETY: plain socket calls on a descriptor this function owns and closes
+    unsafe {
+        let fd = libc::socket(
+            libc::AF_PACKET,
+            libc::SOCK_RAW,
+            (libc::ETH_P_ALL as u16).to_be() as i32,
+        );
+        assert!(
+            fd >= 0,
+            "an AF_PACKET socket (root in tests/isolated.sh's namespace): {}",
+            std::io::Error::last_os_error()
+        );
+        let tv = libc::timeval {
+            tv_sec: 0,
+            tv_usec: 50_000,
+        };
+        libc::setsockopt(
+            fd,
+            libc::SOL_SOCKET,
+            libc::SO_RCVTIMEO,
+            &tv as *const _ as *const libc::c_void,
+            std::mem::size_of::<libc::timeval>() as u32,
+        );
+        std::thread::spawn(move || {
+            let mut frames = Vec::new();
+            let mut buf = vec![0u8; 65536];
+            while !stop.load(std::sync::atomic::Ordering::SeqCst) {
+                let n = libc::recv(fd, buf.as_mut_ptr() as *mut libc::c_void, buf.len(), 0);
+                if n > 0 {
+                    frames.push(buf[..n as usize].to_vec());
+                }
+            }
+            libc::close(fd);
+            frames
+        })
+    }
+}
+
+/// Starts a response named `name` with a `StringMsg` carrying `marker` from a second program, both secured
+/// (enclaves of `ks`) or both plain, while capturing the wire; the frames captured and how many held `marker`.
+async fn start_with_marker(
+    ks: Option<&std::path::Path>,
+    name: &str,
+    marker: &str,
+) -> (usize, usize) {
+    use radar_ros::msg::StringMsg;
+    let sec = |e: &str| ks.map(|ks| SecurityOptions::enforce(ks, e));
+    let robot = radar(sec("/robot")).unwrap();
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let _r = robot
+        .spawn_response(
+            name,
+            FnResponse::new(move |m: StringMsg| {
+                let _ = tx.send(m.data);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let planner = radar(sec("/planner")).unwrap();
+    let r = planner
+        .response(&format!("/{name}"))
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let cap = capture(stop.clone());
+    planner
+        .inject(
+            r.start_slot(),
+            StringMsg {
+                data: marker.to_owned(),
+            },
+        )
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let got = tokio::time::timeout(WAIT, rx.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(got, marker, "the response got the payload");
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    stop.store(true, std::sync::atomic::Ordering::SeqCst);
+    let frames = cap.join().unwrap();
+    let with = frames
+        .iter()
+        .filter(|f| f.windows(marker.len()).any(|w| w == marker.as_bytes()))
+        .count();
+    (frames.len(), with)
+}
+
+/// The wire: a secured program's payload is not readable in any frame on the network (the marker string it
+/// sends is in none of the captured frames), while the same exchange between plain programs shows it (the
+/// capture sees the traffic).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn secured_payloads_are_not_readable_on_the_wire() {
+    let ks = keystore("wire");
+    let marker = "radar-wire-marker-5e1f0c";
+    let (frames, with) = start_with_marker(Some(&ks), "wire_dock", marker).await;
+    println!("secured: {frames} frames captured, {with} hold the payload's text");
+    assert!(frames > 0, "frames were captured");
+    assert_eq!(
+        with, 0,
+        "the payload's text is on the wire in {with} frames"
+    );
+    let (frames, with) = start_with_marker(None, "wire_dock_plain", marker).await;
+    println!("plain: {frames} frames captured, {with} hold the payload's text");
+    assert!(
+        with > 0,
+        "plain, the payload is on the wire (the capture works)"
     );
     std::fs::remove_dir_all(&ks).unwrap();
 }
