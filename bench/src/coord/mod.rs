@@ -8,6 +8,7 @@ pub use breakdown::SEGMENTS;
 mod failures;
 mod latency;
 mod scale;
+mod security;
 mod setup;
 mod throughput;
 
@@ -310,6 +311,7 @@ impl Bench {
             ("memory", |b| Box::pin(b.state_memory())),
             ("kill", |b| Box::pin(b.kill())),
             ("action", |b| Box::pin(b.action())),
+            ("security", |b| Box::pin(b.security())),
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {
@@ -320,6 +322,16 @@ impl Bench {
                 eprintln!(
                     "radar_bench: python left out of quick (it needs the package in the venv: \
                      tests/python_package.sh); `--only python` runs it"
+                );
+                continue;
+            }
+            // secured runs need the `security` feature (OpenSSL); `--only security` says so if it is missing
+            if key == "security"
+                && (self.opts.quick || !cfg!(feature = "security"))
+                && self.opts.only.is_empty()
+            {
+                eprintln!(
+                    "radar_bench: security left out (it runs with `--features security -- all --only security`)"
                 );
                 continue;
             }

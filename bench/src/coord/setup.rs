@@ -3,7 +3,7 @@
 use super::*;
 
 impl Bench {
-    fn push_setup(&mut self, key: &str, label: &str, samples: Vec<u64>) -> Result<()> {
+    pub(super) fn push_setup(&mut self, key: &str, label: &str, samples: Vec<u64>) -> Result<()> {
         let summary = summarize(&samples).ok_or_else(|| anyhow!("{label}: no samples"))?;
         self.results.setup.push(Latency {
             key: key.into(),

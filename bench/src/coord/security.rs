@@ -1,0 +1,96 @@
+//! DDS Security (issue 25): trigger -> start and connection setup with every process secured (enclaves of one
+//! keystore, `ROS_SECURITY_*` as ROS 2 users set them), against the same scenarios plain, in the same run.
+//! Needs radar_bench built with its `security` feature.
+
+use super::*;
+
+impl Bench {
+    /// Latency (manager in the response's process, one hop) and `whenever -> armed` (source known, manager in
+    /// a third process), plain then secured.
+    pub(super) async fn security(&mut self) -> Result<()> {
+        #[cfg(not(feature = "security"))]
+        bail!(
+            "radar_bench was built without its `security` feature (OpenSSL): \
+             `tests/isolated.sh cargo run --release -p radar_bench --features security -- all --only security`"
+        );
+        #[cfg(feature = "security")]
+        {
+            use radar_ros::security::keystore;
+            let ks =
+                std::env::temp_dir().join(format!("radar_bench_keystore_{}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&ks);
+            keystore::create_keystore(&ks)?;
+            keystore::create_enclave(&ks, "/bench", &keystore::Grant::all())?;
+            let saved = std::mem::take(&mut self.child_env);
+            let r = self.security_rows(&ks, &saved).await;
+            self.child_env = saved;
+            let _ = std::fs::remove_dir_all(&ks);
+            r
+        }
+    }
+
+    #[cfg(feature = "security")]
+    async fn security_rows(&mut self, ks: &Path, base_env: &[(String, String)]) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        for secured in [false, true] {
+            self.child_env = base_env.to_vec();
+            if secured {
+                for (k, v) in [
+                    ("ROS_SECURITY_KEYSTORE", ks.to_string_lossy().as_ref()),
+                    ("ROS_SECURITY_ENABLE", "true"),
+                    ("ROS_SECURITY_STRATEGY", "Enforce"),
+                    ("ROS_SECURITY_ENCLAVE_OVERRIDE", "/bench"),
+                ] {
+                    self.child_env.push((k.into(), v.into()));
+                }
+            }
+            let (key, how) = if secured {
+                (
+                    "secured",
+                    "secured (DDS Security: encrypted, access controlled)",
+                )
+            } else {
+                ("plain", "plain")
+            };
+            let (r, children) = self.radar_hop(n, p, latency::Host::Response).await?;
+            let note = format!(
+                "{} starts ignored (response busy)",
+                r["extra"]["ignored_starts"]
+            );
+            self.push_latency(
+                &format!("security_trigger_start_{key}"),
+                &format!("radar_ros trigger -> start, 1 hop, {how}"),
+                &r,
+                &note,
+            )?;
+            for c in children {
+                c.quit().await;
+            }
+
+            let d = self.domain();
+            let ev = self
+                .child(d, &["events", "--names", "/bench/sec_setup"])
+                .await?;
+            let resp = self
+                .child(d, &["response", "--name", "/bench/sec_resp"])
+                .await?;
+            let mut mgr = self.child(d, &["manager"]).await?;
+            let m = self.plan.setup_n;
+            let known = mgr
+                .ask_json(
+                    &format!("setup-known /bench/sec_setup /bench/sec_resp {m}"),
+                    Duration::from_secs(60 + 2 * m as u64),
+                )
+                .await?;
+            self.push_setup(
+                &format!("security_setup_{key}"),
+                &format!("whenever -> armed, source known, manager in a third process, {how}"),
+                serde_json::from_value(known["setup"].clone())?,
+            )?;
+            for c in [mgr, resp, ev] {
+                c.quit().await;
+            }
+        }
+        Ok(())
+    }
+}
