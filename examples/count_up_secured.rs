@@ -6,11 +6,15 @@
 //! without an error line. Everything in it talks to itself: every signal is a match of one participant's own
 //! endpoints (RustDDS patch 27). Needs the `security` feature and `RADAR_CLI` (the `radar` binary built with
 //! it): `tests/security_feature.rs` runs it. Domain 220; inside `tests/isolated.sh`.
+//!
+//! Also Listings 2 and 3 (`launch_scripts/deliberative.sh`: the deliberative program and its three
+//! components, four secured programs, each its own participant) make and drop their connections as in the
+//! paper's Figure 3. Domain 221.
 
 use std::{path::PathBuf, process::Command};
 
 use radar_ros_examples::test_support::{
-    assert_no_error_lines, examples_dir, require_isolation, timeline, times,
+    assert_no_error_lines, examples_dir, require_isolation, run_launch_script_with, timeline, times,
 };
 
 fn radar_cli() -> PathBuf {
@@ -139,5 +143,48 @@ fn secured_count_up_follows_listing_1() {
         "second run completes",
     );
     near(started[2] - te, 5.0, "count_up restarts again");
+    let _ = std::fs::remove_dir_all(&ks);
+}
+
+/// Listings 2 and 3 as four secured processes (the components and the deliberative program, enclave `/robot`
+/// of a keystore made with the `radar security` verbs): the connections follow Figure 3, (a) -> (b) -> (c) ->
+/// (b), the once fires and test_event starts the response; no process logs an error. Secured, finding the
+/// three components takes ~2.7 s (discovery and authentication; plain: ~0.1 s), so it runs longer.
+#[test]
+fn secured_deliberative_example_follows_figure_3() {
+    require_isolation();
+    let ks = std::env::temp_dir().join(format!("radar_deliberative_ks_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&ks);
+    let ks_s = ks.to_str().unwrap();
+    radar(&["security", "create_keystore", ks_s]);
+    radar(&["security", "create_enclave", ks_s, "/robot"]);
+    let stdout = run_launch_script_with(
+        "deliberative.sh",
+        221,
+        &["--loop-secs", "4", "--duration", "11"],
+        &examples_dir("deliberative"),
+        &[
+            ("ROS_SECURITY_KEYSTORE", ks.as_os_str()),
+            ("ROS_SECURITY_ENABLE", "true".as_ref()),
+            ("ROS_SECURITY_STRATEGY", "Enforce".as_ref()),
+            ("ROS_SECURITY_ENCLAVE_OVERRIDE", "/robot".as_ref()),
+        ],
+    );
+    let main = timeline(&stdout, Some("main"));
+    let figure: Vec<&str> = main
+        .iter()
+        .filter_map(|(_, t)| t.get(..3).filter(|p| p.starts_with('(')))
+        .collect();
+    assert_eq!(figure, ["(a)", "(b)", "(c)", "(b)"], "Figure 3: {main:?}");
+    assert!(
+        main.iter().any(|(_, t)| t.ends_with("(it fired)")),
+        "test_event2 fires the once: {main:?}"
+    );
+    assert!(
+        main.iter()
+            .any(|(_, t)| t.starts_with("test_response started")),
+        "test_event starts the response: {main:?}"
+    );
+    assert!(main.iter().any(|(_, t)| t == "do_loop returned"));
     let _ = std::fs::remove_dir_all(&ks);
 }

@@ -113,10 +113,22 @@ pub mod test_support {
         args: &[&str],
         examples: &std::path::Path,
     ) -> String {
+        run_launch_script_with(script, domain, args, examples, &[])
+    }
+
+    /// [`run_launch_script`] with more environment variables for every process (`ROS_SECURITY_*`, ...).
+    pub fn run_launch_script_with(
+        script: &str,
+        domain: u16,
+        args: &[&str],
+        examples: &std::path::Path,
+        env: &[(&str, &std::ffi::OsStr)],
+    ) -> String {
         let path = format!("{}/../launch_scripts/{script}", env!("CARGO_MANIFEST_DIR"));
         let out = std::process::Command::new("bash")
             .arg(&path)
             .args(args)
+            .envs(env.iter().copied())
             .env("RADAR_EXAMPLES", examples)
             .env("ROS_DOMAIN_ID", domain.to_string())
             .output()

@@ -1,7 +1,7 @@
 //! Issue 25: radar_ros's `security` feature (DDS Security through RustDDS and OpenSSL). The workspace's own
 //! build leaves it off (no OpenSSL by default), so this builds radar_ros, the examples, the `radar` CLI and
 //! RustDDS again with it, in `target/security-feature` (a few minutes), and checks, in order:
-//! - clippy (`-D warnings`) on radar_ros, radar_tools and the examples with the feature;
+//! - clippy (`-D warnings`) on radar_ros, radar_tools, the examples and the bench with the feature;
 //! - radar_ros's security unit tests: the `ROS_SECURITY_*` rules; keystores and enclaves made in
 //!   `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (a
 //!   changed document does not);
@@ -13,7 +13,7 @@
 //!   readable in frames captured on the wire, bad enclaves stop a program at start naming what is wrong), one
 //!   test at a time;
 //! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
-//!   verbs follows Listing 1.
+//!   verbs follows Listing 1; Listings 2 and 3 as four secured processes follow Figure 3.
 //!
 //! Everything is built before anything runs over DDS (a build beside a timed run would load the machine).
 //! Needs libssl-dev and pkg-config (`.ci/run` and tests/python_env.sh install them); without them the build
@@ -55,7 +55,8 @@ fn ran_and_passed(out: &str, tests: &[&str]) {
     }
 }
 
-const FEATURES: &str = "radar_ros/security,radar_tools/security,radar_ros_examples/security";
+const FEATURES: &str =
+    "radar_ros/security,radar_tools/security,radar_ros_examples/security,radar_bench/security";
 
 #[test]
 fn the_security_feature_builds_lints_and_its_tests_pass() {
@@ -191,5 +192,11 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         &cargo(&timeline, &[("RADAR_CLI", &cli)]),
         "examples/count_up_secured.rs",
     );
-    ran_and_passed(&out, &["secured_count_up_follows_listing_1"]);
+    ran_and_passed(
+        &out,
+        &[
+            "secured_count_up_follows_listing_1",
+            "secured_deliberative_example_follows_figure_3",
+        ],
+    );
 }
