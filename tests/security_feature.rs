@@ -55,8 +55,7 @@ fn ran_and_passed(out: &str, tests: &[&str]) {
     }
 }
 
-const FEATURES: &str =
-    "radar_ros/security,radar_tools/security,radar_ros_examples/security,radar_bench/security";
+const FEATURES: &str = "radar_ros/security,radar_tools/security,radar_ros_examples/security";
 
 #[test]
 fn the_security_feature_builds_lints_and_its_tests_pass() {
