@@ -1,5 +1,6 @@
 //! Issue 25: the README's example (`count_up`, Listing 1 in one process) secured as docs/security.md says: a
-//! keystore and an enclave made by `radar security create_keystore` and `create_enclave`, the
+//! keystore and an enclave made by `radar security create_keystore` and `create_enclave` (its permissions
+//! made again from a policy file by `create_permission`), the
 //! `ROS_SECURITY_*` variables and `--ros-args --enclave /count_up`. Its timeline follows Listing 1 step by step
 //! within 100 ms, counted from when its events begin to check (a secured program takes ~1 s longer to set up
 //! its participant, endpoints and keys: the listing's clock starts once its statement is armed), and it ends
@@ -37,6 +38,20 @@ fn radar(args: &[&str]) {
     );
 }
 
+/// What the secured count_up is granted: every topic and service (what `create_enclave` grants, as a policy).
+const COUNT_UP_POLICY: &str = r#"<policy version="0.2.0">
+  <enclaves>
+    <enclave path="/count_up">
+      <profiles>
+        <profile ns="/" node="count_up">
+          <topics publish="ALLOW" subscribe="ALLOW"><topic>*</topic></topics>
+          <services request="ALLOW" reply="ALLOW"><service>*</service></services>
+        </profile>
+      </profiles>
+    </enclave>
+  </enclaves>
+</policy>"#;
+
 fn near(actual: f64, listing: f64, what: &str) {
     assert!(
         (actual - listing).abs() <= 0.1,
@@ -52,6 +67,31 @@ fn secured_count_up_follows_listing_1() {
     let ks_s = ks.to_str().unwrap();
     radar(&["security", "create_keystore", ks_s]);
     radar(&["security", "create_enclave", ks_s, "/count_up"]);
+    // its permissions made again from a policy (sros2's format): every topic and service, nothing else
+    let policy = ks.join("count_up_policy.xml");
+    std::fs::write(&policy, COUNT_UP_POLICY).unwrap();
+    let wrong = Command::new(radar_cli())
+        .args(["security", "create_permission", ks_s, "/elsewhere"])
+        .arg(&policy)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&wrong.stderr);
+    assert!(
+        !wrong.status.success() && e.contains("no enclave /elsewhere"),
+        "create_permission for an enclave that is not made: {e}"
+    );
+    radar(&[
+        "security",
+        "create_permission",
+        ks_s,
+        "/count_up",
+        policy.to_str().unwrap(),
+    ]);
+    let perms = std::fs::read_to_string(ks.join("enclaves/count_up/permissions.xml")).unwrap();
+    assert!(
+        perms.contains("<topic>rt/*</topic>") && perms.contains("<topic>rq/*Request</topic>"),
+        "{perms}"
+    );
 
     let out = Command::new(examples_dir("count_up").join("count_up"))
         .args(["--duration", "12", "--ros-args", "--enclave", "/count_up"])

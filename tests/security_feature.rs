@@ -160,6 +160,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "security::tests::the_environment_is_read_as_rcl_reads_it",
             "security::tests::a_missing_enclave_file_is_named_under_enforce_and_tolerated_under_permissive",
             "security::keystore::tests::a_keystore_and_an_enclave_are_made_signed_and_verifiable",
+            "security::policy::tests::a_policy_is_translated_as_sros2_translates_it",
         ],
     );
     let out = check(

@@ -179,8 +179,8 @@ impl Error {
                 .to_owned()
         } else if text.contains("not allowed by security") {
             "; this program's enclave (ROS_SECURITY_KEYSTORE/enclaves/<enclave>/permissions.xml) does not grant \
-             it: run this part under an enclave whose permissions do (`radar security create_enclave KEYSTORE \
-             ENCLAVE` grants everything), see docs/security.md"
+             it: grant it in the enclave's policy (`radar security create_permission KEYSTORE ENCLAVE POLICY`) or \
+             run this part under an enclave that has it; see docs/security.md"
                 .to_owned()
         } else {
             String::new()

@@ -23,6 +23,8 @@ use crate::error::{Error, Result};
 
 #[cfg(feature = "security")]
 pub mod keystore;
+#[cfg(feature = "security")]
+pub mod policy;
 
 /// What `ROS_SECURITY_STRATEGY` asks when the enclave cannot be found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

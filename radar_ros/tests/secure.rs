@@ -225,27 +225,35 @@ async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
 }
 
 /// Who may start a secured response: a secured program whose permissions grant the `start` topic (the
-/// planner, `Grant::all`) is acted on; a secured program of the same keystore whose permissions do not grant it
-/// cannot publish there (a clear error naming the topic); a plain rclpy publisher (real ROS 2, Fast DDS) is
+/// planner, `Grant::all`) is acted on; a secured program of the same keystore whose permissions (from a policy
+/// file that denies it `start` and allows it everything else) do not grant it cannot publish there (a clear
+/// error naming the topic), while it may publish the `interrupt`; a plain rclpy publisher (real ROS 2, Fast DDS) is
 /// not acted on, while the same publisher starts a plain response beside it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn only_a_permitted_publisher_starts_a_secured_response() {
     let ks = keystore("perm");
-    // an enclave allowed what a radar_ros program needs to run, and to interrupt the dock, but not to start it
-    let grant = keystore::Grant {
-        publish: vec![
-            "ros_discovery_info".into(),
-            "rt/rosout".into(),
-            "rt/parameter_events".into(),
-            "rr/*".into(),
-            "rq/*".into(),
-            "rt/*/connections".into(),
-            "rt/*/state".into(),
-            "rt/secure_gate/interrupt".into(),
-        ],
-        subscribe: vec!["*".into()],
-    };
-    keystore::create_enclave(&ks, "/intruder", &grant).unwrap();
+    // an enclave whose policy (sros2's format, as `radar security create_permission` reads it) lets it do
+    // everything but start the gate: it may interrupt it
+    keystore::create_enclave(&ks, "/intruder", &keystore::Grant::all()).unwrap();
+    let policy = ks.join("intruder_policy.xml");
+    std::fs::write(
+        &policy,
+        r#"<policy version="0.2.0">
+  <enclaves>
+    <enclave path="/intruder">
+      <profiles>
+        <profile ns="/" node="intruder">
+          <topics publish="DENY"><topic>/secure_gate/start</topic></topics>
+          <topics publish="ALLOW" subscribe="ALLOW"><topic>*</topic></topics>
+          <services request="ALLOW" reply="ALLOW"><service>*</service></services>
+        </profile>
+      </profiles>
+    </enclave>
+  </enclaves>
+</policy>"#,
+    )
+    .unwrap();
+    keystore::create_permission(&ks, "/intruder", &policy).unwrap();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let s = starts.clone();
@@ -280,6 +288,10 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     );
     let refused = intruder.inject(gate.start_slot(), Empty::default()).await;
     assert!(refused.is_err(), "inject without the grant: {refused:?}");
+    // what the policy allows it does: the interrupt topic is granted
+    intruder
+        .signal_publisher::<Empty>("/secure_gate/interrupt")
+        .expect("the policy grants publishing the interrupt");
 
     // a plain rclpy publisher, and the same publisher to a plain response beside it (it works there)
     let plain = radar(None).unwrap();

@@ -163,13 +163,19 @@ pub fn governance_xml() -> String {
     .to_owned()
 }
 
-/// What an enclave may publish and subscribe: DDS topic expressions (`rt/dock/start`, `*`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// What an enclave may publish and subscribe: DDS topic expressions (`rt/dock/start`, `rt/*/state`, `rq/*`).
+/// The deny lists are checked first (a topic they match is refused even if an allow list matches it too);
+/// what no list matches is refused.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Grant {
     /// Topics it may write.
     pub publish: Vec<String>,
     /// Topics it may read.
     pub subscribe: Vec<String>,
+    /// Topics it may not write.
+    pub deny_publish: Vec<String>,
+    /// Topics it may not read.
+    pub deny_subscribe: Vec<String>,
 }
 
 impl Grant {
@@ -178,16 +184,40 @@ impl Grant {
         Grant {
             publish: vec!["*".into()],
             subscribe: vec!["*".into()],
+            ..Grant::default()
         }
     }
 }
 
-/// The permissions document of the enclave `enclave` (its certificate's subject is `CN=<enclave>`).
+/// The permissions document of the enclave `enclave` (its certificate's subject is `CN=<enclave>`): a deny rule
+/// (if `grant` denies anything), then an allow rule, then `DENY` for the rest, as sros2 writes them.
 pub fn permissions_xml(enclave: &str, grant: &Grant) -> String {
     let topics = |ts: &[String]| {
         ts.iter()
             .map(|t| format!("            <topic>{}</topic>\n", xml_escape(t)))
             .collect::<String>()
+    };
+    let rule = |kind: &str, publish: &[String], subscribe: &[String]| {
+        if publish.is_empty() && subscribe.is_empty() {
+            return String::new();
+        }
+        let mut r = format!(
+            "      <{kind}>\n        <domains>\n          <id_range>\n            <min>0</min>\n            \
+             <max>232</max>\n          </id_range>\n        </domains>\n"
+        );
+        if !publish.is_empty() {
+            r += &format!(
+                "        <publish>\n          <topics>\n{}          </topics>\n        </publish>\n",
+                topics(publish)
+            );
+        }
+        if !subscribe.is_empty() {
+            r += &format!(
+                "        <subscribe>\n          <topics>\n{}          </topics>\n        </subscribe>\n",
+                topics(subscribe)
+            );
+        }
+        r + &format!("      </{kind}>\n")
     };
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
@@ -199,30 +229,14 @@ pub fn permissions_xml(enclave: &str, grant: &Grant) -> String {
         <not_before>2020-01-01T00:00:00</not_before>
         <not_after>2120-01-01T00:00:00</not_after>
       </validity>
-      <allow_rule>
-        <domains>
-          <id_range>
-            <min>0</min>
-            <max>232</max>
-          </id_range>
-        </domains>
-        <publish>
-          <topics>
-{publish}          </topics>
-        </publish>
-        <subscribe>
-          <topics>
-{subscribe}          </topics>
-        </subscribe>
-      </allow_rule>
-      <default>DENY</default>
+{deny}{allow}      <default>DENY</default>
     </grant>
   </permissions>
 </dds>
 "#,
         name = xml_escape(enclave),
-        publish = topics(&grant.publish),
-        subscribe = topics(&grant.subscribe),
+        deny = rule("deny_rule", &grant.deny_publish, &grant.deny_subscribe),
+        allow = rule("allow_rule", &grant.publish, &grant.subscribe),
     )
 }
 
@@ -299,6 +313,38 @@ pub fn create_enclave(keystore: &Path, enclave: &str, grant: &Grant) -> Result<P
         &sign(perms.as_bytes(), &ca, &ca_key)?,
     )?;
     Ok(dir)
+}
+
+/// `ros2 security create_permission KEYSTORE ENCLAVE POLICY`: the enclave's permissions made again from what
+/// the policy file (sros2's format, [`super::policy`]) grants `enclave`, signed by the keystore's CA. The
+/// enclave must exist (`create_enclave`). The permissions document's path.
+pub fn create_permission(keystore: &Path, enclave: &str, policy: &Path) -> Result<PathBuf> {
+    let dir = super::enclave_dir(keystore, enclave);
+    if !dir.join("cert.pem").is_file() {
+        return Err(fail(
+            format!("no enclave {enclave} in {}", keystore.display()),
+            format!(
+                "make it first: `radar security create_enclave {} {enclave}`",
+                keystore.display()
+            ),
+        ));
+    }
+    let grants = super::policy::grants_from_file(policy)?;
+    let Some((_, grant)) = grants.iter().find(|(e, _)| e == enclave) else {
+        let have: Vec<&str> = grants.iter().map(|(e, _)| e.as_str()).collect();
+        return Err(fail(
+            format!("the policy {} has no enclave {enclave}", policy.display()),
+            format!("it has: {}", have.join(", ")),
+        ));
+    };
+    let (ca, ca_key) = ca(keystore)?;
+    let perms = permissions_xml(enclave, grant);
+    write(&dir.join("permissions.xml"), perms.as_bytes())?;
+    write(
+        &dir.join("permissions.p7s"),
+        &sign(perms.as_bytes(), &ca, &ca_key)?,
+    )?;
+    Ok(dir.join("permissions.xml"))
 }
 
 #[cfg(test)]

@@ -215,6 +215,18 @@ enum SecurityVerb {
         /// The enclave's name, absolute, e.g. /robot/planner (a program uses it with --ros-args --enclave).
         enclave: String,
     },
+    /// Make an enclave's permissions again from a policy file in sros2's format (what it may publish,
+    /// subscribe, request, reply, call, execute; ALLOW and DENY), signed by the keystore's CA, as
+    /// `ros2 security create_permission` does. The format: docs/security.md.
+    #[command(name = "create_permission")]
+    CreatePermission {
+        /// The keystore's directory.
+        keystore: std::path::PathBuf,
+        /// The enclave (made before with create_enclave).
+        enclave: String,
+        /// The policy file (XML, `<policy version="0.2.0">`).
+        policy: std::path::PathBuf,
+    },
 }
 
 fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
@@ -238,6 +250,23 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 match out.json {
                     true => println!("{}", serde_json::json!({ "enclave": enclave, "dir": made })),
                     false => println!("enclave {enclave} made in {}", made.display()),
+                }
+            }
+            SecurityVerb::CreatePermission {
+                keystore: dir,
+                enclave,
+                policy,
+            } => {
+                let made = keystore::create_permission(&dir, &enclave, &policy)
+                    .map_err(|e| e.to_string())?;
+                match out.json {
+                    true => {
+                        println!(
+                            "{}",
+                            serde_json::json!({ "enclave": enclave, "permissions": made })
+                        )
+                    }
+                    false => println!("permissions of {enclave} made in {}", made.display()),
                 }
             }
         }
