@@ -183,6 +183,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "secured_programs_signal_each_other_and_a_plain_one_is_kept_out",
             "one_secured_program_hears_its_own_signals_on_every_subscription",
             "only_a_permitted_publisher_starts_a_secured_response",
+            "the_documented_policy_lets_only_the_planner_start_the_dock",
             "secured_payloads_are_not_readable_on_the_wire",
             "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",
         ],

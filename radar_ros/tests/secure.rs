@@ -69,7 +69,16 @@ fn radar(security: Option<SecurityOptions>) -> radar_ros::Result<Radar> {
 async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
     let ks = keystore("pair");
     logged();
-    let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
+    let named = |program: &str| {
+        Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program(program)
+            .security(Some(SecurityOptions::enforce(&ks, &format!("/{program}"))))
+            .build()
+            .unwrap()
+    };
+    let robot = named("robot");
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let s = starts.clone();
     let _dock = robot
@@ -370,6 +379,91 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
         .unwrap();
     exited.recv().timeout(WAIT).await.unwrap();
     assert_eq!(count(), 1, "the permitted planner starts it");
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
+/// docs/security.md's policy ("only the planner may start the dock"), as written there (keep them the same).
+const DOCK_POLICY: &str = r#"<policy version="0.2.0">
+  <enclaves>
+    <enclave path="/robot">
+      <profiles>
+        <profile ns="/" node="robot">  <!-- the program (Radar::builder().program("robot")) -->
+          <topics publish="ALLOW"><topic>~/connections</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
+          <services reply="ALLOW"><service>~/*</service></services>
+        </profile>
+        <profile ns="/" node="dock">   <!-- the response: reads its slots, writes its signals -->
+          <topics subscribe="ALLOW"><topic>~/start</topic><topic>~/interrupt</topic><topic>~/exit</topic></topics>
+          <topics publish="ALLOW"><topic>~/started</topic><topic>~/interrupted</topic><topic>~/exited</topic><topic>~/state</topic></topics>
+          <topics publish="ALLOW"><topic>/rosout</topic><topic>/parameter_events</topic></topics>
+          <services reply="ALLOW"><service>~/*</service></services>
+        </profile>
+      </profiles>
+    </enclave>
+    <enclave path="/planner">
+      <profiles>
+        <profile ns="/" node="planner"> <!-- may start and interrupt the dock, and hear it -->
+          <topics publish="ALLOW"><topic>/dock/start</topic><topic>/dock/interrupt</topic></topics>
+          <topics subscribe="ALLOW"><topic>/dock/*</topic></topics>
+          <topics publish="ALLOW"><topic>~/connections</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
+          <services reply="ALLOW"><service>~/*</service></services>
+        </profile>
+      </profiles>
+    </enclave>
+  </enclaves>
+</policy>"#;
+
+/// docs/security.md's policy runs as written: the dock's program (enclave /robot) serves the dock, the
+/// planner (enclave /planner) starts it and hears it exit, and the robot's own program cannot start it (it
+/// may only read its slots).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
+    let ks = keystore("policy");
+    let policy = ks.join("policy.xml");
+    std::fs::write(&policy, DOCK_POLICY).unwrap();
+    for e in ["/robot", "/planner"] {
+        keystore::create_permission(&ks, e, &policy).unwrap();
+    }
+    let named = |program: &str| {
+        Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program(program)
+            .security(Some(SecurityOptions::enforce(&ks, &format!("/{program}"))))
+            .build()
+            .unwrap()
+    };
+    let robot = named("robot");
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let s = starts.clone();
+    let _dock = robot
+        .spawn_response(
+            "dock",
+            FnResponse::new(move |_: Empty| {
+                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let e = robot
+        .signal_publisher::<Empty>("/dock/start")
+        .err()
+        .expect("the robot may not write the dock's start")
+        .to_string();
+    assert!(e.contains("rt/dock/start"), "{e}");
+    let planner = named("planner");
+    let dock = planner.response("/dock").timeout(WAIT).await.unwrap();
+    let mut exited = planner
+        .waiter::<Empty>(dock.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    planner
+        .inject(dock.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    exited.recv().timeout(WAIT).await.unwrap();
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
