@@ -198,6 +198,7 @@ impl ActSlot {
 
 /// `radar security ...`: the verbs of `ros2 security` this build offers.
 #[derive(Subcommand)]
+#[allow(clippy::enum_variant_names)] // named as `ros2 security` names them
 enum SecurityVerb {
     /// Make a keystore: one CA for identities and permissions, and the signed governance (no
     /// unauthenticated participants; discovery and data encrypted).
