@@ -1,11 +1,11 @@
 //! Issue 25: radar_ros programs secured with enclaves of one keystore (made by `radar_ros::security::keystore`,
 //! sros2's layout) talk over DDS Security: two programs signal each other, and one hears its own signals on
 //! every subscription; a plain participant neither sees nor starts their components; only a permitted
-//! publisher starts a secured response (not a secured one without the grant, not a plain rclpy one); payloads
-//! are not readable on the wire; a tampered permissions document, a certificate from another CA and a missing
+//! publisher starts a secured response (not a secured one without the grant, not a plain rclpy one); a secured
+//! Fast DDS 2.9 peer interoperates (and one of another CA is kept out); payloads are not readable on the wire; a tampered permissions document, a certificate from another CA and a missing
 //! file stop a program at start, naming what is wrong. Runs only with the `security` feature
 //! (`tests/security_feature.rs` runs it), over real DDS inside tests/isolated.sh (root in its namespace, the
-//! rclpy venv as RADAR_VENV). Domain 109.
+//! rclpy venv as RADAR_VENV, g++ and libfastrtps-dev). Domain 109.
 #![cfg(feature = "security")]
 
 use std::{path::PathBuf, time::Duration};
@@ -380,6 +380,106 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     exited.recv().timeout(WAIT).await.unwrap();
     assert_eq!(count(), 1, "the permitted planner starts it");
     std::fs::remove_dir_all(&ks).unwrap();
+}
+
+/// `tests/fastdds/secure_peer.cpp` built with g++ against Debian's Fast DDS 2.9 (libfastrtps-dev: built with
+/// DDS Security), in this test's target directory.
+fn fastdds_peer() -> PathBuf {
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/fastdds/secure_peer.cpp");
+    let exe = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fastdds_secure_peer");
+    let out = std::process::Command::new("g++")
+        .args(["-std=c++17", "-O1"])
+        .arg(&src)
+        .arg("-o")
+        .arg(&exe)
+        .args(["-lfastrtps", "-lfastcdr"])
+        .output()
+        .expect("g++ (apt-get install g++)");
+    assert!(
+        out.status.success(),
+        "building the Fast DDS peer (apt-get install g++ libfastrtps-dev; .ci/run installs them):\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    exe
+}
+
+/// Interop with another DDS Security implementation: a secured Fast DDS 2.9 peer (the builtin PKI-DH,
+/// Access-Permissions and AES-GCM-GMAC plugins, configured from an enclave of the same keystore as
+/// rmw_fastrtps configures them) authenticates with a secured radar_ros program, starts its response over an
+/// encrypted topic (Fast DDS writer -> RustDDS reader) and hears its `exited` (RustDDS writer -> Fast DDS
+/// reader). A Fast DDS peer with an enclave of another keystore does not start it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_secured_fast_dds_peer_starts_a_secured_response_and_hears_it_exit() {
+    let peer = fastdds_peer();
+    let ks = keystore("fastdds");
+    keystore::create_enclave(&ks, "/fastdds", &keystore::Grant::all()).unwrap();
+    logged();
+    let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let s = starts.clone();
+    let _dock = robot
+        .spawn_response(
+            "fastdds_dock",
+            FnResponse::new(move |_: Empty| {
+                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let run = |enclave: PathBuf, timeout: &str| {
+        tokio::process::Command::new(&peer)
+            .arg(enclave)
+            .arg(DOMAIN.to_string())
+            .args(["rt/fastdds_dock/start", "rt/fastdds_dock/exited", timeout])
+            .kill_on_drop(true)
+            .output()
+    };
+    let out = tokio::time::timeout(
+        Duration::from_secs(60),
+        run(ks.join("enclaves/fastdds"), "30"),
+    )
+    .await
+    .expect("the Fast DDS peer ends")
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!(
+        "fastdds peer: {stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success()
+            && stdout.contains("matched start")
+            && stdout.contains("exited received"),
+        "the secured Fast DDS peer started the response and heard it exit"
+    );
+    assert!(starts.load(std::sync::atomic::Ordering::SeqCst) >= 1);
+    let log = logged();
+    let errors: Vec<&str> = log.lines().filter(|l| l.contains("ERROR")).collect();
+    println!(
+        "radar_ros logged at error level with Fast DDS: {}",
+        errors.len()
+    );
+
+    // an enclave of another keystore (another CA): never matched, nothing started
+    let other = keystore("fastdds_other");
+    keystore::create_enclave(&other, "/fastdds", &keystore::Grant::all()).unwrap();
+    let before = starts.load(std::sync::atomic::Ordering::SeqCst);
+    let out = tokio::time::timeout(
+        Duration::from_secs(60),
+        run(other.join("enclaves/fastdds"), "4"),
+    )
+    .await
+    .expect("the Fast DDS peer ends")
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("fastdds peer of another CA: {stdout}");
+    assert!(
+        !out.status.success() && stdout.contains("never matched"),
+        "{stdout}"
+    );
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), before);
+    std::fs::remove_dir_all(&ks).unwrap();
+    std::fs::remove_dir_all(&other).unwrap();
 }
 
 /// docs/security.md's policy ("only the planner may start the dock"), as written there (keep them the same).
