@@ -1361,43 +1361,29 @@ pub(crate) fn keys_not_exchanged(e: &SecurityError) -> bool {
 #[derive(Clone)]
 pub(crate) struct SecurityPluginsHandle {
   inner: Arc<Mutex<SecurityPlugins>>,
-  who_has_it: Arc<Mutex<Option<String>>>,
 }
 
 impl SecurityPluginsHandle {
   pub(crate) fn new(s: SecurityPlugins) -> Self {
     Self {
       inner: Arc::new(Mutex::new(s)),
-      who_has_it: Arc::new(Mutex::new(None)),
     }
   }
 
+  /// radar_ros patch 28: waits for the lock, which is held for microseconds (one encoding, decoding,
+  /// registration or check). It was polled with `try_lock` and a 100 ms sleep after each miss, so a thread
+  /// that met another one holding it (the event loop encoding a sample while the discovery thread exchanged
+  /// keys, or a new endpoint being registered) stalled 100 ms: secured signals had a 100 ms tail, and making
+  /// an endpoint took ~10 ms on average.
   pub(crate) fn get_plugins(&self) -> MutexGuard<'_, SecurityPlugins> {
-    let mut count = 0;
-    loop {
-      match self.try_lock() {
-        Ok(guard) => {
-          *self.who_has_it.lock().unwrap() = std::thread::current().name().map(|s| s.to_owned());
-          return guard;
-        }
-        Err(std::sync::TryLockError::WouldBlock) => {
-          if count > 10 {
-            error!(
-              "I need my lock!! {:?} Looks like {:?} has it.",
-              count,
-              self.who_has_it.lock().unwrap()
-            );
-          }
-          count += 1;
-          std::thread::sleep(std::time::Duration::from_millis(100));
-        }
-        Err(poisoned) => {
-          create_security_error_and_log!("Security plugins are poisoned! {poisoned:?}");
-          panic!("RustDDS internal bug: SecurityPlugins mutex poisoned after a prior panic");
-        }
+    match self.lock() {
+      Ok(guard) => guard,
+      Err(poisoned) => {
+        create_security_error_and_log!("Security plugins are poisoned! {poisoned:?}");
+        panic!("RustDDS internal bug: SecurityPlugins mutex poisoned after a prior panic");
       }
-    } // loop
-  } // fn
+    }
+  }
 }
 
 impl fmt::Debug for SecurityPluginsHandle {
@@ -1410,5 +1396,39 @@ impl std::ops::Deref for SecurityPluginsHandle {
   type Target = Mutex<SecurityPlugins>;
   fn deref(&self) -> &Self::Target {
     &self.inner
+  }
+}
+
+#[cfg(test)]
+mod lock_tests {
+  use super::*;
+  use crate::security::{AccessControlBuiltin, AuthenticationBuiltin, CryptographicBuiltin};
+
+  /// radar_ros patch 28: a thread that asks for the plugins while another holds them for 10 ms gets them
+  /// when they are released, not after a 100 ms sleep.
+  #[test]
+  fn the_plugins_are_handed_over_when_released() {
+    let h = SecurityPluginsHandle::new(SecurityPlugins::new(
+      Box::new(AuthenticationBuiltin::new()),
+      Box::new(AccessControlBuiltin::new()),
+      Box::new(CryptographicBuiltin::new()),
+    ));
+    let held = h.get_plugins();
+    let h2 = h.clone();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let waiter = std::thread::spawn(move || {
+      let t = std::time::Instant::now();
+      tx.send(()).unwrap();
+      let _g = h2.get_plugins();
+      t.elapsed()
+    });
+    rx.recv().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(10));
+    drop(held);
+    let waited = waiter.join().unwrap();
+    assert!(
+      waited < std::time::Duration::from_millis(95),
+      "waited {waited:?} for plugins held 10 ms"
+    );
   }
 }
