@@ -1,12 +1,12 @@
 //! Issue 25: the README's example (`count_up`, Listing 1 in one process) secured as docs/security.md says: a
-//! keystore and an enclave made by `radar security create_keystore` and `create_enclave` (its permissions
-//! made again from a policy file by `create_permission`), the
-//! `ROS_SECURITY_*` variables and `--ros-args --enclave /count_up`. Its timeline follows Listing 1 step by step
-//! within 100 ms, counted from when its events begin to check (a secured program takes ~1 s longer to set up
-//! its participant, endpoints and keys: the listing's clock starts once its statement is armed), and it ends
-//! without an error line. Everything in it talks to itself: every signal is a match of one participant's own
-//! endpoints (RustDDS patch 27). Needs the `security` feature and `RADAR_CLI` (the `radar` binary built with
-//! it): `tests/security_feature.rs` runs it. Domain 220; inside `tests/isolated.sh`.
+//! keystore and an enclave made by `radar security create_keystore` and `create_enclave` (its permissions made
+//! again from a policy file by `create_permission`), the `ROS_SECURITY_*` variables and `--ros-args --enclave
+//! /count_up`. Its timeline follows Listing 1 step by step within 100 ms, each event's steps counted from its
+//! own trigger (secured, each event begins to check when its listener has matched over secure discovery, a few
+//! hundred ms after the statement), and it ends without an error or warning line. Everything in it talks to
+//! itself: every signal is a match of one participant's own endpoints (RustDDS patch 27). Needs the `security`
+//! feature and `RADAR_CLI` (the `radar` binary built with it): `tests/security_feature.rs` runs it. Domain
+//! 220; inside `tests/isolated.sh`.
 //!
 //! Also Listings 2 and 3 (`launch_scripts/deliberative.sh`: the deliberative program and its three
 //! components, four secured programs, each its own participant) make and drop their connections as in the
