@@ -1,6 +1,7 @@
 //! Issue 25: the README's example (`count_up`, Listing 1 in one process) secured as docs/security.md says: a
 //! keystore and an enclave made by `radar security create_keystore` and `create_enclave` (its permissions made
-//! again from a policy file by `create_permission`), the `ROS_SECURITY_*` variables and `--ros-args --enclave
+//! again by `create_permission` from the policy the program wrote of what it declares in a plain run,
+//! `RADAR_GENERATE_POLICY`), the `ROS_SECURITY_*` variables and `--ros-args --enclave
 //! /count_up`. Its timeline follows Listing 1 step by step within 100 ms, each event's steps counted from its
 //! own trigger (secured, each event begins to check when its listener has matched over secure discovery, a few
 //! hundred ms after the statement), and it ends without an error or warning line. Everything in it talks to
@@ -38,20 +39,6 @@ fn radar(args: &[&str]) {
     );
 }
 
-/// What the secured count_up is granted: every topic and service (what `create_enclave` grants, as a policy).
-const COUNT_UP_POLICY: &str = r#"<policy version="0.2.0">
-  <enclaves>
-    <enclave path="/count_up">
-      <profiles>
-        <profile ns="/" node="count_up">
-          <topics publish="ALLOW" subscribe="ALLOW"><topic>*</topic></topics>
-          <services request="ALLOW" reply="ALLOW"><service>*</service></services>
-        </profile>
-      </profiles>
-    </enclave>
-  </enclaves>
-</policy>"#;
-
 fn near(actual: f64, listing: f64, what: &str) {
     assert!(
         (actual - listing).abs() <= 0.1,
@@ -67,9 +54,29 @@ fn secured_count_up_follows_listing_1() {
     let ks_s = ks.to_str().unwrap();
     radar(&["security", "create_keystore", ks_s]);
     radar(&["security", "create_enclave", ks_s, "/count_up"]);
-    // its permissions made again from a policy (sros2's format): every topic and service, nothing else
+    // its permissions made again from a policy: the one the program writes of what it declares
+    // (RADAR_GENERATE_POLICY), in a plain recording run long enough to make every statement it makes
     let policy = ks.join("count_up_policy.xml");
-    std::fs::write(&policy, COUNT_UP_POLICY).unwrap();
+    let rec = Command::new(examples_dir("count_up").join("count_up"))
+        .args(["--duration", "4.6", "--ros-args", "--enclave", "/count_up"])
+        .env("ROS_DOMAIN_ID", "220")
+        .env("RADAR_GENERATE_POLICY", &policy)
+        .output()
+        .expect("run count_up");
+    assert!(
+        rec.status.success(),
+        "recording run: {}",
+        String::from_utf8_lossy(&rec.stderr)
+    );
+    let generated =
+        std::fs::read_to_string(&policy).expect("RADAR_GENERATE_POLICY wrote the policy");
+    println!("generated policy:\n{generated}");
+    assert!(
+        generated.contains(r#"<enclave path="/count_up">"#)
+            && generated.contains("<topic>/count_up/start</topic>")
+            && generated.contains("count_up_*"),
+        "{generated}"
+    );
     let wrong = Command::new(radar_cli())
         .args(["security", "create_permission", ks_s, "/elsewhere"])
         .arg(&policy)
@@ -89,8 +96,9 @@ fn secured_count_up_follows_listing_1() {
     ]);
     let perms = std::fs::read_to_string(ks.join("enclaves/count_up/permissions.xml")).unwrap();
     assert!(
-        perms.contains("<topic>rt/*</topic>") && perms.contains("<topic>rq/*Request</topic>"),
-        "{perms}"
+        perms.contains("<topic>rt/count_up/start</topic>")
+            && !perms.contains("<topic>rt/*</topic>"),
+        "only what it declared: {perms}"
     );
 
     let out = Command::new(examples_dir("count_up").join("count_up"))

@@ -372,6 +372,8 @@ async fn bad_input_from_rclpy_is_refused_with_reasons() {
     // closed stdin, so it used to go on at once and its valid start could beat the check above)
     py.proceed().await;
     py.json_with("still_works").await;
+    // rclpy saw `started`; the handle's state is updated by the response task right after it sends it
+    eventually(T, "the start counted", || resp.state().starts == 1).await;
     assert_eq!(resp.state().starts, 1);
     let mut answers = std::collections::BTreeMap::new();
     for _ in 0..5 {

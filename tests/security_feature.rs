@@ -10,11 +10,11 @@
 //! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
-//!   policy as written, a secured Fast DDS 2.9 peer (tests/fastdds/secure_peer.cpp, g++ against Debian's
+//!   policy as written, permissions generated from what programs declare, a secured Fast DDS 2.9 peer (tests/fastdds/secure_peer.cpp, g++ against Debian's
 //!   libfastrtps-dev) starts a secured response and hears it exit, payloads are not readable in frames
 //!   captured on the wire, bad enclaves stop a program at start naming what is wrong), one test at a time;
 //! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
-//!   verbs follows Listing 1; Listings 2 and 3 as four secured processes follow Figure 3.
+//!   verbs and the permissions of what it declared in a plain run (`RADAR_GENERATE_POLICY`) follows Listing 1; Listings 2 and 3 as four secured processes follow Figure 3.
 //!
 //! Everything is built before anything runs over DDS (a build beside a timed run would load the machine).
 //! Needs libssl-dev, pkg-config, g++ and libfastrtps-dev (`.ci/run` and tests/python_env.sh install them);
@@ -187,6 +187,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "one_secured_program_hears_its_own_signals_on_every_subscription",
             "only_a_permitted_publisher_starts_a_secured_response",
             "the_documented_policy_lets_only_the_planner_start_the_dock",
+            "permissions_generated_from_what_programs_declare_let_only_the_driver_start",
             "a_secured_fast_dds_peer_starts_a_secured_response_and_hears_it_exit",
             "secured_payloads_are_not_readable_on_the_wire",
             "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",

@@ -49,6 +49,11 @@ where
     Resp: ros2_client::Message + Clone + 'static,
 {
     let q = crate::qos::signal_qos();
+    crate::security::declared::record_node(
+        node,
+        crate::security::declared::Access::Reply,
+        &format!("{}/{service}", fq.trim_end_matches('/')),
+    );
     node.create_server::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
         &service_name(fq, service)?,
@@ -87,6 +92,11 @@ where
     Resp: ros2_client::Message + Clone + 'static,
 {
     let q = crate::qos::signal_qos();
+    crate::security::declared::record_node(
+        node,
+        crate::security::declared::Access::Request,
+        &format!("{}/{service}", fq.trim_end_matches('/')),
+    );
     node.create_client::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
         &service_name(fq, service)?,
@@ -275,6 +285,11 @@ pub(crate) fn publisher<M: serde::Serialize>(
     qos: &QosProfile,
 ) -> Result<Watched<Publisher<M>>> {
     let t = topic(graph, topic_abs, ty, qos)?;
+    crate::security::declared::record_node(
+        node,
+        crate::security::declared::Access::Publish,
+        topic_abs,
+    );
     let inner = node
         .create_publisher(&t, Some(qos.clone()))
         .map_err(|e| Error::transport(format!("a publisher on {topic_abs}"), e))?;
@@ -297,6 +312,11 @@ pub(crate) fn subscription<M: 'static>(
     qos: &QosProfile,
 ) -> Result<Watched<Subscription<M>>> {
     let t = topic(graph, topic_abs, ty, qos)?;
+    crate::security::declared::record_node(
+        node,
+        crate::security::declared::Access::Subscribe,
+        topic_abs,
+    );
     let inner = node
         .create_subscription(&t, Some(qos.clone()))
         .map_err(|e| Error::transport(format!("a subscription on {topic_abs}"), e))?;

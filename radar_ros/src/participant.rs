@@ -86,6 +86,10 @@ pub(crate) struct Participant {
     rule_node: String,
     /// Simulated time when `use_sim_time` is on (set once the program node exists); the wall clock otherwise.
     clock: std::sync::OnceLock<crate::clock::Clock>,
+    /// `RADAR_GENERATE_POLICY`: where to write the program's policy when it ends, and for which enclave.
+    policy_out: Mutex<Option<(std::path::PathBuf, String)>>,
+    /// The nodes made on this participant (fully qualified), whose declarations its policy holds.
+    node_names: Mutex<std::collections::BTreeSet<String>>,
 }
 
 impl crate::shutdown::Stoppable for Participant {
@@ -98,12 +102,14 @@ impl crate::shutdown::Stoppable for Participant {
     }
 
     fn leave(&self) {
+        self.write_policy();
         self.ctx.domain_participant().close();
     }
 }
 
 impl Drop for Participant {
     fn drop(&mut self) {
+        self.write_policy();
         if let Some(stop) = self.stop_graph.lock().unwrap().take() {
             let _ = stop.send(());
         }
@@ -118,6 +124,45 @@ static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
     Mutex::new(std::collections::BTreeSet::new());
 
 impl Participant {
+    /// Writes the program's policy to `file` (for `enclave`) when it ends (`RADAR_GENERATE_POLICY`).
+    pub(crate) fn generate_policy(&self, file: std::path::PathBuf, enclave: String) {
+        *self.policy_out.lock().unwrap() = Some((file, enclave));
+    }
+
+    /// Notes that the node `fq` (fully qualified) was made on this participant.
+    pub(crate) fn note_node(&self, fq: &str) {
+        self.node_names.lock().unwrap().insert(fq.to_owned());
+    }
+
+    /// The policy of what this participant's nodes declared, for `enclave`. The default program name ends with
+    /// the process id (`count_up_1234`), so names under it are written as a pattern (`count_up_*`) that the
+    /// next run's also match.
+    pub(crate) fn policy(&self, enclave: &str) -> String {
+        let nodes = self.node_names.lock().unwrap().clone();
+        let xml = crate::security::declared::policy_xml(self.domain_id, &nodes, enclave);
+        let exe = crate::program::default_program_name();
+        xml.replace(
+            &format!("{exe}_{}", std::process::id()),
+            &format!("{exe}_*"),
+        )
+    }
+
+    /// Writes what [`Participant::generate_policy`] asked for, once.
+    fn write_policy(&self) {
+        if let Some((file, enclave)) = self.policy_out.lock().unwrap().take() {
+            let xml = self.policy(&enclave);
+            match std::fs::write(&file, xml) {
+                Ok(()) => {
+                    tracing::info!(file = %file.display(), %enclave, "RADAR_GENERATE_POLICY: policy written")
+                }
+                Err(e) => tracing::warn!(
+                    file = %file.display(),
+                    "RADAR_GENERATE_POLICY: cannot write the policy: {e}"
+                ),
+            }
+        }
+    }
+
     /// Wraps `ctx`, starting the graph's discovery task and the pool's sweeper on `rt`.
     pub(crate) fn start(
         ctx: Context,
@@ -152,6 +197,8 @@ impl Participant {
             ros_args,
             rule_node,
             clock: std::sync::OnceLock::new(),
+            policy_out: Mutex::new(None),
+            node_names: Mutex::new(std::collections::BTreeSet::new()),
         })
     }
 
@@ -256,6 +303,7 @@ impl Participant {
         let options = NodeOptions::new()
             .enable_rosout(false)
             .start_parameter_services(false);
+        self.note_node(&fq);
         self.ctx
             .new_node(name, options)
             .map_err(|e| Error::transport(format!("node {fq}"), e))

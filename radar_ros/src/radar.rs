@@ -375,6 +375,10 @@ impl RadarBuilder {
             Some(s) => s,
             None => crate::security::SecurityOptions::from_env(&ros_args)?,
         };
+        let policy_enclave = match &security {
+            Some(o) => o.enclave.clone(),
+            None => crate::security::enclave_name(&ros_args),
+        };
         let enclave = match &security {
             Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
             None => None,
@@ -449,6 +453,9 @@ impl RadarBuilder {
                 std::process::id()
             ),
         };
+        if let Some(file) = std::env::var_os("RADAR_GENERATE_POLICY").filter(|v| !v.is_empty()) {
+            participant.generate_policy(std::path::PathBuf::from(file), policy_enclave.clone());
+        }
         let program_node = participant.start_program_node(&program)?;
         let manager = Arc::new(Manager::new(
             participant.clone(),
@@ -485,6 +492,7 @@ impl RadarBuilder {
             }),
             manager,
             participant,
+            policy_enclave: Arc::from(policy_enclave.as_str()),
         })
     }
 }
@@ -507,6 +515,8 @@ pub struct Radar {
     program: Arc<ProgramNode>,
     participant: Arc<Participant>,
     manager: Arc<Manager>,
+    /// The enclave this program runs in (or would, secured), for [`Radar::policy`].
+    policy_enclave: Arc<str>,
 }
 
 /// The program node, the task that shows its connections, its `/rosout` writer, and what follows `/clock`.
@@ -680,6 +690,26 @@ impl Radar {
                 }),
             }
         })
+    }
+
+    /// The access-control policy of what this program has declared on the ROS graph so far, in sros2's format
+    /// (`radar security create_permission KEYSTORE ENCLAVE FILE` makes its enclave's permissions from it): for
+    /// its enclave (`--enclave`, `ROS_SECURITY_ENCLAVE_OVERRIDE` or `/`), one profile per node of this
+    /// program, each topic it publishes or subscribes, each service it serves or calls, each
+    /// action it calls or serves. A response's node reads its slots and writes its signals; whoever drives it
+    /// writes its slots. `RADAR_GENERATE_POLICY=FILE` writes it to FILE when the program ends. Name the program
+    /// (`.program("robot")` or `--ros-args -r __node:=robot`) so that its node's name, and the policy, are the
+    /// same from run to run (the default name ends with the process id).
+    ///
+    /// ```no_run
+    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
+    /// let radar = radar_ros::Radar::builder().program("planner").build()?;
+    /// // ... spawn components, make statements ...
+    /// std::fs::write("planner_policy.xml", radar.policy()).unwrap();
+    /// # Ok(()) }
+    /// ```
+    pub fn policy(&self) -> String {
+        self.participant.policy(&self.policy_enclave)
     }
 
     pub(crate) fn participant(&self) -> &Arc<Participant> {

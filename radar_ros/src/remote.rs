@@ -255,6 +255,9 @@ impl Radar {
             static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
             let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let base = format!("{}_client_{k}", radar.program_node().base());
+            radar.participant().note_node(
+                &crate::names::ComponentName::resolve(&base, radar.namespace())?.fully_qualified(),
+            );
             let mut node = radar
                 .context()
                 .new_node(

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub(crate) mod declared;
 #[cfg(feature = "security")]
 pub mod keystore;
 #[cfg(feature = "security")]
@@ -83,6 +84,16 @@ impl SecurityOptions {
             ros_args.enclave(),
         )
     }
+}
+
+/// The enclave a program runs in, or would run in when secured: `ROS_SECURITY_ENCLAVE_OVERRIDE`, else the
+/// command line's `--enclave`, else `/` (rcl's order).
+pub(crate) fn enclave_name(ros_args: &crate::ros_args::RosArgs) -> String {
+    std::env::var("ROS_SECURITY_ENCLAVE_OVERRIDE")
+        .ok()
+        .filter(|v| !v.is_empty())
+        .or_else(|| ros_args.enclave().map(str::to_owned))
+        .unwrap_or_else(|| "/".to_owned())
 }
 
 /// `KEYSTORE/enclaves/NAME` for the enclave `NAME` (`/` is the keystore's `enclaves/` itself).

@@ -382,6 +382,119 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
+/// Permissions generated from what programs declare (`Radar::policy`, what `RADAR_GENERATE_POLICY=FILE`
+/// writes when a program ends): a recording run, plain, of a robot program serving a response and a planner
+/// driving it (each with its `--enclave`); each policy made into its enclave's permissions
+/// (`create_permission`); then, secured, the planner starts the response and hears it exit, while the robot's
+/// own program, whose policy only reads the response's slots, cannot write its `start`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn permissions_generated_from_what_programs_declare_let_only_the_driver_start() {
+    let ks = keystore("generated");
+    let program = |name: &str, security: Option<SecurityOptions>| {
+        Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program(name)
+            .ros_args(
+                radar_ros::ros_args::RosArgs::parse([
+                    name,
+                    "--ros-args",
+                    "--enclave",
+                    &format!("/{name}"),
+                ])
+                .unwrap(),
+            )
+            .security(security)
+            .build()
+            .unwrap()
+    };
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let dock = |radar: &Radar| {
+        let s = starts.clone();
+        radar
+            .spawn_response(
+                "gen_dock",
+                FnResponse::new(move |_: Empty| {
+                    s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    async { Ok(Empty::default()) }
+                }),
+            )
+            .unwrap()
+    };
+    let drive = |planner: Radar| async move {
+        let d = planner.response("/gen_dock").timeout(WAIT).await.unwrap();
+        let mut exited = planner
+            .waiter::<Empty>(d.exited())
+            .timeout(WAIT)
+            .await
+            .unwrap();
+        planner
+            .inject(d.start_slot(), Empty::default())
+            .timeout(WAIT)
+            .await
+            .unwrap();
+        exited.recv().timeout(WAIT).await.unwrap();
+        planner
+    };
+
+    // the recording run, plain
+    let (robot_policy, planner_policy) = {
+        let robot = program("robot", None);
+        let _d = dock(&robot);
+        let planner = drive(program("planner", None)).await;
+        (robot.policy(), planner.policy())
+    };
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
+    println!("robot's policy:\n{robot_policy}\nplanner's policy:\n{planner_policy}");
+    let grant = |policy: &str, enclave: &str| {
+        let g =
+            radar_ros::security::policy::grants_from_xml(policy, std::path::Path::new("generated"))
+                .unwrap();
+        assert_eq!(g.len(), 1);
+        assert_eq!(g[0].0, enclave, "{policy}");
+        g[0].1.clone()
+    };
+    let (r, p) = (
+        grant(&robot_policy, "/robot"),
+        grant(&planner_policy, "/planner"),
+    );
+    let start = "rt/gen_dock/start".to_owned();
+    assert!(
+        r.subscribe.contains(&start) && !r.publish.contains(&start),
+        "{r:?}"
+    );
+    assert!(
+        p.publish.contains(&start) && !p.subscribe.contains(&start),
+        "{p:?}"
+    );
+    assert!(
+        r.publish.contains(&"rt/gen_dock/exited".to_owned()),
+        "{r:?}"
+    );
+    for (name, policy) in [("robot", &robot_policy), ("planner", &planner_policy)] {
+        let file = ks.join(format!("{name}_policy.xml"));
+        std::fs::write(&file, policy).unwrap();
+        keystore::create_permission(&ks, &format!("/{name}"), &file).unwrap();
+    }
+
+    // secured, with the generated permissions
+    let robot = program("robot", Some(SecurityOptions::enforce(&ks, "/robot")));
+    let _d = dock(&robot);
+    let e = robot
+        .signal_publisher::<Empty>("/gen_dock/start")
+        .err()
+        .expect("the robot's generated policy does not let it write the dock's start")
+        .to_string();
+    assert!(e.contains("rt/gen_dock/start"), "{e}");
+    let _planner = drive(program(
+        "planner",
+        Some(SecurityOptions::enforce(&ks, "/planner")),
+    ))
+    .await;
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 2);
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
 /// `tests/fastdds/secure_peer.cpp` built with g++ against Debian's Fast DDS 2.9 (libfastrtps-dev: built with
 /// DDS Security), in this test's target directory.
 fn fastdds_peer() -> PathBuf {

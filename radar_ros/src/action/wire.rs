@@ -100,6 +100,7 @@ pub(super) fn action_client<A: Action>(
     node: &mut ros2_client::Node,
     action: &str,
 ) -> Result<Client<A>> {
+    crate::security::declared::record_node(node, crate::security::declared::Access::Call, action);
     node.create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
         ros2_client::ServiceMapping::Enhanced,
         &ros_name(action)?,
@@ -115,6 +116,11 @@ pub(super) fn action_server<A: Action>(
     node: &mut ros2_client::Node,
     action: &str,
 ) -> Result<SyncServer<A>> {
+    crate::security::declared::record_node(
+        node,
+        crate::security::declared::Access::Execute,
+        action,
+    );
     node.create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
         ros2_client::ServiceMapping::Enhanced,
         &ros_name(action)?,
