@@ -87,7 +87,7 @@ pub(crate) struct Participant {
     /// Simulated time when `use_sim_time` is on (set once the program node exists); the wall clock otherwise.
     clock: std::sync::OnceLock<crate::clock::Clock>,
     /// `RADAR_GENERATE_POLICY`: where to write the program's policy when it ends, and for which enclave.
-    policy_out: Mutex<Option<(std::path::PathBuf, String)>>,
+    policy_out: Mutex<Option<(std::path::PathBuf, String, String)>>,
     /// The nodes made on this participant (fully qualified), whose declarations its policy holds.
     node_names: Mutex<std::collections::BTreeSet<String>>,
 }
@@ -124,9 +124,10 @@ static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
     Mutex::new(std::collections::BTreeSet::new());
 
 impl Participant {
-    /// Writes the program's policy to `file` (for `enclave`) when it ends (`RADAR_GENERATE_POLICY`).
-    pub(crate) fn generate_policy(&self, file: std::path::PathBuf, enclave: String) {
-        *self.policy_out.lock().unwrap() = Some((file, enclave));
+    /// Writes the program's policy to `file` (for `enclave`; `exe`, the default program name's stem, see
+    /// [`Participant::policy`]) when it ends (`RADAR_GENERATE_POLICY`).
+    pub(crate) fn generate_policy(&self, file: std::path::PathBuf, enclave: String, exe: String) {
+        *self.policy_out.lock().unwrap() = Some((file, enclave, exe));
     }
 
     /// Notes that the node `fq` (fully qualified) was made on this participant.
@@ -134,13 +135,12 @@ impl Participant {
         self.node_names.lock().unwrap().insert(fq.to_owned());
     }
 
-    /// The policy of what this participant's nodes declared, for `enclave`. The default program name ends with
-    /// the process id (`count_up_1234`), so names under it are written as a pattern (`count_up_*`) that the
-    /// next run's also match.
-    pub(crate) fn policy(&self, enclave: &str) -> String {
+    /// The policy of what this participant's nodes declared, for `enclave`. The default program name is `exe`
+    /// followed by the process id (`count_up_1234`), so names under it are written as a pattern (`count_up_*`)
+    /// that the next run's also match.
+    pub(crate) fn policy(&self, enclave: &str, exe: &str) -> String {
         let nodes = self.node_names.lock().unwrap().clone();
         let xml = crate::security::declared::policy_xml(self.domain_id, &nodes, enclave);
-        let exe = crate::program::default_program_name();
         xml.replace(
             &format!("{exe}_{}", std::process::id()),
             &format!("{exe}_*"),
@@ -149,8 +149,8 @@ impl Participant {
 
     /// Writes what [`Participant::generate_policy`] asked for, once.
     fn write_policy(&self) {
-        if let Some((file, enclave)) = self.policy_out.lock().unwrap().take() {
-            let xml = self.policy(&enclave);
+        if let Some((file, enclave, exe)) = self.policy_out.lock().unwrap().take() {
+            let xml = self.policy(&enclave, &exe);
             match std::fs::write(&file, xml) {
                 Ok(()) => {
                     tracing::info!(file = %file.display(), %enclave, "RADAR_GENERATE_POLICY: policy written")

@@ -454,7 +454,11 @@ impl RadarBuilder {
             ),
         };
         if let Some(file) = std::env::var_os("RADAR_GENERATE_POLICY").filter(|v| !v.is_empty()) {
-            participant.generate_policy(std::path::PathBuf::from(file), policy_enclave.clone());
+            participant.generate_policy(
+                std::path::PathBuf::from(file),
+                policy_enclave.clone(),
+                crate::program::default_program_name(),
+            );
         }
         let program_node = participant.start_program_node(&program)?;
         let manager = Arc::new(Manager::new(
@@ -709,7 +713,10 @@ impl Radar {
     /// # Ok(()) }
     /// ```
     pub fn policy(&self) -> String {
-        self.participant.policy(&self.policy_enclave)
+        self.participant.policy(
+            &self.policy_enclave,
+            &crate::program::default_program_name(),
+        )
     }
 
     pub(crate) fn participant(&self) -> &Arc<Participant> {
