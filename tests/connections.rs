@@ -65,6 +65,19 @@ async fn a_response_of_this_process_gets_its_signals_without_a_second_dds_hop() 
         1,
         "a plain publisher's source: its hop only"
     );
+    // no writer now, but one is made if the response leaves while the connection lives (to reach one of that
+    // name elsewhere): the policy generated from this run grants the program node that write
+    let policy = r.policy();
+    let writes_start = policy.split("<profile ").any(|p| {
+        !p.starts_with(r#"ns="/" node="echo""#)
+            && p.split("<topics ").any(|t| {
+                t.starts_with(r#"publish="ALLOW">"#) && t.contains("<topic>/echo/start</topic>")
+            })
+    });
+    assert!(
+        writes_start,
+        "the program node may write /echo/start:\n{policy}"
+    );
 }
 
 /// An event of this process reaches the connection in the emitting task (no DDS hop into the manager), and

@@ -345,6 +345,20 @@ impl Participant {
         f(node)
     }
 
+    /// Records that the program node may write `topic` (absolute) though it makes no writer for it now: an
+    /// outlet that reaches a slot of this process in-process makes one when that response leaves (see
+    /// [`crate::security::declared`]), so a policy generated from this run grants it.
+    pub(crate) fn declare_writer(&self, topic: &str) {
+        if let Some(fq) = self.program_node.lock().unwrap().as_deref() {
+            crate::security::declared::record(
+                self.domain_id,
+                fq,
+                crate::security::declared::Access::Publish,
+                topic,
+            );
+        }
+    }
+
     /// Claims a name for a component in this process and creates its node.
     pub(crate) fn claim_node(self: &Arc<Self>, name: &ComponentName) -> Result<(Node, NameClaim)> {
         let fq = name.fully_qualified();

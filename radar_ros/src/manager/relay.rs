@@ -141,6 +141,10 @@ impl Manager {
             counts.push(d.matched_watch());
         }
         let needs_writer = dds.is_none();
+        if needs_writer && inlet.is_some() {
+            // it writes the slot over DDS if that response leaves: the program's policy must grant it
+            self.participant.declare_writer(&k.topic);
+        }
         let mut presence = Presence::new(counts);
         let key = k.clone();
         let departure = {
