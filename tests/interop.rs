@@ -3,7 +3,7 @@
 //! services with the generated `radar_msgs` types, read latched state, and send bad input. The Python side is
 //! `tests/python/interop.py` and `examples/python/`, run with the venv that `tests/python_env.sh` builds
 //! (`tests/isolated.sh` builds it before entering the test network). No venv: these tests fail. Domains 94-101,
-//! 33-34.
+//! 33-34, 222.
 
 use std::{
     sync::{atomic::Ordering, Arc, Mutex},
@@ -581,4 +581,60 @@ async fn a_late_state_subscriber_gets_only_the_current_state() {
         "a second sample: {:?}",
         more.map(|m| m.map(|r| r.map(|x| x.0)))
     );
+}
+
+/// Enclaves cross both ways in each participant's DDS USER_DATA (`enclave=/path;`, RustDDS patch 29) as rmw
+/// announces them: rclpy's graph shows radar_ros's nodes in the enclave the program was given (`--enclave`),
+/// and `Introspect::nodes` (what `radar security generate_policy` reads) shows the rclpy node in its enclave
+/// with the topics it publishes and subscribes and the services it serves, from its `ros_discovery_info`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn enclaves_and_each_nodes_endpoints_are_seen_both_ways_with_rclpy() {
+    let r = radar_test_util::radar_with(222, |b| {
+        b.program("enclaved_radar").ros_args(
+            radar_ros::ros_args::RosArgs::parse(["x", "--ros-args", "--enclave", "/radar/side"])
+                .unwrap(),
+        )
+    });
+    let _say = r
+        .spawn_response(
+            "/interop/enc_say",
+            FnResponse::new(|s: StringMsg| async move { Ok(s) }),
+        )
+        .unwrap();
+    let mut py = Py::interop(
+        222,
+        &[
+            "enclaved",
+            "--enclave",
+            "/py/side",
+            "--wait-for",
+            "/interop/enc_say",
+        ],
+    );
+    let seen = py.json().await;
+    for node in ["/interop/enc_say", "/enclaved_radar"] {
+        assert_eq!(
+            seen["enclaves"][node], "/radar/side",
+            "rclpy sees {node}'s enclave: {seen}"
+        );
+    }
+    let mut found = None;
+    for _ in 0..10 {
+        let nodes = r.introspect().nodes().timeout(T).await.unwrap();
+        found = nodes
+            .into_iter()
+            .find(|n| n.fully_qualified() == "/interop_enclaved" && !n.publishes.is_empty());
+        if found.is_some() {
+            break;
+        }
+    }
+    let n = found.expect("radar_ros sees the rclpy node");
+    assert_eq!(n.enclave, "/py/side", "{n:?}");
+    assert!(n.publishes.contains("/py_enclaved/out"), "{n:?}");
+    assert!(n.subscribes.contains("/py_enclaved/in"), "{n:?}");
+    assert!(
+        n.serves.contains("/interop_enclaved/get_parameters"),
+        "{n:?}"
+    );
+    py.kill();
 }

@@ -4,7 +4,8 @@
 
 use std::{collections::BTreeSet, time::Duration};
 
-use crate::{msg::RosMessage, radar::Radar, wait::Wait};
+pub use crate::graph::GraphNode;
+use crate::{error::Error, msg::RosMessage, radar::Radar, wait::Wait};
 
 /// The DDS type name of a `Connect` request, as a manager's `connect` server announces it.
 const CONNECT_REQUEST: &str = "radar_msgs::srv::dds_::Connect_Request_";
@@ -116,6 +117,71 @@ impl Introspect<'_> {
         Wait::discovery(move |timeout| async move {
             let topic = topic?;
             radar.topic_type(&topic, false, timeout).await
+        })
+    }
+}
+
+impl Introspect<'_> {
+    /// The ROS nodes of the other programs on the graph (every DDS participant but this program's), each with
+    /// its enclave and the topics and services it uses, from `ros_discovery_info` (which every ROS 2 program
+    /// publishes: its nodes and their endpoints) and DDS discovery. Waits for discovery to be quiet for
+    /// 300 ms, at most the timeout (default [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)`); a
+    /// timeout running out is not an error (the graph is as settled as it got). What `radar security
+    /// generate_policy` writes a policy from.
+    pub fn nodes(&self) -> Wait<'static, Vec<GraphNode>> {
+        use ros2_client::{
+            builtin_topics::ros_discovery, dds::rustdds, entities_info::ParticipantEntitiesInfo,
+        };
+        let radar = self.radar.clone();
+        Wait::new(Some(crate::DEFAULT_TIMEOUT), move |max| async move {
+            let max = max.unwrap_or(crate::DEFAULT_TIMEOUT);
+            let started = tokio::time::Instant::now();
+            let dp = radar
+                .graph()
+                .domain_participant()
+                .ok_or_else(|| Error::Closed("the DDS participant".into()))?;
+            let what = "read ros_discovery_info";
+            let qos = rustdds::QosPolicyBuilder::new()
+                .durability(rustdds::policy::Durability::TransientLocal)
+                .reliable(rustdds::Duration::ZERO)
+                .history(rustdds::policy::History::KeepLast { depth: 4096 })
+                .build();
+            let topic = dp
+                .create_topic(
+                    ros_discovery::TOPIC_NAME.to_owned(),
+                    ros_discovery::TYPE_NAME.to_owned(),
+                    &qos,
+                    rustdds::TopicKind::NoKey,
+                )
+                .map_err(|e| Error::transport(what, e))?;
+            let mut reader = dp
+                .create_subscriber(&qos)
+                .and_then(|s| {
+                    s.create_datareader_no_key_cdr::<ParticipantEntitiesInfo>(&topic, Some(qos))
+                })
+                .map_err(|e| Error::transport(what, e))?;
+            // each participant's writer is durable: its last sample comes when the reader matches it
+            radar
+                .introspect()
+                .settle(Duration::from_millis(300))
+                .timeout(max.saturating_sub(started.elapsed()))
+                .await?;
+            let mut infos: Vec<ParticipantEntitiesInfo> = Vec::new();
+            let mut bad = 0;
+            while bad < 1000 {
+                match reader.take_next_sample() {
+                    Ok(Some(s)) => infos.push(s.into_value()),
+                    Ok(None) => break,
+                    // a sample that does not decode (a peer's bad node name): the others still count
+                    Err(e) => {
+                        bad += 1;
+                        tracing::debug!(error = %e, "an undecodable ros_discovery_info sample")
+                    }
+                }
+            }
+            let mut out = radar.graph().nodes(&infos, rustdds::RTPSEntity::guid(&dp));
+            out.sort_by_key(|n| (n.enclave.clone(), n.fully_qualified()));
+            Ok(out)
         })
     }
 }

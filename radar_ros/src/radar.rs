@@ -379,6 +379,9 @@ impl RadarBuilder {
             Some(o) => o.enclave.clone(),
             None => crate::security::enclave_name(&ros_args),
         };
+        // as rmw announces it (rmw_dds_common): graph tools show each node's enclave from it
+        // (`get_node_names_and_namespaces_with_enclaves`, `radar security generate_policy`)
+        dpb = dpb.user_data(format!("enclave={policy_enclave};"));
         let enclave = match &security {
             Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
             None => None,

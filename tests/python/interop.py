@@ -12,6 +12,8 @@ to assert on; it exits non-zero (with a reason on stderr) when something it wait
     interop.py pub_once TOPIC               # std_msgs/Empty, exactly as `ros2 topic pub --once` does it
     interop.py list_once MANAGER            # one List request, as `ros2 service call` does it
     interop.py state_all RESPONSE           # every sample a late transient-local subscriber (depth 100) gets
+    interop.py enclaved --enclave E --wait-for NODE [--seconds S]
+                                            # a node in enclave E; the graph's nodes with their enclaves
 """
 import argparse
 import json
@@ -259,6 +261,22 @@ def bad_input(node, a):
         out(request=label, ok=r.ok, error=r.error)
 
 
+def enclaved(node, a):
+    """A node whose participant runs in enclave a.enclave (rcl: --ros-args --enclave), publishing
+    /py_enclaved/out and subscribing /py_enclaved/in: reports every node's enclave once a.wait_for shows, then
+    stays a.seconds for the other side to look at it."""
+    node.create_publisher(String, "/py_enclaved/out", 10)
+    node.create_subscription(String, "/py_enclaved/in", lambda _: None, 10)
+
+    def enclaves():
+        return {(ns.rstrip("/") + "/" + n): e
+                for n, ns, e in node.get_node_names_and_namespaces_with_enclaves()}
+
+    spin_until(node, lambda: a.wait_for in enclaves(), f"node {a.wait_for}")
+    out(enclaves=enclaves())
+    spin_for(node, a.seconds)
+
+
 def main():
     p = argparse.ArgumentParser()
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -289,8 +307,15 @@ def main():
     lo.add_argument("manager")
     sa = sub.add_parser("state_all")
     sa.add_argument("response")
+    en = sub.add_parser("enclaved")
+    en.add_argument("--enclave", required=True)
+    en.add_argument("--wait-for", required=True)
+    en.add_argument("--seconds", type=float, default=20.0)
     a = p.parse_args()
-    rclpy.init()
+    if a.cmd == "enclaved":
+        rclpy.init(args=[sys.argv[0], "--ros-args", "--enclave", a.enclave])
+    else:
+        rclpy.init()
     node = Node(f"interop_{a.cmd}")
     try:
         globals()[a.cmd](node, a)

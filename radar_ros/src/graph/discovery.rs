@@ -235,6 +235,47 @@ impl Graph {
         found.unwrap_or_default()
     }
 
+    /// Every endpoint of other participants that discovery knows: `(is_writer, GUID, DDS topic, DDS type)`,
+    /// services' and actions' topics (`rq`, `rr`) included. For listings.
+    pub(crate) fn remote_dds_endpoints(&self) -> Vec<(bool, GUID, String, String)> {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return Vec::new();
+        };
+        let mut out: Vec<_> = p
+            .discovered_writers()
+            .into_iter()
+            .map(|w| {
+                (
+                    true,
+                    w.writer_proxy.remote_writer_guid,
+                    w.publication_topic_data.topic_name,
+                    w.publication_topic_data.type_name,
+                )
+            })
+            .collect();
+        out.extend(p.discovered_readers().into_iter().map(|r| {
+            (
+                false,
+                r.reader_proxy.remote_reader_guid,
+                r.subscription_topic_data.topic_name().clone(),
+                r.subscription_topic_data.type_name().clone(),
+            )
+        }));
+        out
+    }
+
+    /// The participants discovery knows (this one included): each one's GUID and the USER_DATA it announced
+    /// (ROS 2's `enclave=/path;`).
+    pub(crate) fn participants(&self) -> Vec<(GUID, Vec<u8>)> {
+        let Some(p) = self.participant.lock().unwrap().clone() else {
+            return Vec::new();
+        };
+        p.discovered_participants()
+            .into_iter()
+            .map(|d| (d.guid, d.user_data))
+            .collect()
+    }
+
     /// The DDS topics of discovered remote readers of DDS type `dds_type` (a service's servers, for its
     /// request type).
     pub(crate) fn discovered_reader_topics(&self, dds_type: &str) -> BTreeSet<String> {

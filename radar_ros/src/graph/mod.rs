@@ -30,6 +30,9 @@ use tokio::sync::watch;
 use crate::departure::LossCause;
 
 mod discovery;
+mod nodes;
+
+pub use nodes::GraphNode;
 
 use discovery::TopicIndex;
 

@@ -27,7 +27,8 @@ use crate::{
     qos::*,
     result::*,
     statusevents::{
-      sync_status_channel, DomainParticipantStatusEvent, StatusChannelReceiver, StatusChannelSender,
+      sync_status_channel, DomainParticipantStatusEvent, ParticipantDescription, StatusChannelReceiver,
+      StatusChannelSender,
     },
     topic::*,
     typedesc::TypeDesc,
@@ -83,6 +84,9 @@ pub struct DomainParticipantBuilder {
 
   lease: ParticipantLease,
 
+  // RADAR patch 29: the participant's USER_DATA, announced in SPDP
+  user_data: Vec<u8>,
+
   #[cfg(feature = "security")]
   security_plugins: Option<SecurityPlugins>,
   #[cfg(feature = "security")]
@@ -98,6 +102,7 @@ impl DomainParticipantBuilder {
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
       lease: ParticipantLease::DEFAULT,
+      user_data: Vec::new(),
       #[cfg(feature = "security")]
       security_plugins: None,
       #[cfg(feature = "security")]
@@ -178,6 +183,18 @@ impl DomainParticipantBuilder {
   /// at the cost of more announcements on the network: one SPDP message of a
   /// few hundred bytes per announce period, to the multicast group and to the
   /// known peers. Values below 100 ms are raised to 100 ms.
+  /// The participant's USER_DATA QoS (RADAR patch 29), announced to its peers
+  /// in SPDP (`PID_USER_DATA`) and read from theirs
+  /// ([`ParticipantDescription::user_data`],
+  /// [`DomainParticipant::discovered_participants`]). ROS 2 writes the
+  /// participant's security enclave there as `enclave=/path;`
+  /// (`rmw_dds_common`), and its graph tools read it back. Default: empty (not
+  /// announced).
+  pub fn user_data(mut self, data: impl Into<Vec<u8>>) -> Self {
+    self.user_data = data.into();
+    self
+  }
+
   pub fn lease_duration(mut self, lease: Duration) -> Self {
     self.lease = ParticipantLease {
       duration: lease.max(Duration::from_millis(100)),
@@ -380,6 +397,7 @@ impl DomainParticipantBuilder {
     let dp_clone = dp.weak_clone();
     let disc_db_clone = dp.discovery_db();
     let lease = self.lease;
+    let user_data = std::mem::take(&mut self.user_data);
     let discovery_handle = thread::Builder::new()
       .name("RustDDS discovery thread".to_string())
       .spawn(move || {
@@ -395,6 +413,7 @@ impl DomainParticipantBuilder {
           discovery_waker,
           discovery_sample_receiver,
           lease,
+          user_data,
         ) {
           discovery.discovery_event_loop(); // run the event loop
         }
@@ -665,6 +684,13 @@ impl DomainParticipant {
   /// ```
   pub fn discovered_writers(&self) -> Vec<DiscoveredWriterData> {
     self.dpi.lock().unwrap().discovered_writers()
+  }
+
+  /// A snapshot of the participants discovered on the domain, this one
+  /// included, with what each announced of itself (RADAR patch 29: its
+  /// USER_DATA among it).
+  pub fn discovered_participants(&self) -> Vec<ParticipantDescription> {
+    self.dpi.lock().unwrap().discovered_participants()
   }
 
   /// Manually asserts liveliness, affecting all writers with
@@ -1170,6 +1196,10 @@ impl DomainParticipantDisc {
 
   pub fn discovered_writers(&self) -> Vec<DiscoveredWriterData> {
     self.dpi.discovered_writers()
+  }
+
+  pub fn discovered_participants(&self) -> Vec<ParticipantDescription> {
+    self.dpi.discovered_participants()
   }
 
   pub(crate) fn dds_cache(&self) -> Arc<RwLock<DDSCache>> {
@@ -1829,6 +1859,14 @@ impl DomainParticipantInner {
     db.get_all_external_topic_writers().cloned().collect()
   }
 
+  pub fn discovered_participants(&self) -> Vec<ParticipantDescription> {
+    let db = self.discovery_db.read().unwrap_or_else(|e| {
+      panic!("RustDDS internal bug: DiscoveryDB is poisoned after a prior panic: {e:?}")
+    });
+
+    db.all_participants().map(ParticipantDescription::from).collect()
+  }
+
   pub(crate) fn status_channel_receiver(
     &self,
   ) -> &StatusChannelReceiver<DomainParticipantStatusEvent> {
@@ -1918,6 +1956,48 @@ mod tests {
       most = most.max(std::sync::Arc::strong_count(&dp.dpi));
     }
     assert_eq!(most, 1, "only the application holds the participant");
+  }
+
+  #[test]
+  fn participants_announce_their_user_data_and_read_their_peers() {
+    use crate::structure::entity::RTPSEntity;
+    // RADAR patch 29: ROS 2 puts a participant's enclave in its USER_DATA (`enclave=/path;`) and its graph
+    // tools read it from discovery. Before the patch the builder had no USER_DATA, SPDP neither sent nor read
+    // PID_USER_DATA, and there was no way to list the participants discovered.
+    let domain = test_domain_id(27);
+    let a = super::DomainParticipantBuilder::new(domain)
+      .user_data(b"enclave=/robot/planner;".to_vec())
+      .build()
+      .expect("participant a");
+    let b = super::DomainParticipantBuilder::new(domain)
+      .build()
+      .expect("participant b");
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let seen = loop {
+      let seen = b.discovered_participants();
+      if seen.iter().any(|p| p.guid == a.guid()) || std::time::Instant::now() > until {
+        break seen;
+      }
+      std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    let of = |guid| seen.iter().find(|p| p.guid == guid);
+    assert_eq!(
+      of(a.guid()).expect("b discovers a").user_data,
+      b"enclave=/robot/planner;".to_vec()
+    );
+    assert!(
+      of(b.guid()).expect("b lists itself").user_data.is_empty(),
+      "nothing announced, nothing read"
+    );
+    // a's own view of itself carries it too
+    let own = a.discovered_participants();
+    assert_eq!(
+      own
+        .iter()
+        .find(|p| p.guid == a.guid())
+        .map(|p| p.user_data.clone()),
+      Some(b"enclave=/robot/planner;".to_vec())
+    );
   }
 
   // TODO: improve basic test when more or the structure is known

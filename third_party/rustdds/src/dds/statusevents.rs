@@ -448,6 +448,9 @@ pub struct ParticipantDescription {
   pub guid: GUID,
   pub lease_duration: Option<Duration>,
   pub entity_name: Option<String>,
+  /// What the participant announced as its USER_DATA QoS (RADAR patch 29);
+  /// empty if nothing. ROS 2 writes `enclave=/path;` there.
+  pub user_data: Vec<u8>,
   #[cfg(feature = "security")]
   pub supports_security: bool,
 }
@@ -461,6 +464,7 @@ impl From<&SpdpDiscoveredParticipantData> for ParticipantDescription {
       guid: dpd.participant_guid,
       lease_duration: dpd.lease_duration,
       entity_name: dpd.entity_name.clone(),
+      user_data: dpd.user_data.clone(),
       #[cfg(feature = "security")]
       supports_security: dpd.supports_security(),
     }

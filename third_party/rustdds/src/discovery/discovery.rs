@@ -288,6 +288,8 @@ pub(crate) struct Discovery {
   // The lease duration this participant announces, and the periods derived
   // from it (see `DomainParticipantBuilder::lease_duration`).
   lease: ParticipantLease,
+  /// This participant's USER_DATA, announced in SPDP (RADAR patch 29).
+  user_data: Vec<u8>,
   /// What this participant announces of itself (SPDP), made once at start (RADAR patch 23: announcing it
   /// does not take the participant, so the application's last handle is always dropped in the
   /// application's thread, which then waits for the goodbye).
@@ -387,6 +389,7 @@ impl Discovery {
     waker: LoopWaker,
     discovery_samples: ReadyReceiver<Token>,
     lease: ParticipantLease,
+    user_data: Vec<u8>,
   ) -> CreateResult<Self> {
     // helper macro to handle initialization failures.
     macro_rules! try_construct {
@@ -748,6 +751,7 @@ impl Discovery {
       discovery_timer,
       min_auto_lease_cache: None,
       lease,
+      user_data,
       local_announcement: None,
 
       security_opt,
@@ -1034,12 +1038,14 @@ impl Discovery {
       &dp,
       &self.security_opt,
       Duration::from(self.lease.duration),
+      &self.user_data,
     ));
 
     let participant_data = SpdpDiscoveredParticipantData::from_local_participant(
       &dp,
       &self.security_opt,
       Duration::INFINITE,
+      &self.user_data,
     );
 
     // Initialize our own participant data into the Discovery DB, so we can talk to

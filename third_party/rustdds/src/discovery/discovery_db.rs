@@ -254,6 +254,11 @@ impl DiscoveryDB {
     }
   }
 
+  /// Every remote participant known, and this one (RADAR patch 29).
+  pub fn all_participants(&self) -> impl Iterator<Item = &SpdpDiscoveredParticipantData> {
+    self.participant_proxies.values()
+  }
+
   pub fn find_participant_proxy(
     &self,
     guid_prefix: GuidPrefix,

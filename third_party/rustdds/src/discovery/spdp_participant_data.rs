@@ -65,6 +65,9 @@ pub struct SpdpDiscoveredParticipantData {
   pub manual_liveliness_count: i32,        // PartProxy
   pub builtin_endpoint_qos: Option<BuiltinEndpointQos>, // PartProxy
   pub entity_name: Option<String>,         // where does this come from??
+  /// The participant's USER_DATA QoS (RADAR patch 29): `PID_USER_DATA`, an
+  /// octet sequence; empty when not announced.
+  pub user_data: Vec<u8>,
 
   // security
   #[cfg(feature = "security")]
@@ -135,6 +138,7 @@ impl SpdpDiscoveredParticipantData {
     participant: &DomainParticipant,
     _secure_discovery_opt: &Option<SecureDiscovery>, // If present, security is enabled
     lease_duration: Duration,
+    user_data: &[u8],
   ) -> Self {
     let dp_locators = participant.self_locators();
     let metatraffic_multicast_locators = dp_locators
@@ -221,6 +225,7 @@ impl SpdpDiscoveredParticipantData {
       manual_liveliness_count: 0,
       builtin_endpoint_qos: None,
       entity_name: None,
+      user_data: user_data.to_vec(),
 
       // DDS Security
       #[cfg(feature = "security")]
@@ -312,6 +317,15 @@ impl PlCdrDeserialize for SpdpDiscoveredParticipantData {
       get_option_from_pl_map::< _ , StringWithNul>(&pl_map, ctx, ParameterId::PID_ENTITY_NAME, "entity name")?
       .map( String::from );
 
+    // RADAR patch 29: a sequence<octet> (its length, then the octets; the parameter is padded to 4)
+    let user_data: Vec<u8> = get_option_from_pl_map::<_, Vec<u8>>(
+      &pl_map,
+      ctx,
+      ParameterId::PID_USER_DATA,
+      "user data",
+    )?
+    .unwrap_or_default();
+
     // DDS security
     #[cfg(feature = "security")]
     let identity_token: Option<IdentityToken> = get_option_from_pl_map(
@@ -358,6 +372,7 @@ impl PlCdrDeserialize for SpdpDiscoveredParticipantData {
       manual_liveliness_count,
       builtin_endpoint_qos,
       entity_name,
+      user_data,
       #[cfg(feature = "security")]
       identity_token,
       #[cfg(feature = "security")]
@@ -404,6 +419,7 @@ impl ParameterListable for SpdpDiscoveredParticipantData {
       manual_liveliness_count,
       builtin_endpoint_qos,
       entity_name,
+      user_data,
 
       // DDS security
       #[cfg(feature = "security")]
@@ -488,6 +504,9 @@ impl ParameterListable for SpdpDiscoveredParticipantData {
     // and does not follow CDR encoding.
     let entity_name_n: Option<StringWithNul> = entity_name.clone().map(|e| e.into());
     emit_option!(PID_ENTITY_NAME, &entity_name_n, StringWithNul);
+    if !user_data.is_empty() {
+      emit!(PID_USER_DATA, user_data, Vec<u8>);
+    }
 
     #[cfg(feature = "security")] // DDS security
     {
@@ -622,6 +641,42 @@ mod tests {
         _ => continue,
       }
     }
+  }
+
+  #[test]
+  fn user_data_is_a_padded_octet_sequence_on_the_wire() {
+    // RADAR patch 29: PID_USER_DATA (0x002c) holds a sequence<octet>: its length, then the octets, the
+    // parameter padded to 4, as rmw_fastrtps announces `enclave=/path;`.
+    let data = spdp_participant_data_raw();
+    let rtpsmsg = Message::read_from_buffer(&data).unwrap();
+    let mut checked = false;
+    for submsg in &rtpsmsg.submessages() {
+      if let SubmessageBody::Writer(WriterSubmessage::Data(d, _)) = &submsg.body {
+        let mut pd: SpdpDiscoveredParticipantData = PlCdrDeserializerAdapter::from_bytes(
+          &d.unwrap_serialized_payload_value(),
+          RepresentationIdentifier::PL_CDR_LE,
+        )
+        .unwrap();
+        assert!(pd.user_data.is_empty(), "the capture announces none");
+        pd.user_data = b"enclave=/robot/planner;".to_vec();
+        let bytes = pd
+          .to_pl_cdr_bytes(RepresentationIdentifier::PL_CDR_LE)
+          .unwrap();
+        let mut wire = vec![0x2c, 0x00, 28, 0x00, 23, 0, 0, 0];
+        wire.extend_from_slice(b"enclave=/robot/planner;");
+        wire.push(0);
+        assert!(
+          bytes.windows(wire.len()).any(|w| w == wire.as_slice()),
+          "PID_USER_DATA as the spec lays it out in {bytes:?}"
+        );
+        let back: SpdpDiscoveredParticipantData =
+          PlCdrDeserializerAdapter::from_bytes(&bytes, RepresentationIdentifier::PL_CDR_LE)
+            .unwrap();
+        assert_eq!(back.user_data, b"enclave=/robot/planner;".to_vec());
+        checked = true;
+      }
+    }
+    assert!(checked);
   }
 
   #[test]
