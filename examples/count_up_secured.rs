@@ -1,7 +1,8 @@
 //! Issue 25: the README's example (`count_up`, Listing 1 in one process) secured as docs/security.md says: a
 //! keystore and an enclave made by `radar security create_keystore` and `create_enclave` (its permissions made
 //! again by `create_permission` from the policy the program wrote of what it declares in a plain run,
-//! `RADAR_GENERATE_POLICY`), the `ROS_SECURITY_*` variables and `--ros-args --enclave
+//! `RADAR_GENERATE_POLICY`; `radar security generate_policy` of the live graph meanwhile lists the program's
+//! nodes in its enclave), the `ROS_SECURITY_*` variables and `--ros-args --enclave
 //! /count_up`. Its timeline follows Listing 1 step by step within 100 ms, each event's steps counted from its
 //! own trigger (secured, each event begins to check when its listener has matched over secure discovery, a few
 //! hundred ms after the statement), and it ends without an error or warning line. Everything in it talks to
@@ -61,8 +62,45 @@ fn secured_count_up_follows_listing_1() {
         .args(["--duration", "4.6", "--ros-args", "--enclave", "/count_up"])
         .env("ROS_DOMAIN_ID", "220")
         .env("RADAR_GENERATE_POLICY", &policy)
-        .output()
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
         .expect("run count_up");
+    // meanwhile, the policy of the live graph as `ros2 security generate_policy` writes it (until its nodes
+    // show: the program may not be on the graph yet)
+    let live = ks.join("live_policy.xml");
+    let mut tries = 0;
+    let listed = loop {
+        let g = Command::new(radar_cli())
+            .args(["security", "generate_policy"])
+            .arg(&live)
+            .env("ROS_DOMAIN_ID", "220")
+            .output()
+            .expect("run radar");
+        let listed = String::from_utf8_lossy(&g.stdout).into_owned();
+        tries += 1;
+        if g.status.success() && listed.contains("/count_up (enclave /count_up)") {
+            break listed;
+        }
+        assert!(
+            tries < 10,
+            "radar security generate_policy: {listed}{}",
+            String::from_utf8_lossy(&g.stderr)
+        );
+    };
+    let live_policy = std::fs::read_to_string(&live).unwrap();
+    println!("{listed}{live_policy}");
+    let count_up_profile = live_policy
+        .split("<profile ")
+        .find(|p| p.starts_with(r#"ns="/" node="count_up">"#))
+        .expect("a profile of the count_up node");
+    assert!(
+        live_policy.contains(r#"<enclave path="/count_up">"#)
+            && count_up_profile.contains("<topic>/count_up/start</topic>")
+            && count_up_profile.contains("<topic>/count_up/started</topic>"),
+        "{live_policy}"
+    );
+    let rec = rec.wait_with_output().expect("count_up ends");
     assert!(
         rec.status.success(),
         "recording run: {}",

@@ -10,7 +10,8 @@
 //! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
-//!   policy as written, permissions generated from what programs declare, a secured Fast DDS 2.9 peer (tests/fastdds/secure_peer.cpp, g++ against Debian's
+//!   policy as written, permissions generated from what programs declare and from the live graph (`radar
+//!   security generate_policy`'s), a secured Fast DDS 2.9 peer (tests/fastdds/secure_peer.cpp, g++ against Debian's
 //!   libfastrtps-dev) starts a secured response and hears it exit, payloads are not readable in frames
 //!   captured on the wire, bad enclaves stop a program at start naming what is wrong), one test at a time;
 //! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
@@ -163,6 +164,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "security::tests::a_missing_enclave_file_is_named_under_enforce_and_tolerated_under_permissive",
             "security::keystore::tests::a_keystore_and_an_enclave_are_made_signed_and_verifiable",
             "security::policy::tests::a_policy_is_translated_as_sros2_translates_it",
+            "security::policy::tests::a_generated_policy_keeps_the_files_rules_and_adds_the_graphs",
         ],
     );
     let out = check(
@@ -188,6 +190,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "only_a_permitted_publisher_starts_a_secured_response",
             "the_documented_policy_lets_only_the_planner_start_the_dock",
             "permissions_generated_from_what_programs_declare_let_only_the_driver_start",
+            "a_policy_generated_from_the_live_graph_lets_only_the_driver_start",
             "a_secured_fast_dds_peer_starts_a_secured_response_and_hears_it_exit",
             "secured_payloads_are_not_readable_on_the_wire",
             "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",

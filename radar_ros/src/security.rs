@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 pub(crate) mod declared;
 #[cfg(feature = "security")]
 pub mod keystore;
+pub(crate) mod model;
 #[cfg(feature = "security")]
 pub mod policy;
 

@@ -495,6 +495,184 @@ async fn permissions_generated_from_what_programs_declare_let_only_the_driver_st
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
+/// `radar security generate_policy` as sros2's: a policy of the live graph. A robot program (enclave
+/// `/live_robot`) serving a response and a planner (`/live_planner`) holding a writer of its `start` run plain;
+/// a third program looks at the graph (`Introspect::nodes`: each node's enclave from its participant's
+/// USER_DATA, its endpoints from `ros_discovery_info`) and writes the policy; a rule already in the file (a
+/// DENY) is kept. Made into each enclave's permissions, secured: the planner starts the response, the robot
+/// may not write its `start`, and the DENY holds.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_policy_generated_from_the_live_graph_lets_only_the_driver_start() {
+    let ks = keystore("live");
+    let program = |name: &str, security: Option<SecurityOptions>| {
+        Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program(name)
+            .ros_args(
+                radar_ros::ros_args::RosArgs::parse([
+                    name,
+                    "--ros-args",
+                    "--enclave",
+                    &format!("/live_{name}"),
+                ])
+                .unwrap(),
+            )
+            .security(security)
+            .build()
+            .unwrap()
+    };
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let dock = |radar: &Radar| {
+        let s = starts.clone();
+        radar
+            .spawn_response(
+                "live_dock",
+                FnResponse::new(move |_: Empty| {
+                    s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    async { Ok(Empty::default()) }
+                }),
+            )
+            .unwrap()
+    };
+    for e in ["/live_robot", "/live_planner"] {
+        keystore::create_enclave(&ks, e, &keystore::Grant::all()).unwrap();
+    }
+
+    // plain: the programs run, a tool looks at the graph
+    let file = ks.join("live_policy.xml");
+    std::fs::write(
+        &file,
+        r#"<policy version="0.2.0"><enclaves><enclave path="/live_planner"><profiles>
+             <profile ns="/" node="planner"><topics publish="DENY"><topic>/live_dock/exit</topic></topics></profile>
+           </profiles></enclave></enclaves></policy>"#,
+    )
+    .unwrap();
+    {
+        let robot = program("robot", None);
+        let _d = dock(&robot);
+        // the planner drives the dock as it will secured, and still holds what it drove it with
+        let planner = program("planner", None);
+        let d = planner.response("/live_dock").timeout(WAIT).await.unwrap();
+        let mut exited = planner
+            .waiter::<Empty>(d.exited())
+            .timeout(WAIT)
+            .await
+            .unwrap();
+        planner
+            .inject(d.start_slot(), Empty::default())
+            .timeout(WAIT)
+            .await
+            .unwrap();
+        exited.recv().timeout(WAIT).await.unwrap();
+        // the graph shows what is there while the tool looks: the injection's writer lingers 3 s only and the
+        // waiter's reader went with its signal, so the planner holds one of each, as a program that drives the
+        // dock again would
+        let _w = planner
+            .signal_publisher::<Empty>("/live_dock/start")
+            .unwrap();
+        let _again = planner
+            .waiter::<Empty>(d.exited())
+            .timeout(WAIT)
+            .await
+            .unwrap();
+        let tool = Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program("tool")
+            .build()
+            .unwrap();
+        let nodes = tool
+            .introspect()
+            .nodes()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap();
+        println!("{nodes:#?}");
+        let node = |fq: &str| {
+            nodes
+                .iter()
+                .find(|n| n.fully_qualified() == fq)
+                .unwrap_or_else(|| panic!("{fq} in {nodes:#?}"))
+        };
+        let d = node("/live_dock");
+        assert_eq!(d.enclave, "/live_robot");
+        assert!(d.subscribes.contains("/live_dock/start"), "{d:?}");
+        assert!(d.publishes.contains("/live_dock/exited"), "{d:?}");
+        let p = node("/planner");
+        assert_eq!(p.enclave, "/live_planner");
+        assert!(p.publishes.contains("/live_dock/start"), "{p:?}");
+        assert!(p.subscribes.contains("/live_dock/exited"), "{p:?}");
+        assert!(
+            nodes.iter().all(|n| n.name != "tool"),
+            "the tool's own nodes are not listed"
+        );
+        let existing = std::fs::read_to_string(&file).unwrap();
+        let xml = radar_ros::security::policy::generate(Some((&existing, &file)), &nodes).unwrap();
+        std::fs::write(&file, xml).unwrap();
+    }
+    let text = std::fs::read_to_string(&file).unwrap();
+    println!("{text}");
+    let grants = radar_ros::security::policy::grants_from_file(&file).unwrap();
+    let grant = |e: &str| {
+        grants
+            .iter()
+            .find(|(name, _)| name == e)
+            .unwrap_or_else(|| panic!("{e} in {text}"))
+            .1
+            .clone()
+    };
+    let (r, p) = (grant("/live_robot"), grant("/live_planner"));
+    let start = "rt/live_dock/start".to_owned();
+    assert!(
+        r.subscribe.contains(&start) && !r.publish.contains(&start),
+        "{r:?}"
+    );
+    assert!(p.publish.contains(&start), "{p:?}");
+    assert_eq!(
+        p.deny_publish,
+        ["rt/live_dock/exit"],
+        "the file's DENY is kept"
+    );
+    for e in ["/live_robot", "/live_planner"] {
+        keystore::create_permission(&ks, e, &file).unwrap();
+    }
+
+    // secured, with the permissions of the generated policy
+    let robot = program("robot", Some(SecurityOptions::enforce(&ks, "/live_robot")));
+    let _d = dock(&robot);
+    let e = robot
+        .signal_publisher::<Empty>("/live_dock/start")
+        .err()
+        .expect("the robot's policy does not let it write the dock's start")
+        .to_string();
+    assert!(e.contains("rt/live_dock/start"), "{e}");
+    let planner = program(
+        "planner",
+        Some(SecurityOptions::enforce(&ks, "/live_planner")),
+    );
+    assert!(
+        planner
+            .signal_publisher::<Empty>("/live_dock/exit")
+            .is_err(),
+        "the kept DENY holds"
+    );
+    let d = planner.response("/live_dock").timeout(WAIT).await.unwrap();
+    let mut exited = planner
+        .waiter::<Empty>(d.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    planner
+        .inject(d.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    exited.recv().timeout(WAIT).await.unwrap();
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 2);
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
 /// `tests/fastdds/secure_peer.cpp` built with g++ against Debian's Fast DDS 2.9 (libfastrtps-dev: built with
 /// DDS Security), in this test's target directory.
 fn fastdds_peer() -> PathBuf {

@@ -43,26 +43,25 @@ pub(crate) fn record_node(node: &ros2_client::Node, access: Access, name: &str) 
     record(node.domain_id(), &node.fully_qualified_name(), access, name);
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
 /// The policy (sros2's format 0.2.0, `radar security create_permission` reads it) granting the enclave
 /// `enclave` what the nodes `nodes` of domain `domain` declared so far, one profile per node, every name
 /// absolute.
 pub(crate) fn policy_xml(domain: u16, nodes: &BTreeSet<String>, enclave: &str) -> String {
+    use super::model::{Kind, Policy, Rule};
     let declared = DECLARED.lock().unwrap();
-    let mut out = format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!-- what the program declared (radar_ros, RADAR_GENERATE_POLICY) -->\n\
-         <policy version=\"0.2.0\">\n  <enclaves>\n    <enclave path=\"{}\">\n      <profiles>\n",
-        escape(enclave)
-    );
+    let mut policy = Policy::default();
     // what the ROS 2 context makes for every participant (ros2-client's /rosout and /parameter_events topics)
-    out += "        <profile ns=\"/\" node=\"_ros_context\">\n          <topics publish=\"ALLOW\" subscribe=\"ALLOW\">\n            \
-            <topic>/rosout</topic>\n            <topic>/parameter_events</topic>\n          </topics>\n        </profile>\n";
+    for access in ["publish", "subscribe"] {
+        for t in ["/rosout", "/parameter_events"] {
+            policy.add(
+                enclave,
+                "/",
+                "_ros_context",
+                Rule::allow(Kind::Topics, access),
+                t,
+            );
+        }
+    }
     for ((d, node), uses) in declared.iter() {
         if *d != domain || !nodes.contains(node) {
             continue;
@@ -72,35 +71,18 @@ pub(crate) fn policy_xml(domain: u16, nodes: &BTreeSet<String>, enclave: &str) -
             Some((ns, b)) => (ns, b),
             None => ("/", node.as_str()),
         };
-        out += &format!(
-            "        <profile ns=\"{}\" node=\"{}\">\n",
-            escape(ns),
-            escape(base)
-        );
-        for (access, tag, item, attr) in [
-            (Access::Publish, "topics", "topic", "publish"),
-            (Access::Subscribe, "topics", "topic", "subscribe"),
-            (Access::Reply, "services", "service", "reply"),
-            (Access::Request, "services", "service", "request"),
-            (Access::Call, "actions", "action", "call"),
-            (Access::Execute, "actions", "action", "execute"),
-        ] {
-            let names: Vec<&String> = uses
-                .iter()
-                .filter(|(a, _)| *a == access)
-                .map(|(_, n)| n)
-                .collect();
-            if names.is_empty() {
-                continue;
-            }
-            out += &format!("          <{tag} {attr}=\"ALLOW\">\n");
-            for n in names {
-                out += &format!("            <{item}>{}</{item}>\n", escape(n));
-            }
-            out += &format!("          </{tag}>\n");
+        let profile = policy.profile(enclave, ns, base);
+        for (access, name) in uses {
+            let rule = match access {
+                Access::Publish => Rule::allow(Kind::Topics, "publish"),
+                Access::Subscribe => Rule::allow(Kind::Topics, "subscribe"),
+                Access::Reply => Rule::allow(Kind::Services, "reply"),
+                Access::Request => Rule::allow(Kind::Services, "request"),
+                Access::Call => Rule::allow(Kind::Actions, "call"),
+                Access::Execute => Rule::allow(Kind::Actions, "execute"),
+            };
+            profile.entry(rule).or_default().insert(name.clone());
         }
-        out += "        </profile>\n";
     }
-    out += "      </profiles>\n    </enclave>\n  </enclaves>\n</policy>\n";
-    out
+    policy.to_xml("what the program declared (radar_ros, RADAR_GENERATE_POLICY)")
 }

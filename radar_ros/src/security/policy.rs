@@ -99,6 +99,93 @@ pub fn grants_from_xml(text: &str, file: &Path) -> Result<Vec<(String, Grant)>> 
     Ok(out)
 }
 
+/// `radar security generate_policy`: the policy of the nodes on the graph (`nodes`, from
+/// [`crate::introspect::Introspect::nodes`]), one profile per node under its enclave, every topic it publishes
+/// or subscribes and every service it serves or calls allowed, by absolute name; nodes whose names begin with
+/// `_` are left out (hidden, as sros2 leaves them out). When the policy file exists already (`existing`: its
+/// text and path) its rules are kept and the graph's added to them, as `ros2 security generate_policy` amends
+/// a policy; its `xi:include`s are written in place. What it returns is the new file's text.
+pub fn generate(
+    existing: Option<(&str, &Path)>,
+    nodes: &[crate::graph::GraphNode],
+) -> Result<String> {
+    use super::model::{Kind, Policy, Rule};
+    let mut policy = Policy::default();
+    if let Some((text, file)) = existing {
+        let doc =
+            roxmltree::Document::parse(text).map_err(|e| bad(file, format!("not XML: {e}")))?;
+        let root = doc.root_element();
+        let enclaves = child(root, "enclaves")
+            .filter(|_| root.tag_name().name() == "policy")
+            .ok_or_else(|| {
+                bad(
+                    file,
+                    "not a policy (<policy><enclaves>...), sros2's format 0.2.0",
+                )
+            })?;
+        for enclave in elements(enclaves).filter(|e| e.tag_name().name() == "enclave") {
+            let path = enclave
+                .attribute("path")
+                .ok_or_else(|| bad(file, "an <enclave> without path=\"/...\""))?;
+            let Some(profiles) = child(enclave, "profiles") else {
+                continue;
+            };
+            for profile in elements(profiles).filter(|e| e.tag_name().name() == "profile") {
+                let (ns, node) = (
+                    profile.attribute("ns").unwrap_or("/"),
+                    profile.attribute("node").unwrap_or(""),
+                );
+                let rules = policy.profile(path, ns, node);
+                let mut entries = Vec::new();
+                expand(profile, file, &mut entries, 0)?;
+                for e in entries {
+                    let kind = Kind::of_tag(&e.tag).ok_or_else(|| {
+                        bad(
+                            file,
+                            format!(
+                                "<{}> in the profile of {node}: expected <topics>, <services> or <actions>",
+                                e.tag
+                            ),
+                        )
+                    })?;
+                    for (access, qualifier) in e.attrs {
+                        rules
+                            .entry(Rule {
+                                kind,
+                                access,
+                                qualifier,
+                            })
+                            .or_default()
+                            .extend(e.names.iter().cloned());
+                    }
+                }
+            }
+        }
+    }
+    for n in nodes.iter().filter(|n| !n.name.starts_with('_')) {
+        let ns = if n.namespace.is_empty() {
+            "/"
+        } else {
+            &n.namespace
+        };
+        let profile = policy.profile(&n.enclave, ns, &n.name);
+        for (kind, access, names) in [
+            (Kind::Topics, "publish", &n.publishes),
+            (Kind::Topics, "subscribe", &n.subscribes),
+            (Kind::Services, "reply", &n.serves),
+            (Kind::Services, "request", &n.calls),
+        ] {
+            if !names.is_empty() {
+                profile
+                    .entry(Rule::allow(kind, access))
+                    .or_default()
+                    .extend(names.iter().cloned());
+            }
+        }
+    }
+    Ok(policy.to_xml("the nodes on the ROS graph (radar security generate_policy)"))
+}
+
 fn elements<'a>(n: roxmltree::Node<'a, 'a>) -> impl Iterator<Item = roxmltree::Node<'a, 'a>> {
     n.children().filter(|c| c.is_element())
 }
@@ -263,6 +350,84 @@ impl Rules {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `generate_policy` as sros2 amends a file: the file's rules stay (a DENY, relative names, an included
+    /// profile written in place), the graph's nodes are added under their enclaves, hidden nodes are not, and
+    /// what comes out reads back as the grants both say.
+    #[test]
+    fn a_generated_policy_keeps_the_files_rules_and_adds_the_graphs() {
+        use crate::graph::GraphNode;
+        let dir = std::env::temp_dir().join(format!("radar_generate_test_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("common.xml"),
+            r#"<profile><topics subscribe="ALLOW"><topic>/clock</topic></topics></profile>"#,
+        )
+        .unwrap();
+        let file = dir.join("policy.xml");
+        let existing = r#"<policy version="0.2.0" xmlns:xi="http://www.w3.org/2001/XInclude"><enclaves>
+            <enclave path="/planner"><profiles><profile ns="/robot" node="planner">
+              <xi:include href="common.xml" xpointer="xpointer(/profile/*)"/>
+              <topics publish="DENY"><topic>dock/exit</topic></topics>
+            </profile></profiles></enclave></enclaves></policy>"#;
+        let set = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+        let nodes = [
+            GraphNode {
+                namespace: "/robot".into(),
+                name: "planner".into(),
+                enclave: "/planner".into(),
+                publishes: set(&["/robot/dock/start"]),
+                calls: set(&["/radar_manager/connect"]),
+                ..Default::default()
+            },
+            GraphNode {
+                namespace: "/".into(),
+                name: "dock".into(),
+                enclave: "/robot".into(),
+                subscribes: set(&["/robot/dock/start"]),
+                serves: set(&["/dock/get_parameters"]),
+                ..Default::default()
+            },
+            GraphNode {
+                namespace: "/".into(),
+                name: "_hidden".into(),
+                enclave: "/robot".into(),
+                publishes: set(&["/secret"]),
+                ..Default::default()
+            },
+        ];
+        let xml = generate(Some((existing, &file)), &nodes).unwrap();
+        assert!(
+            !xml.contains("/secret") && !xml.contains("_hidden"),
+            "{xml}"
+        );
+        assert!(
+            xml.contains("<topic>dock/exit</topic>"),
+            "names kept as written: {xml}"
+        );
+        let g = grants_from_xml(&xml, &file).unwrap();
+        let grant = |e: &str| &g.iter().find(|(n, _)| n == e).unwrap().1;
+        let p = grant("/planner");
+        assert_eq!(p.deny_publish, ["rt/robot/dock/exit"]);
+        assert!(p.publish.contains(&"rt/robot/dock/start".to_owned()));
+        assert!(p
+            .publish
+            .contains(&"rq/radar_manager/connectRequest".to_owned()));
+        assert!(
+            p.subscribe.contains(&"rt/clock".to_owned()),
+            "the include, in place"
+        );
+        let r = grant("/robot");
+        assert!(r.subscribe.contains(&"rt/robot/dock/start".to_owned()));
+        assert!(r
+            .publish
+            .contains(&"rr/dock/get_parametersReply".to_owned()));
+        assert!(!r.publish.contains(&"rt/robot/dock/start".to_owned()));
+        // generating again from its own output changes nothing
+        assert_eq!(generate(Some((&xml, &file)), &nodes).unwrap(), xml);
+        assert!(generate(Some(("<nope/>", &file)), &nodes).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     /// sros2's translation: absolute, private and relative names; topics, services and actions both ways;
     /// DENY before ALLOW; includes resolved from the including file's directory.

@@ -228,6 +228,15 @@ enum SecurityVerb {
         /// The policy file (XML, `<policy version="0.2.0">`).
         policy: std::path::PathBuf,
     },
+    /// Write the policy of the nodes running on the ROS graph (every ROS 2 program's, rclpy's too): one
+    /// profile per node under its enclave, what it publishes, subscribes, serves and calls, as `ros2 security
+    /// generate_policy` does. An existing file is added to, not replaced. Run the system plain, generate,
+    /// then `create_permission` from it.
+    #[command(name = "generate_policy")]
+    GeneratePolicy {
+        /// The policy file to write (or add to).
+        policy: std::path::PathBuf,
+    },
 }
 
 fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
@@ -270,6 +279,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                     false => println!("permissions of {enclave} made in {}", made.display()),
                 }
             }
+            SecurityVerb::GeneratePolicy { .. } => unreachable!("run on the graph, by run()"),
         }
         Ok(())
     }
@@ -282,10 +292,81 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
     }
 }
 
+/// `radar security generate_policy POLICY`: the nodes on the graph (discovery settled, at most `discovery`
+/// and at least 2 s), written as a policy into `policy` (added to it if it exists).
+async fn generate_policy(
+    radar: &Radar,
+    out: &Out,
+    discovery: Duration,
+    policy: &std::path::Path,
+) -> Result<(), String> {
+    #[cfg(feature = "security")]
+    {
+        let nodes = radar
+            .introspect()
+            .nodes()
+            .timeout(discovery.max(Duration::from_secs(2)))
+            .await
+            .map_err(|e| e.to_string())?;
+        let shown: Vec<_> = nodes.iter().filter(|n| !n.name.starts_with('_')).collect();
+        if shown.is_empty() {
+            return Err(
+                "no nodes on the ROS graph (ROS_DOMAIN_ID the same as theirs? running plain, or this command \
+                 secured in their keystore?); no policy written"
+                    .into(),
+            );
+        }
+        let existing = match std::fs::read_to_string(policy) {
+            Ok(text) => Some(text),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(format!("cannot read {}: {e}", policy.display())),
+        };
+        let xml =
+            radar_ros::security::policy::generate(existing.as_deref().map(|t| (t, policy)), &nodes)
+                .map_err(|e| e.to_string())?;
+        std::fs::write(policy, xml)
+            .map_err(|e| format!("cannot write {}: {e}", policy.display()))?;
+        match out.json {
+            true => println!(
+                "{}",
+                serde_json::json!({
+                    "policy": policy,
+                    "nodes": shown.iter().map(|n| serde_json::json!({
+                        "node": n.fully_qualified(), "enclave": n.enclave,
+                    })).collect::<Vec<_>>(),
+                })
+            ),
+            false => {
+                for n in &shown {
+                    println!("{} (enclave {})", n.fully_qualified(), n.enclave);
+                }
+                println!(
+                    "policy of {} node(s) written to {}",
+                    shown.len(),
+                    policy.display()
+                );
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(feature = "security"))]
+    {
+        let _ = (radar, out, discovery, policy);
+        Err("this radar was built without DDS Security: build it with `cargo build -p radar_tools --features \
+             security` (needs OpenSSL, libssl-dev)"
+            .into())
+    }
+}
+
 /// Runs the verb `cli` names, on a program node of its own (several `radar` commands may run at once).
 pub async fn run(cli: Cli) -> Result<(), String> {
     let out = Out { json: cli.json };
     let cmd = match cli.cmd {
+        Cmd::Security {
+            verb: SecurityVerb::GeneratePolicy { policy },
+        } => Cmd::Security {
+            verb: SecurityVerb::GeneratePolicy { policy },
+        },
         Cmd::Security { verb } => return security(verb, &out),
         other => other,
     };
@@ -298,6 +379,9 @@ pub async fn run(cli: Cli) -> Result<(), String> {
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
     let manager = |named| verbs::con::Manager { named, discovery };
     match cmd {
+        Cmd::Security {
+            verb: SecurityVerb::GeneratePolicy { policy },
+        } => generate_policy(&radar, &out, discovery, &policy).await,
         Cmd::Security { .. } => unreachable!("handled above"),
         Cmd::Ls { namespace, long } => {
             verbs::ls::ls(&radar, &out, discovery, namespace, long).await
