@@ -44,6 +44,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "a_reader_reports_when_a_matched_writer_is_heard_from",
         "announcing_the_participant_never_takes_the_applications_handle",
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
+        "user_data_is_a_padded_octet_sequence_on_the_wire",
+        "participants_announce_their_user_data_and_read_their_peers",
     ] {
         assert!(
             stdout.contains(&format!("{name} ... ok")),

@@ -285,6 +285,7 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
         .timeout(WAIT)
         .await
         .unwrap();
+    logged();
     let refused = intruder.signal_publisher::<Empty>("/secure_gate/start");
     let e = refused
         .err()
@@ -297,6 +298,12 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     );
     let refused = intruder.inject(gate.start_slot(), Empty::default()).await;
     assert!(refused.is_err(), "inject without the grant: {refused:?}");
+    // the refusal is the caller's error to report (RustDDS patch 30), not an error line of its own
+    let log = logged();
+    assert!(
+        !log.contains("ERROR"),
+        "a refused endpoint logs no error by itself: {log}"
+    );
     // what the policy allows it does: the interrupt topic is granted
     intruder
         .signal_publisher::<Empty>("/secure_gate/interrupt")

@@ -268,8 +268,10 @@ macro_rules! create_error_out_of_resources {
 #[cfg(feature = "security")]
 #[macro_export]
 macro_rules! create_error_not_allowed_by_security {
+  // RADAR patch 30: a refusal is returned to the application, which reports it (or expects it): not an
+  // error line of RustDDS's own
   ($($arg:tt)*) => (
-      { log::error!($($arg)*);
+      { log::debug!($($arg)*);
         Err( CreateError::NotAllowedBySecurity{ reason: format!($($arg)*) } )
       }
     )
