@@ -32,6 +32,11 @@ pub(crate) fn service_of_request(dds: &str) -> Option<&str> {
     dds.strip_prefix("rq")?.strip_suffix("Request")
 }
 
+/// The service whose replies go on the DDS topic `dds`, if it is such a topic (`rr/sReply` -> `/s`).
+pub(crate) fn service_of_reply(dds: &str) -> Option<&str> {
+    dds.strip_prefix("rr")?.strip_suffix("Reply")
+}
+
 /// The three services of an action.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum ActionService {

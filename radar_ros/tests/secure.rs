@@ -80,16 +80,7 @@ async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
     };
     let robot = named("robot");
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let s = starts.clone();
-    let _dock = robot
-        .spawn_response(
-            "secure_dock",
-            FnResponse::new(move |_: Empty| {
-                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _dock = counting_response(&robot, "secure_dock", &starts);
     let planner = radar(Some(SecurityOptions::enforce(&ks, "/planner"))).unwrap();
     let dock = planner
         .response("/secure_dock")
@@ -171,16 +162,7 @@ async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
     logged();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let s = starts.clone();
-    let _counter = robot
-        .spawn_response(
-            "secure_counter",
-            FnResponse::new(move |_: Empty| {
-                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _counter = counting_response(&robot, "secure_counter", &starts);
     let counter = robot
         .response("/secure_counter")
         .timeout(WAIT)
@@ -265,16 +247,7 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     keystore::create_permission(&ks, "/intruder", &policy).unwrap();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let s = starts.clone();
-    let _gate = robot
-        .spawn_response(
-            "secure_gate",
-            FnResponse::new(move |_: Empty| {
-                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _gate = counting_response(&robot, "secure_gate", &starts);
     let count = || starts.load(std::sync::atomic::Ordering::SeqCst);
 
     // the secured program without the grant: it can find the response (it may subscribe to everything),
@@ -312,16 +285,7 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     // a plain rclpy publisher, and the same publisher to a plain response beside it (it works there)
     let plain = radar(None).unwrap();
     let plain_starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let ps = plain_starts.clone();
-    let _plain_gate = plain
-        .spawn_response(
-            "plain_gate",
-            FnResponse::new(move |_: Empty| {
-                ps.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _plain_gate = counting_response(&plain, "plain_gate", &plain_starts);
     let venv = std::env::var_os("RADAR_VENV").expect(
         "RADAR_VENV names the rclpy venv (tests/isolated.sh builds it with tests/python_env.sh)",
     );
@@ -389,6 +353,39 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
+/// A program named `name` (its program node's name too) in `enclave` (`--ros-args --enclave`), secured or not.
+fn enclaved_program(name: &str, enclave: &str, security: Option<SecurityOptions>) -> Radar {
+    Radar::builder()
+        .domain_id(DOMAIN)
+        .discovery_range(DiscoveryRange::Subnet)
+        .program(name)
+        .ros_args(
+            radar_ros::ros_args::RosArgs::parse([name, "--ros-args", "--enclave", enclave])
+                .unwrap(),
+        )
+        .security(security)
+        .build()
+        .unwrap()
+}
+
+/// A response `name` of `radar` that counts its starts in `starts`.
+fn counting_response(
+    radar: &Radar,
+    name: &str,
+    starts: &std::sync::Arc<std::sync::atomic::AtomicUsize>,
+) -> radar_ros::ResponseHandle {
+    let s = starts.clone();
+    radar
+        .spawn_response(
+            name,
+            FnResponse::new(move |_: Empty| {
+                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap()
+}
+
 /// Permissions generated from what programs declare (`Radar::policy`, what `RADAR_GENERATE_POLICY=FILE`
 /// writes when a program ends): a recording run, plain, of a robot program serving a response and a planner
 /// driving it (each with its `--enclave`); each policy made into its enclave's permissions
@@ -398,36 +395,10 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
 async fn permissions_generated_from_what_programs_declare_let_only_the_driver_start() {
     let ks = keystore("generated");
     let program = |name: &str, security: Option<SecurityOptions>| {
-        Radar::builder()
-            .domain_id(DOMAIN)
-            .discovery_range(DiscoveryRange::Subnet)
-            .program(name)
-            .ros_args(
-                radar_ros::ros_args::RosArgs::parse([
-                    name,
-                    "--ros-args",
-                    "--enclave",
-                    &format!("/{name}"),
-                ])
-                .unwrap(),
-            )
-            .security(security)
-            .build()
-            .unwrap()
+        enclaved_program(name, &format!("/{name}"), security)
     };
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let dock = |radar: &Radar| {
-        let s = starts.clone();
-        radar
-            .spawn_response(
-                "gen_dock",
-                FnResponse::new(move |_: Empty| {
-                    s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    async { Ok(Empty::default()) }
-                }),
-            )
-            .unwrap()
-    };
+    let dock = |radar: &Radar| counting_response(radar, "gen_dock", &starts);
     let drive = |planner: Radar| async move {
         let d = planner.response("/gen_dock").timeout(WAIT).await.unwrap();
         let mut exited = planner
@@ -512,36 +483,10 @@ async fn permissions_generated_from_what_programs_declare_let_only_the_driver_st
 async fn a_policy_generated_from_the_live_graph_lets_only_the_driver_start() {
     let ks = keystore("live");
     let program = |name: &str, security: Option<SecurityOptions>| {
-        Radar::builder()
-            .domain_id(DOMAIN)
-            .discovery_range(DiscoveryRange::Subnet)
-            .program(name)
-            .ros_args(
-                radar_ros::ros_args::RosArgs::parse([
-                    name,
-                    "--ros-args",
-                    "--enclave",
-                    &format!("/live_{name}"),
-                ])
-                .unwrap(),
-            )
-            .security(security)
-            .build()
-            .unwrap()
+        enclaved_program(name, &format!("/live_{name}"), security)
     };
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let dock = |radar: &Radar| {
-        let s = starts.clone();
-        radar
-            .spawn_response(
-                "live_dock",
-                FnResponse::new(move |_: Empty| {
-                    s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    async { Ok(Empty::default()) }
-                }),
-            )
-            .unwrap()
-    };
+    let dock = |radar: &Radar| counting_response(radar, "live_dock", &starts);
     for e in ["/live_robot", "/live_planner"] {
         keystore::create_enclave(&ks, e, &keystore::Grant::all()).unwrap();
     }
@@ -714,16 +659,7 @@ async fn a_secured_fast_dds_peer_starts_a_secured_response_and_hears_it_exit() {
     logged();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let s = starts.clone();
-    let _dock = robot
-        .spawn_response(
-            "fastdds_dock",
-            FnResponse::new(move |_: Empty| {
-                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _dock = counting_response(&robot, "fastdds_dock", &starts);
     let run = |enclave: PathBuf, timeout: &str| {
         tokio::process::Command::new(&peer)
             .arg(enclave)
@@ -832,16 +768,7 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
     };
     let robot = named("robot");
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let s = starts.clone();
-    let _dock = robot
-        .spawn_response(
-            "dock",
-            FnResponse::new(move |_: Empty| {
-                s.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                async { Ok(Empty::default()) }
-            }),
-        )
-        .unwrap();
+    let _dock = counting_response(&robot, "dock", &starts);
     let e = robot
         .signal_publisher::<Empty>("/dock/start")
         .err()

@@ -82,29 +82,13 @@ impl Graph {
                 }
             }
         }
-        let ros = |dds: &str| crate::wire_names::ros_topic(dds).map(str::to_owned);
-        if let Some(p) = self.participant.lock().unwrap().clone() {
-            for w in p.discovered_writers() {
-                if let Some(t) = ros(&w.publication_topic_data.topic_name) {
-                    out.push((
-                        true,
-                        w.writer_proxy.remote_writer_guid,
-                        t,
-                        w.publication_topic_data.type_name.clone(),
-                    ));
-                }
-            }
-            for r in p.discovered_readers() {
-                if let Some(t) = ros(r.subscription_topic_data.topic_name()) {
-                    out.push((
-                        false,
-                        r.reader_proxy.remote_reader_guid,
-                        t,
-                        r.subscription_topic_data.type_name().clone(),
-                    ));
-                }
-            }
-        }
+        out.extend(
+            self.remote_dds_endpoints()
+                .into_iter()
+                .filter_map(|(w, g, dds, ty)| {
+                    crate::wire_names::ros_topic(&dds).map(|t| (w, g, t.to_owned(), ty))
+                }),
+        );
         out
     }
 

@@ -38,6 +38,27 @@ impl GraphNode {
             ns => format!("{ns}/{}", self.name),
         }
     }
+
+    /// Notes that the node writes (`writer`) or reads the DDS topic `dds`: a topic it publishes or subscribes
+    /// to, or a service it serves (reads its requests, writes its replies) or calls.
+    fn uses(&mut self, writer: bool, dds: &str) {
+        use crate::wire_names as w;
+        let (name, set) = if let Some(t) = w::ros_topic(dds) {
+            (t, [&mut self.subscribes, &mut self.publishes])
+        } else if let Some(s) = w::service_of_request(dds) {
+            (s, [&mut self.serves, &mut self.calls])
+        } else if let Some(s) = w::service_of_reply(dds) {
+            (s, [&mut self.calls, &mut self.serves])
+        } else {
+            return;
+        };
+        let [if_reads, if_writes] = set;
+        match writer {
+            true => if_writes,
+            false => if_reads,
+        }
+        .insert(name.to_owned());
+    }
 }
 
 /// The `enclave` of a participant's USER_DATA (`key=value;` pairs, as rmw_dds_common writes and reads them);
@@ -92,44 +113,6 @@ impl Graph {
             }
         }
         out
-    }
-}
-
-impl GraphNode {
-    /// Notes that the node writes (`writer`) or reads the DDS topic `dds`.
-    fn uses(&mut self, writer: bool, dds: &str) {
-        use crate::wire_names as w;
-        let (set, name) = if let Some(t) = w::ros_topic(dds) {
-            (
-                if writer {
-                    &mut self.publishes
-                } else {
-                    &mut self.subscribes
-                },
-                t,
-            )
-        } else if let Some(s) = w::service_of_request(dds) {
-            (
-                if writer {
-                    &mut self.calls
-                } else {
-                    &mut self.serves
-                },
-                s,
-            )
-        } else if let Some(s) = dds.strip_prefix("rr").and_then(|s| s.strip_suffix("Reply")) {
-            (
-                if writer {
-                    &mut self.serves
-                } else {
-                    &mut self.calls
-                },
-                s,
-            )
-        } else {
-            return;
-        };
-        set.insert(name.to_owned());
     }
 }
 

@@ -53,6 +53,27 @@ pub fn grants_from_file(file: &Path) -> Result<Vec<(String, Grant)>> {
 /// [`grants_from_file`] of a policy's text; `file` names it in errors and is where `xi:include`s are found
 /// from.
 pub fn grants_from_xml(text: &str, file: &Path) -> Result<Vec<(String, Grant)>> {
+    let mut rules: Vec<(String, Rules)> = Vec::new();
+    walk(text, file, |enclave, profile| {
+        if rules.last().is_none_or(|(e, _)| e != enclave) {
+            rules.push((enclave.to_owned(), Rules::default()));
+        }
+        let Some((ns, node, entries)) = profile else {
+            return Ok(());
+        };
+        let r = &mut rules.last_mut().expect("pushed above").1;
+        entries.iter().try_for_each(|k| r.add(k, ns, node, file))
+    })?;
+    Ok(rules.into_iter().map(|(e, r)| (e, r.grant())).collect())
+}
+
+/// Reads a policy's enclaves and profiles in the file's order: `visit(enclave, None)` for each enclave, then
+/// `visit(enclave, Some((ns, node, elements)))` for each of its profiles, `xi:include`s resolved.
+fn walk(
+    text: &str,
+    file: &Path,
+    mut visit: impl FnMut(&str, Option<(&str, &str, Vec<Entry>)>) -> Result<()>,
+) -> Result<()> {
     let doc = roxmltree::Document::parse(text).map_err(|e| bad(file, format!("not XML: {e}")))?;
     let root = doc.root_element();
     if root.tag_name().name() != "policy" {
@@ -66,8 +87,9 @@ pub fn grants_from_xml(text: &str, file: &Path) -> Result<Vec<(String, Grant)>> 
     }
     let enclaves = child(root, "enclaves")
         .ok_or_else(|| bad(file, "no <enclaves> in <policy> (sros2's format 0.2.0)"))?;
-    let mut out = Vec::new();
+    let mut any = false;
     for enclave in elements(enclaves).filter(|e| e.tag_name().name() == "enclave") {
+        any = true;
         let path = enclave
             .attribute("path")
             .ok_or_else(|| bad(file, "an <enclave> without path=\"/...\""))?;
@@ -77,7 +99,7 @@ pub fn grants_from_xml(text: &str, file: &Path) -> Result<Vec<(String, Grant)>> 
                 format!("enclave path {path:?} is not absolute (like /robot/planner)"),
             ));
         }
-        let mut rules = Rules::default();
+        visit(path, None)?;
         for profiles in elements(enclave).filter(|e| e.tag_name().name() == "profiles") {
             for profile in elements(profiles).filter(|e| e.tag_name().name() == "profile") {
                 let ns = profile.attribute("ns").unwrap_or("/");
@@ -86,17 +108,14 @@ pub fn grants_from_xml(text: &str, file: &Path) -> Result<Vec<(String, Grant)>> 
                 })?;
                 let mut kids = Vec::new();
                 expand(profile, file, &mut kids, 0)?;
-                for k in kids {
-                    rules.add(&k, ns, node, file)?;
-                }
+                visit(path, Some((ns, node, kids)))?;
             }
         }
-        out.push((path.to_owned(), rules.grant()));
     }
-    if out.is_empty() {
+    if !any {
         return Err(bad(file, "no <enclave path=\"...\"> in <enclaves>"));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// `radar security generate_policy`: the policy of the nodes on the graph (`nodes`, from
@@ -112,55 +131,34 @@ pub fn generate(
     use super::model::{Kind, Policy, Rule};
     let mut policy = Policy::default();
     if let Some((text, file)) = existing {
-        let doc =
-            roxmltree::Document::parse(text).map_err(|e| bad(file, format!("not XML: {e}")))?;
-        let root = doc.root_element();
-        let enclaves = child(root, "enclaves")
-            .filter(|_| root.tag_name().name() == "policy")
-            .ok_or_else(|| {
-                bad(
-                    file,
-                    "not a policy (<policy><enclaves>...), sros2's format 0.2.0",
-                )
-            })?;
-        for enclave in elements(enclaves).filter(|e| e.tag_name().name() == "enclave") {
-            let path = enclave
-                .attribute("path")
-                .ok_or_else(|| bad(file, "an <enclave> without path=\"/...\""))?;
-            let Some(profiles) = child(enclave, "profiles") else {
-                continue;
+        walk(text, file, |enclave, profile| {
+            let Some((ns, node, entries)) = profile else {
+                return Ok(());
             };
-            for profile in elements(profiles).filter(|e| e.tag_name().name() == "profile") {
-                let (ns, node) = (
-                    profile.attribute("ns").unwrap_or("/"),
-                    profile.attribute("node").unwrap_or(""),
-                );
-                let rules = policy.profile(path, ns, node);
-                let mut entries = Vec::new();
-                expand(profile, file, &mut entries, 0)?;
-                for e in entries {
-                    let kind = Kind::of_tag(&e.tag).ok_or_else(|| {
-                        bad(
-                            file,
-                            format!(
-                                "<{}> in the profile of {node}: expected <topics>, <services> or <actions>",
-                                e.tag
-                            ),
-                        )
-                    })?;
-                    for (access, qualifier) in e.attrs {
-                        rules
-                            .entry(Rule {
-                                kind,
-                                access,
-                                qualifier,
-                            })
-                            .or_default()
-                            .extend(e.names.iter().cloned());
-                    }
+            let rules = policy.profile(enclave, ns, node);
+            for e in entries {
+                let kind = Kind::of_tag(&e.tag).ok_or_else(|| {
+                    bad(
+                        file,
+                        format!(
+                            "<{}> in the profile of {node}: expected <topics>, <services> or <actions>",
+                            e.tag
+                        ),
+                    )
+                })?;
+                for (access, qualifier) in e.attrs {
+                    rules
+                        .entry(Rule {
+                            kind,
+                            access,
+                            qualifier,
+                        })
+                        .or_default()
+                        .extend(e.names.iter().cloned());
                 }
             }
-        }
+            Ok(())
+        })?;
     }
     for n in nodes.iter().filter(|n| !n.name.starts_with('_')) {
         let ns = if n.namespace.is_empty() {
