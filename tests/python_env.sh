@@ -37,6 +37,8 @@ dpkg -s libssl-dev >/dev/null 2>&1 || missing+=(libssl-dev)
 command -v pkg-config >/dev/null || missing+=(pkg-config)
 # and Debian's Fast DDS (built with DDS Security) for the secured interop peer of radar_ros/tests/secure.rs
 dpkg -s libfastrtps-dev >/dev/null 2>&1 || missing+=(libfastrtps-dev)
+# and libfaketime, for a peer whose clock is off (tests/clocks.rs)
+dpkg -s faketime >/dev/null 2>&1 || missing+=(faketime)
 command -v cmake >/dev/null || missing+=(cmake)
 command -v g++ >/dev/null || missing+=(g++)
 "$PY" -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)

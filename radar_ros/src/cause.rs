@@ -61,7 +61,9 @@ pub(crate) fn from_identity(id: SampleIdentity) -> Option<Cause> {
     })
 }
 
-/// What a received sample says of its sending: its source time (`now` if it has none) and cause.
+/// What a received sample says of its sending, read at `now` by this host's clock: its source time (`now` if
+/// it has none) taken as rule T1 says (never later than `now`, at most `LATE` before it: another host's clock
+/// cannot move ours), and its cause.
 pub(crate) fn sent(info: &MessageInfo, now: i64) -> Sent {
     Sent {
         at: info
@@ -73,6 +75,7 @@ pub(crate) fn sent(info: &MessageInfo, now: i64) -> Sent {
             .related_request_id()
             .and_then(|r| from_identity(r.into())),
     }
+    .received(now)
 }
 
 /// The write options that send a sample as `sent` says.

@@ -12,6 +12,8 @@
 //! - [`served`]: a response served as a ROS 2 action server ([`served::ServedAction`], rules S1-S7).
 //! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,
 //!   until windows, no stale signals, removal, components that leave, signals read out of order).
+//! - [`time`]: what a receiver makes of another clock's stamps, and of its own clock stepping back (rules
+//!   T1-T2).
 //!
 //! The rules are numbered once, here, and the `radar_ros` documentation, the README and the tests (named
 //! `r3_...`, `c6_...`) use these numbers.
@@ -30,3 +32,4 @@ pub mod connection;
 pub mod event;
 pub mod response;
 pub mod served;
+pub mod time;

@@ -187,6 +187,7 @@ impl Manager {
         let records = &st.records;
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
         let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
+        st.table.clock(now_ns()); // T2: this host's clock may have stepped back
         let deliveries = st.table.on_signal_with(source, sent.at, sent.by, |id| {
             let Some(r) = records.get(&id) else {
                 return true;

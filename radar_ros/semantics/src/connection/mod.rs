@@ -56,6 +56,8 @@ pub use window::{Until, UntilWindow};
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use crate::time::Clock;
+
 pub use crate::response::{Cause, StatementId, HOLD};
 
 /// Identifies a connection in a table.
@@ -119,6 +121,8 @@ pub struct ConnectionTable<S, T> {
     writes: BTreeMap<T, usize>,
     /// Sources and targets whose count fell to zero since the last [`ConnectionTable::take_released`].
     released: (Vec<S>, Vec<T>),
+    /// The receiver's clock, as last given (T2).
+    clock: Clock,
 }
 
 impl<S, T> Default for ConnectionTable<S, T> {
@@ -131,6 +135,7 @@ impl<S, T> Default for ConnectionTable<S, T> {
             reads: BTreeMap::new(),
             writes: BTreeMap::new(),
             released: (Vec::new(), Vec::new()),
+            clock: Clock::default(),
         }
     }
 }
@@ -210,7 +215,8 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         }
     }
 
-    /// Arms a connection from `source` to `target` at time `armed_at` (ns, same clock as signal stamps).
+    /// Arms a connection from `source` to `target` at time `armed_at` (ns, same clock as signal stamps: the
+    /// receiver's clock now, which the table takes as [`ConnectionTable::clock`] does).
     pub fn arm(
         &mut self,
         source: S,
@@ -219,6 +225,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         until: Option<Until<S, T>>,
         armed_at: i64,
     ) -> ConnId {
+        self.clock(armed_at);
         let id = self.next;
         self.next += 1;
         let c = Conn {
@@ -424,6 +431,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     /// signals emitted from `now` on. Returns them.
     #[must_use = "the connections whose state changed are to be reported"]
     pub fn target_back(&mut self, target: &T, now: i64) -> Vec<ConnId> {
+        self.clock(now);
         let mut changed = Vec::new();
         for (id, c) in self.conns.iter_mut() {
             if &c.target == target && c.link == Link::WaitingForTarget {
@@ -433,6 +441,22 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             }
         }
         changed
+    }
+
+    /// The receiver's clock reads `now` (ns, the clock of the stamps). When it has stepped back since it was
+    /// last given (an NTP correction), the times the table remembers (when connections were armed, the stamps
+    /// in `until` windows) are brought back to it (T2): signals stamped by the stepped clock are not taken as
+    /// older than them. The runtime gives the clock before each signal ([`ConnectionTable::arm`] and
+    /// [`ConnectionTable::target_back`] take it themselves); costs nothing unless the clock stepped back.
+    pub fn clock(&mut self, now: i64) {
+        if let Some(now) = self.clock.set(now) {
+            for c in self.conns.values_mut() {
+                c.armed_at = c.armed_at.min(now);
+                if let Some((_, w)) = &mut c.until {
+                    w.step_back(now);
+                }
+            }
+        }
     }
 
     /// A signal from `source`, emitted at `emitted_at` by no statement: what to deliver, in connection order.
@@ -535,6 +559,34 @@ mod tests {
 
     fn targets(d: Vec<Delivery<&'static str>>) -> Vec<&'static str> {
         d.into_iter().map(|d| d.target).collect()
+    }
+
+    #[test]
+    fn t2_after_the_clock_steps_back_a_connection_delivers_signals_stamped_by_it() {
+        let step = 10_000_000_000; // an NTP correction of 10 s
+        let mut t = Table::new();
+        t.arm("E", "R.start", Kind::Whenever, None, 100 * step);
+        assert_eq!(targets(t.on_signal(&"E", 100 * step + 5)), ["R.start"]);
+        // the host's clock steps back: the next signal is stamped 10 s before the arming
+        let stepped = 100 * step + 10 - step;
+        t.clock(stepped);
+        assert_eq!(targets(t.on_signal(&"E", stepped)), ["R.start"]);
+        // C1 still holds on the stepped clock: what was emitted before the step's new now is old
+        assert!(t.on_signal(&"E", stepped - 1).is_empty());
+        // an until window opened before the step stays open for U stamped by the stepped clock
+        let mut t = Table::new();
+        let until = Until {
+            source: "U",
+            started: "R.started",
+            exited: "R.exited",
+            interrupt: "R.interrupt",
+            causes: false,
+        };
+        t.arm("E", "R.start", Kind::Once, Some(until), 100 * step);
+        assert_eq!(targets(t.on_signal(&"E", 100 * step + 10)), ["R.start"]);
+        assert!(t.on_signal(&"R.started", 100 * step + 20).is_empty());
+        t.clock(stepped);
+        assert_eq!(targets(t.on_signal(&"U", stepped + 1)), ["R.interrupt"]);
     }
 
     #[test]

@@ -145,6 +145,17 @@ impl UntilWindow {
         }
     }
 
+    /// T2: the receiver's clock stepped back to `now`: remembered stamps later than it are brought back.
+    pub(super) fn step_back(&mut self, now: i64) {
+        for t in [&mut self.kept, &mut self.sent_while_running, &mut self.open_since]
+            .into_iter()
+            .flatten()
+        {
+            *t = (*t).min(now);
+        }
+        self.last_response_signal = self.last_response_signal.min(now);
+    }
+
     /// R left the graph: its run (if any) ended without an `exited`, and a new R of that name did not take
     /// this connection's start.
     pub(super) fn response_lost(&mut self) -> bool {

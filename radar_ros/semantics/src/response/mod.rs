@@ -51,6 +51,11 @@
 //!   interrupts only a run begun by a start of that statement (and, by R11, only if it was emitted after that
 //!   run began); any other run, or none, ignores it. Untargeted interrupts (injected, `whenever X interrupt R`)
 //!   interrupt whatever runs.
+//!
+//! Stamps come from the senders' clocks, and a machine takes them as rule T1 says ([`crate::time`]): never
+//! later than its own clock, at most [`LATE`](crate::time::LATE) before it; when its own clock steps back, the
+//! times it remembers follow (T2). A host whose clock is off cannot keep a response from taking its own
+//! host's signals.
 
 mod signals;
 
@@ -60,6 +65,8 @@ pub use signals::{
 };
 
 use std::collections::VecDeque;
+
+use crate::time::Clock;
 
 /// How long an `interrupt` or `exit` that reached an idle response is kept for a start sent before it that
 /// is still on its way (R12), in ns: far above a DDS hop (well under a millisecond on a host, a few on a
@@ -122,8 +129,9 @@ pub struct ResponseMachine<P, O> {
     began: i64,
     /// When the last run ended (its `exited`).
     ended: i64,
-    /// The latest time known: the clock given to [`ResponseMachine::handle_at`], or the newest stamp seen.
-    now: i64,
+    /// The receiver's clock: the one given to [`ResponseMachine::handle_at`] (or, through
+    /// [`ResponseMachine::handle`], the newest stamp seen).
+    clock: Clock,
     /// Signals kept while idle (R12), oldest first.
     kept: VecDeque<Kept>,
     /// A kept signal the run just begun takes once it has run to its first await (R12).
@@ -147,7 +155,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             cause: None,
             began: i64::MIN,
             ended: i64::MIN,
-            now: i64::MIN,
+            clock: Clock::default(),
             kept: VecDeque::new(),
             held: None,
         }
@@ -250,19 +258,32 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         self.stopping
     }
 
-    /// Feeds one input and returns what to do, with the clock at the newest time the machine has seen.
+    /// Feeds one input and returns what to do, with no clock of its own: the clock is the newest time the
+    /// machine has seen, stamps included (for tests and for a machine whose stamps all come from one clock).
     #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn handle(&mut self, input: Input<P, O>) -> Vec<Effect<P, O>> {
-        self.handle_at(input, self.now)
+        let mut now = self.clock.now();
+        if let Input::Start(_, s) | Input::Interrupt(s) | Input::Exit(s) = &input {
+            now = now.max(s.at);
+        }
+        self.handle_at(input, now)
     }
 
-    /// Feeds one input at time `now` (ns since the epoch, the clock of [`Sent::at`]) and returns what to do.
+    /// Feeds one input at time `now` (ns since the epoch, the clock of [`Sent::at`]: the receiver's own) and
+    /// returns what to do. The input's stamp is taken as rule T1 says ([`Sent::received`]): never later than
+    /// `now`. A `now` before the last one given is the clock stepping back (T2): the times the machine
+    /// remembers move back with it.
     #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn handle_at(&mut self, input: Input<P, O>, now: i64) -> Vec<Effect<P, O>> {
-        self.now = self.now.max(now);
-        if let Input::Start(_, s) | Input::Interrupt(s) | Input::Exit(s) = &input {
-            self.now = self.now.max(s.at);
+        if let Some(now) = self.clock.set(now) {
+            self.step_back(now);
         }
+        let input = match input {
+            Input::Start(p, s) => Input::Start(p, s.received(now)),
+            Input::Interrupt(s) => Input::Interrupt(s.received(now)),
+            Input::Exit(s) => Input::Exit(s.received(now)),
+            other => other,
+        };
         let mut fx = Vec::new();
         match (self.phase, input) {
             (_, Input::Start(_, _)) if self.stopping => {
@@ -420,7 +441,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             self.cause,
         ));
         self.phase = Phase::Idle;
-        self.ended = self.now;
+        self.ended = self.clock.now();
         let finished = self.current.take();
         if self.stopping {
             // shutting down: the run is over and nothing starts again
@@ -428,12 +449,26 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             self.begin(p, s, fx);
         } else if let (ExitAction::Restart, Some(p)) = (action, finished) {
             self.counters.restarts += 1;
-            self.begin(p, Sent::at(self.now), fx);
+            self.begin(p, Sent::at(self.clock.now()), fx);
+        }
+    }
+
+    /// T2: the clock stepped back to `now`: what is remembered as later than `now` is brought back to it.
+    fn step_back(&mut self, now: i64) {
+        self.began = self.began.min(now);
+        self.ended = self.ended.min(now);
+        for k in self.kept.iter_mut().chain(self.held.as_mut()) {
+            match k {
+                Kept::Interrupt(s) | Kept::Exit(s) => s.at = s.at.min(now),
+            }
+        }
+        if let Some((_, s)) = &mut self.pending {
+            s.at = s.at.min(now);
         }
     }
 
     fn keep(&mut self, k: Kept) {
-        let horizon = self.now.saturating_sub(HOLD);
+        let horizon = self.clock.now().saturating_sub(HOLD);
         self.kept.retain(|k| k.sent().at >= horizon);
         if self.kept.len() == KEPT {
             self.kept.pop_front();
@@ -1051,6 +1086,97 @@ mod tests {
         m.handle_at(Input::Interrupt(Sent::at(200)), 310); // read late, while idle
         m.handle_at(Input::Start(1, Sent::at(150)), 320); // begins at 300 (the end of the run before)
         assert!(m.resume().is_empty());
+    }
+
+    const HOUR: i64 = 3_600_000_000_000;
+
+    #[test]
+    fn t1_a_start_stamped_by_a_clock_an_hour_ahead_does_not_blind_the_response() {
+        let now = 10 * HOUR;
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now + HOUR)), now);
+        assert_eq!(m.began(), Some(now), "the run begins when the start arrived");
+        // this host's own interrupt, a second later, interrupts it
+        assert_eq!(
+            m.handle_at(Input::Interrupt(Sent::at(now + 1_000)), now + 1_000),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+        m.handle_at(Input::InterruptEnded(None), now + 2_000);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), now + 3_000);
+        // and the next run, started from a host in step, is interrupted by this host too
+        m.handle_at(Input::Start(2, Sent::at(now + 4_000)), now + 4_000);
+        assert_eq!(m.began(), Some(now + 4_000));
+        assert_eq!(
+            m.handle_at(Input::Interrupt(Sent::at(now + 5_000)), now + 5_000),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+    }
+
+    #[test]
+    fn t1_signals_from_a_clock_far_behind_are_taken_as_late_not_as_older_than_every_run() {
+        let now = 10 * HOUR;
+        // a start from that host begins its run LATE before it arrived (T1), not an hour before
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now - HOUR)), now);
+        assert_eq!(m.began(), Some(now - crate::time::LATE));
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now)), now);
+        // an interrupt from a host an hour behind, read LATE after the run began, interrupts it
+        let later = now + crate::time::LATE;
+        assert_eq!(
+            m.handle_at(Input::Interrupt(Sent::at(later - HOUR)), later),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+        // read sooner, it is taken as sent before the run began (R11): the bound skew leaves
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now)), now);
+        assert!(matches!(
+            m.handle_at(Input::Interrupt(Sent::at(now + 10 - HOUR)), now + 10)[..],
+            [Ignored {
+                why: IgnoreReason::Before,
+                ..
+            }]
+        ));
+    }
+
+    #[test]
+    fn t2_after_this_hosts_clock_steps_back_its_signals_still_apply() {
+        let now = 10 * HOUR;
+        let step = 10_000_000_000; // an NTP correction of 10 s
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now)), now);
+        // the clock steps back while the run goes on: an interrupt stamped by it applies
+        let stepped = now + 1_000 - step;
+        assert_eq!(
+            m.handle_at(Input::Interrupt(Sent::at(stepped)), stepped),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
+        m.handle_at(Input::InterruptEnded(None), stepped + 1);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), stepped + 2);
+        // a run that ended before a step does not make the next run begin in the future
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Start(1, Sent::at(now)), now);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), now + 10);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), now + 20);
+        let stepped = now + 30 - step;
+        m.handle_at(Input::Start(2, Sent::at(stepped)), stepped);
+        assert_eq!(m.began(), Some(stepped));
+        assert_eq!(
+            m.handle_at(Input::Exit(Sent::at(stepped + 5)), stepped + 5),
+            vec![CancelStart, RunExit(ExitReason::ExitSignal)]
+        );
+        // a start queued before the step begins no later than the stepped clock when it runs
+        let mut m = M::new(StartPolicy::QueueOne);
+        m.handle_at(Input::Start(1, Sent::at(now)), now);
+        m.handle_at(Input::Start(2, Sent::at(now + 10)), now + 10);
+        let stepped = now + 20 - step;
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), stepped);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), stepped + 1);
+        assert_eq!(m.began(), Some(stepped + 1));
+        assert_eq!(
+            m.handle_at(Input::Interrupt(Sent::at(stepped + 2)), stepped + 2),
+            vec![CancelStart, EmitInterrupted(None), RunInterrupt]
+        );
     }
 
     #[test]

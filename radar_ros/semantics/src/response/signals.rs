@@ -40,6 +40,15 @@ impl Sent {
             by: Some(cause),
         }
     }
+
+    /// This signal as a receiver whose clock reads `now` takes it: its stamp brought within
+    /// [`LATE`](crate::time::LATE) before `now` (rule T1).
+    pub fn received(self, now: i64) -> Sent {
+        Sent {
+            at: crate::time::received(self.at, now),
+            ..self
+        }
+    }
 }
 
 /// Where a response is in its lifecycle.
