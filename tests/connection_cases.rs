@@ -726,3 +726,111 @@ async fn a_response_of_this_process_that_stops_loses_its_connections_and_a_rearm
     );
     assert_eq!(runs.load(Ordering::SeqCst), 2);
 }
+
+/// Issue 32: a connection's own code (filter, map, anonymous slot) is user code; one that panics is caught like
+/// a panicking slot. The signal it was called for is not delivered (a filter or map) or its call is over (a
+/// call), the connection goes on, its panics are counted on it and in the manager's list, and the rest of the
+/// program works: a new statement arms at once, and dropping the guards does not panic. (Before: the panic
+/// poisoned the manager's lock, the next statement failed after 5 s, and the guards' drop panicked again.)
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_panicking_filter_map_or_call_is_caught_reported_and_the_program_goes_on() {
+    let r = radar(111);
+    let src = r.signal_publisher::<Int32>("/pn/n").unwrap();
+    let signal = Signal::new("/pn/n", "std_msgs/msg/Int32");
+    let took = Arc::new(Mutex::new(Vec::new()));
+    let t = took.clone();
+    let echo = r
+        .spawn_response(
+            "/pn/echo",
+            FnResponse::new(move |n: Int32| {
+                t.lock().unwrap().push(n.data);
+                async { Ok(Empty::default()) }
+            })
+            .start_policy(radar_ros::StartPolicy::QueueOne),
+        )
+        .unwrap();
+    let (count, runs) = counter(&r, "/pn/count");
+    let filtered = r
+        .whenever(&signal)
+        .start(&echo)
+        .filter(|n: &Int32| {
+            assert!(n.data % 2 == 0, "odd {}", n.data);
+            true
+        })
+        .await
+        .unwrap();
+    let mapped = r
+        .whenever(&signal)
+        .start(&count)
+        .map(|n: Int32| {
+            assert!(n.data != 1, "one");
+            Empty::default()
+        })
+        .await
+        .unwrap();
+    let calls = Arc::new(Mutex::new(Vec::new()));
+    let c = calls.clone();
+    let called = r
+        .whenever(&signal)
+        .call(move |n: Int32| {
+            assert!(n.data != 3, "three");
+            c.lock().unwrap().push(n.data);
+        })
+        .await
+        .unwrap();
+    // a once whose filter panics is not used up by that signal
+    let (once_target, once_runs) = counter(&r, "/pn/once");
+    let once = r
+        .once(&signal)
+        .start(&once_target)
+        .filter(|n: &Int32| {
+            assert!(n.data != 1, "one");
+            true
+        })
+        .await
+        .unwrap();
+    for data in 1..=4 {
+        src.publish(Int32 { data }).unwrap();
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    eventually(T, "every delivery", || {
+        took.lock().unwrap().len() == 2
+            && runs.load(Ordering::SeqCst) == 3
+            && calls.lock().unwrap().len() == 3
+            && once_runs.load(Ordering::SeqCst) == 1
+    })
+    .await;
+    assert_eq!(*took.lock().unwrap(), [2, 4], "the filter refused 1 and 3 by panicking");
+    assert_eq!(*calls.lock().unwrap(), [1, 2, 4], "the call after the one that panicked ran");
+    assert_eq!(
+        (filtered.panics(), mapped.panics(), called.panics()),
+        (2, 1, 1)
+    );
+    assert_eq!((filtered.delivered(), mapped.delivered()), (2, 3));
+    let listed = r.connections();
+    let entry = listed
+        .iter()
+        .find(|k| k.id == filtered.id())
+        .expect("the connection is listed");
+    assert_eq!(entry.panics, 2);
+    assert!(
+        entry.panic.starts_with("filter: odd 3"),
+        "the last panic, named: {:?}",
+        entry.panic
+    );
+    assert_eq!(entry.state_label, "armed");
+    // the rest of the program works: a new statement arms at once and delivers
+    let (after, after_runs) = counter(&r, "/pn/after");
+    let _later = r
+        .whenever(&signal)
+        .start(&after)
+        .timeout(Duration::from_secs(3))
+        .await
+        .expect("a statement after the panics arms");
+    src.publish(Int32 { data: 6 }).unwrap();
+    eventually(T, "the new statement's delivery", || {
+        after_runs.load(Ordering::SeqCst) == 1
+    })
+    .await;
+    drop((filtered, mapped, called, once));
+}

@@ -365,6 +365,10 @@ pub struct Connection {
     /// DDS hops a signal takes from source to target: 0 (both in the manager's process), 1 (one of them), 2
     /// (neither: source -> manager -> target).
     pub hops: u8,
+    /// Panics caught in the connection's own code (its filter, map, or anonymous slot's call).
+    pub panics: u64,
+    /// The last of them: which closure and its message, else empty.
+    pub panic: String,
 }
 ros_message!(Connection, "radar_msgs", "Connection");
 

@@ -3,10 +3,10 @@
 
 use std::sync::{Arc, Mutex};
 
-use radar_semantics::connection::Until;
+use radar_semantics::connection::{Kind, Until};
 
 use super::{
-    anon::AnonQueue, ConnectionGuard, Manager, Record, Spec, State, Target, TargetSpec, UntilSpec,
+    anon::AnonQueue, faults::Faults, ConnectionGuard, Manager, Record, Spec, State, Target, TargetSpec, UntilSpec,
 };
 use crate::{
     error::{Error, Result},
@@ -244,7 +244,7 @@ impl Manager {
         spec: Spec,
         causes: bool,
     ) -> Result<radar_semantics::connection::ConnId> {
-        let mut st = self.state.lock().unwrap();
+        let mut st = self.state();
         for ((k, _), r) in plan.reads.iter().zip(&matched.readers) {
             if !st.relays.contains_key(k) {
                 self.participant.pooled_reader(k)?;
@@ -255,9 +255,24 @@ impl Manager {
         for ((k, _), w) in plan.writes.iter().zip(&matched.writers) {
             self.hold_outlet(&mut st, k, w)?;
         }
+        let faults = Arc::new(Faults::new(format!(
+            "{} {} {}",
+            match spec.kind {
+                Kind::Once => "once",
+                Kind::Whenever => "whenever",
+            },
+            spec.source.topic(),
+            match &plan.target {
+                Some(k) => format!("-> {}", k.topic),
+                None => "call (anonymous slot)".into(),
+            }
+        )));
         let target = match (spec.target, plan.target) {
             (TargetSpec::Slot(_), Some(k)) => Target::Slot(k),
-            (TargetSpec::Anon(f), _) => anon_target(&mut st, spec.source.topic(), spec.depth, f),
+            (TargetSpec::Anon(f), _) => {
+                let faults = faults.clone();
+                anon_target(&mut st, spec.source.topic(), spec.depth, f, faults)
+            }
             (TargetSpec::Slot(_), None) => unreachable!("a slot target has its key"),
         };
         let until = plan.until.map(|u| Until {
@@ -275,6 +290,7 @@ impl Manager {
             id,
             Record {
                 owner: spec.owner,
+                faults,
                 filter: spec.filter,
                 map: spec.map,
                 starts: spec.starts,
@@ -330,15 +346,22 @@ impl Manager {
     }
 }
 
-/// An anonymous slot's target: a queue of `depth` payloads from `source`, and the task that calls `f` with each.
-fn anon_target(st: &mut State, source: &str, depth: usize, mut f: super::AnonFn) -> Target {
+/// An anonymous slot's target: a queue of `depth` payloads from `source`, and the task that calls `f` with each
+/// (a call that panics is reported on `faults`, and the next payload gets the next call).
+fn anon_target(
+    st: &mut State,
+    source: &str,
+    depth: usize,
+    mut f: super::AnonFn,
+    faults: Arc<Faults>,
+) -> Target {
     let k = st.next_anon;
     st.next_anon += 1;
     let q = Arc::new(AnonQueue::new(source.to_owned(), depth));
     let consumer = q.clone();
     tokio::spawn(async move {
         while let Some(m) = consumer.next().await {
-            f(m);
+            faults.run("call", || f(m));
         }
     });
     st.anon.insert(k, q);

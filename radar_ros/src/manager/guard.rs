@@ -31,6 +31,22 @@ impl ConnectionGuard {
         self.id
     }
 
+    /// Panics caught in the connection's own code so far (its filter, map, or anonymous slot's call): each one
+    /// refused its signal (a filter or map) or ended its call (an anonymous slot), and the connection went on.
+    /// The manager's `connections` list shows the count and the last message too.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar, tick: radar_ros::EventRef) -> radar_ros::Result<()> {
+    /// use radar_ros::msg::Empty;
+    /// let c = radar.whenever(&tick).call(|_: Empty| panic!("bug")).await?;
+    /// // ... later: the program goes on, and the panics are counted
+    /// println!("{} panics", c.panics());
+    /// # Ok(()) }
+    /// ```
+    pub fn panics(&self) -> u64 {
+        self.manager.panics(self.id)
+    }
+
     /// Whether it still delivers (a fired `once` without `until` does not).
     pub fn is_live(&self) -> bool {
         self.manager.contains(self.id)

@@ -8,7 +8,7 @@ impl Manager {
     /// Every live connection, as `radar_msgs/msg/Connection`.
     pub(crate) fn list(&self) -> Vec<crate::msg::Connection> {
         use crate::msg::Connection as C;
-        let st = self.state.lock().unwrap();
+        let st = self.state();
         st.table
             .list()
             .into_iter()
@@ -59,6 +59,12 @@ impl Manager {
                         .map(|d| d.to_string())
                         .unwrap_or_default(),
                     hops,
+                    panics: st.records.get(&c.id).map_or(0, |r| r.faults.count()),
+                    panic: st
+                        .records
+                        .get(&c.id)
+                        .map(|r| r.faults.last())
+                        .unwrap_or_default(),
                 }
             })
             .collect()

@@ -30,6 +30,7 @@
 //! connections, `guard.rs` is the user's handle, `anon.rs` the queue behind an anonymous slot.
 
 mod anon;
+mod faults;
 mod arm;
 mod guard;
 mod list;
@@ -54,6 +55,7 @@ use crate::{
     refs::{Signal, Slot},
 };
 use anon::AnonQueue;
+use faults::Faults;
 pub use guard::ConnectionGuard;
 use relay::{Change, Outlet, Relay};
 
@@ -121,6 +123,8 @@ pub(crate) const GONE_AFTER: Duration = Duration::from_millis(100);
 /// What a live connection carries besides what the table knows.
 struct Record {
     owner: String,
+    /// Panics of its filter, map or anonymous slot, caught (shared with the anonymous slot's task).
+    faults: Arc<Faults>,
     filter: Option<FilterFn>,
     map: Option<MapFn>,
     /// Its deliveries carry the statement's cause (a start target).
@@ -168,12 +172,23 @@ impl Manager {
         }
     }
 
+    /// The table and what goes with it. A panic while it is held (none is expected: user closures are caught,
+    /// see `faults.rs`) does not make every later statement fail: the state is used as it is.
+    fn state(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
     /// The participant's match graph (and its count of messages that did not decode).
     pub(crate) fn graph(&self) -> &crate::graph::Graph {
         self.participant.graph()
     }
 
     /// Resolves at the next change of the table.
+    /// Panics caught in connection `id`'s own code (0 once it is gone).
+    pub(crate) fn panics(&self, id: ConnId) -> u64 {
+        self.state().records.get(&id).map_or(0, |r| r.faults.count())
+    }
+
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
         self.changed.subscribe()
     }
@@ -182,7 +197,7 @@ impl Manager {
     /// connection removed before this takes the lock gets nothing, and one removed after got this signal
     /// already.
     fn dispatch(&self, source: &Key, raw: RawMessage, sent: Sent) {
-        let mut guard = self.state.lock().unwrap();
+        let mut guard = self.state();
         let st = &mut *guard;
         let records = &st.records;
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
@@ -192,16 +207,19 @@ impl Manager {
             let Some(r) = records.get(&id) else {
                 return true;
             };
-            if r.filter.as_ref().is_some_and(|f| !f(&raw)) {
-                return false;
+            // a filter or map that panics refuses the signal (caught and reported on the connection)
+            if let Some(f) = &r.filter {
+                if r.faults.run("filter", || f(&raw)) != Some(true) {
+                    return false;
+                }
             }
             match &r.map {
-                Some(map) => match map(&raw) {
+                Some(map) => match r.faults.run("map", || map(&raw)).flatten() {
                     Some(p) => {
                         mapped.push((id, p));
                         true
                     }
-                    None => false, // the transform warned
+                    None => false, // the transform warned, or panicked
                 },
                 None => true,
             }
@@ -290,7 +308,7 @@ impl Manager {
     /// Every peer of a source (its publishers) or of a target (its subscribers) has gone: tell the table, and
     /// record who left on the connections it changed.
     fn peers_gone(&self, end: &End, d: Departure) {
-        let mut st = self.state.lock().unwrap();
+        let mut st = self.state();
         let ids = match end {
             End::Source(k) => st.table.source_lost(k),
             End::Target(t) => st.table.target_lost(t),
@@ -303,7 +321,7 @@ impl Manager {
 
     /// A peer of a source or target that had gone is back.
     fn peers_back(&self, end: &End) {
-        let mut st = self.state.lock().unwrap();
+        let mut st = self.state();
         let (ids, topic) = match end {
             End::Source(k) => (st.table.source_back(k), k.topic.clone()),
             End::Target(t) => (
@@ -350,7 +368,7 @@ impl Manager {
 
     /// The guard dropped: remove the connection, and cancel anonymous-slot calls it has not begun.
     fn remove(&self, id: ConnId) {
-        let mut st = self.state.lock().unwrap();
+        let mut st = self.state();
         if let Some(Target::Anon(k)) = st.table.target(id) {
             if let Some(q) = st.anon.get(k) {
                 q.cancel();
@@ -364,19 +382,19 @@ impl Manager {
     }
 
     fn contains(&self, id: ConnId) -> bool {
-        self.state.lock().unwrap().table.contains(id)
+        self.state().table.contains(id)
     }
 
     /// The connection's link and the departure that put it out of `Armed`, if it is live.
     fn link(&self, id: ConnId) -> Option<(Link, Option<Departure>)> {
-        let st = self.state.lock().unwrap();
+        let st = self.state();
         let link = st.table.link(id)?;
         let d = st.records.get(&id).and_then(|r| r.departure.clone());
         Some((link, d))
     }
 
     fn delivered(&self, id: ConnId) -> u64 {
-        let st = self.state.lock().unwrap();
+        let st = self.state();
         st.table
             .list()
             .into_iter()

@@ -151,9 +151,7 @@ impl Manager {
             let (me, key) = (me.clone(), key.clone());
             move || {
                 let writer = me.upgrade().and_then(|m| {
-                    m.state
-                        .lock()
-                        .unwrap()
+                    m.state()
                         .outlets
                         .get(&key)
                         .and_then(|o| o.dds.clone())
@@ -213,7 +211,7 @@ impl Manager {
 
     /// Gives the outlet of `k` a DDS writer, if it has none: the writer's match count, for its watcher.
     fn add_writer(&self, k: &Key) -> Option<tokio::sync::watch::Receiver<usize>> {
-        let mut st = self.state.lock().unwrap();
+        let mut st = self.state();
         let o = st.outlets.get_mut(k)?;
         if o.dds.is_some() {
             return None;

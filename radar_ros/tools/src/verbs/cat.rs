@@ -100,8 +100,13 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
         } else {
             format!(" until {}", k.until)
         };
+        let panics = if k.panics == 0 {
+            String::new()
+        } else {
+            format!(", {} panic(s), last: {}", k.panics, k.panic)
+        };
         println!(
-            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered, {} DDS hop(s)",
+            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered, {} DDS hop(s){}",
             k.id,
             program,
             k.kind_label,
@@ -110,7 +115,8 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
             until,
             k.state_label,
             k.delivered,
-            k.hops
+            k.hops,
+            panics
         );
     }
     Ok(())
