@@ -40,7 +40,8 @@ async fn interrupted_after(drive: &ResponseHandle, exits: u64) -> u64 {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_own_hosts_interrupts() {
+async fn a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_own_hosts_interrupts()
+{
     require_isolation();
     init_logs();
     let domain = 110;
@@ -62,7 +63,12 @@ async fn a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_ow
 
     let env = skewed("+1h");
     let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    let mut ahead = Py::start_with_env(domain, "tests/python/skewed_pub.py", &["/drive/start"], &env);
+    let mut ahead = Py::start_with_env(
+        domain,
+        "tests/python/skewed_pub.py",
+        &["/drive/start"],
+        &env,
+    );
     let said = ahead.line().await;
     let their_clock: f64 = said
         .strip_prefix("published ")
@@ -85,7 +91,9 @@ async fn a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_ow
     ahead.proceed().await;
 
     // and so is the next run, started from a host in step (before: it ran unbounded too)
-    r.inject(drive.reference().start_slot(), Empty::default()).await.unwrap();
+    r.inject(drive.reference().start_slot(), Empty::default())
+        .await
+        .unwrap();
     assert_eq!(
         interrupted_after(&drive, 2).await,
         2,

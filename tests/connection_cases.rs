@@ -800,8 +800,16 @@ async fn a_panicking_filter_map_or_call_is_caught_reported_and_the_program_goes_
             && once_runs.load(Ordering::SeqCst) == 1
     })
     .await;
-    assert_eq!(*took.lock().unwrap(), [2, 4], "the filter refused 1 and 3 by panicking");
-    assert_eq!(*calls.lock().unwrap(), [1, 2, 4], "the call after the one that panicked ran");
+    assert_eq!(
+        *took.lock().unwrap(),
+        [2, 4],
+        "the filter refused 1 and 3 by panicking"
+    );
+    assert_eq!(
+        *calls.lock().unwrap(),
+        [1, 2, 4],
+        "the call after the one that panicked ran"
+    );
     assert_eq!(
         (filtered.panics(), mapped.panics(), called.panics()),
         (2, 1, 1)

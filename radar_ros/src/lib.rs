@@ -133,7 +133,8 @@
 //! | how the program ends | what happens |
 //! |---|---|
 //! | SIGINT (Ctrl-C, `ros2 launch`) or SIGTERM (systemd, docker, launch's escalation) | every component of every `Radar` of the process stops: running responses end as an `exit` signal would end them, their exit slots run, `exited` and the final `state` are sent and acknowledged, the program leaves the ROS graph (peers see it at once) and the process exits with status 0 |
-//! | a second SIGINT or SIGTERM while that runs | the process exits at once (status 130 or 143), as rclpy does |
+//! | more SIGINTs while that runs (Ctrl-C under `ros2 launch`: the terminal's, then launch's own) | nothing: the exit slots finish |
+//! | a SIGTERM while that runs (launch's escalation after `sigterm_timeout`) | the process exits at once (status 143) |
 //! | an exit slot that takes longer than the shutdown timeout (5 s) | an error line names what did not finish; the process exits with status 1 |
 //! | `main` returns, or panics (the runtime drops every task) | a response in the middle of a run finishes it while its task is dropped: the exit slot runs on a thread of its own, `exited` is sent; an exit slot that was cut short runs again from its start |
 //! | [`Radar::shutdown`] | as for a signal, without ending the process |

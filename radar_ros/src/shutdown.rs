@@ -11,8 +11,11 @@
 //!   the final `state` are sent and acknowledged by their subscribers; then the participants leave the graph
 //!   (peers see it at once) and the process exits with status 0. This takes at most the shutdown timeout
 //!   ([`RadarBuilder::shutdown_timeout`](crate::RadarBuilder::shutdown_timeout), 5 s by default); what has not
-//!   finished by then is named in an error line and the process exits with status 1. A second signal exits at
-//!   once (status 130 for SIGINT, 143 for SIGTERM), as rclpy does.
+//!   finished by then is named in an error line and the process exits with status 1. While it stops, more
+//!   SIGINTs change nothing (a terminal's Ctrl-C reaches every process of a `ros2 launch`, and launch then sends
+//!   each its own SIGINT: the exit slots must not be cut by that); a SIGTERM exits at once with status 143
+//!   (launch sends it after its `sigterm_timeout`, 5 s by default; systemd and docker follow theirs with
+//!   SIGKILL), and so does SIGKILL.
 //! - **`main` returns** (or panics, or the runtime is dropped): the runtime drops every task. A response whose
 //!   run was still going (its handle dropped at the end of `main` asked it to stop a moment before) finishes it
 //!   while it is dropped: the exit slot runs on a thread of its own (with a runtime of its own, so it may
@@ -230,18 +233,31 @@ fn install() -> std::io::Result<()> {
         .name("radar-signals".into())
         .spawn(move || {
             rt.block_on(async move {
-                let (name, code) = tokio::select! {
-                    _ = int.recv() => ("SIGINT", 130),
-                    _ = term.recv() => ("SIGTERM", 143),
+                let name = tokio::select! {
+                    _ = int.recv() => "SIGINT",
+                    _ = term.recv() => "SIGTERM",
                 };
-                // a second signal of either kind: now
+                // While stopping: more SIGINTs are the same request again (a terminal's Ctrl-C reaches every
+                // process of its group, and `ros2 launch` then sends its own SIGINT to each child): the exit
+                // slots go on. A SIGTERM ends the program at once (launch escalates to it after
+                // `sigterm_timeout`; systemd and docker follow it with SIGKILL).
                 tokio::spawn(async move {
-                    tokio::select! {
-                        _ = int.recv() => {}
-                        _ = term.recv() => {}
+                    let mut told = false;
+                    loop {
+                        tokio::select! {
+                            _ = int.recv() => {
+                                if !std::mem::replace(&mut told, true) {
+                                    tracing::info!(
+                                        "SIGINT again: already stopping, the exit slots go on (SIGTERM or \
+                                         SIGKILL ends the program at once)"
+                                    );
+                                }
+                            }
+                            _ = term.recv() => break,
+                        }
                     }
-                    eprintln!("radar_ros: second signal: exiting at once, exit slots not finished");
-                    std::process::exit(code);
+                    eprintln!("radar_ros: SIGTERM while stopping: exiting at once, exit slots not finished");
+                    std::process::exit(143);
                 });
                 let status = stop_process(name).await;
                 std::process::exit(status);
@@ -265,7 +281,7 @@ async fn stop_process(signal: &str) -> i32 {
         .unwrap_or(DEFAULT_SHUTDOWN_TIMEOUT);
     tracing::info!(
         signal,
-        "told to stop: stopping every component (exit slots run) within {timeout:?}; again to exit at once"
+        "told to stop: stopping every component (exit slots run) within {timeout:?}; SIGTERM to exit at once"
     );
     let late = stop(&all, timeout).await;
     for p in &all {

@@ -6,7 +6,8 @@ use std::sync::{Arc, Mutex};
 use radar_semantics::connection::{Kind, Until};
 
 use super::{
-    anon::AnonQueue, faults::Faults, ConnectionGuard, Manager, Record, Spec, State, Target, TargetSpec, UntilSpec,
+    anon::AnonQueue, faults::Faults, ConnectionGuard, Manager, Record, Spec, State, Target,
+    TargetSpec, UntilSpec,
 };
 use crate::{
     error::{Error, Result},

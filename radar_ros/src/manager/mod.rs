@@ -30,8 +30,8 @@
 //! connections, `guard.rs` is the user's handle, `anon.rs` the queue behind an anonymous slot.
 
 mod anon;
-mod faults;
 mod arm;
+mod faults;
 mod guard;
 mod list;
 mod relay;
@@ -186,7 +186,10 @@ impl Manager {
     /// Resolves at the next change of the table.
     /// Panics caught in connection `id`'s own code (0 once it is gone).
     pub(crate) fn panics(&self, id: ConnId) -> u64 {
-        self.state().records.get(&id).map_or(0, |r| r.faults.count())
+        self.state()
+            .records
+            .get(&id)
+            .map_or(0, |r| r.faults.count())
     }
 
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {

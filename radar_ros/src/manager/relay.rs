@@ -150,12 +150,9 @@ impl Manager {
         let departure = {
             let (me, key) = (me.clone(), key.clone());
             move || {
-                let writer = me.upgrade().and_then(|m| {
-                    m.state()
-                        .outlets
-                        .get(&key)
-                        .and_then(|o| o.dds.clone())
-                });
+                let writer = me
+                    .upgrade()
+                    .and_then(|m| m.state().outlets.get(&key).and_then(|o| o.dds.clone()));
                 match writer {
                     Some(p) => p.departure(),
                     None => Departure::of_subscriber(&key.topic, crate::departure::LossCause::Left),

@@ -147,9 +147,13 @@ impl UntilWindow {
 
     /// T2: the receiver's clock stepped back to `now`: remembered stamps later than it are brought back.
     pub(super) fn step_back(&mut self, now: i64) {
-        for t in [&mut self.kept, &mut self.sent_while_running, &mut self.open_since]
-            .into_iter()
-            .flatten()
+        for t in [
+            &mut self.kept,
+            &mut self.sent_while_running,
+            &mut self.open_since,
+        ]
+        .into_iter()
+        .flatten()
         {
             *t = (*t).min(now);
         }

@@ -1095,7 +1095,11 @@ mod tests {
         let now = 10 * HOUR;
         let mut m = M::new(StartPolicy::Ignore);
         m.handle_at(Input::Start(1, Sent::at(now + HOUR)), now);
-        assert_eq!(m.began(), Some(now), "the run begins when the start arrived");
+        assert_eq!(
+            m.began(),
+            Some(now),
+            "the run begins when the start arrived"
+        );
         // this host's own interrupt, a second later, interrupts it
         assert_eq!(
             m.handle_at(Input::Interrupt(Sent::at(now + 1_000)), now + 1_000),
@@ -1156,7 +1160,10 @@ mod tests {
         // a run that ended before a step does not make the next run begin in the future
         let mut m = M::new(StartPolicy::Ignore);
         m.handle_at(Input::Start(1, Sent::at(now)), now);
-        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), now + 10);
+        m.handle_at(
+            Input::StartEnded(StartEnd::Returned(String::new())),
+            now + 10,
+        );
         m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), now + 20);
         let stepped = now + 30 - step;
         m.handle_at(Input::Start(2, Sent::at(stepped)), stepped);
@@ -1170,7 +1177,10 @@ mod tests {
         m.handle_at(Input::Start(1, Sent::at(now)), now);
         m.handle_at(Input::Start(2, Sent::at(now + 10)), now + 10);
         let stepped = now + 20 - step;
-        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), stepped);
+        m.handle_at(
+            Input::StartEnded(StartEnd::Returned(String::new())),
+            stepped,
+        );
         m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), stepped + 1);
         assert_eq!(m.began(), Some(stepped + 1));
         assert_eq!(
