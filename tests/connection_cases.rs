@@ -842,3 +842,62 @@ async fn a_panicking_filter_map_or_call_is_caught_reported_and_the_program_goes_
     .await;
     drop((filtered, mapped, called, once));
 }
+
+/// Issue 32, rule R14: `once E start R until U` while R is busy with another run. R's start waits (QueueOne),
+/// or waits for the run before to go through its interrupt and exit slots (Restart); U comes while it waits.
+/// The run that start then begins is the statement's, and U, sent after its start, bounds it: it is
+/// interrupted at once. (Before: U reached R while the other run went on, was dropped as not for that run,
+/// and the queued run ran unbounded.) Five rounds per policy, no settling sleep between E and U.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn until_bounds_the_run_of_a_start_that_waited_for_another_run() {
+    use radar_ros::StartPolicy;
+    let r = radar(112);
+    let empty = "std_msgs/msg/Empty";
+    for (policy, tag) in [(StartPolicy::QueueOne, "q"), (StartPolicy::Restart, "x")] {
+        for round in 0..5 {
+            let name = format!("/qb/{tag}{round}");
+            let resp = r
+                .spawn_response(
+                    &name,
+                    FnResponse::new(|_: Empty| async {
+                        tokio::time::sleep(Duration::from_millis(600)).await;
+                        Ok(Empty::default())
+                    })
+                    .start_policy(policy)
+                    // Restart: the run before spends 300 ms in its exit slot after the start interrupted it
+                    .on_exit(|_| async {
+                        tokio::time::sleep(Duration::from_millis(300)).await;
+                        ExitAction::Done
+                    }),
+                )
+                .unwrap();
+            let e = r.signal_publisher::<Empty>(&format!("{name}/e")).unwrap();
+            let u = r.signal_publisher::<Empty>(&format!("{name}/u")).unwrap();
+            r.inject(resp.reference().start_slot(), Empty::default())
+                .timeout(T)
+                .await
+                .unwrap();
+            eventually(T, "run 1", || resp.state().starts == 1).await;
+            let _c = r
+                .once(Signal::new(format!("{name}/e"), empty))
+                .start(&resp)
+                .until(Signal::new(format!("{name}/u"), empty))
+                .await
+                .unwrap();
+            e.publish(Empty::default()).unwrap();
+            u.publish(Empty::default()).unwrap();
+            eventually(T, "the statement's run to end", || resp.state().exits == 2).await;
+            let s = resp.state();
+            let interrupted_by_start = u64::from(policy == StartPolicy::Restart);
+            assert_eq!(
+                (s.starts, s.interrupts, s.completed),
+                (2, 1 + interrupted_by_start, 1 - interrupted_by_start),
+                "{policy:?} round {round}: U bounds the run its statement's start began after waiting: {s:?}"
+            );
+            assert_eq!(
+                s.last_exit_reason, "interrupted",
+                "{policy:?} round {round}: {s:?}"
+            );
+        }
+    }
+}

@@ -91,7 +91,7 @@
 //! ## Response semantics
 //!
 //! Decided in one place, the [`radar_semantics`] crate's `ResponseMachine`, and tested line by line (the
-//! numbers are the crate's, R1-R13):
+//! numbers are the crate's, R1-R14):
 //!
 //! - **R1.** Idle + `start` → emit `started` (carrying the payload), then run the start behaviour with the
 //!   payload. The start behaviour always runs up to its first await point before the response takes the next
@@ -122,6 +122,11 @@
 //!   it that arrives afterwards runs, and is then interrupted, as if the two had arrived in order.
 //! - **R13.** A run started by a statement carries its cause on `started`, `interrupted` and `exited`, and an
 //!   `until`'s interrupt only interrupts runs of its own statement.
+//! - **R14.** An `until`'s interrupt bounds its statement's run whose start was sent before it, also when that
+//!   run had to wait for another (a `QueueOne` response busy, a `Restart` still in the run before's exit slot):
+//!   the run begins and is interrupted at once.
+//! - **T1, T2.** Stamps from other hosts' clocks are taken within 2 s before this host's clock, never after it,
+//!   and this host's clock stepping back moves what a response remembers with it (`radar_semantics::time`).
 //!
 //! Slots are plain async Rust on tokio: sleeping in them never blocks a thread.
 //!

@@ -7,7 +7,7 @@
 //! dependencies, no async runtime and no DDS, so every rule is tested here on its own, line by line. The ROS 2
 //! binding (the `radar_ros` crate) runs slots, moves messages and carries out what these machines decide.
 //!
-//! - [`response`]: the response state machine ([`response::ResponseMachine`], rules R1-R13).
+//! - [`response`]: the response state machine ([`response::ResponseMachine`], rules R1-R14).
 //! - [`event`]: the event activation rule ([`event::Activation`], rule E1).
 //! - [`served`]: a response served as a ROS 2 action server ([`served::ServedAction`], rules S1-S7).
 //! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,

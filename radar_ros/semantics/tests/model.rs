@@ -31,9 +31,12 @@ struct KeptSignal {
     at: i64,
     /// The `until` statement an interrupt names (R13).
     by: Option<u128>,
+    /// Counted as ignored until a run takes it (R12); an until's interrupt that interrupted the run before, or
+    /// waited with a queued start (R14), is not.
+    counted: bool,
 }
 
-/// The response rules R1-R13, as the crate documentation states them.
+/// The response rules R1-R14, as the crate documentation states them.
 #[derive(Debug)]
 struct ResponseModel {
     policy: StartPolicy,
@@ -49,11 +52,15 @@ struct ResponseModel {
     began: i64,
     ended: i64,
     now: i64,
+    /// R14: when the start of this run was sent.
+    start_at: i64,
     /// R13: the statement whose start began this run.
     cause: Option<u128>,
     /// R12: what an idle response keeps, and what the run just begun takes at its first await.
     kept: Vec<KeptSignal>,
     held: Option<KeptSignal>,
+    /// R14: an until's interrupt kept for the queued start's run.
+    bound: Option<KeptSignal>,
     starts: u64,
     exits: u64,
     interrupts: u64,
@@ -78,9 +85,11 @@ impl ResponseModel {
             began: i64::MIN,
             ended: i64::MIN,
             now: i64::MIN,
+            start_at: i64::MIN,
             cause: None,
             kept: Vec::new(),
             held: None,
+            bound: None,
             starts: 0,
             exits: 0,
             interrupts: 0,
@@ -101,6 +110,7 @@ impl ResponseModel {
         self.payload = Some(p);
         self.cause = s.by.map(|c| c.statement);
         self.began = s.at.max(self.ended);
+        self.start_at = s.at;
         self.held = None;
         self.announced = !self.on_accept;
         if self.announced {
@@ -118,7 +128,12 @@ impl ResponseModel {
 
     /// R11 and R13: whether a signal sent at `at` (an interrupt naming `by`) is for the current run.
     fn for_this_run(&self, at: i64, by: Option<u128>) -> bool {
-        at >= self.began && by.is_none_or(|k| self.cause == Some(k))
+        match by {
+            // R13, R14: an until's, for a run of its statement whose start was sent before it
+            Some(k) => self.cause == Some(k) && at >= self.start_at,
+            // R11
+            None => at >= self.began,
+        }
     }
 
     fn input(&mut self, i: &Input<u8, ()>, now: i64) -> Vec<Wire> {
@@ -148,10 +163,12 @@ impl ResponseModel {
                     // R12: the earliest kept signal sent after this start (within HOLD) and meant for its run
                     let (began, cause) = (self.began, self.cause);
                     if let Some(i) = self.kept.iter().position(|k| {
-                        k.at > s.at
-                            && k.at >= began
-                            && k.at - s.at <= HOLD
-                            && (k.exit || k.by.is_none_or(|b| cause == Some(b)))
+                        let for_run = match (k.exit, k.by) {
+                            // R14: an until's, sent after its statement's start, whenever the run began
+                            (false, Some(b)) => cause == Some(b),
+                            _ => k.at >= began,
+                        };
+                        k.at > s.at && k.at - s.at <= HOLD && for_run
                     }) {
                         self.held = Some(self.kept.remove(i));
                     }
@@ -164,6 +181,20 @@ impl ResponseModel {
                             if self.queued.replace((*p, *s)).is_some() {
                                 self.ignored_starts += 1;
                             }
+                            // R14: a newer start that replaces the queued one drops what was kept for it; an
+                            // until's interrupt of its statement, sent after it and kept while it was on its
+                            // way, goes with it
+                            let st = s.by.map(|c| c.statement);
+                            self.bound = st
+                                .and_then(|st| {
+                                    self.kept.iter().position(|k| {
+                                        !k.exit
+                                            && k.by == Some(st)
+                                            && k.at > s.at
+                                            && k.at - s.at <= HOLD
+                                    })
+                                })
+                                .map(|i| self.kept.remove(i));
                             if self.policy == StartPolicy::Restart && self.phase == Phase::Running {
                                 self.interrupt(&mut wire);
                             }
@@ -186,15 +217,34 @@ impl ResponseModel {
                         self.held = None;
                     } else {
                         self.interrupt(&mut wire);
+                        self.bound_next(s.at, by);
                     }
+                } else if !exit
+                    && by.is_some()
+                    && self
+                        .queued
+                        .is_some_and(|(_, q)| q.by.map(|c| c.statement) == by && s.at >= q.at)
+                {
+                    // R14: an until's interrupt for the queued start's statement, sent after that start
+                    self.bound = Some(KeptSignal {
+                        exit: false,
+                        at: s.at,
+                        by,
+                        counted: false,
+                    });
                 } else {
-                    // R5, R11, R13 (and R12: an idle response keeps it)
-                    if self.phase == Phase::Idle && !self.stopping {
+                    // R5, R11, R13 (and R12: an idle response keeps it; R14: any response keeps an until's)
+                    if (self.phase == Phase::Idle || (!exit && by.is_some())) && !self.stopping {
                         self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
                         if self.kept.len() == 8 {
                             self.kept.remove(0);
                         }
-                        self.kept.push(KeptSignal { exit, at: s.at, by });
+                        self.kept.push(KeptSignal {
+                            exit,
+                            at: s.at,
+                            by,
+                            counted: true,
+                        });
                     }
                     if exit {
                         self.ignored_exits += 1;
@@ -230,6 +280,10 @@ impl ResponseModel {
                 if self.stopping {
                 } else if let Some((p, s)) = self.queued.take() {
                     self.begin(p, s, &mut wire);
+                    // R14: the run takes the kept interrupt at its first await (as a kept signal of R12)
+                    if let Some(k) = self.bound.take() {
+                        self.held = Some(k);
+                    }
                 } else if let (Ok(ExitAction::Restart), Some(p)) = (r, finished) {
                     self.restarts += 1;
                     self.begin(p, Sent::at(self.now), &mut wire);
@@ -237,6 +291,32 @@ impl ResponseModel {
             }
         }
         wire
+    }
+
+    /// R14: an until's interrupt that interrupted a run also bounds its statement's next run whose start was
+    /// sent before it (queued, or on its way: kept as in R12, not counted as ignored).
+    fn bound_next(&mut self, at: i64, by: Option<u128>) {
+        if by.is_none() {
+            return;
+        }
+        let k = KeptSignal {
+            exit: false,
+            at,
+            by,
+            counted: false,
+        };
+        if self
+            .queued
+            .is_some_and(|(_, q)| q.by.map(|c| c.statement) == by && at >= q.at)
+        {
+            self.bound = Some(k);
+        } else {
+            self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
+            if self.kept.len() == 8 {
+                self.kept.remove(0);
+            }
+            self.kept.push(k);
+        }
     }
 
     /// R12: the run just begun reached its first await: a signal it took applies now.
@@ -247,8 +327,11 @@ impl ResponseModel {
                 self.exit_signals += 1;
                 self.phase = Phase::Exiting;
             } else {
-                self.ignored_interrupts -= 1;
+                if k.counted {
+                    self.ignored_interrupts -= 1;
+                }
                 self.interrupt(&mut wire);
+                self.bound_next(k.at, k.by);
             }
             if k.exit {
                 self.ignored_exits -= 1;
@@ -261,6 +344,7 @@ impl ResponseModel {
     fn stop(&mut self) -> Vec<Wire> {
         self.stopping = true;
         self.queued = None;
+        self.bound = None;
         self.kept.clear();
         self.held = None;
         if self.phase == Phase::Running {
@@ -864,20 +948,35 @@ proptest! {
         let mut chan: Vec<std::collections::VecDeque<Msg>> = vec![Default::default(); CHANNELS];
         let mut slot = Slot::None;
         let mut us: Vec<i64> = Vec::new();
+        // the oracle's own record, from what the harness sent and what R said on the wire (never R's state):
+        // when E emitted the signal behind each start delivery of the statement, and when R announced the
+        // statement's run that is going now
+        let mut e_at: std::collections::HashMap<u64, i64> = Default::default();
+        let mut announced: Option<(u64, i64)> = None;
         let mut now = 10i64;
         // R's effects: signals go to the manager, the slot bookkeeping of a runtime; returns whether R said
         // `interrupted`, and with which cause
         let run_effects = |fx: Vec<Effect<u8, ()>>, r: &mut ResponseMachine<u8, ()>, now: i64,
-                               chan: &mut Vec<std::collections::VecDeque<Msg>>, slot: &mut Slot| {
+                               chan: &mut Vec<std::collections::VecDeque<Msg>>, slot: &mut Slot,
+                               announced: &mut Option<(u64, i64)>| {
             let mut interrupted = Vec::new();
             let mut queue = fx;
             while !queue.is_empty() {
                 let mut more = Vec::new();
                 for e in queue {
                     match e {
-                        Effect::EmitStarted(_, c) => chan[STARTED_M].push_back(Msg::Signal { at: now, from: c }),
-                        Effect::EmitExited((), c) => chan[EXITED_M].push_back(Msg::Signal { at: now, from: c }),
-                        Effect::EmitInterrupted(c) => interrupted.push(c),
+                        Effect::EmitStarted(_, c) => {
+                            *announced = c.filter(|c| c.statement == k).map(|c| (c.delivery, now));
+                            chan[STARTED_M].push_back(Msg::Signal { at: now, from: c })
+                        }
+                        Effect::EmitExited((), c) => {
+                            *announced = None;
+                            chan[EXITED_M].push_back(Msg::Signal { at: now, from: c })
+                        }
+                        Effect::EmitInterrupted(c) => {
+                            *announced = None;
+                            interrupted.push(c)
+                        }
                         Effect::RunStart(_) => {
                             *slot = Slot::Start;
                             // the run reaches its first await: R12
@@ -909,7 +1008,7 @@ proptest! {
                         Slot::Exit => Input::ExitEnded(Ok(if *how == 1 { ExitAction::Restart } else { ExitAction::Done })),
                     };
                     let fx = r.handle_at(input, now);
-                    run_effects(fx, &mut r, now, &mut chan, &mut slot);
+                    run_effects(fx, &mut r, now, &mut chan, &mut slot, &mut announced);
                 }
                 Net::Deliver(c) => {
                     let Some(m) = chan[*c].pop_front() else { continue };
@@ -919,7 +1018,11 @@ proptest! {
                             for d in t.on_signal_with(&source, at, from, |_| true) {
                                 match d.via {
                                     // the relay keeps the source's time and adds the cause (C6)
-                                    Via::Signal { n } => chan[M_START].push_back(Msg::Slot(Sent::by(at, t.cause(id, n)))),
+                                    Via::Signal { n } => {
+                                        let cause = t.cause(id, n);
+                                        e_at.insert(cause.delivery, at);
+                                        chan[M_START].push_back(Msg::Slot(Sent::by(at, cause)))
+                                    }
                                     // the interrupt carries the time of U's signal, and names the statement
                                     Via::Until { at: u } => chan[M_INTERRUPT].push_back(Msg::Slot(Sent::by(
                                         u,
@@ -930,14 +1033,17 @@ proptest! {
                         }
                         (M_START | P_START, Msg::Slot(sent)) => {
                             let fx = r.handle_at(Input::Start(0, sent), now);
-                            run_effects(fx, &mut r, now, &mut chan, &mut slot);
+                            run_effects(fx, &mut r, now, &mut chan, &mut slot, &mut announced);
                         }
                         (M_INTERRUPT, Msg::Slot(sent)) => {
                             let fx = r.handle_at(Input::Interrupt(sent), now);
-                            for c in run_effects(fx, &mut r, now, &mut chan, &mut slot) {
-                                // safety: only a run of this statement, and only by a signal of U sent after it began
-                                prop_assert_eq!(c.map(|c| c.statement), Some(k), "interrupted a run that is not the statement's");
-                                prop_assert!(sent.at >= r.began().unwrap_or(i64::MIN), "interrupted by a U sent before the run began");
+                            for c in run_effects(fx, &mut r, now, &mut chan, &mut slot, &mut announced) {
+                                // safety: only a run of this statement, and only by a signal of U sent after the E
+                                // whose start began that run (R13, R14)
+                                let c = c.filter(|c| c.statement == k);
+                                prop_assert!(c.is_some(), "interrupted a run that is not the statement's");
+                                let e = e_at[&c.unwrap().delivery];
+                                prop_assert!(sent.at >= e, "interrupted by a U sent at {} before its run's E at {}", sent.at, e);
                             }
                         }
                         _ => unreachable!(),
@@ -947,12 +1053,14 @@ proptest! {
             let _ = draining;
         }
         prop_assert!(chan.iter().all(|c| c.is_empty()), "everything in flight was read");
-        // liveness: a run of the statement still going, with a U emitted after it began, was not interrupted
-        if r.phase() == Phase::Running && r.cause().map(|c| c.statement) == Some(k) {
-            let began = r.began().unwrap();
+        // liveness: a run of the statement whose start behaviour still runs (announced on the wire, neither
+        // interrupted nor exited, its start slot not finished), with a U emitted after the E whose start began
+        // it (R13, R14: also while that start waited for another run, or was on its way), was not interrupted
+        if let (Some((n, _)), Slot::Start) = (announced, slot) {
+            let e = e_at[&n];
             prop_assert!(
-                !us.iter().any(|&u| u >= began),
-                "a run of the statement began at {} and U was emitted at {:?}, but it runs on", began, us
+                !us.iter().any(|&u| u >= e),
+                "a run of the statement whose E was emitted at {} runs on, though U was emitted at {:?}", e, us
             );
         }
     }

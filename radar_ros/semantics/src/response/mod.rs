@@ -5,7 +5,7 @@
 //! out, in order. The runtime (`radar_ros`'s response node) runs slots, publishes signals, and feeds completions
 //! back; this file alone decides *what happens when*.
 //!
-//! The rules, R1-R13 (the crate documentation, the README and the tests use these numbers):
+//! The rules, R1-R14 (the crate documentation, the README and the tests use these numbers):
 //!
 //! - **R1.** `Idle` + `start(p)` → emit `started(p)`, run the start behaviour with `p` → `Running`. The start
 //!   behaviour runs up to its first await point before the response takes its next signal, so `started`
@@ -48,9 +48,16 @@
 //!   used this way is no longer counted as ignored.
 //! - **R13.** A run started by a statement carries that statement's [`Cause`], and so do its `started`,
 //!   `interrupted` and `exited`. An `interrupt` sent by an `until` names its statement ([`Sent::by`]): it
-//!   interrupts only a run begun by a start of that statement (and, by R11, only if it was emitted after that
-//!   run began); any other run, or none, ignores it. Untargeted interrupts (injected, `whenever X interrupt R`)
+//!   interrupts only a run begun by a start of that statement (and only if it was emitted after that start
+//!   was sent: R14); any other run, or none, ignores it. Untargeted interrupts (injected, `whenever X interrupt R`)
 //!   interrupt whatever runs.
+//! - **R14.** An `until`'s interrupt bounds a run of its statement whose start was sent before it, also when that
+//!   run begins after it: R11 does not apply to it (R13 does). One that names the statement of a *queued* start
+//!   (R6: `QueueOne`, or `Restart` while the run before is still in its interrupt or exit slot) is kept with it,
+//!   and one that reaches a busy response while its statement's start is still on its way is kept as in R12:
+//!   the run begins (R1, `started`) and takes the interrupt at its first await. A newer start that replaces the
+//!   queued one drops it. So an `until` bounds its statement's run even when that run had to wait for
+//!   another.
 //!
 //! Stamps come from the senders' clocks, and a machine takes them as rule T1 says ([`crate::time`]): never
 //! later than its own clock, at most [`LATE`](crate::time::LATE) before it; when its own clock steps back, the
@@ -76,17 +83,28 @@ pub const HOLD: i64 = 1_000_000_000;
 /// How many kept signals an idle response remembers (R12).
 const KEPT: usize = 8;
 
-/// A slot signal kept by an idle response (R12).
+/// A slot signal kept for a run that has not begun (R12, R14).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kept {
+    /// An interrupt, counted as ignored until a run takes it.
     Interrupt(Sent),
+    /// An exit signal, counted as ignored until a run takes it.
     Exit(Sent),
+    /// An `until`'s interrupt that already counted otherwise (it interrupted the run before, or waits with a
+    /// queued start: R14).
+    Bound(Sent),
 }
 
 impl Kept {
     fn sent(&self) -> Sent {
         match self {
-            Kept::Interrupt(s) | Kept::Exit(s) => *s,
+            Kept::Interrupt(s) | Kept::Exit(s) | Kept::Bound(s) => *s,
+        }
+    }
+
+    fn sent_mut(&mut self) -> &mut Sent {
+        match self {
+            Kept::Interrupt(s) | Kept::Exit(s) | Kept::Bound(s) => s,
         }
     }
 }
@@ -114,6 +132,8 @@ pub struct ResponseMachine<P, O> {
     current: Option<P>,
     /// A start to run after the current run's `exited`.
     pending: Option<(P, Sent)>,
+    /// An `until`'s interrupt for the queued start's run, sent after that start (R14).
+    bound: Option<Kept>,
     /// Output of the current run, set when the start behaviour returned.
     output: Option<O>,
     last_exit: Option<ExitReason>,
@@ -127,6 +147,8 @@ pub struct ResponseMachine<P, O> {
     cause: Option<Cause>,
     /// When the current run began (R11).
     began: i64,
+    /// When the start that began the current run was sent (R13, R14).
+    start_at: i64,
     /// When the last run ended (its `exited`).
     ended: i64,
     /// The receiver's clock: the one given to [`ResponseMachine::handle_at`] (or, through
@@ -146,6 +168,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             policy,
             current: None,
             pending: None,
+            bound: None,
             output: None,
             last_exit: None,
             counters: Counters::default(),
@@ -154,6 +177,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             announced: false,
             cause: None,
             began: i64::MIN,
+            start_at: i64::MIN,
             ended: i64::MIN,
             clock: Clock::default(),
             kept: VecDeque::new(),
@@ -223,6 +247,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     pub fn stop(&mut self) -> Vec<Effect<P, O>> {
         self.stopping = true;
         self.pending = None;
+        self.bound = None;
         self.held = None;
         self.kept.clear();
         let mut fx = Vec::new();
@@ -295,14 +320,17 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             }
             (_, Input::Start(p, s)) => self.start_while_busy(p, s, &mut fx),
             (Phase::Running, Input::Interrupt(s)) => match self.applies(&s, true) {
-                Ok(()) => self.interrupt(&mut fx),
-                Err(why) => self.ignore("interrupt", why, &mut fx),
+                Ok(()) => {
+                    self.interrupt(&mut fx);
+                    self.bound_next(s);
+                }
+                Err(why) => self.not_for_this_run(s, why, &mut fx),
             },
             (Phase::Idle, Input::Interrupt(s)) => {
                 self.keep(Kept::Interrupt(s));
                 self.ignore("interrupt", IgnoreReason::Phase, &mut fx)
             }
-            (_, Input::Interrupt(_)) => self.ignore("interrupt", IgnoreReason::Phase, &mut fx),
+            (_, Input::Interrupt(s)) => self.not_for_this_run(s, IgnoreReason::Phase, &mut fx),
             (Phase::Running, Input::Exit(s)) => match self.applies(&s, false) {
                 Ok(()) => {
                     self.counters.exit_signals += 1;
@@ -349,18 +377,29 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// [`Effect::RunStart`] has run to its first await point.
     #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn resume(&mut self) -> Vec<Effect<P, O>> {
+        // a held signal was judged for this run when it was taken (R12: sent after the start, for its
+        // statement; R14: an until's interrupt for a queued run): it applies now
+        let mut fx = Vec::new();
         match self.held.take() {
             Some(Kept::Interrupt(s)) if self.phase == Phase::Running => {
                 self.counters.ignored_interrupts =
                     self.counters.ignored_interrupts.saturating_sub(1);
-                self.handle(Input::Interrupt(s))
+                self.interrupt(&mut fx);
+                self.bound_next(s);
             }
-            Some(Kept::Exit(s)) if self.phase == Phase::Running => {
+            Some(Kept::Bound(s)) if self.phase == Phase::Running => {
+                self.interrupt(&mut fx);
+                self.bound_next(s);
+            }
+            Some(Kept::Exit(_)) if self.phase == Phase::Running => {
                 self.counters.ignored_exits = self.counters.ignored_exits.saturating_sub(1);
-                self.handle(Input::Exit(s))
+                self.counters.exit_signals += 1;
+                fx.push(Effect::CancelStart);
+                self.run_exit(ExitReason::ExitSignal, &mut fx);
             }
-            _ => Vec::new(),
+            _ => {}
         }
+        fx
     }
 
     /// Whether a kept signal waits for [`ResponseMachine::resume`].
@@ -371,13 +410,19 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// R11 and R13: whether an `interrupt` (`targeted`: it may name a statement) or `exit` sent as `s` is for
     /// the current run.
     fn applies(&self, s: &Sent, targeted: bool) -> Result<(), IgnoreReason> {
-        if s.at < self.began {
-            return Err(IgnoreReason::Before);
-        }
         match (targeted, s.by) {
-            (true, Some(by)) if self.cause.map(|c| c.statement) != Some(by.statement) => {
-                Err(IgnoreReason::OtherRun)
+            // R13, R14: an until's interrupt is for a run of its statement whose start was sent before it
+            (true, Some(by)) => {
+                if self.cause.map(|c| c.statement) != Some(by.statement) {
+                    Err(IgnoreReason::OtherRun)
+                } else if s.at < self.start_at {
+                    Err(IgnoreReason::Before)
+                } else {
+                    Ok(())
+                }
             }
+            // R11
+            _ if s.at < self.began => Err(IgnoreReason::Before),
             _ => Ok(()),
         }
     }
@@ -447,6 +492,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             // shutting down: the run is over and nothing starts again
         } else if let Some((p, s)) = self.pending.take() {
             self.begin(p, s, fx);
+            // R14: the until's interrupt that came while this start waited ends this run at its first await
+            self.held = self.bound.take();
         } else if let (ExitAction::Restart, Some(p)) = (action, finished) {
             self.counters.restarts += 1;
             self.begin(p, Sent::at(self.clock.now()), fx);
@@ -458,9 +505,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         self.began = self.began.min(now);
         self.ended = self.ended.min(now);
         for k in self.kept.iter_mut().chain(self.held.as_mut()) {
-            match k {
-                Kept::Interrupt(s) | Kept::Exit(s) => s.at = s.at.min(now),
-            }
+            let s = k.sent_mut();
+            s.at = s.at.min(now);
         }
         if let Some((_, s)) = &mut self.pending {
             s.at = s.at.min(now);
@@ -484,12 +530,14 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         let pos = self.kept.iter().position(|k| {
             let k_at = k.sent().at;
             let for_run = match k {
-                Kept::Interrupt(Sent { by: Some(by), .. }) => {
+                // R14: an until's interrupt sent after its statement's start, whenever the run began
+                Kept::Interrupt(Sent { by: Some(by), .. })
+                | Kept::Bound(Sent { by: Some(by), .. }) => {
                     cause.map(|c| c.statement) == Some(by.statement)
                 }
-                _ => true,
+                _ => k_at >= began,
             };
-            k_at > s.at && k_at >= began && k_at - s.at <= HOLD && for_run
+            k_at > s.at && k_at - s.at <= HOLD && for_run
         });
         self.held = pos.and_then(|i| self.kept.remove(i));
         self.kept.retain(|k| k.sent().at > s.at);
@@ -501,6 +549,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         self.output = None;
         self.current = Some(p.clone());
         self.cause = s.by;
+        self.start_at = s.at;
         self.began = s.at.max(self.ended);
         self.held = None;
         self.announced = self.announce == Announce::OnStart;
@@ -530,6 +579,54 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         if self.pending.replace((p, s)).is_some() {
             self.counters.ignored_starts += 1;
         }
+        // R14: an until's interrupt of this start's statement, sent after it and kept while the start was on
+        // its way, goes with it (a start that replaces another drops what was kept for that one)
+        self.bound = s.by.and_then(|by| {
+            let i = self.kept.iter().position(|k| {
+                let k_s = k.sent();
+                matches!(k, Kept::Interrupt(_) | Kept::Bound(_))
+                    && k_s.by.map(|c| c.statement) == Some(by.statement)
+                    && k_s.at > s.at
+                    && k_s.at - s.at <= HOLD
+            })?;
+            self.kept.remove(i)
+        });
+    }
+
+    /// An interrupt `s` that is not for the current run (or reached a response in its interrupt or exit slot):
+    /// an `until`'s is kept for a run of its statement that has not begun yet (R14), any other is ignored.
+    fn not_for_this_run(&mut self, s: Sent, why: IgnoreReason, fx: &mut Vec<Effect<P, O>>) {
+        if self.bind_queued(s) {
+            return;
+        }
+        if s.by.is_some() && !self.stopping {
+            // its statement's start may still be on its way (R14, as R12 for an idle response)
+            self.keep(Kept::Interrupt(s));
+        }
+        self.ignore("interrupt", why, fx)
+    }
+
+    /// R14: an `until`'s interrupt `s` that has interrupted a run also bounds its statement's next run, if that
+    /// run's start was sent before it (queued, or still on its way).
+    fn bound_next(&mut self, s: Sent) {
+        if s.by.is_some() && !self.bind_queued(s) {
+            self.keep(Kept::Bound(s));
+        }
+    }
+
+    /// R14: an `until`'s interrupt `s` that is not for the current run, but for the queued start's (sent by the
+    /// same statement, before `s`): kept for that run. Whether it was.
+    fn bind_queued(&mut self, s: Sent) -> bool {
+        let for_queued = match (s.by, &self.pending) {
+            (Some(by), Some((_, start))) => {
+                start.by.map(|c| c.statement) == Some(by.statement) && s.at >= start.at
+            }
+            _ => false,
+        };
+        if for_queued {
+            self.bound = Some(Kept::Bound(s));
+        }
+        for_queued
     }
 
     fn ignore(&mut self, signal: &'static str, why: IgnoreReason, fx: &mut Vec<Effect<P, O>>) {
@@ -1086,6 +1183,84 @@ mod tests {
         m.handle_at(Input::Interrupt(Sent::at(200)), 310); // read late, while idle
         m.handle_at(Input::Start(1, Sent::at(150)), 320); // begins at 300 (the end of the run before)
         assert!(m.resume().is_empty());
+    }
+
+    #[test]
+    fn r14_an_until_interrupt_for_a_queued_start_bounds_its_run() {
+        let other = Cause {
+            statement: 9,
+            delivery: 1,
+        };
+        for policy in [StartPolicy::QueueOne, StartPolicy::Restart] {
+            // R runs another statement's run; K's start is queued (Restart: the run before is interrupted and
+            // still in its interrupt slot)
+            let mut m = started_by(policy, Sent::by(10, other));
+            m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
+            assert!(m.start_queued(), "{policy:?}");
+            // K's until comes while that start waits: kept for its run, not ignored
+            let fx = m.handle_at(Input::Interrupt(Sent::by(30, K)), 30);
+            assert!(
+                !fx.iter().any(|e| matches!(e, Ignored { .. })),
+                "{policy:?}: {fx:?}"
+            );
+            // the run before ends; K's run begins, announced, and takes the interrupt at its first await
+            if policy == StartPolicy::QueueOne {
+                m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+            } else {
+                m.handle_at(Input::InterruptEnded(None), 40);
+            }
+            let fx = m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+            assert_eq!(
+                fx,
+                vec![
+                    EmitExited(String::new(), Some(other)),
+                    EmitStarted(8, Some(K)),
+                    RunStart(8)
+                ],
+                "{policy:?}"
+            );
+            assert!(m.resume_due(), "{policy:?}");
+            assert_eq!(
+                m.resume(),
+                vec![CancelStart, EmitInterrupted(Some(K)), RunInterrupt],
+                "{policy:?}"
+            );
+            assert_eq!(m.counters().ignored_interrupts, 0, "{policy:?}");
+        }
+    }
+
+    #[test]
+    fn r14_an_until_interrupt_sent_before_the_queued_start_or_by_another_statement_is_not_kept() {
+        let other = Cause {
+            statement: 9,
+            delivery: 1,
+        };
+        // sent before K's start: not for its run
+        let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
+        m.handle_at(Input::Start(8, Sent::by(30, K)), 30);
+        m.handle_at(Input::Interrupt(Sent::by(20, K)), 31);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+        assert!(!m.resume_due() && m.resume().is_empty());
+        // another statement's until: not for K's run
+        let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
+        m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
+        let third = Cause {
+            statement: 5,
+            delivery: 1,
+        };
+        m.handle_at(Input::Interrupt(Sent::by(30, third)), 30);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+        assert!(!m.resume_due());
+        // a newer start that replaces the queued one drops it
+        let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
+        m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
+        m.handle_at(Input::Interrupt(Sent::by(30, K)), 30);
+        m.handle_at(Input::Start(9, Sent::at(35)), 35);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+        assert!(!m.resume_due());
     }
 
     const HOUR: i64 = 3_600_000_000_000;
