@@ -15,7 +15,9 @@
 //! `count_up/start` and then lets go of `start_event` (which deactivates); `end_event` reaches
 //! `count_up/interrupt` only while the run that the statement started is in progress. The restart asked for by
 //! CountUp's exit slot is CountUp's own doing, not the statement's, so it runs outside that window: after the
-//! interrupt at 4 s, CountUp restarts and counts to 10 undisturbed, though `end_event` triggers again at 8 s.
+//! interrupt at 4 s, CountUp restarts and counts to 10 undisturbed. The statement is then spent (its start has
+//! fired and the run it began has ended), so it lets go of `end_event` too, which deactivates at 4 s. The
+//! timeline prints each signal at the time it was emitted, in that order.
 //!
 //! Run: `cargo run --example count_up` (`-- --duration 12` to change how long it runs). Ctrl-C (or SIGTERM)
 //! stops it at any time as it stops every radar_ros program: CountUp's exit slot runs (it prints

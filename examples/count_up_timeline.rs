@@ -95,4 +95,32 @@ fn count_up_follows_listing_1_within_100_ms_per_step() {
         "second run completes",
     );
     near(started[2], 9.0, "count_up restarts again");
+
+    // issue 32: the spent `once ... until` lets go of end_event once the run it bounded has ended: end_event
+    // goes inactive right after the interrupt, and never triggers again (before: at 8 s, 12 s, ...)
+    let end_inactive = times(&tl, "end_event inactive");
+    assert!(
+        end_inactive.iter().any(|t| *t >= 4.0 && *t <= 4.2),
+        "end_event deactivates once the statement's run has ended: {end_inactive:?}"
+    );
+    assert_eq!(
+        times(&tl, "end_event triggered").len(),
+        1,
+        "end_event triggers once, for the statement's run only"
+    );
+    // and the timeline reads in the order things happened (signals by their source times), not in the order
+    // they were read: the restart's `started` after the `exited` before it, end_event's trigger before the
+    // interrupt it caused
+    let printed: Vec<f64> = tl.iter().map(|(t, _)| *t).collect();
+    assert!(
+        printed.windows(2).all(|w| w[0] <= w[1]),
+        "lines in time order: {tl:#?}"
+    );
+    let position = |what: &str, from: f64| {
+        tl.iter()
+            .position(|(t, s)| s == what && *t >= from)
+            .unwrap_or_else(|| panic!("{what} after {from}: {tl:#?}"))
+    };
+    assert!(position("end_event triggered", 3.9) < position("count_up interrupted", 3.9));
+    assert!(position("count_up exited", 8.9) < position("count_up started", 8.9));
 }

@@ -1,20 +1,71 @@
 //! Helpers shared by the examples: a timeline printer, log setup, and the behaviours the examples share.
 
-use std::time::Instant;
+use std::{
+    sync::{Mutex, OnceLock},
+    time::{Duration, Instant},
+};
 
 pub mod fibonacci;
 pub mod listing1;
 
-/// Prints timestamped lines, `[  2.003 s] what`, relative to when it was created.
+/// Prints timestamped lines, `[  2.003 s] what`, relative to when it was created, in the order the things they
+/// tell happened, not the order this process heard of them.
+///
+/// Signals travel on different topics and are read in another order than they were sent (a restart's
+/// `started` can be read before the `exited` of the run before; an event's `triggered` state after the
+/// interrupt it caused). A line given the time its signal was emitted ([`Timeline::mark_at`], the signal's
+/// source timestamp) is held for [`SETTLE`] and printed in order of those times, so the timeline reads in
+/// cause order. Lines still held when the process exits (`main` returns, or Ctrl-C) are printed then.
 #[derive(Clone, Copy, Debug)]
 pub struct Timeline {
     t0: Instant,
+    /// The same moment on the wall clock (the clock of source timestamps), in ns since the epoch.
+    t0_ns: i64,
+}
+
+/// How long a line is held for lines of things that happened before it to arrive: well above a DDS hop.
+pub const SETTLE: Duration = Duration::from_millis(150);
+
+/// Lines not printed yet: (when it happened, in ns since the epoch; order given; the line).
+static HELD: Mutex<Vec<(i64, u64, String)>> = Mutex::new(Vec::new());
+
+fn wall_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as i64)
+}
+
+/// Prints the held lines of things that happened up to `until` (ns), in order.
+fn print_held(until: i64) {
+    let mut held = HELD.lock().unwrap_or_else(|p| p.into_inner());
+    held.sort();
+    let n = held.partition_point(|(at, _, _)| *at <= until);
+    for (_, _, line) in held.drain(..n) {
+        println!("{line}");
+    }
+}
+
+extern "C" fn print_all_held() {
+    print_held(i64::MAX);
 }
 
 impl Timeline {
     /// A timeline starting now.
     pub fn start() -> Timeline {
-        Timeline { t0: Instant::now() }
+        static PRINTER: OnceLock<()> = OnceLock::new();
+        PRINTER.get_or_init(|| {
+            std::thread::spawn(|| loop {
+                std::thread::sleep(Duration::from_millis(20));
+                print_held(wall_ns() - SETTLE.as_nanos() as i64);
+            });
+            // `exit` (a signal's handler, or the end of `main`) prints what is still held
+            // SAFETY: registers a plain function without arguments, as atexit requires
+            unsafe { libc::atexit(print_all_held) };
+        });
+        Timeline {
+            t0: Instant::now(),
+            t0_ns: wall_ns(),
+        }
     }
 
     /// Seconds since the start.
@@ -22,12 +73,28 @@ impl Timeline {
         self.t0.elapsed().as_secs_f64()
     }
 
-    /// Prints one line; `listing` is when the paper's listing says it should happen.
+    /// A line for something that happens now; `listing` is when the paper's listing says it should happen.
     pub fn mark(&self, what: &str, listing: Option<f64>) {
-        match listing {
-            Some(l) => println!("[{:7.3} s] {what:<34} (listing: {l:.1} s)", self.now()),
-            None => println!("[{:7.3} s] {what}", self.now()),
-        }
+        self.mark_at(what, listing, wall_ns());
+    }
+
+    /// A line for something that happened at `at_ns` (ns since the epoch: a signal's source timestamp).
+    pub fn mark_at(&self, what: &str, listing: Option<f64>, at_ns: i64) {
+        static ORDER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let secs = (at_ns - self.t0_ns) as f64 / 1e9;
+        let line = match listing {
+            Some(l) => format!("[{secs:7.3} s] {what:<34} (listing: {l:.1} s)"),
+            None => format!("[{secs:7.3} s] {what}"),
+        };
+        let order = ORDER.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        HELD.lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push((at_ns, order, line));
+    }
+
+    /// Prints every line held so far (before the program prints something of its own).
+    pub fn flush(&self) {
+        print_all_held();
     }
 }
 

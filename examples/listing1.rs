@@ -119,6 +119,8 @@ pub fn watch_event(
         let (mut active, mut triggers) = (None, 0);
         loop {
             let st = state.recv().await?;
+            // the state's stamp is when it was entered: when the event triggered, or (de)activated
+            let at = st.stamp.to_nanos();
             if st.triggers > triggers {
                 triggers = st.triggers;
                 let listing = match (name.as_str(), triggers) {
@@ -126,7 +128,7 @@ pub fn watch_event(
                     ("end_event", 1) => Some(4.0),
                     _ => None,
                 };
-                tl.mark(&format!("{name} triggered"), listing);
+                tl.mark_at(&format!("{name} triggered"), listing, at);
             }
             if active != Some(st.active) {
                 active = Some(st.active);
@@ -135,7 +137,7 @@ pub fn watch_event(
                 } else {
                     "inactive"
                 };
-                tl.mark(&format!("{name} {word}"), None);
+                tl.mark_at(&format!("{name} {word}"), None, at);
             }
         }
     })
@@ -154,14 +156,15 @@ pub fn watch_count_up(
         let mut n_started = 0;
         loop {
             tokio::select! {
-                r = started.recv() => {
-                    r?;
+                // each at the time the response emitted it (its source timestamp): printed in that order
+                r = started.recv_stamped() => {
+                    let (_, at) = r?;
                     n_started += 1;
                     let listing = match n_started { 1 => Some(2.0), 2 => Some(4.0), 3 => Some(9.0), _ => None };
-                    tl.mark("count_up started", listing);
+                    tl.mark_at("count_up started", listing, at);
                 }
-                r = interrupted.recv() => { r?; tl.mark("count_up interrupted", Some(4.0)); }
-                r = exited.recv() => { r?; tl.mark("count_up exited", None); }
+                r = interrupted.recv_stamped() => { let (_, at) = r?; tl.mark_at("count_up interrupted", Some(4.0), at); }
+                r = exited.recv_stamped() => { let (_, at) = r?; tl.mark_at("count_up exited", None, at); }
             }
         }
     })

@@ -369,8 +369,8 @@ impl<M: serde::Serialize> SignalWriter<M> {
         SignalWriter { dds, tap }
     }
 
-    /// Emits `m` now, carrying `cause` (`topic` names it in a warning).
-    pub(crate) fn emit(&self, topic: &str, m: M, cause: Option<Cause>) {
+    /// Emits `m` now, carrying `cause` (`topic` names it in a warning); the source timestamp it carries.
+    pub(crate) fn emit(&self, topic: &str, m: M, cause: Option<Cause>) -> i64 {
         let sent = Sent {
             at: crate::local::now_ns(),
             by: cause,
@@ -382,6 +382,7 @@ impl<M: serde::Serialize> SignalWriter<M> {
         {
             tracing::warn!(topic, error = %e.forget_data(), "could not publish");
         }
+        sent.at
     }
 }
 

@@ -527,8 +527,11 @@ async fn drive_event<E: Event>(
     let mut check: Option<Check<E::Payload>> = None;
     let mut throttle = Throttle::new(STATE_TRIGGER_THROTTLE);
     let name = st.name.clone();
-    let publish = |st: &mut EventState| {
-        st.stamp = Time::now();
+    // a state is stamped when it was entered: a trigger's, when `triggered` was emitted (so that a reader
+    // can put it in order with the signals it caused)
+    let mut entered: Option<i64> = None;
+    let publish = |st: &mut EventState, entered: &mut Option<i64>| {
+        st.stamp = entered.take().map_or_else(Time::now, Time::from_nanos);
         emit(&state_pub, "state", st.clone());
         state_tx.send_replace(st.clone());
     };
@@ -552,7 +555,7 @@ async fn drive_event<E: Event>(
             }
             st.active = activation.is_active();
             st.activations = activation.activations();
-            publish(&mut st);
+            publish(&mut st, &mut entered);
             throttle.published();
         }
         tokio::select! {
@@ -569,11 +572,12 @@ async fn drive_event<E: Event>(
             } => {
                 match res {
                     Ok(payload) => {
-                        triggered.emit("triggered", payload, None);
+                        let at = triggered.emit("triggered", payload, None);
+                        entered.get_or_insert(at);
                         st.triggers += 1;
                         check = Some(new_check(&event, None));
                         if throttle.changed() {
-                            publish(&mut st);
+                            publish(&mut st, &mut entered);
                         }
                     }
                     Err(e) => {
@@ -582,13 +586,13 @@ async fn drive_event<E: Event>(
                         st.last_error = e.into_message();
                         let delay = event.lock().await.retry_after();
                         check = Some(new_check(&event, Some(delay)));
-                        publish(&mut st);
+                        publish(&mut st, &mut entered);
                         throttle.published();
                     }
                 }
             }
             _ = throttle.due() => {
-                publish(&mut st);
+                publish(&mut st, &mut entered);
                 throttle.published();
             }
         }

@@ -182,6 +182,26 @@ impl Time {
             nanosec: d.subsec_nanos(),
         }
     }
+
+    /// The time `ns` nanoseconds after the Unix epoch (a signal's source timestamp, say).
+    ///
+    /// ```
+    /// use radar_ros::msg::Time;
+    /// let t = Time::from_nanos(2_500_000_000);
+    /// assert_eq!((t.sec, t.nanosec), (2, 500_000_000));
+    /// assert_eq!(t.to_nanos(), 2_500_000_000);
+    /// ```
+    pub fn from_nanos(ns: i64) -> Time {
+        Time {
+            sec: ns.div_euclid(1_000_000_000) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+        }
+    }
+
+    /// Nanoseconds since the Unix epoch.
+    pub fn to_nanos(&self) -> i64 {
+        i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
+    }
 }
 
 /// `std_msgs/msg/Header`.
@@ -312,7 +332,7 @@ impl ResponseState {
 /// `radar_msgs/msg/EventState`: whether an event is checking, published transient-local on `<event>/state`.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct EventState {
-    /// When this state was published.
+    /// When this state was entered: for a trigger, when `triggered` was emitted (its source timestamp).
     pub stamp: Time,
     /// Fully qualified node name of the event.
     pub name: String,

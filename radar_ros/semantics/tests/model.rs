@@ -544,6 +544,8 @@ struct ModelConn {
     rearm: bool,
     delivered: u64,
     until: Option<ModelWindow>,
+    /// C3: a spent once whose run has ended.
+    over: bool,
 }
 
 impl ModelConn {
@@ -588,6 +590,14 @@ impl ModelWindow {
     }
     fn keep(&mut self, u: i64) {
         self.kept = Some(self.kept.map_or(u, |k| k.max(u)));
+    }
+    /// C3: no run of the statement may be going or still to come, by R's signals.
+    fn settled(&self) -> bool {
+        if self.causes {
+            self.outstanding.is_none()
+        } else {
+            self.open_since.is_none() && !self.awaiting && self.sent_while_running.is_none()
+        }
     }
     /// C6/C7: this statement delivered start `n`, its source emitted at `at`. A kept U that follows it.
     fn start_delivered(&mut self, n: u64, at: i64) -> Option<i64> {
@@ -748,7 +758,7 @@ proptest! {
                     t.set_rearm(id, rearm);
                     ids.push(id);
                     model.push(ModelConn {
-                        id, source, target, kind, armed_at: now, spent: false, link: Link::Armed, rearm,
+                        id, source, target, kind, armed_at: now, spent: false, over: false, link: Link::Armed, rearm,
                         delivered: 0, until: window,
                     });
                 }
@@ -842,6 +852,10 @@ proptest! {
                             if source == "R.exited" {
                                 let ours = from.filter(|f| f.statement == t.statement(c.id)).map(|f| f.delivery);
                                 w.exited(emitted, ours);
+                                // C3: a spent once is over when the run its start began has ended
+                                if c.spent && w.settled() {
+                                    c.over = true;
+                                }
                             }
                             if source == "U" && w.u(emitted) {
                                 want.push((c.id, "R.interrupt", Via::Until { at: emitted }));
@@ -863,7 +877,7 @@ proptest! {
                             }
                         }
                     }
-                    model.retain(|c| !(c.spent && c.until.is_none()));
+                    model.retain(|c| !(c.over || (c.spent && c.until.is_none())));
                     prop_assert_eq!(got, want, "signal {} emitted at {}, read at {}", source, emitted, now);
                 }
             }

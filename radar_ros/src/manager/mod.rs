@@ -257,11 +257,9 @@ impl Manager {
                 }
             }
         }
-        // a `once` that fired is gone: forget what it carried
-        for d in &deliveries {
-            if !st.table.contains(d.id) {
-                st.records.remove(&d.id);
-            }
+        // a `once` that fired, or whose until is over, is gone: forget what it carried
+        for id in st.table.take_ended() {
+            st.records.remove(&id);
         }
         self.prune(st);
         drop(guard);

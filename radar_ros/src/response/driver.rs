@@ -204,7 +204,9 @@ impl<R: Response> Driver<R> {
         let mut began = false;
         for effect in fx {
             match effect {
-                Effect::EmitStarted(p, cause) => self.io().started.emit("started", p, cause),
+                Effect::EmitStarted(p, cause) => {
+                    self.io().started.emit("started", p, cause);
+                }
                 Effect::RunStart(p) => {
                     began = true;
                     self.current = Some(start_slot(Arc::clone(&self.response), p, notes));
@@ -213,7 +215,7 @@ impl<R: Response> Driver<R> {
                 Effect::EmitInterrupted(cause) => {
                     self.io()
                         .interrupted
-                        .emit("interrupted", Empty::default(), cause)
+                        .emit("interrupted", Empty::default(), cause);
                 }
                 Effect::RunInterrupt => {
                     began = true;
@@ -226,7 +228,7 @@ impl<R: Response> Driver<R> {
                 Effect::EmitExited(o, cause) => {
                     let io = self.io();
                     let o = io.exited_payload(o);
-                    io.exited.emit("exited", o, cause)
+                    io.exited.emit("exited", o, cause);
                 }
                 Effect::ReportPanic { slot, message } => {
                     tracing::error!(response = %self.name, slot, %message, "slot panicked; the response carries on")
@@ -295,7 +297,7 @@ impl<R: Response> Drop for Driver<R> {
                 match e {
                     Effect::EmitExited(o, cause) => {
                         let o = io.exited_payload(o);
-                        io.exited.emit("exited", o, cause)
+                        io.exited.emit("exited", o, cause);
                     }
                     Effect::ReportPanic { slot, message } => {
                         tracing::error!(response = %name, slot, %message, "slot panicked")

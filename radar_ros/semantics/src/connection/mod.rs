@@ -15,7 +15,11 @@
 //! - **C3.** `... until U`: U's signals interrupt the target response R only within a run that this statement
 //!   started, from the moment that run began. A run R starts by itself (an exit-slot restart) or that another
 //!   statement started is not interrupted by this one, nor is a run that begins after the signal of U.
-//!   U is read (and so active) from arming until removal, also for a `once` that has already fired.
+//!   U is read (and so active) from arming until the statement is over: until removal for a `whenever`; for a
+//!   `once`, until the run its start began has ended (R's `exited` for it, or R's signals showing that R was
+//!   busy and dropped the start), when the connection is removed as a `once` without `until` is when it fires
+//!   (its guard's `closed()` resolves; U, and R's `started` and `exited`, are released, so an event that was
+//!   U for it alone deactivates, as the paper's once-only connections go once their condition has fired).
 //! - **C4.** [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it
 //!   returns nothing more is delivered through it.
 //! - **C5.** Components leave (they exit, crash, hang, or the network cuts them off; the runtime tells the table
@@ -123,6 +127,9 @@ pub struct ConnectionTable<S, T> {
     released: (Vec<S>, Vec<T>),
     /// The receiver's clock, as last given (T2).
     clock: Clock,
+    /// Connections a signal ended (a `once` that fired, or whose run ended) since the last
+    /// [`ConnectionTable::take_ended`].
+    ended: Vec<ConnId>,
 }
 
 impl<S, T> Default for ConnectionTable<S, T> {
@@ -136,6 +143,7 @@ impl<S, T> Default for ConnectionTable<S, T> {
             writes: BTreeMap::new(),
             released: (Vec::new(), Vec::new()),
             clock: Clock::default(),
+            ended: Vec::new(),
         }
     }
 }
@@ -510,6 +518,10 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                         at: emitted_at,
                         ours: mine,
                     });
+                    // C3: a spent `once` is over when the run its start began has ended
+                    if c.spent && w.settled() {
+                        finished.push(*id);
+                    }
                 }
                 if &u.source == source {
                     let send = w.apply(WindowSignal::U { at: emitted_at });
@@ -544,8 +556,16 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         }
         for id in finished {
             self.remove(id);
+            self.ended.push(id);
         }
         out
+    }
+
+    /// The connections that signals ended since the last call (a `once` that fired, or whose `until` is over:
+    /// C2, C3), for the runtime to forget what it kept for them. [`ConnectionTable::remove`] does not add to
+    /// it.
+    pub fn take_ended(&mut self) -> Vec<ConnId> {
+        std::mem::take(&mut self.ended)
     }
 }
 
@@ -824,9 +844,16 @@ mod tests {
             "the restart runs outside the window"
         );
         assert!(
-            t.contains(id),
-            "the statement's until lives as long as its scope"
+            !t.contains(id),
+            "the once is over: the run its start began has ended"
         );
+        assert!(t.sources().is_empty(), "U and R's signals are let go");
+        // a whenever's until lives as long as its scope
+        let id = t.arm("E", "R.start", Kind::Whenever, Some(until()), 10);
+        t.on_signal(&"E", 11);
+        t.on_signal(&"R.started", 12);
+        t.on_signal(&"R.exited", 13);
+        assert!(t.contains(id));
         assert!(t.remove(id));
         assert!(t.sources().is_empty());
     }
@@ -882,6 +909,47 @@ mod tests {
         assert!(t.is_empty() && t.sources().is_empty() && t.targets().is_empty());
         // signals of sources nobody listens to any more reach nothing
         assert!(t.on_signal(&"E", 2).is_empty());
+    }
+
+    #[test]
+    fn c3_a_spent_once_with_until_is_over_when_its_run_has_ended() {
+        for causes in [true, false] {
+            let mut t = ConnectionTable::new();
+            let id = t.arm(
+                "E",
+                "R.start",
+                Kind::Once,
+                Some(Until { causes, ..until() }),
+                0,
+            );
+            t.on_signal(&"E", 1);
+            let from = Some(t.cause(id, 1));
+            t.on_signal_with(&"R.started", 2, from, |_| true);
+            t.take_released();
+            // an `exited` of another run changes nothing
+            t.on_signal_with(&"R.exited", 3, None, |_| true);
+            assert_eq!(
+                t.contains(id),
+                causes,
+                "causes {causes}: C7 takes any exited after started as its run's"
+            );
+            if causes {
+                assert!(t.reads(&"U"));
+                // the exited of the run the start began: over, and U is let go
+                t.on_signal_with(&"R.exited", 4, from, |_| true);
+                assert!(!t.contains(id), "causes {causes}");
+            }
+            let (mut s, _) = t.take_released();
+            s.sort();
+            assert_eq!(s, ["R.exited", "R.started", "U"], "causes {causes}");
+        }
+        // a whenever keeps its until for as long as it lives
+        let mut t = ConnectionTable::new();
+        let id = t.arm("E", "R.start", Kind::Whenever, Some(until()), 0);
+        t.on_signal(&"E", 1);
+        let from = Some(t.cause(id, 1));
+        t.on_signal_with(&"R.exited", 4, from, |_| true);
+        assert!(t.contains(id) && t.reads(&"U"));
     }
 
     #[test]

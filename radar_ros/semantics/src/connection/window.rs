@@ -168,6 +168,13 @@ impl UntilWindow {
         was
     }
 
+    /// Whether no run of this statement may be going or still to come, as far as R's signals tell: C6, R's
+    /// `exited` carried the latest start delivery; C7, R's `exited` closed the window that start opened, or
+    /// showed that R was busy when the start came and dropped it.
+    pub(super) fn settled(&self) -> bool {
+        !self.is_open() && !self.awaiting && self.sent_while_running.is_none()
+    }
+
     /// Whether U's signals reach R's `interrupt` now (C6: while a run of this statement may be going).
     pub fn is_open(&self) -> bool {
         if self.causes {

@@ -171,6 +171,22 @@ fn a_new_reader_does_not_replay_what_the_participant_cached_before_it() -> Resul
 /// RADAR patches 7 and 8: a participant dropped right after writing still sends the sample and its goodbye
 /// (the dispose of its endpoints and of itself), and the peer's reader can still take that sample after it
 /// learnt that the writer left; it learns that at once instead of waiting for the lease.
+/// Waits (at most 5 s) until `writer`'s own status says it has matched a reader; whether it did.
+fn writer_matched(writer: &crate::no_key::DataWriter<u32, crate::serialization::CDRSerializerAdapter<u32>>) -> bool {
+  use crate::dds::statusevents::{DataWriterStatus, StatusEvented};
+  for _ in 0..500 {
+    while let Some(status) = writer.try_recv_status() {
+      if let DataWriterStatus::PublicationMatched { current, .. } = status {
+        if current.count() >= 1 {
+          return true;
+        }
+      }
+    }
+    thread::sleep(Duration::from_millis(10));
+  }
+  false
+}
+
 #[test]
 fn a_participant_dropped_right_after_writing_still_sends_the_sample_and_its_goodbye() -> Result<()> {
   let domain = test_domain_id(22);
@@ -212,7 +228,9 @@ fn a_participant_dropped_right_after_writing_still_sends_the_sample_and_its_good
       thread::sleep(Duration::from_millis(10));
     }
     assert!(matched, "round {round}: discovery");
-    thread::sleep(Duration::from_millis(200)); // both have matched the other's endpoint
+    // the writer has matched the reader (a fixed sleep here lost the sample on a loaded machine: the write
+    // went out before the writer knew the reader)
+    assert!(writer_matched(&writer), "round {round}: the writer matched the reader");
     writer.write(round, None)?;
     drop(writer);
     drop(writer_side);
@@ -282,7 +300,9 @@ fn a_participant_closed_while_still_held_sends_what_it_wrote_and_says_goodbye() 
       thread::sleep(Duration::from_millis(10));
     }
     assert!(matched, "round {round}: discovery");
-    thread::sleep(Duration::from_millis(200)); // both have matched the other's endpoint
+    // the writer has matched the reader (a fixed sleep here lost the sample on a loaded machine: the write
+    // went out before the writer knew the reader)
+    assert!(writer_matched(&writer), "round {round}: the writer matched the reader");
     writer.write(round, None)?;
     writer_side.close();
     let t0 = std::time::Instant::now();
