@@ -3,7 +3,8 @@
 //! (SIGSTOP, then SIGCONT after 1 s, shorter than the 3 s lease, or 5 s, longer) at a random moment. What is
 //! checked on the wire, from a separate observer:
 //!
-//! - a `once` delivers at most one signal, and never one emitted before it was armed;
+//! - a `once` delivers exactly one signal (it fires before the fault), and never one emitted before it was
+//!   armed;
 //! - every `started` of a live response is followed by its `exited` (a killed or stopped response may owe
 //!   the one of the run it was in);
 //! - what the fault makes of the connection, within the lease bound: the manager drops the connections of a
@@ -197,6 +198,12 @@ async fn one_round(observer: &radar_ros::Radar, victim: Victim, fault: Fault, at
         async move { s.lock().unwrap().arm_started >= 1 }
     })
     .await;
+    // the event triggers every 20 ms and every process is up: the once fires before any fault
+    eventually_async(BOUND, "the once delivers its signal", || {
+        let s = seen.clone();
+        async move { !s.lock().unwrap().q_started.is_empty() }
+    })
+    .await;
 
     // the fault
     tokio::time::sleep(at).await;
@@ -348,8 +355,10 @@ async fn one_round(observer: &radar_ros::Radar, victim: Victim, fault: Fault, at
     tokio::time::sleep(Duration::from_millis(400)).await; // the flow has stopped: a run in progress ends
     {
         let s = seen.lock().unwrap();
-        assert!(
-            s.q_started.len() <= 1,
+        // exactly one: it fired before the fault (above), and nothing after it may deliver again
+        assert_eq!(
+            s.q_started.len(),
+            1,
             "a once delivered {} signals",
             s.q_started.len()
         );

@@ -293,6 +293,84 @@ async fn sigterm_while_stopping_exits_at_once() {
     );
 }
 
+/// Issue 32: a program told to stop starts nothing more. Its statement `whenever tick start remote` (an event
+/// triggering every 50 ms and a response, both in this process) relays a start every 50 ms; its own response's
+/// exit slot takes 1.5 s. From the signal on, no start reaches the remote response (one already on its way
+/// may), though the ticks go on. Before: it kept starting the remote response for the whole 1.5 s.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_program_told_to_stop_starts_nothing_more_while_its_exit_slots_run() {
+    let r = radar(DOMAIN);
+    let starts = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let s = starts.clone();
+    let _remote = r
+        .spawn_response(
+            "stopping_remote",
+            radar_ros::FnResponse::new(move |_: Empty| {
+                s.lock().unwrap().push(std::time::Instant::now());
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let _tick = r
+        .spawn_event(
+            "stopping_tick",
+            radar_ros::TimerEvent::new(Duration::from_millis(50)),
+        )
+        .unwrap();
+    let mut p = Program::start("stopping", "relay", &["--exit-ms", "1500"]).await;
+    p.expect_line("relaying").await;
+    let o = Observer::connect(&r, "stopping").await;
+    o.start.publish(Empty::default()).unwrap();
+    o.started.recv().timeout(T).await.unwrap();
+    radar_test_util::eventually(T, "starts relayed", || starts.lock().unwrap().len() >= 3).await;
+    let told = std::time::Instant::now();
+    p.signal(libc::SIGINT);
+    let (status, out, err) = p.finish(T).await;
+    assert!(status.success(), "{status}; stderr {err:#?}");
+    assert!(
+        out.iter().any(|l| l == "exit slot: exit_signal"),
+        "its exit slot ran: {out:?}"
+    );
+    let late: Vec<_> = starts
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|t| **t > told + Duration::from_millis(100))
+        .map(|t| t.duration_since(told))
+        .collect();
+    assert!(
+        late.is_empty(),
+        "starts relayed after the program was told to stop: {late:?}"
+    );
+}
+
+/// Issue 32: an exit slot that runs after `main` has returned (the program's runtime is gone) can still use the
+/// ROS graph: it finds a response it never looked up before and starts it. Before: discovery ran on the
+/// program's runtime, so the lookup waited until its timeout and the start never came.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_exit_slot_after_main_returned_can_look_up_and_start_a_component() {
+    let r = radar(DOMAIN);
+    let (_other, starts) = radar_test_util::counter(&r, "returned_other");
+    for mode in ["return", "return-current-thread"] {
+        let before = starts.load(std::sync::atomic::Ordering::SeqCst);
+        let name = format!("returned_{}", mode.replace('-', "_"));
+        let p = Program::start(&name, mode, &["--exit-starts", "/returned_other"]).await;
+        let o = Observer::connect(&r, &name).await;
+        o.start.publish(Empty::default()).unwrap();
+        o.started.recv().timeout(T).await.unwrap();
+        let (status, out, err) = p.finish(T).await;
+        assert!(status.success(), "{mode}: {status}; stderr {err:#?}");
+        assert!(
+            out.iter().any(|l| l == "exit slot started /returned_other"),
+            "{mode}: the exit slot found and started the other response: {out:?}"
+        );
+        radar_test_util::eventually(T, "the other response started", || {
+            starts.load(std::sync::atomic::Ordering::SeqCst) > before
+        })
+        .await;
+    }
+}
+
 /// An exit slot that takes longer than the shutdown timeout: the program ends after the timeout, with status 1
 /// and an error line that names the response.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

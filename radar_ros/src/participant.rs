@@ -71,6 +71,8 @@ pub(crate) struct Participant {
     /// Managers this process serves (`Radar::serve_manager`), matched locally, unseen by discovery.
     served_managers: Served,
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
+    /// Says when the graph's thread has ended (it let go of the DDS participant).
+    graph_ended: Mutex<Option<std::sync::mpsc::Receiver<()>>>,
     /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
     program_node: Mutex<Option<String>>,
     /// The slots of this process's responses, for in-process delivery.
@@ -112,6 +114,12 @@ impl Drop for Participant {
         self.write_policy();
         if let Some(stop) = self.stop_graph.lock().unwrap().take() {
             let _ = stop.send(());
+        }
+        // the graph's thread holds the DDS participant's discovery until it ends: let it end before this
+        // returns, so that the participant's goodbye is sent by the thread that lets go of radar_ros (a process
+        // that ends right after must not end before the goodbye)
+        if let Some(ended) = self.graph_ended.lock().unwrap().take() {
+            let _ = ended.recv_timeout(std::time::Duration::from_secs(2));
         }
         if let Some(name) = self.program_node.lock().unwrap().take() {
             PROGRAM_NODES.lock().unwrap().remove(&name);
@@ -163,7 +171,9 @@ impl Participant {
         }
     }
 
-    /// Wraps `ctx`, starting the graph's discovery task and the pool's sweeper on `rt`.
+    /// Wraps `ctx`, starting the graph's discovery task on a thread of its own (so that discovery goes on when
+    /// the program's runtime has gone: exit slots that run after `main` returns may look components up) and the
+    /// pool's sweeper on `rt`.
     pub(crate) fn start(
         ctx: Context,
         domain_id: u16,
@@ -175,7 +185,23 @@ impl Participant {
         let graph = Graph::default();
         graph.set_participant(ctx.domain_participant());
         let (stop, stop_rx) = tokio::sync::oneshot::channel();
-        rt.spawn(graph.clone().run(ctx.domain_participant(), stop_rx));
+        let (ended_tx, ended) = std::sync::mpsc::channel();
+        let run = graph.clone().run(ctx.domain_participant(), stop_rx);
+        let on_thread = std::thread::Builder::new()
+            .name("radar-graph".into())
+            .spawn(move || {
+                match tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                {
+                    Ok(graph_rt) => graph_rt.block_on(run),
+                    Err(e) => tracing::error!("cannot start the ROS graph's task: {e}"),
+                }
+                let _ = ended_tx.send(());
+            });
+        if let Err(e) = on_thread {
+            tracing::error!("cannot start the ROS graph's thread: {e}");
+        }
         let pool = Arc::new(Pool::default());
         rt.spawn(Pool::sweeper(Arc::downgrade(&pool)));
         Arc::new(Participant {
@@ -189,6 +215,7 @@ impl Participant {
             served_actions: Default::default(),
             served_managers: Default::default(),
             stop_graph: Mutex::new(Some(stop)),
+            graph_ended: Mutex::new(Some(ended)),
             program_node: Mutex::new(None),
             inlets: Default::default(),
             taps: Default::default(),

@@ -8,9 +8,13 @@
 //! - `return`: returns from `main` as soon as the response runs (its handle is dropped on the way out);
 //! - `return-current-thread`: the same on a current-thread runtime;
 //! - `shutdown`: calls `Radar::shutdown` as soon as the response runs, then prints `shut down` and returns;
-//! - `manual`: handles SIGINT itself (`RadarBuilder::handle_signals(false)`), then calls `Radar::shutdown`.
+//! - `manual`: handles SIGINT itself (`RadarBuilder::handle_signals(false)`), then calls `Radar::shutdown`;
+//! - `relay`: also `whenever NAME_tick start NAME_remote` (an event and a response of another program, found
+//!   by name), prints `relaying`, then waits as `wait` does.
 //!
-//! `--exit-ms`: the exit slot works that long before it prints its reason. `--shutdown-timeout-ms`: the limit
+//! `--exit-ms`: the exit slot works that long before it prints its reason. `--exit-starts OTHER`: the exit slot
+//! first finds the response OTHER by name (a lookup on the ROS graph) and starts it, printing
+//! `exit slot started OTHER` (or why it could not). `--shutdown-timeout-ms`: the limit
 //! a stop may take (`RadarBuilder::shutdown_timeout`).
 
 use std::{io::Write, time::Duration};
@@ -37,15 +41,37 @@ async fn run(name: String, mode: String) {
         b = b.shutdown_timeout(Duration::from_millis(ms));
     }
     let radar = b.build().expect("a participant");
+    // `--exit-starts NAME`: the exit slot finds response NAME (never looked up before) and starts it
+    let exit_starts = std::env::args().skip_while(|a| a != "--exit-starts").nth(1);
+    let in_exit = radar.clone();
     let drive = FnResponse::new(|_: Empty| async {
         tokio::time::sleep(Duration::from_secs(60)).await;
         Ok(Empty::default())
     })
-    .on_exit(move |why| async move {
-        say("exit slot begins");
-        tokio::time::sleep(Duration::from_millis(exit_ms)).await;
-        say(&format!("exit slot: {}", why.describe()));
-        ExitAction::Done
+    .on_exit(move |why| {
+        let (radar, exit_starts) = (in_exit.clone(), exit_starts.clone());
+        async move {
+            say("exit slot begins");
+            if let Some(other) = exit_starts {
+                let started = async {
+                    let r = radar
+                        .response(&other)
+                        .timeout(Duration::from_secs(5))
+                        .await?;
+                    radar
+                        .inject(r.start_slot(), Empty::default())
+                        .timeout(Duration::from_secs(5))
+                        .await
+                };
+                match started.await {
+                    Ok(()) => say(&format!("exit slot started {other}")),
+                    Err(e) => say(&format!("exit slot could not start {other}: {e}")),
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(exit_ms)).await;
+            say(&format!("exit slot: {}", why.describe()));
+            ExitAction::Done
+        }
     });
     let r = radar.spawn_response(&name, drive).expect("the response");
     say("ready");
@@ -66,6 +92,26 @@ async fn run(name: String, mode: String) {
             say("told to stop");
             radar.shutdown().await.expect("shut down in time");
             say("shut down");
+        }
+        "relay" => {
+            // `whenever NAME_tick start NAME_remote`, both of another program
+            let tick = radar
+                .event(&format!("{name}_tick"))
+                .timeout(Duration::from_secs(30))
+                .await
+                .expect("the tick");
+            let remote = radar
+                .response(&format!("{name}_remote"))
+                .timeout(Duration::from_secs(30))
+                .await
+                .expect("the remote response");
+            let _c = radar
+                .whenever(&tick)
+                .start(&remote)
+                .await
+                .expect("the statement");
+            say("relaying");
+            std::future::pending::<()>().await
         }
         other => panic!("unknown mode {other}"),
     }

@@ -206,10 +206,16 @@ impl Manager {
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
         let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
         st.table.clock(now_ns()); // T2: this host's clock may have stepped back
+                                  // a program told to stop starts nothing more (its exit slots may take seconds; a start it relayed
+                                  // then would set a robot moving as the program that drives it goes): interrupts and calls still go
+        let stopping = self.participant.components().stopping();
         let deliveries = st.table.on_signal_with(source, sent.at, sent.by, |id| {
             let Some(r) = records.get(&id) else {
                 return true;
             };
+            if stopping && r.starts {
+                return false;
+            }
             // a filter or map that panics refuses the signal (caught and reported on the connection)
             if let Some(f) = &r.filter {
                 if r.faults.run("filter", || f(&raw)) != Some(true) {
