@@ -6,7 +6,8 @@
 //!   `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (a
 //!   changed document does not);
 //! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
-//!   of one endpoint within one participant; 28: the plugins' lock handed over when released);
+//!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
+//!   from a participant without registered endpoints is no error);
 //! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -104,6 +105,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "padded_payload_tests",
         "per_endpoint_handle_tests",
         "lock_tests",
+        "unregistered_sender_tests",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -178,6 +180,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "a_signed_payload_followed_by_submessage_padding_validates",
             "two_readers_of_one_participant_matched_with_one_writer_each_get_keys_and_decode",
             "the_plugins_are_handed_over_when_released",
+            "a_submessage_from_a_participant_without_registered_endpoints_has_no_keys",
         ],
     );
     let out = check(&cargo(&secure, &[]), "radar_ros/tests/secure.rs");

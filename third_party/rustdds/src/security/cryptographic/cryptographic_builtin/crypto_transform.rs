@@ -497,16 +497,20 @@ impl CryptoTransform for CryptographicBuiltin {
       receiver_specific_macs,
     } = BuiltinCryptoFooter::try_from(crypto_footer)?;
 
-    // Search for matching key materials over endpoints registered to the sender
-    let sending_participant_endpoints = self
+    // Search for matching key materials over endpoints registered to the sender. A sender with no registered
+    // endpoints (none matched yet, or a peer that is leaving: its endpoints go before its participant does, and
+    // its last submessages are still on their way) has no keys to decode with, as one whose endpoints were all
+    // unregistered: not an error (RADAR patch 31).
+    let Some(sending_participant_endpoints) = self
       .participant_to_endpoint_info
       .get(&sending_remote_participant_crypto_handle)
-      .ok_or_else(|| {
-        create_security_error_and_log!(
-          "Could not find registered entities for the sending_remote_participant_crypto_handle {}",
-          sending_remote_participant_crypto_handle
-        )
-      })?;
+    else {
+      debug!(
+        "No registered entities for the sending remote participant {}: no keys for the submessage",
+        sending_remote_participant_crypto_handle
+      );
+      return Ok(DecodeOutcome::KeysNotFound(header_key_id));
+    };
 
     let matching_decode_materials = sending_participant_endpoints
       .iter()
@@ -952,6 +956,61 @@ mod padded_payload_tests {
         validate_mac(&key, iv(), c, common_mac).is_ok()
       });
       assert_eq!(ok.map(|(c, _)| c.to_vec()), Some(plain.to_vec()), "padding {pad}");
+    }
+  }
+}
+
+#[cfg(test)]
+mod unregistered_sender_tests {
+  use super::*;
+  use crate::security::{
+    access_control::ParticipantSecurityAttributes,
+    authentication::types::{Challenge, SharedSecret, SharedSecretHandle},
+  };
+
+  /// A submessage from a participant that has no registered endpoints (a peer leaving, whose endpoints went
+  /// first): no keys, not an error. Before patch 31 it was an error, logged at error level once per submessage
+  /// (54 lines as the secured deliberative example ended).
+  #[test]
+  fn a_submessage_from_a_participant_without_registered_endpoints_has_no_keys() {
+    let mut c = CryptographicBuiltin::new();
+    let local = c
+      .register_local_participant(1, 1, &[], ParticipantSecurityAttributes::empty())
+      .unwrap();
+    let secret = SharedSecretHandle {
+      shared_secret: SharedSecret::from([7; 32]),
+      challenge1: Challenge::from([1; 32]),
+      challenge2: Challenge::from([2; 32]),
+    };
+    let remote = c
+      .register_matched_remote_participant(local, 2, 2, secret)
+      .unwrap();
+    let key_id = CryptoTransformKeyId::from([1, 2, 3, 4]);
+    let header = BuiltinCryptoHeader {
+      transform_identifier: BuiltinCryptoTransformIdentifier {
+        transformation_kind: BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM,
+        transformation_key_id: key_id,
+      },
+      builtin_crypto_header_extra: BuiltinCryptoHeaderExtra(BuiltinInitializationVector::new(
+        SessionId::new([0, 0, 0, 1]),
+        [7; 8],
+      )),
+    };
+    let prefix = SecurePrefix {
+      crypto_header: CryptoHeader::from(header),
+    };
+    let body = SecureBody {
+      crypto_content: CryptoContent { data: vec![0; 16] },
+    }
+    .create_submessage(speedy::Endianness::LittleEndian)
+    .unwrap();
+    let postfix = SecurePostfix {
+      crypto_footer: CryptoFooter::try_from(BuiltinCryptoFooter::only_common_mac([0; 16])).unwrap(),
+    };
+    match c.decode_submessage((prefix, body, postfix), local, remote) {
+      Ok(DecodeOutcome::KeysNotFound(k)) => assert_eq!(k, key_id),
+      Ok(_) => panic!("decoded without keys"),
+      Err(e) => panic!("an error for a sender without registered endpoints: {e:?}"),
     }
   }
 }
