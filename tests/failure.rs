@@ -396,3 +396,89 @@ async fn a_new_state_subscription_shows_the_replacement_not_the_response_that_le
         "the new x has not run; {s:?} is the old x's last state"
     );
 }
+
+/// Issue 32: a program that owns `whenever tick start arm` in a standalone manager (made through
+/// `RemoteManager`, which says the program is alive) and dies: the connection delivers nothing within a second
+/// of its last beat, not for the DDS lease (3.6 s; about 20 s for an rclpy owner). Stopped (SIGSTOP) past that
+/// bound, its connection is suspended, and delivers again once the owner continues; killed, it delivers nothing
+/// and is gone when the lease runs out. The event and the response live here, the manager and the owner in
+/// processes of their own. Domain 223.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_dead_owners_connection_stops_within_a_second_not_at_its_lease() {
+    let radar = radar(223);
+    let _tick = radar
+        .spawn_event(
+            "own_tick",
+            radar_ros::TimerEvent::new(Duration::from_millis(50)),
+        )
+        .unwrap();
+    let starts = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Instant>::new()));
+    let s = starts.clone();
+    let _arm = radar
+        .spawn_response(
+            "own_arm",
+            radar_ros::FnResponse::new(move |_: Empty| {
+                s.lock().unwrap().push(Instant::now());
+                async { Ok(Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let between = |from: Instant, to: Instant| {
+        starts
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|t| **t > from && **t < to)
+            .count()
+    };
+    let mut m = HostPeer::start(PEER, 223).await;
+    m.run("manager mgr").await;
+    let mut d = HostPeer::start(PEER, 223).await;
+    d.query("connect-remote /mgr /own_tick/triggered /own_arm/start")
+        .await;
+    eventually(DISCOVERY, "starts through the manager", || {
+        starts.lock().unwrap().len() >= 3
+    })
+    .await;
+
+    // stopped for 2.5 s (under the lease): suspended within a second, delivering again once continued
+    d.signal("STOP");
+    let stopped = Instant::now();
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    let suspended = between(stopped + Duration::from_secs(1), Instant::now());
+    d.signal("CONT");
+    let continued = Instant::now();
+    assert_eq!(
+        suspended, 0,
+        "starts delivered for a stopped owner more than 1 s after it stopped"
+    );
+    eventually(DISCOVERY, "starts again once the owner continues", || {
+        between(continued, Instant::now()) >= 3
+    })
+    .await;
+
+    // killed: nothing from a second after its death on, and the connection gone at the lease
+    d.signal("KILL");
+    let killed = Instant::now();
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    let late = between(killed + Duration::from_secs(1), Instant::now());
+    assert_eq!(
+        late, 0,
+        "starts delivered for a killed owner more than 1 s after its death"
+    );
+    let client = radar_test_util::ManagerClient::new(&radar, "/mgr", "owner_check").await;
+    radar_test_util::eventually_async(
+        Duration::from_secs(8),
+        "the connection gone at the lease",
+        || {
+            let c = &client;
+            async move {
+                radar_test_util::call_once(&c.list, Default::default(), DISCOVERY)
+                    .await
+                    .connections
+                    .is_empty()
+            }
+        },
+    )
+    .await;
+}

@@ -23,7 +23,7 @@ use std::{
 };
 
 use radar_ros::msg::{Connection, Empty, EventState, Int64};
-use radar_test_util::{radar, HostPeer, ManagerClient, DISCOVERY};
+use radar_test_util::{eventually_async, radar, HostPeer, ManagerClient, DISCOVERY};
 
 const PEER: &str = env!("CARGO_BIN_EXE_radar_test_peer");
 const DOMAIN: u16 = 58;
@@ -80,21 +80,6 @@ async fn connections(client: &ManagerClient) -> Vec<Connection> {
     radar_test_util::call_once(&client.list, Default::default(), DISCOVERY)
         .await
         .connections
-}
-
-async fn eventually_async<F, Fut>(within: Duration, what: &str, mut cond: F) -> Duration
-where
-    F: FnMut() -> Fut,
-    Fut: std::future::Future<Output = bool>,
-{
-    let t0 = Instant::now();
-    loop {
-        if cond().await {
-            return t0.elapsed();
-        }
-        assert!(t0.elapsed() < within, "{what}: not within {within:?}");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -209,6 +209,22 @@ impl<P: RosMessage, O: RosMessage> ResponseProbe<P, O> {
     }
 }
 
+/// Waits until the async `cond` holds, checking every 50 ms; panics with `what` after `within`; how long it took.
+pub async fn eventually_async<F, Fut>(within: Duration, what: &str, mut cond: F) -> Duration
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = bool>,
+{
+    let t0 = std::time::Instant::now();
+    loop {
+        if cond().await {
+            return t0.elapsed();
+        }
+        assert!(t0.elapsed() < within, "{what}: not within {within:?}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
 /// Waits until `cond` holds, checking every 5 ms; panics with `what` after `timeout`.
 pub async fn eventually(timeout: Duration, what: &str, cond: impl Fn() -> bool) {
     let r = tokio::time::timeout(timeout, async {

@@ -238,7 +238,7 @@ pub use event::{Event, EventHandle, EventNode, EventSubscription, TimerEvent, To
 pub use lookup::Component;
 pub use malformed::MalformedCount;
 pub use manager::ConnectionGuard;
-pub use manager_node::ManagerHandle;
+pub use manager_node::{ManagerHandle, OWNER_SILENT};
 pub use names::ComponentName;
 pub use radar::{domain_id_from_env, DiscoveryRange, Radar, RadarBuilder, DEFAULT_LEASE};
 pub use radar_semantics::connection::Link;

@@ -9,14 +9,27 @@
 //! | `<name>/disconnect` (service) | `radar_msgs/srv/Disconnect` |
 //! | `<name>/list` (service) | `radar_msgs/srv/List` |
 //! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
+//! | `<name>/owners` (topic, read) | `std_msgs/msg/Empty`: owners saying they are alive |
 //!
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
 //! through the service belongs to the caller's DDS participant (its process) and is removed when that
 //! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed (3-3.6 s
 //! for a radar_ros program, see [`crate::DEFAULT_LEASE`]; ~20 s for an rclpy one).
+//!
+//! An owner may also say it is alive, on `<name>/owners` (a radar_ros program does, every 200 ms, from its
+//! first owned connection on: [`RemoteManager::connect`](crate::RemoteManager::connect)). The manager then
+//! holds it to that: once it has not heard from an owner for [`OWNER_SILENT`] (a killed, hung or stopped
+//! program), the owner's connections deliver nothing (the list says why, in `departure`) until it is heard
+//! again; they go when its participant leaves the graph, as above. So a dead program's `whenever bumper start
+//! motion` stops within a second, not its lease. An owner that never says it is alive (rclpy calling the
+//! service) keeps the lease as its only bound.
 //! Errors come back as `ok = false` with a message saying what to do.
 
-use std::{collections::HashMap, sync::Arc, time::Duration};
+use std::{
+    collections::{HashMap, HashSet},
+    sync::Arc,
+    time::{Duration, Instant},
+};
 
 use futures::StreamExt;
 
@@ -35,6 +48,10 @@ use crate::{
     shutdown::ComponentTask,
     wait::DEFAULT_TIMEOUT,
 };
+
+/// How long an owner that says it is alive may go unheard before its connections deliver nothing (five of its
+/// beats: a loaded machine may delay one or two).
+pub const OWNER_SILENT: Duration = Duration::from_millis(900);
 
 /// A running manager node; dropping it removes the node and the connections made through its services.
 #[must_use = "the manager node serves only while its handle lives; bind it (`let _m = radar.serve_manager(..)?`)"]
@@ -144,10 +161,13 @@ impl Radar {
             &state_qos(),
         )?;
         let served = self.participant().served_managers().mark(fq.clone());
+        let owners = self.signal_subscription::<crate::msg::Empty>(&name.topic("owners"))?;
         let serving = Serving {
             radar: self.clone(),
             fq,
             owned: HashMap::new(),
+            heard: HashMap::new(),
+            silent: HashSet::new(),
         };
         let lost = self.graph().participants_lost();
         let task = ComponentTask::spawn(
@@ -157,7 +177,7 @@ impl Radar {
                 let _claim = claim;
                 let _node = node;
                 let _served = served;
-                serving.run(services, list_pub, lost, stop).await;
+                serving.run(services, list_pub, lost, owners, stop).await;
             },
         );
         tracing::info!(manager = %name, "connection manager serving");
@@ -192,11 +212,24 @@ type Done = (
     Result<ConnectionGuard>,
 );
 
+/// An owner's participant, as the first 12 bytes of its GUIDs (the prefix).
+type OwnerKey = [u8; 12];
+
+fn owner_key(guid: ros2_client::dds::rustdds::GUID) -> OwnerKey {
+    let mut k = [0; 12];
+    k.copy_from_slice(&guid.to_bytes()[..12]);
+    k
+}
+
 /// A manager node at work: the connections made through its services, by id.
 struct Serving {
     radar: Radar,
     fq: String,
     owned: HashMap<u64, Owned>,
+    /// Owners that say they are alive, and when each was last heard.
+    heard: HashMap<OwnerKey, Instant>,
+    /// Those of them unheard for longer than [`OWNER_SILENT`]: their connections are suspended.
+    silent: HashSet<OwnerKey>,
 }
 
 impl Serving {
@@ -205,8 +238,22 @@ impl Serving {
         services: Services,
         list_pub: crate::endpoints::Watched<ros2_client::Publisher<ConnectionList>>,
         mut lost: tokio::sync::broadcast::Receiver<ros2_client::dds::rustdds::GUID>,
+        owners: crate::topics::SignalSubscription<crate::msg::Empty>,
         mut stop: tokio::sync::oneshot::Receiver<()>,
     ) {
+        // owners' beats, read in a task of their own (a read is not to be cut by the loop's other branches)
+        let (beat_tx, mut beats) = tokio::sync::mpsc::unbounded_channel::<OwnerKey>();
+        let reader = tokio::spawn(async move {
+            while let Ok((_, gid)) = owners.recv_from().await {
+                if beat_tx
+                    .send(owner_key(ros2_client::dds::rustdds::GUID::from(gid)))
+                    .is_err()
+                {
+                    break;
+                }
+            }
+        });
+        let mut check = tokio::time::interval(Duration::from_millis(100));
         let manager = self.radar.manager().clone();
         let mut changes = manager.changes();
         let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
@@ -250,6 +297,8 @@ impl Serving {
                         break;
                     }
                 }
+                Some(owner) = beats.recv() => self.owner_heard(owner),
+                _ = check.tick() => self.owners_silent(),
                 Ok(()) = changes.changed() => {
                     if throttle.changed() {
                         publish(manager.list());
@@ -261,6 +310,7 @@ impl Serving {
                 }
             }
         }
+        reader.abort();
     }
 
     /// Arms the requested connection in a task of its own; `done` gets the outcome.
@@ -330,6 +380,56 @@ impl Serving {
         }
     }
 
+    /// An owner said it is alive: its connections deliver again if they were suspended.
+    fn owner_heard(&mut self, owner: OwnerKey) {
+        self.heard.insert(owner, Instant::now());
+        if self.silent.remove(&owner) {
+            let n = self.suspend(owner, None);
+            tracing::info!(
+                connections = n,
+                "a silent owner is heard again; its connections deliver again"
+            );
+        }
+    }
+
+    /// Owners unheard for longer than [`OWNER_SILENT`]: their connections deliver nothing until they are heard.
+    fn owners_silent(&mut self) {
+        let newly: Vec<(OwnerKey, Duration)> = self
+            .heard
+            .iter()
+            .filter(|(k, t)| t.elapsed() > OWNER_SILENT && !self.silent.contains(*k))
+            .map(|(k, t)| (*k, t.elapsed()))
+            .collect();
+        for (owner, quiet) in newly {
+            self.silent.insert(owner);
+            let why = format!(
+                "its owner has not said it is alive for {:.1} s (killed, hung or stopped?): it delivers \
+                 nothing until the owner is heard again, and goes when the owner leaves the graph",
+                quiet.as_secs_f64()
+            );
+            let n = self.suspend(owner, Some(why));
+            tracing::warn!(
+                connections = n,
+                silent_ms = quiet.as_millis() as u64,
+                "an owner went silent; its connections deliver nothing until it is heard again"
+            );
+        }
+    }
+
+    /// Suspends (`why`) or resumes the connections of `owner`; how many it has.
+    fn suspend(&self, owner: OwnerKey, why: Option<String>) -> usize {
+        let mine: Vec<&ConnectionGuard> = self
+            .owned
+            .values()
+            .filter(|(_, caller)| caller.is_some_and(|c| owner_key(c) == owner))
+            .map(|(c, _)| c)
+            .collect();
+        for c in &mine {
+            c.suspend(why.clone());
+        }
+        mine.len()
+    }
+
     /// A participant left the graph: its connections go. False once departures can no longer be heard.
     fn owner_left(
         &mut self,
@@ -341,9 +441,12 @@ impl Serving {
         use tokio::sync::broadcast::error::RecvError;
         let before = self.owned.len();
         match gone {
-            Ok(gone) => self
-                .owned
-                .retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix)),
+            Ok(gone) => {
+                self.heard.remove(&owner_key(gone));
+                self.silent.remove(&owner_key(gone));
+                self.owned
+                    .retain(|_, (_, caller)| caller.is_none_or(|c| c.prefix != gone.prefix))
+            }
             // B7: departures were missed: ask the graph about every owner
             Err(RecvError::Lagged(_)) => {
                 let graph = self.radar.graph();

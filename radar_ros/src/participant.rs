@@ -92,7 +92,12 @@ pub(crate) struct Participant {
     policy_out: Mutex<Option<(std::path::PathBuf, String, String)>>,
     /// The nodes made on this participant (fully qualified), whose declarations its policy holds.
     node_names: Mutex<std::collections::BTreeSet<String>>,
+    /// Managers told that this program is alive ([`Participant::keep_owner_alive`]).
+    owner_of: Mutex<HashSet<String>>,
 }
+
+/// How often a program that owns connections in another program's manager says it is alive.
+pub(crate) const OWNER_BEAT: std::time::Duration = std::time::Duration::from_millis(200);
 
 impl crate::shutdown::Stoppable for Participant {
     fn components(&self) -> &crate::shutdown::Components {
@@ -226,7 +231,34 @@ impl Participant {
             clock: std::sync::OnceLock::new(),
             policy_out: Mutex::new(None),
             node_names: Mutex::new(std::collections::BTreeSet::new()),
+            owner_of: Mutex::new(HashSet::new()),
         })
+    }
+
+    /// Tells manager `manager` (fully qualified) that this program, which owns connections there, is alive:
+    /// a sample on `<manager>/owners` every [`OWNER_BEAT`] for as long as this participant lives (on the
+    /// caller's runtime: a program whose runtime is gone is not alive). The manager suspends the connections of
+    /// an owner it has not heard from for `OWNER_SILENT` (see `manager_node.rs`). Once per manager.
+    pub(crate) fn keep_owner_alive(self: &Arc<Self>, manager: &str) -> Result<()> {
+        if !self.owner_of.lock().unwrap().insert(manager.to_owned()) {
+            return Ok(());
+        }
+        let beat = self.publisher::<crate::msg::Empty>(
+            &format!("{manager}/owners"),
+            &crate::qos::signal_qos(),
+        )?;
+        // no strong reference: the participant goes when its program lets go of it, and so does the beat
+        let alive = Arc::downgrade(self);
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(OWNER_BEAT);
+            while alive.strong_count() > 0 {
+                tick.tick().await;
+                if beat.publish(crate::msg::Empty::default()).is_err() {
+                    break; // the participant has left the graph
+                }
+            }
+        });
+        Ok(())
     }
 
     /// The components of this participant.

@@ -127,6 +127,8 @@ impl RemoteStatement {
 /// Clients of one manager node's `connect`, `disconnect` and `list` services, matched both ways.
 pub struct RemoteManager {
     name: String,
+    /// This program's participant: it says it is alive to the manager while it owns connections there.
+    owner: std::sync::Arc<crate::participant::Participant>,
     connect: Client<ConnectRequest, ConnectResponse>,
     disconnect: Client<DisconnectRequest, DisconnectResponse>,
     list: Client<ListRequest, ListResponse>,
@@ -152,6 +154,11 @@ impl RemoteManager {
     pub fn connect(&self, statement: RemoteStatement) -> Wait<'_, u64> {
         let req = statement.request();
         self.calling(move |limit| async move {
+            // an owned connection needs its owner alive (the manager suspends it within a second of the last
+            // beat: a dead program's `whenever bumper start motion` must not go on for its lease)
+            if !req.detach {
+                self.owner.keep_owner_alive(&self.name)?;
+            }
             let r = self.call(&self.connect, req, "connect", limit).await?;
             match r.ok {
                 true => Ok(r.id),
@@ -271,6 +278,7 @@ impl Radar {
                 )
                 .map_err(|e| Error::transport(format!("node {base}"), e))?;
             let m = RemoteManager {
+                owner: radar.participant().clone(),
                 connect: service_client(&mut node, &name, "connect", "Connect")?,
                 disconnect: service_client(&mut node, &name, "disconnect", "Disconnect")?,
                 list: service_client(&mut node, &name, "list", "List")?,

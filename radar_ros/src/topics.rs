@@ -258,6 +258,12 @@ impl<M: RosMessage> SignalSubscription<M> {
         self.subscription.take_accepted()
     }
 
+    /// The next message with the GID of its publisher.
+    pub(crate) async fn recv_from(&self) -> Result<(M, ros2_client::Gid)> {
+        let (m, info) = self.next_info(self.subscription.async_stream()).await?;
+        Ok((m, info.publisher_gid()))
+    }
+
     /// The next message with when and by which statement it was sent (see [`crate::cause`]).
     pub(crate) async fn recv_sent(&self) -> Result<(M, radar_semantics::response::Sent)> {
         let (m, info) = self.next_info(self.subscription.async_stream()).await?;

@@ -17,7 +17,8 @@
 //!   `event NAME PERIOD_MS` (an event triggering every PERIOD_MS with a std_msgs/msg/Int64 payload: the
 //!   emission time in ns), `echo-i64 NAME` (a response whose start takes an Int64 and returns it),
 //!   `connect-via MANAGER SOURCE TARGET` (a whenever made through a manager node's service, owned by this
-//!   process; answers `id N`), `connect-send MANAGER SOURCE TARGET TIMEOUT_S` (sends that request and
+//!   process; answers `id N`), `connect-remote MANAGER SOURCE TARGET` (the same through `RemoteManager`, which
+//!   says this program is alive to the manager), `connect-send MANAGER SOURCE TARGET TIMEOUT_S` (sends that request and
 //!   answers at once, without waiting for the reply), `once SOURCE RESPONSE` (an embedded `once SOURCE start RESPONSE` for an Int64
 //!   SOURCE; answers `before_ns T`, the time just before arming),
 //!   `wait-peers NAME SLOT_PUBLISHERS SIGNAL_SUBSCRIBERS` (until response NAME's slots and signals are
@@ -139,6 +140,7 @@ async fn host(radar: Radar) {
     let mut guards = Vec::new();
     let mut events = Vec::new();
     let mut clients = Vec::new();
+    let mut remotes = Vec::new();
     let mut i64_publishers: HashMap<String, radar_ros::SignalPublisher<radar_ros::msg::Int64>> =
         HashMap::new();
     let collected: std::sync::Arc<std::sync::Mutex<Vec<(i64, i64)>>> = Default::default();
@@ -349,6 +351,28 @@ async fn host(radar: Radar) {
                     say("ok")
                 } else {
                     say(&format!("err {}", resp.error))
+                }
+            }
+            ["connect-remote", manager, source, target] => {
+                // the same through RemoteManager, which also says this program is alive to the manager
+                let r = async {
+                    let m = radar
+                        .remote_manager(manager)
+                        .timeout(Duration::from_secs(20))
+                        .await?;
+                    let id = m
+                        .connect(radar_ros::RemoteStatement::whenever(source).to(target))
+                        .timeout(Duration::from_secs(20))
+                        .await?;
+                    remotes.push(m);
+                    Ok::<u64, radar_ros::Error>(id)
+                };
+                match r.await {
+                    Ok(id) => {
+                        say(&format!("id {id}"));
+                        say("ok")
+                    }
+                    Err(e) => say(&format!("err {e}")),
                 }
             }
             ["connect-send", manager, source, target, timeout] => {

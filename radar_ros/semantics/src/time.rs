@@ -30,7 +30,7 @@
 use crate::response::HOLD;
 
 /// How old a stamp may be, by the receiver's clock, and still be taken as it is (T1), in ns: twice
-/// [`HOLD`](crate::response::HOLD), far above a DDS hop on a loaded host or a network (a few milliseconds),
+/// [`HOLD`], far above a DDS hop on a loaded host or a network (a few milliseconds),
 /// well below what a person would notice of a robot.
 pub const LATE: i64 = 2 * HOLD;
 

@@ -296,6 +296,7 @@ impl Manager {
                 map: spec.map,
                 starts: spec.starts,
                 departure: None,
+                suspended: None,
             },
         );
         Ok(id)

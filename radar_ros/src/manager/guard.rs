@@ -47,6 +47,12 @@ impl ConnectionGuard {
         self.manager.panics(self.id)
     }
 
+    /// Delivers nothing while `why` is given (a service-made connection whose owner is silent), and again
+    /// once it is not.
+    pub(crate) fn suspend(&self, why: Option<String>) {
+        self.manager.suspend(self.id, why);
+    }
+
     /// Whether it still delivers (a fired `once` without `until` does not).
     pub fn is_live(&self) -> bool {
         self.manager.contains(self.id)

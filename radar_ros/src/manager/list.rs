@@ -55,8 +55,11 @@ impl Manager {
                     departure: st
                         .records
                         .get(&c.id)
-                        .and_then(|r| r.departure.as_ref())
-                        .map(|d| d.to_string())
+                        .and_then(|r| {
+                            r.suspended
+                                .clone()
+                                .or_else(|| r.departure.as_ref().map(|d| d.to_string()))
+                        })
                         .unwrap_or_default(),
                     hops,
                     panics: st.records.get(&c.id).map_or(0, |r| r.faults.count()),

@@ -131,6 +131,8 @@ struct Record {
     starts: bool,
     /// The component whose leaving put the connection out of `Armed`, while it is out.
     departure: Option<Departure>,
+    /// Why it delivers nothing for now though armed (its owner is silent), while it does not.
+    suspended: Option<String>,
 }
 
 #[derive(Default)]
@@ -184,6 +186,14 @@ impl Manager {
     }
 
     /// Resolves at the next change of the table.
+    /// Connection `id` delivers nothing while `why` is given (its owner is silent), and again once it is not.
+    pub(crate) fn suspend(&self, id: ConnId, why: Option<String>) {
+        if let Some(r) = self.state().records.get_mut(&id) {
+            r.suspended = why;
+        }
+        self.changed.send_modify(|g| *g += 1);
+    }
+
     /// Panics caught in connection `id`'s own code (0 once it is gone).
     pub(crate) fn panics(&self, id: ConnId) -> u64 {
         self.state()
@@ -213,7 +223,7 @@ impl Manager {
             let Some(r) = records.get(&id) else {
                 return true;
             };
-            if stopping && r.starts {
+            if (stopping && r.starts) || r.suspended.is_some() {
                 return false;
             }
             // a filter or map that panics refuses the signal (caught and reported on the connection)
