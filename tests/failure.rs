@@ -1,7 +1,7 @@
 //! When components leave the graph (connection rule 5, "When components leave" in the crate docs): what a
 //! waiter, a connection and the manager's list show when the source or the target process exits cleanly or
 //! is killed, and what happens when a component of that name comes back. Every component that leaves lives
-//! in a `radar_test_peer host` process of its own. Domains 37-39, 47-49, 53.
+//! in a `radar_test_peer host` process of its own. Domains 37-39, 47-49, 53, 223-224.
 
 use std::time::{Duration, Instant};
 
@@ -481,4 +481,61 @@ async fn a_dead_owners_connection_stops_within_a_second_not_at_its_lease() {
         },
     )
     .await;
+}
+
+/// Issue 32: a target killed and started again at once (launch's `respawn=True`), within its lease: the old
+/// process's endpoints are still matched when the new one's match, so the counts never reach zero. The new
+/// process writing `arm/state` tells the manager the old one is gone: the plain connection is lost naming
+/// the replacement, well before the lease would have said so, and a re-arming one delivers to the new `arm`.
+/// (Before: neither connection noticed; the plain one delivered to the new process as if nothing happened,
+/// then lost it when the old one's lease ran out.) Domain 224.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_target_respawned_within_its_lease_is_seen_replaced() {
+    let (radar, go, peer, plain) = go_starts_arm_in_a_peer(224, false).await;
+    let arm = radar.response("arm").timeout(DISCOVERY).await.unwrap();
+    let rearming = radar
+        .whenever(empty("/go/triggered"))
+        .start(&arm)
+        .rearm()
+        .await
+        .unwrap();
+    go.publish(Empty::default()).unwrap();
+    eventually_state(&radar, "arm", "a start", |s| s.exits >= 1).await;
+
+    peer.signal("KILL");
+    let killed = Instant::now();
+    let mut respawned = HostPeer::start(PEER, 224).await;
+    respawned.run("response arm 0").await;
+    println!("respawned {:?} after the kill", killed.elapsed());
+    let d = plain
+        .departed()
+        .timeout(Duration::from_secs(10))
+        .await
+        .expect("the old arm seen gone within 10 s")
+        .expect("a whenever lives until dropped");
+    let took = killed.elapsed();
+    println!("respawned target: the plain connection lost after {took:?}: {d}");
+    assert!(
+        matches!(d.cause(), LossCause::Replaced),
+        "seen as replaced by the new process, not at the lease: {d}"
+    );
+    assert_eq!(plain.link(), Some(Link::TargetLost));
+    eventually(DISCOVERY, "the re-arming connection armed again", || {
+        rearming.link() == Some(Link::Armed)
+    })
+    .await;
+    // what comes from now on goes through the re-arming connection only
+    let (plain_before, rearming_before) = (plain.delivered(), rearming.delivered());
+    go.publish(Empty::default()).unwrap();
+    eventually(DISCOVERY, "the re-arming connection delivers", || {
+        rearming.delivered() > rearming_before
+    })
+    .await;
+    assert_eq!(
+        plain.delivered(),
+        plain_before,
+        "the lost connection delivers nothing more"
+    );
+    respawned.send("quit").await;
+    respawned.wait().await;
 }

@@ -7,8 +7,10 @@
 #   tests/under_load.sh [N]
 #
 # The tests: a `ros2 topic pub --once` from a fresh rclpy process (30 starts and 30 interrupts per run), a
-# service call from a fresh process, a signal emitted right before its component exits, and programs
-# whose main returns (their exit slots run and their goodbye is heard at once).
+# service call from a fresh process, a signal emitted right before its component exits, programs
+# whose main returns (their exit slots run and their goodbye is heard at once), and issue 32's: Ctrl-C under
+# ros2 launch, a stopping program relaying nothing, a dead owner's connection suspended within a second, a
+# respawned target seen replaced, a peer an hour ahead, an until bounding a queued run.
 set -euo pipefail
 n=${1:-30}
 here=$(cd "$(dirname "$0")" && pwd)
@@ -30,6 +32,12 @@ tests=(
   "interop every_service_call_from_a_fresh_process_is_answered"
   "failure a_signal_sent_just_before_the_component_exits_is_delivered_not_reported_lost"
   "shutdown returning_from_main_runs_the_exit_slot_and_sends_exited"
+  "shutdown ctrl_c_under_ros2_launch_two_sigints_let_the_exit_slots_finish"
+  "shutdown a_program_told_to_stop_starts_nothing_more_while_its_exit_slots_run"
+  "failure a_dead_owners_connection_stops_within_a_second_not_at_its_lease"
+  "failure a_target_respawned_within_its_lease_is_seen_replaced"
+  "clocks a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_own_hosts_interrupts"
+  "connections cases::until_bounds_the_run_of_a_start_that_waited_for_another_run"
 )
 failed=0
 for t in "${tests[@]}"; do

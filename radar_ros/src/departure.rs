@@ -20,6 +20,9 @@ pub enum LossCause {
         /// How long its process had been silent when the lease ran out.
         silent_for: Duration,
     },
+    /// A new instance of it appeared in another process (a launch `respawn`, a systemd restart) while the old
+    /// one was still on the graph: the old one crashed or hangs, and its lease has not run out yet.
+    Replaced,
 }
 
 impl std::fmt::Display for LossCause {
@@ -31,6 +34,10 @@ impl std::fmt::Display for LossCause {
                 "nothing was heard from its process for {:.1} s, longer than its lease: it crashed, was \
                  killed, hangs, or the network cut it off",
                 silent_for.as_secs_f64()
+            ),
+            LossCause::Replaced => f.write_str(
+                "a new instance of it started in another process (respawned) while the old one was still on \
+                 the graph: the old one crashed or hangs",
             ),
         }
     }
@@ -103,17 +110,26 @@ impl std::fmt::Display for Departure {
         let verb = match self.cause {
             LossCause::Left => "left the ROS graph",
             LossCause::Unreachable { .. } => "is unreachable",
+            LossCause::Replaced => "was replaced",
         };
         let side = if self.publisher {
             "publisher"
         } else {
             "subscriber"
         };
-        write!(
-            f,
-            "{} {verb} ({} has no {side} now): {}",
-            self.component, self.topic, self.cause
-        )
+        match self.cause {
+            // the new instance is there: it is the old one that is gone
+            LossCause::Replaced => write!(
+                f,
+                "{} {verb} (the old {side} of {} is gone): {}",
+                self.component, self.topic, self.cause
+            ),
+            _ => write!(
+                f,
+                "{} {verb} ({} has no {side} now): {}",
+                self.component, self.topic, self.cause
+            ),
+        }
     }
 }
 

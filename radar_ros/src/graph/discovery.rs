@@ -95,6 +95,30 @@ impl Graph {
     /// The DDS types of the writers (`writer`) or readers on the ROS `topic`, from the topic index
     /// (rebuilt from the discovery data when older than [`RESYNC`]).
     pub(crate) fn types_on(&self, writer: bool, topic: &str) -> BTreeSet<String> {
+        self.indexed(|index| {
+            index
+                .by_topic
+                .get(&(writer, topic.to_owned()))
+                .map(|m| m.values().cloned().collect())
+                .unwrap_or_default()
+        })
+    }
+
+    /// The participants (participant GUIDs) with a writer on the ROS `topic`, from the topic index: for a
+    /// RADAR component's `state` topic, the processes it runs in (one; two while a respawned one replaces one
+    /// whose leaving is not known yet).
+    pub(crate) fn writer_participants(&self, topic: &str) -> BTreeSet<GUID> {
+        self.indexed(|index| {
+            index
+                .by_topic
+                .get(&(true, topic.to_owned()))
+                .map(|m| m.keys().map(|g| super::participant_of(*g)).collect())
+                .unwrap_or_default()
+        })
+    }
+
+    /// `f` on the topic index, rebuilt from the discovery data first when older than [`RESYNC`].
+    fn indexed<R>(&self, f: impl FnOnce(&TopicIndex) -> R) -> R {
         let stale = self
             .index
             .lock()
@@ -112,13 +136,7 @@ impl Graph {
             }
             *self.index.lock().unwrap() = index;
         }
-        self.index
-            .lock()
-            .unwrap()
-            .by_topic
-            .get(&(writer, topic.to_owned()))
-            .map(|m| m.values().cloned().collect())
-            .unwrap_or_default()
+        f(&self.index.lock().unwrap())
     }
 
     /// Waits (at most `within`) until a local writer has matched a reader on DDS topic `dds_topic` in the

@@ -538,7 +538,7 @@ impl Graph {
 }
 
 /// The participant GUID of any GUID (its prefix, with the participant's entity id).
-fn participant_of(guid: GUID) -> GUID {
+pub(super) fn participant_of(guid: GUID) -> GUID {
     let mut p = GUID::new_participant_guid();
     p.prefix = guid.prefix;
     p

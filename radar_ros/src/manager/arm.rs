@@ -245,6 +245,7 @@ impl Manager {
         spec: Spec,
         causes: bool,
     ) -> Result<radar_semantics::connection::ConnId> {
+        self.watch_instances();
         let mut st = self.state();
         for ((k, _), r) in plan.reads.iter().zip(&matched.readers) {
             if !st.relays.contains_key(k) {

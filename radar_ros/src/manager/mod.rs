@@ -33,6 +33,7 @@ mod anon;
 mod arm;
 mod faults;
 mod guard;
+mod instances;
 mod list;
 mod relay;
 
@@ -155,6 +156,8 @@ pub(crate) struct Manager {
     state: Mutex<State>,
     /// Bumped whenever the table may have changed.
     changed: tokio::sync::watch::Sender<u64>,
+    /// Whether the task that tells component instances apart runs (`instances.rs`).
+    instances_watched: std::sync::atomic::AtomicBool,
 }
 
 use crate::local::now_ns;
@@ -171,6 +174,7 @@ impl Manager {
                 ..State::default()
             }),
             changed: tokio::sync::watch::channel(0).0,
+            instances_watched: Default::default(),
         }
     }
 

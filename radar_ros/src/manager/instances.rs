@@ -1,0 +1,166 @@
+//! Components told apart by the process they run in (rule C5 for a component restarted within its lease).
+//!
+//! A component killed and started again at once (launch's `respawn=True`, a systemd restart) is back on the
+//! graph before the old process's lease runs out: its endpoints match while the dead one's are still matched,
+//! so the match counts a relay or an outlet watches never reach zero. Counts cannot tell the two apart; the
+//! participants can. Every RADAR component writes its `state` topic, so the participants with a writer on
+//! `<component>/state` are the processes it runs in. When a new one appears beside the one a connection was
+//! made with, the old instance is gone (ROS 2 node names are unique on a graph): the manager tells the table
+//! the component left (its connections lose their target, or wait for their source; an `until` window closes;
+//! `departed()` resolves, naming [`LossCause::Replaced`]) and then that one is back (a source delivers again,
+//! a re-arming connection re-arms). Components without a `state` topic (rclpy ones) keep the counts alone.
+
+use std::{
+    collections::{BTreeSet, HashMap},
+    sync::{Arc, Weak},
+    time::Duration,
+};
+
+use ros2_client::dds::rustdds::GUID;
+
+use super::{End, Manager, Target};
+use crate::{
+    departure::{Departure, LossCause},
+    endpoint::Endpoint,
+};
+
+/// How often at most the processes of the watched components are looked at while discovery changes.
+const EVERY: Duration = Duration::from_millis(100);
+
+/// What the watcher knows of one component.
+#[derive(Default)]
+struct Seen {
+    /// The process its connections were made with, once seen.
+    current: Option<GUID>,
+    /// The processes seen running it, at the last look.
+    known: BTreeSet<GUID>,
+}
+
+impl Seen {
+    /// Looks at `hosts`, the processes running the component now: whether one appeared beside (or after) the
+    /// one its connections were made with, which it then takes as current.
+    fn replaced(&mut self, hosts: BTreeSet<GUID>) -> bool {
+        let fresh = hosts.difference(&self.known).next().copied();
+        let swapped = match (self.current, fresh) {
+            (Some(c), Some(new)) if new != c => {
+                self.current = Some(new);
+                true
+            }
+            (None, _) | (Some(_), None) => {
+                if self.current.is_none_or(|c| !hosts.contains(&c)) {
+                    self.current = hosts.iter().next().copied();
+                }
+                false
+            }
+            _ => false,
+        };
+        self.known = hosts;
+        swapped
+    }
+}
+
+impl Manager {
+    /// Starts, once, the task that watches which processes run the components of this manager's relays and
+    /// outlets; it ends with the manager.
+    pub(super) fn watch_instances(self: &Arc<Self>) {
+        if self
+            .instances_watched
+            .swap(true, std::sync::atomic::Ordering::SeqCst)
+        {
+            return;
+        }
+        let me = Arc::downgrade(self);
+        let mut changes = self.graph().changes();
+        tokio::spawn(async move {
+            let mut seen: HashMap<String, Seen> = HashMap::new();
+            // a first look now: the processes the first connections were made with
+            if !Manager::look_at_instances(&me, &mut seen) {
+                return;
+            }
+            while changes.changed().await.is_ok() {
+                if !Manager::look_at_instances(&me, &mut seen) {
+                    break;
+                }
+                tokio::time::sleep(EVERY).await;
+            }
+        });
+    }
+
+    /// One look: every component a relay or outlet reaches, the processes running it, and for each component
+    /// now running in a new one, its departure and return. False once the manager is gone.
+    fn look_at_instances(me: &Weak<Manager>, seen: &mut HashMap<String, Seen>) -> bool {
+        let Some(m) = me.upgrade() else {
+            return false;
+        };
+        // the ends by component, as the table knows them now
+        let mut ends: HashMap<String, Vec<End>> = HashMap::new();
+        {
+            let st = m.state();
+            let sources = st.relays.keys().map(|k| End::Source(k.clone()));
+            let slots = st
+                .outlets
+                .keys()
+                .map(|k| End::Target(Target::Slot(k.clone())));
+            for end in sources.chain(slots) {
+                let topic = match &end {
+                    End::Source(k) | End::Target(Target::Slot(k)) => &k.topic,
+                    End::Target(Target::Anon(_)) => continue,
+                };
+                if let Some((component, _)) = Endpoint::of_topic(topic) {
+                    ends.entry(component.to_owned()).or_default().push(end);
+                }
+            }
+        }
+        seen.retain(|c, _| ends.contains_key(c));
+        for (component, ends) in ends {
+            let hosts = m.graph().writer_participants(&format!("{component}/state"));
+            if !seen.entry(component.clone()).or_default().replaced(hosts) {
+                continue;
+            }
+            tracing::warn!(
+                component = %component,
+                "{component} was started again in another process while the old one was still on the graph \
+                 (respawned?): the old one is taken as gone"
+            );
+            for end in &ends {
+                let d = match end {
+                    End::Source(k) => Departure::of_publisher(&k.topic, LossCause::Replaced),
+                    End::Target(Target::Slot(k)) => {
+                        Departure::of_subscriber(&k.topic, LossCause::Replaced)
+                    }
+                    End::Target(Target::Anon(_)) => continue,
+                };
+                m.peers_gone(end, d);
+                m.peers_back(end);
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(n: u8) -> GUID {
+        let mut bytes = [0u8; 16];
+        bytes[0] = n;
+        GUID::from_bytes(bytes)
+    }
+
+    #[test]
+    fn a_new_process_beside_the_one_in_use_replaces_it_and_others_do_not() {
+        let mut s = Seen::default();
+        assert!(!s.replaced(BTreeSet::new()), "not running yet");
+        assert!(!s.replaced(BTreeSet::from([p(1)])), "first seen");
+        assert!(!s.replaced(BTreeSet::from([p(1)])), "no change");
+        // respawned within the lease: the old one still shows
+        assert!(s.replaced(BTreeSet::from([p(1), p(2)])));
+        // the old one's lease runs out: nothing more to tell
+        assert!(!s.replaced(BTreeSet::from([p(2)])));
+        // it exits (counts tell that), then starts again: a return, not a replacement
+        assert!(!s.replaced(BTreeSet::new()));
+        assert!(!s.replaced(BTreeSet::from([p(3)])));
+        assert_eq!(s.current, Some(p(3)));
+    }
+}
