@@ -238,8 +238,14 @@ impl Participant {
     /// Tells manager `manager` (fully qualified) that this program, which owns connections there, is alive:
     /// a sample on `<manager>/owners` every [`OWNER_BEAT`] for as long as this participant lives (on the
     /// caller's runtime: a program whose runtime is gone is not alive). The manager suspends the connections of
-    /// an owner it has not heard from for `OWNER_SILENT` (see `manager_node.rs`). Once per manager.
-    pub(crate) fn keep_owner_alive(self: &Arc<Self>, manager: &str) -> Result<()> {
+    /// an owner it has not heard from for `OWNER_SILENT` (see `manager_node.rs`), once it has heard it: so the
+    /// first beat goes out once the manager reads them (waiting at most `within`; a manager that does not read
+    /// them, an older one, only has the lease), before the first connection is asked for. Once per manager.
+    pub(crate) async fn keep_owner_alive(
+        self: &Arc<Self>,
+        manager: &str,
+        within: std::time::Duration,
+    ) -> Result<()> {
         if !self.owner_of.lock().unwrap().insert(manager.to_owned()) {
             return Ok(());
         }
@@ -247,6 +253,9 @@ impl Participant {
             &format!("{manager}/owners"),
             &crate::qos::signal_qos(),
         )?;
+        if beat.wait_for_subscribers(1).timeout(within).await.is_ok() {
+            let _ = beat.publish(crate::msg::Empty::default());
+        }
         // no strong reference: the participant goes when its program lets go of it, and so does the beat
         let alive = Arc::downgrade(self);
         tokio::spawn(async move {

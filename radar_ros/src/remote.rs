@@ -28,6 +28,9 @@ use crate::{
     wait::Wait,
 };
 
+/// How long an owner waits for the manager to read its beats before its first connection there.
+const OWNER_MATCH: std::time::Duration = std::time::Duration::from_secs(3);
+
 /// How long a call to another manager waits for its answer unless `.timeout(d)`.
 const CALL_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
 
@@ -157,7 +160,9 @@ impl RemoteManager {
             // an owned connection needs its owner alive (the manager suspends it within a second of the last
             // beat: a dead program's `whenever bumper start motion` must not go on for its lease)
             if !req.detach {
-                self.owner.keep_owner_alive(&self.name)?;
+                self.owner
+                    .keep_owner_alive(&self.name, limit.min(OWNER_MATCH))
+                    .await?;
             }
             let r = self.call(&self.connect, req, "connect", limit).await?;
             match r.ok {
