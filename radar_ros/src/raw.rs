@@ -205,6 +205,109 @@ pub(crate) fn component_type(ros_type: &str, what: &str) -> crate::Result<crate:
 mod tests {
     use super::*;
 
+    /// Hostile bytes (issue 32): whatever a peer sends on a slot, a state topic or a manager's service, decoding
+    /// it as any of radar_ros's types returns (a value or an error): no panic, no allocation of what a forged
+    /// length says. Seeded mutations of valid messages for `RADAR_FUZZ_SECONDS` (default 2).
+    #[test]
+    fn decoding_mutated_messages_never_panics() {
+        use crate::msg::*;
+        // as a subscription or a service reads them: little-endian CDR into the type
+        fn cdr<M: serde::de::DeserializeOwned>(b: &[u8]) {
+            let _ = ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(
+                b,
+            );
+        }
+        fn decode_all(raw: &RawMessage) {
+            let b = raw.as_bytes();
+            cdr::<Empty>(b);
+            cdr::<Int32>(b);
+            cdr::<StringMsg>(b);
+            cdr::<PoseStamped>(b);
+            cdr::<ResponseState>(b);
+            cdr::<EventState>(b);
+            cdr::<Connection>(b);
+            cdr::<ConnectionList>(b);
+            cdr::<ConnectRequest>(b);
+            cdr::<ConnectResponse>(b);
+            cdr::<ListResponse>(b);
+        }
+        let list = ConnectionList {
+            manager: "/radar_manager".into(),
+            connections: vec![Connection {
+                source: "/bumper/triggered".into(),
+                target: "/dock/start".into(),
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
+        let seeds: Vec<Vec<u8>> = vec![
+            RawMessage::encode(&list).unwrap().into_bytes(),
+            RawMessage::encode(&ResponseState {
+                name: "/dock".into(),
+                state_label: "running".into(),
+                ..Default::default()
+            })
+            .unwrap()
+            .into_bytes(),
+            RawMessage::encode(&ConnectRequest {
+                source: "/a/triggered".into(),
+                target: "/b/start".into(),
+                ..Default::default()
+            })
+            .unwrap()
+            .into_bytes(),
+            RawMessage::encode(&StringMsg::from("kitchen"))
+                .unwrap()
+                .into_bytes(),
+        ];
+        let budget = std::time::Duration::from_secs_f64(
+            std::env::var("RADAR_FUZZ_SECONDS")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(2.0),
+        );
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move |n: usize| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % (n.max(1) as u64)) as usize
+        };
+        let start = std::time::Instant::now();
+        let mut runs = 0u64;
+        while start.elapsed() < budget {
+            let mut v = seeds[next(seeds.len())].clone();
+            for _ in 0..1 + next(3) {
+                let len = v.len();
+                match next(5) {
+                    0 if len > 0 => {
+                        let i = next(len);
+                        v[i] ^= 1 << next(8);
+                    }
+                    // a forged length or count: 4 bytes at an aligned offset set very large
+                    1 if len >= 4 => {
+                        let i = next(len / 4) * 4;
+                        let big = [0xffff_ffffu32, 0x7fff_ffff, 0x1000_0000][next(3)];
+                        v[i..i + 4].copy_from_slice(&big.to_le_bytes());
+                    }
+                    2 => v.truncate(next(len + 1)),
+                    3 => {
+                        let i = next(len + 1);
+                        v.insert(i, next(256) as u8);
+                    }
+                    _ if len > 0 => {
+                        let i = next(len);
+                        v[i] = next(256) as u8;
+                    }
+                    _ => {}
+                }
+            }
+            decode_all(&RawMessage::from_bytes(v));
+            runs += 1;
+        }
+        println!("{runs} mutated messages decoded as every type");
+    }
+
     #[test]
     fn type_names_parse_or_say_how_to_write_them() {
         assert_eq!(

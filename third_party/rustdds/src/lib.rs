@@ -180,6 +180,10 @@ mod checked_impl;
 #[doc(hidden)]
 /// RADAR patch 21: stamps of one sample's stages, for latency breakdowns.
 pub mod probe;
+// entry points for fuzzing what arrives from the network (RADAR patch 32)
+#[cfg(any(test, feature = "fuzzing"))]
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod discovery; // to access some Discovered data in e.g. ros2-client crate
 mod messages;
 mod network;
