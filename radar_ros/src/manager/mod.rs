@@ -189,7 +189,6 @@ impl Manager {
         self.participant.graph()
     }
 
-    /// Resolves at the next change of the table.
     /// Connection `id` delivers nothing while `why` is given (its owner is silent), and again once it is not.
     pub(crate) fn suspend(&self, id: ConnId, why: Option<String>) {
         if let Some(r) = self.state().records.get_mut(&id) {
@@ -206,6 +205,7 @@ impl Manager {
             .map_or(0, |r| r.faults.count())
     }
 
+    /// Resolves at the next change of the table.
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
         self.changed.subscribe()
     }
@@ -219,9 +219,10 @@ impl Manager {
         let records = &st.records;
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
         let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
-        st.table.clock(now_ns()); // T2: this host's clock may have stepped back
-                                  // a program told to stop starts nothing more (its exit slots may take seconds; a start it relayed
-                                  // then would set a robot moving as the program that drives it goes): interrupts and calls still go
+        // T2: this host's clock may have stepped back
+        st.table.clock(now_ns());
+        // a program told to stop starts nothing more (its exit slots may take seconds; a start it relayed then
+        // would set a robot moving as the program that drives it goes): interrupts and calls still go
         let stopping = self.participant.components().stopping();
         let deliveries = st.table.on_signal_with(source, sent.at, sent.by, |id| {
             let Some(r) = records.get(&id) else {
