@@ -9,21 +9,33 @@ fn vendored_rustdds_passes_its_unit_tests() {
         env!("CARGO_MANIFEST_DIR"),
         "/../third_party/rustdds/Cargo.toml"
     );
-    let out = std::process::Command::new(env!("CARGO"))
-        .args(["test", "--lib", "--manifest-path", manifest])
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_TARGET_DIR")
-        .output()
-        .expect("run cargo");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    // the bounded fuzz step on its own, after the rest: its CPU burst must not overlap the timed network tests
+    let cargo_test = |filter: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO"))
+            .args(["test", "--lib", "--manifest-path", manifest, "--"])
+            .args(filter)
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_TARGET_DIR")
+            .output()
+            .expect("run cargo");
+        (
+            out.status,
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (status, mut stdout, mut stderr) = cargo_test(&["--skip", "fuzzing::"]);
+    let (fuzz_status, fuzz_out, fuzz_err) = cargo_test(&["fuzzing::"]);
+    stdout.push_str(&fuzz_out);
+    stderr.push_str(&fuzz_err);
+    let ok = status.success() && fuzz_status.success();
     let summary: Vec<&str> = stdout
         .lines()
         .filter(|l| l.starts_with("test result:"))
         .collect();
     println!("{}", summary.join("\n"));
     assert!(
-        out.status.success(),
+        ok,
         "RustDDS unit tests failed:\n{}\n{stderr}",
         stdout
             .lines()
