@@ -7,7 +7,8 @@
 //!   changed document does not);
 //! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
-//!   from a participant without registered endpoints is no error);
+//!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
+//!   security handshake target);
 //! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -183,6 +184,12 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "a_submessage_from_a_participant_without_registered_endpoints_has_no_keys",
         ],
     );
+    // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the
+    // lock test's timings would be a poor neighbour)
+    let mut fuzz = rustdds_tests[..7].to_vec();
+    fuzz.push("fuzzing::");
+    let out = check(&cargo(&fuzz, &[]), "RustDDS's fuzz step with security");
+    ran_and_passed(&out, &["every_target_survives_its_corpus_and_mutations_of_it"]);
     let out = check(&cargo(&secure, &[]), "radar_ros/tests/secure.rs");
     println!("{out}");
     ran_and_passed(

@@ -22,11 +22,13 @@ use crate::{
 };
 
 /// The targets, by the name of their corpus directory.
-pub const TARGETS: [(&str, fn(&[u8])); 4] = [
+pub const TARGETS: &[(&str, fn(&[u8]))] = &[
   ("rtps_message", rtps_message),
   ("receiver", receiver),
   ("spdp", spdp),
   ("sedp", sedp),
+  #[cfg(feature = "security")]
+  ("handshake", handshake),
 ];
 
 /// An RTPS datagram, parsed as the message receiver parses it (header and every submessage).
@@ -68,6 +70,24 @@ pub fn sedp(data: &[u8]) {
     let _ = DiscoveredReaderData::from_pl_cdr_bytes(data, e);
     let _ = DiscoveredWriterData::from_pl_cdr_bytes(data, e);
     let _ = DiscoveredTopicData::from_pl_cdr_bytes(data, e);
+  }
+}
+
+/// A DDS Security authentication message (`ParticipantStatelessMessage`, CDR, both byte orders) and every
+/// handshake token in it, parsed as the authentication plugin parses them (feature `security`).
+#[cfg(feature = "security")]
+pub fn handshake(data: &[u8]) {
+  use byteorder::{BigEndian, LittleEndian};
+
+  use crate::security::types::ParticipantStatelessMessage;
+  let messages = [
+    cdr_encoding::from_bytes::<ParticipantStatelessMessage, LittleEndian>(data).map(|(m, _)| m),
+    cdr_encoding::from_bytes::<ParticipantStatelessMessage, BigEndian>(data).map(|(m, _)| m),
+  ];
+  for m in messages.into_iter().flatten() {
+    for dh in m.generic.message_data {
+      crate::security::authentication::authentication_builtin::parse_handshake_token(dh.into());
+    }
   }
 }
 
@@ -191,6 +211,8 @@ mod tests {
         pl(spdp_subscription_data_raw()),
         pl(spdp_publication_data_raw()),
       ],
+      #[cfg(feature = "security")]
+      "handshake" => handshake_seeds(),
       _ => vec![
         crate::test::test_data::spdp_participant_msg()
           .write_to_vec_with_ctx(speedy::Endianness::LittleEndian)
@@ -200,6 +222,48 @@ mod tests {
           .unwrap(),
       ],
     }
+  }
+
+  /// An authentication request, reply and final message, with every property the handshake reads.
+  #[cfg(feature = "security")]
+  fn handshake_seeds() -> Vec<Vec<u8>> {
+    use crate::security::types::{
+      DataHolderBuilder, ParticipantGenericMessage, ParticipantStatelessMessage,
+    };
+    ["DDS:Auth:PKI-DH:1.0+Req", "DDS:Auth:PKI-DH:1.0+Reply", "DDS:Auth:PKI-DH:1.0+Final"]
+      .iter()
+      .map(|class| {
+        let mut b = DataHolderBuilder::with_class_id(class.to_string());
+        for (name, len) in [
+          ("c.id", 600),
+          ("c.perm", 400),
+          ("c.pdata", 64),
+          ("c.dsign_algo", 15),
+          ("c.kagree_algo", 15),
+          ("hash_c1", 32),
+          ("hash_c2", 32),
+          ("dh1", 65),
+          ("dh2", 65),
+          ("challenge1", 32),
+          ("challenge2", 32),
+          ("signature", 64),
+        ] {
+          b = b.add_binary_property(name, Bytes::from(vec![7u8; len]), true);
+        }
+        let m = ParticipantStatelessMessage {
+          generic: ParticipantGenericMessage {
+            message_identity: Default::default(),
+            related_message_identity: Default::default(),
+            destination_participant_guid: Default::default(),
+            destination_endpoint_guid: Default::default(),
+            source_endpoint_guid: Default::default(),
+            message_class_id: "dds.sec.auth".to_string(),
+            message_data: vec![b.build()],
+          },
+        };
+        cdr_encoding::to_vec::<_, byteorder::LittleEndian>(&m).unwrap()
+      })
+      .collect()
   }
 
   /// How long each target is fuzzed in a test run: `RADAR_FUZZ_SECONDS` (default 3).

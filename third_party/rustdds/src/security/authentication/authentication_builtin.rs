@@ -281,3 +281,9 @@ impl AuthenticationBuiltin {
       .map_err(|e| security_error(&format!("Failed to generate random bytes: {e}")))
   }
 }
+
+/// Fuzzing (RADAR patch 32): a handshake message token as a peer sends it, parsed as the handshake parses it.
+#[cfg(any(test, feature = "fuzzing"))]
+pub(crate) fn parse_handshake_token(token: super::types::HandshakeMessageToken) {
+  let _ = types::BuiltinHandshakeMessageToken::try_from(token);
+}
