@@ -189,7 +189,10 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     let mut fuzz = rustdds_tests[..7].to_vec();
     fuzz.push("fuzzing::");
     let out = check(&cargo(&fuzz, &[]), "RustDDS's fuzz step with security");
-    ran_and_passed(&out, &["every_target_survives_its_corpus_and_mutations_of_it"]);
+    ran_and_passed(
+        &out,
+        &["every_target_survives_its_corpus_and_mutations_of_it"],
+    );
     let out = check(&cargo(&secure, &[]), "radar_ros/tests/secure.rs");
     println!("{out}");
     ran_and_passed(
