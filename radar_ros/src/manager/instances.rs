@@ -41,21 +41,20 @@ impl Seen {
     /// one its connections were made with, which it then takes as current.
     fn replaced(&mut self, hosts: BTreeSet<GUID>) -> bool {
         let fresh = hosts.difference(&self.known).next().copied();
-        let swapped = match (self.current, fresh) {
+        self.known = hosts;
+        match (self.current, fresh) {
             (Some(c), Some(new)) if new != c => {
                 self.current = Some(new);
                 true
             }
-            (None, _) | (Some(_), None) => {
-                if self.current.is_none_or(|c| !hosts.contains(&c)) {
-                    self.current = hosts.iter().next().copied();
+            _ => {
+                // not seen yet, or gone (the counts tell that): take whichever runs it now
+                if self.current.is_none_or(|c| !self.known.contains(&c)) {
+                    self.current = self.known.iter().next().copied();
                 }
                 false
             }
-            _ => false,
-        };
-        self.known = hosts;
-        swapped
+        }
     }
 }
 
