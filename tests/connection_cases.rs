@@ -905,3 +905,43 @@ async fn until_bounds_the_run_of_a_start_that_waited_for_another_run() {
         }
     }
 }
+
+/// Issue 32 (found by the soak): `whenever E start R until U` where U comes from one-shot publishers, as an
+/// operator's `ros2 topic pub --once` or a fresh process per stop: nobody publishes U when the statement is
+/// armed. It arms at once (before: it waited for a publisher of U and failed after its timeout), and each U
+/// that a fresh process sends later interrupts the run the statement started.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn until_armed_before_anyone_publishes_its_signal_hears_one_shot_publishers() {
+    const PEER: &str = env!("CARGO_BIN_EXE_radar_test_peer");
+    let r = radar(113);
+    let resp = r
+        .spawn_response(
+            "/oneshot/long",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_secs(30)).await;
+                Ok(Empty::default())
+            }),
+        )
+        .unwrap();
+    let e = r.signal_publisher::<Empty>("/oneshot/go").unwrap();
+    let _c = r
+        .whenever(Signal::new("/oneshot/go", "std_msgs/msg/Empty"))
+        .start(&resp)
+        .until(Signal::new("/oneshot/stop", "std_msgs/msg/Empty"))
+        .timeout(Duration::from_secs(3))
+        .await
+        .expect("armed with no publisher of the until's signal");
+    for n in 1..=2u64 {
+        e.publish(Empty::default()).unwrap();
+        eventually(T, "a run", || resp.state().starts == n).await;
+        // `ros2 topic pub --once /oneshot/stop`: a fresh process, one signal, gone
+        let mut p = radar_test_util::HostPeer::start(PEER, 113).await;
+        p.run("publisher /oneshot/stop").await;
+        p.send("emit-exit /oneshot/stop").await;
+        assert!(p.wait().await.success());
+        eventually(T, "the one-shot U interrupts the run", || {
+            resp.state().interrupts == n
+        })
+        .await;
+    }
+}

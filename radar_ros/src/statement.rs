@@ -198,6 +198,10 @@ impl ConnectionRequest {
     /// `... until U`: U's signals interrupt R while a run this statement started is in progress (see
     /// [until windows](crate#connections), rules C3, C6, C7). Only for `start` targets.
     ///
+    /// U need not have a publisher when the statement is armed: U is often an operator's one-shot
+    /// `ros2 topic pub --once` or a fresh process per stop. Arming waits to be matched with the publishers of U
+    /// that are on the graph then (so none of their signals is missed), and with none if there are none.
+    ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, go: radar_ros::EventRef, stop: radar_ros::EventRef,
     /// #            count_up: radar_ros::ResponseRef) -> radar_ros::Result<()> {

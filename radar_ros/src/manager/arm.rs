@@ -196,7 +196,17 @@ impl Manager {
                 false => held.writer(k).map(Some),
             })
             .collect::<Result<Vec<_>>>()?;
-        for (r, (_, s)) in readers.iter().zip(&plan.reads) {
+        for (i, (r, (_, s))) in readers.iter().zip(&plan.reads).enumerate() {
+            // an until's signal often comes from one-shot publishers (an operator's `ros2 topic pub --once`, a
+            // fresh process per stop): wait only for those the graph knows now, so that none is missed
+            let until = plan.until.is_some() && i == 1; // reads: source, then until: U, started, exited
+            if until && self.graph().writer_participants(s.topic()).is_empty() {
+                tracing::debug!(
+                    topic = s.topic(),
+                    "until: no publisher on the graph yet, armed without one"
+                );
+                continue;
+            }
             r.wait_for_publishers(1)
                 .timeout(timeout)
                 .await
