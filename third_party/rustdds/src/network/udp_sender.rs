@@ -3,6 +3,7 @@ use std::{
   collections::HashMap,
   io,
   net::{IpAddr, SocketAddr, UdpSocket},
+  time::{Duration, Instant},
 };
 #[cfg(test)]
 use std::net::Ipv4Addr;
@@ -38,6 +39,89 @@ pub struct UDPSender {
   // sent immediately. Drained on write readiness by `flush_control`.
   // (see src/rtps/nonblocking_transmit_design.md)
   control_queues: RefCell<HashMap<SocketId, ControlQueue>>,
+
+  // radar_ros patch 33: destinations whose sends fail (a link that is down, a
+  // route that went away), so that an outage is one warning, a count every
+  // `SEND_FAILURE_REPORT`, and one line when it ends, not a line per datagram.
+  send_failures: RefCell<SendFailures>,
+}
+
+/// How often a destination whose sends keep failing is reported again.
+pub(crate) const SEND_FAILURE_REPORT: Duration = Duration::from_secs(10);
+
+/// Sends that fail, per (socket, destination), while they fail.
+#[derive(Debug, Default)]
+pub(crate) struct SendFailures {
+  failing: HashMap<(SocketId, SocketAddr), Failing>,
+}
+
+#[derive(Debug)]
+struct Failing {
+  since: Instant,
+  /// Failures since it was last reported.
+  unreported: u64,
+  total: u64,
+  reported: Instant,
+}
+
+/// What to log about one send.
+#[derive(Debug, PartialEq, Eq)]
+pub(crate) enum SendReport {
+  /// Nothing: a failure already reported, or a send to a working destination.
+  Quiet,
+  /// The first failure of an outage.
+  Failing,
+  /// Failures (this many) since the last report, the outage going on.
+  StillFailing(u64),
+  /// A send works again after this many failures.
+  Recovered(u64, Duration),
+}
+
+impl SendFailures {
+  /// A send from `id` to `addr` failed at `now`.
+  pub(crate) fn failed(&mut self, id: SocketId, addr: SocketAddr, now: Instant) -> SendReport {
+    match self.failing.get_mut(&(id, addr)) {
+      None => {
+        self.failing.insert(
+          (id, addr),
+          Failing {
+            since: now,
+            unreported: 0,
+            total: 1,
+            reported: now,
+          },
+        );
+        SendReport::Failing
+      }
+      Some(f) => {
+        f.total += 1;
+        f.unreported += 1;
+        if now.duration_since(f.reported) >= SEND_FAILURE_REPORT {
+          f.reported = now;
+          SendReport::StillFailing(std::mem::take(&mut f.unreported))
+        } else {
+          SendReport::Quiet
+        }
+      }
+    }
+  }
+
+  /// A send from `id` to `addr` worked at `now`.
+  pub(crate) fn worked(&mut self, id: SocketId, addr: SocketAddr, now: Instant) -> SendReport {
+    if self.failing.is_empty() {
+      return SendReport::Quiet;
+    }
+    match self.failing.remove(&(id, addr)) {
+      Some(f) => SendReport::Recovered(f.total, now.duration_since(f.since)),
+      None => SendReport::Quiet,
+    }
+  }
+
+  /// Destinations failing now.
+  #[cfg(test)]
+  pub(crate) fn failing(&self) -> usize {
+    self.failing.len()
+  }
 }
 
 impl UDPSender {
@@ -160,6 +244,7 @@ impl UDPSender {
       unicast_socket,
       multicast_sockets,
       control_queues: RefCell::new(HashMap::new()),
+      send_failures: RefCell::new(SendFailures::default()),
     };
     info!("UDPSender::new() --> {sender:?}");
     Ok(sender)
@@ -227,11 +312,33 @@ impl UDPSender {
             buffer.len()
           );
         }
+        if let SendReport::Recovered(n, d) =
+          self
+            .send_failures
+            .borrow_mut()
+            .worked(id, addr, Instant::now())
+        {
+          info!("raw_send: {id:?} to {addr} works again, after {n} failed sends over {d:.1?}");
+        }
         SendOutcome::Sent
       }
       Err(e) if e.kind() == io::ErrorKind::WouldBlock => SendOutcome::WouldBlock,
       Err(e) => {
-        warn!("raw_send: {id:?} to {addr} : {e:?} len={}", buffer.len());
+        match self
+          .send_failures
+          .borrow_mut()
+          .failed(id, addr, Instant::now())
+        {
+          SendReport::Failing => warn!(
+            "raw_send: {id:?} to {addr} : {e:?} len={} (while sends there fail, they are counted and \
+             reported every {SEND_FAILURE_REPORT:?})",
+            buffer.len()
+          ),
+          SendReport::StillFailing(n) => {
+            warn!("raw_send: {id:?} to {addr} : {n} more sends failed, the last with {e:?}")
+          }
+          _ => {}
+        }
         SendOutcome::Dropped
       }
     }
@@ -540,6 +647,71 @@ impl UDPSender {
 mod tests {
   use super::*;
   use crate::network::udp_listener::*;
+
+  // radar_ros patch 33: an outage is one line, a count every 10 s, and one line when it ends
+  #[test]
+  fn failing_sends_are_reported_once_then_counted() {
+    let mut f = SendFailures::default();
+    let a: SocketAddr = "239.255.0.1:7400".parse().unwrap();
+    let b: SocketAddr = "10.0.0.2:7410".parse().unwrap();
+    let t0 = Instant::now();
+    assert_eq!(f.failed(SocketId::Unicast, a, t0), SendReport::Failing);
+    for k in 1..100u64 {
+      let t = t0 + Duration::from_millis(k * 50); // 5 s of failures, every 50 ms
+      assert_eq!(f.failed(SocketId::Unicast, a, t), SendReport::Quiet);
+    }
+    // another destination, or the same from another socket, is an outage of its own
+    assert_eq!(f.failed(SocketId::Unicast, b, t0), SendReport::Failing);
+    assert_eq!(f.failed(SocketId::Multicast(0), a, t0), SendReport::Failing);
+    assert_eq!(
+      f.failed(SocketId::Unicast, a, t0 + Duration::from_secs(10)),
+      SendReport::StillFailing(100)
+    );
+    assert_eq!(
+      f.failed(SocketId::Unicast, a, t0 + Duration::from_secs(11)),
+      SendReport::Quiet
+    );
+    // a send to a working destination says nothing; the failing one's first success ends its outage
+    let c: SocketAddr = "10.0.0.3:7410".parse().unwrap();
+    assert_eq!(f.worked(SocketId::Unicast, c, t0), SendReport::Quiet);
+    assert_eq!(
+      f.worked(SocketId::Unicast, a, t0 + Duration::from_secs(12)),
+      SendReport::Recovered(102, Duration::from_secs(12))
+    );
+    assert_eq!(f.failing(), 2);
+    // and a new failure there is a new outage
+    assert_eq!(
+      f.failed(SocketId::Unicast, a, t0 + Duration::from_secs(13)),
+      SendReport::Failing
+    );
+  }
+
+  // radar_ros patch 33, through real sends: a broadcast without SO_BROADCAST fails (EACCES) every time
+  #[test]
+  fn a_sender_counts_its_failing_sends_per_destination() {
+    let sender = UDPSender::new_with_random_port().unwrap();
+    let dest = SocketAddr::new(Ipv4Addr::BROADCAST.into(), 7400);
+    for _ in 0..50 {
+      assert_eq!(
+        sender.raw_send(SocketId::Unicast, dest, &[0; 8]),
+        SendOutcome::Dropped
+      );
+    }
+    assert_eq!(sender.send_failures.borrow().failing(), 1);
+    let entry = sender
+      .send_failures
+      .borrow()
+      .failing
+      .get(&(SocketId::Unicast, dest))
+      .map(|f| (f.total, f.unreported));
+    assert_eq!(entry, Some((50, 49)), "one logged, 49 counted");
+    // a working destination is not remembered
+    let listener = UDPListener::new_unicast("127.0.0.1", 10211).unwrap();
+    let ok = SocketAddr::new("127.0.0.1".parse().unwrap(), 10211);
+    assert_eq!(sender.raw_send(SocketId::Unicast, ok, &[1; 8]), SendOutcome::Sent);
+    assert_eq!(listener.get_message(), vec![1; 8]);
+    assert_eq!(sender.send_failures.borrow().failing(), 1);
+  }
 
   #[test]
   fn udps_single_send() {
