@@ -119,7 +119,6 @@ impl Proc {
             .env("ROS_DOMAIN_ID", DOMAIN.to_string())
             .env("RUST_LOG", LOG)
             .env("NO_COLOR", "1")
-            .env("ROS_DISTRO", "jazzy")
             // as on a robot with ROS sourced (else ros2-client warns at start)
             .env("ROS_DISTRO", "jazzy")
             .stdin(std::process::Stdio::null())
