@@ -58,6 +58,9 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 34: a writer not heard from is asked again; an empty writer answers the question
+        "a_reader_asks_every_writer_it_has_not_heard_from_for_a_heartbeat",
+        "a_writer_with_nothing_written_answers_a_preemptive_acknack",
         // patch 33: an outage of a destination is one warning, a count every 10 s, one line when it ends
         "failing_sends_are_reported_once_then_counted",
         "a_sender_counts_its_failing_sends_per_destination",

@@ -574,10 +574,6 @@ impl Reader {
   // handles regular data message and updates history cache
   // RADAR patch 18: the first HEARTBEAT or DATA of a matched writer says it sends to this reader.
   fn note_heard(&mut self, writer_guid: GUID) {
-    // the built-in (discovery) readers' writers are of no interest to the application
-    if self.my_guid.entity_id.entity_kind.is_built_in() {
-      return;
-    }
     let first = match self.matched_writers.get_mut(&writer_guid) {
       Some(w) if !w.heard => {
         w.heard = true;
@@ -585,7 +581,8 @@ impl Reader {
       }
       _ => false,
     };
-    if first {
+    // the built-in (discovery) readers' writers are of no interest to the application
+    if first && !self.my_guid.entity_id.entity_kind.is_built_in() {
       self.send_participant_status(DomainParticipantStatusEvent::RemoteWriterHeard {
         local_reader: self.my_guid,
         remote_writer: writer_guid,
@@ -1483,13 +1480,17 @@ impl Reader {
       return;
     }
 
+    // a best-effort reader sends no ACKNACK
+    if self.reliability == policy::Reliability::BestEffort {
+      return;
+    }
     // Detach the writer proxy set. This is a way to avoid multiple &mut self
     let mut writer_proxies = std::mem::take(&mut self.matched_writers);
 
-    for (_, writer_proxy) in writer_proxies
-      .iter_mut()
-      .filter(|(_, p)| p.no_changes_received())
-    {
+    // RADAR patch 34: every matched writer not heard from yet (no HEARTBEAT, DATA or GAP since the match).
+    // The filter was `no_changes_received`, which never holds (a writer proxy's ack base starts at 1), so
+    // a reader whose writer's first HEARTBEAT was lost waited for the writer's first sample.
+    for (_, writer_proxy) in writer_proxies.iter_mut().filter(|(_, p)| !p.heard) {
       self.send_preemptive_acknack_to(writer_proxy);
     }
     // put writer proxies back
@@ -1773,6 +1774,98 @@ mod tests {
       cc_from_cache, &cc_locally_built,
       "The content of the cache change in the topic cache not as expected"
     );
+  }
+
+  #[test]
+  fn a_reader_asks_every_writer_it_has_not_heard_from_for_a_heartbeat() {
+    // RADAR patch 34: the periodic preemptive ACKNACKs go to the matched writers not heard from yet
+    // 1. Create a reader for a topic with Reliable QoS
+    // Create the DDS cache and the topic
+    let dds_cache = Arc::new(RwLock::new(DDSCache::new()));
+    let topic_name = "test_name";
+    let reliable_qos = QosPolicyBuilder::new()
+      .reliability(Reliability::Reliable {
+        max_blocking_time: Duration::from_millis(100),
+      })
+      .build();
+
+    let topic_cache_handle = dds_cache.write().unwrap().add_new_topic(
+      topic_name.to_string(),
+      TypeDesc::new("test_type".to_string()),
+      &reliable_qos,
+    );
+
+    // Create mechanisms for notifications, statuses & commands
+    let (notification_sender, _notification_receiver) =
+      crate::mio_source::notification_channel(100);
+    let (_notification_event_source, notification_event_sender) =
+      mio_source::make_poll_channel().unwrap();
+    let data_reader_waker = Arc::new(Mutex::new(None));
+
+    let (status_sender, _status_receiver) = sync_status_channel::<DataReaderStatus>(4).unwrap();
+    let (participant_status_sender, _participant_status_receiver) =
+      sync_status_channel(16).unwrap();
+
+    let (_reader_command_sender, reader_command_receiver) =
+      wake_channel::<ReaderCommand>(10, &LoopWaker::new());
+
+    // Then create the reader
+    let reader_guid = GUID::dummy_test_guid(EntityKind::READER_NO_KEY_USER_DEFINED);
+    let reader_ing = ReaderIngredients {
+      guid: reader_guid,
+      notification_sender,
+      status_sender,
+      topic_name: topic_name.to_string(),
+      topic_cache_handle,
+      like_stateless: false,
+      qos_policy: reliable_qos.clone(),
+      data_reader_command_receiver: reader_command_receiver,
+      data_reader_waker,
+      poll_event_sender: notification_event_sender,
+      security_plugins: None,
+      discovery_notify: None,
+    };
+    let mut reader = Reader::new(
+      reader_ing,
+      Rc::new(UDPSender::new(0).unwrap()),
+      new_shared_timer(),
+      participant_status_sender,
+    );
+
+    // 2. Add info of a matched writer to the reader
+    let writer_guid = GUID::dummy_test_guid(EntityKind::WRITER_NO_KEY_USER_DEFINED);
+
+    let mr_state = MessageReceiverState {
+      source_guid_prefix: writer_guid.prefix,
+      ..Default::default()
+    };
+
+    reader.matched_writer_add(
+      writer_guid,
+      EntityId::UNKNOWN,
+      mr_state.unicast_reply_locator_list.to_vec(),
+      mr_state.multicast_reply_locator_list.to_vec(),
+      &reliable_qos,
+    );
+
+    let sent = |reader: &Reader| reader.matched_writer(writer_guid).unwrap().sent_ack_nack_count;
+    // one on the match; the writer's HEARTBEAT is lost: one each period until it is heard
+    assert_eq!(sent(&reader), 1);
+    reader.send_preemptive_acknacks();
+    assert_eq!(sent(&reader), 2, "a writer not heard from is asked again");
+    reader.send_preemptive_acknacks();
+    assert_eq!(sent(&reader), 3);
+    let hb = Heartbeat {
+      reader_id: reader.entity_id(),
+      writer_id: writer_guid.entity_id,
+      first_sn: SequenceNumber::new(1),
+      last_sn: SequenceNumber::new(0),
+      count: 1,
+    };
+    reader.handle_heartbeat_msg(&hb, false, &mr_state);
+    let after = sent(&reader);
+    reader.send_preemptive_acknacks();
+    assert_eq!(sent(&reader), after, "a writer heard from is not asked again");
   }
 
   #[test]

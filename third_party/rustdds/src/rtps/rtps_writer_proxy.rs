@@ -132,11 +132,6 @@ impl RtpsWriterProxy {
     }
   }
 
-  // Check if we no samples in the received state.
-  pub fn no_changes_received(&self) -> bool {
-    self.ack_base == SequenceNumber::new(0) && self.changes.is_empty()
-  }
-
   // Given an availability range from a HEARTBEAT, find out what we are missing.
   //
   // Note: Heartbeat gives bounds only. Some samples within that range may

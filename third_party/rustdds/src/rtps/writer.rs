@@ -1349,8 +1349,13 @@ impl Writer {
           // An ACKNACK that requests nothing although the reader has not acknowledged
           // everything means the reader does not know what we have, typically a
           // preemptive ACKNACK from a reader that matched us after our HEARTBEAT.
-          // Answer now instead of at the next heartbeat period.
-          if an.reader_sn_state.iter().next().is_none() && reader_proxy.all_acked_before <= last_seq
+          // Answer now instead of at the next heartbeat period. A preemptive one
+          // (base 0) is answered also when there is nothing to acknowledge (RADAR
+          // patch 34): a writer that has written nothing sends its HEARTBEAT only
+          // on the match, and when that one is lost the reader never hears from it.
+          let preemptive = an.reader_sn_state.base() == SequenceNumber::zero();
+          if an.reader_sn_state.iter().next().is_none()
+            && (preemptive || reader_proxy.all_acked_before <= last_seq)
           {
             let hb_message = MessageBuilder::new()
               .ts_msg(self.endianness, Some(Timestamp::now()))
@@ -3230,6 +3235,50 @@ mod tests {
         })
         .collect();
       assert_eq!(kinds, vec![format!("DATA {}", i64::from(sn)), format!("HEARTBEAT 1..{}", i64::from(sn))]);
+    }
+
+    /// RADAR patch 34: a writer that has written nothing answers a reader's preemptive ACKNACK (base 0)
+    /// with a HEARTBEAT (1..0), so that a reader whose first HEARTBEAT was lost still hears from it.
+    #[test]
+    fn a_writer_with_nothing_written_answers_a_preemptive_acknack() {
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(300)))
+        .unwrap();
+      let (mut writer, _send_buffer) = matched_writer(&reader);
+      let mut buf = vec![0u8; 65536];
+      // whatever the match sent (nothing, without an event loop), gone
+      while reader.recv(&mut buf).is_ok() {}
+      let heartbeats = |buf: &mut Vec<u8>| {
+        let mut seen = Vec::new();
+        while let Ok(n) = reader.recv(buf) {
+          let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+          for sub in msg.submessages {
+            if let SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) = sub.body {
+              seen.push((i64::from(h.first_sn), i64::from(h.last_sn)));
+            }
+          }
+        }
+        seen
+      };
+      use crate::{
+        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
+      };
+      let reader_id = EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED);
+      let acknack = |base: i64, count: i32| {
+        AckSubmessage::AckNack(AckNack {
+          reader_id,
+          writer_id: writer.my_guid.entity_id,
+          reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(base)),
+          count,
+        })
+      };
+      let (preemptive, answer) = (acknack(0, 1), acknack(1, 2));
+      writer.handle_ack_nack(GuidPrefix::new(&[2; 12]), &preemptive);
+      assert_eq!(heartbeats(&mut buf), vec![(1, 0)], "a preemptive ACKNACK is answered");
+      // an ACKNACK that answers a HEARTBEAT (base 1: nothing missing) needs no answer
+      writer.handle_ack_nack(GuidPrefix::new(&[2; 12]), &answer);
+      assert_eq!(heartbeats(&mut buf), vec![]);
     }
 
     #[test]
