@@ -14,6 +14,11 @@ const PEER: &str = env!("CARGO_BIN_EXE_radar_test_peer");
 const NETEM: &str = env!("CARGO_BIN_EXE_radar_test_netem");
 const LOG: &str = "warn,rustdds=error,ros2_client=error";
 
+/// The peers' `RUST_LOG`: [`LOG`], or `RADAR_PEER_LOG` to trace a run.
+fn log() -> String {
+    std::env::var("RADAR_PEER_LOG").unwrap_or_else(|_| LOG.to_owned())
+}
+
 fn signals() -> usize {
     std::env::var("RADAR_NETWORK_SIGNALS")
         .ok()
@@ -34,8 +39,8 @@ async fn components_on_two_hosts_find_each_other_by_name_and_connect_across() {
     init_logs();
     require_isolation();
     let hosts = TwoHosts::cable();
-    let mut a = HostPeer::start_on(Some(&hosts.a), PEER, 55, LOG).await;
-    let mut b = HostPeer::start_on(Some(&hosts.b), PEER, 55, LOG).await;
+    let mut a = HostPeer::start_on(Some(&hosts.a), PEER, 55, &log()).await;
+    let mut b = HostPeer::start_on(Some(&hosts.b), PEER, 55, &log()).await;
     // a response and a signal on each host
     a.run("response lamp 0").await;
     a.run("publisher /door/triggered").await;
@@ -66,8 +71,8 @@ async fn components_on_two_hosts_find_each_other_by_name_and_connect_across() {
 
 /// Sends `n` stamped signals from host A to a connection on host B and returns B's summary line.
 async fn signals_across(hosts: &TwoHosts, domain: u16, n: usize) -> String {
-    let mut a = HostPeer::start_on(Some(&hosts.a), PEER, domain, LOG).await;
-    let mut b = HostPeer::start_on(Some(&hosts.b), PEER, domain, LOG).await;
+    let mut a = HostPeer::start_on(Some(&hosts.a), PEER, domain, &log()).await;
+    let mut b = HostPeer::start_on(Some(&hosts.b), PEER, domain, &log()).await;
     a.run("publisher-i64 /seq/triggered").await;
     b.run("collect-arm /seq/triggered").await;
     // 200 per second: a robot's event rate, and packets far enough apart for the jitter to reorder them

@@ -10,7 +10,8 @@
 //! configures addresses and routes), prints `ready`, then forwards every packet from one to the other: each
 //! is dropped with probability `LOSS` (0-1), else delivered after `DELAY_MS` plus a uniform `0..JITTER_MS`
 //! (so packets overtake each other when the jitter exceeds their spacing). Counts are printed on stderr when
-//! it ends (SIGTERM, or stdin closing). Linux only; needs CAP_NET_ADMIN and CAP_SYS_ADMIN (root in the test
+//! it ends (SIGTERM, or stdin closing); with `RADAR_NETEM_TRACE` set, one line per packet on stderr (sent or lost,
+//! its port and RTPS submessages). Linux only; needs CAP_NET_ADMIN and CAP_SYS_ADMIN (root in the test
 //! namespace).
 
 use std::{
@@ -121,8 +122,76 @@ impl Ord for Due {
     }
 }
 
+/// A packet for the trace (`RADAR_NETEM_TRACE`): its UDP destination port and RTPS submessages, each with the
+/// entity id that says which endpoint it is about (DATA and HEARTBEAT: the writer; ACKNACK: the reader).
+fn describe(p: &[u8]) -> String {
+    let Some(ihl) = p.first().map(|b| usize::from(b & 0x0f) * 4) else {
+        return "empty".into();
+    };
+    let port = p
+        .get(ihl + 2..ihl + 4)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .unwrap_or(0);
+    let rtps = p.get(ihl + 8..).unwrap_or_default();
+    let mut out = format!("port {port} len {}", p.len());
+    if rtps.get(..4) != Some(b"RTPS") {
+        return out;
+    }
+    let mut i = 20;
+    while i + 4 <= rtps.len() {
+        let (id, flags) = (rtps[i], rtps[i + 1]);
+        let le = flags & 1 == 1;
+        let len = if le {
+            u16::from_le_bytes([rtps[i + 2], rtps[i + 3]])
+        } else {
+            u16::from_be_bytes([rtps[i + 2], rtps[i + 3]])
+        } as usize;
+        let body = &rtps[i + 4..(i + 4 + len).min(rtps.len())];
+        let entity = |at: usize| {
+            body.get(at..at + 4)
+                .map(|b| format!("{:02x}{:02x}{:02x}{:02x}", b[0], b[1], b[2], b[3]))
+                .unwrap_or_default()
+        };
+        let seq = |at: usize| -> i64 {
+            body.get(at..at + 8)
+                .map(|b| {
+                    let (hi, lo) = if le {
+                        (
+                            i32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                            u32::from_le_bytes([b[4], b[5], b[6], b[7]]),
+                        )
+                    } else {
+                        (
+                            i32::from_be_bytes([b[0], b[1], b[2], b[3]]),
+                            u32::from_be_bytes([b[4], b[5], b[6], b[7]]),
+                        )
+                    };
+                    (i64::from(hi) << 32) | i64::from(lo)
+                })
+                .unwrap_or(-1)
+        };
+        let what = match id {
+            0x06 => format!(" ACKNACK(r {} w {} base {})", entity(0), entity(4), seq(8)),
+            0x07 => format!(" HB(w {} {}..{})", entity(4), seq(8), seq(16)),
+            0x08 => format!(" GAP(w {})", entity(4)),
+            0x15 => format!(" DATA(w {} sn {})", entity(8), seq(12)),
+            0x16 => format!(" DATA_FRAG(w {} sn {})", entity(8), seq(12)),
+            0x0e => " DST".to_string(),
+            0x09 => String::new(),
+            other => format!(" sub{other:#x}"),
+        };
+        out.push_str(&what);
+        if len == 0 {
+            break;
+        }
+        i += 4 + len;
+    }
+    out
+}
+
 /// One direction: reads packets from `from`, writes them to `to` as impaired.
 fn direction(
+    tag: &'static str,
     from: Arc<OwnedFd>,
     to: Arc<OwnedFd>,
     loss: f64,
@@ -156,6 +225,8 @@ fn direction(
         }
     });
     let mut rng = Rng(seed | 1);
+    let trace = std::env::var_os("RADAR_NETEM_TRACE").is_some();
+    let t0 = Instant::now();
     let mut buf = vec![0u8; 65536];
     let mut seq = 0u64;
     loop {
@@ -164,7 +235,16 @@ fn direction(
         if n <= 0 {
             return;
         }
-        if rng.unit() < loss {
+        let lost = rng.unit() < loss;
+        if trace {
+            eprintln!(
+                "netem {:>8.3} {tag} {} {}",
+                t0.elapsed().as_secs_f64(),
+                if lost { "LOST" } else { "sent" },
+                describe(&buf[..n as usize])
+            );
+        }
+        if lost {
             counts.dropped.fetch_add(1, Ordering::Relaxed);
             continue;
         }
@@ -200,11 +280,13 @@ fn main() {
     let counts = Arc::new(Counts::default());
     {
         let (a, b, c) = (a.clone(), b.clone(), counts.clone());
-        std::thread::spawn(move || direction(a, b, loss, delay, jitter, seed, c));
+        std::thread::spawn(move || direction("a>b", a, b, loss, delay, jitter, seed, c));
     }
     {
         let (a, b, c) = (a.clone(), b.clone(), counts.clone());
-        std::thread::spawn(move || direction(b, a, loss, delay, jitter, seed.rotate_left(17), c));
+        std::thread::spawn(move || {
+            direction("b>a", b, a, loss, delay, jitter, seed.rotate_left(17), c)
+        });
     }
     println!("ready");
     // until stdin closes (the test ends or drops us) or SIGTERM
