@@ -58,6 +58,9 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 35: what peers that left announced does not stay in memory
+        "sedp_samples_expire_and_user_samples_stay",
+        "a_participant_that_leaves_takes_its_topic_data_and_the_attic_is_bounded",
         // patch 34: a writer not heard from is asked again; an empty writer answers the question
         "a_reader_asks_every_writer_it_has_not_heard_from_for_a_heartbeat",
         "a_writer_with_nothing_written_answers_a_preemptive_acknack",

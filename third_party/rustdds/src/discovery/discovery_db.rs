@@ -72,6 +72,9 @@ pub(crate) struct DiscoveryDB {
   // was lost due to time-out. If we have a
   external_topic_readers_attic: BTreeMap<GUID, DiscoveredReaderData>,
   external_topic_writers_attic: BTreeMap<GUID, DiscoveredWriterData>,
+  // The participants in the attic, oldest first (RADAR patch 35): at most `ATTIC_PARTICIPANTS` are kept, so
+  // that a system whose processes are killed and restarted for days does not keep every dead one's endpoints.
+  attic_order: std::collections::VecDeque<GuidPrefix>,
 
   // Database of topic updates:
   // Outer level key is topic name
@@ -92,6 +95,10 @@ pub(crate) enum DiscoveredVia {
   Subscription, // we discovered a reader on this topic
   SelfDefined,  // not discovered, but defined by the local DomainParticipant
 }
+
+/// How many lost participants' endpoints the attic keeps (RADAR patch 35): one that comes back after more
+/// than this many others were lost is discovered again from its announcements instead.
+pub(crate) const ATTIC_PARTICIPANTS: usize = 64;
 
 fn move_by_guid_prefix<D>(
   guid_prefix: GuidPrefix,
@@ -141,6 +148,7 @@ impl DiscoveryDB {
       external_topic_writers: BTreeMap::new(),
       external_topic_readers_attic: BTreeMap::new(),
       external_topic_writers_attic: BTreeMap::new(),
+      attic_order: std::collections::VecDeque::new(),
       topics: BTreeMap::new(),
       topic_updated_sender,
       participant_status_sender,
@@ -198,6 +206,28 @@ impl DiscoveryDB {
         &mut self.external_topic_writers_attic,
         &mut self.external_topic_writers,
       );
+      self.attic_order.retain(|p| *p != guid.prefix);
+      // their topic data, forgotten when they went to the attic (RADAR patch 35)
+      let restored: Vec<(GUID, DiscoveredTopicData, DiscoveredVia)> = self
+        .external_topic_readers
+        .range(guid.prefix.range())
+        .map(|(g, r)| {
+          let t = r.subscription_topic_data.to_topic_data();
+          (*g, DiscoveredTopicData::new(Utc::now(), t), DiscoveredVia::Subscription)
+        })
+        .chain(
+          self
+            .external_topic_writers
+            .range(guid.prefix.range())
+            .map(|(g, w)| {
+              let t = w.publication_topic_data.to_topic_data();
+              (*g, DiscoveredTopicData::new(Utc::now(), t), DiscoveredVia::Publication)
+            }),
+        )
+        .collect();
+      for (g, t, via) in restored {
+        self.update_topic_data(&t, g, via);
+      }
     }
 
     // In any case:
@@ -251,7 +281,56 @@ impl DiscoveryDB {
         &mut self.external_topic_writers,
         &mut self.external_topic_writers_attic,
       );
+      self.attic_order.retain(|p| *p != guid_prefix);
+      self.attic_order.push_back(guid_prefix);
+      while self.attic_order.len() > ATTIC_PARTICIPANTS {
+        if let Some(oldest) = self.attic_order.pop_front() {
+          info!("forgetting the endpoints of {oldest:?}: the attic keeps {ATTIC_PARTICIPANTS} participants");
+          let gone: Vec<GUID> = self
+            .external_topic_readers_attic
+            .range(oldest.range())
+            .map(|(g, _)| *g)
+            .collect();
+          for g in gone {
+            self.external_topic_readers_attic.remove(&g);
+          }
+          let gone: Vec<GUID> = self
+            .external_topic_writers_attic
+            .range(oldest.range())
+            .map(|(g, _)| *g)
+            .collect();
+          for g in gone {
+            self.external_topic_writers_attic.remove(&g);
+          }
+        }
+      }
     }
+    // what its endpoints said about their topics goes with them (RADAR patch 35: it was kept for ever)
+    self.forget_topic_data_from(|g| g.prefix == guid_prefix);
+  }
+
+  /// Forgets the topic data sent by the endpoints `gone` says are gone, and topics nobody describes any more.
+  fn forget_topic_data_from(&mut self, gone: impl Fn(&GUID) -> bool) {
+    for senders in self.topics.values_mut() {
+      senders.retain(|g, _| !gone(g));
+    }
+    self.topics.retain(|_, senders| !senders.is_empty());
+  }
+
+  /// Topic names known, with how many endpoints or participants described each (tests).
+  #[cfg(test)]
+  pub(crate) fn topic_senders(&self) -> BTreeMap<String, usize> {
+    self
+      .topics
+      .iter()
+      .map(|(t, s)| (t.clone(), s.len()))
+      .collect()
+  }
+
+  /// Endpoints kept in the attic (tests).
+  #[cfg(test)]
+  pub(crate) fn attic_len(&self) -> usize {
+    self.external_topic_readers_attic.len() + self.external_topic_writers_attic.len()
   }
 
   /// Every remote participant known, and this one (RADAR patch 29).
@@ -282,6 +361,7 @@ impl DiscoveryDB {
   pub fn remove_topic_reader(&mut self, guid: GUID) {
     info!("remove_topic_reader {guid:?}");
     self.external_topic_readers.remove(&guid);
+    self.forget_topic_data_from(|g| *g == guid);
   }
 
   #[cfg(feature = "security")]
@@ -309,6 +389,7 @@ impl DiscoveryDB {
 
   pub fn remove_topic_writer(&mut self, guid: GUID) {
     self.external_topic_writers.remove(&guid);
+    self.forget_topic_data_from(|g| *g == guid);
   }
 
   // Delete participant proxies, if we have not heard of them within
@@ -899,6 +980,64 @@ mod tests {
     assert!(discoverydb.participant_proxies.is_empty());
 
     // TODO: more operations tests
+  }
+
+  // RADAR patch 35: what a participant's endpoints said about their topics goes with the participant (it
+  // was kept for ever: ~7 KB per short-lived peer process), and the attic keeps the last 64 lost ones.
+  #[test]
+  fn a_participant_that_leaves_takes_its_topic_data_and_the_attic_is_bounded() {
+    let (discovery_db_event_sender, _discovery_db_event_receiver) =
+      std::sync::mpsc::sync_channel::<()>(1024);
+    let (status_sender, _status_receiver) = sync_status_channel(1024).unwrap();
+    let mut db = DiscoveryDB::new(
+      GUID::new_participant_guid(),
+      discovery_db_event_sender,
+      status_sender,
+    );
+    let n = ATTIC_PARTICIPANTS + 6;
+    let prefix = |i: usize| GuidPrefix::new(&[i as u8 + 1; 12]);
+    let topic = subscription_builtin_topic_data().unwrap().topic_name().clone();
+    for i in 0..n {
+      let mut p = spdp_participant_data().unwrap();
+      p.participant_guid = GUID::new(prefix(i), EntityId::PARTICIPANT);
+      db.update_participant(&p);
+      let reader = GUID::new(
+        prefix(i),
+        EntityId::new([0, 0, 1], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      let mut proxy = reader_proxy_data().unwrap();
+      proxy.remote_reader_guid = reader;
+      let sub = SubscriptionBuiltinTopicData::new(
+        reader,
+        None,
+        topic.clone(),
+        "RandomData".to_string(),
+        &QosPolicies::qos_none(),
+        None,
+      );
+      db.update_subscription(&DiscoveredReaderData {
+        reader_proxy: proxy,
+        subscription_topic_data: sub,
+        content_filter: None,
+        user_data: Vec::new(),
+      });
+    }
+    assert_eq!(db.topic_senders().get(&topic), Some(&n));
+    // one says goodbye, the others' leases run out
+    db.remove_participant(prefix(0), true);
+    assert_eq!(db.topic_senders().get(&topic), Some(&(n - 1)));
+    for i in 1..n {
+      db.remove_participant(prefix(i), false);
+    }
+    assert_eq!(db.topic_senders().get(&topic), None, "nobody describes the topic any more");
+    assert_eq!(db.attic_len(), ATTIC_PARTICIPANTS, "the attic keeps the last lost ones only");
+    // the last one lost comes back: its reader and what it said about the topic too
+    let mut p = spdp_participant_data().unwrap();
+    p.participant_guid = GUID::new(prefix(n - 1), EntityId::PARTICIPANT);
+    db.update_participant(&p);
+    assert_eq!(db.topic_senders().get(&topic), Some(&1));
+    assert_eq!(db.attic_len(), ATTIC_PARTICIPANTS - 1);
+    assert_eq!(db.get_all_external_topic_readers().count(), 1);
   }
 
   #[test]

@@ -16,6 +16,10 @@ use crate::{
 
 /// How often a reader asks the matched writers it has not heard from yet for a HEARTBEAT (RADAR patch 34:
 /// was 5 s, and never sent; a lost first HEARTBEAT of a writer costs at most this long now).
+/// How long an SEDP sample is kept in its topic cache after it arrived (RADAR patch 35); discovery takes each
+/// at once, and a sample waiting for an earlier one's repair is kept until it is delivered whatever its age.
+pub const SEDP_SAMPLES_KEPT: crate::Duration = crate::Duration::from_secs(60);
+
 pub const PREEMPTIVE_ACKNACK_PERIOD: Duration = Duration::from_secs(1);
 
 pub const CACHE_CLEAN_PERIOD: Duration = Duration::from_secs(4);

@@ -115,7 +115,8 @@ impl DDSCache {
       let mut tc = tc.lock().unwrap();
       if let Some((last_timestamp, _)) = tc.changes.iter().next_back() {
         if *last_timestamp > tc.changes_reallocated_up_to {
-          tc.remove_changes_before(Timestamp::ZERO);
+          let before = tc.collect_before(Timestamp::now());
+          tc.remove_changes_before(before);
         }
       }
       // changes too recent to be reallocated yet: look again next time
@@ -124,6 +125,7 @@ impl DDSCache {
         .iter()
         .next_back()
         .is_some_and(|(last, _)| *last > tc.changes_reallocated_up_to);
+      debug!("topic cache {name}: {} samples after collection", tc.changes.len());
       tc.gc_listed = unfinished;
       if unfinished {
         again.push(name);
@@ -196,6 +198,11 @@ pub(crate) struct TopicCache {
   gc_pending: Option<GcPending>,
   /// Listed there now.
   gc_listed: bool,
+  /// How long samples are kept past their arrival, beyond the history depth and the withheld ones (RADAR
+  /// patch 35): set for the SEDP topics, whose one reader (discovery) takes each sample as it comes. They
+  /// were kept up to their 4096-sample limit, so every participant and endpoint that ever came and went
+  /// stayed in memory: ~7 KB per short-lived peer process, up to ~16 MB per participant.
+  expire_after: Option<crate::Duration>,
 }
 
 impl TopicCache {
@@ -216,7 +223,20 @@ impl TopicCache {
       history_offers: BTreeMap::new(),
       gc_pending: None,
       gc_listed: false,
+      expire_after: None,
     };
+    use crate::rtps::constant::builtin_topic_names as names;
+    if [
+      names::DCPS_PUBLICATION,
+      names::DCPS_SUBSCRIPTION,
+      names::DCPS_TOPIC,
+      names::DCPS_PUBLICATIONS_SECURE,
+      names::DCPS_SUBSCRIPTIONS_SECURE,
+    ]
+    .contains(&new_self.topic_name.as_str())
+    {
+      new_self.expire_after = Some(crate::rtps::constant::SEDP_SAMPLES_KEPT);
+    }
 
     new_self.update_keep_limits(topic_qos);
 
@@ -406,7 +426,7 @@ impl TopicCache {
     let gc_triggered = modulus <= 1 || semi_random_number.is_multiple_of(modulus);
     if gc_triggered {
       debug!("Garbage collecting topic {}", self.topic_name);
-      self.remove_changes_before(Timestamp::ZERO);
+      self.remove_changes_before(self.collect_before(Timestamp::now()));
       // remove limit is so low that it has no effect.
       // We actually only remove to keep cache size between min and max limits.
     }
@@ -444,6 +464,15 @@ impl TopicCache {
         error!("DDSHistoryCache already contained element with key {key:?} !!!");
         self.remove_sn(old_cc);
       })
+    }
+  }
+
+  /// What garbage collection at `now` may remove (above the history depth): samples that arrived before
+  /// this, for a topic whose samples expire; else only what is over the limits.
+  pub(crate) fn collect_before(&self, now: Timestamp) -> Timestamp {
+    match self.expire_after {
+      Some(d) => now - d,
+      None => Timestamp::ZERO,
     }
   }
 
@@ -612,6 +641,10 @@ impl TopicCache {
     // Saturating sub takes care that this does not underflow below zero.
 
     let may_remove_count = match self.min_keep_samples {
+      // A topic whose samples expire (RADAR patch 35): each older than `remove_before` may go, whatever the
+      // history (the built-in SEDP writers' KeepAll made it keep every sample up to the limit).
+      _ if self.expire_after.is_some() => sample_count,
+
       // We are erquested to KeepAll, so do not remove more than absolutely required.
       History::KeepAll => must_remove_count,
 
@@ -916,6 +949,64 @@ mod tests {
     assert_eq!(dds.gc_pending_topics(), 1, "the recent one is looked at again");
     topics[7].lock().unwrap().add_change(&Timestamp::now(), sample(3));
     assert_eq!(dds.gc_pending_topics(), 2, "a new change lists a topic again");
+  }
+
+  // RADAR patch 35: an SEDP topic's samples go a minute after they came (above the history depth); a user
+  // topic's stay up to its limits. Before, 100 short-lived peers left 100 samples in each SEDP cache.
+  #[test]
+  fn sedp_samples_expire_and_user_samples_stay() {
+    use crate::{dds::qos::policy::ResourceLimits, rtps::constant::builtin_topic_names};
+    let mut dds = DDSCache::new();
+    // as discovery makes it: the built-in writer's QoS (KeepAll), then its reader's
+    for qos in [
+      Discovery::builtin_publisher_qos(),
+      Discovery::builtin_sedp_reader_qos(),
+    ] {
+      dds.add_new_topic(
+        builtin_topic_names::DCPS_PUBLICATION.to_string(),
+        TypeDesc::new("DiscoveredWriterData".to_string()),
+        &qos,
+      );
+    }
+    let sedp = dds
+      .get_existing_topic_cache(builtin_topic_names::DCPS_PUBLICATION)
+      .unwrap();
+    let user = dds.add_new_topic(
+      "chatter".to_string(),
+      TypeDesc::new("T".to_string()),
+      &QosPolicyBuilder::new()
+        .history(History::KeepLast { depth: 4 })
+        .resource_limits(ResourceLimits {
+          max_samples: 4096,
+          max_instances: 4096,
+          max_samples_per_instance: 4096,
+        })
+        .build(),
+    );
+    // 100 writers (each a peer that came and went), one sample each, two minutes ago; 3 samples just now
+    let long_ago = Timestamp::now() - crate::Duration::from_secs(120);
+    for tc in [&sedp, &user] {
+      let mut tc = tc.lock().unwrap();
+      for i in 0..103u8 {
+        let writer = GUID::new(
+          GuidPrefix::new(&[i; 12]),
+          EntityId::new([0, 0, 1], EntityKind::WRITER_WITH_KEY_USER_DEFINED),
+        );
+        let at = if i < 100 { long_ago } else { Timestamp::now() };
+        tc.add_change(
+          &(at + crate::Duration::from_millis(i64::from(i))),
+          CacheChange::new(
+            writer,
+            SequenceNumber::new(1),
+            WriteOptions::default(),
+            DDSData::new(SerializedPayload::default()),
+          ),
+        );
+      }
+    }
+    dds.garbage_collect();
+    assert_eq!(sedp.lock().unwrap().changes.len(), 3, "SEDP samples older than a minute go");
+    assert_eq!(user.lock().unwrap().changes.len(), 103, "a user topic keeps what its limits allow");
   }
 
   fn keep_all_topic_cache() -> TopicCache {
