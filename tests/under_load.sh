@@ -4,7 +4,11 @@
 # runs of each passed. Exits 1 if any run failed. Not part of the README's test command (it takes about an
 # hour on 2 cores); issue 23 asks for it, docs/reliability.md shows its last result.
 #
-#   tests/under_load.sh [N]
+#   tests/under_load.sh [N] [all|plain|secured]
+#
+# `secured` runs only the secured programs' tests (issue 32: the secured examples once logged RustDDS errors as
+# programs ended), built with the `security` feature in target/security-feature as tests/security_feature.rs
+# builds them (run that first, or let this build them).
 #
 # The tests: a `ros2 topic pub --once` from a fresh rclpy process (30 starts and 30 interrupts per run), a
 # service call from a fresh process, a signal emitted right before its component exits, programs
@@ -13,11 +17,19 @@
 # respawned target seen replaced, a peer an hour ahead, an until bounding a queued run.
 set -euo pipefail
 n=${1:-30}
+which=${2:-all}
 here=$(cd "$(dirname "$0")" && pwd)
 cd "$here/.."
 if [ "${RADAR_ISOLATED:-}" != 1 ]; then
-  cargo build -q -p radar_ros_tests --tests
-  exec tests/isolated.sh bash tests/under_load.sh "$n"
+  if [ "$which" != secured ]; then cargo build -q -p radar_ros_tests --tests; fi
+  if [ "$which" != plain ]; then
+    CARGO_TARGET_DIR=target/security-feature cargo build -q -p radar_ros -p radar_tools -p radar_ros_examples \
+      --features radar_ros/security,radar_tools/security,radar_ros_examples/security --bins --examples
+    CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros --features security --test secure --no-run
+    CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros_examples --features security \
+      --test count_up_secured --no-run
+  fi
+  exec tests/isolated.sh bash tests/under_load.sh "$n" "$which"
 fi
 cores=$(nproc)
 pids=()
@@ -39,12 +51,34 @@ tests=(
   "clocks a_start_from_a_host_an_hour_ahead_does_not_blind_the_response_to_its_own_hosts_interrupts"
   "connections cases::until_bounds_the_run_of_a_start_that_waited_for_another_run"
 )
+# PACKAGE TEST NAME, built with the security feature
+secured=(
+  "radar_ros_examples count_up_secured secured_deliberative_example_follows_figure_3"
+  "radar_ros_examples count_up_secured secured_count_up_follows_listing_1"
+  "radar_ros secure secured_programs_signal_each_other_and_a_plain_one_is_kept_out"
+  "radar_ros secure one_secured_program_hears_its_own_signals_on_every_subscription"
+)
+runs=()
+if [ "$which" != secured ]; then
+  for t in "${tests[@]}"; do runs+=("radar_ros_tests $t plain"); done
+fi
+if [ "$which" != plain ]; then
+  for t in "${secured[@]}"; do runs+=("$t secured"); done
+fi
 failed=0
-for t in "${tests[@]}"; do
+for t in "${runs[@]}"; do
   set -- $t
+  pkg=$1
+  shift
   ok=0
   for i in $(seq "$n"); do
-    if cargo test -q -p radar_ros_tests --test "$1" -- --exact "$2" > "/tmp/under_load_$2_$i.log" 2>&1; then
+    if [ "$3" = secured ]; then
+      run=(env CARGO_TARGET_DIR=target/security-feature RADAR_CLI="$PWD/target/security-feature/debug/radar"
+        cargo test -q -p "$pkg" --features security --test "$1" -- --exact "$2" --test-threads=1)
+    else
+      run=(cargo test -q -p "$pkg" --test "$1" -- --exact "$2")
+    fi
+    if "${run[@]}" > "/tmp/under_load_$2_$i.log" 2>&1; then
       ok=$((ok + 1))
       rm -f "/tmp/under_load_$2_$i.log"
     else
