@@ -97,12 +97,15 @@ impl Said {
     }
 }
 
+/// Lines a process wrote, with when they came.
+type Lines = Arc<Mutex<Vec<(i64, String)>>>;
+
 /// A process of the soak.
 struct Proc {
     role: &'static str,
     child: tokio::process::Child,
     /// Its stderr lines: (time, line).
-    stderr: Arc<Mutex<Vec<(i64, String)>>>,
+    stderr: Lines,
     /// CPU ticks (utime + stime) once it was ready.
     ticks: u64,
     /// When it was ready.
@@ -396,12 +399,11 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
 
     // the processes stop cleanly on SIGTERM, each exit slot run
     let mut stops = Vec::new();
-    let all_logs: Vec<(&'static str, Arc<Mutex<Vec<(i64, String)>>>)> =
-        [&robot_a, &robot_b, &bumper, &planner]
-            .iter()
-            .chain(killed.iter().collect::<Vec<_>>().iter())
-            .map(|p| (p.role, p.stderr.clone()))
-            .collect();
+    let all_logs: Vec<(&'static str, Lines)> = [&robot_a, &robot_b, &bumper, &planner]
+        .iter()
+        .chain(killed.iter().collect::<Vec<_>>().iter())
+        .map(|p| (p.role, p.stderr.clone()))
+        .collect();
     let end_logs = now_ns();
     for p in [planner, bumper, robot_b, robot_a] {
         let role = p.role;

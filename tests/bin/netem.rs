@@ -189,17 +189,29 @@ fn describe(p: &[u8]) -> String {
     out
 }
 
-/// One direction: reads packets from `from`, writes them to `to` as impaired.
-fn direction(
-    tag: &'static str,
-    from: Arc<OwnedFd>,
-    to: Arc<OwnedFd>,
+/// How a direction impairs packets.
+#[derive(Clone, Copy)]
+struct Impairment {
     loss: f64,
     delay: Duration,
     jitter: Duration,
     seed: u64,
+}
+
+/// One direction (`tag` in the trace): reads packets from `from`, writes them to `to` as impaired.
+fn direction(
+    tag: &'static str,
+    from: Arc<OwnedFd>,
+    to: Arc<OwnedFd>,
+    how: Impairment,
     counts: Arc<Counts>,
 ) {
+    let Impairment {
+        loss,
+        delay,
+        jitter,
+        seed,
+    } = how;
     let (tx, rx) = mpsc::channel::<Due>();
     let sent = counts.clone();
     std::thread::spawn(move || {
@@ -280,12 +292,36 @@ fn main() {
     let counts = Arc::new(Counts::default());
     {
         let (a, b, c) = (a.clone(), b.clone(), counts.clone());
-        std::thread::spawn(move || direction("a>b", a, b, loss, delay, jitter, seed, c));
+        std::thread::spawn(move || {
+            direction(
+                "a>b",
+                a,
+                b,
+                Impairment {
+                    loss,
+                    delay,
+                    jitter,
+                    seed,
+                },
+                c,
+            )
+        });
     }
     {
         let (a, b, c) = (a.clone(), b.clone(), counts.clone());
         std::thread::spawn(move || {
-            direction("b>a", b, a, loss, delay, jitter, seed.rotate_left(17), c)
+            direction(
+                "b>a",
+                b,
+                a,
+                Impairment {
+                    loss,
+                    delay,
+                    jitter,
+                    seed: seed.rotate_left(17),
+                },
+                c,
+            )
         });
     }
     println!("ready");
