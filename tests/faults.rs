@@ -23,7 +23,7 @@ use std::{
 };
 
 use radar_ros::msg::{Connection, Empty, EventState, Int64};
-use radar_test_util::{eventually_async, radar, HostPeer, ManagerClient, DISCOVERY};
+use radar_test_util::{eventually_async, radar, HostPeer, ManagerClient, Rng, DISCOVERY};
 
 const PEER: &str = env!("CARGO_BIN_EXE_radar_test_peer");
 const DOMAIN: u16 = 58;
@@ -53,16 +53,6 @@ impl Fault {
             Fault::Kill => true,
             Fault::Stop(d) => d > radar_ros::DEFAULT_LEASE + Duration::from_secs(1),
         }
-    }
-}
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
     }
 }
 
@@ -107,7 +97,7 @@ async fn faults_during_signal_bursts_keep_the_invariants() {
             1 => Fault::Kill,
             _ => Fault::Stop(Duration::from_secs(1)),
         };
-        let at = Duration::from_millis(100 + rng.next() % 700);
+        let at = Duration::from_millis(100 + rng.next_u64() % 700);
         println!(
             "round {round} (RADAR_SEED={seed}, RADAR_FAULT_ROUNDS={}): {victim:?} {fault:?} at {at:?}",
             round + 1

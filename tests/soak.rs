@@ -21,8 +21,9 @@
 //! arrive: every `a_tick` and `b_bump` emitted outside a window reaches `b_drive` and `a_arm` (its payload
 //! echoed by the start slot) exactly once; every `once` scope outside a window fires, and starts `a_once`
 //! once, with a payload emitted after the scope began; every poke outside a window interrupts `a_long`
-//! within 3 s. Anywhere, windows included: no signal arrives twice, no `once` scope starts `a_once` twice, no
-//! `a_long` run is interrupted without a poke. Each minute also shows what arrived inside windows, the RSS,
+//! within 3 s. Anywhere, windows included: no signal arrives twice, no `once` scope starts `a_once` twice, every
+//! `a_long` interrupt answers a poke (the first after it, or one ending a run whose start was sent before the
+//! poke: rule R14 bounds that run too). Each minute also shows what arrived inside windows, the RSS,
 //! open fds and CPU of every long-lived process, and the error and warning lines they logged.
 //!
 //! The test fails on a lost or duplicated signal, an error line, or a process that does not stop cleanly on
@@ -35,7 +36,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use radar_test_util::{init_logs, require_isolation, NetHost, TwoHosts};
+use radar_test_util::{init_logs, require_isolation, NetHost, Rng, TwoHosts};
 use tokio::io::AsyncBufReadExt;
 
 const SOAK: &str = env!("CARGO_BIN_EXE_radar_test_soak");
@@ -59,6 +60,8 @@ struct Said {
     emitted: HashMap<String, Vec<i64>>,
     /// Payloads (emission times) that reached each response's start slot.
     started: HashMap<String, Vec<i64>>,
+    /// `a_long`'s runs: (when it began, the emission time of the signal that started it).
+    long_runs: Vec<(i64, i64)>,
     /// `a_long`'s exits: (time, reason).
     long_exits: Vec<(i64, String)>,
     /// The planner's `once` scopes: (began, fired, ended).
@@ -84,6 +87,9 @@ impl Said {
                 .entry(name.to_string())
                 .or_default()
                 .push(ns(t).unwrap()),
+            ["start", "a_long", sent, began] if ns(sent).is_some() && ns(began).is_some() => {
+                self.long_runs.push((ns(began).unwrap(), ns(sent).unwrap()))
+            }
             ["exit", "a_long", t, why @ ..] if ns(t).is_some() => {
                 self.long_exits.push((ns(t).unwrap(), why.join(" ")))
             }
@@ -235,16 +241,6 @@ fn window_of(windows: &[Window], t: i64) -> Option<usize> {
     windows.iter().position(|w| t >= w.from && t < w.to)
 }
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-}
-
 /// One minute's counts.
 #[derive(Default, Debug)]
 struct Minute {
@@ -302,7 +298,7 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
         let base = 60.0 * m as f64;
         // five pokes at seeded moments, 11-13 s apart
         let mut poke_at: Vec<f64> = (0..5)
-            .map(|k| base + 2.0 + 12.0 * k as f64 + (rng.next() % 1000) as f64 / 1000.0)
+            .map(|k| base + 2.0 + 12.0 * k as f64 + (rng.next_u64() % 1000) as f64 / 1000.0)
             .collect();
         poke_at.reverse();
         let mut faults: Vec<(f64, &str)> = vec![(8.0, "kill"), (20.0, "stop"), (38.0, "link")];
@@ -517,9 +513,27 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
             .map(|w| windows[w].what.clone())
             .unwrap_or_else(|| "no fault window".into())
     };
-    let long_starts = said.started.get("a_long").cloned().unwrap_or_default();
+    let mut long_runs = said.long_runs.clone();
+    long_runs.sort();
+    // the signal that started the run an interrupt at `t` ended
+    let started_by = |t: i64| {
+        long_runs
+            .iter()
+            .rev()
+            .find(|(began, _)| *began <= t)
+            .map(|r| r.1)
+    };
+    let long_starts: Vec<i64> = long_runs.iter().map(|r| r.1).collect();
     for (poke, ts) in &by_poke {
-        if poke.is_none() || ts.len() > 1 {
+        // rule R14: one U bounds every run of its statement whose start was sent before it, also one that
+        // begins after U's first interrupt (a start on its way while U ended the run before): those are the
+        // poke's too
+        let extra = ts
+            .iter()
+            .skip(1)
+            .filter(|t| poke.is_none_or(|p| started_by(**t).is_none_or(|s| s >= p)))
+            .count();
+        if poke.is_none() || extra > 0 {
             let starts: Vec<String> = long_starts
                 .iter()
                 .filter(|s| {
@@ -528,7 +542,7 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
                 .map(|s| format!("+{:.3}", secs(s - t0)))
                 .collect();
             broken.push(format!(
-                "a_long interrupted {} times after the poke at {} ({}): at {:?}; a_long started by signals of {:?}",
+                "a_long interrupted {} times after the poke at {} ({}): at {:?}; runs started by signals of {:?}",
                 ts.len(),
                 poke.map(|p| format!("+{:.3} s", secs(p - t0)))
                     .unwrap_or_else(|| "(none)".into()),

@@ -550,6 +550,20 @@ impl HostPeer {
     }
 }
 
+/// A small seeded generator (xorshift64) for the moments of faults: a run is repeated by its seed. Seed it
+/// with an odd number.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// The next number.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+}
+
 /// A network namespace standing in for another machine: lo plus whatever link joins it to the other host.
 /// It lives as long as this value (a `sleep` process holds it).
 pub struct NetHost {

@@ -4,7 +4,7 @@
 //!
 //! - `robot-a` (host A): event `a_tick` (every 200 ms; its payload, a std_msgs/msg/Int64, is its emission time
 //!   in ns: `emit a_tick NS`); responses `a_arm` and `a_once` (each run echoes its Int64 start at once:
-//!   `start a_arm NS`), `a_long` (a run lasts 30 s: `start a_long NS` as it begins, `exit a_long NS REASON` from its exit slot).
+//!   `start a_arm NS`), `a_long` (a run lasts 30 s: `start a_long NS BEGAN_NS` as it begins, `exit a_long NS REASON` from its exit slot).
 //! - `robot-b` (host B): response `b_drive` (echoes its Int64 start: `start b_drive NS`). The soak kills it
 //!   (SIGKILL) and starts it again at once.
 //! - `bumper` (host B): event `b_bump` (every 300 ms, Int64 emission time: `emit b_bump NS`).
@@ -70,7 +70,7 @@ impl Response for Long {
     type Start = Int64;
     type Output = Empty;
     async fn start(&mut self, m: Int64) -> Result<Empty, SlotError> {
-        say(&format!("start a_long {}", m.data));
+        say(&format!("start a_long {} {}", m.data, now_ns()));
         tokio::time::sleep(Duration::from_secs(30)).await;
         Ok(Empty::default())
     }
