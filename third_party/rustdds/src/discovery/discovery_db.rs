@@ -111,6 +111,14 @@ fn move_by_guid_prefix<D>(
   }
 }
 
+/// Removes every entry of `map` whose GUID has `guid_prefix`.
+fn remove_by_guid_prefix<D>(guid_prefix: GuidPrefix, map: &mut BTreeMap<GUID, D>) {
+  let gone: Vec<GUID> = map.range(guid_prefix.range()).map(|(g, _)| *g).collect();
+  for guid in gone {
+    map.remove(&guid);
+  }
+}
+
 pub(crate) fn discovery_db_read(
   discovery_db: &Arc<RwLock<DiscoveryDB>>,
 ) -> RwLockReadGuard<'_, DiscoveryDB> {
@@ -286,22 +294,8 @@ impl DiscoveryDB {
       while self.attic_order.len() > ATTIC_PARTICIPANTS {
         if let Some(oldest) = self.attic_order.pop_front() {
           info!("forgetting the endpoints of {oldest:?}: the attic keeps {ATTIC_PARTICIPANTS} participants");
-          let gone: Vec<GUID> = self
-            .external_topic_readers_attic
-            .range(oldest.range())
-            .map(|(g, _)| *g)
-            .collect();
-          for g in gone {
-            self.external_topic_readers_attic.remove(&g);
-          }
-          let gone: Vec<GUID> = self
-            .external_topic_writers_attic
-            .range(oldest.range())
-            .map(|(g, _)| *g)
-            .collect();
-          for g in gone {
-            self.external_topic_writers_attic.remove(&g);
-          }
+          remove_by_guid_prefix(oldest, &mut self.external_topic_readers_attic);
+          remove_by_guid_prefix(oldest, &mut self.external_topic_writers_attic);
         }
       }
     }
@@ -346,17 +340,9 @@ impl DiscoveryDB {
   }
 
   fn remove_topic_reader_with_prefix(&mut self, guid_prefix: GuidPrefix) {
-    // TODO: Implement this using .drain_filter() in BTreeMap once it lands in
-    // stable.
-    let to_remove: Vec<GUID> = self
-      .external_topic_readers
-      .range(guid_prefix.range())
-      .map(|(g, _)| *g)
-      .collect();
-    for guid in to_remove {
-      self.external_topic_readers.remove(&guid);
-    }
+    remove_by_guid_prefix(guid_prefix, &mut self.external_topic_readers);
   }
+
 
   pub fn remove_topic_reader(&mut self, guid: GUID) {
     info!("remove_topic_reader {guid:?}");
@@ -375,17 +361,9 @@ impl DiscoveryDB {
   }
 
   fn remove_topic_writer_with_prefix(&mut self, guid_prefix: GuidPrefix) {
-    // TODO: Implement this using .drain_filter() in BTreeMap once it lands in
-    // stable.
-    let to_remove: Vec<GUID> = self
-      .external_topic_writers
-      .range(guid_prefix.range())
-      .map(|(g, _)| *g)
-      .collect();
-    for guid in to_remove {
-      self.external_topic_writers.remove(&guid);
-    }
+    remove_by_guid_prefix(guid_prefix, &mut self.external_topic_writers);
   }
+
 
   pub fn remove_topic_writer(&mut self, guid: GUID) {
     self.external_topic_writers.remove(&guid);

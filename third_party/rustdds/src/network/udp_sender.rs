@@ -335,7 +335,7 @@ impl UDPSender {
             buffer.len()
           ),
           SendReport::StillFailing(n) => {
-            warn!("raw_send: {id:?} to {addr} : {n} more sends failed, the last with {e:?}")
+            warn!("raw_send: {id:?} to {addr} : {n} more sends failed, the last with {e:?}");
           }
           _ => {}
         }
