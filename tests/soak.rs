@@ -23,8 +23,10 @@
 //! once, with a payload emitted after the scope began; every poke outside a window interrupts `a_long`
 //! within 3 s. Anywhere, windows included: no signal arrives twice, no `once` scope starts `a_once` twice, every
 //! `a_long` interrupt answers a poke (the first after it, or one ending a run whose start was sent before the
-//! poke: rule R14 bounds that run too). Each minute also shows what arrived inside windows, the RSS,
-//! open fds and CPU of every long-lived process, and the error and warning lines they logged.
+//! poke: rule R14 bounds that run too). Each minute also shows what arrived inside windows, the RSS, heap
+//! (what the allocator handed out and was not given back, and what it holds for that), open fds and CPU of
+//! every long-lived process, and the error and warning lines they logged. `RADAR_SOAK_HEAPTRACK=ROLE=FILE`
+//! runs one role under heaptrack (see `Proc::start`).
 //!
 //! The test fails on a lost or duplicated signal, an error line, or a process that does not stop cleanly on
 //! SIGTERM at the end. The RSS figures are printed; runs of 10 minutes or more also fail if RSS grows more than
@@ -68,6 +70,8 @@ struct Said {
     onces: Vec<(i64, bool, i64)>,
     /// Times pokes were published.
     pokes: Vec<i64>,
+    /// Each long-lived role's last `heap` line: (bytes in use, bytes the allocator holds).
+    heap: HashMap<String, (u64, u64)>,
     /// Lines the test did not expect.
     odd: Vec<String>,
 }
@@ -97,6 +101,14 @@ impl Said {
                 .onces
                 .push((ns(before).unwrap(), *how == "fired", ns(end).unwrap())),
             ["poked", t] if ns(t).is_some() => self.pokes.push(ns(t).unwrap()),
+            ["heap", role, used, held]
+                if used.parse::<u64>().is_ok() && held.parse::<u64>().is_ok() =>
+            {
+                self.heap.insert(
+                    role.to_string(),
+                    (used.parse().unwrap(), held.parse().unwrap()),
+                );
+            }
             ["ready"] => {}
             _ => self.odd.push(line.to_owned()),
         }
@@ -121,8 +133,21 @@ struct Proc {
 impl Proc {
     /// Starts `role` on `host`; for a long-lived role, waits until it says `ready`.
     async fn start(host: &NetHost, role: &'static str, said: &Arc<Mutex<Said>>) -> Proc {
-        let mut child = tokio::process::Command::new("nsenter")
-            .arg(format!("--net=/proc/{}/ns/net", host.pid))
+        let mut cmd = tokio::process::Command::new("nsenter");
+        cmd.arg(format!("--net=/proc/{}/ns/net", host.pid));
+        // RADAR_SOAK_HEAPTRACK=ROLE=FILE: that role runs under heaptrack's preload library, its raw record in
+        // FILE (`heaptrack_interpret < FILE | zstd > FILE.zst`, then heaptrack_print; for finding what grows)
+        if let Some((r, file)) = std::env::var("RADAR_SOAK_HEAPTRACK")
+            .ok()
+            .and_then(|v| v.split_once('=').map(|(r, f)| (r.to_owned(), f.to_owned())))
+        {
+            if r == role {
+                cmd.arg("env")
+                    .arg("LD_PRELOAD=/usr/lib/heaptrack/libheaptrack_preload.so")
+                    .arg(format!("DUMP_HEAPTRACK_OUTPUT={file}"));
+            }
+        }
+        let mut child = cmd
             .arg(SOAK)
             .arg(role)
             .env("ROS_DOMAIN_ID", DOMAIN.to_string())
@@ -253,6 +278,8 @@ struct Minute {
     warnings: usize,
     /// role -> (RSS kB, fds, CPU %).
     usage: BTreeMap<&'static str, (u64, usize, f64)>,
+    /// role -> (heap in use, heap the allocator holds), bytes.
+    heap: BTreeMap<&'static str, (u64, u64)>,
 }
 
 fn link(host: &NetHost, up: bool) {
@@ -377,6 +404,9 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
                 let cpu = (u.ticks.saturating_sub(before)) as f64 / tick_hz / secs * 100.0;
                 procs_usage.insert(p.pid(), u.ticks);
                 minute.usage.insert(p.role, (u.rss_kb, u.fds, cpu));
+            }
+            if let Some(h) = said.lock().unwrap().heap.get(p.role) {
+                minute.heap.insert(p.role, *h);
             }
         }
         minutes_seen.push(minute);
@@ -611,13 +641,19 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
             minute.warnings
         );
     }
-    println!("\nminute | RSS MB, fds, CPU % per process");
+    println!("\nminute | RSS MB (heap in use / held by the allocator, MB), fds, CPU % per process");
     for (m, minute) in minutes_seen.iter().enumerate() {
         let u: Vec<String> = minute
             .usage
             .iter()
             .map(|(r, (rss, fds, cpu))| {
-                format!("{r} {:.1} MB {fds} fds {cpu:.1}%", *rss as f64 / 1024.0)
+                let (used, held) = minute.heap.get(r).copied().unwrap_or_default();
+                format!(
+                    "{r} {:.2} ({:.2}/{:.2}) {fds} fds {cpu:.1}%",
+                    *rss as f64 / 1024.0,
+                    used as f64 / 1048576.0,
+                    held as f64 / 1048576.0
+                )
             })
             .collect();
         println!("{:>6} | {}", m + 1, u.join(", "));
@@ -662,6 +698,16 @@ async fn a_two_robot_system_keeps_every_promise_for_minutes_of_faults() {
                 let per10 = (l as f64 - f as f64) / f as f64 * 100.0 / span * 10.0;
                 println!("RSS of {role}: {f} kB after warm-up, {l} kB at the end: {per10:+.2}% per 10 min");
                 growth_report.push((role, per10));
+            }
+            let first = minutes_seen[1].heap.get(role).map(|h| h.0);
+            let last = minutes_seen.last().unwrap().heap.get(role).map(|h| h.0);
+            if let (Some(f), Some(l)) = (first, last) {
+                println!(
+                    "heap in use of {role}: {} kB after warm-up, {} kB at the end: {:+.1} kB per minute",
+                    f / 1024,
+                    l / 1024,
+                    (l as f64 - f as f64) / 1024.0 / span
+                );
             }
         }
     }

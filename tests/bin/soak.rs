@@ -16,7 +16,9 @@
 //!   `poked NS` (the time just before publishing) and exits, as `ros2 topic pub --once` does.
 //!
 //! Every long-lived role prints `ready` once it runs and then runs until SIGINT or SIGTERM (radar_ros runs the
-//! exit slots, leaves the graph and ends the process). Logs go to stderr (`RUST_LOG`).
+//! exit slots, leaves the graph and ends the process). Every 5 s it also prints the bytes its allocator has
+//! handed out and not had back (`heap ROLE IN_USE ARENA`, glibc's `mallinfo2`), so that the soak can tell memory
+//! the program keeps from pages the allocator keeps. Logs go to stderr (`RUST_LOG`).
 
 use std::{io::Write, time::Duration};
 
@@ -80,6 +82,21 @@ impl Response for Long {
     }
 }
 
+/// Every 5 s: `heap ROLE IN_USE ARENA`: bytes allocated and not freed (small blocks and mmapped ones), and the
+/// bytes the allocator holds from the system for them.
+async fn report_heap(role: String) {
+    loop {
+        // SAFETY: mallinfo2 only reads the allocator's counters
+        let m = unsafe { libc::mallinfo2() };
+        say(&format!(
+            "heap {role} {} {}",
+            m.uordblks + m.hblkhd,
+            m.arena + m.hblkhd
+        ));
+        tokio::time::sleep(Duration::from_secs(5)).await;
+    }
+}
+
 #[tokio::main]
 async fn main() {
     let _ = tracing_subscriber::fmt()
@@ -99,6 +116,9 @@ async fn main() {
 async fn run(role: &str) -> radar_ros::Result<()> {
     let radar = Radar::new()?;
     let find = Duration::from_secs(60);
+    if role != "poke" {
+        tokio::spawn(report_heap(role.to_owned()));
+    }
     match role {
         "robot-a" => {
             let _e = radar.spawn_event(
