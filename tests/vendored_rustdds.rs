@@ -58,6 +58,11 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 37: endpoints heard of before their participant get its addresses
+        "endpoints_heard_of_before_their_participant_get_its_locators_when_it_comes",
+        // patch 36: a best-effort peer costs no memory per sample
+        "a_writer_whose_readers_are_all_best_effort_keeps_its_depth",
+        "a_best_effort_reader_tracks_nothing_below_what_it_received",
         // patch 35: what peers that left announced does not stay in memory
         "sedp_samples_expire_and_user_samples_stay",
         "a_participant_that_leaves_takes_its_topic_data_and_the_attic_is_bounded",

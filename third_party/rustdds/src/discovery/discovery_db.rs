@@ -236,6 +236,26 @@ impl DiscoveryDB {
       for (g, t, via) in restored {
         self.update_topic_data(&t, g, via);
       }
+      // RADAR patch 37: endpoints announced before their participant was known (its SEDP data overtook its
+      // SPDP data, or came while it was lost and not yet back) were stored without addresses, and a reader
+      // matched with such a writer had nowhere to send its ACKNACKs: what it missed was never repaired, and
+      // every later sample waited behind it. They get the participant's default locators now (the caller
+      // matches every endpoint of a participant that is new again).
+      let (unicast, multicast) = (&data.default_unicast_locators, &data.default_multicast_locators);
+      for w in self.external_topic_writers.range_mut(guid.prefix.range()).map(|(_, w)| w) {
+        let proxy = &mut w.writer_proxy;
+        if proxy.unicast_locator_list.is_empty() && proxy.multicast_locator_list.is_empty() {
+          proxy.unicast_locator_list.clone_from(unicast);
+          proxy.multicast_locator_list.clone_from(multicast);
+        }
+      }
+      for r in self.external_topic_readers.range_mut(guid.prefix.range()).map(|(_, r)| r) {
+        let proxy = &mut r.reader_proxy;
+        if proxy.unicast_locator_list.is_empty() && proxy.multicast_locator_list.is_empty() {
+          proxy.unicast_locator_list.clone_from(unicast);
+          proxy.multicast_locator_list.clone_from(multicast);
+        }
+      }
     }
 
     // In any case:
@@ -928,7 +948,10 @@ mod tests {
     structure::guid::*,
     test::{
       random_data::RandomData,
-      test_data::{reader_proxy_data, spdp_participant_data, subscription_builtin_topic_data},
+      test_data::{
+        publication_builtin_topic_data, reader_proxy_data, spdp_participant_data,
+        subscription_builtin_topic_data, writer_proxy_data,
+      },
       test_domain::test_domain_id,
     },
   };
@@ -1016,6 +1039,68 @@ mod tests {
     assert_eq!(db.topic_senders().get(&topic), Some(&1));
     assert_eq!(db.attic_len(), ATTIC_PARTICIPANTS - 1);
     assert_eq!(db.get_all_external_topic_readers().count(), 1);
+  }
+
+  // RADAR patch 37: a writer and a reader announced before their participant get its addresses when it comes
+  #[test]
+  fn endpoints_heard_of_before_their_participant_get_its_locators_when_it_comes() {
+    let (discovery_db_event_sender, _discovery_db_event_receiver) =
+      std::sync::mpsc::sync_channel::<()>(1024);
+    let (status_sender, _status_receiver) = sync_status_channel(1024).unwrap();
+    let mut db = DiscoveryDB::new(
+      GUID::new_participant_guid(),
+      discovery_db_event_sender,
+      status_sender,
+    );
+    let prefix = GuidPrefix::new(&[9; 12]);
+    let writer = GUID::new(
+      prefix,
+      EntityId::new([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+    );
+    let reader = GUID::new(
+      prefix,
+      EntityId::new([0, 0, 2], EntityKind::READER_NO_KEY_USER_DEFINED),
+    );
+    let mut wp = writer_proxy_data().unwrap();
+    wp.remote_writer_guid = writer;
+    wp.unicast_locator_list.clear();
+    wp.multicast_locator_list.clear();
+    let mut publication = publication_builtin_topic_data().unwrap();
+    publication.key = writer;
+    let dwd = DiscoveredWriterData {
+      last_updated: Instant::now(),
+      writer_proxy: wp,
+      publication_topic_data: publication,
+      user_data: Vec::new(),
+    };
+    assert!(db.update_publication(&dwd).writer_proxy.unicast_locator_list.is_empty());
+    let mut rp = reader_proxy_data().unwrap();
+    rp.remote_reader_guid = reader;
+    rp.unicast_locator_list.clear();
+    rp.multicast_locator_list.clear();
+    let topic = subscription_builtin_topic_data().unwrap().topic_name().clone();
+    db.update_subscription(&DiscoveredReaderData {
+      reader_proxy: rp,
+      subscription_topic_data: SubscriptionBuiltinTopicData::new(
+        reader,
+        None,
+        topic,
+        "RandomData".to_string(),
+        &QosPolicies::qos_none(),
+        None,
+      ),
+      content_filter: None,
+      user_data: Vec::new(),
+    });
+    let mut p = spdp_participant_data().unwrap();
+    p.participant_guid = GUID::new(prefix, EntityId::PARTICIPANT);
+    assert!(!p.default_unicast_locators.is_empty());
+    assert!(db.update_participant(&p), "a new participant");
+    let w = db.get_all_external_topic_writers().next().unwrap();
+    assert_eq!(w.writer_proxy.unicast_locator_list, p.default_unicast_locators);
+    assert_eq!(w.writer_proxy.multicast_locator_list, p.default_multicast_locators);
+    let r = db.get_all_external_topic_readers().next().unwrap();
+    assert_eq!(r.reader_proxy.unicast_locator_list, p.default_unicast_locators);
   }
 
   #[test]

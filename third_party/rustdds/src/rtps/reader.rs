@@ -782,6 +782,7 @@ impl Reader {
     );
     if !self.like_stateless {
       let my_entity_id = self.my_guid.entity_id; // to please borrow checker
+      let best_effort = self.reliability == policy::Reliability::BestEffort;
       if let Some(writer_proxy) = self.matched_writer_mut(writer_guid) {
         if writer_proxy.should_ignore_change(writer_sn) {
           // change already present
@@ -797,6 +798,13 @@ impl Reader {
         }
         // Add the change and get the instant
         writer_proxy.received_changes_add(writer_sn, receive_timestamp);
+        // RADAR patch 36: a best-effort reader never asks for what it missed, and takes nothing older than
+        // what it has (RTPS 8.4.11.1): everything before this sample is irrelevant. Else a writer whose
+        // first sample here was not its first one (the SPDP writer of every peer) left a gap at the bottom
+        // that nothing fills, and every sample after it was tracked, up to the cap (8,192 per writer).
+        if best_effort {
+          writer_proxy.irrelevant_changes_up_to(writer_sn);
+        }
       } else {
         // no writer proxy found
         debug!(
@@ -1773,6 +1781,82 @@ mod tests {
     assert_eq!(
       cc_from_cache, &cc_locally_built,
       "The content of the cache change in the topic cache not as expected"
+    );
+  }
+
+  #[test]
+  fn a_best_effort_reader_tracks_nothing_below_what_it_received() {
+    // RADAR patch 36: a best-effort reader matched to a writer that wrote before the match (as every peer's
+    // SPDP writer has) saw a gap at the bottom that nothing ever fills, and tracked every sample after it.
+    let dds_cache = Arc::new(RwLock::new(DDSCache::new()));
+    let qos_policy = QosPolicyBuilder::new()
+      .reliability(Reliability::BestEffort)
+      .build();
+    let topic_cache_handle = dds_cache.write().unwrap().add_new_topic(
+      "best_effort".to_string(),
+      TypeDesc::new("test_type".to_string()),
+      &qos_policy,
+    );
+    let (notification_sender, _notification_receiver) =
+      crate::mio_source::notification_channel(1000);
+    let (_notification_event_source, notification_event_sender) =
+      mio_source::make_poll_channel().unwrap();
+    let (status_sender, _status_receiver) = sync_status_channel::<DataReaderStatus>(4).unwrap();
+    let (participant_status_sender, _participant_status_receiver) =
+      sync_status_channel(16).unwrap();
+    let (_reader_command_sender, reader_command_receiver) =
+      wake_channel::<ReaderCommand>(10, &LoopWaker::new());
+    let reader_guid = GUID::dummy_test_guid(EntityKind::READER_NO_KEY_USER_DEFINED);
+    let mut reader = Reader::new(
+      ReaderIngredients {
+        guid: reader_guid,
+        notification_sender,
+        status_sender,
+        topic_name: "best_effort".to_string(),
+        topic_cache_handle: topic_cache_handle.clone(),
+        like_stateless: false,
+        qos_policy: qos_policy.clone(),
+        data_reader_command_receiver: reader_command_receiver,
+        data_reader_waker: Arc::new(Mutex::new(None)),
+        poll_event_sender: notification_event_sender,
+        security_plugins: None,
+        discovery_notify: None,
+      },
+      Rc::new(UDPSender::new(0).unwrap()),
+      new_shared_timer(),
+      participant_status_sender,
+    );
+    let writer_guid = GUID::dummy_test_guid(EntityKind::WRITER_NO_KEY_USER_DEFINED);
+    let mr_state = MessageReceiverState {
+      source_guid_prefix: writer_guid.prefix,
+      source_timestamp: Some(Timestamp::INVALID),
+      ..Default::default()
+    };
+    reader.matched_writer_add(writer_guid, EntityId::UNKNOWN, vec![], vec![], &qos_policy);
+    // the writer wrote 56 samples before the match; 200 more come, one in ten lost on the way
+    let mut delivered = 0;
+    for sn in 57..=256 {
+      if sn % 10 == 3 {
+        continue;
+      }
+      let data = Data {
+        reader_id: reader_guid.entity_id,
+        writer_id: writer_guid.entity_id,
+        writer_sn: SequenceNumber::new(sn),
+        ..Data::default()
+      };
+      reader.handle_data_msg(data, BitFlags::from_flag(DATA_Flags::Data), &mr_state);
+      delivered += 1;
+    }
+    let tracked = reader
+      .matched_writer_mut(writer_guid)
+      .unwrap()
+      .tracked_changes_count();
+    assert!(tracked <= 1, "{tracked} sequence numbers tracked for a best-effort writer");
+    assert_eq!(
+      reader.seqnum_instant_map.len(),
+      delivered,
+      "every sample that arrived is delivered"
     );
   }
 

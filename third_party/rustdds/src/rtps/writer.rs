@@ -1747,13 +1747,17 @@ impl Writer {
   ) {
     let first_keeper = if !self.like_stateless {
       // Regular stateful writer behavior
-      // All readers have acked up to this point (SequenceNumber)
+      // All reliable readers have acked up to this point (SequenceNumber). RADAR patch 36: a best-effort
+      // reader never acknowledges, so it held the point at where it matched, and a writer with one (the
+      // SPDP writer: every peer's SPDP reader) kept every sample written since, up to the resource limit.
+      // With no reliable reader, everything written counts as acknowledged: the depth is what is kept.
       let acked_by_all_readers = self
         .readers
         .values()
+        .filter(|rp| rp.qos().is_reliable())
         .map(RtpsReaderProxy::acked_up_to_before)
         .min()
-        .unwrap_or_else(SequenceNumber::zero);
+        .unwrap_or_else(|| self.send_buffer.last_change_sequence_number().plus_1());
       // If all readers have acked all up to before 5, and depth is 5, we need
       // to keep samples 0..4, i.e. from acked_up_to_before - depth .
       let depth_keeper = if let Some(depth) = depth {
@@ -3305,6 +3309,55 @@ mod tests {
       assert_eq!(got, vec![b], "the loop sent only the sample the writer did not");
       assert_eq!(writer.last_sent, b);
       assert!(!send_buffer.is_inline_sent(a), "the claim is forgotten once passed");
+    }
+
+    #[test]
+    fn a_writer_whose_readers_are_all_best_effort_keeps_its_depth() {
+      // RADAR patch 36: best-effort readers never acknowledge; the SPDP writer (built-in, keyed, durable,
+      // keep-last 8, matched with every peer's best-effort SPDP reader) kept every announcement it made.
+      let id = EntityId::new([0, 1, 0], EntityKind::WRITER_WITH_KEY_BUILT_IN);
+      let guid = GUID::new(GuidPrefix::new(&[1; 12]), id);
+      let qos = QosPolicyBuilder::new()
+        .reliability(Reliability::BestEffort)
+        .durability(crate::dds::qos::policy::Durability::TransientLocal)
+        .history(crate::dds::qos::policy::History::KeepLast { depth: 8 })
+        .build();
+      let send_buffer = WriterSendBuffer::new(guid, "spdp_like".to_string(), false, true, false, 8, 8, 8, true);
+      let (status_sender, status) = sync_status_channel(4).unwrap();
+      let (participant_status_sender, participant_status) = sync_status_channel(16).unwrap();
+      std::mem::forget((status, participant_status));
+      let mut writer = Writer::new(
+        WriterIngredients {
+          guid,
+          send_buffer: send_buffer.clone(),
+          topic_name: "spdp_like".to_string(),
+          like_stateless: false,
+          qos_policies: qos.clone(),
+          status_sender,
+          security_plugins: None,
+        },
+        Rc::new(UDPSender::new(0).unwrap()),
+        new_shared_timer(),
+        participant_status_sender,
+        Rc::new(RefCell::new(InterfaceObservations::default())),
+        Rc::from(Vec::<IfAddr>::new()),
+      );
+      for peer in 2..5u8 {
+        let reader = GUID::new(
+          GuidPrefix::new(&[peer; 12]),
+          EntityId::new([0, 1, 0], EntityKind::READER_WITH_KEY_BUILT_IN),
+        );
+        writer.update_reader_proxy(&RtpsReaderProxy::new(reader, qos.clone(), false), &qos);
+      }
+      let key = crate::dds::key::KeyHash::zero();
+      for _ in 0..100 {
+        let sn = admit(&send_buffer);
+        send_buffer.note_instance_sample(sn, key);
+        writer.process_pending();
+      }
+      writer.handle_cache_cleaning();
+      assert_eq!(send_buffer.retained_len(), 8, "the depth is kept, and only the depth");
+      assert_eq!(send_buffer.instance_samples(key), 8, "the instance's list follows");
     }
 
     #[test]

@@ -437,6 +437,13 @@ impl WriterSendBuffer {
     }
   }
 
+  /// How many retained samples instance `key` is noted with (tests).
+  #[cfg(test)]
+  pub(crate) fn instance_samples(&self, key: KeyHash) -> usize {
+    let inner = self.shared.inner.lock().unwrap();
+    inner.instances.get(&key).map_or(0, Vec::len)
+  }
+
   /// The sample `seq` disposes instance `key`.
   pub fn note_instance_disposed(&self, seq: SequenceNumber, key: KeyHash) {
     if self.shared.volatile {
@@ -570,6 +577,12 @@ impl WriterSendBuffer {
     if remove_before > inner.first_seq {
       inner.first_seq = remove_before;
     }
+    // RADAR patch 36: an instance's list of samples loses the ones removed (it grew by one per sample of a
+    // live instance for ever: the SPDP writer's own participant)
+    inner.instances.retain(|_, sns| {
+      sns.retain(|sn| *sn >= remove_before);
+      !sns.is_empty()
+    });
     let count_after = inner.changes.len();
     if count_before != count_after {
       debug!(
