@@ -27,7 +27,10 @@
 //! assert_eq!(received(now - 3_600_000_000_000, now), now - LATE); // an hour behind: LATE old
 //! ```
 
-use crate::response::HOLD;
+/// How long an `interrupt` or `exit` that reached an idle response is kept for a start sent before it that
+/// is still on its way (R12, `crate::response`), in ns: far above a DDS hop (well under a millisecond on a
+/// host, a few on a network), below anything a person or a robot would call "at the same time".
+pub const HOLD: i64 = 1_000_000_000;
 
 /// How old a stamp may be, by the receiver's clock, and still be taken as it is (T1), in ns: twice
 /// [`HOLD`], far above a DDS hop on a loaded host or a network (a few milliseconds),

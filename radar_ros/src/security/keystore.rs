@@ -315,10 +315,10 @@ pub fn create_enclave(keystore: &Path, enclave: &str, grant: &Grant) -> Result<P
     Ok(dir)
 }
 
-/// `ros2 security create_permission KEYSTORE ENCLAVE POLICY`: the enclave's permissions made again from what
-/// the policy file (sros2's format, [`super::policy`]) grants `enclave`, signed by the keystore's CA. The
-/// enclave must exist (`create_enclave`). The permissions document's path.
-pub fn create_permission(keystore: &Path, enclave: &str, policy: &Path) -> Result<PathBuf> {
+/// The enclave's permissions made again to grant `grant`, signed by the keystore's CA (what
+/// [`super::policy::create_permission`] does with what a policy file grants the enclave). The enclave must exist
+/// (`create_enclave`). The permissions document's path.
+pub fn write_permission(keystore: &Path, enclave: &str, grant: &Grant) -> Result<PathBuf> {
     let dir = super::enclave_dir(keystore, enclave);
     if !dir.join("cert.pem").is_file() {
         return Err(fail(
@@ -329,14 +329,6 @@ pub fn create_permission(keystore: &Path, enclave: &str, policy: &Path) -> Resul
             ),
         ));
     }
-    let grants = super::policy::grants_from_file(policy)?;
-    let Some((_, grant)) = grants.iter().find(|(e, _)| e == enclave) else {
-        let have: Vec<&str> = grants.iter().map(|(e, _)| e.as_str()).collect();
-        return Err(fail(
-            format!("the policy {} has no enclave {enclave}", policy.display()),
-            format!("it has: {}", have.join(", ")),
-        ));
-    };
     let (ca, ca_key) = ca(keystore)?;
     let perms = permissions_xml(enclave, grant);
     write(&dir.join("permissions.xml"), perms.as_bytes())?;

@@ -43,6 +43,22 @@ fn bad(file: &Path, reason: impl std::fmt::Display) -> Error {
     }
 }
 
+/// `ros2 security create_permission KEYSTORE ENCLAVE POLICY`: the enclave's permissions made again from what
+/// the policy file grants `enclave`, signed by the keystore's CA. The enclave must exist
+/// ([`super::keystore::create_enclave`]). The permissions document's path.
+pub fn create_permission(keystore: &Path, enclave: &str, policy: &Path) -> Result<PathBuf> {
+    let grants = grants_from_file(policy)?;
+    let Some((_, grant)) = grants.iter().find(|(e, _)| e == enclave) else {
+        let have: Vec<&str> = grants.iter().map(|(e, _)| e.as_str()).collect();
+        return Err(Error::Config {
+            setting: "policy",
+            value: policy.display().to_string(),
+            reason: format!("it has no enclave {enclave}; it has: {}", have.join(", ")),
+        });
+    };
+    super::keystore::write_permission(keystore, enclave, grant)
+}
+
 /// The enclaves a policy file names, each with what it grants (in the file's order).
 pub fn grants_from_file(file: &Path) -> Result<Vec<(String, Grant)>> {
     let text =

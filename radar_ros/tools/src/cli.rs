@@ -2,12 +2,12 @@
 
 use std::time::Duration;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
 use radar_ros::Radar;
 
 use crate::{
     common::{secs, Out},
-    verbs,
+    verbs::{self, act::ActSlot, con::ConKind},
 };
 
 /// The arguments of `radar`.
@@ -165,37 +165,6 @@ enum Cmd {
     },
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-pub(crate) enum ConKind {
-    Once,
-    Whenever,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub(crate) enum ActSlot {
-    Start,
-    Interrupt,
-    Exit,
-}
-
-impl ActSlot {
-    pub(crate) fn topic(self) -> &'static str {
-        match self {
-            ActSlot::Start => "start",
-            ActSlot::Interrupt => "interrupt",
-            ActSlot::Exit => "exit",
-        }
-    }
-    /// The signal that shows the slot took effect.
-    pub(crate) fn answer(self) -> &'static str {
-        match self {
-            ActSlot::Start => "started",
-            ActSlot::Interrupt => "interrupted",
-            ActSlot::Exit => "exited",
-        }
-    }
-}
-
 /// `radar security ...`: the verbs of `ros2 security` this build offers.
 #[derive(Subcommand)]
 #[allow(clippy::enum_variant_names)] // named as `ros2 security` names them
@@ -267,7 +236,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 enclave,
                 policy,
             } => {
-                let made = keystore::create_permission(&dir, &enclave, &policy)
+                let made = radar_ros::security::policy::create_permission(&dir, &enclave, &policy)
                     .map_err(|e| e.to_string())?;
                 match out.json {
                     true => {

@@ -1,7 +1,7 @@
 //! The `until` part of a connection: which signals make it, and the window in which U interrupts R (C3, C6,
 //! C7).
 
-use crate::response::HOLD;
+use crate::time::HOLD;
 
 /// The `until U` part of a statement that starts response R.
 #[derive(Clone, Debug, PartialEq, Eq)]

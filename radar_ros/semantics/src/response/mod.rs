@@ -74,11 +74,7 @@ pub use signals::{
 use std::collections::VecDeque;
 
 use crate::time::Clock;
-
-/// How long an `interrupt` or `exit` that reached an idle response is kept for a start sent before it that
-/// is still on its way (R12), in ns: far above a DDS hop (well under a millisecond on a host, a few on a
-/// network), below anything a person or a robot would call "at the same time".
-pub const HOLD: i64 = 1_000_000_000;
+pub use crate::time::HOLD;
 
 /// How many kept signals an idle response remembers (R12).
 const KEPT: usize = 8;

@@ -2,14 +2,40 @@
 
 use std::time::Duration;
 
+use clap::ValueEnum;
 use radar_ros::{msg::ResponseState, Radar};
 use serde_json::json;
 
 use crate::{
-    cli::ActSlot,
     codec,
     common::{with_status, Fallible, Out},
 };
+
+/// The slot `radar act` sends to.
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum ActSlot {
+    Start,
+    Interrupt,
+    Exit,
+}
+
+impl ActSlot {
+    pub(crate) fn topic(self) -> &'static str {
+        match self {
+            ActSlot::Start => "start",
+            ActSlot::Interrupt => "interrupt",
+            ActSlot::Exit => "exit",
+        }
+    }
+    /// The signal that shows the slot took effect.
+    pub(crate) fn answer(self) -> &'static str {
+        match self {
+            ActSlot::Start => "started",
+            ActSlot::Interrupt => "interrupted",
+            ActSlot::Exit => "exited",
+        }
+    }
+}
 
 pub(crate) async fn act(
     radar: &Radar,

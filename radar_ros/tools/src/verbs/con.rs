@@ -2,13 +2,18 @@
 
 use std::time::Duration;
 
+use clap::ValueEnum;
 use radar_ros::{Radar, RemoteStatement};
 use serde_json::json;
 
-use crate::{
-    cli::ConKind,
-    common::{discover, with_status, Fallible, Out, Stop},
-};
+use crate::common::{discover, with_status, Fallible, Out, Stop};
+
+/// The statement kind `radar con` makes.
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum ConKind {
+    Once,
+    Whenever,
+}
 
 /// The statement `radar con` asks for: `KIND SOURCE SLOT [until UNTIL]`.
 pub(crate) struct Statement {
