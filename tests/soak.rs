@@ -48,6 +48,12 @@ const LOG: &str = "warn";
 const MINUTE: i64 = 60_000_000_000;
 const MS: i64 = 1_000_000;
 
+/// The processes' `RUST_LOG`: [`LOG`], or `RADAR_SOAK_RUST_LOG` (more detail for a diagnosis; warnings and
+/// errors are still counted).
+fn log_filter() -> String {
+    std::env::var("RADAR_SOAK_RUST_LOG").unwrap_or_else(|_| LOG.to_owned())
+}
+
 fn now_ns() -> i64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -151,7 +157,7 @@ impl Proc {
             .arg(SOAK)
             .arg(role)
             .env("ROS_DOMAIN_ID", DOMAIN.to_string())
-            .env("RUST_LOG", LOG)
+            .env("RUST_LOG", log_filter())
             .env("NO_COLOR", "1")
             // as on a robot with ROS sourced (else ros2-client warns at start)
             .env("ROS_DISTRO", "jazzy")
@@ -743,7 +749,7 @@ async fn poke(host_pid: u32, said: &Arc<Mutex<Said>>) {
         .arg(SOAK)
         .arg("poke")
         .env("ROS_DOMAIN_ID", DOMAIN.to_string())
-        .env("RUST_LOG", LOG)
+        .env("RUST_LOG", log_filter())
         .env("NO_COLOR", "1")
         // as on a robot with ROS sourced (else ros2-client warns at start)
         .env("ROS_DISTRO", "jazzy")

@@ -485,9 +485,15 @@ impl Reader {
     if self.matched_writers.contains_key(&writer_guid) {
       self.matched_writers.remove(&writer_guid);
       self.matches_changed();
-      self
-        .acquire_the_topic_cache_guard()
-        .forget_reliable_writer(writer_guid);
+      // RADAR patch 38: only a reliable reader awaits samples. For a best-effort one this left a marker
+      // after the writer's last sample, and when the writer was matched again (its participant back after
+      // its lease ran out, as the SPDP writer of a peer stopped for a few seconds is) every sample from it
+      // counted as withheld behind that marker: the topic kept them all, past its limits (16 MB).
+      if self.reliability != policy::Reliability::BestEffort {
+        self
+          .acquire_the_topic_cache_guard()
+          .forget_reliable_writer(writer_guid);
+      }
       #[cfg(feature = "security")]
       if let Some(security_plugins_handle) = &self.security_plugins {
         security_plugins_handle
@@ -1858,6 +1864,77 @@ mod tests {
       delivered,
       "every sample that arrived is delivered"
     );
+  }
+
+  #[test]
+  fn a_best_effort_reader_keeps_a_writer_matched_again_within_the_topics_limits() {
+    // RADAR patch 38: the SPDP reader of a peer that was stopped past its lease and came back kept every
+    // announcement it made after, as if each waited for one before it
+    let dds_cache = Arc::new(RwLock::new(DDSCache::new()));
+    let qos_policy = QosPolicyBuilder::new()
+      .reliability(Reliability::BestEffort)
+      .build();
+    let topic_cache_handle = dds_cache.write().unwrap().add_new_topic(
+      "best_effort_again".to_string(),
+      TypeDesc::new("test_type".to_string()),
+      &qos_policy,
+    );
+    let (notification_sender, _notification_receiver) =
+      crate::mio_source::notification_channel(1000);
+    let (_notification_event_source, notification_event_sender) =
+      mio_source::make_poll_channel().unwrap();
+    let (status_sender, _status_receiver) = sync_status_channel::<DataReaderStatus>(4).unwrap();
+    let (participant_status_sender, _participant_status_receiver) =
+      sync_status_channel(16).unwrap();
+    let (_reader_command_sender, reader_command_receiver) =
+      wake_channel::<ReaderCommand>(10, &LoopWaker::new());
+    let reader_guid = GUID::dummy_test_guid(EntityKind::READER_NO_KEY_USER_DEFINED);
+    let mut reader = Reader::new(
+      ReaderIngredients {
+        guid: reader_guid,
+        notification_sender,
+        status_sender,
+        topic_name: "best_effort_again".to_string(),
+        topic_cache_handle: topic_cache_handle.clone(),
+        like_stateless: false,
+        qos_policy: qos_policy.clone(),
+        data_reader_command_receiver: reader_command_receiver,
+        data_reader_waker: Arc::new(Mutex::new(None)),
+        poll_event_sender: notification_event_sender,
+        security_plugins: None,
+        discovery_notify: None,
+      },
+      Rc::new(UDPSender::new(0).unwrap()),
+      new_shared_timer(),
+      participant_status_sender,
+    );
+    let writer_guid = GUID::dummy_test_guid(EntityKind::WRITER_NO_KEY_USER_DEFINED);
+    let mr_state = MessageReceiverState {
+      source_guid_prefix: writer_guid.prefix,
+      source_timestamp: Some(Timestamp::INVALID),
+      ..Default::default()
+    };
+    let send = |reader: &mut Reader, sns: std::ops::RangeInclusive<i64>| {
+      for sn in sns {
+        let data = Data {
+          reader_id: reader_guid.entity_id,
+          writer_id: writer_guid.entity_id,
+          writer_sn: SequenceNumber::new(sn),
+          ..Data::default()
+        };
+        reader.handle_data_msg(data, BitFlags::from_flag(DATA_Flags::Data), &mr_state);
+      }
+    };
+    reader.matched_writer_add(writer_guid, EntityId::UNKNOWN, vec![], vec![], &qos_policy);
+    send(&mut reader, 1..=10);
+    // its participant's lease runs out, and it is heard again
+    reader.participant_lost(writer_guid.prefix);
+    reader.matched_writer_add(writer_guid, EntityId::UNKNOWN, vec![], vec![], &qos_policy);
+    send(&mut reader, 11..=500);
+    let mut tc = topic_cache_handle.lock().unwrap();
+    tc.remove_changes_before(Timestamp::ZERO);
+    let kept = tc.len();
+    assert!(kept <= 64, "{kept} samples kept (the topic's limit is 64)");
   }
 
   #[test]

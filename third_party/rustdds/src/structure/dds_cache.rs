@@ -717,6 +717,12 @@ impl TopicCache {
     self.topic_name.clone()
   }
 
+  /// How many samples it keeps (tests).
+  #[cfg(test)]
+  pub(crate) fn len(&self) -> usize {
+    self.changes.len()
+  }
+
   #[cfg(test)]
   pub(crate) fn max_keep_samples(&self) -> i32 {
     self.max_keep_samples
