@@ -779,7 +779,8 @@ impl DPEventLoop {
     // new Remote Participant discovered
     let discovered_participant =
       if let Some(dpd) = db.find_participant_proxy(participant_guid_prefix) {
-        dpd
+        // RADAR patch 39: a copy, so that the database is not held while the readers and writers are updated
+        dpd.clone()
       } else {
         // RADAR patch 14: not an error. Discovery removed the participant (its lease ran out, or it said
         // goodbye) between sending this update and our handling it; seen after a SIGSTOP/SIGCONT, when the
@@ -835,6 +836,11 @@ impl DPEventLoop {
       }
       (readers_init_list, writers_init_list)
     };
+    // RADAR patch 39: updating a reader can send (a preemptive ACKNACK to a newly matched writer), which under
+    // DDS Security takes the security plugins' lock; secure discovery takes the database's write lock while
+    // holding that lock. Holding the database here while sending deadlocked both threads (and every thread
+    // that reads the database after them: a secured program hung for good, seen 1 in ~80 runs under load).
+    drop(db);
 
     // Never create send-destinations (built-in reader proxies) toward our *own*
     // participant. We already know our own endpoints locally, so a self reader
@@ -919,7 +925,6 @@ impl DPEventLoop {
     // directly (not via &mut self) so it stays disjoint from the `db` borrow.
     // RADAR patch 16: only the writers with readers there (a participant may have thousands of writers,
     // and this runs on every SPDP message)
-    drop(db);
     // RADAR patch 24: and only when what the routes are chosen from has changed since they were last
     // resolved (readers matched since then got theirs when they matched). A participant announces itself every
     // fifth of its lease, and so does this one to itself: with thousands of local writers matched to local

@@ -1384,7 +1384,7 @@ impl Reader {
       }
       // radar_ros patch 26: the writer's keys are not exchanged yet; the next ACKNACK goes out once they are
       Err(e) if crate::security::security_plugins::keys_not_exchanged(&e) => {
-        debug!("Not sent to a writer whose keys are not exchanged yet: {e:?}")
+        debug!("Not sent to a writer whose keys are not exchanged yet: {e:?}");
       }
       Err(e) => error!("Failed to send message to writers. Encoding failed: {e:?}"),
     }

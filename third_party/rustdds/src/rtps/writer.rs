@@ -2062,7 +2062,7 @@ impl Writer {
       }
       #[cfg(feature = "security")]
       Err(e) if crate::security::security_plugins::keys_not_exchanged(&e) => {
-        debug!("Not sent to readers whose keys are not exchanged yet: {e:?}")
+        debug!("Not sent to readers whose keys are not exchanged yet: {e:?}");
       }
       Err(e) => error!("Failed to send message to readers. Encoding failed: {e:?}"),
     }
