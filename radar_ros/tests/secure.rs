@@ -12,7 +12,7 @@ use std::{path::PathBuf, time::Duration};
 
 use radar_ros::{
     msg::Empty,
-    security::{keystore, SecurityOptions},
+    security::{keystore, policy, SecurityOptions},
     DiscoveryRange, FnResponse, Radar,
 };
 
@@ -244,7 +244,7 @@ async fn only_a_permitted_publisher_starts_a_secured_response() {
 </policy>"#,
     )
     .unwrap();
-    keystore::create_permission(&ks, "/intruder", &policy).unwrap();
+    policy::create_permission(&ks, "/intruder", &policy).unwrap();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
     let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let _gate = counting_response(&robot, "secure_gate", &starts);
@@ -452,7 +452,7 @@ async fn permissions_generated_from_what_programs_declare_let_only_the_driver_st
     for (name, policy) in [("robot", &robot_policy), ("planner", &planner_policy)] {
         let file = ks.join(format!("{name}_policy.xml"));
         std::fs::write(&file, policy).unwrap();
-        keystore::create_permission(&ks, &format!("/{name}"), &file).unwrap();
+        policy::create_permission(&ks, &format!("/{name}"), &file).unwrap();
     }
 
     // secured, with the generated permissions
@@ -587,7 +587,7 @@ async fn a_policy_generated_from_the_live_graph_lets_only_the_driver_start() {
         "the file's DENY is kept"
     );
     for e in ["/live_robot", "/live_planner"] {
-        keystore::create_permission(&ks, e, &file).unwrap();
+        policy::create_permission(&ks, e, &file).unwrap();
     }
 
     // secured, with the permissions of the generated policy
@@ -755,7 +755,7 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
     let policy = ks.join("policy.xml");
     std::fs::write(&policy, DOCK_POLICY).unwrap();
     for e in ["/robot", "/planner"] {
-        keystore::create_permission(&ks, e, &policy).unwrap();
+        policy::create_permission(&ks, e, &policy).unwrap();
     }
     let named = |program: &str| {
         Radar::builder()
