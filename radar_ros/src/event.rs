@@ -513,6 +513,29 @@ fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<
     })
 }
 
+/// A new count of listeners: the event activates (its check starts) or deactivates (its check stops).
+async fn on_listeners<E: Event>(
+    n: usize,
+    activation: &mut Activation,
+    event: &Arc<Mutex<E>>,
+    check: &mut Option<Check<E::Payload>>,
+    name: &str,
+) {
+    match activation.set_listeners(n) {
+        Some(Transition::Activate) => {
+            event.lock().await.on_activate();
+            *check = Some(new_check(event, None));
+            tracing::debug!(event = %name, listeners = n, "activated");
+        }
+        Some(Transition::Deactivate) => {
+            *check = None;
+            event.lock().await.on_deactivate();
+            tracing::debug!(event = %name, "deactivated");
+        }
+        None => {}
+    }
+}
+
 async fn drive_event<E: Event>(
     event: E,
     triggered: SignalWriter<E::Payload>,
@@ -540,19 +563,7 @@ async fn drive_event<E: Event>(
     loop {
         if let Some(n) = pending_count.take() {
             st.listeners = n as u32;
-            match activation.set_listeners(n) {
-                Some(Transition::Activate) => {
-                    event.lock().await.on_activate();
-                    check = Some(new_check(&event, None));
-                    tracing::debug!(event = %name, listeners = n, "activated");
-                }
-                Some(Transition::Deactivate) => {
-                    check = None;
-                    event.lock().await.on_deactivate();
-                    tracing::debug!(event = %name, "deactivated");
-                }
-                None => {}
-            }
+            on_listeners(n, &mut activation, &event, &mut check, &name).await;
             st.active = activation.is_active();
             st.activations = activation.activations();
             publish(&mut st, &mut entered);

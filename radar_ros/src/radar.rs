@@ -9,40 +9,10 @@ use crate::{
     error::{Error, Result},
     graph::Graph,
     manager::Manager,
-    names::{validate_namespace, ComponentName},
+    names::ComponentName,
     participant::Participant,
+    settings::{DiscoveryRange, Settings},
 };
-
-/// Parses a `ROS_DOMAIN_ID` value the way ROS 2 tools do: empty means 0, otherwise a whole number 0..=232.
-pub(crate) fn parse_domain_id(value: &str) -> Result<u16> {
-    let v = value.trim();
-    if v.is_empty() {
-        return Ok(0);
-    }
-    let bad = |reason: &str| {
-        Error::Config {
-        setting: "ROS_DOMAIN_ID",
-        value: value.to_owned(),
-        reason: format!(
-            "{reason}; set ROS_DOMAIN_ID to a whole number from 0 to 232 (0-101 and 215-232 avoid the Linux \
-             ephemeral port range), or unset it for domain 0"
-        ),
-    }
-    };
-    let n: u64 = v.parse().map_err(|_| bad("it is not a whole number"))?;
-    if n > 232 {
-        return Err(bad(
-            "it is above 232, the largest domain whose UDP ports fit in 16 bits",
-        ));
-    }
-    if (102..=214).contains(&n) {
-        tracing::warn!(
-            domain = n,
-            "ROS_DOMAIN_ID {n} maps to UDP ports in the Linux ephemeral range; prefer 0-101 or 215-232"
-        );
-    }
-    Ok(n as u16)
-}
 
 /// Reads `ROS_DOMAIN_ID` from the environment (0 when unset), as every ROS 2 tool does: for code that makes
 /// its own ros2-client `Context` (whose `Context::new()` uses domain 0 whatever the variable says).
@@ -53,120 +23,15 @@ pub(crate) fn parse_domain_id(value: &str) -> Result<u16> {
 /// # Ok::<(), radar_ros::Error>(())
 /// ```
 pub fn domain_id_from_env() -> Result<u16> {
-    match std::env::var("ROS_DOMAIN_ID") {
-        Ok(v) => parse_domain_id(&v),
-        Err(std::env::VarError::NotPresent) => Ok(0),
-        Err(std::env::VarError::NotUnicode(v)) => Err(Error::Config {
-            setting: "ROS_DOMAIN_ID",
-            value: v.to_string_lossy().into_owned(),
-            reason: "it is not valid UTF-8; set it to a whole number from 0 to 232".into(),
-        }),
-    }
-}
-
-/// How far DDS discovery reaches, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE`.
-///
-/// Known limitation: with [`DiscoveryRange::Localhost`], RustDDS 0.15 does not deliver messages between a
-/// writer and a reader of the *same* participant (its own reader proxy never gets a loopback route), so
-/// components in one process cannot signal each other. Processes on the same host still can.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DiscoveryRange {
-    /// Only this host: DDS uses the loopback interface only.
-    Localhost,
-    /// The host and its subnets (ROS 2's default).
-    Subnet,
-}
-
-/// Reads `ROS_AUTOMATIC_DISCOVERY_RANGE` (and the older `ROS_LOCALHOST_ONLY=1`) like ROS 2 Jazzy does.
-/// Unset or `SUBNET`/`SYSTEM_DEFAULT` give [`DiscoveryRange::Subnet`]; `LOCALHOST` and `OFF` give
-/// [`DiscoveryRange::Localhost`] (RADAR needs same-host discovery, so `OFF` is treated as `LOCALHOST`).
-pub(crate) fn discovery_range_from_env() -> Result<DiscoveryRange> {
-    if std::env::var("ROS_LOCALHOST_ONLY").as_deref() == Ok("1") {
-        return Ok(DiscoveryRange::Localhost);
-    }
-    match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").as_deref() {
-        Err(_) | Ok("") | Ok("SUBNET") | Ok("SYSTEM_DEFAULT") => Ok(DiscoveryRange::Subnet),
-        Ok("LOCALHOST") => Ok(DiscoveryRange::Localhost),
-        Ok("OFF") => {
-            tracing::warn!("ROS_AUTOMATIC_DISCOVERY_RANGE=OFF treated as LOCALHOST");
-            Ok(DiscoveryRange::Localhost)
-        }
-        Ok(other) => Err(Error::Config {
-            setting: "ROS_AUTOMATIC_DISCOVERY_RANGE",
-            value: other.to_owned(),
-            reason: "it is not one of SUBNET, LOCALHOST, OFF, SYSTEM_DEFAULT".into(),
-        }),
-    }
-}
-
-/// How long other participants keep a radar_ros participant alive after its last announcement, unless
-/// [`RadarBuilder::lease`] or `RADAR_LEASE_SECONDS` says otherwise.
-///
-/// A RADAR program that is killed (`SIGKILL`, a crash, power loss) cannot say goodbye; its peers notice it when
-/// its lease runs out. With 3 s a dead deliberative program's connections are removed, and the events it
-/// listened to stop checking, within about 3.6 s (lease plus one check period of 0.6 s) in radar_ros peers and
-/// about 3 s in Fast DDS (rclpy) peers. The price: each participant announces itself every 0.6 s instead of
-/// every 10 s. Measured (tcpdump, one idle participant): an announcement is one 292-byte SPDP datagram to the
-/// multicast group, about 490 bytes/s per participant on the network (29 bytes/s with a 50 s lease), plus 11
-/// copies to the same-host discovery ports on loopback. RustDDS's own default lease is 50 s; Fast DDS's is
-/// 20 s. Peers keep their own lease; this sets only the one this participant announces. On a lossy network
-/// (Wi-Fi) raise it, so that a few lost announcements in a row do not declare a live program dead.
-pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(3);
-
-/// Reads `RADAR_LEASE_SECONDS` (seconds, may have a fraction; unset: [`DEFAULT_LEASE`]).
-pub(crate) fn lease_from_env() -> Result<std::time::Duration> {
-    let value = match std::env::var("RADAR_LEASE_SECONDS") {
-        Err(std::env::VarError::NotPresent) => return Ok(DEFAULT_LEASE),
-        Err(std::env::VarError::NotUnicode(v)) => v.to_string_lossy().into_owned(),
-        Ok(v) => v,
-    };
-    parse_lease(&value)
-}
-
-fn parse_lease(value: &str) -> Result<std::time::Duration> {
-    let bad = |reason: &str| {
-        Error::Config {
-        setting: "RADAR_LEASE_SECONDS",
-        value: value.to_owned(),
-        reason: format!(
-            "{reason}; give the lease in seconds, from 0.1 up (e.g. 3, or 1.5), or unset it for {}s",
-            DEFAULT_LEASE.as_secs_f64()
-        ),
-    }
-    };
-    let secs: f64 = value
-        .trim()
-        .parse()
-        .map_err(|_| bad("it is not a number"))?;
-    if !secs.is_finite() || secs < 0.1 {
-        return Err(bad("it is below 0.1 s"));
-    }
-    if secs > 86_400.0 {
-        return Err(bad("it is above a day"));
-    }
-    Ok(std::time::Duration::from_secs_f64(secs))
+    crate::settings::domain_id_in(&|k| std::env::var(k))
 }
 
 /// Configures a [`Radar`].
 #[derive(Clone, Debug, Default)]
 #[must_use]
 pub struct RadarBuilder {
-    domain_id: Option<u16>,
-    namespace: Option<String>,
-    range: Option<DiscoveryRange>,
-    lease: Option<std::time::Duration>,
-    program: Option<String>,
-    /// `Some(false)`: every delivery goes over the slot's topic.
-    local_delivery: Option<bool>,
-    /// `Some(false)`: the program handles SIGINT/SIGTERM itself.
-    signals: Option<bool>,
-    shutdown_timeout: Option<std::time::Duration>,
-    /// `None`: the process's own (`std::env::args`).
-    ros_args: Option<crate::ros_args::RosArgs>,
-    /// `None`: the `use_sim_time` parameter of the command line, else off.
-    sim_time: Option<bool>,
-    /// `None`: as the environment says (`ROS_SECURITY_*`); `Some(None)`: plain.
-    security: Option<Option<crate::security::SecurityOptions>>,
+    /// What the code asked for; the command line and the environment fill in the rest when it is built.
+    asked: crate::settings::Asked,
 }
 
 impl RadarBuilder {
@@ -183,7 +48,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn ros_args(mut self, args: crate::ros_args::RosArgs) -> Self {
-        self.ros_args = Some(args);
+        self.asked.ros_args = Some(args);
         self
     }
 
@@ -191,7 +56,7 @@ impl RadarBuilder {
     /// Default: the `use_sim_time` parameter of the command line (`--ros-args -p use_sim_time:=true`), else
     /// off.
     pub fn use_sim_time(mut self, on: bool) -> Self {
-        self.sim_time = Some(on);
+        self.asked.sim_time = Some(on);
         self
     }
 
@@ -204,13 +69,13 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn domain_id(mut self, id: u16) -> Self {
-        self.domain_id = Some(id);
+        self.asked.domain_id = Some(id);
         self
     }
 
     /// The namespace that relative component names resolve in (default `/`).
     pub fn namespace(mut self, ns: &str) -> Self {
-        self.namespace = Some(ns.to_owned());
+        self.asked.namespace = Some(ns.to_owned());
         self
     }
 
@@ -223,12 +88,12 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn discovery_range(mut self, range: DiscoveryRange) -> Self {
-        self.range = Some(range);
+        self.asked.range = Some(range);
         self
     }
 
-    /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`]: how soon peers
-    /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`] for the trade-off).
+    /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`](crate::DEFAULT_LEASE): how soon peers
+    /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`](crate::DEFAULT_LEASE) for the trade-off).
     ///
     /// ```no_run
     /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
@@ -237,7 +102,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn lease(mut self, lease: std::time::Duration) -> Self {
-        self.lease = Some(lease);
+        self.asked.lease = Some(lease);
         self
     }
 
@@ -252,7 +117,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn program(mut self, name: &str) -> Self {
-        self.program = Some(name.to_owned());
+        self.asked.program = Some(name.to_owned());
         self
     }
 
@@ -269,7 +134,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn local_delivery(mut self, on: bool) -> Self {
-        self.local_delivery = Some(on);
+        self.asked.local_delivery = Some(on);
         self
     }
 
@@ -290,7 +155,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn handle_signals(mut self, on: bool) -> Self {
-        self.signals = Some(on);
+        self.asked.signals = Some(on);
         self
     }
 
@@ -306,7 +171,7 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn shutdown_timeout(mut self, d: std::time::Duration) -> Self {
-        self.shutdown_timeout = Some(d);
+        self.asked.shutdown_timeout = Some(d);
         self
     }
 
@@ -323,185 +188,137 @@ impl RadarBuilder {
     /// # Ok(()) }
     /// ```
     pub fn security(mut self, opts: Option<crate::security::SecurityOptions>) -> Self {
-        self.security = Some(opts);
+        self.asked.security = Some(opts);
         self
     }
 
     /// Creates the DDS participant. Must be called inside a tokio runtime.
     pub fn build(self) -> Result<Radar> {
-        let ros_args = match self.ros_args {
-            Some(a) => a,
-            None => crate::ros_args::RosArgs::from_env()?,
-        };
-        // the name node-specific rules (`node:__ns:=...`) match: the program's name before any suffix
-        let rule_node = self
-            .program
-            .clone()
-            .unwrap_or_else(crate::program::default_program_name);
-        let namespace = validate_namespace(
-            ros_args
-                .namespace(&rule_node)
-                .or(self.namespace.as_deref())
-                .unwrap_or("/"),
-        )?;
-        let domain_id = match self.domain_id {
-            Some(id) => parse_domain_id(&id.to_string())?,
-            None => domain_id_from_env()?,
-        };
-        let rt = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
-            setting: "runtime",
-            value: "none".into(),
-            reason: "there is no tokio runtime: create the Radar inside #[tokio::main] or Runtime::block_on"
+        let settings = self
+            .asked
+            .settle(&|k| std::env::var(k), crate::ros_args::RosArgs::from_env)?;
+        start(settings)
+    }
+}
+
+/// The DDS participant the settings ask for: domain, lease, discovery range, the enclave (as rmw announces it
+/// in USER_DATA) and, secured, its files.
+fn dds_participant(s: &Settings) -> Result<rustdds::DomainParticipant> {
+    let mut dpb = DomainParticipantBuilder::new(s.domain_id).lease_duration(s.lease);
+    if s.range == DiscoveryRange::Localhost {
+        tracing::warn!(
+            "LOCALHOST discovery: RustDDS 0.15 restricted to loopback does not deliver between endpoints of \
+             the same participant, so RADAR components in this process will not hear each other; unset \
+             ROS_AUTOMATIC_DISCOVERY_RANGE (or use SUBNET) for in-process connections"
+        );
+        dpb = dpb.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
+    }
+    // as rmw announces it (rmw_dds_common): graph tools show each node's enclave from it
+    // (`get_node_names_and_namespaces_with_enclaves`, `radar security generate_policy`)
+    dpb = dpb.user_data(format!("enclave={};", s.policy_enclave));
+    let enclave = match &s.security {
+        Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
+        None => None,
+    };
+    if let Some((name, dir)) = &enclave {
+        #[cfg(feature = "security")]
+        {
+            dpb = crate::security::secure(dpb, dir);
+            tracing::info!(enclave = %name, dir = %dir.display(), "DDS Security: on");
+        }
+        #[cfg(not(feature = "security"))]
+        {
+            let _ = (name, dir);
+            crate::security::unsupported(
+                s.security.as_ref().expect("an enclave comes from options"),
+            )?;
+        }
+    }
+    dpb.build().map_err(|e| match &enclave {
+        Some((name, dir)) if cfg!(feature = "security") => Error::Config {
+            setting: "enclave",
+            value: name.clone(),
+            reason: format!(
+                "its files in {} do not make a secure participant: {e}. Check that they come from one \
+                 keystore (`radar security create_enclave`) and were not changed since they were signed",
+                dir.display()
+            ),
+        },
+        _ => Error::transport(format!("a DDS participant in domain {}", s.domain_id), e),
+    })
+}
+
+/// Starts a `Radar` from settled settings: the participant, the signal handlers, the program node with its
+/// manager, services, `/rosout` and (if asked) the simulator's clock.
+fn start(s: Settings) -> Result<Radar> {
+    let rt = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
+        setting: "runtime",
+        value: "none".into(),
+        reason:
+            "there is no tokio runtime: create the Radar inside #[tokio::main] or Runtime::block_on"
+                .into(),
+    })?;
+    let ctx = Context::from_domain_participant(dds_participant(&s)?)
+        .map_err(|e| Error::transport(format!("a ROS 2 context in domain {}", s.domain_id), e))?;
+    let participant = Participant::start(
+        ctx,
+        s.domain_id,
+        s.namespace.clone(),
+        (Arc::new(s.ros_args.clone()), s.rule_node.clone()),
+        s.shutdown_timeout,
+        &rt,
+    );
+    if s.handle_signals {
+        let weak: std::sync::Weak<dyn crate::shutdown::Stoppable> =
+            Arc::downgrade(&participant) as _;
+        crate::shutdown::on_signals(weak).map_err(|e| Error::Transport {
+            what: "install a SIGINT/SIGTERM handler".into(),
+            source: Box::new(e),
+            hint: "; or build with RadarBuilder::handle_signals(false) and call Radar::shutdown when told to stop"
                 .into(),
         })?;
-        let range = match self.range {
-            Some(r) => r,
-            None => discovery_range_from_env()?,
-        };
-        let lease = match self.lease {
-            Some(l) => l,
-            None => lease_from_env()?,
-        };
-        let mut dpb = DomainParticipantBuilder::new(domain_id).lease_duration(lease);
-        if range == DiscoveryRange::Localhost {
-            tracing::warn!(
-                "LOCALHOST discovery: RustDDS 0.15 restricted to loopback does not deliver between endpoints of \
-                 the same participant, so RADAR components in this process will not hear each other; unset \
-                 ROS_AUTOMATIC_DISCOVERY_RANGE (or use SUBNET) for in-process connections"
-            );
-            dpb = dpb.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
-        }
-        let security = match self.security {
-            Some(s) => s,
-            None => crate::security::SecurityOptions::from_env(&ros_args)?,
-        };
-        let policy_enclave = match &security {
-            Some(o) => o.enclave.clone(),
-            None => crate::security::enclave_name(&ros_args),
-        };
-        // as rmw announces it (rmw_dds_common): graph tools show each node's enclave from it
-        // (`get_node_names_and_namespaces_with_enclaves`, `radar security generate_policy`)
-        dpb = dpb.user_data(format!("enclave={policy_enclave};"));
-        let enclave = match &security {
-            Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
-            None => None,
-        };
-        if let Some((name, dir)) = &enclave {
-            #[cfg(feature = "security")]
-            {
-                dpb = crate::security::secure(dpb, dir);
-                tracing::info!(enclave = %name, dir = %dir.display(), "DDS Security: on");
-            }
-            #[cfg(not(feature = "security"))]
-            {
-                let _ = (name, dir);
-                crate::security::unsupported(
-                    security.as_ref().expect("an enclave comes from options"),
-                )?;
-            }
-        }
-        let participant = dpb.build().map_err(|e| match &enclave {
-            Some((name, dir)) if cfg!(feature = "security") => Error::Config {
-                setting: "enclave",
-                value: name.clone(),
-                reason: format!(
-                    "its files in {} do not make a secure participant: {e}. Check that they come from one \
-                     keystore (`radar security create_enclave`) and were not changed since they were signed",
-                    dir.display()
-                ),
-            },
-            _ => Error::transport(format!("a DDS participant in domain {domain_id}"), e),
-        })?;
-        let ctx = Context::from_domain_participant(participant)
-            .map_err(|e| Error::transport(format!("a ROS 2 context in domain {domain_id}"), e))?;
-        let shutdown_timeout = self
-            .shutdown_timeout
-            .unwrap_or(crate::shutdown::DEFAULT_SHUTDOWN_TIMEOUT);
-        let renamed = ros_args.node_name(&rule_node).map(str::to_owned);
-        let participant = Participant::start(
-            ctx,
-            domain_id,
-            namespace,
-            (Arc::new(ros_args), rule_node),
-            shutdown_timeout,
-            &rt,
-        );
-        if self.signals != Some(false) {
-            let weak: std::sync::Weak<dyn crate::shutdown::Stoppable> =
-                Arc::downgrade(&participant) as _;
-            crate::shutdown::on_signals(weak).map_err(|e| Error::Transport {
-                what: "install a SIGINT/SIGTERM handler".into(),
-                source: Box::new(e),
-                hint: "; or build with RadarBuilder::handle_signals(false) and call Radar::shutdown when told to stop"
-                    .into(),
-            })?;
-        }
-        let program = match renamed.or(self.program) {
-            Some(p) => {
-                // one valid ROS name token, as given
-                let bad = |why: String| Error::Config {
-                    setting: "program",
-                    value: p.clone(),
-                    reason: format!("{why}; a program name is one ROS name token, e.g. patrol"),
-                };
-                if p.contains('/') {
-                    return Err(bad("it contains a `/`".into()));
-                }
-                crate::names::ComponentName::resolve(&p, "/").map_err(|e| bad(e.to_string()))?;
-                p
-            }
-            None => format!(
-                "{}_{}",
-                crate::program::default_program_name(),
-                std::process::id()
-            ),
-        };
-        if let Some(file) = std::env::var_os("RADAR_GENERATE_POLICY").filter(|v| !v.is_empty()) {
-            participant.generate_policy(
-                std::path::PathBuf::from(file),
-                policy_enclave.clone(),
-                crate::program::default_program_name(),
-            );
-        }
-        let program_node = participant.start_program_node(&program)?;
-        let manager = Arc::new(Manager::new(
-            participant.clone(),
-            self.local_delivery.unwrap_or(true),
-        ));
-        let task = crate::program::serve_program(&participant, &manager, &program_node)?;
-        let rosout = crate::rosout::start(
-            participant
-                .with_client_node(|node| crate::rosout::writer(participant.graph(), node))?,
-            &program_node.fully_qualified(),
-        );
-        let sim_time = self.sim_time.unwrap_or_else(|| {
-            participant
-                .ros_args()
-                .parameters_for(&program_node.fully_qualified())
-                .get("use_sim_time")
-                == Some(&crate::ros_args::ParameterValue::Boolean(true))
-        });
-        let sim_clock = if sim_time {
-            let sub = participant
-                .subscription::<crate::clock::ClockMsg>("/clock", &crate::clock::SimClock::qos())?;
-            let sim = crate::clock::SimClock::start(sub);
-            participant.set_clock(sim.clock());
-            Some(sim)
-        } else {
-            None
-        };
-        Ok(Radar {
-            program: Arc::new(ProgramNode {
-                name: program_node,
-                _task: task,
-                _rosout: rosout,
-                _sim_clock: sim_clock,
-            }),
-            manager,
-            participant,
-            policy_enclave: Arc::from(policy_enclave.as_str()),
-        })
     }
+    if let Some(file) = s.generate_policy.clone() {
+        participant.generate_policy(
+            file,
+            s.policy_enclave.clone(),
+            crate::program::default_program_name(),
+        );
+    }
+    let program_node = participant.start_program_node(&s.program)?;
+    let manager = Arc::new(Manager::new(participant.clone(), s.local_delivery));
+    let task = crate::program::serve_program(&participant, &manager, &program_node)?;
+    let rosout = crate::rosout::start(
+        participant.with_client_node(|node| crate::rosout::writer(participant.graph(), node))?,
+        &program_node.fully_qualified(),
+    );
+    let sim_time = s.sim_time.unwrap_or_else(|| {
+        participant
+            .ros_args()
+            .parameters_for(&program_node.fully_qualified())
+            .get("use_sim_time")
+            == Some(&crate::ros_args::ParameterValue::Boolean(true))
+    });
+    let sim_clock = if sim_time {
+        let sub = participant
+            .subscription::<crate::clock::ClockMsg>("/clock", &crate::clock::SimClock::qos())?;
+        let sim = crate::clock::SimClock::start(sub);
+        participant.set_clock(sim.clock());
+        Some(sim)
+    } else {
+        None
+    };
+    Ok(Radar {
+        program: Arc::new(ProgramNode {
+            name: program_node,
+            _task: task,
+            _rosout: rosout,
+            _sim_clock: sim_clock,
+        }),
+        manager,
+        participant,
+        policy_enclave: Arc::from(s.policy_enclave.as_str()),
+    })
 }
 
 /// A handle on one DDS participant that hosts RADAR components and connections; cheap to clone.
@@ -732,42 +549,5 @@ impl Radar {
 
     pub(crate) fn graph(&self) -> &Graph {
         self.participant.graph()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn domain_ids_parse_like_ros2_tools() {
-        assert_eq!(parse_domain_id("").unwrap(), 0);
-        assert_eq!(parse_domain_id("42").unwrap(), 42);
-        assert_eq!(parse_domain_id(" 7 ").unwrap(), 7);
-        assert_eq!(parse_domain_id("232").unwrap(), 232);
-        let e = parse_domain_id("abc").unwrap_err().to_string();
-        assert!(
-            e.contains("\"abc\"") && e.contains("not a whole number") && e.contains("0 to 232"),
-            "{e}"
-        );
-        let e = parse_domain_id("233").unwrap_err().to_string();
-        assert!(e.contains("above 232"), "{e}");
-        assert!(parse_domain_id("-1").is_err());
-    }
-
-    #[test]
-    fn leases_parse_in_seconds_and_bad_values_say_what_to_set() {
-        assert_eq!(parse_lease("3").unwrap(), std::time::Duration::from_secs(3));
-        assert_eq!(
-            parse_lease(" 1.5 ").unwrap(),
-            std::time::Duration::from_millis(1500)
-        );
-        for bad in ["", "abc", "0", "0.05", "-2", "inf", "NaN", "100000"] {
-            let e = parse_lease(bad).unwrap_err().to_string();
-            assert!(
-                e.contains("RADAR_LEASE_SECONDS") && e.contains("in seconds"),
-                "{bad}: {e}"
-            );
-        }
     }
 }

@@ -107,6 +107,37 @@ pub struct RosArgs {
     program_args: Vec<String>,
 }
 
+/// `-p [node:]name:=value`.
+fn param_arg(v: &str) -> Result<Source> {
+    let (lhs, val) = v.split_once(":=").ok_or_else(|| {
+        bad(
+            v,
+            "a parameter is [node:]name:=value (e.g. -p period:=0.5)",
+        )
+    })?;
+    let (node, name) = match lhs.split_once(':') {
+        Some((n, p)) => (Some(absolute(n)), p),
+        None => (None, lhs),
+    };
+    check_param_name(name, v)?;
+    Ok(Source::Param(node, name.to_owned(), parse_value(val, v)?))
+}
+
+/// `--log-level [logger:=]level`.
+fn log_level_arg(v: &str) -> Result<(Option<String>, LogLevel)> {
+    let (logger, level) = match v.split_once(":=") {
+        Some((l, lv)) => (Some(l.to_owned()), lv),
+        None => (None, v),
+    };
+    let level = LogLevel::parse(level).ok_or_else(|| {
+        bad(
+            v,
+            "a log level is debug, info, warn, error, fatal or unset",
+        )
+    })?;
+    Ok((logger, level))
+}
+
 fn bad(arg: &str, reason: impl Into<String>) -> Error {
     Error::Config {
         setting: "--ros-args",
@@ -167,40 +198,12 @@ impl RosArgs {
                     let v = value(a)?;
                     out.remaps.push(parse_remap(&v)?);
                 }
-                "-p" | "--param" => {
-                    let v = value(a)?;
-                    let (lhs, val) = v.split_once(":=").ok_or_else(|| {
-                        bad(
-                            &v,
-                            "a parameter is [node:]name:=value (e.g. -p period:=0.5)",
-                        )
-                    })?;
-                    let (node, name) = match lhs.split_once(':') {
-                        Some((n, p)) => (Some(absolute(n)), p),
-                        None => (None, lhs),
-                    };
-                    check_param_name(name, &v)?;
-                    out.params
-                        .push(Source::Param(node, name.to_owned(), parse_value(val, &v)?));
-                }
+                "-p" | "--param" => out.params.push(param_arg(&value(a)?)?),
                 "--params-file" => {
                     let path = value(a)?;
                     out.params.push(Source::File(read_params_file(&path)?));
                 }
-                "--log-level" => {
-                    let v = value(a)?;
-                    let (logger, level) = match v.split_once(":=") {
-                        Some((l, lv)) => (Some(l.to_owned()), lv),
-                        None => (None, v.as_str()),
-                    };
-                    let level = LogLevel::parse(level).ok_or_else(|| {
-                        bad(
-                            &v,
-                            "a log level is debug, info, warn, error, fatal or unset",
-                        )
-                    })?;
-                    out.log_levels.push((logger, level));
-                }
+                "--log-level" => out.log_levels.push(log_level_arg(&value(a)?)?),
                 "-e" | "--enclave" => out.enclave = Some(value(a)?),
                 "--log-config-file" => {
                     let f = value(a)?;

@@ -76,7 +76,15 @@ impl SecurityOptions {
     /// What the environment and the command line's `--enclave` ask for: `None` without
     /// `ROS_SECURITY_ENABLE=true`.
     pub fn from_env(ros_args: &crate::ros_args::RosArgs) -> Result<Option<SecurityOptions>> {
-        let var = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
+        Self::from_lookup(&|k| std::env::var(k), ros_args)
+    }
+
+    /// [`SecurityOptions::from_env`] with the environment's variables looked up in `env`.
+    pub(crate) fn from_lookup(
+        env: &dyn Fn(&str) -> std::result::Result<String, std::env::VarError>,
+        ros_args: &crate::ros_args::RosArgs,
+    ) -> Result<Option<SecurityOptions>> {
+        let var = |k: &str| env(k).ok().filter(|v| !v.is_empty());
         from_vars(
             var("ROS_SECURITY_ENABLE").as_deref(),
             var("ROS_SECURITY_STRATEGY").as_deref(),
@@ -89,8 +97,11 @@ impl SecurityOptions {
 
 /// The enclave a program runs in, or would run in when secured: `ROS_SECURITY_ENCLAVE_OVERRIDE`, else the
 /// command line's `--enclave`, else `/` (rcl's order).
-pub(crate) fn enclave_name(ros_args: &crate::ros_args::RosArgs) -> String {
-    std::env::var("ROS_SECURITY_ENCLAVE_OVERRIDE")
+pub(crate) fn enclave_name_in(
+    env: &dyn Fn(&str) -> std::result::Result<String, std::env::VarError>,
+    ros_args: &crate::ros_args::RosArgs,
+) -> String {
+    env("ROS_SECURITY_ENCLAVE_OVERRIDE")
         .ok()
         .filter(|v| !v.is_empty())
         .or_else(|| ros_args.enclave().map(str::to_owned))

@@ -244,27 +244,31 @@ struct Serving<A: Action> {
 
 impl<A: Action> Serving<A> {
     /// Carries out `effects` in order (rules S1-S7 of [`radar_semantics::served`]).
+    /// S1: the new goal is accepted, and its start sent to the response.
+    async fn accept(&mut self, goal: GoalId, start: radar_semantics::response::Sent) {
+        let action = &self.action;
+        let Some((h, payload)) = self.new.take() else {
+            return;
+        };
+        match self.server.accept_goal(h).await {
+            Ok(h) => {
+                self.goal = Some((goal, Handle::Accepted(h)));
+                if let Err(e) = self.io.start.publish_sent(payload, start) {
+                    tracing::warn!(%action, error = %e, "could not start the response");
+                }
+            }
+            Err(e) => {
+                tracing::warn!(%action, error = ?e, "could not accept a goal");
+                self.rules.accept_failed(&goal);
+            }
+        }
+    }
+
     async fn carry_out(&mut self, effects: Vec<Effect<GoalId, A::Result>>) {
         let action = &self.action;
         for fx in effects {
             match fx {
-                Effect::Accept { goal, start } => {
-                    let Some((h, payload)) = self.new.take() else {
-                        continue;
-                    };
-                    match self.server.accept_goal(h).await {
-                        Ok(h) => {
-                            self.goal = Some((goal, Handle::Accepted(h)));
-                            if let Err(e) = self.io.start.publish_sent(payload, start) {
-                                tracing::warn!(%action, error = %e, "could not start the response");
-                            }
-                        }
-                        Err(e) => {
-                            tracing::warn!(%action, error = ?e, "could not accept a goal");
-                            self.rules.accept_failed(&goal);
-                        }
-                    }
-                }
+                Effect::Accept { goal, start } => self.accept(goal, start).await,
                 Effect::Reject(_) => {
                     let Some((h, _)) = self.new.take() else {
                         continue;

@@ -147,18 +147,7 @@ impl Manager {
         }
         let mut presence = Presence::new(counts);
         let key = k.clone();
-        let departure = {
-            let (me, key) = (me.clone(), key.clone());
-            move || {
-                let writer = me
-                    .upgrade()
-                    .and_then(|m| m.state().outlets.get(&key).and_then(|o| o.dds.clone()));
-                match writer {
-                    Some(p) => p.departure(),
-                    None => Departure::of_subscriber(&key.topic, crate::departure::LossCause::Left),
-                }
-            }
-        };
+        let departure = slot_departure(me.clone(), key.clone());
         tokio::spawn(async move {
             let mut needs_writer = needs_writer;
             let mut inlet_presence = inlet_presence;
@@ -303,6 +292,19 @@ impl Presence {
                     }
                 }
             }
+        }
+    }
+}
+
+/// Who left when the slot `key` has no reader any more: its writer's last matched subscriber, or the slot's.
+fn slot_departure(me: std::sync::Weak<Manager>, key: Key) -> impl Fn() -> Departure {
+    move || {
+        let writer = me
+            .upgrade()
+            .and_then(|m| m.state().outlets.get(&key).and_then(|o| o.dds.clone()));
+        match writer {
+            Some(p) => p.departure(),
+            None => Departure::of_subscriber(&key.topic, crate::departure::LossCause::Left),
         }
     }
 }

@@ -50,16 +50,7 @@ impl Radar {
                     )?,
                 ))
             })?;
-            let wanted: Vec<(bool, String)> = ["list_parameters", "get_parameters"]
-                .iter()
-                .flat_map(|s| {
-                    let service = format!("{fq}/{s}");
-                    [
-                        (true, crate::wire_names::request(&service)),
-                        (false, crate::wire_names::reply(&service)),
-                    ]
-                })
-                .collect();
+            let wanted = service_topics(&fq, &["list_parameters", "get_parameters"]);
             let timed_out = || Error::Timeout {
                 what: format!("the parameter services of {fq}"),
                 after: timeout,
@@ -107,4 +98,18 @@ impl Radar {
             Ok(all)
         })
     }
+}
+
+/// The request topics (written: `true`) and reply topics (read) of the services `names` of the node `fq`.
+fn service_topics(fq: &str, names: &[&str]) -> Vec<(bool, String)> {
+    names
+        .iter()
+        .flat_map(|s| {
+            let service = format!("{fq}/{s}");
+            [
+                (true, crate::wire_names::request(&service)),
+                (false, crate::wire_names::reply(&service)),
+            ]
+        })
+        .collect()
 }

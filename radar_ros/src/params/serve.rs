@@ -162,22 +162,14 @@ async fn run(s: Servers, params: Params, graph: Graph, fq: String) {
         tokio::select! {
             Some(r) = get.next() => match r {
                 Ok((id, req)) => {
-                    let values = req
-                        .names
-                        .iter()
-                        .map(|n| params.get(n).unwrap_or(ParameterValue::NotSet).into())
-                        .collect();
+                    let values = values_of(&params, &req.names).collect();
                     reply(&s.get, &graph, &fq, "get_parameters", id, GetParametersResponse { values });
                 }
                 Err(e) => bad("get_parameters", &e),
             },
             Some(r) = types.next() => match r {
                 Ok((id, req)) => {
-                    let values = req
-                        .names
-                        .iter()
-                        .map(|n| raw::ParameterValue::from(params.get(n).unwrap_or(ParameterValue::NotSet)).ptype)
-                        .collect();
+                    let values = values_of(&params, &req.names).map(|v| v.ptype).collect();
                     reply(&s.types, &graph, &fq, "get_parameter_types", id, GetParameterTypesResponse { values });
                 }
                 Err(e) => bad("get_parameter_types", &e),
@@ -225,6 +217,16 @@ async fn run(s: Servers, params: Params, graph: Graph, fq: String) {
             else => break,
         }
     }
+}
+
+/// The values of the parameters `names`, as the services send them (not set: `NOT_SET`).
+fn values_of<'a>(
+    params: &'a Params,
+    names: &'a [String],
+) -> impl Iterator<Item = raw::ParameterValue> + 'a {
+    names
+        .iter()
+        .map(|n| params.get(n).unwrap_or(ParameterValue::NotSet).into())
 }
 
 fn result(r: Result<()>) -> raw::SetParametersResult {

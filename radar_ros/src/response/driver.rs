@@ -395,6 +395,37 @@ fn slot_signals<'a, R: Response>(
 }
 
 /// Runs a response until it is stopped and its last run has ended.
+/// Signals that did not decode, counted: shown in the state at the next change, or at most once a second for
+/// a flood of garbage alone.
+struct Malformed {
+    count: u64,
+    reported: Option<std::time::Instant>,
+}
+
+impl Default for Malformed {
+    fn default() -> Self {
+        Malformed {
+            count: 0,
+            reported: None,
+        }
+    }
+}
+
+impl Malformed {
+    /// One more; whether to show the count now.
+    fn note(&mut self) -> bool {
+        self.count += 1;
+        if self
+            .reported
+            .is_some_and(|at| at.elapsed() < MALFORMED_REPORT_EVERY)
+        {
+            return false;
+        }
+        self.reported = Some(std::time::Instant::now());
+        true
+    }
+}
+
 pub(super) async fn drive<R: Response>(
     response: Arc<Mutex<R>>,
     machine: ResponseMachine<R::Start, R::Output>,
@@ -424,8 +455,7 @@ pub(super) async fn drive<R: Response>(
     let mut signals = Box::pin(slot_signals::<R>(&topics, &slots, &mut inboxes));
     let (notes_tx, mut notes) = tokio::sync::mpsc::unbounded_channel::<SlotNote>();
     let mut stop_requested = false;
-    let mut malformed: u64 = 0;
-    let mut last_malformed_report = std::time::Instant::now() - MALFORMED_REPORT_EVERY;
+    let mut malformed = Malformed::default();
     loop {
         // Biased: the running slot is polled before any signal is taken, so a start behaviour that was just
         // begun runs up to its first await point before an interrupt can cancel it (`started` never announces
@@ -453,20 +483,13 @@ pub(super) async fn drive<R: Response>(
             }
             sig = signals.next() => match sig {
                 Some(Some(input)) => d.machine().handle_at(input, now_ns()),
-                Some(None) => {
-                    malformed += 1;
-                    // shown at the next change; at most once a second for a flood of garbage alone
-                    if last_malformed_report.elapsed() < MALFORMED_REPORT_EVERY {
-                        continue;
-                    }
-                    last_malformed_report = std::time::Instant::now();
-                    Vec::new()
-                }
+                Some(None) if malformed.note() => Vec::new(),
+                Some(None) => continue,
                 None => break,
             },
         };
         let began = d.apply(fx, &notes_tx);
-        d.state_after(began, malformed);
+        d.state_after(began, malformed.count);
         if stop_requested && d.current.is_none() {
             break;
         }

@@ -163,7 +163,54 @@ fn count_down<K: Ord + Clone>(m: &mut BTreeMap<K, usize>, k: &K, released: &mut 
     }
 }
 
+impl<S: Clone + Ord, T: Clone + Ord> Until<S, T> {
+    /// The interrupt the window decided to send at `at`, if it did.
+    fn interrupt_at(&self, id: ConnId, at: Option<i64>, out: &mut Vec<Delivery<T>>) {
+        if let Some(at) = at {
+            out.push(Delivery {
+                id,
+                target: self.interrupt.clone(),
+                via: Via::Until { at },
+            });
+        }
+    }
+}
+
 impl<S: Clone + Ord, T: Clone + Ord> Conn<S, T> {
+    /// The signal of `source` emitted at `emitted_at` moves this connection's `until` window (the response's
+    /// `started` and `exited`, and U), adding the interrupts it decides to `out`; `mine` is the run of this
+    /// connection's start that an `exited` reports, if it does. Whether the connection is over (C3: a spent
+    /// `once` whose run has ended).
+    fn move_window(
+        &mut self,
+        id: ConnId,
+        source: &S,
+        emitted_at: i64,
+        mine: Option<u64>,
+        out: &mut Vec<Delivery<T>>,
+    ) -> bool {
+        let Some((u, w)) = &mut self.until else {
+            return false;
+        };
+        let mut over = false;
+        if &u.started == source {
+            let send = w.apply(WindowSignal::Started { at: emitted_at });
+            u.interrupt_at(id, send, out);
+        }
+        if &u.exited == source {
+            w.apply(WindowSignal::Exited {
+                at: emitted_at,
+                ours: mine,
+            });
+            over = self.spent && w.settled();
+        }
+        if &u.source == source {
+            let send = w.apply(WindowSignal::U { at: emitted_at });
+            u.interrupt_at(id, send, out);
+        }
+        over
+    }
+
     /// Every source whose signals this connection looks at.
     fn listens(&self) -> Vec<S> {
         let mut v = vec![self.source.clone()];
@@ -497,36 +544,10 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             if emitted_at < c.armed_at {
                 continue; // C1
             }
-            let until = |out: &mut Vec<Delivery<T>>, u: &Until<S, T>, at: Option<i64>| {
-                if let Some(at) = at {
-                    out.push(Delivery {
-                        id: *id,
-                        target: u.interrupt.clone(),
-                        via: Via::Until { at },
-                    })
-                }
-            };
             // the response's own signals move the until window (before the connection's deliveries)
-            if let Some((u, w)) = &mut c.until {
-                let mine = ours.and_then(|(cid, n)| (cid == *id).then_some(n));
-                if &u.started == source {
-                    let send = w.apply(WindowSignal::Started { at: emitted_at });
-                    until(&mut out, u, send);
-                }
-                if &u.exited == source {
-                    w.apply(WindowSignal::Exited {
-                        at: emitted_at,
-                        ours: mine,
-                    });
-                    // C3: a spent `once` is over when the run its start began has ended
-                    if c.spent && w.settled() {
-                        finished.push(*id);
-                    }
-                }
-                if &u.source == source {
-                    let send = w.apply(WindowSignal::U { at: emitted_at });
-                    until(&mut out, u, send);
-                }
+            let mine = ours.and_then(|(cid, n)| (cid == *id).then_some(n));
+            if c.move_window(*id, source, emitted_at, mine, &mut out) {
+                finished.push(*id);
             }
             if &c.source == source && !c.spent && c.link == Link::Armed && accept(*id) {
                 c.delivered += 1;
@@ -541,7 +562,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                         n: c.delivered,
                         at: emitted_at,
                     });
-                    until(&mut out, u, send);
+                    u.interrupt_at(*id, send, &mut out);
                 }
                 if c.kind == Kind::Once {
                     c.spent = true;
