@@ -109,12 +109,9 @@ pub struct RosArgs {
 
 /// `-p [node:]name:=value`.
 fn param_arg(v: &str) -> Result<Source> {
-    let (lhs, val) = v.split_once(":=").ok_or_else(|| {
-        bad(
-            v,
-            "a parameter is [node:]name:=value (e.g. -p period:=0.5)",
-        )
-    })?;
+    let (lhs, val) = v
+        .split_once(":=")
+        .ok_or_else(|| bad(v, "a parameter is [node:]name:=value (e.g. -p period:=0.5)"))?;
     let (node, name) = match lhs.split_once(':') {
         Some((n, p)) => (Some(absolute(n)), p),
         None => (None, lhs),
@@ -129,12 +126,8 @@ fn log_level_arg(v: &str) -> Result<(Option<String>, LogLevel)> {
         Some((l, lv)) => (Some(l.to_owned()), lv),
         None => (None, v),
     };
-    let level = LogLevel::parse(level).ok_or_else(|| {
-        bad(
-            v,
-            "a log level is debug, info, warn, error, fatal or unset",
-        )
-    })?;
+    let level = LogLevel::parse(level)
+        .ok_or_else(|| bad(v, "a log level is debug, info, warn, error, fatal or unset"))?;
     Ok((logger, level))
 }
 

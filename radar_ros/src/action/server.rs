@@ -265,7 +265,8 @@ impl<A: Action> Serving<A> {
     }
 
     async fn carry_out(&mut self, effects: Vec<Effect<GoalId, A::Result>>) {
-        let action = &self.action;
+        let action = self.action.clone();
+        let action = action.as_str();
         for fx in effects {
             match fx {
                 Effect::Accept { goal, start } => self.accept(goal, start).await,

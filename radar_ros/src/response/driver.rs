@@ -397,18 +397,10 @@ fn slot_signals<'a, R: Response>(
 /// Runs a response until it is stopped and its last run has ended.
 /// Signals that did not decode, counted: shown in the state at the next change, or at most once a second for
 /// a flood of garbage alone.
+#[derive(Default)]
 struct Malformed {
     count: u64,
     reported: Option<std::time::Instant>,
-}
-
-impl Default for Malformed {
-    fn default() -> Self {
-        Malformed {
-            count: 0,
-            reported: None,
-        }
-    }
 }
 
 impl Malformed {
