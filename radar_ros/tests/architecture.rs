@@ -32,7 +32,9 @@ fn listed(page: &str) -> BTreeSet<String> {
 
 #[test]
 fn the_architecture_page_lists_every_source_file_and_only_those() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap();
     let page = std::fs::read_to_string(root.join("docs/architecture.md")).unwrap();
     let on_page = listed(&page);
     let mut in_tree = BTreeSet::new();
@@ -62,7 +64,8 @@ fn the_architecture_page_lists_every_source_file_and_only_those() {
 
 #[test]
 fn a_page_path_is_read_from_backticks_only() {
-    let page = "| `radar_ros/src/a.rs` | x |\nradar_ros/src/b.rs and `radar_ros/src/c` and `other/d.rs`";
+    let page =
+        "| `radar_ros/src/a.rs` | x |\nradar_ros/src/b.rs and `radar_ros/src/c` and `other/d.rs`";
     assert_eq!(
         listed(page),
         BTreeSet::from(["radar_ros/src/a.rs".to_owned()])
@@ -97,7 +100,10 @@ fn long_functions(root: &std::path::Path, dir: &str, max: usize) -> Vec<(String,
                 continue;
             }
             let closing = format!("{indent}}}");
-            let Some(len) = lines[i + 1..end].iter().position(|l| l.trim_end() == closing) else {
+            let Some(len) = lines[i + 1..end]
+                .iter()
+                .position(|l| l.trim_end() == closing)
+            else {
                 continue;
             };
             let name: String = rest
@@ -114,7 +120,9 @@ fn long_functions(root: &std::path::Path, dir: &str, max: usize) -> Vec<(String,
 
 #[test]
 fn no_library_function_is_over_80_lines() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap();
     for dir in ["radar_ros/src", "radar_ros/semantics/src"] {
         let long = long_functions(root, dir, 80);
         assert!(
