@@ -242,20 +242,6 @@ impl RemoteManager {
     }
 }
 
-/// The DDS topics of a manager's services, as `Graph::participants_matched_on` takes them.
-fn service_topics(manager: &str) -> Vec<(bool, String)> {
-    ["connect", "disconnect", "list"]
-        .iter()
-        .flat_map(|s| {
-            let service = format!("{manager}/{s}");
-            [
-                (true, crate::wire_names::request(&service)),
-                (false, crate::wire_names::reply(&service)),
-            ]
-        })
-        .collect()
-}
-
 impl Radar {
     /// Clients of the manager node `name`'s services, once they are matched both ways (default limit
     /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change), so that no request is lost.
@@ -291,7 +277,8 @@ impl Radar {
                 name: name.clone(),
             };
             let local = radar.participant().served_managers();
-            let wanted = service_topics(&name);
+            let wanted =
+                crate::wire_names::service_topics(&name, &["connect", "disconnect", "list"]);
             let deadline = tokio::time::Instant::now() + timeout;
             let matched = || {
                 (local.contains(&name)

@@ -27,6 +27,18 @@ pub(crate) fn reply(service: &str) -> String {
     format!("rr{service}Reply")
 }
 
+/// The DDS topics of the services `names` of node `node`: each one's requests (written by a client: `true`) and
+/// replies (read), as `Graph::participants_matched_on` takes them.
+pub(crate) fn service_topics(node: &str, names: &[&str]) -> Vec<(bool, String)> {
+    names
+        .iter()
+        .flat_map(|s| {
+            let service = format!("{node}/{s}");
+            [(true, request(&service)), (false, reply(&service))]
+        })
+        .collect()
+}
+
 /// The service whose requests go on the DDS topic `dds`, if it is such a topic (`rq/sRequest` -> `/s`).
 pub(crate) fn service_of_request(dds: &str) -> Option<&str> {
     dds.strip_prefix("rq")?.strip_suffix("Request")

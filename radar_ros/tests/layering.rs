@@ -111,42 +111,8 @@ fn imports() -> BTreeMap<String, BTreeSet<String>> {
 fn no_module_imports_a_module_that_imports_it_back() {
     let graph = imports();
     assert!(graph.len() > 15, "read the modules: {graph:?}");
-    // depth-first search for a back edge
-    fn visit(
-        m: &str,
-        graph: &BTreeMap<String, BTreeSet<String>>,
-        state: &mut BTreeMap<String, u8>,
-        path: &mut Vec<String>,
-    ) -> Option<Vec<String>> {
-        state.insert(m.to_owned(), 1);
-        path.push(m.to_owned());
-        for d in &graph[m] {
-            match state.get(d.as_str()) {
-                Some(1) => {
-                    let i = path.iter().position(|p| p == d).unwrap();
-                    let mut cycle = path[i..].to_vec();
-                    cycle.push(d.clone());
-                    return Some(cycle);
-                }
-                Some(_) => {}
-                None => {
-                    if let Some(c) = visit(d, graph, state, path) {
-                        return Some(c);
-                    }
-                }
-            }
-        }
-        path.pop();
-        state.insert(m.to_owned(), 2);
-        None
-    }
-    let mut state = BTreeMap::new();
-    for m in graph.keys() {
-        if !state.contains_key(m) {
-            if let Some(cycle) = visit(m, &graph, &mut state, &mut Vec::new()) {
-                panic!("import circle: {}", cycle.join(" -> "));
-            }
-        }
+    if let Some(cycle) = circle(&graph) {
+        panic!("import circle: {}", cycle.join(" -> "));
     }
     // the core stands below what stands on it
     for (high, low) in [

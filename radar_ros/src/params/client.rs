@@ -50,7 +50,8 @@ impl Radar {
                     )?,
                 ))
             })?;
-            let wanted = service_topics(&fq, &["list_parameters", "get_parameters"]);
+            let wanted =
+                crate::wire_names::service_topics(&fq, &["list_parameters", "get_parameters"]);
             let timed_out = || Error::Timeout {
                 what: format!("the parameter services of {fq}"),
                 after: timeout,
@@ -98,18 +99,4 @@ impl Radar {
             Ok(all)
         })
     }
-}
-
-/// The request topics (written: `true`) and reply topics (read) of the services `names` of the node `fq`.
-fn service_topics(fq: &str, names: &[&str]) -> Vec<(bool, String)> {
-    names
-        .iter()
-        .flat_map(|s| {
-            let service = format!("{fq}/{s}");
-            [
-                (true, crate::wire_names::request(&service)),
-                (false, crate::wire_names::reply(&service)),
-            ]
-        })
-        .collect()
 }
