@@ -35,7 +35,7 @@ missing=()
 # which tests/security_feature.rs builds)
 dpkg -s libssl-dev >/dev/null 2>&1 || missing+=(libssl-dev)
 command -v pkg-config >/dev/null || missing+=(pkg-config)
-# and Debian's Fast DDS (built with DDS Security) for the secured interop peer of radar_ros/tests/secure.rs
+# and Debian's Fast DDS (built with DDS Security) for the secured interop peer of radar_ros/library/tests/secure.rs
 dpkg -s libfastrtps-dev >/dev/null 2>&1 || missing+=(libfastrtps-dev)
 # and libfaketime, for a peer whose clock is off (tests/clocks.rs)
 dpkg -s faketime >/dev/null 2>&1 || missing+=(faketime)

@@ -9,7 +9,7 @@
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
 //!   security handshake target);
-//! - `radar_ros/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
+//! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
 //!   policy as written, permissions generated from what programs declare and from the live graph (`radar
@@ -127,7 +127,10 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     ];
     let mut no_run = secure[..7].to_vec();
     no_run.push("--no-run");
-    check(&cargo(&no_run, &[]), "building radar_ros/tests/secure.rs");
+    check(
+        &cargo(&no_run, &[]),
+        "building radar_ros/library/tests/secure.rs",
+    );
     let timeline = [
         "test",
         "-p",
@@ -193,7 +196,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         &out,
         &["every_target_survives_its_corpus_and_mutations_of_it"],
     );
-    let out = check(&cargo(&secure, &[]), "radar_ros/tests/secure.rs");
+    let out = check(&cargo(&secure, &[]), "radar_ros/library/tests/secure.rs");
     println!("{out}");
     ran_and_passed(
         &out,

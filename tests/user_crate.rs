@@ -63,11 +63,11 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
     require_isolation();
     let dir = repo().join("target/user-crate/hello");
     let deps = readme_block("Cargo.toml").replace(
-        "path = \"../radar_ros/radar_ros\"",
-        &format!("path = \"{}\"", repo().join("radar_ros").display()),
+        "path = \"../radar_ros/radar_ros/library\"",
+        &format!("path = \"{}\"", repo().join("radar_ros/library").display()),
     );
     assert!(
-        deps.contains(&repo().join("radar_ros").display().to_string()),
+        deps.contains(&repo().join("radar_ros/library").display().to_string()),
         "the README's dependency line names radar_ros by path: {deps}"
     );
     write(
@@ -199,13 +199,17 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
         .replacen("version = \"0.15.1\"", "version = \"0.15.1-radar.1\"", 1);
     std::fs::write(ws.join("rustdds/Cargo.toml"), manifest).unwrap();
     for part in [
-        "radar_ros/src",
+        "radar_ros/library/src",
         "radar_ros/semantics",
         "third_party/ros2-client",
     ] {
         copy(&repo().join(part), &ws.join(part));
     }
-    for file in ["radar_ros/Cargo.toml", "radar_ros/build.rs", "README.md"] {
+    for file in [
+        "radar_ros/library/Cargo.toml",
+        "radar_ros/library/build.rs",
+        "README.md",
+    ] {
         std::fs::copy(repo().join(file), ws.join(file)).unwrap();
     }
     // the workspace as radar_ros's, with the RustDDS swapped
@@ -218,7 +222,7 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
         )
         .replacen(
             "members = [",
-            "members = [\"radar_ros\", \"radar_ros/semantics\"]\n# was: [",
+            "members = [\"radar_ros/library\", \"radar_ros/semantics\"]\n# was: [",
             1,
         );
     std::fs::write(ws.join("Cargo.toml"), root).unwrap();
@@ -231,12 +235,12 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "the build goes through: {stderr}");
     // how many patches radar_ros asks for, as its build script says
-    let build_rs = std::fs::read_to_string(repo().join("radar_ros/build.rs")).unwrap();
+    let build_rs = std::fs::read_to_string(repo().join("radar_ros/library/build.rs")).unwrap();
     let need = build_rs
         .lines()
         .find_map(|l| l.strip_prefix("const RUSTDDS_PATCHES: u32 = "))
         .and_then(|n| n.strip_suffix(';'))
-        .expect("RUSTDDS_PATCHES in radar_ros/build.rs");
+        .expect("RUSTDDS_PATCHES in radar_ros/library/build.rs");
     assert!(
         stderr.contains(&format!(
             "radar_ros is being built against a RustDDS without radar_ros's patches (none of {need} found)"

@@ -1,4 +1,4 @@
-// A secured Fast DDS peer for radar_ros's DDS Security interop test (radar_ros/tests/secure.rs), built against
+// A secured Fast DDS peer for radar_ros's DDS Security interop test (radar_ros/library/tests/secure.rs), built against
 // Debian's Fast DDS 2.9 (libfastrtps-dev, compiled with DDS Security): the builtin plugins PKI-DH,
 // Access-Permissions and AES-GCM-GMAC, configured from an enclave of a keystore made by radar_ros, as
 // rmw_fastrtps configures them from an SROS2 enclave.

@@ -1,0 +1,114 @@
+//! ROS 2 actions as RADAR responses, and RADAR responses as ROS 2 actions.
+//!
+//! An action is a response in all but name: a goal starts it, a cancel interrupts it, the result ends it. Two
+//! bridges, both built on the response machinery (same topics, same `state`, same counters):
+//!
+//! - [`Radar::action_response`](crate::Radar::action_response): an **action server** (rclpy, rclcpp, Nav2, another radar_ros program) as a
+//!   response, usable in every statement (`radar.once(&bumper).interrupt(&navigate)`).
+//! - [`Radar::serve_as_action`](crate::Radar::serve_as_action): a **response** (local or found on the graph) as an action server, so any
+//!   action client (`ros2 action send_goal`, rclpy's `ActionClient`, BehaviorTree.ROS2) can drive it.
+//!
+//! # Mapping rules (next to the response rules of [`radar_semantics::response`])
+//!
+//! An action server as a response (`A1`-`A7`):
+//!
+//! | A | RADAR | action protocol |
+//! |---|---|---|
+//! | 1 | `start(goal)` while idle | sends the goal (after waiting, up to the server timeout, for the server to be matched both ways) |
+//! | 2 | `started(goal)` | the server **accepted** the goal (response rule R9); never before |
+//! | 3 | `exited(result)`, run failed | the server **rejected** the goal: no `started`, state `failed: goal rejected` |
+//! | 4 | `interrupt` while the goal runs | `interrupted` at once, then a cancel request; `exited` carries the result the server reports for the canceled (or meanwhile finished) goal |
+//! | 5 | `interrupt` before the server answered (also the `until` of the statement that sent the goal: the run is that statement's from the start, not from acceptance, R13) | `interrupted`; the goal is canceled as soon as it is accepted (or dropped if rejected, or never sent if the server has not appeared yet); no `started` |
+//! | 6 | the run ends otherwise while the goal may still run: an `exit` signal, the response or its program stopping, a failure on this side (a result that does not decode) | the goal is canceled too (an exit slot always runs, and a goal left running would be an orphan); not when the server has left |
+//! | 7 | `exited`, run failed | the goal ended `ABORTED` or was canceled by someone else (the result is carried), or the server left the graph mid-goal (`failed: the action server ... left`) |
+//!
+//! A server of another action type on that name fails each run with an error that names the type served there
+//! (DDS would match the endpoints anyway); [`Radar::action_type`](crate::Radar::action_type) tells the type of a named action.
+//!
+//! Feedback is the response's `feedback` signal (`<response>/feedback`, the action's feedback type), usable as
+//! a connection source and in `waitfor`. `start` while a goal runs follows the response's
+//! [`StartPolicy`](crate::StartPolicy): ignored by default, `Restart` cancels the goal and sends the new one,
+//! `QueueOne` sends it after `exited`.
+//!
+//! A response as an action server (`S1`-`S7`, decided by [`radar_semantics::served::ServedAction`], where
+//! the rules are stated in full; the server reads goals and cancel requests in tasks of their own, so a cancel
+//! never waits behind a goal):
+//!
+//! | S | action protocol | RADAR |
+//! |---|---|---|
+//! | 1 | goal while the response is idle and no goal of this server runs | accepted, then `start(goal)`; status `EXECUTING` when the response says `started` |
+//! | 2 | goal while a goal runs, or the response is busy | **rejected** (a response runs one thing at a time; cancel the first goal, or wait for its result) |
+//! | 3 | cancel of the running goal (also before the response said `started`) | accepted (status `CANCELING`), then `interrupt` (again when `started` comes, if it had not yet); the result is `exited`'s payload with status `CANCELED` |
+//! | 4 | — | `exited` after a completed run: `SUCCEEDED` with `exited`'s payload; after a failed, panicked, interrupted (by someone else) or exit-signalled run: `ABORTED` (the state that follows `exited` says which; without one within 1 s, `ABORTED`) |
+//! | 5 | feedback | every message on the response's `feedback` topic while the goal executes |
+//! | 6 | — | the response leaves the graph, or ignores the start: the goal is `ABORTED` |
+//! | 7 | — | only the run the goal started answers it: the goal's start carries a cause (R13) that the run's `started` and `exited` carry back; another run of the response (another statement's, overlapping) does not end the goal. A response that carries no causes (rclpy) is taken at its word: its next `started` and `exited` are the goal's |
+//!
+//! ```no_run
+//! # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventHandle) -> radar_ros::Result<()> {
+//! use radar_ros::action::{Fibonacci, FibonacciGoal};
+//! let fib = radar.action_response::<Fibonacci>("/fibonacci")?;       // an rclpy action server, say
+//! let _stop = radar.once(&bumper).interrupt(&fib).await?;              // the bumper cancels the goal
+//! radar.inject(fib.reference().start_slot(), FibonacciGoal { order: 8 }).await?;
+//! let result: radar_ros::action::FibonacciResult = radar.waitfor(fib.reference().exited()).await?;
+//! # Ok(()) }
+//! ```
+
+pub(crate) mod client;
+mod fibonacci;
+pub(crate) mod server;
+pub(crate) mod wire;
+
+pub use client::{ActionResponseHandle, ActionResponseOptions};
+pub use fibonacci::{Fibonacci, FibonacciFeedback, FibonacciGoal, FibonacciResult};
+pub use server::ActionServerHandle;
+
+use crate::wire::msg::RosMessage;
+
+/// A ROS 2 action type: its name and the messages of its three parts.
+///
+/// ```
+/// use radar_ros::action::{Action, Fibonacci};
+/// assert_eq!(Fibonacci::ros_type_name(), "test_msgs/action/Fibonacci");
+/// ```
+///
+/// Declare one of your own with message types named as rosidl names them (`ros_message!(T, "pkg", action
+/// "Dock_Goal")`):
+///
+/// ```
+/// use radar_ros::{action::Action, ros_message};
+/// #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+/// pub struct DockGoal { pub station: String }
+/// ros_message!(DockGoal, "my_robot", action "Dock_Goal");
+/// #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+/// pub struct DockResult { pub docked: bool }
+/// ros_message!(DockResult, "my_robot", action "Dock_Result");
+/// #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+/// pub struct DockFeedback { pub distance: f32 }
+/// ros_message!(DockFeedback, "my_robot", action "Dock_Feedback");
+/// pub struct Dock;
+/// impl Action for Dock {
+///     const PACKAGE: &'static str = "my_robot";
+///     const NAME: &'static str = "Dock";
+///     type Goal = DockGoal;
+///     type Result = DockResult;
+///     type Feedback = DockFeedback;
+/// }
+/// ```
+pub trait Action: Send + Sync + 'static {
+    /// The ROS package, e.g. `"test_msgs"`.
+    const PACKAGE: &'static str;
+    /// The action's name in the package, e.g. `"Fibonacci"`.
+    const NAME: &'static str;
+    /// `<Name>_Goal`: what `start` takes and `started` carries.
+    type Goal: RosMessage;
+    /// `<Name>_Result`: what `exited` carries.
+    type Result: RosMessage;
+    /// `<Name>_Feedback`: what the `feedback` signal carries.
+    type Feedback: RosMessage;
+
+    /// `pkg/action/Name`, as `ros2 action` shows it.
+    fn ros_type_name() -> String {
+        format!("{}/action/{}", Self::PACKAGE, Self::NAME)
+    }
+}

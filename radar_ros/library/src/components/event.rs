@@ -1,0 +1,538 @@
+//! Events as ROS 2 nodes.
+//!
+//! An event named `NS/NAME` is a node that publishes `NS/NAME/triggered` (its payload type, default
+//! `std_msgs/msg/Empty`, signal QoS) and `NS/NAME/state` (`radar_msgs/msg/EventState`, transient-local).
+//!
+//! It is **active exactly while at least one subscription is matched on `triggered`** (a relay, an rclpy
+//! node, `ros2 topic echo`): the ROS form of RADAR's self-activating events. While active it runs
+//! [`Event::check`] in a loop; every value the check resolves with is published on `triggered`. When the last
+//! subscriber leaves, the running check is dropped (cancelled at its current await point). The match count
+//! comes from DDS discovery events (see the crate docs), so activation follows a subscriber within a few
+//! milliseconds, and also follows a subscriber process that was killed, once DDS declares it lost.
+
+use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc, time::Duration};
+
+use futures::{FutureExt, StreamExt};
+use tokio::sync::{watch, Mutex};
+
+use radar_semantics::event::{Activation, Transition};
+
+use crate::{
+    error::{Result, SlotError},
+    node::endpoints::{emit, panic_message, typed_subscription, SignalWriter, Throttle, Watched},
+    node::shutdown::ComponentTask,
+    wire::msg::{Empty, EventState, RosMessage, Time},
+    wire::names::ComponentName,
+    wire::qos::signal_qos,
+    wire::refs::{AsSignal, Signal},
+};
+
+/// A condition check.
+///
+/// ```
+/// use radar_ros::{Event, SlotError, msg::Empty};
+/// /// Triggers 2 s after it becomes active, then every 2 s (the paper's `StartEvent`).
+/// struct StartEvent;
+/// impl Event for StartEvent {
+///     type Payload = Empty;
+///     async fn check(&mut self) -> Result<Empty, SlotError> {
+///         tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+///         Ok(Empty::default())
+///     }
+/// }
+/// ```
+pub trait Event: Send + 'static {
+    /// What `triggered` carries.
+    type Payload: RosMessage;
+
+    /// Resolves when the condition holds, with the payload to emit. Called again after each trigger while
+    /// the event is active. An error is counted and reported on `state`, and the check is retried after
+    /// [`Event::retry_after`].
+    fn check(&mut self) -> impl Future<Output = Result<Self::Payload, SlotError>> + Send;
+
+    /// Called when the event becomes active, before the first check.
+    fn on_activate(&mut self) {}
+
+    /// Called when the event becomes inactive, after the running check was dropped.
+    fn on_deactivate(&mut self) {}
+
+    /// Called once when the event's node exists, to create extra ROS endpoints on it (see [`TopicEvent`]).
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        let _ = node;
+        Ok(())
+    }
+
+    /// The ROS type of `triggered`, as `pkg/msg/Name`. Default: `Payload`'s. An event whose `Payload` is a
+    /// [`DynMessage`](crate::DynMessage) says here what it is.
+    fn payload_type(&self) -> String {
+        Self::Payload::ros_type_name()
+    }
+
+    /// Pause before checking again after an error or panic. Default 100 ms.
+    fn retry_after(&self) -> Duration {
+        Duration::from_millis(100)
+    }
+}
+
+/// Access to an event's own node while it is being set up.
+pub struct EventNode<'a> {
+    pub(crate) node: &'a mut ros2_client::Node,
+    pub(crate) participant: &'a Arc<crate::node::participant::Participant>,
+    pub(crate) params: &'a mut crate::node::params::Declared,
+}
+
+impl EventNode<'_> {
+    /// The clock the event follows (simulated time with `use_sim_time`, see [`crate::node::clock`]).
+    pub fn clock(&self) -> crate::node::clock::Clock {
+        self.participant.clock()
+    }
+
+    /// Declares the event's parameters (once, all at once): served on its node for `ros2 param`, with values
+    /// from the command line when it gives them (see [`crate::node::params`]).
+    pub fn declare(
+        &mut self,
+        decls: impl IntoIterator<Item = crate::node::params::ParamDecl>,
+    ) -> Result<crate::node::params::Params> {
+        self.params.declare(self.participant, self.node, decls)
+    }
+
+    /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
+    /// QoS (reliable, volatile, keep-last 10).
+    ///
+    /// ```
+    /// use radar_ros::{Event, EventNode, EventSubscription, SlotError, msg::{Empty, Float64}};
+    /// /// Triggers when the battery reading falls below 20 %.
+    /// struct LowBattery(Option<EventSubscription<Float64>>);
+    /// impl Event for LowBattery {
+    ///     type Payload = Empty;
+    ///     fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
+    ///         self.0 = Some(node.subscribe::<Float64>("battery")?);
+    ///         Ok(())
+    ///     }
+    ///     async fn check(&mut self) -> Result<Empty, SlotError> {
+    ///         let sub = self.0.as_ref().ok_or_else(|| SlotError::msg("not attached"))?;
+    ///         loop {
+    ///             if sub.recv().await.map_err(|e| SlotError::msg(e.to_string()))?.data < 0.2 {
+    ///                 return Ok(Empty::default());
+    ///             }
+    ///         }
+    ///     }
+    /// }
+    /// ```
+    pub fn subscribe<M: RosMessage>(&mut self, topic: &str) -> Result<EventSubscription<M>> {
+        let abs = self.participant.resolve_topic(topic)?;
+        let inner =
+            typed_subscription::<M>(self.participant.graph(), self.node, &abs, &signal_qos())?;
+        Ok(EventSubscription { topic: abs, inner })
+    }
+}
+
+/// A subscription made on an event's node (see [`EventNode::subscribe`]).
+pub struct EventSubscription<M: RosMessage> {
+    topic: String,
+    inner: Watched<ros2_client::Subscription<M>>,
+}
+
+impl<M: RosMessage> EventSubscription<M> {
+    /// Takes a message that has already arrived (skipping publishers of another type), without waiting.
+    pub fn take(&self) -> Option<M> {
+        self.inner.take_accepted()
+    }
+
+    /// The next message (skipping malformed ones and publishers of another type); unbounded unless
+    /// `.timeout(d)`.
+    ///
+    /// # Cancel safety
+    ///
+    /// Cancel safe: a message is taken from the subscription's queue only when it is returned, so a wait
+    /// that is dropped (a `select!` branch that lost) loses nothing.
+    pub fn recv(&self) -> crate::Wait<'_, M> {
+        crate::Wait::signal(format!("a message on {}", self.topic), async move {
+            let expected = M::ros_type_name();
+            let stream = self.inner.async_stream();
+            let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
+            match accepted.next().await {
+                Some((m, _)) => Ok(m),
+                None => Err(crate::Error::Closed(self.topic.clone())),
+            }
+        })
+    }
+}
+
+/// Triggers every `period` while active, first `period` after activation. With `use_sim_time` it runs on
+/// simulated time (see [`crate::node::clock`]): a backward jump of the time starts the period over.
+#[derive(Clone, Debug)]
+pub struct TimerEvent {
+    period: Duration,
+    next: tokio::time::Instant,
+    clock: crate::node::clock::Clock,
+    /// The next trigger in simulated time.
+    sim_next: crate::wire::msg::Time,
+    /// `Some` once [`TimerEvent::configurable`] asked for the `period` parameter (declared in `attach`).
+    params: Option<Option<crate::node::params::Params>>,
+}
+
+impl TimerEvent {
+    /// A timer with this period.
+    ///
+    /// ```
+    /// use radar_ros::TimerEvent;
+    /// let every_second = TimerEvent::new(std::time::Duration::from_secs(1));
+    /// ```
+    pub fn new(period: Duration) -> Self {
+        TimerEvent {
+            period,
+            next: tokio::time::Instant::now() + period,
+            clock: crate::node::clock::Clock::wall(),
+            sim_next: crate::wire::msg::Time::default(),
+            params: None,
+        }
+    }
+}
+
+impl TimerEvent {
+    /// Makes the period the node's parameter `period` (seconds, a `double`): set from the command line
+    /// (`-p tick:period:=0.5`) or `ros2 param set /tick period 0.5`, applied from the next trigger. Off by
+    /// default, because parameters cost a timer six services on the graph.
+    ///
+    /// ```
+    /// use radar_ros::TimerEvent;
+    /// let tick = TimerEvent::new(std::time::Duration::from_secs(1)).configurable();
+    /// ```
+    pub fn configurable(mut self) -> Self {
+        self.params = Some(None);
+        self
+    }
+
+    /// The period now: the parameter's when configurable.
+    fn period(&self) -> Duration {
+        match &self.params {
+            Some(Some(p)) => p.f64("period").map_or(self.period, Duration::from_secs_f64),
+            _ => self.period,
+        }
+    }
+
+    fn sim_after(&self, t: crate::wire::msg::Time) -> crate::wire::msg::Time {
+        let ns = i64::from(t.sec) * 1_000_000_000
+            + i64::from(t.nanosec)
+            + self.period().as_nanos() as i64;
+        crate::wire::msg::Time {
+            sec: ns.div_euclid(1_000_000_000) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+        }
+    }
+}
+
+impl Event for TimerEvent {
+    type Payload = Empty;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        self.clock = node.clock();
+        if self.params.is_some() {
+            self.params = Some(Some(
+                node.declare([crate::node::params::ParamDecl::new(
+                    "period",
+                    self.period.as_secs_f64(),
+                )
+                .description("seconds between triggers while the event is active")
+                .float_range(0.000_001, 86_400.0)])?,
+            ));
+        }
+        Ok(())
+    }
+    fn on_activate(&mut self) {
+        self.next = tokio::time::Instant::now() + self.period();
+        self.sim_next = self.sim_after(self.clock.now());
+    }
+    async fn check(&mut self) -> Result<Empty, SlotError> {
+        if !self.clock.is_simulated() {
+            // the wall clock: tokio's monotonic timer, which no clock adjustment moves
+            tokio::time::sleep_until(self.next).await;
+            self.next += self.period();
+            return Ok(Empty::default());
+        }
+        while self.clock.sleep_until(self.sim_next).await == crate::node::clock::Woke::JumpedBack {
+            self.sim_next = self.sim_after(self.clock.now());
+        }
+        // periods the time jumped over are skipped, as rclcpp's timers skip them
+        let now = self.clock.now();
+        while self.sim_next <= now {
+            self.sim_next = self.sim_after(self.sim_next);
+        }
+        Ok(Empty::default())
+    }
+}
+
+type Predicate<M, P> = Box<dyn FnMut(&M) -> Option<P> + Send>;
+
+/// Triggers when a message on a ROS topic satisfies a predicate, with a payload mapped from it.
+///
+/// The subscription is made once, on the event's own node; messages that arrive while the event is inactive
+/// are discarded on activation, so a trigger always comes from a message received while active.
+///
+/// ```no_run
+/// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+/// use radar_ros::{TopicEvent, msg::{Float64, Empty}};
+/// let low_battery = TopicEvent::new("battery_level", |m: &Float64| (m.data < 0.2).then(Empty::default));
+/// let handle = radar.spawn_event("low_battery", low_battery)?;
+/// # Ok(()) }
+/// ```
+pub struct TopicEvent<M: RosMessage, P: RosMessage> {
+    topic: String,
+    predicate: Predicate<M, P>,
+    sub: Option<EventSubscription<M>>,
+}
+
+impl<M: RosMessage, P: RosMessage> TopicEvent<M, P> {
+    /// Watches `topic` (type `M`); triggers with `f(msg)` whenever it returns `Some`.
+    pub fn new(topic: &str, f: impl FnMut(&M) -> Option<P> + Send + 'static) -> Self {
+        TopicEvent {
+            topic: topic.to_owned(),
+            predicate: Box::new(f),
+            sub: None,
+        }
+    }
+}
+
+impl<M: RosMessage, P: RosMessage> Event for TopicEvent<M, P> {
+    type Payload = P;
+    fn attach(&mut self, node: &mut EventNode<'_>) -> Result<()> {
+        self.sub = Some(node.subscribe::<M>(&self.topic)?);
+        Ok(())
+    }
+    fn on_activate(&mut self) {
+        if let Some(sub) = &self.sub {
+            while sub.take().is_some() {}
+        }
+    }
+    async fn check(&mut self) -> Result<P, SlotError> {
+        let sub = self
+            .sub
+            .as_ref()
+            .ok_or_else(|| SlotError::msg("TopicEvent used before attach"))?;
+        loop {
+            let m = sub
+                .recv()
+                .await
+                .map_err(|e| SlotError::msg(e.to_string()))?;
+            if let Some(p) = (self.predicate)(&m) {
+                return Ok(p);
+            }
+        }
+    }
+}
+
+/// A running event node. Dropping it (or [`EventHandle::shutdown`]) removes the node from the graph. It names
+/// the event's `triggered` wherever a connection's source is expected ([`AsSignal`]).
+#[must_use = "the event runs only while its handle lives; bind it (`let ev = radar.spawn_event(..)?`)"]
+pub struct EventHandle {
+    pub(crate) name: ComponentName,
+    pub(crate) payload_type: String,
+    pub(crate) state: watch::Receiver<EventState>,
+    pub(crate) task: ComponentTask,
+}
+
+impl EventHandle {
+    /// The event's fully qualified name.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// assert_eq!(tick.name().fully_qualified(), "/tick");
+    /// assert_eq!(tick.topic("triggered"), "/tick/triggered");
+    /// # Ok(()) }
+    /// ```
+    pub fn name(&self) -> &ComponentName {
+        &self.name
+    }
+
+    /// The absolute topic of one of its endpoints, e.g. `topic("triggered")`.
+    pub fn topic(&self, endpoint: &str) -> String {
+        self.name.topic(endpoint)
+    }
+
+    /// Its `triggered` signal, for connections (the handle itself stands for it too).
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// let t = tick.triggered();
+    /// assert_eq!((t.topic(), t.ros_type()), ("/tick/triggered", "std_msgs/msg/Empty"));
+    /// # Ok(()) }
+    /// ```
+    pub fn triggered(&self) -> Signal {
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Triggered),
+            self.payload_type.clone(),
+        )
+    }
+
+    /// The latest state.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::TimerEvent;
+    /// let tick = radar.spawn_event("tick", TimerEvent::new(std::time::Duration::from_secs(1)))?;
+    /// let s = tick.state();
+    /// println!("active: {}, triggers: {}", s.active, s.triggers);
+    /// let mut changes = tick.watch_state();
+    /// changes.changed().await.ok();
+    /// tick.shutdown().await; // stops checking, leaves the graph
+    /// # Ok(()) }
+    /// ```
+    pub fn state(&self) -> EventState {
+        self.state.borrow().clone()
+    }
+
+    /// A receiver that sees every state change.
+    pub fn watch_state(&self) -> watch::Receiver<EventState> {
+        self.state.clone()
+    }
+
+    /// Stops checking and removes the node; waits until it is gone (unbounded unless `.timeout(d)`).
+    ///
+    /// # Cancel safety
+    ///
+    /// The stop is asked for when this is called; dropping the returned wait (or its timeout running out)
+    /// leaves the component finishing on its own, its exit slot included.
+    pub fn shutdown(self) -> crate::Wait<'static, ()> {
+        self.task.shutdown()
+    }
+}
+
+impl AsSignal for EventHandle {
+    fn signal(&self) -> Signal {
+        self.triggered()
+    }
+}
+
+impl std::fmt::Debug for EventHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EventHandle")
+            .field("name", &self.name.fully_qualified())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Minimum spacing of `state` messages caused by triggers alone (activation changes and errors are
+/// published at once). A high-rate event does not double its traffic with state updates.
+const STATE_TRIGGER_THROTTLE: Duration = Duration::from_millis(100);
+
+type Check<P> = Pin<Box<dyn Future<Output = Result<P, SlotError>> + Send>>;
+
+fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<E::Payload> {
+    let e = Arc::clone(event);
+    Box::pin(async move {
+        if let Some(d) = delay {
+            tokio::time::sleep(d).await;
+        }
+        let mut guard = e.lock_owned().await;
+        match AssertUnwindSafe(guard.check()).catch_unwind().await {
+            Ok(r) => r,
+            Err(p) => Err(SlotError::msg(format!(
+                "check panicked: {}",
+                panic_message(p)
+            ))),
+        }
+    })
+}
+
+/// A new count of listeners: the event activates (its check starts) or deactivates (its check stops).
+async fn on_listeners<E: Event>(
+    n: usize,
+    activation: &mut Activation,
+    event: &Arc<Mutex<E>>,
+    check: &mut Option<Check<E::Payload>>,
+    name: &str,
+) {
+    match activation.set_listeners(n) {
+        Some(Transition::Activate) => {
+            event.lock().await.on_activate();
+            *check = Some(new_check(event, None));
+            tracing::debug!(event = %name, listeners = n, "activated");
+        }
+        Some(Transition::Deactivate) => {
+            *check = None;
+            event.lock().await.on_deactivate();
+            tracing::debug!(event = %name, "deactivated");
+        }
+        None => {}
+    }
+}
+
+pub(crate) async fn drive_event<E: Event>(
+    event: E,
+    triggered: SignalWriter<E::Payload>,
+    state_pub: Watched<ros2_client::Publisher<EventState>>,
+    state_tx: watch::Sender<EventState>,
+    mut st: EventState,
+    mut listeners: watch::Receiver<usize>,
+    mut stop: tokio::sync::oneshot::Receiver<()>,
+) {
+    let event = Arc::new(Mutex::new(event));
+    let mut activation = Activation::new();
+    let mut check: Option<Check<E::Payload>> = None;
+    let mut throttle = Throttle::new(STATE_TRIGGER_THROTTLE);
+    let name = st.name.clone();
+    // a state is stamped when it was entered: a trigger's, when `triggered` was emitted (so that a reader
+    // can put it in order with the signals it caused)
+    let mut entered: Option<i64> = None;
+    let publish = |st: &mut EventState, entered: &mut Option<i64>| {
+        st.stamp = entered.take().map_or_else(Time::now, Time::from_nanos);
+        emit(&state_pub, "state", st.clone());
+        state_tx.send_replace(st.clone());
+    };
+    // the count may already be non-zero
+    let mut pending_count = Some(*listeners.borrow_and_update());
+    loop {
+        if let Some(n) = pending_count.take() {
+            st.listeners = n as u32;
+            on_listeners(n, &mut activation, &event, &mut check, &name).await;
+            st.active = activation.is_active();
+            st.activations = activation.activations();
+            publish(&mut st, &mut entered);
+            throttle.published();
+        }
+        tokio::select! {
+            _ = &mut stop => break,
+            changed = listeners.changed() => match changed {
+                Ok(()) => pending_count = Some(*listeners.borrow_and_update()),
+                Err(_) => break,
+            },
+            res = async {
+                match check.as_mut() {
+                    Some(c) => c.await,
+                    None => std::future::pending().await,
+                }
+            } => {
+                match res {
+                    Ok(payload) => {
+                        let at = triggered.emit("triggered", payload, None);
+                        entered.get_or_insert(at);
+                        st.triggers += 1;
+                        check = Some(new_check(&event, None));
+                        if throttle.changed() {
+                            publish(&mut st, &mut entered);
+                        }
+                    }
+                    Err(e) => {
+                        tracing::warn!(event = %name, error = %e, "event check failed; retrying");
+                        st.check_errors += 1;
+                        st.last_error = e.into_message();
+                        let delay = event.lock().await.retry_after();
+                        check = Some(new_check(&event, Some(delay)));
+                        publish(&mut st, &mut entered);
+                        throttle.published();
+                    }
+                }
+            }
+            _ = throttle.due() => {
+                publish(&mut st, &mut entered);
+                throttle.published();
+            }
+        }
+    }
+    drop(check);
+    tracing::info!(event = %name, "event stopped");
+}

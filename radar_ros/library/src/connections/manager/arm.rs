@@ -1,0 +1,382 @@
+//! Arming a statement: which endpoints it needs (its [`Plan`]), holding them while discovery matches them, then
+//! entering it in the table with a relay per source and an outlet per slot.
+
+use std::sync::{Arc, Mutex};
+
+use radar_semantics::connection::{Kind, Until};
+
+use super::{
+    anon::AnonQueue, faults::Faults, ConnectionGuard, Manager, Record, Spec, State, Target,
+    TargetSpec, UntilSpec,
+};
+use crate::{
+    error::{Error, Result},
+    node::participant::Participant,
+    node::pool::{Dir, Key},
+    node::topics::{RawPublisher, RawSubscription},
+    wire::msg::{Empty, ResponseState, RosMessage, TypeName},
+    wire::refs::{Signal, Slot},
+};
+
+use crate::wire::local::now_ns;
+
+fn key(topic: &str, ros_type: &str, depth: usize, dir: Dir) -> Key {
+    Key {
+        topic: topic.to_owned(),
+        ros_type: ros_type.to_owned(),
+        depth,
+        dir,
+    }
+}
+
+fn check_types(source: &Signal, slot: &Slot) -> Result<()> {
+    if slot.ros_type() == Empty::ros_type_name() || slot.ros_type() == source.ros_type() {
+        Ok(())
+    } else {
+        Err(Error::TypeMismatch {
+            source_topic: source.topic().to_owned(),
+            source_type: source.ros_type().to_owned(),
+            slot_topic: slot.topic().to_owned(),
+            slot_type: slot.ros_type().to_owned(),
+        })
+    }
+}
+
+/// The `until` part's endpoints: U, R's `started` and `exited` (read), R's `interrupt` (written).
+struct UntilKeys {
+    source: Key,
+    started: Key,
+    exited: Key,
+    interrupt: Key,
+}
+
+/// The endpoints a statement needs, by role, and every one with its signal or slot (to wait for its peers and
+/// say which did not come).
+struct Plan {
+    source: Key,
+    /// A slot target (none for an anonymous slot).
+    target: Option<Key>,
+    until: Option<UntilKeys>,
+    /// Every source the table will read: the statement's, then the `until`'s.
+    reads: Vec<(Key, Signal)>,
+    /// Every slot the table will write: the target, then the `until`'s interrupt.
+    writes: Vec<(Key, Slot)>,
+}
+
+impl Plan {
+    /// The endpoints of `spec`, after checking that its source (as mapped) can feed its slot.
+    fn of(spec: &Spec) -> Result<Plan> {
+        let depth = spec.depth;
+        let reader = |s: &Signal| key(s.topic(), s.ros_type(), depth, Dir::Reader);
+        let writer = |s: &Slot| key(s.topic(), s.ros_type(), depth, Dir::Writer);
+        let source = reader(&spec.source);
+        let mut reads = vec![(source.clone(), spec.source.clone())];
+        let mut writes = Vec::new();
+        let target = match &spec.target {
+            TargetSpec::Slot(slot) => {
+                let delivered = match &spec.mapped_type {
+                    Some(t) => Signal::new(spec.source.topic(), t.clone()),
+                    None => spec.source.clone(),
+                };
+                check_types(&delivered, slot)?;
+                let k = writer(slot);
+                writes.push((k.clone(), slot.clone()));
+                Some(k)
+            }
+            TargetSpec::Anon(_) => None,
+        };
+        let until = spec.until.as_ref().map(|u: &UntilSpec| {
+            let keys = UntilKeys {
+                source: reader(&u.source),
+                started: reader(&u.started),
+                exited: reader(&u.exited),
+                interrupt: writer(&u.interrupt),
+            };
+            reads.extend([
+                (keys.source.clone(), u.source.clone()),
+                (keys.started.clone(), u.started.clone()),
+                (keys.exited.clone(), u.exited.clone()),
+            ]);
+            writes.push((keys.interrupt.clone(), u.interrupt.clone()));
+            keys
+        });
+        Ok(Plan {
+            source,
+            target,
+            until,
+            reads,
+            writes,
+        })
+    }
+}
+
+/// Pool holds taken by a statement while it arms, given back when dropped (on success, on error, on a
+/// cancelled arm).
+struct Holds<'a> {
+    participant: &'a Participant,
+    keys: Mutex<Vec<Key>>,
+}
+
+impl<'a> Holds<'a> {
+    fn new(participant: &'a Participant) -> Holds<'a> {
+        Holds {
+            participant,
+            keys: Mutex::new(Vec::new()),
+        }
+    }
+    fn reader(&self, k: &Key) -> Result<Arc<RawSubscription>> {
+        let r = self.participant.pooled_reader(k)?;
+        self.keys.lock().unwrap().push(k.clone());
+        Ok(r)
+    }
+    fn writer(&self, k: &Key) -> Result<Arc<RawPublisher>> {
+        let w = self.participant.pooled_writer(k)?;
+        self.keys.lock().unwrap().push(k.clone());
+        Ok(w)
+    }
+}
+
+impl Drop for Holds<'_> {
+    fn drop(&mut self) {
+        for k in self.keys.get_mut().unwrap().drain(..) {
+            self.participant.release(&k);
+        }
+    }
+}
+
+/// A plan's endpoints, held and matched: a reader per source, and per slot a writer (`None`: a response of
+/// this process reads the slot, no DDS writer is needed).
+struct Matched {
+    readers: Vec<Arc<RawSubscription>>,
+    writers: Vec<Option<Arc<RawPublisher>>>,
+}
+
+impl Manager {
+    /// Arms a statement: holds its endpoints while discovery matches them, then enters it in the table.
+    pub(crate) async fn arm(self: &Arc<Self>, spec: Spec) -> Result<ConnectionGuard> {
+        let plan = Plan::of(&spec)?;
+        // this statement's own holds while it arms: released whatever happens
+        let held = Holds::new(&self.participant);
+        let matched = self.hold_and_match(&plan, &held, spec.timeout).await?;
+        let causes = spec
+            .until
+            .as_ref()
+            .is_some_and(|u| self.keeps_causes(&u.state, &u.interrupt));
+        if let Some(u) = &spec.until {
+            tracing::debug!(response = %u.state, causes, "until: the response keeps causes (C6) or not (C7)");
+        }
+        let id = self.enter(plan, &matched, spec, causes)?;
+        drop(held);
+        self.changed.send_modify(|g| *g += 1);
+        Ok(ConnectionGuard {
+            id,
+            manager: self.clone(),
+        })
+    }
+
+    /// Holds the plan's endpoints and waits (up to `timeout`) until every reader has a publisher
+    /// and every writer a subscriber.
+    async fn hold_and_match(
+        &self,
+        plan: &Plan,
+        held: &Holds<'_>,
+        timeout: std::time::Duration,
+    ) -> Result<Matched> {
+        let readers = plan
+            .reads
+            .iter()
+            .map(|(k, _)| held.reader(k))
+            .collect::<Result<Vec<_>>>()?;
+        // a slot is reached through a response of this process that reads it, or else over DDS
+        let writers = plan
+            .writes
+            .iter()
+            .map(|(k, _)| match self.reads_here(k) {
+                true => Ok(None),
+                false => held.writer(k).map(Some),
+            })
+            .collect::<Result<Vec<_>>>()?;
+        for (i, (r, (_, s))) in readers.iter().zip(&plan.reads).enumerate() {
+            // an until's signal often comes from one-shot publishers (an operator's `ros2 topic pub --once`, a
+            // fresh process per stop): wait only for those the graph knows now, so that none is missed
+            let until = plan.until.is_some() && i == 1; // reads: source, then until: U, started, exited
+            if until && self.graph().writer_participants(s.topic()).is_empty() {
+                tracing::debug!(
+                    topic = s.topic(),
+                    "until: no publisher on the graph yet, armed without one"
+                );
+                continue;
+            }
+            r.wait_for_publishers(1)
+                .timeout(timeout)
+                .await
+                .map_err(|_| Error::Timeout {
+                    what: format!(
+                        "a publisher of {} on {}: is the component that emits it running?",
+                        s.ros_type(),
+                        s.topic()
+                    ),
+                    after: timeout,
+                })?;
+        }
+        for (w, (_, s)) in writers.iter().zip(&plan.writes) {
+            let Some(w) = w else { continue };
+            w.wait_for_subscribers(1)
+                .timeout(timeout)
+                .await
+                .map_err(|_| Error::Timeout {
+                    what: format!(
+                        "a subscriber of {} on {}: is the response running?",
+                        s.ros_type(),
+                        s.topic()
+                    ),
+                    after: timeout,
+                })?;
+        }
+        Ok(Matched { readers, writers })
+    }
+
+    /// Whether a response of this process reads the slot `k` (with local delivery).
+    fn reads_here(&self, k: &Key) -> bool {
+        self.local
+            && self
+                .participant
+                .inlets()
+                .find(&k.topic, &k.ros_type)
+                .is_some()
+    }
+
+    /// Enters the matched statement in the table: the table's own holds (one relay per source, one outlet per
+    /// slot, shared by every connection on them), the anonymous slot's queue, the connection and its record.
+    fn enter(
+        self: &Arc<Self>,
+        plan: Plan,
+        matched: &Matched,
+        spec: Spec,
+        causes: bool,
+    ) -> Result<radar_semantics::connection::ConnId> {
+        self.watch_instances();
+        let mut st = self.state();
+        for ((k, _), r) in plan.reads.iter().zip(&matched.readers) {
+            if !st.relays.contains_key(k) {
+                self.participant.pooled_reader(k)?;
+                let relay = self.relay(k, r.clone());
+                st.relays.insert(k.clone(), relay);
+            }
+        }
+        for ((k, _), w) in plan.writes.iter().zip(&matched.writers) {
+            self.hold_outlet(&mut st, k, w)?;
+        }
+        let faults = Arc::new(Faults::new(format!(
+            "{} {} {}",
+            match spec.kind {
+                Kind::Once => "once",
+                Kind::Whenever => "whenever",
+            },
+            spec.source.topic(),
+            match &plan.target {
+                Some(k) => format!("-> {}", k.topic),
+                None => "call (anonymous slot)".into(),
+            }
+        )));
+        let target = match (spec.target, plan.target) {
+            (TargetSpec::Slot(_), Some(k)) => Target::Slot(k),
+            (TargetSpec::Anon(f), _) => {
+                let faults = faults.clone();
+                anon_target(&mut st, spec.source.topic(), spec.depth, f, faults)
+            }
+            (TargetSpec::Slot(_), None) => unreachable!("a slot target has its key"),
+        };
+        let until = plan.until.map(|u| Until {
+            source: u.source,
+            started: u.started,
+            exited: u.exited,
+            interrupt: Target::Slot(u.interrupt),
+            causes,
+        });
+        let id = st
+            .table
+            .arm(plan.source, target, spec.kind, until, now_ns());
+        st.table.set_rearm(id, spec.rearm);
+        st.records.insert(
+            id,
+            Record {
+                owner: spec.owner,
+                faults,
+                filter: spec.filter,
+                map: spec.map,
+                starts: spec.starts,
+                departure: None,
+                suspended: None,
+            },
+        );
+        Ok(id)
+    }
+
+    /// The outlet of slot `k`, made if the table has none, given the DDS writer `w` if it has none (B1: its
+    /// response of this process left, and a new statement reaches the slot over DDS).
+    fn hold_outlet(
+        self: &Arc<Self>,
+        st: &mut State,
+        k: &Key,
+        w: &Option<Arc<RawPublisher>>,
+    ) -> Result<()> {
+        match st.outlets.get_mut(k) {
+            Some(o) => {
+                if let (None, Some(w)) = (&o.dds, w) {
+                    self.participant.pooled_writer(k)?;
+                    o.dds = Some(w.clone());
+                    let _ = o.more.send(w.matched_watch());
+                }
+            }
+            None => {
+                if w.is_some() {
+                    self.participant.pooled_writer(k)?;
+                }
+                let inlet = self.local.then(|| self.participant.inlets().hold(&k.topic));
+                let outlet = self.outlet(k, inlet, w.clone());
+                st.outlets.insert(k.clone(), outlet);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the response whose `state` topic is `state_topic` keeps causes (C6): one of this process (its
+    /// slot is read here), or one that publishes a `radar_msgs/msg/ResponseState` (a RADAR response; its state
+    /// writer is announced before its signal writers, which arming has waited for). An rclpy response does not.
+    fn keeps_causes(&self, state_topic: &str, interrupt: &Slot) -> bool {
+        if self.local
+            && self
+                .participant
+                .inlets()
+                .find(interrupt.topic(), interrupt.ros_type())
+                .is_some()
+        {
+            return true;
+        }
+        let state_t = TypeName::of::<ResponseState>().dds;
+        self.graph().types_on(true, state_topic).contains(&state_t)
+    }
+}
+
+/// An anonymous slot's target: a queue of `depth` payloads from `source`, and the task that calls `f` with each
+/// (a call that panics is reported on `faults`, and the next payload gets the next call).
+fn anon_target(
+    st: &mut State,
+    source: &str,
+    depth: usize,
+    mut f: super::AnonFn,
+    faults: Arc<Faults>,
+) -> Target {
+    let k = st.next_anon;
+    st.next_anon += 1;
+    let q = Arc::new(AnonQueue::new(source.to_owned(), depth));
+    let consumer = q.clone();
+    tokio::spawn(async move {
+        while let Some(m) = consumer.next().await {
+            faults.run("call", || f(m));
+        }
+    });
+    st.anon.insert(k, q);
+    Target::Anon(k)
+}

@@ -1,0 +1,547 @@
+//! The ROS 2 endpoints every component and the manager are made of: one way to create them, their live match
+//! counts, the filter for samples from peers of another type, and the task behind a component handle.
+
+use futures::{Stream, StreamExt};
+use ros2_client::{MessageInfo, Name, Node, Publisher, QosProfile, Subscription};
+
+use radar_semantics::response::{Cause, Sent};
+
+use crate::{
+    error::{Error, Result},
+    graph::Graph,
+    wire::local::{TapWriter, Taps},
+    wire::msg::TypeName,
+};
+
+/// The ROS name of the service `<fq>/<service>` (a manager's `connect`, a node's `get_parameters`, ...), checked.
+fn service_name(fq: &str, service: &str) -> Result<Name> {
+    Name::new(fq, service).map_err(|e| Error::InvalidName {
+        name: format!("{fq}/{service}"),
+        reason: format!("{e}"),
+    })
+}
+
+/// The server of the radar_msgs service `<fq>/<service>` of type `radar_msgs/srv/<ty>` on `node`: the one way
+/// radar_ros makes one (enhanced mapping as rmw does, the signal QoS both ways).
+pub(crate) fn service_server<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    ty: &str,
+) -> Result<ros2_client::Server<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    service_server_of(node, fq, service, "radar_msgs", ty)
+}
+
+/// [`service_server`] for a service of another package (`rcl_interfaces/srv/GetParameters`, ...).
+pub(crate) fn service_server_of<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    package: &str,
+    ty: &str,
+) -> Result<ros2_client::Server<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    let q = crate::wire::qos::signal_qos();
+    crate::node::declared::record_node(
+        node,
+        crate::node::declared::Access::Reply,
+        &format!("{}/{service}", fq.trim_end_matches('/')),
+    );
+    node.create_server::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &service_name(fq, service)?,
+        &ros2_client::ServiceTypeName::new(package, ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| Error::transport(format!("service {fq}/{service}"), e))
+}
+
+/// A client of the radar_msgs service `<fq>/<service>` of type `radar_msgs/srv/<ty>` on `node`, made as
+/// [`service_server`] makes the server.
+pub(crate) fn service_client<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    ty: &str,
+) -> Result<ros2_client::Client<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    service_client_of(node, fq, service, "radar_msgs", ty)
+}
+
+/// [`service_client`] for a service of another package.
+pub(crate) fn service_client_of<Req, Resp>(
+    node: &mut Node,
+    fq: &str,
+    service: &str,
+    package: &str,
+    ty: &str,
+) -> Result<ros2_client::Client<Req, Resp>>
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + Clone + 'static,
+{
+    let q = crate::wire::qos::signal_qos();
+    crate::node::declared::record_node(
+        node,
+        crate::node::declared::Access::Request,
+        &format!("{}/{service}", fq.trim_end_matches('/')),
+    );
+    node.create_client::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &service_name(fq, service)?,
+        &ros2_client::ServiceTypeName::new(package, ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| Error::transport(format!("a client of {fq}/{service}"), e))
+}
+
+/// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
+/// Dropping it removes it from the graph.
+pub(crate) struct Watched<T> {
+    inner: T,
+    guid: ros2_client::dds::rustdds::GUID,
+    graph: Graph,
+    /// Matched peers now and as they change.
+    pub(crate) matched: tokio::sync::watch::Receiver<usize>,
+}
+
+impl<T> Watched<T> {
+    /// Waits until at least `n` peers of the same type are matched, and those in this participant have
+    /// matched this endpoint back (see `Graph::reciprocated`), so that nothing sent from now on is lost.
+    pub(crate) async fn wait_matched(
+        &self,
+        n: usize,
+        timeout: std::time::Duration,
+        what: impl Fn() -> String,
+    ) -> Result<()> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        let mut rx = self.matched.clone();
+        match tokio::time::timeout_at(deadline, rx.wait_for(|c| *c >= n)).await {
+            Ok(Ok(_)) => {}
+            Ok(Err(_)) => return Err(Error::Closed(what())),
+            Err(_) => {
+                return Err(Error::Timeout {
+                    what: what(),
+                    after: timeout,
+                })
+            }
+        }
+        while !self.graph.reciprocated(self.guid) {
+            if tokio::time::Instant::now() >= deadline {
+                return Err(Error::Timeout {
+                    what: format!("{} (matched on this side only)", what()),
+                    after: timeout,
+                });
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+        }
+        Ok(())
+    }
+
+    /// Why the last peer that went went, if one did.
+    pub(crate) fn last_loss(&self) -> Option<crate::departure::LossCause> {
+        self.graph.last_loss(self.guid)
+    }
+
+    /// The number of peers matched now.
+    pub(crate) fn matched_now(&self) -> usize {
+        *self.matched.borrow()
+    }
+
+    /// Whether a sample from this writer should be used (false for peers of another type).
+    pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
+        self.graph.accepts(self.guid, info.publisher_gid())
+    }
+}
+
+impl<M: 'static + serde::de::DeserializeOwned> Watched<Subscription<M>> {
+    /// A sample that has already arrived from a peer of the right type, without waiting.
+    pub(crate) fn take_accepted(&self) -> Option<M> {
+        loop {
+            match self.take() {
+                Ok(Some((m, info))) if self.accepts(&info) => return Some(m),
+                Ok(Some(_)) => continue,
+                Err(_) | Ok(None) => return None,
+            }
+        }
+    }
+}
+
+impl<M: 'static> Watched<Subscription<M>> {
+    /// The samples of `stream` (a stream of this subscription) that come from peers of the subscription's type,
+    /// in arrival order. RustDDS matches endpoints whatever their types, so samples of a peer of another type
+    /// are dropped here (the graph warned when it matched); samples that do not decode are dropped and counted
+    /// (a warning names the expected type, once per topic). Nothing stops the stream but the subscription
+    /// ending.
+    pub(crate) fn accepted<'a, T: 'a>(
+        &'a self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>> + 'a,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = (T, MessageInfo)> + 'a {
+        stream.filter_map(move |r| async move {
+            match r {
+                Ok((m, info)) if self.accepts(&info) => Some((m, info)),
+                Ok(_) => None,
+                Err(e) => {
+                    // the transport does not say who sent it
+                    self.graph.malformed().note(topic, expected, None, &e);
+                    None
+                }
+            }
+        })
+    }
+}
+
+impl Watched<Subscription<crate::wire::raw::RawMessage>> {
+    /// The samples of peers of the subscription's type, decoded as `M`, in arrival order: `Some` message, or
+    /// `None` for one that did not decode. Those are dropped, counted per publisher and logged once per
+    /// publisher (the participant's [`Malformed`](crate::wire::malformed::Malformed) registry).
+    pub(crate) fn decoded<'a, M: crate::wire::msg::RosMessage>(
+        &'a self,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = Option<(M, MessageInfo)>> + 'a {
+        self.accepted(
+            self.async_stream_seed(crate::wire::raw::RawSeed),
+            topic,
+            expected,
+        )
+        .map(move |(raw, info)| match raw.decode::<M>() {
+            Ok(m) => Some((m, info)),
+            Err(e) => {
+                let who = format!("{:?}", info.publisher_gid());
+                self.graph.malformed().note(topic, expected, Some(&who), &e);
+                None
+            }
+        })
+    }
+}
+
+impl<T> std::ops::Deref for Watched<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.inner
+    }
+}
+
+impl<T> Drop for Watched<T> {
+    fn drop(&mut self) {
+        self.graph.forget(self.guid);
+    }
+}
+
+pub(crate) fn topic_name(topic: &str) -> Result<Name> {
+    Name::parse(topic).map_err(|e| Error::InvalidName {
+        name: topic.to_owned(),
+        reason: format!("{e}"),
+    })
+}
+
+/// The DDS topic for the absolute ROS `topic`. Made on the DDS participant directly rather than through
+/// `Node::create_topic`, which can name only `msg` types (not the `action` ones an action's parts have).
+fn topic(
+    graph: &Graph,
+    topic: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic> {
+    let name = topic_name(topic)?;
+    if !name.is_absolute() {
+        return Err(Error::InvalidName {
+            name: topic.to_owned(),
+            reason: "an endpoint's topic must be absolute here".into(),
+        });
+    }
+    let dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
+    let participant = graph
+        .domain_participant()
+        .ok_or_else(|| Error::Closed(format!("the DDS participant (creating topic {topic})")))?;
+    participant
+        .create_topic(
+            crate::wire::dds_names::topic(topic),
+            ty.dds.clone(),
+            &dds_qos,
+            ros2_client::dds::rustdds::TopicKind::NoKey,
+        )
+        .map_err(|e| Error::transport(format!("topic {topic} ({})", ty.dds), e))
+}
+
+/// Creates a publisher of `M` on the absolute `topic`, announced as type `ty` (the Rust type only has to
+/// serialize: a raw message is published under any type name).
+pub(crate) fn publisher<M: serde::Serialize>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Publisher<M>>> {
+    let t = topic(graph, topic_abs, ty, qos)?;
+    crate::node::declared::record_node(node, crate::node::declared::Access::Publish, topic_abs);
+    let inner = node
+        .create_publisher(&t, Some(qos.clone()))
+        .map_err(|e| Error::transport(format!("a publisher on {topic_abs}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_writer(guid, topic_abs, &ty.dds);
+    Ok(Watched {
+        inner,
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
+}
+
+/// Creates a subscription of `M` on the absolute `topic`, announced as type `ty`.
+pub(crate) fn subscription<M: 'static>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Subscription<M>>> {
+    let t = topic(graph, topic_abs, ty, qos)?;
+    crate::node::declared::record_node(node, crate::node::declared::Access::Subscribe, topic_abs);
+    let inner = node
+        .create_subscription(&t, Some(qos.clone()))
+        .map_err(|e| Error::transport(format!("a subscription on {topic_abs}"), e))?;
+    let guid = inner.guid();
+    let matched = graph.watch_reader(guid, topic_abs, &ty.dds);
+    Ok(Watched {
+        inner,
+        guid,
+        graph: graph.clone(),
+        matched,
+    })
+}
+
+/// Creates a publisher of `M` on the absolute `topic`, announced as `M`'s ROS type.
+pub(crate) fn typed_publisher<M: crate::wire::msg::RosMessage>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    qos: &QosProfile,
+) -> Result<Watched<Publisher<M>>> {
+    publisher(graph, node, topic_abs, &TypeName::of::<M>(), qos)
+}
+
+/// Creates a subscription of `M` on the absolute `topic`, announced as `M`'s ROS type.
+pub(crate) fn typed_subscription<M: crate::wire::msg::RosMessage>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    qos: &QosProfile,
+) -> Result<Watched<Subscription<M>>> {
+    subscription(graph, node, topic_abs, &TypeName::of::<M>(), qos)
+}
+
+/// A component's signal writer: each signal goes to this process's connections first (its tap), then on DDS,
+/// stamped with the time of emission and carrying the run's cause (rules R11-R13, C6; see [`crate::wire::cause`]).
+pub(crate) struct SignalWriter<M: serde::Serialize> {
+    dds: Watched<Publisher<M>>,
+    tap: TapWriter,
+}
+
+impl<M: serde::Serialize> SignalWriter<M> {
+    /// `dds`, which writes `ros_type` on `topic`, with its tap in `taps`.
+    pub(crate) fn new(
+        taps: &Taps,
+        dds: Watched<Publisher<M>>,
+        topic: &str,
+        ros_type: &str,
+    ) -> Self {
+        let tap = taps.open(topic, ros_type, dds.guid);
+        SignalWriter { dds, tap }
+    }
+
+    /// Emits `m` now, carrying `cause` (`topic` names it in a warning); the source timestamp it carries.
+    pub(crate) fn emit(&self, topic: &str, m: M, cause: Option<Cause>) -> i64 {
+        let sent = Sent {
+            at: crate::wire::local::now_ns(),
+            by: cause,
+        };
+        self.tap.emit(&m, sent.at, cause);
+        if let Err(e) = self
+            .dds
+            .publish_with_options(m, crate::wire::cause::write_options(sent))
+        {
+            tracing::warn!(topic, error = %e.forget_data(), "could not publish");
+        }
+        sent.at
+    }
+}
+
+impl<M: serde::Serialize> std::ops::Deref for SignalWriter<M> {
+    type Target = Watched<Publisher<M>>;
+    fn deref(&self) -> &Self::Target {
+        &self.dds
+    }
+}
+
+/// Publishes, logging (not failing) on error: a message that cannot be sent must not stop the component.
+pub(crate) fn emit<M: serde::Serialize>(p: &Publisher<M>, topic: &str, m: M) {
+    if let Err(e) = p.publish(m) {
+        tracing::warn!(topic, error = %e.forget_data(), "could not publish");
+    }
+}
+
+/// Publishes `connections` as the `connections` list of the program or manager node `node`.
+pub(crate) fn publish_connections(
+    p: &Publisher<crate::wire::msg::ConnectionList>,
+    node: &str,
+    connections: Vec<crate::wire::msg::Connection>,
+) {
+    let list = crate::wire::msg::ConnectionList {
+        stamp: crate::wire::msg::Time::now(),
+        manager: node.to_owned(),
+        connections,
+    };
+    emit(p, "connections", list);
+}
+
+/// Text of a caught panic.
+pub(crate) fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "non-string panic payload".to_owned()
+    }
+}
+
+/// Spaces out publications of something that changes often (a `state`, a connection list): the first change
+/// after a quiet spell goes out at once, later ones at most every `every`, and the last change always.
+pub(crate) struct Throttle {
+    every: std::time::Duration,
+    last: tokio::time::Instant,
+    dirty: bool,
+}
+
+impl Throttle {
+    /// A throttle that has just published.
+    pub(crate) fn new(every: std::time::Duration) -> Throttle {
+        Throttle {
+            every,
+            last: tokio::time::Instant::now(),
+            dirty: false,
+        }
+    }
+
+    /// Something changed: whether to publish now (if not, [`Throttle::due`] says when).
+    pub(crate) fn changed(&mut self) -> bool {
+        if self.last.elapsed() >= self.every {
+            self.published();
+            true
+        } else {
+            self.dirty = true;
+            false
+        }
+    }
+
+    /// Record a publication made for another reason.
+    pub(crate) fn published(&mut self) {
+        self.last = tokio::time::Instant::now();
+        self.dirty = false;
+    }
+
+    /// Resolves when a held-back change is due (never if none is); call [`Throttle::published`] after
+    /// publishing it.
+    pub(crate) async fn due(&self) {
+        if self.dirty {
+            tokio::time::sleep_until(self.last + self.every).await
+        } else {
+            std::future::pending().await
+        }
+    }
+}
+
+/// A service request that did not decode: dropped, counted (the transport does not say who sent it) and
+/// logged once per service.
+pub(crate) fn malformed(
+    graph: &crate::graph::Graph,
+    manager: &str,
+    service: &str,
+    e: &dyn std::fmt::Display,
+) {
+    let topic = format!("{manager}/{service}");
+    let expected = format!("radar_msgs/srv/{}_Request", capitalized(service));
+    graph.malformed().note(&topic, &expected, None, e);
+}
+
+fn capitalized(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
+/// How long a reply waits for the caller's reply reader to be matched.
+pub(crate) const REPLY_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Answers request `id` of service `service` once our reply writer has matched the caller's reply reader
+/// (at most [`REPLY_WAIT`]), in a task of its own so other requests are not held up. A fresh client process
+/// (`ros2 service call`, rclpy's `call_async` right after `wait_for_service`) can send its request before
+/// our side has matched its reply reader, and a reply sent then goes nowhere.
+pub(crate) fn reply<Req, Resp>(
+    srv: &std::sync::Arc<ros2_client::Server<Req, Resp>>,
+    graph: &crate::graph::Graph,
+    manager: &str,
+    service: &'static str,
+    id: ros2_client::RmwRequestId,
+    resp: Resp,
+) where
+    Req: ros2_client::Message + Send + Sync + 'static,
+    Resp: ros2_client::Message + Send + Sync + 'static,
+{
+    let (srv, graph) = (srv.clone(), graph.clone());
+    let topic = crate::wire::dds_names::reply(&format!("{manager}/{service}"));
+    tokio::spawn(async move {
+        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+        if !graph.wait_reader_of(&topic, caller, REPLY_WAIT).await {
+            tracing::debug!(%topic, "answering before the caller's reply reader is matched");
+        }
+        if let Err(e) = srv.async_send_response(id, resp).await {
+            tracing::warn!(error = ?e, %service, "could not answer a request");
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test(start_paused = true)]
+    async fn a_throttle_lets_the_first_change_through_and_holds_back_the_next() {
+        let every = std::time::Duration::from_millis(100);
+        let mut t = Throttle::new(every);
+        tokio::time::advance(every).await;
+        assert!(
+            t.changed(),
+            "first change after a quiet spell goes out at once"
+        );
+        assert!(!t.changed(), "the next one within `every` is held back");
+        let t0 = tokio::time::Instant::now();
+        t.due().await;
+        assert_eq!(
+            t0.elapsed(),
+            every,
+            "and is due `every` after the last publication"
+        );
+        t.published();
+        // nothing held back: never due
+        let due = tokio::time::timeout(every * 10, t.due()).await;
+        assert!(due.is_err());
+    }
+}

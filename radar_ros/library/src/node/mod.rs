@@ -1,0 +1,13 @@
+//! What every ROS 2 node has, for components and programs: `--ros-args`, parameters, `/rosout`, the clock
+//! (wall or simulated) and how a program told to stop stops.
+
+pub mod clock;
+pub(crate) mod declared;
+pub(crate) mod endpoints;
+pub mod params;
+pub(crate) mod participant;
+pub(crate) mod pool;
+pub mod ros_args;
+pub mod rosout;
+pub(crate) mod shutdown;
+pub(crate) mod topics;

@@ -1,0 +1,529 @@
+//! The core every part of a [`Radar`](crate::Radar) stands on: one DDS participant with its ROS 2 context,
+//! the match graph, the plain node for endpoints that belong to no component, the names components have
+//! claimed, the pool of shared endpoints, and the one place endpoints are made.
+//!
+//! Components, the connection manager and plain publishers all depend on this module; it depends on none of
+//! them.
+
+use std::{
+    collections::HashSet,
+    sync::{Arc, Mutex},
+};
+
+use ros2_client::{Context, Node, NodeName, NodeOptions, QosProfile};
+
+use crate::{
+    error::{Error, Result},
+    graph::Graph,
+    node::endpoints,
+    node::pool::{Dir, Key, Pool},
+    node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
+    wire::msg::RosMessage,
+    wire::names::ComponentName,
+    wire::qos::signal_qos_depth,
+    wire::raw::parse_type_name,
+};
+
+/// Names this process serves (actions, managers): a client here is matched with them locally, which
+/// discovery does not show, so it asks here.
+#[derive(Clone, Default)]
+pub(crate) struct Served(Arc<Mutex<HashSet<String>>>);
+
+impl Served {
+    pub(crate) fn contains(&self, name: &str) -> bool {
+        self.0.lock().unwrap().contains(name)
+    }
+
+    pub(crate) fn names(&self) -> Vec<String> {
+        self.0.lock().unwrap().iter().cloned().collect()
+    }
+
+    /// Marks `name` served until the returned mark is dropped.
+    pub(crate) fn mark(&self, name: String) -> ServedMark {
+        self.0.lock().unwrap().insert(name.clone());
+        ServedMark(self.clone(), name)
+    }
+}
+
+/// A served name, unmarked on drop.
+pub(crate) struct ServedMark(Served, String);
+
+impl Drop for ServedMark {
+    fn drop(&mut self) {
+        self.0 .0.lock().unwrap().remove(&self.1);
+    }
+}
+
+/// One DDS participant and what hangs off it.
+pub(crate) struct Participant {
+    ctx: Context,
+    domain_id: u16,
+    namespace: String,
+    graph: Graph,
+    /// Fully qualified names of the components of this process.
+    names: Mutex<HashSet<String>>,
+    /// A plain node for endpoints that belong to no component, made on first use.
+    client: Mutex<Option<Node>>,
+    pool: Arc<Pool>,
+    /// Actions this process serves (`Radar::serve_as_action`): a client here is matched with them locally,
+    /// which discovery does not show.
+    served_actions: Served,
+    /// Managers this process serves (`Radar::serve_manager`), matched locally, unseen by discovery.
+    served_managers: Served,
+    stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
+    /// Says when the graph's thread has ended (it let go of the DDS participant).
+    graph_ended: Mutex<Option<std::sync::mpsc::Receiver<()>>>,
+    /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
+    program_node: Mutex<Option<String>>,
+    /// The slots of this process's responses, for in-process delivery.
+    inlets: Arc<crate::wire::local::Inlets>,
+    /// The signals of this process's components, for in-process delivery.
+    taps: crate::wire::local::Taps,
+    /// The components of this participant, so that they can all be stopped at once.
+    components: crate::node::shutdown::Components,
+    /// How long they may take to stop (exit slots included).
+    shutdown_timeout: std::time::Duration,
+    /// The process's `--ros-args`, and the program node's name that node-specific rules match.
+    ros_args: Arc<crate::node::ros_args::RosArgs>,
+    rule_node: String,
+    /// Simulated time when `use_sim_time` is on (set once the program node exists); the wall clock otherwise.
+    clock: std::sync::OnceLock<crate::node::clock::Clock>,
+    /// `RADAR_GENERATE_POLICY`: what writes the program's policy when it ends, given the domain and the names
+    /// of this participant's nodes (set by the `Radar`, which knows the enclave and the policy's format).
+    policy_out: Mutex<Option<PolicyWriter>>,
+    /// The nodes made on this participant (fully qualified), whose declarations its policy holds.
+    node_names: Mutex<std::collections::BTreeSet<String>>,
+    /// Managers told that this program is alive ([`Participant::keep_owner_alive`]).
+    owner_of: Mutex<HashSet<String>>,
+}
+
+/// How often a program that owns connections in another program's manager says it is alive.
+pub(crate) const OWNER_BEAT: std::time::Duration = std::time::Duration::from_millis(200);
+
+impl crate::node::shutdown::Stoppable for Participant {
+    fn components(&self) -> &crate::node::shutdown::Components {
+        &self.components
+    }
+
+    fn shutdown_timeout(&self) -> std::time::Duration {
+        self.shutdown_timeout
+    }
+
+    fn leave(&self) {
+        self.write_policy();
+        self.ctx.domain_participant().close();
+    }
+}
+
+impl Drop for Participant {
+    fn drop(&mut self) {
+        self.write_policy();
+        if let Some(stop) = self.stop_graph.lock().unwrap().take() {
+            let _ = stop.send(());
+        }
+        // the graph's thread holds the DDS participant's discovery until it ends: let it end before this
+        // returns, so that the participant's goodbye is sent by the thread that lets go of radar_ros (a process
+        // that ends right after must not end before the goodbye)
+        if let Some(ended) = self.graph_ended.lock().unwrap().take() {
+            let _ = ended.recv_timeout(std::time::Duration::from_secs(2));
+        }
+        if let Some(name) = self.program_node.lock().unwrap().take() {
+            PROGRAM_NODES.lock().unwrap().remove(&name);
+        }
+    }
+}
+
+/// The program nodes of this process (fully qualified), so that each participant's is distinct.
+/// Writes a program's policy from its domain and its nodes' names (see [`Participant::generate_policy`]).
+pub(crate) type PolicyWriter = Box<dyn FnOnce(u16, &std::collections::BTreeSet<String>) + Send>;
+
+static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
+    Mutex::new(std::collections::BTreeSet::new());
+
+impl Participant {
+    /// Has `write` called with this participant's domain and node names when it ends
+    /// (`RADAR_GENERATE_POLICY`).
+    pub(crate) fn generate_policy(&self, write: PolicyWriter) {
+        *self.policy_out.lock().unwrap() = Some(write);
+    }
+
+    /// Notes that the node `fq` (fully qualified) was made on this participant.
+    pub(crate) fn note_node(&self, fq: &str) {
+        self.node_names.lock().unwrap().insert(fq.to_owned());
+    }
+
+    /// The nodes made on this participant (fully qualified), whose declarations its policy holds.
+    pub(crate) fn node_names(&self) -> std::collections::BTreeSet<String> {
+        self.node_names.lock().unwrap().clone()
+    }
+
+    /// Writes what [`Participant::generate_policy`] asked for, once.
+    fn write_policy(&self) {
+        let write = self.policy_out.lock().unwrap().take();
+        if let Some(write) = write {
+            write(self.domain_id, &self.node_names());
+        }
+    }
+
+    /// Wraps `ctx`, starting the graph's discovery task on a thread of its own (so that discovery goes on when
+    /// the program's runtime has gone: exit slots that run after `main` returns may look components up) and the
+    /// pool's sweeper on `rt`.
+    pub(crate) fn start(
+        ctx: Context,
+        domain_id: u16,
+        namespace: String,
+        (ros_args, rule_node): (Arc<crate::node::ros_args::RosArgs>, String),
+        shutdown_timeout: std::time::Duration,
+        rt: &tokio::runtime::Handle,
+    ) -> Arc<Participant> {
+        let graph = Graph::default();
+        graph.set_participant(ctx.domain_participant());
+        let (stop, stop_rx) = tokio::sync::oneshot::channel();
+        let (ended_tx, ended) = std::sync::mpsc::channel();
+        let run = graph.clone().run(ctx.domain_participant(), stop_rx);
+        let on_thread = std::thread::Builder::new()
+            .name("radar-graph".into())
+            .spawn(move || {
+                match tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                {
+                    Ok(graph_rt) => graph_rt.block_on(run),
+                    Err(e) => tracing::error!("cannot start the ROS graph's task: {e}"),
+                }
+                let _ = ended_tx.send(());
+            });
+        if let Err(e) = on_thread {
+            tracing::error!("cannot start the ROS graph's thread: {e}");
+        }
+        let pool = Arc::new(Pool::default());
+        rt.spawn(Pool::sweeper(Arc::downgrade(&pool)));
+        Arc::new(Participant {
+            ctx,
+            domain_id,
+            namespace,
+            graph,
+            names: Mutex::new(HashSet::new()),
+            client: Mutex::new(None),
+            pool,
+            served_actions: Default::default(),
+            served_managers: Default::default(),
+            stop_graph: Mutex::new(Some(stop)),
+            graph_ended: Mutex::new(Some(ended)),
+            program_node: Mutex::new(None),
+            inlets: Default::default(),
+            taps: Default::default(),
+            components: Default::default(),
+            shutdown_timeout,
+            ros_args,
+            rule_node,
+            clock: std::sync::OnceLock::new(),
+            policy_out: Mutex::new(None),
+            node_names: Mutex::new(std::collections::BTreeSet::new()),
+            owner_of: Mutex::new(HashSet::new()),
+        })
+    }
+
+    /// Tells manager `manager` (fully qualified) that this program, which owns connections there, is alive:
+    /// a sample on `<manager>/owners` every [`OWNER_BEAT`] for as long as this participant lives (on the
+    /// caller's runtime: a program whose runtime is gone is not alive). The manager suspends the connections of
+    /// an owner it has not heard from for `OWNER_SILENT` (see `radar/manager_node.rs`), once it has heard it: so the
+    /// first beat goes out once the manager reads them (waiting at most `within`; a manager that does not read
+    /// them, an older one, only has the lease), before the first connection is asked for. Once per manager.
+    pub(crate) async fn keep_owner_alive(
+        self: &Arc<Self>,
+        manager: &str,
+        within: std::time::Duration,
+    ) -> Result<()> {
+        if !self.owner_of.lock().unwrap().insert(manager.to_owned()) {
+            return Ok(());
+        }
+        let beat = self.publisher::<crate::wire::msg::Empty>(
+            &format!("{manager}/owners"),
+            &crate::wire::qos::signal_qos(),
+        )?;
+        if beat.wait_for_subscribers(1).timeout(within).await.is_ok() {
+            let _ = beat.publish(crate::wire::msg::Empty::default());
+        }
+        // no strong reference: the participant goes when its program lets go of it, and so does the beat
+        let alive = Arc::downgrade(self);
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(OWNER_BEAT);
+            while alive.strong_count() > 0 {
+                tick.tick().await;
+                if beat.publish(crate::wire::msg::Empty::default()).is_err() {
+                    break; // the participant has left the graph
+                }
+            }
+        });
+        Ok(())
+    }
+
+    /// The components of this participant.
+    pub(crate) fn components(&self) -> &crate::node::shutdown::Components {
+        &self.components
+    }
+
+    /// How long its components may take to stop.
+    pub(crate) fn shutdown_timeout(&self) -> std::time::Duration {
+        self.shutdown_timeout
+    }
+
+    /// The DDS participant's GUID.
+    pub(crate) fn guid(&self) -> ros2_client::dds::rustdds::GUID {
+        use ros2_client::dds::rustdds::RTPSEntity;
+        self.ctx.domain_participant().guid()
+    }
+
+    pub(crate) fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    pub(crate) fn domain_id(&self) -> u16 {
+        self.domain_id
+    }
+
+    pub(crate) fn namespace(&self) -> &str {
+        &self.namespace
+    }
+
+    pub(crate) fn graph(&self) -> &Graph {
+        &self.graph
+    }
+
+    pub(crate) fn served_actions(&self) -> Served {
+        self.served_actions.clone()
+    }
+
+    pub(crate) fn served_managers(&self) -> Served {
+        self.served_managers.clone()
+    }
+
+    /// The slots of this process's responses, reachable without DDS.
+    pub(crate) fn inlets(&self) -> &Arc<crate::wire::local::Inlets> {
+        &self.inlets
+    }
+
+    /// The signals of this process's components, reachable without DDS.
+    pub(crate) fn taps(&self) -> &crate::wire::local::Taps {
+        &self.taps
+    }
+
+    pub(crate) fn pool(&self) -> &Pool {
+        &self.pool
+    }
+
+    /// Resolves and validates a component name against this participant's namespace, then applies the
+    /// process's `-r from:=to` remapping rules (see [`crate::node::ros_args`]).
+    pub(crate) fn resolve(&self, name: &str) -> Result<ComponentName> {
+        let n = ComponentName::resolve(name, &self.namespace)?;
+        match self
+            .ros_args
+            .remap_name(&n.fully_qualified(), &self.rule_node, &self.namespace)
+        {
+            Some(to) => ComponentName::resolve(&to, "/"),
+            None => Ok(n),
+        }
+    }
+
+    /// The clock components follow.
+    pub(crate) fn clock(&self) -> crate::node::clock::Clock {
+        self.clock
+            .get()
+            .cloned()
+            .unwrap_or_else(crate::node::clock::Clock::wall)
+    }
+
+    /// Makes components follow `clock` (simulated time), once.
+    pub(crate) fn set_clock(&self, clock: crate::node::clock::Clock) {
+        let _ = self.clock.set(clock);
+    }
+
+    /// The process's ROS arguments.
+    pub(crate) fn ros_args(&self) -> &Arc<crate::node::ros_args::RosArgs> {
+        &self.ros_args
+    }
+
+    /// Resolves a topic like a component name (relative topics in this participant's namespace).
+    pub(crate) fn resolve_topic(&self, topic: &str) -> Result<String> {
+        Ok(self.resolve(topic)?.fully_qualified())
+    }
+
+    /// Creates a plain node: no rosout, no parameter services (a RADAR node's endpoints are its signals and
+    /// its state).
+    fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
+        let fq = ComponentName::resolve(base, namespace)?.fully_qualified();
+        let name = NodeName::new(namespace, base).map_err(|e| Error::InvalidName {
+            name: fq.clone(),
+            reason: format!("{e}"),
+        })?;
+        let options = NodeOptions::new()
+            .enable_rosout(false)
+            .start_parameter_services(false);
+        self.note_node(&fq);
+        self.ctx
+            .new_node(name, options)
+            .map_err(|e| Error::transport(format!("node {fq}"), e))
+    }
+
+    /// Creates this participant's program node: the node of its plain endpoints, which also shows the
+    /// program's connections (see `program.rs`). Named `node` in the participant's namespace, and
+    /// `<node>_<n>` for the n-th participant of the process with that name, so each is
+    /// distinct on the graph and none takes a name a component may want (process-wide: every participant of
+    /// the process is counted). Returns the node's name.
+    pub(crate) fn start_program_node(self: &Arc<Self>, node: &str) -> Result<ComponentName> {
+        let mut k = 1;
+        loop {
+            let base = match k {
+                1 => node.to_owned(),
+                _ => format!("{node}_{k}"),
+            };
+            // a node's own name is not remapped by `from:=to` rules (only by __node, before this)
+            let name = ComponentName::resolve(&base, &self.namespace)?;
+            let fq = name.fully_qualified();
+            if !self.names.lock().unwrap().contains(&fq)
+                && PROGRAM_NODES.lock().unwrap().insert(fq.clone())
+            {
+                self.names.lock().unwrap().insert(fq.clone());
+                *self.program_node.lock().unwrap() = Some(fq);
+                *self.client.lock().unwrap() = Some(self.new_node(name.namespace(), name.base())?);
+                return Ok(name);
+            }
+            k += 1;
+        }
+    }
+
+    /// Runs `f` with this participant's program node (made by [`Participant::start_program_node`]).
+    pub(crate) fn with_client_node<T>(&self, f: impl FnOnce(&mut Node) -> Result<T>) -> Result<T> {
+        let mut guard = self.client.lock().unwrap();
+        let node = guard
+            .as_mut()
+            .ok_or_else(|| Error::Closed("the program node".into()))?;
+        f(node)
+    }
+
+    /// Records that the program node may write `topic` (absolute) though it makes no writer for it now: an
+    /// outlet that reaches a slot of this process in-process makes one when that response leaves (see
+    /// [`crate::node::declared`]), so a policy generated from this run grants it.
+    pub(crate) fn declare_writer(&self, topic: &str) {
+        if let Some(fq) = self.program_node.lock().unwrap().as_deref() {
+            crate::node::declared::record(
+                self.domain_id,
+                fq,
+                crate::node::declared::Access::Publish,
+                topic,
+            );
+        }
+    }
+
+    /// Claims a name for a component in this process and creates its node.
+    pub(crate) fn claim_node(self: &Arc<Self>, name: &ComponentName) -> Result<(Node, NameClaim)> {
+        let fq = name.fully_qualified();
+        if !self.names.lock().unwrap().insert(fq.clone()) {
+            return Err(Error::DuplicateName(fq));
+        }
+        let claim = NameClaim {
+            participant: self.clone(),
+            name: fq,
+        };
+        let node = self.new_node(name.namespace(), name.base())?;
+        Ok((node, claim))
+    }
+
+    /// Makes an endpoint on the client node: `make(node, absolute topic)`.
+    fn on_client_node<T>(
+        &self,
+        topic: &str,
+        make: impl FnOnce(&mut Node, &str) -> Result<T>,
+    ) -> Result<(String, T)> {
+        let topic = self.resolve_topic(topic)?;
+        let e = self.with_client_node(|node| make(node, &topic))?;
+        Ok((topic, e))
+    }
+
+    /// A typed publisher on the client node (absolute or relative `topic`).
+    pub(crate) fn publisher<M: RosMessage>(
+        &self,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> Result<SignalPublisher<M>> {
+        let (topic, p) = self.on_client_node(topic, |node, t| {
+            endpoints::typed_publisher(&self.graph, node, t, qos)
+        })?;
+        Ok(SignalPublisher::new(topic, M::ros_type_name(), p))
+    }
+
+    /// A typed subscription on the client node (absolute or relative `topic`).
+    pub(crate) fn subscription<M: RosMessage>(
+        &self,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> Result<SignalSubscription<M>> {
+        let (topic, s) = self.on_client_node(topic, |node, t| {
+            endpoints::typed_subscription(&self.graph, node, t, qos)
+        })?;
+        Ok(SignalSubscription::new(topic, M::ros_type_name(), s))
+    }
+
+    /// A raw publisher of `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
+    pub(crate) fn raw_publisher(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawPublisher> {
+        let ty = parse_type_name(ros_type)?;
+        let (topic, p) = self.on_client_node(topic, |node, t| {
+            endpoints::publisher(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+        })?;
+        Ok(RawPublisher::new(topic, ros_type.to_owned(), p))
+    }
+
+    /// A raw subscription to `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
+    pub(crate) fn raw_subscription(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawSubscription> {
+        let ty = parse_type_name(ros_type)?;
+        let (topic, s) = self.on_client_node(topic, |node, t| {
+            endpoints::subscription(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+        })?;
+        Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
+    }
+
+    /// The pooled raw writer of `ros_type` on the absolute `topic` with history `depth`, held until
+    /// [`Participant::release`] (see [`crate::node::pool`]).
+    pub(crate) fn pooled_writer(&self, key: &Key) -> Result<Arc<RawPublisher>> {
+        debug_assert_eq!(key.dir, Dir::Writer);
+        self.pool.writer(key, || {
+            self.raw_publisher(&key.topic, &key.ros_type, key.depth)
+        })
+    }
+
+    /// The pooled raw reader for `key`, held until [`Participant::release`].
+    pub(crate) fn pooled_reader(&self, key: &Key) -> Result<Arc<RawSubscription>> {
+        debug_assert_eq!(key.dir, Dir::Reader);
+        self.pool.reader(key, || {
+            self.raw_subscription(&key.topic, &key.ros_type, key.depth)
+        })
+    }
+
+    /// Gives up one hold on a pooled endpoint; whether it is gone.
+    pub(crate) fn release(&self, key: &Key) -> bool {
+        self.pool.release(key)
+    }
+}
+
+/// Frees a claimed component name when the component stops.
+pub(crate) struct NameClaim {
+    participant: Arc<Participant>,
+    name: String,
+}
+
+impl Drop for NameClaim {
+    fn drop(&mut self) {
+        self.participant.names.lock().unwrap().remove(&self.name);
+    }
+}

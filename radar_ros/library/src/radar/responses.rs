@@ -1,0 +1,180 @@
+//! [`Radar::spawn_response`]: a response as a ROS 2 node, its endpoints made in order; how it runs is in
+//! `components/response/`.
+
+use crate::components::response::spawn::SlotTypes;
+use crate::components::response::{
+    driver::{drive, state_message, Endpoints, Inboxes, Io, SlotReaders},
+    Response, ResponseHandle,
+};
+use crate::{
+    error::Result,
+    node::endpoints::{emit, publisher, subscription, typed_publisher, SignalWriter},
+    node::shutdown::ComponentTask,
+    radar::Radar,
+    wire::msg::{Empty, ResponseState, TypeName},
+    wire::names::ComponentName,
+    wire::qos::{signal_qos, state_qos},
+    wire::raw::RawMessage,
+    wire::refs::ResponseRef,
+};
+use radar_semantics::response::{Announce, ResponseMachine};
+use std::sync::Arc;
+use tokio::sync::{watch, Mutex};
+
+impl Radar {
+    /// Starts `response` as the ROS 2 node `name` (relative to this participant's namespace, or absolute).
+    ///
+    /// Fails before creating anything if the name is not a valid ROS name or is already used in this process.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// use radar_ros::{FnResponse, StartPolicy, msg::{Empty, StringMsg}};
+    /// let say = radar.spawn_response("say", FnResponse::new(|s: StringMsg| async move {
+    ///     println!("{}", s.data);
+    ///     Ok(Empty::default())
+    /// }).start_policy(StartPolicy::QueueOne))?;
+    /// # Ok(()) }
+    /// ```
+    pub fn spawn_response<R: Response>(&self, name: &str, response: R) -> Result<ResponseHandle> {
+        self.spawn_response_with(name, Announce::OnStart, |_, _, _| Ok(response))
+    }
+
+    /// Starts the response that `make` builds on the response's node (for responses whose behaviour needs
+    /// endpoints of their own, such as an action client), announcing `started` as `announce` says.
+    pub(crate) fn spawn_response_with<R: Response>(
+        &self,
+        name: &str,
+        announce: Announce,
+        make: impl FnOnce(&mut ros2_client::Node, &crate::graph::Graph, &ComponentName) -> Result<R>,
+    ) -> Result<ResponseHandle> {
+        let name = self.resolve(name)?;
+        let (mut node, claim) = self.participant().claim_node(&name)?;
+        let mut response = make(&mut node, self.graph(), &name)?;
+        let mut params = crate::node::params::Declared::default();
+        response.attach(&mut crate::components::response::ResponseNode {
+            node: &mut node,
+            participant: self.participant(),
+            params: &mut params,
+        })?;
+        let types = SlotTypes {
+            start: crate::wire::raw::component_type(&response.start_type(), "its start type")?,
+            output: crate::wire::raw::component_type(&response.output_type(), "its output type")?,
+        };
+        let mut endpoints = self.response_endpoints::<R>(&mut node, &name, &types)?;
+        endpoints.io.incomplete_output = response.incomplete_output();
+        let slot_publishers = [
+            endpoints.slots.start.matched.clone(),
+            endpoints.slots.interrupt.matched.clone(),
+            endpoints.slots.exit.matched.clone(),
+        ];
+        let signal_subscribers = [
+            endpoints.io.started.matched.clone(),
+            endpoints.io.interrupted.matched.clone(),
+            endpoints.io.exited.matched.clone(),
+        ];
+        let policy = response.start_policy();
+        let machine = ResponseMachine::<R::Start, R::Output>::with_announce(policy, announce);
+        let initial = state_message::<R>(&name, &types.start.ros, &machine);
+        emit(&endpoints.io.state_pub, "state", initial.clone());
+        let (state_tx, state_rx) = watch::channel(initial);
+        let endpoints = Endpoints {
+            io: Io {
+                state_tx,
+                ..endpoints.io
+            },
+            ..endpoints
+        };
+        let participant = self.participant().clone();
+        let task = ComponentTask::spawn(
+            self.participant().components(),
+            &name.fully_qualified(),
+            move |stop_rx| async move {
+                let _claim = claim;
+                let _params = params;
+                let _node = node;
+                let response = Arc::new(Mutex::new(response));
+                drive(response, machine, endpoints, stop_rx, participant).await;
+            },
+        );
+        tracing::info!(response = %name, start_type = %types.start.ros, policy = policy.label(), "response up");
+        Ok(ResponseHandle {
+            reference: ResponseRef::new(name.clone(), types.start.ros, types.output.ros),
+            name,
+            state: state_rx,
+            slot_publishers,
+            signal_subscribers,
+            task,
+        })
+    }
+
+    /// The endpoints of the response `name` on `node`: slot readers, what this process's connections hand its
+    /// slots, the state writer (made, so announced, before the signal writers: whoever has discovered those
+    /// has discovered it, and knows this response keeps causes, C6), the signal writers.
+    fn response_endpoints<R: Response>(
+        &self,
+        node: &mut ros2_client::Node,
+        name: &ComponentName,
+        types: &SlotTypes,
+    ) -> Result<Endpoints<R>> {
+        let (g, sq) = (self.graph(), signal_qos());
+        let (start_t, empty_t) = (types.start.clone(), TypeName::of::<Empty>());
+        let output_t = types.output.clone();
+        let slots = SlotReaders {
+            start: subscription::<RawMessage>(
+                g,
+                node,
+                &name.endpoint(crate::Endpoint::Start),
+                &start_t,
+                &sq,
+            )?,
+            interrupt: subscription::<RawMessage>(
+                g,
+                node,
+                &name.endpoint(crate::Endpoint::Interrupt),
+                &empty_t,
+                &sq,
+            )?,
+            exit: subscription::<RawMessage>(
+                g,
+                node,
+                &name.endpoint(crate::Endpoint::Exit),
+                &empty_t,
+                &sq,
+            )?,
+        };
+        let inlets = self.participant().inlets();
+        let inboxes = Inboxes {
+            start: inlets.open(&name.endpoint(crate::Endpoint::Start), &start_t.ros),
+            interrupt: inlets.open(&name.endpoint(crate::Endpoint::Interrupt), &empty_t.ros),
+            exit: inlets.open(&name.endpoint(crate::Endpoint::Exit), &empty_t.ros),
+        };
+        let state_pub = typed_publisher::<ResponseState>(
+            g,
+            node,
+            &name.endpoint(crate::Endpoint::State),
+            &state_qos(),
+        )?;
+        let taps = self.participant().taps();
+        let t = |e: crate::Endpoint| name.endpoint(e);
+        let started = publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?;
+        let interrupted =
+            publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?;
+        let exited = publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?;
+        let io = Io {
+            name: name.clone(),
+            start_type: start_t.ros.clone(),
+            incomplete_output: None,
+            started: SignalWriter::new(taps, started, &t(crate::Endpoint::Started), &start_t.ros),
+            interrupted: SignalWriter::new(
+                taps,
+                interrupted,
+                &t(crate::Endpoint::Interrupted),
+                &empty_t.ros,
+            ),
+            exited: SignalWriter::new(taps, exited, &t(crate::Endpoint::Exited), &output_t.ros),
+            state_pub,
+            state_tx: watch::channel(ResponseState::default()).0,
+        };
+        Ok(Endpoints { slots, inboxes, io })
+    }
+}

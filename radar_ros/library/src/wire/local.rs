@@ -1,0 +1,440 @@
+//! In-process delivery: the signals and slots of this participant's components, reachable without a DDS hop.
+//!
+//! **Slots.** A response registers each of its slot topics here ([`Inlets::open`]) and reads what arrives on the returned
+//! [`Inbox`] beside its DDS readers. The embedded manager, arming a statement whose target slot is one of
+//! these (same topic, same type), delivers through the [`Inlet`] instead of a DDS writer: one hop (the
+//! source's) instead of two. The inlet outlives the response that opened it, so a connection that holds it
+//! sees the response leave (its presence drops to 0) and a response of the same name come back (1 again),
+//! as it sees DDS subscribers leave and come back.
+//!
+//! **Signals.** An event's `triggered` and a response's `started`, `interrupted` and `exited` writers open a
+//! [`Tap`] on their topic and hand each signal to it before writing it. The manager's relay for that topic
+//! listens to the tap (its listener runs in the emitting task, with the time of emission, before the DDS
+//! write) and skips the DDS samples of the writers the tap names, which it already has; samples of other publishers (another
+//! process, `ros2 topic pub`) still come over DDS. The relay keeps its DDS reader either way: it is what the
+//! event counts as a listener.
+
+use std::{
+    collections::HashMap,
+    sync::{Arc, Mutex, Weak},
+    time::{Duration, Instant},
+};
+
+use radar_semantics::response::{Cause, Sent};
+use ros2_client::dds::rustdds::GUID;
+use tokio::sync::{mpsc, watch};
+
+use crate::wire::raw::RawMessage;
+
+/// What an inbox receives: a message, and when and by which statement it was sent.
+type Delivered = (RawMessage, Sent);
+
+/// One slot topic of this process.
+pub(crate) struct Inlet {
+    /// The open inbox's type and sender, while a response reads it.
+    open: Mutex<Option<(String, mpsc::UnboundedSender<Delivered>)>>,
+    /// 1 while a response reads it, 0 otherwise: the peer count a connection watches.
+    present: watch::Sender<usize>,
+}
+
+impl Inlet {
+    /// Hands `m`, sent as `sent`, to the response reading the slot if it reads `ros_type` (else it is dropped,
+    /// as a DDS sample with no reader is). Returns whether it was handed over.
+    pub(crate) fn deliver(&self, ros_type: &str, m: RawMessage, sent: Sent) -> bool {
+        match &*self.open.lock().unwrap() {
+            Some((t, tx)) if t == ros_type => tx.send((m, sent)).is_ok(),
+            _ => false,
+        }
+    }
+
+    /// Whether a response of this process reads the slot now with `ros_type`.
+    pub(crate) fn reads(&self, ros_type: &str) -> bool {
+        matches!(&*self.open.lock().unwrap(), Some((t, _)) if t == ros_type)
+    }
+
+    /// 1 while a response reads the slot, 0 otherwise.
+    pub(crate) fn presence(&self) -> watch::Receiver<usize> {
+        self.present.subscribe()
+    }
+}
+
+/// The slot topics of this process's responses. An entry lives while a response reads the slot or a
+/// connection holds it, and goes with the last of them (nothing is kept for names that have gone).
+#[derive(Default)]
+pub(crate) struct Inlets(Mutex<HashMap<String, Arc<Inlet>>>);
+
+impl Inlets {
+    fn entry(&self, topic: &str) -> Arc<Inlet> {
+        self.0
+            .lock()
+            .unwrap()
+            .entry(topic.to_owned())
+            .or_insert_with(|| {
+                Arc::new(Inlet {
+                    open: Mutex::new(None),
+                    present: watch::channel(0).0,
+                })
+            })
+            .clone()
+    }
+
+    /// Opens the slot `topic` of type `ros_type` for a response (component names are unique in a process, so
+    /// one response at a time opens a topic). Closed when the inbox is dropped.
+    pub(crate) fn open(self: &Arc<Self>, topic: &str, ros_type: &str) -> Inbox {
+        let inlet = self.entry(topic);
+        let (tx, rx) = mpsc::unbounded_channel();
+        *inlet.open.lock().unwrap() = Some((ros_type.to_owned(), tx));
+        inlet.present.send_replace(1);
+        Inbox {
+            rx,
+            inlet,
+            topic: topic.to_owned(),
+            inlets: Arc::downgrade(self),
+        }
+    }
+
+    /// The slot `topic`, for a connection that delivers to it whenever a response of this process reads it
+    /// (and watches it come and go). Let go of it with [`Inlets::release`].
+    pub(crate) fn hold(&self, topic: &str) -> Arc<Inlet> {
+        self.entry(topic)
+    }
+
+    /// The slot `topic` if a response of this process reads it now with type `ros_type`.
+    pub(crate) fn find(&self, topic: &str, ros_type: &str) -> Option<Arc<Inlet>> {
+        let inlet = self.0.lock().unwrap().get(topic)?.clone();
+        inlet.reads(ros_type).then_some(inlet)
+    }
+
+    /// Forgets `topic` if no response reads it and nothing but this map holds it.
+    pub(crate) fn release(&self, topic: &str) {
+        let mut map = self.0.lock().unwrap();
+        if let Some(i) = map.get(topic) {
+            if Arc::strong_count(i) == 1 && i.open.lock().unwrap().is_none() {
+                map.remove(topic);
+            }
+        }
+    }
+
+    /// How many slot topics are known.
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        self.0.lock().unwrap().len()
+    }
+}
+
+/// How long the writers of components that have gone stay known on a tap: their last samples may still come
+/// over DDS (repaired by a peer's negative acknowledgement, say), and those must be skipped; far longer than
+/// a writer lingers after its component goes (3 s) plus any repair.
+const GONE_WRITERS_KEPT: Duration = Duration::from_secs(10);
+
+/// One signal topic and type of this process, as emitted by its components.
+#[derive(Default)]
+pub(crate) struct Tap {
+    /// Every writer of this process that emits on the topic, and since when the gone ones are gone.
+    writers: Mutex<HashMap<GUID, Option<Instant>>>,
+    /// The relays listening, each while its token lives.
+    listeners: Mutex<Vec<(Weak<()>, Listener)>>,
+}
+
+/// Called with each signal emitted on a tap, its time of emission (ns since the epoch) and its cause, in the
+/// emitting task: it must not block.
+pub(crate) type Listener = Arc<dyn Fn(&RawMessage, i64, Option<Cause>) + Send + Sync>;
+
+impl Tap {
+    /// Hands `m` (emitted at `stamp`, carrying `cause`) to every relay listening, in this task; encodes it
+    /// once, and only if one listens. (The listeners are called outside the tap's lock: a relay is made under
+    /// its manager's lock, and a listener takes that lock.)
+    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, stamp: i64, cause: Option<Cause>) {
+        let listeners: Vec<Listener> = {
+            let mut l = self.listeners.lock().unwrap();
+            l.retain(|(token, _)| token.strong_count() > 0);
+            l.iter().map(|(_, f)| f.clone()).collect()
+        };
+        if listeners.is_empty() {
+            return;
+        }
+        match RawMessage::encode(m) {
+            Ok(raw) => {
+                for l in listeners {
+                    l(&raw, stamp, cause);
+                }
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "a signal did not encode for this process's connections")
+            }
+        }
+    }
+
+    /// Calls `f` with what the components of this process emit here from now on, while the returned token
+    /// lives.
+    pub(crate) fn listen(&self, f: Listener) -> Arc<()> {
+        let token = Arc::new(());
+        self.listeners
+            .lock()
+            .unwrap()
+            .push((Arc::downgrade(&token), f));
+        token
+    }
+
+    /// Whether a component of this process emits on the topic now.
+    pub(crate) fn has_emitters(&self) -> bool {
+        self.writers.lock().unwrap().values().any(Option::is_none)
+    }
+
+    /// The writer `w` of a component that emitted here is gone (it stays known a while: its last samples may
+    /// still come over DDS).
+    fn close(&self, w: GUID) {
+        if let Some(gone) = self.writers.lock().unwrap().get_mut(&w) {
+            *gone = Some(Instant::now());
+        }
+    }
+
+    /// Whether the DDS writer `gid` is one of this process's on the topic (its samples came through the tap).
+    pub(crate) fn is_local(&self, gid: ros2_client::Gid) -> bool {
+        self.writers.lock().unwrap().contains_key(&GUID::from(gid))
+    }
+
+    /// Forgets writers gone longer than [`GONE_WRITERS_KEPT`]; whether the tap is of no more use (no writer,
+    /// no listener).
+    fn prune(&self) -> bool {
+        let mut w = self.writers.lock().unwrap();
+        w.retain(|_, gone| gone.is_none_or(|t| t.elapsed() < GONE_WRITERS_KEPT));
+        let mut l = self.listeners.lock().unwrap();
+        l.retain(|(token, _)| token.strong_count() > 0);
+        w.is_empty() && l.is_empty()
+    }
+}
+
+/// The signal topics of this process, by topic and type. A tap lives while a component emits on it, a relay
+/// listens to it, or the writers of gone components may still have samples in flight.
+#[derive(Default)]
+pub(crate) struct Taps(Mutex<HashMap<(String, String), Arc<Tap>>>);
+
+impl Taps {
+    /// The tap of `topic` and `ros_type`, made on first use.
+    pub(crate) fn get(&self, topic: &str, ros_type: &str) -> Arc<Tap> {
+        let mut map = self.0.lock().unwrap();
+        // the taps no longer of use go as new ones come (what a process makes is what it prunes)
+        if map.len() >= 64 && map.len().is_power_of_two() {
+            map.retain(|_, t| Arc::strong_count(t) > 1 || !t.prune());
+        }
+        map.entry((topic.to_owned(), ros_type.to_owned()))
+            .or_default()
+            .clone()
+    }
+
+    /// The tap of `topic` and `ros_type` if there is one, without making it.
+    pub(crate) fn find(&self, topic: &str, ros_type: &str) -> Option<Arc<Tap>> {
+        self.0
+            .lock()
+            .unwrap()
+            .get(&(topic.to_owned(), ros_type.to_owned()))
+            .cloned()
+    }
+
+    /// The tap for the DDS writer `writer` of a component of this process, before it emits anything; the
+    /// writer is known there until the returned guard is dropped, and a while after.
+    pub(crate) fn open(&self, topic: &str, ros_type: &str, writer: GUID) -> TapWriter {
+        let tap = self.get(topic, ros_type);
+        tap.writers.lock().unwrap().insert(writer, None);
+        TapWriter { tap, writer }
+    }
+
+    /// Forgets the taps of no more use (see [`Tap`]); returns how many are left.
+    #[cfg(test)]
+    fn prune(&self) -> usize {
+        let mut map = self.0.lock().unwrap();
+        map.retain(|_, t| Arc::strong_count(t) > 1 || !t.prune());
+        map.len()
+    }
+}
+
+/// A component's writer on a tap: the tap hands what it emits to this process's relays.
+pub(crate) struct TapWriter {
+    tap: Arc<Tap>,
+    writer: GUID,
+}
+
+impl TapWriter {
+    /// See [`Tap::emit`].
+    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, stamp: i64, cause: Option<Cause>) {
+        self.tap.emit(m, stamp, cause)
+    }
+}
+
+impl Drop for TapWriter {
+    fn drop(&mut self) {
+        self.tap.close(self.writer);
+    }
+}
+
+/// Now, in ns since the epoch (the clock of DDS source timestamps).
+pub(crate) fn now_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as i64)
+        .unwrap_or(0)
+}
+
+/// What a response receives on one slot from this process's connections.
+pub(crate) struct Inbox {
+    rx: mpsc::UnboundedReceiver<Delivered>,
+    inlet: Arc<Inlet>,
+    topic: String,
+    inlets: Weak<Inlets>,
+}
+
+impl Inbox {
+    /// The messages with how they were sent, in delivery order.
+    pub(crate) fn stream(&mut self) -> impl futures::Stream<Item = Delivered> + '_ {
+        futures::stream::poll_fn(|cx| self.rx.poll_recv(cx))
+    }
+}
+
+impl Drop for Inbox {
+    fn drop(&mut self) {
+        *self.inlet.open.lock().unwrap() = None;
+        self.inlet.present.send_replace(0);
+        if let Some(inlets) = self.inlets.upgrade() {
+            let topic = std::mem::take(&mut self.topic);
+            // this inbox's own hold goes first
+            let inlet = std::mem::replace(
+                &mut self.inlet,
+                Arc::new(Inlet {
+                    open: Mutex::new(None),
+                    present: watch::channel(0).0,
+                }),
+            );
+            drop(inlet);
+            inlets.release(&topic);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_inlet_delivers_while_its_inbox_is_open_and_shows_presence() {
+        let inlets = Arc::new(Inlets::default());
+        assert!(inlets.find("/r/start", "std_msgs/msg/Empty").is_none());
+        let mut inbox = inlets.open("/r/start", "std_msgs/msg/Empty");
+        assert!(
+            inlets.find("/r/start", "std_msgs/msg/String").is_none(),
+            "another type is not this slot"
+        );
+        let inlet = inlets.find("/r/start", "std_msgs/msg/Empty").unwrap();
+        let presence = inlet.presence();
+        assert_eq!(*presence.borrow(), 1);
+        let e = "std_msgs/msg/Empty";
+        assert!(inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(5)));
+        assert_eq!(
+            inbox.rx.try_recv().unwrap(),
+            (RawMessage::from_bytes(vec![0]), Sent::at(5))
+        );
+        assert!(
+            !inlet.deliver(
+                "std_msgs/msg/String",
+                RawMessage::from_bytes(vec![0]),
+                Sent::at(6)
+            ),
+            "a response of another start type does not get it"
+        );
+        drop(inbox);
+        assert_eq!(*presence.borrow(), 0);
+        assert!(
+            !inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(7)),
+            "nobody reads it now"
+        );
+        assert!(inlets.find("/r/start", e).is_none());
+        // a connection held it: a response of the same name comes back to the same inlet, present again
+        let _again = inlets.open("/r/start", e);
+        assert_eq!(*presence.borrow(), 1);
+        assert!(inlet.deliver(e, RawMessage::from_bytes(vec![0]), Sent::at(8)));
+    }
+
+    #[test]
+    fn b12_slot_topics_are_forgotten_when_nothing_reads_or_holds_them() {
+        let inlets = Arc::new(Inlets::default());
+        for i in 0..100 {
+            let inbox = inlets.open(&format!("/r{i}/start"), "std_msgs/msg/Empty");
+            drop(inbox);
+        }
+        assert_eq!(
+            inlets.len(),
+            0,
+            "responses that came and went leave nothing"
+        );
+        let held = inlets.hold("/kept/start");
+        let inbox = inlets.open("/kept/start", "std_msgs/msg/Empty");
+        drop(inbox);
+        assert_eq!(inlets.len(), 1, "a connection still holds it");
+        drop(held);
+        inlets.release("/kept/start");
+        assert_eq!(inlets.len(), 0);
+    }
+
+    #[test]
+    fn a_tap_hands_signals_to_its_listeners_and_names_its_writers() {
+        let taps = Taps::default();
+        let w = GUID::new_participant_guid();
+        let tap = taps.open("/e/triggered", "std_msgs/msg/Int32", w);
+        tap.emit(&crate::wire::msg::Int32 { data: 1 }, 1, None); // nobody listens: nothing encoded, nothing kept
+        let got: Arc<Mutex<Vec<(RawMessage, i64)>>> = Default::default();
+        let g = got.clone();
+        let token = taps
+            .get("/e/triggered", "std_msgs/msg/Int32")
+            .listen(Arc::new(move |raw, stamp, _| {
+                g.lock().unwrap().push((raw.clone(), stamp))
+            }));
+        tap.emit(&crate::wire::msg::Int32 { data: 7 }, 2, None);
+        {
+            let got = got.lock().unwrap();
+            assert_eq!(got.len(), 1, "only what came after listening");
+            assert_eq!(
+                got[0].0.decode::<crate::wire::msg::Int32>().unwrap().data,
+                7
+            );
+            assert_eq!(got[0].1, 2);
+        }
+        drop(token);
+        tap.emit(&crate::wire::msg::Int32 { data: 8 }, 3, None);
+        assert_eq!(
+            got.lock().unwrap().len(),
+            1,
+            "nothing once the token is gone"
+        );
+        assert!(taps
+            .get("/e/triggered", "std_msgs/msg/Int32")
+            .is_local(ros2_client::Gid::from(w)));
+        assert!(
+            !taps
+                .get("/e/triggered", "std_msgs/msg/String")
+                .is_local(ros2_client::Gid::from(w)),
+            "another type is another tap"
+        );
+    }
+
+    #[test]
+    fn b12_taps_of_gone_components_are_forgotten() {
+        let taps = Taps::default();
+        for i in 0..100 {
+            let w = taps.open(
+                &format!("/e{i}/triggered"),
+                "std_msgs/msg/Empty",
+                GUID::new_participant_guid(),
+            );
+            drop(w);
+        }
+        // the writers of gone components stay known for a while ...
+        assert_eq!(taps.prune(), 100);
+        // ... then go
+        for t in taps.0.lock().unwrap().values() {
+            for gone in t.writers.lock().unwrap().values_mut() {
+                *gone = Some(Instant::now() - GONE_WRITERS_KEPT);
+            }
+        }
+        assert_eq!(taps.prune(), 0);
+    }
+}

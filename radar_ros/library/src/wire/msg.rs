@@ -1,0 +1,644 @@
+//! ROS 2 message types used by RADAR signals, and the [`RosMessage`] trait that ties a Rust type to its ROS
+//! interface name.
+//!
+//! Any type that serializes to the same CDR layout as a ROS message can carry a signal: implement
+//! [`RosMessage`] for it (or use [`ros_message!`](crate::ros_message)). The standard types that RADAR users
+//! need most are provided here; the `radar_msgs` types mirror `msgs/radar_msgs/msg/*.msg` field for field.
+//!
+//! ```
+//! use radar_ros::msg::{RosMessage, StringMsg};
+//! assert_eq!(StringMsg::ros_type_name(), "std_msgs/msg/String");
+//! ```
+
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// A Rust type that is the wire form of a ROS 2 message.
+///
+/// The serde field order must match the `.msg` definition, because ROS 2 on DDS serializes with CDR, which
+/// carries no field names.
+pub trait RosMessage:
+    Serialize + DeserializeOwned + Clone + Default + std::fmt::Debug + Send + Sync + 'static
+{
+    /// The ROS package of the interface, e.g. `"std_msgs"`.
+    const PACKAGE: &'static str;
+    /// The message name within the package, e.g. `"String"`.
+    const NAME: &'static str;
+    /// The interface kind the message belongs to: `"msg"`, or `"action"` for the parts of an action
+    /// (`test_msgs/action/Fibonacci_Goal`).
+    const INTERFACE: &'static str = "msg";
+
+    /// The ROS interface name as the `ros2` command line shows it, e.g. `"std_msgs/msg/String"`.
+    fn ros_type_name() -> String {
+        format!("{}/{}/{}", Self::PACKAGE, Self::INTERFACE, Self::NAME)
+    }
+
+    /// The type name DDS discovery carries, e.g. `"std_msgs::msg::dds_::String_"`.
+    ///
+    /// ```
+    /// use radar_ros::{action::FibonacciGoal, msg::{RosMessage, StringMsg}};
+    /// assert_eq!(StringMsg::dds_type_name(), "std_msgs::msg::dds_::String_");
+    /// assert_eq!(FibonacciGoal::dds_type_name(), "test_msgs::action::dds_::Fibonacci_Goal_");
+    /// ```
+    fn dds_type_name() -> String {
+        format!(
+            "{}::{}::dds_::{}_",
+            Self::PACKAGE,
+            Self::INTERFACE,
+            Self::NAME
+        )
+    }
+
+    /// The ros2-client form of the type name. ros2-client can name only `msg` interfaces this way; use
+    /// [`RosMessage::dds_type_name`] for the others.
+    fn message_type_name() -> ros2_client::MessageTypeName {
+        ros2_client::MessageTypeName::new(Self::PACKAGE, Self::NAME)
+    }
+}
+
+/// A message type as radar_ros creates topics with it: the ROS name and the DDS name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct TypeName {
+    /// `pkg/msg/Name`
+    pub(crate) ros: String,
+    /// `pkg::msg::dds_::Name_`
+    pub(crate) dds: String,
+}
+
+impl TypeName {
+    pub(crate) fn of<M: RosMessage>() -> TypeName {
+        TypeName {
+            ros: M::ros_type_name(),
+            dds: M::dds_type_name(),
+        }
+    }
+
+    /// `pkg`, `msg` or `action`, `Name`.
+    pub(crate) fn new(package: &str, interface: &str, name: &str) -> TypeName {
+        TypeName {
+            ros: format!("{package}/{interface}/{name}"),
+            dds: format!("{package}::{interface}::dds_::{name}_"),
+        }
+    }
+}
+
+/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, or for a part of an
+/// action: `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");`.
+#[macro_export]
+macro_rules! ros_message {
+    ($ty:ty, $pkg:literal, $name:literal) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+        }
+    };
+    ($ty:ty, $pkg:literal, action $name:literal) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+            const INTERFACE: &'static str = "action";
+        }
+    };
+}
+
+/// `std_msgs/msg/Empty`: the default payload of every RADAR signal.
+///
+/// ROS 2 serializes an empty struct with one padding byte (rclpy does so); a zero-sized Rust type would put
+/// nothing on the wire and peers would receive nothing, so this carries that byte explicitly.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Empty {
+    structure_needs_at_least_one_member: u8,
+}
+ros_message!(Empty, "std_msgs", "Empty");
+
+/// `std_msgs/msg/String`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StringMsg {
+    /// The text.
+    pub data: String,
+}
+ros_message!(StringMsg, "std_msgs", "String");
+
+impl From<&str> for StringMsg {
+    fn from(s: &str) -> Self {
+        StringMsg { data: s.to_owned() }
+    }
+}
+
+/// `std_msgs/msg/Bool`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Bool {
+    /// The value.
+    pub data: bool,
+}
+ros_message!(Bool, "std_msgs", "Bool");
+
+/// `std_msgs/msg/Int32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Int32 {
+    /// The value.
+    pub data: i32,
+}
+ros_message!(Int32, "std_msgs", "Int32");
+
+/// `std_msgs/msg/Int64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Int64 {
+    /// The value.
+    pub data: i64,
+}
+ros_message!(Int64, "std_msgs", "Int64");
+
+/// `std_msgs/msg/Float64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64 {
+    /// The value.
+    pub data: f64,
+}
+ros_message!(Float64, "std_msgs", "Float64");
+
+/// `builtin_interfaces/msg/Time`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Time {
+    /// Seconds since the Unix epoch.
+    pub sec: i32,
+    /// Nanoseconds within the second.
+    pub nanosec: u32,
+}
+ros_message!(Time, "builtin_interfaces", "Time");
+
+impl Time {
+    /// The wall-clock time now.
+    ///
+    /// ```
+    /// let t = radar_ros::msg::Time::now();
+    /// assert!(t.sec > 0);
+    /// ```
+    pub fn now() -> Time {
+        let d = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
+        Time {
+            sec: d.as_secs() as i32,
+            nanosec: d.subsec_nanos(),
+        }
+    }
+
+    /// The time `ns` nanoseconds after the Unix epoch (a signal's source timestamp, say).
+    ///
+    /// ```
+    /// use radar_ros::msg::Time;
+    /// let t = Time::from_nanos(2_500_000_000);
+    /// assert_eq!((t.sec, t.nanosec), (2, 500_000_000));
+    /// assert_eq!(t.to_nanos(), 2_500_000_000);
+    /// ```
+    pub fn from_nanos(ns: i64) -> Time {
+        Time {
+            sec: ns.div_euclid(1_000_000_000) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+        }
+    }
+
+    /// Nanoseconds since the Unix epoch.
+    pub fn to_nanos(&self) -> i64 {
+        i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
+    }
+}
+
+/// `std_msgs/msg/Header`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Acquisition time.
+    pub stamp: Time,
+    /// Coordinate frame.
+    pub frame_id: String,
+}
+ros_message!(Header, "std_msgs", "Header");
+
+/// `geometry_msgs/msg/Point`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// X.
+    pub x: f64,
+    /// Y.
+    pub y: f64,
+    /// Z.
+    pub z: f64,
+}
+ros_message!(Point, "geometry_msgs", "Point");
+
+/// `geometry_msgs/msg/Quaternion`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// X.
+    pub x: f64,
+    /// Y.
+    pub y: f64,
+    /// Z.
+    pub z: f64,
+    /// W.
+    pub w: f64,
+}
+ros_message!(Quaternion, "geometry_msgs", "Quaternion");
+
+impl Default for Quaternion {
+    /// The identity rotation, as in the `.msg` defaults.
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/msg/Pose`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Position.
+    pub position: Point,
+    /// Orientation.
+    pub orientation: Quaternion,
+}
+ros_message!(Pose, "geometry_msgs", "Pose");
+
+/// `geometry_msgs/msg/PoseStamped`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Header.
+    pub header: Header,
+    /// Pose.
+    pub pose: Pose,
+}
+ros_message!(PoseStamped, "geometry_msgs", "PoseStamped");
+
+/// `radar_msgs/msg/ResponseState`: what a response is doing, published transient-local on `<response>/state`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ResponseState {
+    /// When this state was entered.
+    pub stamp: Time,
+    /// Fully qualified node name of the response.
+    pub name: String,
+    /// One of the `STATE_*` constants.
+    pub state: u8,
+    /// The state as a word: `idle`, `running`, `interrupting`, `exiting`.
+    pub state_label: String,
+    /// What the start slot accepts, e.g. `std_msgs/msg/Empty`.
+    pub start_type: String,
+    /// Policy for `start` while busy: `ignore`, `restart`, `queue_one`.
+    pub start_policy: String,
+    /// Why the last run ended: `completed`, `interrupted`, `exit_signal`, `failed: ...`, `panicked: ...`.
+    pub last_exit_reason: String,
+    /// Runs started (including restarts).
+    pub starts: u64,
+    /// Runs that reached `exited`.
+    pub exits: u64,
+    /// Runs ended by an `interrupt` signal.
+    pub interrupts: u64,
+    /// Runs ended by an `exit` signal.
+    pub exit_signals: u64,
+    /// Runs whose start behaviour returned normally.
+    pub completed: u64,
+    /// Runs whose start behaviour returned an error.
+    pub failures: u64,
+    /// Panics caught in any slot.
+    pub panics: u64,
+    /// Restarts requested by the exit slot.
+    pub restarts: u64,
+    /// `start` signals ignored by the policy (or replaced in the queue).
+    pub ignored_starts: u64,
+    /// `interrupt` signals ignored (idle, or already interrupting/exiting).
+    pub ignored_interrupts: u64,
+    /// `exit` signals ignored (idle, or already interrupting/exiting).
+    pub ignored_exits: u64,
+    /// Whether a start is queued to run after the current run.
+    pub start_queued: bool,
+    /// Slot messages that did not decode as their type, dropped (shown at the next state change).
+    pub malformed: u64,
+}
+ros_message!(ResponseState, "radar_msgs", "ResponseState");
+
+impl ResponseState {
+    /// Idle: waiting for `start`.
+    pub const STATE_IDLE: u8 = 0;
+    /// The start behaviour is running.
+    pub const STATE_RUNNING: u8 = 1;
+    /// The interrupt slot is running.
+    pub const STATE_INTERRUPTING: u8 = 2;
+    /// The exit slot is running.
+    pub const STATE_EXITING: u8 = 3;
+}
+
+/// `radar_msgs/msg/EventState`: whether an event is checking, published transient-local on `<event>/state`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EventState {
+    /// When this state was entered: for a trigger, when `triggered` was emitted (its source timestamp).
+    pub stamp: Time,
+    /// Fully qualified node name of the event.
+    pub name: String,
+    /// True while at least one subscriber listens on `triggered` and the check runs.
+    pub active: bool,
+    /// Subscribers matched on `triggered`.
+    pub listeners: u32,
+    /// What `triggered` carries, e.g. `std_msgs/msg/Empty`.
+    pub trigger_type: String,
+    /// Signals emitted on `triggered`.
+    pub triggers: u64,
+    /// Times the event went from inactive to active.
+    pub activations: u64,
+    /// Checks that returned an error or panicked.
+    pub check_errors: u64,
+    /// The last such error, empty if none.
+    pub last_error: String,
+}
+ros_message!(EventState, "radar_msgs", "EventState");
+
+/// `radar_msgs/msg/Connection`: one live connection, as a manager lists it.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Connection {
+    /// Unique within its manager.
+    pub id: u64,
+    /// [`Connection::ONCE`] or [`Connection::WHENEVER`].
+    pub kind: u8,
+    /// `once` or `whenever`.
+    pub kind_label: String,
+    /// Topic of the source signal.
+    pub source: String,
+    /// Its type.
+    pub source_type: String,
+    /// Topic of the target slot, or `(anonymous)`.
+    pub target: String,
+    /// Topic of the `until` signal, empty if none.
+    pub until: String,
+    /// Who made it.
+    pub owner: String,
+    /// Signals delivered from the source so far.
+    pub delivered: u64,
+    /// History depth of the relay's reader and writer.
+    pub depth: u32,
+    /// One of the `STATE_*` constants: whether it can deliver now.
+    pub state: u8,
+    /// `armed`, `waiting for source`, `waiting for target` or `target lost`.
+    pub state_label: String,
+    /// Who left and why, while it is not armed (or after its `until`'s response left); else empty.
+    pub departure: String,
+    /// DDS hops a signal takes from source to target: 0 (both in the manager's process), 1 (one of them), 2
+    /// (neither: source -> manager -> target).
+    pub hops: u8,
+    /// Panics caught in the connection's own code (its filter, map, or anonymous slot's call).
+    pub panics: u64,
+    /// The last of them: which closure and its message, else empty.
+    pub panic: String,
+}
+ros_message!(Connection, "radar_msgs", "Connection");
+
+impl Connection {
+    /// `once`.
+    pub const ONCE: u8 = 0;
+    /// `whenever`.
+    pub const WHENEVER: u8 = 1;
+    /// Source and target are there.
+    pub const STATE_ARMED: u8 = 0;
+    /// Every publisher of the source left; it delivers again when one is back.
+    pub const STATE_WAITING_FOR_SOURCE: u8 = 1;
+    /// The target left; the connection re-arms when a target of that name is back.
+    pub const STATE_WAITING_FOR_TARGET: u8 = 2;
+    /// The target left; nothing more is delivered.
+    pub const STATE_TARGET_LOST: u8 = 3;
+
+    /// The `STATE_*` code of a link state.
+    pub fn state_of(link: crate::Link) -> u8 {
+        match link {
+            crate::Link::Armed => Self::STATE_ARMED,
+            crate::Link::WaitingForSource => Self::STATE_WAITING_FOR_SOURCE,
+            crate::Link::WaitingForTarget => Self::STATE_WAITING_FOR_TARGET,
+            crate::Link::TargetLost => Self::STATE_TARGET_LOST,
+        }
+    }
+}
+
+/// `radar_msgs/msg/ConnectionList`: every live connection of one manager.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConnectionList {
+    /// When it was published.
+    pub stamp: Time,
+    /// The manager node.
+    pub manager: String,
+    /// The connections.
+    pub connections: Vec<Connection>,
+}
+ros_message!(ConnectionList, "radar_msgs", "ConnectionList");
+
+/// Request of `radar_msgs/srv/Connect`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ConnectRequest {
+    /// [`Connection::ONCE`] or [`Connection::WHENEVER`].
+    pub kind: u8,
+    /// Source signal topic.
+    pub source: String,
+    /// Target slot topic.
+    pub target: String,
+    /// Optional `until` signal topic.
+    pub until: String,
+    /// Seconds to wait for discovery; 0 means 5.
+    pub timeout: f64,
+    /// History depth of the relay; 0 means 10.
+    pub depth: u32,
+    /// Keep the connection after the caller leaves the graph (only `Disconnect` ends it).
+    pub detach: bool,
+}
+
+/// Response of `radar_msgs/srv/Connect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConnectResponse {
+    /// Whether the connection was made.
+    pub ok: bool,
+    /// Why not.
+    pub error: String,
+    /// Its id.
+    pub id: u64,
+}
+
+/// Request of `radar_msgs/srv/Disconnect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DisconnectRequest {
+    /// The connection.
+    pub id: u64,
+}
+
+/// Response of `radar_msgs/srv/Disconnect`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DisconnectResponse {
+    /// Whether it existed and was removed.
+    pub ok: bool,
+    /// Why not.
+    pub error: String,
+}
+
+/// Request of `radar_msgs/srv/List` (empty: one padding byte on the wire, as ROS does).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ListRequest {
+    structure_needs_at_least_one_member: u8,
+}
+
+/// Response of `radar_msgs/srv/List`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ListResponse {
+    /// The connections.
+    pub connections: Vec<Connection>,
+}
+
+impl ros2_client::Message for ConnectRequest {}
+impl ros2_client::Message for ConnectResponse {}
+impl ros2_client::Message for DisconnectRequest {}
+impl ros2_client::Message for DisconnectResponse {}
+impl ros2_client::Message for ListRequest {}
+impl ros2_client::Message for ListResponse {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::msg_layout::{fields, msg_file_constants, msg_file_fields};
+
+    fn msg_file(name: &str) -> String {
+        let p = format!(
+            "{}/../../msgs/radar_msgs/msg/{name}.msg",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{p}: {e}"))
+    }
+
+    #[test]
+    fn response_state_mirrors_the_msg_file_field_for_field() {
+        let text = msg_file("ResponseState");
+        assert_eq!(fields(&ResponseState::default()), msg_file_fields(&text));
+        let consts = msg_file_constants(&text);
+        let want = [
+            ("STATE_IDLE", ResponseState::STATE_IDLE),
+            ("STATE_RUNNING", ResponseState::STATE_RUNNING),
+            ("STATE_INTERRUPTING", ResponseState::STATE_INTERRUPTING),
+            ("STATE_EXITING", ResponseState::STATE_EXITING),
+        ];
+        assert_eq!(
+            consts,
+            want.map(|(n, v)| (n.to_owned(), v.to_string())).to_vec()
+        );
+        for phase in [
+            crate::Phase::Idle,
+            crate::Phase::Running,
+            crate::Phase::Interrupting,
+            crate::Phase::Exiting,
+        ] {
+            let c = format!("STATE_{}", phase.label().to_uppercase());
+            assert!(consts.contains(&(c, phase.code().to_string())), "{phase:?}");
+        }
+    }
+
+    fn srv_file(name: &str) -> (String, String) {
+        let p = format!(
+            "{}/../../msgs/radar_msgs/srv/{name}.srv",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+        let (req, resp) = text.split_once("\n---").expect("--- in a .srv");
+        (req.to_owned(), resp.to_owned())
+    }
+
+    #[test]
+    fn connection_messages_and_services_mirror_their_files() {
+        assert_eq!(
+            fields(&Connection::default()),
+            msg_file_fields(&msg_file("Connection"))
+        );
+        let one = ConnectionList {
+            connections: vec![Connection::default()],
+            ..Default::default()
+        };
+        assert_eq!(fields(&one), msg_file_fields(&msg_file("ConnectionList")));
+        let (req, resp) = srv_file("Connect");
+        assert_eq!(fields(&ConnectRequest::default()), msg_file_fields(&req));
+        assert_eq!(fields(&ConnectResponse::default()), msg_file_fields(&resp));
+        let (req, resp) = srv_file("Disconnect");
+        assert_eq!(fields(&DisconnectRequest::default()), msg_file_fields(&req));
+        assert_eq!(
+            fields(&DisconnectResponse::default()),
+            msg_file_fields(&resp)
+        );
+        let (req, resp) = srv_file("List");
+        assert!(msg_file_fields(&req).is_empty());
+        assert_eq!(
+            fields(&ListRequest::default()).len(),
+            1,
+            "an empty request carries one padding byte"
+        );
+        let list = ListResponse {
+            connections: vec![Connection::default()],
+        };
+        assert_eq!(fields(&list), msg_file_fields(&resp));
+        let consts = msg_file_constants(&msg_file("Connection"));
+        let want = [
+            ("ONCE", Connection::ONCE),
+            ("WHENEVER", Connection::WHENEVER),
+            ("STATE_ARMED", Connection::STATE_ARMED),
+            (
+                "STATE_WAITING_FOR_SOURCE",
+                Connection::STATE_WAITING_FOR_SOURCE,
+            ),
+            (
+                "STATE_WAITING_FOR_TARGET",
+                Connection::STATE_WAITING_FOR_TARGET,
+            ),
+            ("STATE_TARGET_LOST", Connection::STATE_TARGET_LOST),
+        ];
+        assert_eq!(
+            consts,
+            want.map(|(n, v)| (n.to_owned(), v.to_string())).to_vec()
+        );
+        // every link state has its constant, named after its label
+        for link in [
+            crate::Link::Armed,
+            crate::Link::WaitingForSource,
+            crate::Link::WaitingForTarget,
+            crate::Link::TargetLost,
+        ] {
+            let name = format!("STATE_{}", link.label().replace(' ', "_").to_uppercase());
+            let code = Connection::state_of(link).to_string();
+            assert!(consts.contains(&(name, code)), "{link:?}");
+        }
+    }
+
+    #[test]
+    fn event_state_mirrors_the_msg_file_field_for_field() {
+        assert_eq!(
+            fields(&EventState::default()),
+            msg_file_fields(&msg_file("EventState"))
+        );
+    }
+
+    #[test]
+    fn standard_messages_have_the_ros_layout() {
+        assert_eq!(Empty::ros_type_name(), "std_msgs/msg/Empty");
+        assert_eq!(
+            fields(&Empty::default()),
+            [(
+                "structure_needs_at_least_one_member".to_owned(),
+                "uint8".to_owned()
+            )]
+        );
+        let ps = fields(&PoseStamped::default());
+        assert_eq!(
+            ps,
+            [
+                ("header".to_owned(), "std_msgs/Header".to_owned()),
+                ("pose".to_owned(), "Pose".to_owned())
+            ]
+        );
+        assert_eq!(
+            fields(&Header::default()),
+            [
+                ("stamp".to_owned(), "builtin_interfaces/Time".to_owned()),
+                ("frame_id".to_owned(), "string".to_owned())
+            ]
+        );
+    }
+}

@@ -1,0 +1,150 @@
+//! `docs/architecture.md` cannot drift from the tree: every source file of the crates under `radar_ros/` is
+//! listed there, and every file listed there exists.
+
+use std::collections::BTreeSet;
+
+/// The `.rs` files under `dir`, as paths from the repository's root.
+fn sources(root: &std::path::Path, dir: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut dirs = vec![root.join(dir)];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.insert(p.strip_prefix(root).unwrap().to_string_lossy().into_owned());
+            }
+        }
+    }
+    out
+}
+
+/// The `radar_ros/...rs` paths the page names (in backticks).
+fn listed(page: &str) -> BTreeSet<String> {
+    page.split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|s| s.starts_with("radar_ros/") && s.ends_with(".rs"))
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn the_architecture_page_lists_every_source_file_and_only_those() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .ancestors()
+        .nth(2)
+        .unwrap();
+    let page = std::fs::read_to_string(root.join("docs/architecture.md")).unwrap();
+    let on_page = listed(&page);
+    let mut in_tree = BTreeSet::new();
+    for dir in [
+        "radar_ros/library/src",
+        "radar_ros/semantics/src",
+        "radar_ros/tools/src",
+        "radar_ros/python/src",
+    ] {
+        in_tree.extend(sources(root, dir));
+    }
+    assert!(in_tree.len() > 60, "read the tree: {in_tree:?}");
+    let missing: Vec<_> = in_tree.difference(&on_page).collect();
+    assert!(
+        missing.is_empty(),
+        "not in docs/architecture.md (add a row saying what each holds): {missing:?}"
+    );
+    let gone: Vec<_> = on_page
+        .iter()
+        .filter(|p| !p.contains("/tests/") && !in_tree.contains(*p))
+        .collect();
+    assert!(
+        gone.is_empty(),
+        "docs/architecture.md lists files that do not exist: {gone:?}"
+    );
+}
+
+#[test]
+fn a_page_path_is_read_from_backticks_only() {
+    let page =
+        "| `radar_ros/library/src/a.rs` | x |\nradar_ros/library/src/b.rs and `radar_ros/library/src/c` and `other/d.rs`";
+    assert_eq!(
+        listed(page),
+        BTreeSet::from(["radar_ros/library/src/a.rs".to_owned()])
+    );
+}
+
+/// The functions of the files under `dir` longer than `max` lines (signature to closing brace), outside test
+/// modules: (file, function, lines).
+fn long_functions(root: &std::path::Path, dir: &str, max: usize) -> Vec<(String, String, usize)> {
+    let mut out = Vec::new();
+    for file in sources(root, dir) {
+        let text = std::fs::read_to_string(root.join(&file)).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let end = lines
+            .windows(2)
+            .position(|w| w[0].starts_with("#[cfg(test)]") && w[1].starts_with("mod tests"))
+            .unwrap_or(lines.len());
+        for (i, line) in lines[..end].iter().enumerate() {
+            let trimmed = line.trim_start();
+            let indent = &line[..line.len() - trimmed.len()];
+            let sig = trimmed
+                .trim_start_matches("pub ")
+                .trim_start_matches("pub(crate) ")
+                .trim_start_matches("pub(super) ")
+                .trim_start_matches("async ")
+                .trim_start_matches("const ")
+                .trim_start_matches("unsafe ");
+            let Some(rest) = sig.strip_prefix("fn ") else {
+                continue;
+            };
+            if line.trim_end().ends_with(';') {
+                continue;
+            }
+            let closing = format!("{indent}}}");
+            let Some(len) = lines[i + 1..end]
+                .iter()
+                .position(|l| l.trim_end() == closing)
+            else {
+                continue;
+            };
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if len + 2 > max {
+                out.push((file.clone(), name, len + 2));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_library_function_is_over_80_lines() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .ancestors()
+        .nth(2)
+        .unwrap();
+    for dir in ["radar_ros/library/src", "radar_ros/semantics/src"] {
+        let long = long_functions(root, dir, 80);
+        assert!(
+            long.is_empty(),
+            "functions over 80 lines in {dir} (split them by what they do): {long:?}"
+        );
+    }
+}
+
+#[test]
+fn the_length_check_counts_from_signature_to_closing_brace() {
+    let dir = std::env::temp_dir().join(format!("radar_fnlen_{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("src")).unwrap();
+    let body: String = (0..79).map(|i| format!("    let _x{i} = {i};\n")).collect();
+    std::fs::write(
+        dir.join("src/a.rs"),
+        format!("fn short() {{\n}}\n\npub(crate) async fn long() {{\n{body}}}\n"),
+    )
+    .unwrap();
+    let long = long_functions(&dir, "src", 80);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(long, vec![("src/a.rs".to_owned(), "long".to_owned(), 81)]);
+}
