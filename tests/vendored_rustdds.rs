@@ -58,6 +58,9 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 40: a reader that asks again for what it acknowledged gets it
+        "a_reader_that_asks_again_for_what_it_acknowledged_gets_it",
+        "a_reader_that_asks_again_for_acknowledged_samples_gets_them",
         // patch 38: a best-effort reader awaits nothing from a writer matched again
         "a_best_effort_reader_keeps_a_writer_matched_again_within_the_topics_limits",
         // patch 37: endpoints heard of before their participant get its addresses

@@ -460,8 +460,15 @@ impl RtpsReaderProxy {
              reader={:x?} count={}",
             self.all_acked_before, new_all_acked_before, self.remote_reader_guid, acknack.count
           );
+          // RADAR patch 40: a reader that asks again for what it acknowledged has lost it: it dropped this
+          // writer (our participant's lease ran out on its side while we still had it, as when our process
+          // was stopped for longer than the lease) and matched it anew. A reader that wants history (the
+          // SEDP readers) waits for every sample it asks for: refusing them left it withholding everything
+          // later, so the endpoints our participant made or deleted meanwhile were never learned there.
+          // What it asks for is sent again (or GAPped if no longer kept); the frontier stays where it was,
+          // since history cleaning goes by it.
           for nack_sn in acknack.reader_sn_state.iter() {
-            if nack_sn >= self.all_acked_before {
+            if nack_sn <= last_available {
               self.unsent_changes.insert(nack_sn);
             }
           }
@@ -767,6 +774,27 @@ mod acknack_tests {
     rp.handle_ack_nack(&AckSubmessage::AckNack(ack), SequenceNumber::from(3));
 
     assert_eq!(rp.all_acked_before, SequenceNumber::from(4));
+  }
+
+  // RADAR patch 40: a reader that matched this writer anew (it had dropped it) asks again for samples it had
+  // acknowledged; they are sent again, and the acknowledged frontier does not move back.
+  #[test]
+  fn a_reader_that_asks_again_for_what_it_acknowledged_gets_it() {
+    let guid = GUID::new(GuidPrefix::UNKNOWN, EntityId::UNKNOWN);
+    let mut rp = RtpsReaderProxy::new(guid, QosPolicies::default(), false);
+    rp.all_acked_before = SequenceNumber::from(10);
+    let asked: std::collections::BTreeSet<SequenceNumber> = (3..12).map(SequenceNumber::from).collect();
+    let set = SequenceNumberSet::from_base_and_set(SequenceNumber::from(3), &asked);
+    let ack = AckNack {
+      reader_id: EntityId::UNKNOWN,
+      writer_id: EntityId::UNKNOWN,
+      reader_sn_state: set,
+      count: 7,
+    };
+    rp.handle_ack_nack(&AckSubmessage::AckNack(ack), SequenceNumber::from(11));
+    assert_eq!(rp.all_acked_before, SequenceNumber::from(10));
+    let unsent: Vec<i64> = rp.unsent_changes_iter().map(i64::from).collect();
+    assert_eq!(unsent, (3..=11).collect::<Vec<i64>>());
   }
 }
 

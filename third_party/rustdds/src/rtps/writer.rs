@@ -1312,7 +1312,10 @@ impl Writer {
 
           // if we cannot send more data, we are done.
           // This is to prevent empty "repair data" messages from being sent.
-          if reader_proxy.all_acked_before > last_seq {
+          // (RADAR patch 40: also when all was acknowledged, if the reader asked again for some of it)
+          if reader_proxy.all_acked_before > last_seq
+            && reader_proxy.unsent_changes_iter().next().is_none()
+          {
             reader_proxy.repair_mode = false;
           } else {
             reader_proxy.repair_mode = true;
@@ -3672,6 +3675,27 @@ mod tests {
       f.ack_nack(1..=5, 2);
       assert_eq!(f.unsent(), 5);
       assert_eq!(f.repair_round(), 5);
+    }
+
+    // RADAR patch 40: a reader that acknowledged everything and then asks for it again (it dropped this
+    // writer and matched it anew, while this writer kept it) gets it again.
+    #[test]
+    fn a_reader_that_asks_again_for_acknowledged_samples_gets_them() {
+      let mut f = Fixture::user(5, 8, None);
+      f.writer.nack_response_delay = StdDuration::ZERO;
+      let all_acked = AckNack {
+        reader_id: f.reader_guid.entity_id,
+        writer_id: f.writer.my_guid.entity_id,
+        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(6)),
+        count: 1,
+      };
+      f.writer
+        .handle_ack_nack(f.reader_guid.prefix, &AckSubmessage::AckNack(all_acked));
+      assert_eq!(f.reader_proxy().all_acked_before, SequenceNumber::new(6));
+      assert_eq!(f.unsent(), 0);
+      f.ack_nack(1..=5, 2);
+      assert_eq!(f.repair_round(), 5, "the samples asked for again are sent");
+      assert_eq!(f.reader_proxy().all_acked_before, SequenceNumber::new(6));
     }
 
     // While the reader's send socket has queued control datagrams, a round
