@@ -190,6 +190,8 @@
 #![warn(missing_docs)]
 #![deny(rustdoc::broken_intra_doc_links)]
 
+#[cfg(feature = "codec")]
+pub mod codec;
 mod components;
 mod connections;
 mod departure;

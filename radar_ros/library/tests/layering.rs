@@ -117,6 +117,7 @@ const LAYERS: &[&[&str]] = &[
     &["node"],
     &["security"],
     &["components"],
+    &["codec"],
     &["connections"],
     &["radar"],
 ];

@@ -1197,13 +1197,13 @@ fn init_logs() {
 /// The ROS types whose messages convert to and from dicts without a Python message package.
 #[pyfunction]
 fn dict_types() -> Vec<String> {
-    radar_tools::codec::known()
+    radar_ros::codec::known()
 }
 
 /// A message of `ros_type` from its fields as JSON (missing fields: their defaults), as CDR bytes.
 #[pyfunction]
 fn encode_json<'py>(py: Python<'py>, ros_type: &str, json: &str) -> PyResult<Bound<'py, PyBytes>> {
-    let raw = radar_tools::codec::encode(ros_type, json).map_err(|e| {
+    let raw = radar_ros::codec::encode(ros_type, json).map_err(|e| {
         Python::attach(|py| {
             py.import("radar_ros._errors")
                 .and_then(|m| m.getattr("PayloadTypeError"))
@@ -1218,10 +1218,10 @@ fn encode_json<'py>(py: Python<'py>, ros_type: &str, json: &str) -> PyResult<Bou
 /// A message of `ros_type` (CDR bytes) as JSON; None for a type without a dict form here.
 #[pyfunction]
 fn decode_json(ros_type: &str, body: Vec<u8>) -> Option<String> {
-    if !radar_tools::codec::known().iter().any(|t| t == ros_type) {
+    if !radar_ros::codec::known().iter().any(|t| t == ros_type) {
         return None;
     }
-    let v = radar_tools::codec::decode(ros_type, &RawMessage::from_bytes(body));
+    let v = radar_ros::codec::decode(ros_type, &RawMessage::from_bytes(body));
     Some(v.to_string())
 }
 

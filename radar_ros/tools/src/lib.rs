@@ -25,7 +25,7 @@
 #![warn(missing_docs)]
 
 pub mod cli;
-pub mod codec;
+pub use radar_ros::codec;
 mod common;
 mod components;
 pub mod mcap_out;

@@ -1,7 +1,8 @@
-//! Payloads on the command line: YAML in (as `ros2 topic pub` takes them), JSON or YAML out, for the message
-//! types radar_ros knows. Others are shown as their size in bytes.
+//! Payloads as people write them: YAML in (as `ros2 topic pub` takes them), JSON or YAML out, for the message
+//! types radar_ros knows (the `codec` feature; the `radar` command line and the Python package use it). Others
+//! are shown as their size in bytes.
 
-use radar_ros::{
+use crate::{
     action::{FibonacciFeedback, FibonacciGoal, FibonacciResult},
     msg::{
         Bool, Connection, ConnectionList, Empty, EventState, Float64, Header, Int32, Int64, Point,
