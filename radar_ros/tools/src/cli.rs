@@ -346,16 +346,19 @@ pub async fn run(cli: Cli) -> Result<(), String> {
         .build()
         .map_err(|e| e.to_string())?;
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
+    dispatch(&radar, &out, discovery, cmd).await
+}
+
+/// Runs the verb `cmd` on `radar`.
+async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Result<(), String> {
     let manager = |named| verbs::con::Manager { named, discovery };
     match cmd {
         Cmd::Security {
             verb: SecurityVerb::GeneratePolicy { policy },
-        } => generate_policy(&radar, &out, discovery, &policy).await,
+        } => generate_policy(radar, out, discovery, &policy).await,
         Cmd::Security { .. } => unreachable!("handled above"),
-        Cmd::Ls { namespace, long } => {
-            verbs::ls::ls(&radar, &out, discovery, namespace, long).await
-        }
-        Cmd::Cat { name } => verbs::cat::cat(&radar, &out, discovery, &name).await,
+        Cmd::Ls { namespace, long } => verbs::ls::ls(radar, out, discovery, namespace, long).await,
+        Cmd::Cat { name } => verbs::cat::cat(radar, out, discovery, &name).await,
         Cmd::Act {
             slot,
             name,
@@ -363,7 +366,7 @@ pub async fn run(cli: Cli) -> Result<(), String> {
             timeout,
         } => {
             let timeout = secs(timeout)?;
-            verbs::act::act(&radar, &out, slot, &name, payload.as_deref(), timeout).await
+            verbs::act::act(radar, out, slot, &name, payload.as_deref(), timeout).await
         }
         Cmd::Inject {
             topic,
@@ -371,13 +374,13 @@ pub async fn run(cli: Cli) -> Result<(), String> {
             timeout,
         } => {
             let timeout = secs(timeout)?;
-            verbs::inject::inject(&radar, &out, &topic, payload.as_deref(), timeout).await
+            verbs::inject::inject(radar, out, &topic, payload.as_deref(), timeout).await
         }
         Cmd::Watch {
             names,
             activate,
             duration,
-        } => verbs::watch::watch(&radar, &out, names, activate, duration).await,
+        } => verbs::watch::watch(radar, out, names, activate, duration).await,
         Cmd::Con {
             kind,
             source,
@@ -397,22 +400,22 @@ pub async fn run(cli: Cli) -> Result<(), String> {
                 true => verbs::con::Lifetime::Detached,
                 false => verbs::con::Lifetime::WhileRunning(duration),
             };
-            verbs::con::con(&radar, &out, manager(named), statement, lifetime).await
+            verbs::con::con(radar, out, manager(named), statement, lifetime).await
         }
         Cmd::Graph {
             output,
             watch,
             duration,
-        } => verbs::graph::draw(&radar, &out, discovery, output, watch, duration).await,
+        } => verbs::graph::draw(radar, out, discovery, output, watch, duration).await,
         Cmd::Record {
             output,
             names,
             activate,
             duration,
-        } => verbs::record::record(&radar, &out, output, names, activate, duration).await,
+        } => verbs::record::record(radar, out, output, names, activate, duration).await,
         Cmd::Replay { input, rate, wait } => {
-            verbs::replay::replay(&radar, &out, input, rate, secs(wait)?).await
+            verbs::replay::replay(radar, out, input, rate, secs(wait)?).await
         }
-        Cmd::Dis { id, manager: named } => verbs::con::dis(&radar, &out, manager(named), id).await,
+        Cmd::Dis { id, manager: named } => verbs::con::dis(radar, out, manager(named), id).await,
     }
 }

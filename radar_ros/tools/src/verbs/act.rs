@@ -106,28 +106,37 @@ pub(crate) async fn act(
         Err(_) => {
             // say why, from the state: a busy response ignores a start, an idle one an interrupt
             let now = state.recv().timeout(Duration::from_millis(500)).await.ok();
-            let why = match (before, now) {
-                (Some(b), Some(n)) if n.ignored_starts > b.ignored_starts => {
-                    format!(
-                        "it ignored the start: it was {} (start policy {})",
-                        b.state_label, b.start_policy
-                    )
-                }
-                (Some(b), Some(n))
-                    if n.ignored_interrupts > b.ignored_interrupts
-                        || n.ignored_exits > b.ignored_exits =>
-                {
-                    format!("it ignored the {}: it was {}", slot.topic(), b.state_label)
-                }
-                (Some(b), _) => format!("it was {}", b.state_label),
-                _ if !has_state => "it publishes no state topic to tell why".into(),
-                _ => "its state did not arrive either".into(),
-            };
+            let why = why_no_answer(slot, has_state, before, now);
             Err(format!(
                 "no {} from {} within {timeout:?}; {why}",
                 slot.answer(),
                 r.name()
             ))
         }
+    }
+}
+
+/// Why a response did not answer `slot`, from its state before (`before`) and after (`now`).
+fn why_no_answer(
+    slot: ActSlot,
+    has_state: bool,
+    before: Option<ResponseState>,
+    now: Option<ResponseState>,
+) -> String {
+    match (before, now) {
+        (Some(b), Some(n)) if n.ignored_starts > b.ignored_starts => {
+            format!(
+                "it ignored the start: it was {} (start policy {})",
+                b.state_label, b.start_policy
+            )
+        }
+        (Some(b), Some(n))
+            if n.ignored_interrupts > b.ignored_interrupts || n.ignored_exits > b.ignored_exits =>
+        {
+            format!("it ignored the {}: it was {}", slot.topic(), b.state_label)
+        }
+        (Some(b), _) => format!("it was {}", b.state_label),
+        _ if !has_state => "it publishes no state topic to tell why".into(),
+        _ => "its state did not arrive either".into(),
     }
 }

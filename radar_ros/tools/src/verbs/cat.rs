@@ -10,9 +10,32 @@ use crate::{
     components::{signal_topics, state_type},
 };
 
+/// What `radar cat` shows of one component.
+struct Card {
+    c: Component,
+    fq: String,
+    state: Option<Value>,
+    /// (program or manager, connection) touching the component
+    connections: Vec<(String, radar_ros::msg::Connection)>,
+    params: Vec<(String, radar_ros::params::ParameterValue)>,
+    /// (topic, role, type)
+    topics: Vec<(String, &'static str, String)>,
+}
+
 pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &str) -> Fallible<()> {
     let c = with_status("discovering", find(radar, discovery, name)).await?;
     with_status("discovering", discover(radar, discovery)).await;
+    let card = gather(radar, c).await?;
+    if out.json {
+        println!("{}", card_json(&card));
+    } else {
+        print_card(out, &card);
+    }
+    Ok(())
+}
+
+/// Everything the card shows: state, connections of every program and manager, parameters, topics.
+async fn gather(radar: &Radar, c: Component) -> Fallible<Card> {
     let state = state_of(radar, &c, Duration::from_secs(2)).await;
     let fq = c.name().fully_qualified();
     let prefix = format!("{fq}/");
@@ -41,7 +64,7 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
     } else {
         Vec::new()
     };
-    let mut topics: Vec<(String, &str, String)> = Vec::new();
+    let mut topics: Vec<(String, &'static str, String)> = Vec::new();
     if let Component::Response(r) = &c {
         for slot in [r.start_slot(), r.interrupt_slot(), r.exit_slot()] {
             topics.push((slot.topic().to_owned(), "slot", slot.ros_type().to_owned()));
@@ -51,29 +74,39 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
         topics.push((topic, "signal", ty));
     }
     topics.push((c.name().topic("state"), "state", state_type(&c).to_owned()));
-    if out.json {
-        let v = json!({
-            "name": fq,
-            "kind": c.kind(),
-            "topics": topics.iter().map(|(t, k, ty)| json!({"topic": t, "role": k, "type": ty})).collect::<Vec<_>>(),
-            "state": state.clone().unwrap_or(Value::Null),
-            "parameters": params.iter().map(|(n, v)| (n.clone(), param_json(v))).collect::<serde_json::Map<_, _>>(),
-            "connections": connections.iter().map(|(p, k)| {
-                let mut v = serde_json::to_value(k).unwrap_or(Value::Null);
-                v["program"] = json!(p);
-                v
-            }).collect::<Vec<_>>(),
-        });
-        println!("{v}");
-        return Ok(());
+    Ok(Card {
+        c,
+        fq,
+        state,
+        connections,
+        params,
+        topics,
+    })
+}
+
+fn card_json(k: &Card) -> Value {
+    json!({
+        "name": k.fq,
+        "kind": k.c.kind(),
+        "topics": k.topics.iter().map(|(t, r, ty)| json!({"topic": t, "role": r, "type": ty})).collect::<Vec<_>>(),
+        "state": k.state.clone().unwrap_or(Value::Null),
+        "parameters": k.params.iter().map(|(n, v)| (n.clone(), param_json(v))).collect::<serde_json::Map<_, _>>(),
+        "connections": k.connections.iter().map(|(p, c)| {
+            let mut v = serde_json::to_value(c).unwrap_or(Value::Null);
+            v["program"] = json!(p);
+            v
+        }).collect::<Vec<_>>(),
+    })
+}
+
+fn print_card(out: &Out, k: &Card) {
+    println!("{} ({})", out.bold(&k.fq), k.c.kind());
+    for (t, r, ty) in &k.topics {
+        println!("  {r:<6} {t:<36} {ty}");
     }
-    println!("{} ({})", out.bold(&fq), c.kind());
-    for (t, k, ty) in &topics {
-        println!("  {k:<6} {t:<36} {ty}");
-    }
-    match &state {
+    match &k.state {
         Some(s) => {
-            println!("  state: {}", state_summary(&c, s));
+            println!("  state: {}", state_summary(&k.c, s));
             if let Value::Object(m) = s {
                 let counters: Vec<String> = m
                     .iter()
@@ -85,41 +118,36 @@ pub(crate) async fn cat(radar: &Radar, out: &Out, discovery: Duration, name: &st
         }
         None => println!("  state: none received"),
     }
-    if params.is_empty() {
+    if k.params.is_empty() {
         println!("  parameters: none");
     }
-    for (n, v) in &params {
+    for (n, v) in &k.params {
         println!("  parameter {n} = {}", param_json(v));
     }
-    if connections.is_empty() {
+    if k.connections.is_empty() {
         println!("  connections: none");
     }
-    for (program, k) in &connections {
-        let until = if k.until.is_empty() {
-            String::new()
-        } else {
-            format!(" until {}", k.until)
-        };
-        let panics = if k.panics == 0 {
-            String::new()
-        } else {
-            format!(", {} panic(s), last: {}", k.panics, k.panic)
-        };
-        println!(
-            "  connection {} in {}: {} {} -> {}{} [{}], {} delivered, {} DDS hop(s){}",
-            k.id,
-            program,
-            k.kind_label,
-            k.source,
-            k.target,
-            until,
-            k.state_label,
-            k.delivered,
-            k.hops,
-            panics
-        );
+    for (program, c) in &k.connections {
+        println!("  connection {} in {program}: {}", c.id, connection_line(c));
     }
-    Ok(())
+}
+
+/// `once /a -> /b/start until /c [armed], 3 delivered, 1 DDS hop(s)`, and its panics if any.
+fn connection_line(k: &radar_ros::msg::Connection) -> String {
+    let until = if k.until.is_empty() {
+        String::new()
+    } else {
+        format!(" until {}", k.until)
+    };
+    let panics = if k.panics == 0 {
+        String::new()
+    } else {
+        format!(", {} panic(s), last: {}", k.panics, k.panic)
+    };
+    format!(
+        "{} {} -> {}{} [{}], {} delivered, {} DDS hop(s){}",
+        k.kind_label, k.source, k.target, until, k.state_label, k.delivered, k.hops, panics
+    )
 }
 
 /// A parameter value as JSON (`ros2 param get` shows the same values).

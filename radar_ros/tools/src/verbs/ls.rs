@@ -34,22 +34,7 @@ pub(crate) async fn ls(
         vec![None; components.len()]
     };
     if out.json {
-        let list: Vec<Value> = components
-            .iter()
-            .zip(&states)
-            .map(|(c, s)| {
-                let mut v = json!({
-                    "name": c.name().fully_qualified(),
-                    "kind": c.kind(),
-                    "types": types_of(c),
-                });
-                if long {
-                    v["state"] = s.clone().unwrap_or(Value::Null);
-                }
-                v
-            })
-            .collect();
-        println!("{}", Value::Array(list));
+        println!("{}", list_json(&components, &states, long));
         return Ok(());
     }
     if components.is_empty() {
@@ -60,8 +45,33 @@ pub(crate) async fn ls(
         );
         return Ok(());
     }
+    print_by_namespace(out, &components, &states, long);
+    Ok(())
+}
+
+fn list_json(components: &[Component], states: &[Option<Value>], long: bool) -> Value {
+    let list: Vec<Value> = components
+        .iter()
+        .zip(states)
+        .map(|(c, s)| {
+            let mut v = json!({
+                "name": c.name().fully_qualified(),
+                "kind": c.kind(),
+                "types": types_of(c),
+            });
+            if long {
+                v["state"] = s.clone().unwrap_or(Value::Null);
+            }
+            v
+        })
+        .collect();
+    Value::Array(list)
+}
+
+/// The components by namespace, one line each (with `long`, its state).
+fn print_by_namespace(out: &Out, components: &[Component], states: &[Option<Value>], long: bool) {
     let mut by_ns: BTreeMap<String, Vec<(&Component, &Option<Value>)>> = BTreeMap::new();
-    for (c, s) in components.iter().zip(&states) {
+    for (c, s) in components.iter().zip(states) {
         by_ns
             .entry(c.name().namespace().to_owned())
             .or_default()
@@ -88,7 +98,6 @@ pub(crate) async fn ls(
             println!("{line}");
         }
     }
-    Ok(())
 }
 
 fn in_namespace(name: &str, ns: &Option<String>) -> bool {

@@ -139,36 +139,48 @@ fn follow(
             }
         }));
     }
+    tasks.push(follow_state(radar, c, activate, tx)?);
+    Ok(tasks)
+}
+
+/// The task that reports `c`'s state changes (and, for an event not activated, its triggers, counted).
+fn follow_state(
+    radar: &Radar,
+    c: &Component,
+    activate: bool,
+    tx: tokio::sync::mpsc::UnboundedSender<Seen>,
+) -> Fallible<tokio::task::JoinHandle<()>> {
     let state_topic = c.name().topic("state");
-    let tx2 = tx.clone();
-    match c {
+    let said = |component: &str, what: String, stamp| Seen {
+        component: component.to_owned(),
+        what,
+        payload: Value::Object(Default::default()),
+        stamp,
+    };
+    Ok(match c {
         Component::Response(_) => {
             let sub = radar
                 .state_subscription::<ResponseState>(&state_topic)
                 .map_err(|e| e.to_string())?;
-            tasks.push(tokio::spawn(async move {
+            tokio::spawn(async move {
                 let mut last = String::new();
                 while let Ok(s) = sub.recv().await {
                     if s.state_label != last {
                         last = s.state_label.clone();
-                        let seen = Seen {
-                            component: s.name.clone(),
-                            what: format!("is {}", s.state_label),
-                            payload: Value::Object(Default::default()),
-                            stamp: stamp_ns(&s.stamp),
-                        };
-                        if tx2.send(seen).is_err() {
+                        let seen =
+                            said(&s.name, format!("is {}", s.state_label), stamp_ns(&s.stamp));
+                        if tx.send(seen).is_err() {
                             break;
                         }
                     }
                 }
-            }));
+            })
         }
         Component::Event(_) => {
             let sub = radar
                 .state_subscription::<EventState>(&state_topic)
                 .map_err(|e| e.to_string())?;
-            tasks.push(tokio::spawn(async move {
+            tokio::spawn(async move {
                 let mut last: Option<EventState> = None;
                 while let Ok(s) = sub.recv().await {
                     let mut lines = Vec::new();
@@ -184,20 +196,16 @@ fn follow(
                         }
                     }
                     for what in lines {
-                        let seen = Seen {
-                            component: s.name.clone(),
-                            what: what.into(),
-                            payload: Value::Object(Default::default()),
-                            stamp: stamp_ns(&s.stamp),
-                        };
-                        if tx2.send(seen).is_err() {
+                        if tx
+                            .send(said(&s.name, what.into(), stamp_ns(&s.stamp)))
+                            .is_err()
+                        {
                             return;
                         }
                     }
                     last = Some(s);
                 }
-            }));
+            })
         }
-    }
-    Ok(tasks)
+    })
 }
