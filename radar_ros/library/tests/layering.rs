@@ -32,18 +32,9 @@ fn imports() -> BTreeMap<String, BTreeSet<String>> {
     let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let exports = root_exports(&src);
     let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
-    let mut files = Vec::new();
-    let mut dirs = vec![src.clone()];
-    while let Some(d) = dirs.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                dirs.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                files.push(p);
-            }
-        }
-    }
+    // every file (lib.rs too: its re-exports are no imports, but its own code may name modules)
+    let mut files: Vec<std::path::PathBuf> = file_modules(&src).into_values().collect();
+    files.push(src.join("lib.rs"));
     let module_of = |p: &std::path::Path| -> String {
         let rel = p.strip_prefix(&src).unwrap().to_string_lossy().into_owned();
         rel.split('/')
