@@ -58,6 +58,11 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 41: a reader forgets the instances that are gone
+        "a_disposed_instance_is_reclaimed_once_its_samples_are_taken",
+        "an_alive_or_untaken_instance_is_kept",
+        "forgetting_keeps_instances_with_samples_waiting",
+        "the_sedp_readers_forget_the_endpoints_of_a_participant_that_is_gone",
         // patch 40: a reader that asks again for what it acknowledged gets it
         "a_reader_that_asks_again_for_what_it_acknowledged_gets_it",
         "a_reader_that_asks_again_for_acknowledged_samples_gets_them",

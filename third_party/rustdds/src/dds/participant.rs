@@ -734,6 +734,12 @@ impl DomainParticipant {
     self.dpi.lock().unwrap().dpi.discovery_db.clone()
   }
 
+  /// Test only: see `DomainParticipantDisc::discovery_instances_of`.
+  #[cfg(test)]
+  pub(crate) fn discovery_instances_of(&self, prefix: GuidPrefix) -> Option<usize> {
+    self.dpi.lock().unwrap().discovery_instances_of(prefix)
+  }
+
   pub(crate) fn new_entity_id(&self, entity_kind: EntityKind) -> EntityId {
     self.dpi.lock().unwrap().new_entity_id(entity_kind)
   }
@@ -1218,6 +1224,21 @@ impl DomainParticipantDisc {
   // pub(crate) fn discovery_db(&self) -> Arc<RwLock<DiscoveryDB>> {
   //   self.dpi.lock().unwrap().discovery_db.clone()
   // }
+
+  /// Test only: how many instances Discovery's SEDP readers keep for the
+  /// endpoints of participant `prefix`, or None if Discovery does not answer.
+  #[cfg(test)]
+  pub(crate) fn discovery_instances_of(&self, prefix: GuidPrefix) -> Option<usize> {
+    let (reply, answer) = std::sync::mpsc::channel();
+    self
+      .discovery_command_sender
+      .send(DiscoveryCommand::CountInstancesOf {
+        prefix,
+        reply: crate::discovery::discovery::CountReply(reply),
+      })
+      .ok()?;
+    answer.recv_timeout(std::time::Duration::from_secs(5)).ok()
+  }
 
   pub(crate) fn assert_liveliness(&self) -> WriteResult<(), ()> {
     // No point in checking for the LIVELINESS QoS of MANUAL_BY_PARTICIPANT,

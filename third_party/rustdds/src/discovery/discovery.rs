@@ -100,6 +100,14 @@ pub enum DiscoveryCommand {
     manual_assertion: bool,
   },
 
+  /// Test only: how many instances the SEDP publication and subscription
+  /// readers keep for endpoints of participant `prefix` (RADAR patch 41).
+  #[cfg(test)]
+  CountInstancesOf {
+    prefix: GuidPrefix,
+    reply: CountReply,
+  },
+
   #[cfg(feature = "security")]
   StartKeyExchangeWithRemoteParticipant {
     participant_guid_prefix: GuidPrefix,
@@ -110,6 +118,37 @@ pub enum DiscoveryCommand {
     local_endpoint_guid: GUID,
     remote_endpoint_guid: GUID,
   },
+}
+
+/// Test only: where Discovery answers a `CountInstancesOf` command. All
+/// replies compare equal: the command enum derives ordering and hashing.
+#[cfg(test)]
+#[derive(Clone)]
+pub struct CountReply(pub std::sync::mpsc::Sender<usize>);
+
+#[cfg(test)]
+impl PartialEq for CountReply {
+  fn eq(&self, _: &Self) -> bool {
+    true
+  }
+}
+#[cfg(test)]
+impl Eq for CountReply {}
+#[cfg(test)]
+impl PartialOrd for CountReply {
+  fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+    Some(self.cmp(other))
+  }
+}
+#[cfg(test)]
+impl Ord for CountReply {
+  fn cmp(&self, _: &Self) -> std::cmp::Ordering {
+    std::cmp::Ordering::Equal
+  }
+}
+#[cfg(test)]
+impl std::hash::Hash for CountReply {
+  fn hash<H: std::hash::Hasher>(&self, _: &mut H) {}
 }
 
 pub struct LivelinessState {
@@ -865,6 +904,13 @@ impl Discovery {
                   self.send_endpoint_dispose_message(guid);
                   discovery_db_write(&self.discovery_db).remove_local_topic_reader(guid);
                 }
+                #[cfg(test)]
+                DiscoveryCommand::CountInstancesOf { prefix, reply } => {
+                  let of = |k: &Endpoint_GUID| k.0.prefix == prefix;
+                  let n = self.dcps_publication.reader.count_instances(of)
+                    + self.dcps_subscription.reader.count_instances(of);
+                  let _ = reply.0.send(n);
+                }
                 DiscoveryCommand::ManualAssertLiveliness => {
                   self
                     .liveliness_state
@@ -1210,6 +1256,7 @@ impl Discovery {
 
   fn process_participant_dispose(&mut self, participant_guidp: GuidPrefix) {
     discovery_db_write(&self.discovery_db).remove_participant(participant_guidp, true); // true = actively removed
+    self.forget_instances_of(participant_guidp);
     self.send_discovery_notification(DiscoveryNotificationType::ParticipantLost {
       guid_prefix: participant_guidp,
     });
@@ -1904,15 +1951,48 @@ impl Discovery {
     }
   }
 
-  pub fn participant_cleanup(&self) {
+  pub fn participant_cleanup(&mut self) {
     let removed = discovery_db_write(&self.discovery_db).participant_cleanup();
     for (guid_prefix, reason) in removed {
       debug!("participant cleanup - timeout for {guid_prefix:?}");
+      self.forget_instances_of(guid_prefix);
       self.send_discovery_notification(DiscoveryNotificationType::ParticipantLost { guid_prefix });
       self.send_participant_status(DomainParticipantStatusEvent::ParticipantLost {
         id: guid_prefix,
         reason,
       });
+    }
+  }
+
+  /// Drops what the discovery readers keep of a participant that is gone
+  /// (RADAR patch 41): the instance state of each endpoint it announced and
+  /// of itself. A participant lost at its lease (killed) never disposes its
+  /// endpoints, so without this each one stayed in the readers' caches for
+  /// the life of this participant. Instances with samples not yet taken stay.
+  fn forget_instances_of(&mut self, gone: GuidPrefix) {
+    let endpoint = |k: &Endpoint_GUID| k.0.prefix == gone;
+    self.dcps_publication.reader.forget_settled_instances(endpoint);
+    self.dcps_subscription.reader.forget_settled_instances(endpoint);
+    self
+      .dcps_participant
+      .reader
+      .forget_settled_instances(|k| k.0.prefix == gone);
+    self
+      .dcps_participant_message
+      .reader
+      .forget_settled_instances(|k| k.prefix() == gone);
+    #[cfg(feature = "security")]
+    {
+      self.dcps_publications_secure.reader.forget_settled_instances(endpoint);
+      self.dcps_subscriptions_secure.reader.forget_settled_instances(endpoint);
+      self
+        .dcps_participant_secure
+        .reader
+        .forget_settled_instances(|k| k.0.prefix == gone);
+      self
+        .dcps_participant_message_secure
+        .reader
+        .forget_settled_instances(|k| k.prefix() == gone);
     }
   }
 
@@ -2929,6 +3009,106 @@ mod tests {
     assert!(
       reported.disposed(disposed_reader_guid) && reported.disposed(disposed_writer_guid),
       "the disposed reader and writer were not reported lost"
+    );
+  }
+
+  // RADAR patch 41: what the SEDP readers keep of a participant's endpoints
+  // goes when the participant goes, also when it never disposed them (lost at
+  // its lease, or its dispose is all it sent).
+  #[test]
+  fn the_sedp_readers_forget_the_endpoints_of_a_participant_that_is_gone() {
+    use crate::{
+      discovery::{
+        sedp_messages::{PublicationBuiltinTopicData, WriterProxy},
+        spdp_participant_data::Participant_GUID,
+      },
+      structure::guid::EntityKind,
+      TopicKind,
+    };
+    const DOMAIN_ID: u16 = 46; // not used by other tests
+    let observer = DomainParticipant::new(DOMAIN_ID).expect("participant creation");
+    let other = GuidPrefix::new(b"gonepartcpt1");
+    let publications_writer = GUID::new(other, EntityId::SEDP_BUILTIN_PUBLICATIONS_WRITER);
+    let writer_data = |key| {
+      let guid = GUID::new(
+        other,
+        EntityId::new([0, 0, key], EntityKind::WRITER_WITH_KEY_USER_DEFINED),
+      );
+      DiscoveredWriterData {
+        last_updated: std::time::Instant::now(),
+        writer_proxy: WriterProxy::new(guid, vec![], vec![]),
+        publication_topic_data: PublicationBuiltinTopicData::new(
+          guid,
+          None,
+          "gone".to_string(),
+          "ShapeType".to_string(),
+          None,
+        ),
+        user_data: Vec::new(),
+      }
+    };
+    for key in 1..=3 {
+      add_pending_sedp_sample(
+        &observer,
+        builtin_topic_names::DCPS_PUBLICATION,
+        publications_writer,
+        i64::from(key),
+        sedp_value(&writer_data(key)),
+      );
+    }
+    // A local endpoint's own announcement wakes the observer's SEDP readers.
+    let topic = observer
+      .create_topic(
+        "gone".to_string(),
+        "ShapeType".to_string(),
+        &QosPolicies::qos_none(),
+        TopicKind::WithKey,
+      )
+      .unwrap();
+    let publisher = observer.create_publisher(&QosPolicies::qos_none()).unwrap();
+    let _local = publisher
+      .create_datawriter_cdr::<ShapeType>(&topic, None)
+      .unwrap();
+    let wait_for = |want: usize| {
+      let deadline = std::time::Instant::now() + StdDuration::from_secs(10);
+      loop {
+        let n = observer.discovery_instances_of(other);
+        if n == Some(want) || std::time::Instant::now() >= deadline {
+          return n;
+        }
+        std::thread::sleep(StdDuration::from_millis(20));
+      }
+    };
+    assert_eq!(
+      wait_for(3),
+      Some(3),
+      "the observer's SEDP reader should know the three announced writers"
+    );
+
+    // The participant's dispose, and nothing for its endpoints. A newcomer's
+    // SPDP announcement wakes the observer's SPDP reader.
+    let participant_guid = GUID::new(other, EntityId::PARTICIPANT);
+    let dispose = DDSData::new_disposed_by_key(
+      ChangeKind::NotAliveDisposed,
+      SerializedPayload::new_from_bytes(
+        RepresentationIdentifier::PL_CDR_LE,
+        Participant_GUID(participant_guid)
+          .to_pl_cdr_bytes(RepresentationIdentifier::PL_CDR_LE)
+          .unwrap(),
+      ),
+    );
+    add_pending_sedp_sample(
+      &observer,
+      builtin_topic_names::DCPS_PARTICIPANT,
+      GUID::new(other, EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER),
+      1,
+      dispose,
+    );
+    let _newcomer = DomainParticipant::new(DOMAIN_ID).expect("participant creation");
+    assert_eq!(
+      wait_for(0),
+      Some(0),
+      "the endpoints of a disposed participant stay in the SEDP reader's cache"
     );
   }
 

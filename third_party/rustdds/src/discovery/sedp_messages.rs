@@ -1309,6 +1309,13 @@ pub struct ParticipantMessageDataKey(GuidPrefix, ParticipantMessageDataKind);
 
 impl Key for ParticipantMessageDataKey {}
 
+impl ParticipantMessageDataKey {
+  /// The participant this key belongs to.
+  pub(crate) fn prefix(&self) -> GuidPrefix {
+    self.0
+  }
+}
+
 // =======================================================================
 // =======================================================================
 // =======================================================================

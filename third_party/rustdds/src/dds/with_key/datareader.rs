@@ -122,6 +122,18 @@ where
     self.datasample_cache.take_bare_by_keys(keys)
   }
 
+  /// Forgets the instances whose key matches `gone` and that have no samples
+  /// left (RADAR patch 41); see `DataSampleCache::forget_settled_instances`.
+  pub(crate) fn forget_settled_instances(&mut self, gone: impl Fn(&D::K) -> bool) {
+    self.datasample_cache.forget_settled_instances(gone);
+  }
+
+  /// Test only: how many instances whose key matches `which` the cache keeps.
+  #[cfg(test)]
+  pub(crate) fn count_instances(&self, which: impl Fn(&D::K) -> bool) -> usize {
+    self.datasample_cache.count_instances(which)
+  }
+
   fn select_instance_keys_for_access(
     &self,
     instance: &D::K,

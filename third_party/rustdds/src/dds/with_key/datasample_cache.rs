@@ -519,6 +519,7 @@ where
     }
 
     self.mark_instances_viewed(&instance_generations);
+    self.settle_taken(keys);
     result
   }
 
@@ -595,7 +596,53 @@ where
     }
 
     self.mark_instances_viewed(&instance_generations);
+    self.settle_taken(keys);
     result
+  }
+
+  // After a take (RADAR patch 41): the taken samples leave their instances'
+  // sample sets, and an instance that is no longer alive and has no samples
+  // left is reclaimed (DDS 1.4, 2.2.2.5.3.8: such an instance's resources may
+  // be reclaimed). Without this, every key ever disposed stayed in
+  // `instance_map` for the life of the reader: a discovery reader grew by one
+  // entry per endpoint any peer ever made.
+  fn settle_taken(&mut self, keys: &[(Timestamp, D::K)]) {
+    for (ts, key) in keys {
+      let reclaim = match self.instance_map.get_mut(key) {
+        Some(imd) => {
+          imd.instance_samples.remove(ts);
+          imd.instance_samples.is_empty() && imd.instance_state != InstanceState::Alive
+        }
+        None => false,
+      };
+      if reclaim {
+        self.instance_map.remove(key);
+      }
+    }
+  }
+
+  /// Forgets the instances whose key matches `gone` and that have no samples
+  /// left to read or take (RADAR patch 41). For keys whose writer is known to
+  /// be gone for good, e.g. the endpoints of a participant lost at its lease,
+  /// which never dispose them. Instances with samples still waiting stay, so
+  /// nothing is lost to a reader that has not taken them yet.
+  pub(crate) fn forget_settled_instances(&mut self, gone: impl Fn(&D::K) -> bool) {
+    let datasamples = &self.datasamples;
+    self.instance_map.retain(|key, imd| {
+      !gone(key) || imd.instance_samples.iter().any(|ts| datasamples.contains_key(ts))
+    });
+  }
+
+  /// How many instances this cache holds state for.
+  #[cfg(test)]
+  pub(crate) fn instance_count(&self) -> usize {
+    self.instance_map.len()
+  }
+
+  /// How many instances whose key matches `which` this cache holds state for.
+  #[cfg(test)]
+  pub(crate) fn count_instances(&self, which: impl Fn(&D::K) -> bool) -> usize {
+    self.instance_map.keys().filter(|k| which(k)).count()
   }
 
   pub(in crate::dds::with_key) fn next_key(&self, key: &D::K) -> Option<D::K> {
@@ -618,41 +665,100 @@ pub(crate) fn result_ok_as_ref_err_clone<T, E: Clone>(r: &Sample<T, E>) -> Sampl
 
 #[cfg(test)]
 mod tests {
-  // use super::*;
-  // use crate::{
-  //   structure::{time::Timestamp},
-  // };
-  // use crate::dds::ddsdata::DDSData;
-  // use crate::dds::traits::key::Keyed;
-  // use crate::test::random_data::*;
+  use super::*;
+  use crate::{
+    dds::qos::QosPolicyBuilder,
+    structure::guid::GUID,
+    test::random_data::RandomData,
+  };
+
+  fn cache() -> DataSampleCache<RandomData> {
+    DataSampleCache::new(
+      QosPolicyBuilder::new()
+        .history(policy::History::KeepLast { depth: 1 })
+        .build(),
+    )
+  }
+
+  fn add(c: &mut DataSampleCache<RandomData>, s: Sample<RandomData, i64>, sn: i64) {
+    c.add_sample(
+      s,
+      GUID::GUID_UNKNOWN,
+      SequenceNumber::new(sn),
+      Timestamp::now(),
+      WriteOptions::default(),
+    );
+  }
+
+  fn take_all(c: &mut DataSampleCache<RandomData>) -> usize {
+    let keys = c.select_keys_for_access(ReadCondition::any());
+    c.take_by_keys(&keys).len()
+  }
+
+  fn value(a: i64) -> Sample<RandomData, i64> {
+    Sample::Value(RandomData {
+      a,
+      b: "x".to_string(),
+    })
+  }
+
+  // RADAR patch 41: a disposed instance whose samples were all taken is
+  // reclaimed; before, every disposed key stayed for the reader's life.
+  #[test]
+  fn a_disposed_instance_is_reclaimed_once_its_samples_are_taken() {
+    let mut c = cache();
+    for k in 0..100 {
+      add(&mut c, value(k), 2 * k + 1);
+      add(&mut c, Sample::Dispose(k), 2 * k + 2);
+    }
+    assert_eq!(c.instance_count(), 100, "all keys are known before a take");
+    assert_eq!(take_all(&mut c), 100, "KEEP_LAST 1: the dispose of each key");
+    assert_eq!(c.instance_count(), 0, "disposed and taken: nothing kept");
+  }
 
   #[test]
-  fn dsc_empty_qos() {
-    /*
-    let qos = QosPolicies::qos_none();
-    let mut datasample_cache = DataSampleCache::<RandomData>::new(qos);
-
-    let timestamp = Timestamp::now();
-    let data = RandomData {
-      a: 4,
-      b: "Fobar".to_string(),
+  fn an_alive_or_untaken_instance_is_kept() {
+    let mut c = cache();
+    add(&mut c, value(1), 1);
+    add(&mut c, value(2), 2);
+    add(&mut c, Sample::Dispose(2), 3);
+    let keys: Vec<_> = c
+      .select_keys_for_access(ReadCondition::any())
+      .into_iter()
+      .filter(|(_, k)| *k == 1)
+      .collect();
+    assert_eq!(c.take_by_keys(&keys).len(), 1);
+    // 1 is alive (taken), 2 is disposed but its dispose was not taken yet.
+    assert_eq!(c.instance_count(), 2);
+    // A key seen again after reclaiming is a new instance, alive.
+    assert_eq!(take_all(&mut c), 1);
+    assert_eq!(c.instance_count(), 1);
+    add(&mut c, value(2), 4);
+    let got = {
+      let keys = c.select_keys_for_access(ReadCondition::any());
+      c.take_by_keys(&keys)
     };
+    assert_eq!(got.len(), 1);
+    assert_eq!(got[0].sample_info().instance_state(), InstanceState::Alive);
+  }
 
-    let org_ddsdata = DDSData::from(&data, Some(timestamp));
-
-    let key = data.key().clone();
-    datasample_cache.add_sample(Ok(data.clone()), GUID::GUID_UNKNOWN, timestamp, None);
-    //datasample_cache.add_datasample(datasample).unwrap();
-
-    let samples = datasample_cache.read_by_keys(&[(timestamp, key)]);
-    assert_eq!(samples.len(), 1);
-    match &samples.get(0).unwrap().value() {
-      Ok(huh) => {
-        let ddssample = DDSData::from(huh, Some(timestamp));
-        assert_eq!(org_ddsdata, ddssample);
-      }
-      _ => (),
-    }
-    */
+  #[test]
+  fn forgetting_keeps_instances_with_samples_waiting() {
+    let mut c = cache();
+    add(&mut c, value(1), 1);
+    add(&mut c, value(2), 2);
+    let keys: Vec<_> = c
+      .select_keys_for_access(ReadCondition::any())
+      .into_iter()
+      .filter(|(_, k)| *k == 1)
+      .collect();
+    c.take_by_keys(&keys);
+    c.forget_settled_instances(|_| true);
+    assert_eq!(c.instance_count(), 1, "2 still has a sample to take");
+    assert_eq!(take_all(&mut c), 1);
+    c.forget_settled_instances(|k| *k != 2);
+    assert_eq!(c.instance_count(), 1, "2 is not among the gone");
+    c.forget_settled_instances(|_| true);
+    assert_eq!(c.instance_count(), 0);
   }
 }
