@@ -153,3 +153,44 @@ fn the_length_check_counts_from_signature_to_closing_brace() {
     std::fs::remove_dir_all(&dir).unwrap();
     assert_eq!(long, vec![("src/a.rs".to_owned(), "long".to_owned(), 81)]);
 }
+
+/// The lines of `text` before its unit tests (the first `#[cfg(test)]` at the start of a line).
+fn lines_before_tests(text: &str) -> usize {
+    text.lines()
+        .take_while(|l| !l.starts_with("#[cfg(test)]"))
+        .count()
+}
+
+#[test]
+fn no_source_file_is_over_600_lines_before_its_tests_in_any_crate() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .ancestors()
+        .nth(2)
+        .unwrap();
+    let mut long = Vec::new();
+    for dir in [
+        "radar_ros/library/src",
+        "radar_ros/semantics/src",
+        "radar_ros/tools/src",
+        "radar_ros/python/src",
+    ] {
+        for path in sources(root, dir) {
+            let n = lines_before_tests(&std::fs::read_to_string(root.join(&path)).unwrap());
+            if n > 600 {
+                long.push((path, n));
+            }
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "files over 600 lines before their tests (split them by concept): {long:?}"
+    );
+}
+
+#[test]
+fn the_file_length_counts_up_to_the_tests_module() {
+    let text =
+        "//! doc\nfn a() {}\n    #[cfg(test)] // not at the start\n#[cfg(test)]\nmod tests {}\n";
+    assert_eq!(lines_before_tests(text), 3);
+    assert_eq!(lines_before_tests("fn a() {}\nfn b() {}\n"), 2);
+}

@@ -64,6 +64,7 @@
 //! times it remembers follow (T2). A host whose clock is off cannot keep a response from taking its own
 //! host's signals.
 
+mod kept;
 mod signals;
 
 pub use signals::{
@@ -71,39 +72,10 @@ pub use signals::{
     StartEnd, StartPolicy, StatementId,
 };
 
-use std::collections::VecDeque;
+use kept::{Kept, KeptSignals};
 
 use crate::time::Clock;
 pub use crate::time::HOLD;
-
-/// How many kept signals an idle response remembers (R12).
-const KEPT: usize = 8;
-
-/// A slot signal kept for a run that has not begun (R12, R14).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kept {
-    /// An interrupt, counted as ignored until a run takes it.
-    Interrupt(Sent),
-    /// An exit signal, counted as ignored until a run takes it.
-    Exit(Sent),
-    /// An `until`'s interrupt that already counted otherwise (it interrupted the run before, or waits with a
-    /// queued start: R14).
-    Bound(Sent),
-}
-
-impl Kept {
-    fn sent(&self) -> Sent {
-        match self {
-            Kept::Interrupt(s) | Kept::Exit(s) | Kept::Bound(s) => *s,
-        }
-    }
-
-    fn sent_mut(&mut self) -> &mut Sent {
-        match self {
-            Kept::Interrupt(s) | Kept::Exit(s) | Kept::Bound(s) => s,
-        }
-    }
-}
 
 /// The response state machine. `P` is the start payload, `O` the output carried on `exited`.
 ///
@@ -151,7 +123,7 @@ pub struct ResponseMachine<P, O> {
     /// [`ResponseMachine::handle`], the newest stamp seen).
     clock: Clock,
     /// Signals kept while idle (R12), oldest first.
-    kept: VecDeque<Kept>,
+    kept: KeptSignals,
     /// A kept signal the run just begun takes once it has run to its first await (R12).
     held: Option<Kept>,
 }
@@ -176,7 +148,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             start_at: i64::MIN,
             ended: i64::MIN,
             clock: Clock::default(),
-            kept: VecDeque::new(),
+            kept: KeptSignals::default(),
             held: None,
         }
     }
@@ -500,7 +472,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     fn step_back(&mut self, now: i64) {
         self.began = self.began.min(now);
         self.ended = self.ended.min(now);
-        for k in self.kept.iter_mut().chain(self.held.as_mut()) {
+        self.kept.step_back(now);
+        if let Some(k) = self.held.as_mut() {
             let s = k.sent_mut();
             s.at = s.at.min(now);
         }
@@ -510,33 +483,13 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     }
 
     fn keep(&mut self, k: Kept) {
-        let horizon = self.clock.now().saturating_sub(HOLD);
-        self.kept.retain(|k| k.sent().at >= horizon);
-        if self.kept.len() == KEPT {
-            self.kept.pop_front();
-        }
-        self.kept.push_back(k);
+        self.kept.keep(k, self.clock.now());
     }
 
     /// R12: the run begun by a start sent as `s` takes the earliest kept signal that was sent after it (within
     /// [`HOLD`]) and is for it; kept signals sent before the start are of no use any more.
     fn take_kept(&mut self, s: Sent) {
-        let cause = self.cause;
-        let began = self.began;
-        let pos = self.kept.iter().position(|k| {
-            let k_at = k.sent().at;
-            let for_run = match k {
-                // R14: an until's interrupt sent after its statement's start, whenever the run began
-                Kept::Interrupt(Sent { by: Some(by), .. })
-                | Kept::Bound(Sent { by: Some(by), .. }) => {
-                    cause.map(|c| c.statement) == Some(by.statement)
-                }
-                _ => k_at >= began,
-            };
-            k_at > s.at && k_at - s.at <= HOLD && for_run
-        });
-        self.held = pos.and_then(|i| self.kept.remove(i));
-        self.kept.retain(|k| k.sent().at > s.at);
+        self.held = self.kept.take_for_run(s, self.cause, self.began);
     }
 
     fn begin(&mut self, p: P, s: Sent, fx: &mut Vec<Effect<P, O>>) {
@@ -577,16 +530,7 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         }
         // R14: an until's interrupt of this start's statement, sent after it and kept while the start was on
         // its way, goes with it (a start that replaces another drops what was kept for that one)
-        self.bound = s.by.and_then(|by| {
-            let i = self.kept.iter().position(|k| {
-                let k_s = k.sent();
-                matches!(k, Kept::Interrupt(_) | Kept::Bound(_))
-                    && k_s.by.map(|c| c.statement) == Some(by.statement)
-                    && k_s.at > s.at
-                    && k_s.at - s.at <= HOLD
-            })?;
-            self.kept.remove(i)
-        });
+        self.bound = self.kept.take_until_of(s);
     }
 
     /// An interrupt `s` that is not for the current run (or reached a response in its interrupt or exit slot):

@@ -1,0 +1,485 @@
+//! The engine of one `Radar` (its participant, runtime and slot loop) and its Python face, `Engine`: lookups,
+//! spawning, connections, waiters, injection and subscriptions.
+
+use std::{
+    future::{Future, IntoFuture},
+    sync::Arc,
+    time::Duration,
+};
+
+use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
+use radar_ros::{DynMessage, RawMessage, StartPolicy};
+
+use crate::{
+    components::{PyEvent, PyResponse},
+    handles::{
+        deliver_to, Component, Connection, EventRef, ResponseRef, Signal, Slot, Subscription,
+        Waiter,
+    },
+    init_logs,
+    slot_loop::{describe, SlotLoop},
+};
+
+/// The engine of one `Radar`: its participant, runtime and the loop Python slots run on.
+pub(crate) struct Engine {
+    pub(crate) radar: radar_ros::Radar,
+    pub(crate) rt: Option<tokio::runtime::Runtime>,
+    pub(crate) slots: SlotLoop,
+}
+
+impl Drop for Engine {
+    /// The runtime goes without waiting for its tasks: this may run in a thread that holds the GIL, which a
+    /// task may be waiting for.
+    fn drop(&mut self) {
+        if let Some(rt) = self.rt.take() {
+            rt.shutdown_background();
+        }
+    }
+}
+
+/// Raises the `radar_ros` exception for `e`: the class says its kind, the message what to do next.
+pub(crate) fn to_py(e: radar_ros::Error) -> PyErr {
+    use radar_ros::Error as E;
+    let class = match &e {
+        E::Timeout { .. } => "RadarTimeout",
+        E::NotFound { .. } => "NotFound",
+        E::WrongKind { .. } | E::Ambiguous { .. } => "NotFound",
+        E::TypeMismatch { .. } | E::PayloadType { .. } => "PayloadTypeError",
+        E::InvalidName { .. } | E::DuplicateName(_) | E::InvalidStatement(_) | E::Config { .. } => {
+            "InvalidArgument"
+        }
+        E::ComponentLost { .. } | E::Closed(_) => "ComponentLost",
+        _ => "RadarError",
+    };
+    let msg = e.to_string();
+    Python::attach(|py| {
+        match py
+            .import("radar_ros._errors")
+            .and_then(|m| m.getattr(class))
+            .and_then(|cls| cls.call1((msg.clone(),)))
+        {
+            Ok(exc) => PyErr::from_value(exc),
+            Err(_) => PyRuntimeError::new_err(msg),
+        }
+    })
+}
+
+impl Engine {
+    pub(crate) fn rt(&self) -> &tokio::runtime::Runtime {
+        self.rt
+            .as_ref()
+            .expect("the runtime lives as long as the engine")
+    }
+
+    /// Runs `fut` to its end on the runtime with the GIL released, letting Python raise (Ctrl-C) every
+    /// 100 ms; a raise drops `fut`.
+    pub(crate) fn wait<T: Send>(
+        &self,
+        py: Python<'_>,
+        fut: impl Future<Output = radar_ros::Result<T>> + Send,
+    ) -> PyResult<T> {
+        let mut fut = Box::pin(fut);
+        loop {
+            let step = py.detach(|| {
+                self.rt().block_on(async {
+                    tokio::time::timeout(Duration::from_millis(100), &mut fut)
+                        .await
+                        .ok()
+                })
+            });
+            match step {
+                Some(r) => return r.map_err(to_py),
+                None => {
+                    if let Err(e) = py.check_signals() {
+                        py.detach(|| {
+                            let _g = self.rt().enter();
+                            drop(fut);
+                        });
+                        return Err(e);
+                    }
+                }
+            }
+        }
+    }
+}
+
+pub(crate) fn timeout(t: Option<f64>) -> PyResult<Option<Duration>> {
+    t.map(|s| {
+        Duration::try_from_secs_f64(s).map_err(|_| {
+            pyo3::exceptions::PyValueError::new_err(format!(
+                "timeout {s}: give seconds, 0 or more (None: the default)"
+            ))
+        })
+    })
+    .transpose()
+}
+
+/// One process's RADAR participant: a DDS participant, a connection manager, the components it spawns.
+#[pyclass(module = "radar_ros._native", name = "Engine")]
+pub(crate) struct PyEngine {
+    pub(crate) engine: Option<Arc<Engine>>,
+}
+
+impl PyEngine {
+    pub(crate) fn engine(&self) -> PyResult<&Arc<Engine>> {
+        self.engine.as_ref().ok_or_else(|| {
+            PyRuntimeError::new_err("this Radar was shut down: make a new one to go on")
+        })
+    }
+}
+
+pub(crate) fn policy(p: &str) -> PyResult<StartPolicy> {
+    match p {
+        "ignore" => Ok(StartPolicy::Ignore),
+        "restart" => Ok(StartPolicy::Restart),
+        "queue_one" => Ok(StartPolicy::QueueOne),
+        other => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "start policy {other:?}: use \"ignore\", \"restart\" or \"queue_one\""
+        ))),
+    }
+}
+
+#[pymethods]
+impl PyEngine {
+    /// Makes the participant. `event_loop` is the asyncio loop Python slots run on (running in a thread of
+    /// its own); `args` the command line (`--ros-args` read from it).
+    #[new]
+    #[pyo3(signature = (event_loop, submit, args, domain_id=None, namespace=None, program=None, shutdown_timeout=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        event_loop: Py<PyAny>,
+        submit: Py<PyAny>,
+        args: Vec<String>,
+        domain_id: Option<u16>,
+        namespace: Option<String>,
+        program: Option<String>,
+        shutdown_timeout: Option<f64>,
+    ) -> PyResult<Self> {
+        init_logs();
+        let st = timeout(shutdown_timeout)?;
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("radar-engine")
+            .enable_all()
+            .build()
+            .map_err(|e| {
+                PyRuntimeError::new_err(format!("cannot start the engine's runtime: {e}"))
+            })?;
+        let ros_args = radar_ros::ros_args::RosArgs::parse(args).map_err(to_py)?;
+        let radar = py
+            .detach(|| {
+                let _e = rt.enter();
+                let mut b = radar_ros::Radar::builder()
+                    .handle_signals(false)
+                    .ros_args(ros_args);
+                if let Some(d) = domain_id {
+                    b = b.domain_id(d);
+                }
+                if let Some(ns) = &namespace {
+                    b = b.namespace(ns);
+                }
+                if let Some(p) = &program {
+                    b = b.program(p);
+                }
+                if let Some(t) = st {
+                    b = b.shutdown_timeout(t);
+                }
+                b.build()
+            })
+            .map_err(to_py)?;
+        Ok(PyEngine {
+            engine: Some(Arc::new(Engine {
+                radar,
+                rt: Some(rt),
+                slots: SlotLoop {
+                    event_loop: Arc::new(event_loop),
+                    submit: Arc::new(submit),
+                },
+            })),
+        })
+    }
+
+    /// The ROS domain id in use.
+    #[getter]
+    fn domain_id(&self) -> PyResult<u16> {
+        Ok(self.engine()?.radar.domain_id())
+    }
+
+    /// The namespace components are spawned in.
+    #[getter]
+    fn namespace(&self) -> PyResult<String> {
+        Ok(self.engine()?.radar.namespace().to_owned())
+    }
+
+    /// Finds the event `name` on the graph.
+    #[pyo3(signature = (name, timeout=None))]
+    fn event(&self, py: Python<'_>, name: &str, timeout: Option<f64>) -> PyResult<EventRef> {
+        let e = self.engine()?;
+        let mut w = e.radar.event(name);
+        if let Some(t) = self::timeout(timeout)? {
+            w = w.timeout(t);
+        }
+        Ok(EventRef {
+            inner: e.wait(py, w.into_future())?,
+        })
+    }
+
+    /// Finds the response `name` on the graph.
+    #[pyo3(signature = (name, timeout=None))]
+    fn response(&self, py: Python<'_>, name: &str, timeout: Option<f64>) -> PyResult<ResponseRef> {
+        let e = self.engine()?;
+        let mut w = e.radar.response(name);
+        if let Some(t) = self::timeout(timeout)? {
+            w = w.timeout(t);
+        }
+        Ok(ResponseRef {
+            inner: e.wait(py, w.into_future())?,
+        })
+    }
+
+    /// Spawns the response `name` whose slots are `runner`'s coroutine methods; `output_default` is what
+    /// `exited` carries after a run that did not complete (the output type's default message).
+    #[allow(clippy::too_many_arguments)]
+    fn spawn_response(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        runner: Py<PyAny>,
+        start_type: String,
+        output_type: String,
+        output_default: Vec<u8>,
+        start_policy: &str,
+    ) -> PyResult<Component> {
+        let e = self.engine()?;
+        let r = PyResponse {
+            runner: Arc::new(runner),
+            slots: e.slots.clone(),
+            start_type,
+            output_type,
+            output_default: DynMessage(RawMessage::from_bytes(output_default)),
+            policy: policy(start_policy)?,
+        };
+        let h = py
+            .detach(|| {
+                let _g = e.rt().enter();
+                e.radar.spawn_response(name, r)
+            })
+            .map_err(to_py)?;
+        Ok(Component {
+            engine: e.clone(),
+            response: Some(h),
+            event: None,
+        })
+    }
+
+    /// Spawns the event `name` whose check is `runner.check()`.
+    fn spawn_event(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        runner: Py<PyAny>,
+        payload_type: String,
+    ) -> PyResult<Component> {
+        let e = self.engine()?;
+        let ev = PyEvent {
+            runner: Arc::new(runner),
+            slots: e.slots.clone(),
+            payload_type,
+        };
+        let h = py
+            .detach(|| {
+                let _g = e.rt().enter();
+                e.radar.spawn_event(name, ev)
+            })
+            .map_err(to_py)?;
+        Ok(Component {
+            engine: e.clone(),
+            response: None,
+            event: Some(h),
+        })
+    }
+
+    /// Makes a connection: `once` (or `whenever`) `source` to `target`, one of `("start"|"interrupt"|"exit",
+    /// ResponseRef)`, `("slot", Slot)` or `("call", deliver)` (an anonymous slot: `deliver(bytes)` is called
+    /// for each payload, in order, and must return at once), with `until` if given.
+    #[pyo3(signature = (once, source, kind, target, until=None, timeout=None, rearm=false, depth=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn connect(
+        &self,
+        py: Python<'_>,
+        once: bool,
+        source: Signal,
+        kind: &str,
+        target: Bound<'_, PyAny>,
+        until: Option<Signal>,
+        timeout: Option<f64>,
+        rearm: bool,
+        depth: Option<usize>,
+    ) -> PyResult<Connection> {
+        let e = self.engine()?;
+        let st = match once {
+            true => e.radar.once(source.rust()),
+            false => e.radar.whenever(source.rust()),
+        };
+        let mut req = match kind {
+            "start" | "interrupt" | "exit" => {
+                let r = target.extract::<PyRef<'_, ResponseRef>>()?.inner.clone();
+                match kind {
+                    "start" => st.start(&r),
+                    "interrupt" => st.interrupt(&r),
+                    _ => st.exit(&r),
+                }
+            }
+            "slot" => st.slot(target.extract::<PyRef<'_, Slot>>()?.rust()),
+            "call" => {
+                let deliver = target.unbind();
+                st.call(move |m: DynMessage| {
+                    Python::attach(|py| {
+                        if let Err(err) = deliver.bind(py).call1((PyBytes::new(py, m.0.as_bytes()),)) {
+                            tracing::error!(error = %describe(py, &err), "anonymous slot: not delivered");
+                        }
+                    })
+                })
+            }
+            other => {
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "connection target kind {other:?}: use start, interrupt, exit, slot or call"
+                )))
+            }
+        };
+        if let Some(u) = until {
+            req = req.until(u.rust());
+        }
+        if rearm {
+            req = req.rearm();
+        }
+        if let Some(d) = depth {
+            req = req.depth(d);
+        }
+        if let Some(t) = self::timeout(timeout)? {
+            req = req.timeout(t);
+        }
+        let guard = e.wait(py, req.into_future())?;
+        Ok(Connection {
+            engine: e.clone(),
+            id: guard.id(),
+            guard: Some(guard),
+        })
+    }
+
+    /// Arms a waiter on `source` (returns once armed: a signal after this is not missed).
+    #[pyo3(signature = (source, timeout=None))]
+    fn waiter(&self, py: Python<'_>, source: Signal, timeout: Option<f64>) -> PyResult<Waiter> {
+        let e = self.engine()?;
+        let mut w = e.radar.waiter::<DynMessage>(source.rust());
+        if let Some(t) = self::timeout(timeout)? {
+            w = w.timeout(t);
+        }
+        let w = e.wait(py, w.into_future())?;
+        Ok(Waiter {
+            engine: e.clone(),
+            inner: Some(w),
+        })
+    }
+
+    /// Sends `body` (CDR bytes of the slot's type) into `slot` once its subscriber is there.
+    #[pyo3(signature = (slot, body, timeout=None))]
+    fn inject(
+        &self,
+        py: Python<'_>,
+        slot: Slot,
+        body: Vec<u8>,
+        timeout: Option<f64>,
+    ) -> PyResult<()> {
+        let e = self.engine()?;
+        let mut w = e
+            .radar
+            .inject(slot.rust(), DynMessage(RawMessage::from_bytes(body)));
+        if let Some(t) = self::timeout(timeout)? {
+            w = w.timeout(t);
+        }
+        e.wait(py, w.into_future())
+    }
+
+    /// Subscribes to `topic` of `ros_type` (signal QoS; with `state`, a component's transient-local state:
+    /// `radar_msgs/msg/EventState` or `ResponseState`) and calls `deliver(body)` for each message, in order,
+    /// from the engine's runtime (`deliver` must return at once).
+    #[pyo3(signature = (topic, ros_type, deliver, state=false))]
+    fn subscribe(
+        &self,
+        py: Python<'_>,
+        topic: &str,
+        ros_type: &str,
+        deliver: Py<PyAny>,
+        state: bool,
+    ) -> PyResult<Subscription> {
+        use radar_ros::msg::{EventState, ResponseState, RosMessage};
+        let e = self.engine()?;
+        let _g = e.rt().enter();
+        let task = match (state, ros_type) {
+            (false, _) => {
+                let sub = py.detach(|| e.radar.raw_subscription(topic, ros_type)).map_err(to_py)?;
+                let t = sub.topic().to_owned();
+                e.rt().spawn(async move {
+                    while let Ok((m, _)) = sub.recv_stamped().await {
+                        deliver_to(&deliver, m.as_bytes(), &t);
+                    }
+                })
+            }
+            (true, t) if t == EventState::ros_type_name() => {
+                let sub = py
+                    .detach(|| e.radar.state_subscription::<EventState>(topic))
+                    .map_err(to_py)?;
+                let t = sub.topic().to_owned();
+                e.rt().spawn(async move {
+                    while let Ok(m) = sub.recv().await {
+                        if let Ok(raw) = RawMessage::encode(&m) {
+                            deliver_to(&deliver, raw.as_bytes(), &t);
+                        }
+                    }
+                })
+            }
+            (true, t) if t == ResponseState::ros_type_name() => {
+                let sub = py
+                    .detach(|| e.radar.state_subscription::<ResponseState>(topic))
+                    .map_err(to_py)?;
+                let t = sub.topic().to_owned();
+                e.rt().spawn(async move {
+                    while let Ok(m) = sub.recv().await {
+                        if let Ok(raw) = RawMessage::encode(&m) {
+                            deliver_to(&deliver, raw.as_bytes(), &t);
+                        }
+                    }
+                })
+            }
+            (true, other) => {
+                return Err(to_py(radar_ros::Error::InvalidName {
+                    name: other.to_owned(),
+                    reason: "a state subscription is to radar_msgs/msg/EventState or radar_msgs/msg/ResponseState"
+                        .into(),
+                }))
+            }
+        };
+        Ok(Subscription {
+            task: Some(task),
+            topic: topic.to_owned(),
+        })
+    }
+
+    /// Stops every component (their exit slots run, `exited` is sent) and leaves the graph. Idempotent.
+    #[pyo3(signature = (timeout=None))]
+    fn shutdown(&mut self, py: Python<'_>, timeout: Option<f64>) -> PyResult<()> {
+        let Some(e) = self.engine.take() else {
+            return Ok(());
+        };
+        let mut w = e.radar.shutdown();
+        if let Some(t) = self::timeout(timeout)? {
+            w = w.timeout(t);
+        }
+        let r = e.wait(py, w.into_future());
+        // the runtime goes when the last handle (components, connections) does
+        drop(e);
+        r
+    }
+}

@@ -1,0 +1,170 @@
+//! The asyncio loop Python slots run on, seen from Rust: scheduling a coroutine there, awaiting it without
+//! the GIL, and what its end means in Rust's terms (a value, a `SlotError`, or a panic).
+
+use std::{
+    sync::{Arc, Mutex},
+    time::Duration,
+};
+
+use pyo3::{
+    exceptions::PyRuntimeError,
+    prelude::*,
+    types::{PyCFunction, PyDict, PyTuple},
+};
+use radar_ros::{DynMessage, RawMessage};
+
+/// The asyncio loop Python slots run on, and `asyncio.run_coroutine_threadsafe`.
+#[derive(Clone)]
+pub(crate) struct SlotLoop {
+    pub(crate) event_loop: Arc<Py<PyAny>>,
+    pub(crate) submit: Arc<Py<PyAny>>,
+}
+
+impl SlotLoop {
+    /// Schedules the coroutine `coro` on the loop; its result (or exception) arrives through the returned
+    /// call, which cancels the coroutine if dropped before it finished.
+    pub(crate) fn schedule(&self, py: Python<'_>, coro: Bound<'_, PyAny>) -> PyResult<PyCall> {
+        self.schedule_acked(py, coro, None)
+    }
+
+    /// [`schedule`](Self::schedule), also sending on `begun` when the coroutine ends (in case it ended before
+    /// it could say it had begun).
+    pub(crate) fn schedule_acked(
+        &self,
+        py: Python<'_>,
+        coro: Bound<'_, PyAny>,
+        begun: Option<std::sync::mpsc::SyncSender<()>>,
+    ) -> PyResult<PyCall> {
+        let fut = self
+            .submit
+            .bind(py)
+            .call1((coro, self.event_loop.bind(py)))?;
+        let (tx, rx) = tokio::sync::oneshot::channel::<PyResult<Py<PyAny>>>();
+        let tx = Mutex::new(Some(tx));
+        let done = PyCFunction::new_closure(
+            py,
+            None,
+            None,
+            move |args: &Bound<'_, PyTuple>, _kw: Option<&Bound<'_, PyDict>>| -> PyResult<()> {
+                let fut = args.get_item(0)?;
+                let res = fut.call_method0("result").map(Bound::unbind);
+                if let Some(tx) = tx.lock().unwrap().take() {
+                    let _ = tx.send(res);
+                }
+                if let Some(b) = &begun {
+                    let _ = b.try_send(());
+                }
+                Ok(())
+            },
+        )?;
+        fut.call_method1("add_done_callback", (done,))?;
+        Ok(PyCall {
+            fut: Some(fut.unbind()),
+            rx,
+        })
+    }
+}
+
+/// A Python coroutine running on the slot loop, seen from Rust.
+pub(crate) struct PyCall {
+    pub(crate) fut: Option<Py<PyAny>>,
+    pub(crate) rx: tokio::sync::oneshot::Receiver<PyResult<Py<PyAny>>>,
+}
+
+impl PyCall {
+    pub(crate) async fn result(mut self) -> PyResult<Py<PyAny>> {
+        let r = (&mut self.rx).await;
+        self.fut = None;
+        r.unwrap_or_else(|_| Err(PyRuntimeError::new_err("the slot loop stopped")))
+    }
+}
+
+impl Drop for PyCall {
+    fn drop(&mut self) {
+        if let Some(fut) = self.fut.take() {
+            Python::attach(|py| {
+                let _ = fut.bind(py).call_method0("cancel");
+            });
+        }
+    }
+}
+
+/// The text of a Python exception with its traceback, as a panic message says what panicked and where.
+pub(crate) fn describe(py: Python<'_>, e: &PyErr) -> String {
+    let tb = e
+        .traceback(py)
+        .and_then(|tb| tb.format().ok())
+        .unwrap_or_default();
+    format!(
+        "{}{}",
+        tb,
+        e.value(py)
+            .repr()
+            .map(|r| r.to_string())
+            .unwrap_or_default()
+    )
+    .trim_end()
+    .to_owned()
+}
+
+/// Whether `e` is a `radar_ros.SlotError`: a slot's failure, said on purpose (Rust's `Err(SlotError)`).
+pub(crate) fn is_slot_error(py: Python<'_>, e: &PyErr) -> bool {
+    py.import("radar_ros._errors")
+        .and_then(|m| m.getattr("SlotError"))
+        .map(|cls| e.matches(py, cls).unwrap_or(false))
+        .unwrap_or(false)
+}
+
+/// How a Python slot ended, in Rust's terms: a value, a `SlotError` (failed), or any other exception (as a
+/// panic of a Rust slot: the run ends as panicked with the exception and its traceback).
+pub(crate) enum Ended {
+    Value(Py<PyAny>),
+    Failed(String),
+    Panicked(String),
+}
+
+pub(crate) async fn run_slot(
+    loop_: &SlotLoop,
+    make: impl FnOnce(Python<'_>) -> PyResult<Bound<'_, PyAny>>,
+) -> Ended {
+    let call = Python::attach(|py| make(py).and_then(|coro| loop_.schedule(py, coro)));
+    let res = match call {
+        Ok(call) => call.result().await,
+        Err(e) => Err(e),
+    };
+    Python::attach(|py| match res {
+        Ok(v) => Ended::Value(v),
+        Err(e) if is_slot_error(py, &e) => Ended::Failed(e.value(py).to_string()),
+        Err(e) => Ended::Panicked(describe(py, &e)),
+    })
+}
+
+/// Waits (at most 1 s: a loop blocked by user code must not hold up the engine for ever) until a Python
+/// start behaviour says it has begun. Blocking, as the first poll of a Rust slot runs its code: on the
+/// engine's multi-thread runtime the worker hands its other tasks over first.
+pub(crate) fn wait_begun(begun: &std::sync::mpsc::Receiver<()>) {
+    let wait = || {
+        let _ = begun.recv_timeout(Duration::from_secs(1));
+    };
+    match tokio::runtime::Handle::try_current().map(|h| h.runtime_flavor()) {
+        Ok(tokio::runtime::RuntimeFlavor::MultiThread) => tokio::task::block_in_place(wait),
+        _ => wait(),
+    }
+}
+
+/// Ends the Rust slot as a panic does, without the panic hook's printout (the message says it all).
+pub(crate) fn panic_with(msg: String) -> ! {
+    std::panic::resume_unwind(Box::new(msg))
+}
+
+pub(crate) fn body(py: Python<'_>, v: &Py<PyAny>, what: &str) -> Result<DynMessage, String> {
+    v.bind(py)
+        .extract::<Vec<u8>>()
+        .map(|b| DynMessage(RawMessage::from_bytes(b)))
+        .map_err(|_| {
+            format!(
+                "{what} returned {}, not the payload's bytes",
+                v.bind(py).repr().map(|r| r.to_string()).unwrap_or_default()
+            )
+        })
+}
