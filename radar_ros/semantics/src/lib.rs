@@ -10,6 +10,7 @@
 //! - [`response`]: the response state machine ([`response::ResponseMachine`], rules R1-R14).
 //! - [`event`]: the event activation rule ([`event::Activation`], rule E1).
 //! - [`served`]: a response served as a ROS 2 action server ([`served::ServedAction`], rules S1-S7).
+//! - [`goal`]: an action server driven as a response, one goal per run ([`goal::GoalMachine`], rules A1-A7).
 //! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,
 //!   until windows, no stale signals, removal, components that leave, signals read out of order).
 //! - [`time`]: what a receiver makes of another clock's stamps, and of its own clock stepping back (rules
@@ -30,6 +31,7 @@
 
 pub mod connection;
 pub mod event;
+pub mod goal;
 pub mod response;
 pub mod served;
 pub mod time;

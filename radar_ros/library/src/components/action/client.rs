@@ -12,6 +12,8 @@ use ros2_client::{
     RmwRequestId,
 };
 
+use radar_semantics::goal::{Answer, Cancel, GoalMachine, GoalStatus, RunEnd};
+
 use super::{
     wire::{served_types, server_endpoints, Client, Wire},
     Action,
@@ -135,37 +137,17 @@ impl std::fmt::Debug for ActionResponseHandle {
     }
 }
 
-/// The goal of the current run, as far as the client knows it.
+/// The goal of the current run: what the rules know of it ([`GoalMachine`], rules A1-A7) and the requests
+/// that carry it on the wire.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct GoalTrack {
+    /// What the rules know of the goal, and decide.
+    pub(crate) rules: GoalMachine,
     /// The goal request sent and its goal id.
     pub(crate) sent: Option<(RmwRequestId, GoalId)>,
-    /// `Some(accepted)` once the server answered.
-    pub(crate) answer: Option<bool>,
     /// The result request sent for it: a server may answer only one per goal (ros2-client's does), so a
     /// cancel waits for the answer to this one rather than asking again.
     pub(crate) result_req: Option<RmwRequestId>,
-    /// Its result has arrived (nothing left to cancel).
-    pub(crate) finished: bool,
-    /// The server left the graph mid-goal (nobody to cancel with).
-    pub(crate) server_left: bool,
-}
-
-impl GoalTrack {
-    /// Rule A6: whether the exit slot, run for `reason`, cancels this goal: one that the server may still be
-    /// running (sent, not rejected, no result yet, the server still there), unless the interrupt slot has
-    /// canceled it already. Whatever else ended the run (an exit signal, the program stopping, a failure on
-    /// this side such as a result that does not decode) leaves no goal running behind it.
-    fn exit_cancels(&self, reason: &crate::ExitReason) -> bool {
-        self.sent.is_some()
-            && self.answer != Some(false)
-            && !self.finished
-            && !self.server_left
-            && !matches!(
-                reason,
-                crate::ExitReason::Completed | crate::ExitReason::Interrupted
-            )
-    }
 }
 
 /// The response behaviour that drives an action server.
@@ -264,31 +246,31 @@ impl<A: Action> ActionProxy<A> {
         }
     }
 
-    /// Cancels the goal of this run if it is (or becomes) accepted and has not finished, and hands its
-    /// result over to `exited` (rules A4-A6).
-    async fn cancel_current(&self) {
-        let track = *self.goal.lock().unwrap();
-        let Some((req, goal_id)) = track.sent else {
+    /// Carries out a slot's decision about the goal (rules A4-A6): cancels it (at once, or once the answer
+    /// still to come accepts it) and hands the result the server reports over to `exited`.
+    async fn cancel(&self, decision: Cancel) {
+        let Some((req, goal_id)) = self.goal.lock().unwrap().sent else {
             return;
         };
-        if track.finished {
-            return;
-        }
         let client = &self.client;
         let limit = self.options.cancel_timeout;
         let work = async {
-            let accepted = match track.answer {
-                Some(a) => a,
+            let decision = match decision {
+                Cancel::Nothing => return,
+                Cancel::Now => Cancel::Now,
                 // rule A5: the answer is still to come; a canceled goal must not start running afterwards
-                None => match client.goal_client().async_receive_response(req).await {
-                    Ok(r) => r.accepted,
-                    Err(e) => {
-                        tracing::warn!(action = %self.action, error = ?e, "no answer to the goal");
-                        false
-                    }
-                },
+                Cancel::OnceAccepted => {
+                    let accepted = match client.goal_client().async_receive_response(req).await {
+                        Ok(r) => r.accepted,
+                        Err(e) => {
+                            tracing::warn!(action = %self.action, error = ?e, "no answer to the goal");
+                            false
+                        }
+                    };
+                    self.goal.lock().unwrap().rules.answered_late(accepted)
+                }
             };
-            if !accepted {
+            if decision != Cancel::Now {
                 return;
             }
             match client
@@ -320,7 +302,7 @@ impl<A: Action> ActionProxy<A> {
             match result {
                 Ok((status, Wire(result))) => {
                     tracing::debug!(action = %self.action, ?status, "canceled goal ended");
-                    self.goal.lock().unwrap().finished = true;
+                    let _ = self.goal.lock().unwrap().rules.ended(goal_status(status));
                     hand_over(result);
                 }
                 Err(e) => {
@@ -348,20 +330,23 @@ impl<A: Action> Response for ActionProxy<A> {
         let (req, goal_id) = client
             .send_goal(Wire(goal))
             .map_err(|e| self.failed(format_args!("could not send the goal: {e:?}")))?;
-        self.goal.lock().unwrap().sent = Some((req, goal_id));
+        {
+            let mut g = self.goal.lock().unwrap();
+            g.sent = Some((req, goal_id));
+            g.rules.sent(); // rule A1
+        }
         let answer = futures::select_biased! {
             r = client.goal_client().async_receive_response(req).fuse() =>
                 r.map_err(|e| self.failed(format_args!("the goal's answer did not decode: {e:?}")))?,
             gone = self.server_gone(server).fuse() => {
-                self.goal.lock().unwrap().server_left = true;
+                let _ = self.goal.lock().unwrap().rules.server_left(); // rule A7
                 return Err(gone);
             }
         };
-        self.goal.lock().unwrap().answer = Some(answer.accepted);
-        if !answer.accepted {
-            return Err(self.failed("goal rejected by the action server"));
+        match self.goal.lock().unwrap().rules.answered(answer.accepted) {
+            Answer::Rejected => return Err(self.failed("goal rejected by the action server")), // rule A3
+            Answer::Started => accepted(), // rule A2
         }
-        accepted(); // rule A2: started now
         let feedback = self.feedback.clone();
         // feedback is forwarded while the goal runs; if its stream ended the result is still awaited (B10)
         let forward = client
@@ -382,30 +367,30 @@ impl<A: Action> Response for ActionProxy<A> {
                 r.map(|r| (r.status, r.result))
                     .map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e:?}")))?,
             gone = self.server_gone(server).fuse() => {
-                self.goal.lock().unwrap().server_left = true;
+                let _ = self.goal.lock().unwrap().rules.server_left(); // rule A7
                 return Err(gone);
             }
             () = forward.fuse() => unreachable!("forwarding feedback never ends"),
         };
-        self.goal.lock().unwrap().finished = true;
-        match status {
-            GoalStatusEnum::Succeeded => Ok(result),
-            other => {
+        let end = self.goal.lock().unwrap().rules.ended(goal_status(status));
+        match end {
+            RunEnd::Completed => Ok(result),
+            RunEnd::Failed { status } => {
                 hand_over(result);
-                Err(self.failed(format_args!("goal ended {}", status_label(other))))
+                Err(self.failed(format_args!("goal ended {}", status.label())))
             }
+            RunEnd::ServerLeft => unreachable!("a result is no leaving"),
         }
     }
 
     async fn interrupt(&mut self) {
-        self.cancel_current().await;
+        let decision = self.goal.lock().unwrap().rules.interrupt(); // rules A4, A5
+        self.cancel(decision).await;
     }
 
     async fn exit(&mut self, reason: crate::ExitReason) -> crate::ExitAction {
-        let cancels = self.goal.lock().unwrap().exit_cancels(&reason);
-        if cancels {
-            self.cancel_current().await; // rule A6
-        }
+        let decision = self.goal.lock().unwrap().rules.exit(&reason); // rule A6
+        self.cancel(decision).await;
         crate::ExitAction::Done
     }
 
@@ -414,65 +399,15 @@ impl<A: Action> Response for ActionProxy<A> {
     }
 }
 
-fn status_label(s: GoalStatusEnum) -> &'static str {
+/// The wire's goal status in the rules' terms (A7): anything that is no end is `Unknown`, a failure.
+fn goal_status(s: GoalStatusEnum) -> GoalStatus {
     match s {
-        GoalStatusEnum::Unknown => "UNKNOWN",
-        GoalStatusEnum::Accepted => "ACCEPTED",
-        GoalStatusEnum::Executing => "EXECUTING",
-        GoalStatusEnum::Canceling => "CANCELING",
-        GoalStatusEnum::Succeeded => "SUCCEEDED",
-        GoalStatusEnum::Canceled => "CANCELED",
-        GoalStatusEnum::Aborted => "ABORTED",
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::ExitReason;
-
-    fn running_goal() -> GoalTrack {
-        GoalTrack {
-            sent: Some((RmwRequestId::default(), GoalId::new_random())),
-            answer: Some(true),
-            ..GoalTrack::default()
-        }
-    }
-
-    #[test]
-    fn a6_an_exit_leaves_no_goal_running_whatever_ended_the_run() {
-        let g = running_goal();
-        for reason in [
-            ExitReason::ExitSignal,
-            ExitReason::Failed("the goal's result did not arrive".into()),
-            ExitReason::Failed("the feedback stream ended".into()),
-            ExitReason::Panicked("boom".into()),
-        ] {
-            assert!(g.exit_cancels(&reason), "{reason:?}");
-        }
-        // nothing to cancel: the interrupt slot did, the goal ended, was rejected, never sent, or the server left
-        assert!(!g.exit_cancels(&ExitReason::Interrupted));
-        assert!(!g.exit_cancels(&ExitReason::Completed));
-        let finished = GoalTrack {
-            finished: true,
-            ..running_goal()
-        };
-        let rejected = GoalTrack {
-            answer: Some(false),
-            ..running_goal()
-        };
-        let left = GoalTrack {
-            server_left: true,
-            ..running_goal()
-        };
-        for g in [finished, rejected, left, GoalTrack::default()] {
-            assert!(!g.exit_cancels(&ExitReason::ExitSignal), "{g:?}");
-        }
-        // sent and not answered yet (A5): canceled once accepted
-        let unanswered = GoalTrack {
-            answer: None,
-            ..running_goal()
-        };
-        assert!(unanswered.exit_cancels(&ExitReason::ExitSignal));
+        GoalStatusEnum::Succeeded => GoalStatus::Succeeded,
+        GoalStatusEnum::Canceled => GoalStatus::Canceled,
+        GoalStatusEnum::Aborted => GoalStatus::Aborted,
+        GoalStatusEnum::Unknown
+        | GoalStatusEnum::Accepted
+        | GoalStatusEnum::Executing
+        | GoalStatusEnum::Canceling => GoalStatus::Unknown,
     }
 }

@@ -10,17 +10,11 @@
 //!
 //! # Mapping rules (next to the response rules of [`radar_semantics::response`])
 //!
-//! An action server as a response (`A1`-`A7`):
-//!
-//! | A | RADAR | action protocol |
-//! |---|---|---|
-//! | 1 | `start(goal)` while idle | sends the goal (after waiting, up to the server timeout, for the server to be matched both ways) |
-//! | 2 | `started(goal)` | the server **accepted** the goal (response rule R9); never before |
-//! | 3 | `exited(result)`, run failed | the server **rejected** the goal: no `started`, state `failed: goal rejected` |
-//! | 4 | `interrupt` while the goal runs | `interrupted` at once, then a cancel request; `exited` carries the result the server reports for the canceled (or meanwhile finished) goal |
-//! | 5 | `interrupt` before the server answered (also the `until` of the statement that sent the goal: the run is that statement's from the start, not from acceptance, R13) | `interrupted`; the goal is canceled as soon as it is accepted (or dropped if rejected, or never sent if the server has not appeared yet); no `started` |
-//! | 6 | the run ends otherwise while the goal may still run: an `exit` signal, the response or its program stopping, a failure on this side (a result that does not decode) | the goal is canceled too (an exit slot always runs, and a goal left running would be an orphan); not when the server has left |
-//! | 7 | `exited`, run failed | the goal ended `ABORTED` or was canceled by someone else (the result is carried), or the server left the graph mid-goal (`failed: the action server ... left`) |
+//! An action server as a response (`A1`-`A7`, decided by [`radar_semantics::goal::GoalMachine`], one per
+//! run, where the rules are stated in full): `start(goal)` sends the goal once the server is matched both ways
+//! (A1); `started` means the server accepted it (A2); a rejected goal fails the run (A3); `interrupt` cancels
+//! the goal, at once or as soon as it is accepted (A4, A5); any other end of the run cancels a goal that may
+//! still run (A6); the goal's end, or the server leaving, ends the run (A7).
 //!
 //! A server of another action type on that name fails each run with an error that names the type served there
 //! (DDS would match the endpoints anyway); [`Radar::action_type`](crate::Radar::action_type) tells the type of a named action.
