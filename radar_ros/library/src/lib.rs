@@ -210,9 +210,8 @@ pub use node::{clock, params, ros_args, rosout};
 pub use radar::introspect;
 pub use wire::{msg, qos};
 
-pub use components::event::{
-    Event, EventHandle, EventNode, EventSubscription, TimerEvent, TopicEvent,
-};
+pub use components::event::{Event, EventHandle, EventNode, TimerEvent, TopicEvent};
+pub use components::own_node::{ComponentNode, EventSubscription};
 pub use components::response::{FnResponse, Response, ResponseHandle, ResponseNode};
 pub use departure::{Departure, LossCause};
 pub use wire::refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};

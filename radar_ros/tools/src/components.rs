@@ -19,6 +19,50 @@ pub(crate) fn signal_topics(c: &Component, activate: bool) -> Vec<(String, Strin
     }
 }
 
+/// A sample of one of a component's signals: its topic, type and label ([`signal_topics`]), its body and its
+/// source time (ns since the epoch, 0: unknown).
+pub(crate) struct SignalSample<'a> {
+    pub(crate) topic: &'a str,
+    pub(crate) ros_type: &'a str,
+    pub(crate) label: &'static str,
+    pub(crate) body: radar_ros::RawMessage,
+    pub(crate) stamp: i64,
+}
+
+/// Subscribes to the signals that show `c`'s activity ([`signal_topics`]) and forwards each sample, made into
+/// what the verb keeps by `make`, to `tx` until it closes: one task per signal. What `watch` and `record`
+/// share.
+pub(crate) fn forward_signals<T: Send + 'static>(
+    radar: &Radar,
+    c: &Component,
+    activate: bool,
+    tx: &tokio::sync::mpsc::UnboundedSender<T>,
+    make: impl Fn(SignalSample<'_>) -> T + Clone + Send + 'static,
+) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
+    let mut tasks = Vec::new();
+    for (topic, ros_type, label) in signal_topics(c, activate) {
+        let sub = radar
+            .raw_subscription(&topic, &ros_type)
+            .map_err(|e| e.to_string())?;
+        let (tx, make) = (tx.clone(), make.clone());
+        tasks.push(tokio::spawn(async move {
+            while let Ok((body, stamp)) = sub.recv_stamped().await {
+                let sample = SignalSample {
+                    topic: &topic,
+                    ros_type: &ros_type,
+                    label,
+                    body,
+                    stamp,
+                };
+                if tx.send(make(sample)).is_err() {
+                    break;
+                }
+            }
+        }));
+    }
+    Ok(tasks)
+}
+
 /// The type of a component's `state` topic.
 pub(crate) fn state_type(c: &Component) -> &'static str {
     match c {

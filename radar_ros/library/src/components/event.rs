@@ -12,18 +12,18 @@
 
 use std::{future::Future, panic::AssertUnwindSafe, pin::Pin, sync::Arc, time::Duration};
 
-use futures::{FutureExt, StreamExt};
+use futures::FutureExt;
 use tokio::sync::{watch, Mutex};
 
 use radar_semantics::event::{Activation, Transition};
 
 use crate::{
+    components::own_node::{ComponentNode, EventSubscription},
     error::{Result, SlotError},
-    node::endpoints::{emit, panic_message, typed_subscription, SignalWriter, Throttle, Watched},
+    node::endpoints::{emit, panic_message, SignalWriter, Throttle, Watched},
     node::shutdown::ComponentTask,
     wire::msg::{Empty, EventState, RosMessage, Time},
     wire::names::ComponentName,
-    wire::qos::signal_qos,
     wire::refs::{AsSignal, Signal},
 };
 
@@ -74,90 +74,8 @@ pub trait Event: Send + 'static {
     }
 }
 
-/// Access to an event's own node while it is being set up.
-pub struct EventNode<'a> {
-    pub(crate) node: &'a mut ros2_client::Node,
-    pub(crate) participant: &'a Arc<crate::node::participant::Participant>,
-    pub(crate) params: &'a mut crate::node::params::Declared,
-}
-
-impl EventNode<'_> {
-    /// The clock the event follows (simulated time with `use_sim_time`, see [`crate::node::clock`]).
-    pub fn clock(&self) -> crate::node::clock::Clock {
-        self.participant.clock()
-    }
-
-    /// Declares the event's parameters (once, all at once): served on its node for `ros2 param`, with values
-    /// from the command line when it gives them (see [`crate::node::params`]).
-    pub fn declare(
-        &mut self,
-        decls: impl IntoIterator<Item = crate::node::params::ParamDecl>,
-    ) -> Result<crate::node::params::Params> {
-        self.params.declare(self.participant, self.node, decls)
-    }
-
-    /// Subscribes the event's node to `topic` (resolved in the Radar's namespace when relative), with signal
-    /// QoS (reliable, volatile, keep-last 10).
-    ///
-    /// ```
-    /// use radar_ros::{Event, EventNode, EventSubscription, SlotError, msg::{Empty, Float64}};
-    /// /// Triggers when the battery reading falls below 20 %.
-    /// struct LowBattery(Option<EventSubscription<Float64>>);
-    /// impl Event for LowBattery {
-    ///     type Payload = Empty;
-    ///     fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
-    ///         self.0 = Some(node.subscribe::<Float64>("battery")?);
-    ///         Ok(())
-    ///     }
-    ///     async fn check(&mut self) -> Result<Empty, SlotError> {
-    ///         let sub = self.0.as_ref().ok_or_else(|| SlotError::msg("not attached"))?;
-    ///         loop {
-    ///             if sub.recv().await.map_err(|e| SlotError::msg(e.to_string()))?.data < 0.2 {
-    ///                 return Ok(Empty::default());
-    ///             }
-    ///         }
-    ///     }
-    /// }
-    /// ```
-    pub fn subscribe<M: RosMessage>(&mut self, topic: &str) -> Result<EventSubscription<M>> {
-        let abs = self.participant.resolve_topic(topic)?;
-        let inner =
-            typed_subscription::<M>(self.participant.graph(), self.node, &abs, &signal_qos())?;
-        Ok(EventSubscription { topic: abs, inner })
-    }
-}
-
-/// A subscription made on an event's node (see [`EventNode::subscribe`]).
-pub struct EventSubscription<M: RosMessage> {
-    topic: String,
-    inner: Watched<ros2_client::Subscription<M>>,
-}
-
-impl<M: RosMessage> EventSubscription<M> {
-    /// Takes a message that has already arrived (skipping publishers of another type), without waiting.
-    pub fn take(&self) -> Option<M> {
-        self.inner.take_accepted()
-    }
-
-    /// The next message (skipping malformed ones and publishers of another type); unbounded unless
-    /// `.timeout(d)`.
-    ///
-    /// # Cancel safety
-    ///
-    /// Cancel safe: a message is taken from the subscription's queue only when it is returned, so a wait
-    /// that is dropped (a `select!` branch that lost) loses nothing.
-    pub fn recv(&self) -> crate::Wait<'_, M> {
-        crate::Wait::signal(format!("a message on {}", self.topic), async move {
-            let expected = M::ros_type_name();
-            let stream = self.inner.async_stream();
-            let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
-            match accepted.next().await {
-                Some((m, _)) => Ok(m),
-                None => Err(crate::Error::Closed(self.topic.clone())),
-            }
-        })
-    }
-}
+/// An event's own node while it is being set up ([`Event::attach`]): a [`ComponentNode`].
+pub type EventNode<'a> = ComponentNode<'a>;
 
 /// Triggers every `period` while active, first `period` after activation. With `use_sim_time` it runs on
 /// simulated time (see [`crate::node::clock`]): a backward jump of the time starts the period over.

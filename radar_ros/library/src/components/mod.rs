@@ -4,4 +4,5 @@
 
 pub mod action;
 pub(crate) mod event;
+pub(crate) mod own_node;
 pub(crate) mod response;

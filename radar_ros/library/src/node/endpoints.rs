@@ -48,20 +48,64 @@ where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
 {
-    let q = crate::wire::qos::signal_qos();
-    crate::node::declared::record_node(
+    let at = ServiceAt {
+        fq,
+        service,
+        package,
+        ty,
+    };
+    at.make(
         node,
         crate::node::declared::Access::Reply,
-        &format!("{}/{service}", fq.trim_end_matches('/')),
-    );
-    node.create_server::<Req, Resp>(
-        ros2_client::ServiceMapping::Enhanced,
-        &service_name(fq, service)?,
-        &ros2_client::ServiceTypeName::new(package, ty),
-        q.clone(),
-        q,
+        |node, name, t, q| {
+            node.create_server::<Req, Resp>(
+                ros2_client::ServiceMapping::Enhanced,
+                name,
+                t,
+                q.clone(),
+                q,
+            )
+        },
     )
-    .map_err(|e| Error::transport(format!("service {fq}/{service}"), e))
+}
+
+/// Where a service endpoint goes: service `<fq>/<service>` of type `<package>/srv/<ty>`.
+struct ServiceAt<'a> {
+    fq: &'a str,
+    service: &'a str,
+    package: &'a str,
+    ty: &'a str,
+}
+
+impl ServiceAt<'_> {
+    /// Makes a server or a client (`make(node, name, type, qos)`) as rmw does (enhanced mapping, the signal QoS
+    /// both ways), recording the access (`Reply`: a server, `Request`: a client) a security policy must grant.
+    fn make<T, E: std::error::Error + Send + Sync + 'static>(
+        &self,
+        node: &mut Node,
+        access: crate::node::declared::Access,
+        make: impl FnOnce(
+            &mut Node,
+            &Name,
+            &ros2_client::ServiceTypeName,
+            ros2_client::QosProfile,
+        ) -> std::result::Result<T, E>,
+    ) -> Result<T> {
+        let path = format!("{}/{}", self.fq.trim_end_matches('/'), self.service);
+        crate::node::declared::record_node(node, access, &path);
+        let name = service_name(self.fq, self.service)?;
+        let what = match access {
+            crate::node::declared::Access::Reply => format!("service {}/{}", self.fq, self.service),
+            _ => format!("a client of {}/{}", self.fq, self.service),
+        };
+        make(
+            node,
+            &name,
+            &ros2_client::ServiceTypeName::new(self.package, self.ty),
+            crate::wire::qos::signal_qos(),
+        )
+        .map_err(|e| Error::transport(what, e))
+    }
 }
 
 /// A client of the radar_msgs service `<fq>/<service>` of type `radar_msgs/srv/<ty>` on `node`, made as
@@ -91,20 +135,25 @@ where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
 {
-    let q = crate::wire::qos::signal_qos();
-    crate::node::declared::record_node(
+    let at = ServiceAt {
+        fq,
+        service,
+        package,
+        ty,
+    };
+    at.make(
         node,
         crate::node::declared::Access::Request,
-        &format!("{}/{service}", fq.trim_end_matches('/')),
-    );
-    node.create_client::<Req, Resp>(
-        ros2_client::ServiceMapping::Enhanced,
-        &service_name(fq, service)?,
-        &ros2_client::ServiceTypeName::new(package, ty),
-        q.clone(),
-        q,
+        |node, name, t, q| {
+            node.create_client::<Req, Resp>(
+                ros2_client::ServiceMapping::Enhanced,
+                name,
+                t,
+                q.clone(),
+                q,
+            )
+        },
     )
-    .map_err(|e| Error::transport(format!("a client of {fq}/{service}"), e))
 }
 
 /// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).

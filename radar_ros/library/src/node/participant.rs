@@ -417,7 +417,7 @@ impl Participant {
     }
 
     /// Claims a name for a component in this process and creates its node.
-    pub(crate) fn claim_node(self: &Arc<Self>, name: &ComponentName) -> Result<(Node, NameClaim)> {
+    pub(crate) fn claim_node(self: &Arc<Self>, name: &ComponentName) -> Result<ClaimedNode> {
         let fq = name.fully_qualified();
         if !self.names.lock().unwrap().insert(fq.clone()) {
             return Err(Error::DuplicateName(fq));
@@ -427,7 +427,36 @@ impl Participant {
             name: fq,
         };
         let node = self.new_node(name.namespace(), name.base())?;
-        Ok((node, claim))
+        Ok(ClaimedNode { node, claim })
+    }
+
+    /// Spawns the task of the component whose node is `node` ([`ComponentTask::spawn`]): the node, the claim
+    /// on its name and `keep` (what else the component holds while it runs: its parameters, a served mark)
+    /// live until the task ends, and go in that order: the node leaves the graph before the name is free
+    /// again in this process.
+    pub(crate) fn spawn_component<K, F, Fut>(
+        &self,
+        node: ClaimedNode,
+        keep: K,
+        f: F,
+    ) -> crate::node::shutdown::ComponentTask
+    where
+        K: Send + 'static,
+        F: FnOnce(tokio::sync::oneshot::Receiver<()>) -> Fut,
+        Fut: std::future::Future<Output = ()> + Send + 'static,
+    {
+        let ClaimedNode { node, claim } = node;
+        let name = claim.name.clone();
+        crate::node::shutdown::ComponentTask::spawn(self.components(), &name, move |stop| {
+            let fut = f(stop);
+            async move {
+                // dropped in reverse: the node, then `keep`, then the claim
+                let _claim = claim;
+                let _keep = keep;
+                let _node = node;
+                fut.await;
+            }
+        })
     }
 
     /// Makes an endpoint on the client node: `make(node, absolute topic)`.
@@ -517,6 +546,13 @@ impl Participant {
 }
 
 /// Frees a claimed component name when the component stops.
+/// A component's node, with the claim on its name in this process ([`Participant::claim_node`]).
+pub(crate) struct ClaimedNode {
+    /// The node, to make the component's endpoints on.
+    pub(crate) node: Node,
+    claim: NameClaim,
+}
+
 pub(crate) struct NameClaim {
     participant: Arc<Participant>,
     name: String,

@@ -5,7 +5,6 @@ use crate::components::action::server::{serve, ActionServerHandle, ServerIo};
 use crate::components::action::{wire::action_server, Action};
 use crate::{
     error::{Error, Result},
-    node::shutdown::ComponentTask,
     radar::Radar,
     wire::msg::{Empty, ResponseState, RosMessage},
     wire::names::ComponentName,
@@ -61,8 +60,8 @@ impl Radar {
             &format!("{}_action_server", action_c.base()),
             action_c.namespace(),
         )?;
-        let (mut node, claim) = self.participant().claim_node(&node_name)?;
-        let server = action_server::<A>(&mut node, &action_fq)?;
+        let mut claimed = self.participant().claim_node(&node_name)?;
+        let server = action_server::<A>(&mut claimed.node, &action_fq)?;
         let server = Arc::new(AsyncActionServer::new(server));
         let name = r.name().clone();
         let io = ServerIo::<A> {
@@ -77,16 +76,11 @@ impl Radar {
         };
         let served = self.participant().served_actions().mark(action_fq.clone());
         let (graph, fq) = (self.graph().clone(), action_fq.clone());
-        let task = ComponentTask::spawn(
-            self.participant().components(),
-            &node_name.fully_qualified(),
-            move |stop| async move {
-                let _claim = claim;
-                let _node = node;
-                let _served = served;
+        let task = self
+            .participant()
+            .spawn_component(claimed, served, move |stop| async move {
                 serve::<A>(server, io, graph, fq, stop).await;
-            },
-        );
+            });
         tracing::info!(action = %action_fq, response = %name, "serving a response as an action");
         Ok(ActionServerHandle {
             action: action_fq,

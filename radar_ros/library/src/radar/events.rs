@@ -1,10 +1,10 @@
 //! [`Radar::spawn_event`]: an event as a ROS 2 node; how it checks is in `components/event.rs`.
 
-use crate::components::event::{drive_event, Event, EventHandle, EventNode};
+use crate::components::event::{drive_event, Event, EventHandle};
+use crate::components::own_node::ComponentNode;
 use crate::{
     error::Result,
     node::endpoints::{emit, typed_publisher, SignalWriter},
-    node::shutdown::ComponentTask,
     radar::Radar,
     wire::msg::{EventState, Time},
     wire::qos::{signal_qos, state_qos},
@@ -25,10 +25,11 @@ impl Radar {
         let name = self.resolve(name)?;
         let payload_t =
             crate::wire::raw::component_type(&event.payload_type(), "its payload type")?;
-        let (mut node, claim) = self.participant().claim_node(&name)?;
+        let mut claimed = self.participant().claim_node(&name)?;
+        let node = &mut claimed.node;
         let mut params = crate::node::params::Declared::default();
-        event.attach(&mut EventNode {
-            node: &mut node,
+        event.attach(&mut ComponentNode {
+            node,
             participant: self.participant(),
             params: &mut params,
         })?;
@@ -36,7 +37,7 @@ impl Radar {
             self.participant().taps(),
             crate::node::endpoints::publisher::<E::Payload>(
                 self.graph(),
-                &mut node,
+                node,
                 &name.endpoint(crate::Endpoint::Triggered),
                 &payload_t,
                 &signal_qos(),
@@ -46,7 +47,7 @@ impl Radar {
         );
         let state_pub = typed_publisher::<EventState>(
             self.graph(),
-            &mut node,
+            node,
             &name.endpoint(crate::Endpoint::State),
             &state_qos(),
         )?;
@@ -61,20 +62,15 @@ impl Radar {
         let (state_tx, state_rx) = watch::channel(st.clone());
         let graph = self.graph().clone();
         let guid = triggered.guid();
-        let task = ComponentTask::spawn(
-            self.participant().components(),
-            &name.fully_qualified(),
-            move |stop_rx| async move {
-                let _claim = claim;
-                let _params = params;
-                let _node = node;
+        let task = self
+            .participant()
+            .spawn_component(claimed, params, move |stop_rx| async move {
                 drive_event(
                     event, triggered, state_pub, state_tx, st, listeners, stop_rx,
                 )
                 .await;
                 graph.forget(guid);
-            },
-        );
+            });
         tracing::info!(event = %name, payload = %payload_t.ros, "event up");
         Ok(EventHandle {
             name,

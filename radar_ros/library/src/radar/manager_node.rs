@@ -153,12 +153,12 @@ impl Radar {
     /// ```
     pub fn serve_manager(&self, name: &str) -> Result<ManagerHandle> {
         let name = self.resolve(name)?;
-        let (mut node, claim) = self.participant().claim_node(&name)?;
+        let mut claimed = self.participant().claim_node(&name)?;
         let fq = name.fully_qualified();
-        let services = Services::create(&mut node, &fq)?;
+        let services = Services::create(&mut claimed.node, &fq)?;
         let list_pub = typed_publisher::<ConnectionList>(
             self.graph(),
-            &mut node,
+            &mut claimed.node,
             &name.topic("connections"),
             &state_qos(),
         )?;
@@ -172,16 +172,11 @@ impl Radar {
             silent: HashSet::new(),
         };
         let lost = self.graph().participants_lost();
-        let task = ComponentTask::spawn(
-            self.participant().components(),
-            &name.fully_qualified(),
-            move |stop| async move {
-                let _claim = claim;
-                let _node = node;
-                let _served = served;
+        let task = self
+            .participant()
+            .spawn_component(claimed, served, move |stop| async move {
                 serving.run(services, list_pub, lost, owners, stop).await;
-            },
-        );
+            });
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
     }

@@ -9,7 +9,6 @@ use crate::components::response::{
 use crate::{
     error::Result,
     node::endpoints::{emit, publisher, subscription, typed_publisher, SignalWriter},
-    node::shutdown::ComponentTask,
     radar::Radar,
     wire::msg::{Empty, ResponseState, TypeName},
     wire::names::ComponentName,
@@ -48,11 +47,12 @@ impl Radar {
         make: impl FnOnce(&mut ros2_client::Node, &crate::graph::Graph, &ComponentName) -> Result<R>,
     ) -> Result<ResponseHandle> {
         let name = self.resolve(name)?;
-        let (mut node, claim) = self.participant().claim_node(&name)?;
-        let mut response = make(&mut node, self.graph(), &name)?;
+        let mut claimed = self.participant().claim_node(&name)?;
+        let node = &mut claimed.node;
+        let mut response = make(node, self.graph(), &name)?;
         let mut params = crate::node::params::Declared::default();
-        response.attach(&mut crate::components::response::ResponseNode {
-            node: &mut node,
+        response.attach(&mut crate::components::own_node::ComponentNode {
+            node,
             participant: self.participant(),
             params: &mut params,
         })?;
@@ -60,7 +60,7 @@ impl Radar {
             start: crate::wire::raw::component_type(&response.start_type(), "its start type")?,
             output: crate::wire::raw::component_type(&response.output_type(), "its output type")?,
         };
-        let mut endpoints = self.response_endpoints::<R>(&mut node, &name, &types)?;
+        let mut endpoints = self.response_endpoints::<R>(node, &name, &types)?;
         endpoints.io.incomplete_output = response.incomplete_output();
         let slot_publishers = [
             endpoints.slots.start.matched.clone(),
@@ -85,17 +85,12 @@ impl Radar {
             ..endpoints
         };
         let participant = self.participant().clone();
-        let task = ComponentTask::spawn(
-            self.participant().components(),
-            &name.fully_qualified(),
-            move |stop_rx| async move {
-                let _claim = claim;
-                let _params = params;
-                let _node = node;
+        let task = self
+            .participant()
+            .spawn_component(claimed, params, move |stop_rx| async move {
                 let response = Arc::new(Mutex::new(response));
                 drive(response, machine, endpoints, stop_rx, participant).await;
-            },
-        );
+            });
         tracing::info!(response = %name, start_type = %types.start.ros, policy = policy.label(), "response up");
         Ok(ResponseHandle {
             reference: ResponseRef::new(name.clone(), types.start.ros, types.output.ros),

@@ -13,7 +13,7 @@ use serde_json::json;
 
 use crate::{
     common::{epoch_ns, Fallible, Out, Stop},
-    components::{signal_topics, state_type, Following},
+    components::{forward_signals, state_type, Following},
     mcap_out::{ChunkLimits, McapOut, MessageOut},
     schemas,
 };
@@ -204,28 +204,13 @@ fn tap(
     activate: bool,
     tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
-    let signals = signal_topics(c, activate);
     let state_type = state_type(c);
-    let mut tasks = Vec::new();
-    for (topic, ty, _) in signals {
-        let sub = radar
-            .raw_subscription(&topic, &ty)
-            .map_err(|e| e.to_string())?;
-        let tx = tx.clone();
-        tasks.push(tokio::spawn(async move {
-            while let Ok((body, published)) = sub.recv_stamped().await {
-                let m = Recorded {
-                    topic: topic.clone(),
-                    ros_type: ty.clone(),
-                    body,
-                    published,
-                };
-                if tx.send(m).is_err() {
-                    break;
-                }
-            }
-        }));
-    }
+    let mut tasks = forward_signals(radar, c, activate, &tx, |s| Recorded {
+        topic: s.topic.to_owned(),
+        ros_type: s.ros_type.to_owned(),
+        body: s.body,
+        published: s.stamp,
+    })?;
     // the state, from its transient-local topic (the current one first)
     let topic = c.name().topic("state");
     macro_rules! state_task {

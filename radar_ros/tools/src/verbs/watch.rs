@@ -12,7 +12,7 @@ use serde_json::{json, Value};
 use crate::{
     codec,
     common::{epoch_ns, stamp_ns, Fallible, Out, Stop},
-    components::{signal_topics, Following},
+    components::{forward_signals, Following},
 };
 
 /// One line of the timeline.
@@ -117,28 +117,12 @@ fn follow(
     tx: tokio::sync::mpsc::UnboundedSender<Seen>,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
     let name = c.name().fully_qualified();
-    let mut tasks = Vec::new();
-    let signals = signal_topics(c, activate);
-    for (topic, ty, what) in signals {
-        let sub = radar
-            .raw_subscription(&topic, &ty)
-            .map_err(|e| e.to_string())?;
-        let (tx, name) = (tx.clone(), name.clone());
-        tasks.push(tokio::spawn(async move {
-            while let Ok((m, stamp)) = sub.recv_stamped().await {
-                let payload = codec::decode(&ty, &m);
-                let seen = Seen {
-                    component: name.clone(),
-                    what: what.into(),
-                    payload,
-                    stamp,
-                };
-                if tx.send(seen).is_err() {
-                    break;
-                }
-            }
-        }));
-    }
+    let mut tasks = forward_signals(radar, c, activate, &tx, move |s| Seen {
+        component: name.clone(),
+        what: s.label.into(),
+        payload: codec::decode(s.ros_type, &s.body),
+        stamp: s.stamp,
+    })?;
     tasks.push(follow_state(radar, c, activate, tx)?);
     Ok(tasks)
 }

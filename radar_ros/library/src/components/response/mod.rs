@@ -31,6 +31,7 @@ use futures::{future::BoxFuture, FutureExt};
 use radar_semantics::response::{ExitAction, ExitReason, StartPolicy};
 
 use crate::{
+    components::own_node::ComponentNode,
     error::{Result, SlotError},
     wire::msg::RosMessage,
 };
@@ -117,53 +118,8 @@ pub trait Response: Send + 'static {
     }
 }
 
-/// Access to a response's own node while it is being set up ([`Response::attach`]).
-pub struct ResponseNode<'a> {
-    pub(crate) node: &'a mut ros2_client::Node,
-    pub(crate) participant: &'a crate::node::participant::Participant,
-    pub(crate) params: &'a mut crate::node::params::Declared,
-}
-
-impl ResponseNode<'_> {
-    /// The clock the response follows (simulated time with `use_sim_time`, see [`crate::node::clock`]).
-    pub fn clock(&self) -> crate::node::clock::Clock {
-        self.participant.clock()
-    }
-
-    /// Declares the response's parameters (once, all at once): served on its node for `ros2 param`, with
-    /// values from the command line when it gives them (see [`crate::node::params`]).
-    ///
-    /// ```
-    /// use radar_ros::{Response, ResponseNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
-    /// /// Counts to `limit`, one count every `period` seconds (both read when a run begins).
-    /// struct CountUp(Option<Params>);
-    /// impl Response for CountUp {
-    ///     type Start = Empty;
-    ///     type Output = Empty;
-    ///     fn attach(&mut self, node: &mut ResponseNode<'_>) -> radar_ros::Result<()> {
-    ///         self.0 = Some(node.declare([
-    ///             ParamDecl::new("period", 0.5).float_range(0.01, 60.0),
-    ///             ParamDecl::new("limit", 10).integer_range(1, 1000, 1),
-    ///         ])?);
-    ///         Ok(())
-    ///     }
-    ///     async fn start(&mut self, _: Empty) -> Result<Empty, SlotError> {
-    ///         let p = self.0.as_ref().ok_or_else(|| SlotError::msg("not attached"))?;
-    ///         let (period, limit) = (p.f64("period").unwrap_or(0.5), p.i64("limit").unwrap_or(10));
-    ///         for _ in 0..limit {
-    ///             tokio::time::sleep(std::time::Duration::from_secs_f64(period)).await;
-    ///         }
-    ///         Ok(Empty::default())
-    ///     }
-    /// }
-    /// ```
-    pub fn declare(
-        &mut self,
-        decls: impl IntoIterator<Item = crate::node::params::ParamDecl>,
-    ) -> Result<crate::node::params::Params> {
-        self.params.declare(self.participant, self.node, decls)
-    }
-}
+/// A response's own node while it is being set up ([`Response::attach`]): a [`ComponentNode`].
+pub type ResponseNode<'a> = ComponentNode<'a>;
 
 type StartFn<P, O> = Box<dyn FnMut(P) -> BoxFuture<'static, Result<O, SlotError>> + Send>;
 
