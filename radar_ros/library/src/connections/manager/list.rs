@@ -2,7 +2,7 @@
 
 use radar_semantics::connection::Kind;
 
-use super::{relay::Outlet, Manager, Target};
+use super::{outlet::Outlet, Manager, Target};
 
 impl Manager {
     /// Every live connection, as `radar_msgs/msg/Connection`.

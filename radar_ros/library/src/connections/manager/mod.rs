@@ -35,6 +35,8 @@ mod faults;
 mod guard;
 mod instances;
 mod list;
+mod outlet;
+mod presence;
 mod relay;
 
 use std::{
@@ -58,7 +60,9 @@ use crate::{
 use anon::AnonQueue;
 use faults::Faults;
 pub use guard::ConnectionGuard;
-use relay::{Change, Outlet, Relay};
+use outlet::Outlet;
+use presence::Change;
+use relay::Relay;
 
 /// An anonymous slot: called with each delivered payload, in its own task.
 pub(crate) type AnonFn = Box<dyn FnMut(RawMessage) + Send>;
