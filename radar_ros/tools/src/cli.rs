@@ -55,7 +55,8 @@ enum Cmd {
         slot: ActSlot,
         /// The response, e.g. /count_up.
         name: String,
-        /// The start payload as YAML (default: the type's default), e.g. "{data: kitchen}".
+        /// The start payload as YAML (default: the type's default), e.g. "{data: kitchen}"; `-` reads it from
+        /// standard input (for payloads too long for a command line).
         payload: Option<String>,
         /// Seconds to wait for the response and for the signal.
         #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
@@ -65,7 +66,8 @@ enum Cmd {
     Inject {
         /// The topic, e.g. /count_up/start.
         topic: String,
-        /// The payload as YAML (default: the type's default).
+        /// The payload as YAML (default: the type's default), e.g. "{data: kitchen}"; `-` reads it from
+        /// standard input (for payloads too long for a command line).
         payload: Option<String>,
         /// Seconds to wait for a subscriber.
         #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
@@ -366,6 +368,7 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             timeout,
         } => {
             let timeout = secs(timeout)?;
+            let payload = payload_arg(payload)?;
             verbs::act::act(radar, out, slot, &name, payload.as_deref(), timeout).await
         }
         Cmd::Inject {
@@ -374,6 +377,7 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             timeout,
         } => {
             let timeout = secs(timeout)?;
+            let payload = payload_arg(payload)?;
             verbs::inject::inject(radar, out, &topic, payload.as_deref(), timeout).await
         }
         Cmd::Watch {
@@ -417,5 +421,18 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             verbs::replay::replay(radar, out, input, rate, secs(wait)?).await
         }
         Cmd::Dis { id, manager: named } => verbs::con::dis(radar, out, manager(named), id).await,
+    }
+}
+
+/// A payload argument: `-` is standard input, read to its end.
+fn payload_arg(payload: Option<String>) -> crate::common::Fallible<Option<String>> {
+    match payload.as_deref() {
+        Some("-") => {
+            let mut text = String::new();
+            std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+                .map_err(|e| format!("reading the payload from standard input: {e}"))?;
+            Ok(Some(text))
+        }
+        _ => Ok(payload),
     }
 }

@@ -1,6 +1,12 @@
-//! Payloads as people write them: YAML in (as `ros2 topic pub` takes them), JSON or YAML out, for the message
-//! types radar_ros knows (the `codec` feature; the `radar` command line and the Python package use it). Others
-//! are shown as their size in bytes.
+//! Payloads as people write them: YAML in (as `ros2 topic pub` takes them), JSON or YAML out (the `codec`
+//! feature; the `radar` command line and the Python package use it): for the message types radar_ros knows, and
+//! for any other whose definition is found at run time ([`Interfaces`]: `AMENT_PREFIX_PATH` as ROS 2 tools
+//! read it). A type whose definition is nowhere is shown as its size in bytes.
+
+mod cdr;
+mod interfaces;
+
+pub use interfaces::Interfaces;
 
 use crate::{
     action::{FibonacciFeedback, FibonacciGoal, FibonacciResult},
@@ -69,10 +75,15 @@ pub fn encode(ros_type: &str, yaml: &str) -> Result<RawMessage, String> {
         };
     }
     known_types!(try_type);
-    Err(format!(
-        "radar cannot write {ros_type} payloads; it knows {}",
-        known().join(", ")
-    ))
+    let given: serde_yaml::Value = serde_yaml::from_str(yaml)
+        .map_err(|e| format!("the payload is not YAML: {e} (e.g. \"{{data: kitchen}}\")"))?;
+    run_time_types().encode(ros_type, &given)
+}
+
+/// The types found at run time, from `AMENT_PREFIX_PATH` as it was when first asked.
+fn run_time_types() -> &'static Interfaces {
+    static TYPES: std::sync::OnceLock<Interfaces> = std::sync::OnceLock::new();
+    TYPES.get_or_init(Interfaces::from_env)
 }
 
 /// Fields left out of the YAML take their default (as `ros2 topic pub` does).
@@ -125,7 +136,13 @@ pub fn decode(ros_type: &str, raw: &RawMessage) -> Value {
         };
     }
     known_types!(try_type);
-    serde_json::json!({ "bytes": raw.len() })
+    let types = run_time_types();
+    match types.definition(ros_type) {
+        Err(_) => serde_json::json!({ "bytes": raw.len() }),
+        Ok(_) => types
+            .decode(ros_type, raw)
+            .unwrap_or_else(|e| serde_json::json!({ "undecodable": e, "bytes": raw.len() })),
+    }
 }
 
 /// A JSON payload as one line of flow-style YAML, as the timeline prints it.

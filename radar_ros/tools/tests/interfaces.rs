@@ -1,0 +1,219 @@
+//! Run-time message types judged by ROS 2's own fixtures (issue 34): every fixture of every `test_msgs` message
+//! type (`test_msgs.message_fixtures`, from the ros-jazzy-test-msgs wheel in the rclpy venv), with definitions
+//! found as a sourced ROS 2 installation finds them (`AMENT_PREFIX_PATH` = the venv, which holds
+//! `share/test_msgs/msg/*.msg`). The oracle is rclpy's own serialization (`tests/python/fixtures.py`), never
+//! radar_ros's code. Domain 114.
+
+use std::{path::PathBuf, process::Stdio, time::Duration};
+
+use radar_ros::{codec::Interfaces, RawMessage};
+use radar_test_util::{python, repo, Py};
+use serde_json::{json, Value};
+
+const DOMAIN: u16 = 114;
+
+/// The venv: a prefix as `AMENT_PREFIX_PATH` lists them (`<prefix>/share/<pkg>/msg/`).
+fn venv() -> PathBuf {
+    python().parent().unwrap().parent().unwrap().to_owned()
+}
+
+fn fixtures_py(mode: &str, input: Option<String>) -> Vec<Value> {
+    let mut child = std::process::Command::new(python())
+        .arg(repo().join("tests/python/fixtures.py"))
+        .arg(mode)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run the venv's python");
+    // written from a thread of its own: the script answers line by line, and a pipe holds only so much
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || {
+        use std::io::Write;
+        stdin.write_all(input.unwrap_or_default().as_bytes())
+    });
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap().expect("write to fixtures.py");
+    assert!(
+        out.status.success(),
+        "fixtures.py {mode}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}")))
+        .collect()
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+/// Every fixture of every test_msgs message type, as JSON lines from `fixtures.py dump`.
+fn fixtures() -> Vec<Value> {
+    let all = fixtures_py("dump", None);
+    let types: std::collections::BTreeSet<&str> =
+        all.iter().map(|f| f["type"].as_str().unwrap()).collect();
+    assert_eq!(types.len(), 13, "every test_msgs message type: {types:?}");
+    all
+}
+
+#[test]
+fn every_test_msgs_fixture_is_read_and_written_as_rclpy_does() {
+    let types = Interfaces::from_env().with_dir(venv().join("share"));
+    let mut written = String::new();
+    for f in fixtures() {
+        let (ty, i) = (f["type"].as_str().unwrap(), &f["index"]);
+        let theirs = RawMessage::from_bytes(unhex(f["cdr"].as_str().unwrap()));
+        let read = types
+            .decode(ty, &theirs)
+            .unwrap_or_else(|e| panic!("{ty} #{i}: {e}"));
+        assert_eq!(read, f["value"], "{ty} #{i}: rclpy's bytes read");
+        let yaml: serde_yaml::Value = serde_yaml::to_value(&f["value"]).unwrap();
+        let ours = types
+            .encode(ty, &yaml)
+            .unwrap_or_else(|e| panic!("{ty} #{i}: {e}"));
+        written
+            .push_str(&json!({ "type": ty, "index": i, "cdr": hex(ours.as_bytes()) }).to_string());
+        written.push('\n');
+    }
+    let checked = fixtures_py("check", Some(written));
+    assert_eq!(checked.len(), 31, "every fixture checked: {checked:?}");
+    let wrong: Vec<&Value> = checked.iter().filter(|c| c["equal"] != true).collect();
+    assert!(
+        wrong.is_empty(),
+        "rclpy read other messages from what radar_ros wrote: {wrong:#?}"
+    );
+}
+
+#[test]
+fn fields_left_out_take_the_definitions_defaults_and_bad_input_says_what_is_wrong() {
+    let types = Interfaces::from_env().with_dir(venv().join("share"));
+    let y = |s: &str| serde_yaml::from_str::<serde_yaml::Value>(s).unwrap();
+    // Defaults.msg gives every field a default ("int32 int32_value -30000", ...): rclpy's Defaults() has them
+    let raw = types.encode("test_msgs/msg/Defaults", &y("{}")).unwrap();
+    let v = types.decode("test_msgs/msg/Defaults", &raw).unwrap();
+    let rclpy_default = fixtures()
+        .into_iter()
+        .find(|f| f["type"] == "test_msgs/msg/Defaults")
+        .unwrap();
+    assert_eq!(v, rclpy_default["value"], "Defaults() as rclpy makes it");
+    assert_eq!(v["int32_value"], -30000);
+    let raw = types
+        .encode("test_msgs/msg/Defaults", &y("{int8_value: 7}"))
+        .unwrap();
+    let v = types.decode("test_msgs/msg/Defaults", &raw).unwrap();
+    assert_eq!(
+        (v["int8_value"].clone(), v["uint8_value"].clone()),
+        (json!(7), json!(200))
+    );
+    let raw = types
+        .encode("test_msgs/msg/Strings", &y("{string_value: hi}"))
+        .unwrap();
+    let v = types.decode("test_msgs/msg/Strings", &raw).unwrap();
+    assert_eq!(v["string_value"], "hi");
+    assert_eq!(v["string_value_default1"], "Hello world!");
+    // errors name the field, the type and what to do
+    let e = types
+        .encode("test_msgs/msg/BasicTypes", &y("{int32_valu: 5}"))
+        .unwrap_err();
+    assert!(e.contains("int32_valu") && e.contains("int32_value"), "{e}");
+    let e = types
+        .encode("test_msgs/msg/BasicTypes", &y("{int8_value: 300}"))
+        .unwrap_err();
+    assert!(e.contains("int8_value") && e.contains("300"), "{e}");
+    let e = types
+        .encode("test_msgs/msg/Arrays", &y("{int32_values: [1, 2]}"))
+        .unwrap_err();
+    assert!(e.contains("exactly 3"), "{e}");
+    let e = types
+        .encode(
+            "test_msgs/msg/BoundedSequences",
+            &y("{int32_values: [1, 2, 3, 4]}"),
+        )
+        .unwrap_err();
+    assert!(e.contains("at most 3"), "{e}");
+    let e = types
+        .encode("no_such_msgs/msg/Thing", &y("{}"))
+        .unwrap_err();
+    assert!(
+        e.contains("no_such_msgs/msg/Thing") && e.contains("share/no_such_msgs/msg/Thing.msg"),
+        "names the type and every place looked in: {e}"
+    );
+    // a message cut short is an error, not a panic
+    let raw = types
+        .encode("test_msgs/msg/Strings", &y("{string_value: hello}"))
+        .unwrap();
+    let cut = RawMessage::from_bytes(raw.as_bytes()[..6].to_vec());
+    assert!(types.decode("test_msgs/msg/Strings", &cut).is_err());
+}
+
+/// `radar inject` of every fixture, written as flow YAML, into an rclpy subscriber of its type, with
+/// `AMENT_PREFIX_PATH` set as a sourced installation sets it: the subscriber receives that very fixture.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn radar_inject_writes_every_test_msgs_fixture_into_an_rclpy_subscriber() {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1")
+            || std::env::var("RADAR_ALLOW_NETWORK").is_ok(),
+        "run inside tests/isolated.sh (see README.md)"
+    );
+    let mut listener = Py::start(DOMAIN, "tests/python/fixtures.py", &["listen"]);
+    assert_eq!(listener.json().await["ready"], true);
+    let prefix = venv();
+    for f in fixtures() {
+        let (ty, i) = (f["type"].as_str().unwrap(), f["index"].as_u64().unwrap());
+        let name = ty.rsplit('/').next().unwrap();
+        let flow = f["value"].to_string(); // JSON is flow YAML
+                                           // a payload too long for a command line (UnboundedSequences #3 is 350 kB) goes through stdin (`-`)
+        let long = flow.len() > 64 * 1024;
+        let mut cmd = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"));
+        cmd.args(["inject", &format!("/fx/{name}")])
+            .arg(if long { "-" } else { flow.as_str() })
+            .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+            .env("AMENT_PREFIX_PATH", &prefix)
+            .env_remove("RUST_LOG")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .kill_on_drop(true);
+        let mut child = cmd.spawn().unwrap();
+        let mut stdin = child.stdin.take().unwrap();
+        let input = if long { flow.clone() } else { String::new() };
+        let feed = tokio::spawn(async move {
+            use tokio::io::AsyncWriteExt;
+            stdin.write_all(input.as_bytes()).await
+        });
+        let out = tokio::time::timeout(Duration::from_secs(30), child.wait_with_output())
+            .await
+            .unwrap_or_else(|_| panic!("radar inject of {ty} #{i} did not end"))
+            .unwrap();
+        feed.await
+            .unwrap()
+            .expect("write the payload to radar inject");
+        assert!(
+            out.status.success(),
+            "radar inject {ty} #{i}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let got = listener.json().await;
+        assert_eq!(got["type"], ty, "{got}");
+        let matches: Vec<u64> = got["matches"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m.as_u64().unwrap())
+            .collect();
+        assert!(
+            matches.contains(&i),
+            "{ty} #{i}: the rclpy subscriber received another message: {}",
+            got["got"]
+        );
+    }
+}
