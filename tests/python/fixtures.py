@@ -7,6 +7,8 @@ run-time types: the oracle is rclpy's own serialization, never radar_ros's code.
                          and the CDR body rclpy serializes it to (hex, without the 4-byte encapsulation header)
     fixtures.py check    reads JSON lines {type, index, cdr} (a CDR body written by someone else) and prints
                          {type, index, equal, got}: whether rclpy reads it as that fixture
+    fixtures.py mcap F   every message of the MCAP file F read as rosbag2 reads one: its CDR deserialized by
+                         rclpy into the class its schema names; prints {topic, schema, msg} (msg as in dump)
     fixtures.py listen   subscribes /fx/<Name> for every type (ROS_DOMAIN_ID from the environment), prints
                          {"ready": true}, then {type, matches} for each message: the indices of the fixtures
                          it equals
@@ -95,6 +97,19 @@ def check() -> None:
         print(json.dumps({"type": q["type"], "index": q["index"], "equal": equal, "got": shown}), flush=True)
 
 
+def mcap(path: str) -> None:
+    import importlib
+
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            pkg, kind, name = schema.name.split("/")
+            cls = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
+            m = deserialize_message(message.data, cls)
+            print(json.dumps({"topic": channel.topic, "schema": schema.name, "msg": plain(m)}), flush=True)
+
+
 def listen() -> None:
     rclpy.init()
     node = rclpy.create_node("fixtures_listener")
@@ -121,4 +136,7 @@ def listen() -> None:
 
 
 if __name__ == "__main__":
-    {"dump": dump, "check": check, "listen": listen}[sys.argv[1]]()
+    if sys.argv[1] == "mcap":
+        mcap(sys.argv[2])
+    else:
+        {"dump": dump, "check": check, "listen": listen}[sys.argv[1]]()

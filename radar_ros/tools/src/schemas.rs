@@ -1,5 +1,7 @@
 //! ROS 2 message definitions (`ros2msg`, as rosbag2 stores them in MCAP) for the types the command line
-//! records: the definition of the type itself, then each type it uses, after a separator line.
+//! records: the definition of the type itself, then each type it uses, after a separator line. Written here for
+//! the types radar knows without a ROS installation; any other is read from its definition files
+//! ([`radar_ros::codec::schema`]).
 
 const SEPARATOR: &str =
     "================================================================================";
@@ -10,7 +12,7 @@ const POINT: &str = "float64 x\nfloat64 y\nfloat64 z\n";
 const QUATERNION: &str = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
 const POSE: &str = "Point position\nQuaternion orientation\n";
 
-/// The `ros2msg` schema of `ros_type`, if the command line knows it.
+/// The `ros2msg` schema of `ros_type`, if the command line knows it or finds its definition.
 pub fn definition(ros_type: &str) -> Option<String> {
     let radar = |file: &str| -> &'static str {
         match file {
@@ -69,7 +71,7 @@ pub fn definition(ros_type: &str) -> Option<String> {
         "test_msgs/action/Fibonacci_Result" | "test_msgs/action/Fibonacci_Feedback" => {
             ("int32[] sequence\n", vec![])
         }
-        _ => return None,
+        _ => return radar_ros::codec::schema(ros_type).ok(),
     };
     let mut text = main.to_owned();
     for (name, def) in deps {

@@ -45,6 +45,42 @@ fn fixtures_py(mode: &str, input: Option<String>) -> Vec<Value> {
         .collect()
 }
 
+/// `fixtures.py ARGS`, with nothing on its stdin.
+fn fixtures_py_args(args: &[&str]) -> Vec<Value> {
+    let out = std::process::Command::new(python())
+        .arg(repo().join("tests/python/fixtures.py"))
+        .args(args)
+        .output()
+        .expect("run the venv's python");
+    assert!(
+        out.status.success(),
+        "fixtures.py {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}")))
+        .collect()
+}
+
+/// Values under `char_value*` keys (test_msgs' `char` fields) as unsigned bytes.
+fn chars_unsigned(v: &mut Value, in_char_field: bool) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m.iter_mut() {
+                chars_unsigned(x, k.starts_with("char_value"));
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(|x| chars_unsigned(x, in_char_field)),
+        Value::Number(n) if in_char_field => {
+            if let Some(i) = n.as_i64().filter(|i| *i < 0) {
+                *v = json!(i & 0xff);
+            }
+        }
+        _ => {}
+    }
+}
+
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -216,4 +252,205 @@ async fn radar_inject_writes_every_test_msgs_fixture_into_an_rclpy_subscriber() 
             got["got"]
         );
     }
+}
+
+/// The MCAP schema of a type found at run time is its definition and every type it uses, as rosbag2 writes it.
+#[test]
+fn a_run_time_types_schema_holds_its_definition_and_every_type_it_uses() {
+    let types = Interfaces::from_env().with_dir(venv().join("share"));
+    let s = types.schema("test_msgs/msg/MultiNested").unwrap();
+    let own = std::fs::read_to_string(venv().join("share/test_msgs/msg/MultiNested.msg")).unwrap();
+    assert!(s.starts_with(&own), "its own definition first, as written");
+    for used in [
+        "Arrays",
+        "BoundedSequences",
+        "UnboundedSequences",
+        "BasicTypes",
+        "Constants",
+        "Defaults",
+    ] {
+        let def = std::fs::read_to_string(venv().join(format!("share/test_msgs/msg/{used}.msg")))
+            .unwrap();
+        let block = format!("\nMSG: test_msgs/{used}\n{def}");
+        assert_eq!(
+            s.matches(&block).count(),
+            1,
+            "{used} once, after its MSG line: {s}"
+        );
+    }
+    assert!(types.schema("no_such_msgs/msg/Thing").is_err());
+}
+
+/// A response typed at run time that answers with its start payload.
+struct Echo(String);
+
+impl radar_ros::Response for Echo {
+    type Start = radar_ros::DynMessage;
+    type Output = radar_ros::DynMessage;
+
+    async fn start(
+        &mut self,
+        p: radar_ros::DynMessage,
+    ) -> Result<radar_ros::DynMessage, radar_ros::SlotError> {
+        Ok(p)
+    }
+
+    fn start_type(&self) -> String {
+        self.0.clone()
+    }
+
+    fn output_type(&self) -> String {
+        self.0.clone()
+    }
+}
+
+/// `radar record` of signals of every test_msgs type (responses typed at run time, started with rclpy's own
+/// bytes of each fixture), read back by Python's `mcap-ros2-support` decoder with the schemas in the file: every
+/// `started` payload equals its fixture. Domain 115.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
+    radar_ros_examples::test_support::require_isolation();
+    const DOMAIN: u16 = 115;
+    let r = radar_ros::Radar::builder()
+        .domain_id(DOMAIN)
+        .discovery_range(radar_ros::DiscoveryRange::Subnet)
+        .build()
+        .unwrap();
+    let fixtures = fixtures();
+    let names: std::collections::BTreeSet<String> = fixtures
+        .iter()
+        .map(|f| {
+            f["type"]
+                .as_str()
+                .unwrap()
+                .rsplit('/')
+                .next()
+                .unwrap()
+                .to_owned()
+        })
+        .collect();
+    let mut handles = std::collections::BTreeMap::new();
+    for n in &names {
+        let h = r
+            .spawn_response(&format!("/fxr/{n}"), Echo(format!("test_msgs/msg/{n}")))
+            .unwrap();
+        handles.insert(n.clone(), h);
+    }
+    let dir = std::env::temp_dir().join(format!("radar_fixtures_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("fixtures.mcap");
+    let mut args: Vec<String> = [
+        "record",
+        "-o",
+        file.to_str().unwrap(),
+        "--duration",
+        "60",
+        "--json",
+    ]
+    .map(str::to_owned)
+    .to_vec();
+    args.extend(names.iter().map(|n| format!("/fxr/{n}")));
+    let recorder = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(&args)
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .env("AMENT_PREFIX_PATH", venv())
+        .env_remove("RUST_LOG")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    // the recorder has subscribed to every response's started signal
+    for h in handles.values() {
+        radar_test_util::eventually(Duration::from_secs(15), "the recorder listens", || {
+            h.signal_subscribers()[0] > 0
+        })
+        .await;
+    }
+    for f in &fixtures {
+        let name = f["type"].as_str().unwrap().rsplit('/').next().unwrap();
+        let h = &handles[name];
+        let before = h.state().exits;
+        let slot = h.reference().start_slot();
+        let p = r.raw_publisher(slot.topic(), slot.ros_type()).unwrap();
+        p.wait_for_subscribers(1)
+            .timeout(Duration::from_secs(10))
+            .await
+            .unwrap();
+        p.publish(RawMessage::from_bytes(unhex(f["cdr"].as_str().unwrap())))
+            .unwrap();
+        radar_test_util::eventually(Duration::from_secs(10), "the run ended", || {
+            h.state().exits > before
+        })
+        .await;
+    }
+    // every run has ended (and its started was sent before it): stopped as a user stops it, with SIGTERM
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let pid = recorder.id().expect("the recorder runs") as i32;
+    // SAFETY: kill(2) on a child process of this test, which it still waits for
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let out = tokio::time::timeout(Duration::from_secs(30), recorder.wait_with_output())
+        .await
+        .expect("radar record ends on SIGTERM")
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let py = std::process::Command::new(python())
+        .arg(repo().join("tests/python/mcap_read.py"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        py.status.success(),
+        "mcap_read.py: {}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    let read: Vec<Value> = String::from_utf8_lossy(&py.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    // rosbag2's way (rclpy deserializes the CDR into the class the schema names), for every type
+    let by_rclpy = fixtures_py_args(&["mcap", file.to_str().unwrap()]);
+    for name in &names {
+        let topic = format!("/fxr/{name}/started");
+        let want: Vec<&Value> = fixtures
+            .iter()
+            .filter(|f| f["type"] == format!("test_msgs/msg/{name}"))
+            .collect();
+        for (reader, read) in [("mcap-ros2-support", &read), ("rclpy", &by_rclpy)] {
+            let got: Vec<&Value> = read.iter().filter(|m| m["topic"] == topic).collect();
+            assert_eq!(
+                got.len(),
+                want.len(),
+                "{reader}, {topic}: one started per fixture"
+            );
+            for (g, w) in got.iter().zip(&want) {
+                assert_eq!(g["schema"], format!("test_msgs/msg/{name}"));
+                if let Some(why) = g.get("undecodable") {
+                    // the Python mcap reader implements no wstring: only WStrings may be beyond it
+                    assert!(
+                        reader == "mcap-ros2-support"
+                            && name == "WStrings"
+                            && why.as_str().unwrap().contains("wstring"),
+                        "{reader} could not read {topic}: {why}"
+                    );
+                    continue;
+                }
+                let mut msg = g["msg"].clone();
+                if reader == "mcap-ros2-support" {
+                    // that reader reads `char` as a signed byte; ROS 2 defines it as uint8 (rosidl maps .msg
+                    // `char` to IDL `uint8`, and rclpy reads 255): same byte, compared as ROS 2 reads it
+                    chars_unsigned(&mut msg, false);
+                }
+                assert_eq!(
+                    msg, w["value"],
+                    "{reader}, {topic}: the payload is the fixture"
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -28,8 +28,12 @@ use crate::RawMessage;
 pub struct Interfaces {
     /// Directories holding `<pkg>/msg/<Name>.msg` (and `srv/`, `action/`), in the order looked in.
     roots: Vec<PathBuf>,
-    read: Mutex<HashMap<String, Arc<MessageSpecification>>>,
+    /// Each type read so far: its definition, and its text as written (for schemas).
+    read: Mutex<HashMap<String, Read>>,
 }
+
+/// A type read: its definition, and its text as written.
+type Read = (Arc<MessageSpecification>, Arc<str>);
 
 impl std::fmt::Debug for Interfaces {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -87,23 +91,64 @@ impl Interfaces {
 
     /// The definition of `ros_type`, read once.
     pub fn definition(&self, ros_type: &str) -> Result<Arc<MessageSpecification>, String> {
+        self.read_once(ros_type).map(|(spec, _)| spec)
+    }
+
+    fn read_once(&self, ros_type: &str) -> Result<Read, String> {
         if let Some(s) = self.read.lock().unwrap().get(ros_type) {
             return Ok(s.clone());
         }
         let t = split(ros_type)?;
-        let spec = Arc::new(self.read_definition(ros_type, &t)?);
+        let (spec, text) = self.read_definition(ros_type, &t)?;
+        let read = (Arc::new(spec), Arc::<str>::from(text));
         self.read
             .lock()
             .unwrap()
-            .insert(ros_type.to_owned(), spec.clone());
-        Ok(spec)
+            .insert(ros_type.to_owned(), read.clone());
+        Ok(read)
+    }
+
+    /// The `ros2msg` schema of `ros_type` as rosbag2 stores it in MCAP: its definition as written, then each
+    /// type it uses (at any depth, once), after a separator line and `MSG: pkg/Name`.
+    pub fn schema(&self, ros_type: &str) -> Result<String, String> {
+        const SEPARATOR: &str =
+            "================================================================================";
+        let (_, text) = self.read_once(ros_type)?;
+        let mut out = text.to_string();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut todo = self.nested_of(ros_type)?;
+        while let Some(t) = todo.pop() {
+            if !seen.insert(t.clone()) {
+                continue;
+            }
+            let (_, text) = self.read_once(&t)?;
+            let short = t.replacen("/msg/", "/", 1);
+            out.push_str(&format!("{SEPARATOR}\nMSG: {short}\n{text}"));
+            let mut more = self.nested_of(&t)?;
+            more.reverse();
+            todo.extend(more);
+        }
+        Ok(out)
+    }
+
+    /// The message types the fields of `ros_type` use, in field order (last first, to pop).
+    fn nested_of(&self, ros_type: &str) -> Result<Vec<String>, String> {
+        let spec = self.definition(ros_type)?;
+        let mut v: Vec<String> = spec
+            .fields
+            .iter()
+            .filter(|f| !is_primitive(&f.field_type.base_type.type_name))
+            .map(|f| self.nested_type(f, &spec.pkg_name))
+            .collect();
+        v.reverse();
+        Ok(v)
     }
 
     fn read_definition(
         &self,
         ros_type: &str,
         t: &TypeName<'_>,
-    ) -> Result<MessageSpecification, String> {
+    ) -> Result<(MessageSpecification, String), String> {
         let (file, part) = match t.kind {
             "srv" => split_part(t.name, &["_Request", "_Response"], "srv", ros_type)?,
             "action" => split_part(
@@ -140,24 +185,33 @@ impl Interfaces {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let bad = |e: ros2msg::ParseError| format!("{}: {e}", path.display());
         let base = file.rsplit_once('.').map_or(file.as_str(), |(b, _)| b);
+        let section = |i: usize| {
+            text.split("\n---")
+                .nth(i)
+                .map(|s| s.trim_start_matches('\n').to_owned())
+                .unwrap_or_default()
+        };
         Ok(match (t.kind, part) {
             ("srv", p) => {
                 let s = ros2msg::parse_service_string(t.pkg, base, &text).map_err(bad)?;
                 if p == "_Request" {
-                    s.request
+                    (s.request, section(0))
                 } else {
-                    s.response
+                    (s.response, section(1))
                 }
             }
             ("action", p) => {
                 let a = ros2msg::parse_action_string(t.pkg, base, &text).map_err(bad)?;
                 match p {
-                    "_Goal" => a.goal,
-                    "_Result" => a.result,
-                    _ => a.feedback,
+                    "_Goal" => (a.goal, section(0)),
+                    "_Result" => (a.result, section(1)),
+                    _ => (a.feedback, section(2)),
                 }
             }
-            _ => ros2msg::parse_message_string(t.pkg, t.name, &text).map_err(bad)?,
+            _ => (
+                ros2msg::parse_message_string(t.pkg, t.name, &text).map_err(bad)?,
+                text.clone(),
+            ),
         })
     }
 

@@ -80,6 +80,11 @@ pub fn encode(ros_type: &str, yaml: &str) -> Result<RawMessage, String> {
     run_time_types().encode(ros_type, &given)
 }
 
+/// The `ros2msg` schema (as rosbag2 stores it in MCAP) of a type found at run time ([`Interfaces::schema`]).
+pub fn schema(ros_type: &str) -> Result<String, String> {
+    run_time_types().schema(ros_type)
+}
+
 /// The types found at run time, from `AMENT_PREFIX_PATH` as it was when first asked.
 fn run_time_types() -> &'static Interfaces {
     static TYPES: std::sync::OnceLock<Interfaces> = std::sync::OnceLock::new();
