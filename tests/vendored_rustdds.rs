@@ -58,6 +58,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 42: a received sample does not keep its receive buffer alive
+        "a_received_payload_is_copied_out_of_the_receive_buffer",
         // patch 41: a reader forgets the instances that are gone
         "a_disposed_instance_is_reclaimed_once_its_samples_are_taken",
         "an_alive_or_untaken_instance_is_kept",

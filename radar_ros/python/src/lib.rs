@@ -62,11 +62,24 @@ fn encode_json<'py>(py: Python<'py>, ros_type: &str, json: &str) -> PyResult<Bou
 /// A message of `ros_type` (CDR bytes) as JSON; None for a type without a dict form here.
 #[pyfunction]
 fn decode_json(ros_type: &str, body: Vec<u8>) -> Option<String> {
-    if !radar_ros::codec::known().iter().any(|t| t == ros_type) {
+    if !radar_ros::codec::has_dict_form(ros_type) {
         return None;
     }
     let v = radar_ros::codec::decode(ros_type, &RawMessage::from_bytes(body));
     Some(v.to_string())
+}
+
+/// Whether `ros_type` converts to and from dicts here: a type radar_ros knows, or one whose definition is found
+/// (`AMENT_PREFIX_PATH`, or a directory given with `add_interfaces_dir`).
+#[pyfunction]
+fn has_dict_form(ros_type: &str) -> bool {
+    radar_ros::codec::has_dict_form(ros_type)
+}
+
+/// Looks for message definitions in `path` too (`<pkg>/msg/<Name>.msg`, ...), before `AMENT_PREFIX_PATH`.
+#[pyfunction]
+fn add_interfaces_dir(path: std::path::PathBuf) {
+    radar_ros::codec::add_interfaces_dir(path);
 }
 
 /// The native part of the `radar_ros` Python package.
@@ -75,6 +88,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dict_types, m)?)?;
     m.add_function(wrap_pyfunction!(encode_json, m)?)?;
     m.add_function(wrap_pyfunction!(decode_json, m)?)?;
+    m.add_function(wrap_pyfunction!(has_dict_form, m)?)?;
+    m.add_function(wrap_pyfunction!(add_interfaces_dir, m)?)?;
     m.add(
         "BUILD",
         if cfg!(debug_assertions) {

@@ -283,10 +283,24 @@ def test_waitfor_gets_the_next_payload() -> None:
 
 
 NO_RCLPY = """
-import sys
+import os, sys, tempfile
 sys.modules["rclpy"] = None  # as on a machine without ROS 2's Python packages
+os.environ.pop("AMENT_PREFIX_PATH", None)  # and no installation sourced
 import radar_ros
+# a package of the program's own, not installed: its definition in a directory given
+own = tempfile.mkdtemp()
+os.makedirs(os.path.join(own, "my_robot_msgs", "msg"))
+with open(os.path.join(own, "my_robot_msgs", "msg", "Dock.msg"), "w") as f:
+    f.write("string station\\nfloat64 speed 0.5\\nint32[] bays\\n")
+assert not radar_ros.has_dict_form("my_robot_msgs/msg/Dock")
+radar_ros.add_interfaces_dir(own)
+assert radar_ros.has_dict_form("my_robot_msgs/msg/Dock")
 with radar_ros.Radar(args=[]) as r:
+    dock = r.spawn_response("nr_dock", lambda m: dict(m, bays=[len(m["station"])]),
+                            start_type="my_robot_msgs/msg/Dock", output_type="my_robot_msgs/msg/Dock")
+    wd = r.waiter(dock.exited, timeout=15)
+    r.inject(dock.start_slot, {"station": "left"}, timeout=15)
+    print("docked", sorted(wd.recv(timeout=15).items()))
     assert radar_ros._payload.message_class("std_msgs/msg/Int32") is None
     c = r.spawn_response("nr_double", lambda m: {"data": m["data"] * 2},
                          start_type="std_msgs/msg/Int32", output_type="std_msgs/msg/Int32")
@@ -297,7 +311,7 @@ with radar_ros.Radar(args=[]) as r:
         r.inject(c.start_slot, {"date": 1}, timeout=15)
     except radar_ros.PayloadTypeError as e:
         print("refused", e)
-    unknown = r.spawn_response("nr_unknown", lambda m: None, start_type="test_msgs/msg/Arrays")
+    unknown = r.spawn_response("nr_unknown", lambda m: None, start_type="no_such_msgs/msg/Thing")
     try:
         r.inject(unknown.start_slot, {"x": 1}, timeout=15)
     except radar_ros.PayloadTypeError as e:
@@ -319,6 +333,8 @@ def test_dicts_work_without_python_message_packages() -> None:
         os.unlink(f.name)
     assert out.returncode == 0, out.stderr
     assert "got {'data': 42}" in out.stdout, out.stdout
+    # a type of the program's own, from its definition: fields left out take their defaults
+    assert "docked [('bays', [4]), ('speed', 0.5), ('station', 'left')]" in out.stdout, out.stdout
     refused = [line for line in out.stdout.splitlines() if line.startswith("refused")]
     assert refused and "date" in refused[0], out.stdout
     unknown = [line for line in out.stdout.splitlines() if line.startswith("unknown")]

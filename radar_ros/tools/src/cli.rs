@@ -25,6 +25,10 @@ pub struct Cli {
     /// Seconds to let discovery run before answering.
     #[arg(long, global = true, default_value_t = 1.5, value_name = "SECONDS")]
     discovery: f64,
+    /// Also look for message definitions in DIR (`DIR/<pkg>/msg/<Name>.msg`, `srv/`, `action/`), before
+    /// AMENT_PREFIX_PATH: interface packages that are not installed. May be given more than once.
+    #[arg(long, global = true, value_name = "DIR")]
+    interfaces: Vec<std::path::PathBuf>,
     #[command(subcommand)]
     cmd: Cmd,
 }
@@ -332,6 +336,15 @@ async fn generate_policy(
 /// Runs the verb `cli` names, on a program node of its own (several `radar` commands may run at once).
 pub async fn run(cli: Cli) -> Result<(), String> {
     let out = Out { json: cli.json };
+    for dir in cli.interfaces.iter().rev() {
+        if !dir.is_dir() {
+            return Err(format!(
+                "--interfaces {}: no such directory (give one that holds <pkg>/msg/<Name>.msg)",
+                dir.display()
+            ));
+        }
+        radar_ros::codec::add_interfaces_dir(dir.clone());
+    }
     let cmd = match cli.cmd {
         Cmd::Security {
             verb: SecurityVerb::GeneratePolicy { policy },

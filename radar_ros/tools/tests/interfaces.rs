@@ -454,3 +454,88 @@ async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `radar --interfaces DIR`: a package of a program's own that is not installed. `radar inject` writes a
+/// payload of its type (fields left out take the definition's defaults) into a response typed at run time.
+/// Domain 116.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
+    radar_ros_examples::test_support::require_isolation();
+    const DOMAIN: u16 = 116;
+    let own = std::env::temp_dir().join(format!("radar_own_msgs_{}", std::process::id()));
+    std::fs::create_dir_all(own.join("my_robot_msgs/msg")).unwrap();
+    std::fs::write(
+        own.join("my_robot_msgs/msg/Dock.msg"),
+        "# where to dock\nstring station\nfloat64 speed 0.5\nDockBay[] bays\n",
+    )
+    .unwrap();
+    std::fs::write(own.join("my_robot_msgs/msg/DockBay.msg"), "uint8 number\n").unwrap();
+    let r = radar_ros::Radar::builder()
+        .domain_id(DOMAIN)
+        .discovery_range(radar_ros::DiscoveryRange::Subnet)
+        .build()
+        .unwrap();
+    let dock = r
+        .spawn_response("/dock", Echo("my_robot_msgs/msg/Dock".into()))
+        .unwrap();
+    let mut exited = r
+        .waiter::<radar_ros::DynMessage>(dock.reference().exited())
+        .await
+        .unwrap();
+    let inject = |args: Vec<String>| {
+        tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+            .args(args)
+            .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+            .env_remove("AMENT_PREFIX_PATH")
+            .env_remove("RUST_LOG")
+            .kill_on_drop(true)
+            .output()
+    };
+    let dir = own.to_str().unwrap().to_owned();
+    let args = [
+        "--interfaces",
+        &dir,
+        "inject",
+        "/dock/start",
+        "{station: left, bays: [{number: 3}]}",
+    ];
+    let out = inject(args.map(str::to_owned).to_vec()).await.unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let got = tokio::time::timeout(Duration::from_secs(10), exited.recv())
+        .await
+        .expect("the run ends")
+        .unwrap();
+    let types = Interfaces::from_env().with_dir(&own);
+    assert_eq!(
+        types.decode("my_robot_msgs/msg/Dock", &got.0).unwrap(),
+        json!({ "station": "left", "speed": 0.5, "bays": [{ "number": 3 }] })
+    );
+    // without the directory the type is found nowhere, and the error says where radar looked
+    let out = inject(
+        ["inject", "/dock/start", "{station: left}"]
+            .map(str::to_owned)
+            .to_vec(),
+    )
+    .await
+    .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("my_robot_msgs/msg/Dock") && e.contains("AMENT_PREFIX_PATH"),
+        "{e}"
+    );
+    let out = inject(
+        ["--interfaces", "/no/such/dir", "inject", "/dock/start"]
+            .map(str::to_owned)
+            .to_vec(),
+    )
+    .await
+    .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/dir"));
+    let _ = std::fs::remove_dir_all(&own);
+}

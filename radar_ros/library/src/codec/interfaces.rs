@@ -27,7 +27,7 @@ use crate::RawMessage;
 /// Where definitions are looked for, and those read so far.
 pub struct Interfaces {
     /// Directories holding `<pkg>/msg/<Name>.msg` (and `srv/`, `action/`), in the order looked in.
-    roots: Vec<PathBuf>,
+    roots: std::sync::RwLock<Vec<PathBuf>>,
     /// Each type read so far: its definition, and its text as written (for schemas).
     read: Mutex<HashMap<String, Read>>,
 }
@@ -38,7 +38,7 @@ type Read = (Arc<MessageSpecification>, Arc<str>);
 impl std::fmt::Debug for Interfaces {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Interfaces")
-            .field("roots", &self.roots)
+            .field("roots", &*self.roots.read().unwrap())
             .finish()
     }
 }
@@ -77,16 +77,22 @@ impl Interfaces {
             })
             .unwrap_or_default();
         Interfaces {
-            roots,
+            roots: std::sync::RwLock::new(roots),
             read: Mutex::new(HashMap::new()),
         }
     }
 
     /// Also looks in `dir` (holding `<pkg>/msg/<Name>.msg`, ...), before the others.
     #[must_use]
-    pub fn with_dir(mut self, dir: impl Into<PathBuf>) -> Interfaces {
-        self.roots.insert(0, dir.into());
+    pub fn with_dir(self, dir: impl Into<PathBuf>) -> Interfaces {
+        self.add_dir(dir);
         self
+    }
+
+    /// Looks in `dir` too (holding `<pkg>/msg/<Name>.msg`, ...), before the others, from now on. Types read
+    /// already stay as they were read.
+    pub fn add_dir(&self, dir: impl Into<PathBuf>) {
+        self.roots.write().unwrap().insert(0, dir.into());
     }
 
     /// The definition of `ros_type`, read once.
@@ -161,6 +167,8 @@ impl Interfaces {
         };
         let looked: Vec<PathBuf> = self
             .roots
+            .read()
+            .unwrap()
             .iter()
             .map(|r| r.join(t.pkg).join(t.kind).join(&file))
             .collect();

@@ -80,6 +80,18 @@ pub fn encode(ros_type: &str, yaml: &str) -> Result<RawMessage, String> {
     run_time_types().encode(ros_type, &given)
 }
 
+/// Whether payloads of `ros_type` convert to and from YAML and JSON here: a known type, or one whose definition
+/// is found ([`Interfaces`]).
+pub fn has_dict_form(ros_type: &str) -> bool {
+    known().iter().any(|t| t == ros_type) || run_time_types().definition(ros_type).is_ok()
+}
+
+/// Looks for definitions in `dir` too (holding `<pkg>/msg/<Name>.msg`, `srv/`, `action/`), before
+/// `AMENT_PREFIX_PATH`: a package of a program's own that is not installed (`radar --interfaces DIR`).
+pub fn add_interfaces_dir(dir: impl Into<std::path::PathBuf>) {
+    run_time_types().add_dir(dir);
+}
+
 /// The `ros2msg` schema (as rosbag2 stores it in MCAP) of a type found at run time ([`Interfaces::schema`]).
 pub fn schema(ros_type: &str) -> Result<String, String> {
     run_time_types().schema(ros_type)

@@ -46,7 +46,18 @@ from ._errors import (
     RadarTimeout,
     SlotError,
 )
-from ._payload import EMPTY, MsgType, RawPayload, decode, dict_types, encode, message_class, type_name
+from ._payload import (
+    EMPTY,
+    MsgType,
+    RawPayload,
+    add_interfaces_dir,
+    decode,
+    dict_types,
+    encode,
+    has_dict_form,
+    message_class,
+    type_name,
+)
 
 Signal = _native.Signal
 Slot = _native.Slot
@@ -73,6 +84,8 @@ __all__ = [
     "RawPayload",
     "sleep",
     "dict_types",
+    "has_dict_form",
+    "add_interfaces_dir",
     "type_name",
     "RadarError",
     "RadarTimeout",

@@ -4,13 +4,14 @@ A payload may be:
 
 - an instance of a rosidl message class (``std_msgs.msg.String``, any generated type of the environment),
   serialized with rclpy's own CDR (``rclpy.serialization``; rclpy need not be initialised);
-- a ``dict`` of fields, for the types radar_ros knows (:func:`dict_types`: std_msgs basics, geometry poses,
-  radar_msgs, ...), where no Python message package is installed;
+- a ``dict`` of fields (left out: their defaults), for the types radar_ros knows (:func:`dict_types`: std_msgs
+  basics, geometry poses, radar_msgs, ...) and for any type whose definition is found (``AMENT_PREFIX_PATH``, or
+  a directory given to :func:`add_interfaces_dir`), where no Python message package is installed;
 - ``bytes``: the CDR body itself (little-endian, without the 4-byte encapsulation header);
 - ``None``: the type's default message (``std_msgs/msg/Empty`` for a signal that carries nothing).
 
 Received payloads are given as the type's rosidl class when it can be imported, else as a ``dict`` for a
-known type, else as :class:`RawPayload`.
+type with a dict form (known, or its definition found), else as :class:`RawPayload`.
 """
 
 from __future__ import annotations
@@ -71,6 +72,18 @@ def dict_types() -> List[str]:
     return list(_native.dict_types())
 
 
+def has_dict_form(ros_type: str) -> bool:
+    """Whether ``ros_type`` payloads convert to and from dicts here: a known type (:func:`dict_types`), or one
+    whose definition is found (``AMENT_PREFIX_PATH``, or a directory given to :func:`add_interfaces_dir`)."""
+    return bool(_native.has_dict_form(ros_type))
+
+
+def add_interfaces_dir(path: str) -> None:
+    """Looks for message definitions in ``path`` too (``<pkg>/msg/<Name>.msg``, ``srv/``, ``action/``), before
+    ``AMENT_PREFIX_PATH``: a package of the program's own that is not installed."""
+    _native.add_interfaces_dir(str(path))
+
+
 def _serialize(msg: Any) -> bytes:
     from rclpy.serialization import serialize_message
 
@@ -96,10 +109,12 @@ def encode(payload: Any, ros_type: str) -> bytes:
                 return _serialize(cls(**fields))
             except (TypeError, AssertionError, AttributeError) as e:
                 raise PayloadTypeError(f"{fields!r} does not make a {ros_type}: {e}") from e
+        if has_dict_form(ros_type):
+            return bytes(_native.encode_json(ros_type, json.dumps(fields)))
         raise PayloadTypeError(
             f"cannot make a {ros_type} from {payload!r}: its Python message package is not importable "
-            f"here and it has no dict form (those that have: {', '.join(sorted(_known()))}); pass an "
-            f"instance of its rosidl class, or its CDR bytes"
+            f"here and no definition of it is found (AMENT_PREFIX_PATH, add_interfaces_dir; types known "
+            f"without one: {', '.join(sorted(_known()))}); pass an instance of its rosidl class, or its CDR bytes"
         )
     given = type(payload)
     try:

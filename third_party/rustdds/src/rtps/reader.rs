@@ -629,7 +629,7 @@ impl Reader {
     let writer_seq_num = data.writer_sn; // for borrow checker
     self.note_heard(writer_guid);
 
-    match self.data_to_dds_data(data, data_flags) {
+    match Self::data_to_dds_data(&self.topic_name, data, data_flags) {
       Ok(dds_data) => self.process_received_data(
         dds_data,
         receive_timestamp,
@@ -853,8 +853,18 @@ impl Reader {
     }
   }
 
+  // The payload of a received DATA as the cache keeps it: copied out of the
+  // receive buffer (RADAR patch 42). A slice would keep the whole buffer
+  // chunk it came in (256 KB, shared by every message received into it)
+  // alive for as long as the sample stays in a cache: a reader that keeps
+  // samples for long (discovery data, transient-local state, KEEP_ALL) pinned
+  // one chunk per kept sample, and a long-running participant grew.
+  fn owned_payload(serialized: &bytes::Bytes) -> std::io::Result<SerializedPayload> {
+    SerializedPayload::from_bytes(&bytes::Bytes::copy_from_slice(serialized))
+  }
+
   fn data_to_dds_data(
-    &self,
+    topic_name: &str,
     data: Data,
     data_flags: BitFlags<DATA_Flags>,
   ) -> Result<DDSData, String> {
@@ -868,7 +878,7 @@ impl Reader {
       (Some(serialized_payload), true, false) => {
         // data
         Ok(DDSData::new(
-          SerializedPayload::from_bytes(&serialized_payload).map_err(|e| format!("{e:?}"))?,
+          Self::owned_payload(&serialized_payload).map_err(|e| format!("{e:?}"))?,
         ))
       }
 
@@ -876,7 +886,7 @@ impl Reader {
         // key
         Ok(DDSData::new_disposed_by_key(
           Self::deduce_change_kind(&data.inline_qos, false, representation_identifier),
-          SerializedPayload::from_bytes(&serialized_payload).map_err(|e| format!("{e:?}"))?,
+          Self::owned_payload(&serialized_payload).map_err(|e| format!("{e:?}"))?,
         ))
       }
 
@@ -903,7 +913,7 @@ impl Reader {
           Self::deduce_change_kind(&data.inline_qos, false, representation_identifier);
         info!(
           "status change by Inline QoS: topic={:?} change={:?}",
-          self.topic_name, change_kind
+          topic_name, change_kind
         );
         Ok(DDSData::new_disposed_by_key_hash(change_kind, key_hash))
       }
@@ -1594,6 +1604,28 @@ mod tests {
     QosPolicyBuilder,
   };
   use super::*;
+
+  // RADAR patch 42: a received sample does not keep its receive buffer alive.
+  #[test]
+  fn a_received_payload_is_copied_out_of_the_receive_buffer() {
+    // a receive buffer chunk, and a DATA whose payload (4-byte CDR header, then 8 bytes) is a slice of it
+    let mut chunk = vec![0u8; 256 * 1024];
+    chunk[1000..1012].copy_from_slice(&[0, 1, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8]);
+    let chunk = bytes::Bytes::from(chunk);
+    let range = chunk.as_ptr() as usize..chunk.as_ptr() as usize + chunk.len();
+    let data = Data {
+      serialized_payload: Some(chunk.slice(1000..1012)),
+      ..Data::default()
+    };
+    let flags = BitFlags::<DATA_Flags>::from_flag(DATA_Flags::Data);
+    let dds_data = Reader::data_to_dds_data("t", data, flags).unwrap();
+    let value = dds_data.data();
+    assert_eq!(&value[..], &[1, 2, 3, 4, 5, 6, 7, 8]);
+    assert!(
+      !range.contains(&(value.as_ptr() as usize)),
+      "the kept payload points into the receive buffer, which stays allocated as long as it"
+    );
+  }
 
   #[test]
   fn reader_sends_notification_when_receiving_data() {
