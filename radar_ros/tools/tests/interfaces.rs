@@ -539,3 +539,46 @@ async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/dir"));
     let _ = std::fs::remove_dir_all(&own);
 }
+
+/// RIHS01 hashes computed from the definitions equal rosidl's: every `share/<pkg>/msg/<Name>.json` the ROS 2
+/// wheels in the venv ship (std_msgs, geometry_msgs, test_msgs, builtin_interfaces, ...), each one's
+/// `type_hashes[0]`.
+#[test]
+fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
+    let share = venv().join("share");
+    let types = Interfaces::from_env().with_dir(&share);
+    let mut checked = Vec::new();
+    let mut wrong = Vec::new();
+    for pkg in std::fs::read_dir(&share).unwrap() {
+        let msg_dir = pkg.unwrap().path().join("msg");
+        let Ok(entries) = std::fs::read_dir(&msg_dir) else {
+            continue;
+        };
+        for e in entries {
+            let path = e.unwrap().path();
+            if path.extension().is_none_or(|x| x != "json") {
+                continue;
+            }
+            let doc: Value =
+                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            let hash = &doc["type_hashes"][0];
+            let ty = hash["type_name"].as_str().unwrap();
+            match types.type_hash(ty) {
+                Ok(h) if h == hash["hash_string"] => checked.push(ty.to_owned()),
+                other => wrong.push(format!("{ty}: {other:?}, rosidl {}", hash["hash_string"])),
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{wrong:#?}");
+    for must in [
+        "test_msgs/msg/MultiNested",
+        "geometry_msgs/msg/PoseStamped",
+        "std_msgs/msg/Empty",
+    ] {
+        assert!(
+            checked.iter().any(|t| t == must),
+            "{must} checked: {checked:?}"
+        );
+    }
+    assert!(checked.len() > 100, "{} checked", checked.len());
+}

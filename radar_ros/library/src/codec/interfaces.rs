@@ -238,7 +238,7 @@ impl Interfaces {
         Ok(v)
     }
 
-    fn nested_type(&self, field: &Field, in_pkg: &str) -> String {
+    pub(super) fn nested_type(&self, field: &Field, in_pkg: &str) -> String {
         let b = &field.field_type.base_type;
         format!(
             "{}/msg/{}",
@@ -463,7 +463,7 @@ fn check_len(t: &Type, n: usize, at: &str) -> Result<(), String> {
     }
 }
 
-fn is_primitive(name: &str) -> bool {
+pub(super) fn is_primitive(name: &str) -> bool {
     matches!(
         name,
         "bool"

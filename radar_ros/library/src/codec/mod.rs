@@ -5,6 +5,7 @@
 
 mod cdr;
 mod interfaces;
+mod type_hash;
 
 pub use interfaces::Interfaces;
 
