@@ -64,6 +64,9 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     ros-jazzy-std-srvs==5.3.6 \
     ros-jazzy-geometry-msgs==5.3.6 \
     ros-jazzy-test-msgs==2.0.3 \
+    ros-jazzy-sensor-msgs==5.3.6 \
+    ros-jazzy-nav-msgs==5.3.6 \
+    ros-jazzy-diagnostic-msgs==5.3.6 \
     mcap==1.6.0 \
     mcap-ros2-support==0.6.0 \
     ros-jazzy-builtin-interfaces==2.0.3 \

@@ -582,3 +582,68 @@ fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
     }
     assert!(checked.len() > 100, "{} checked", checked.len());
 }
+
+/// The interfaces radar_ros ships (`radar_ros/library/interfaces/`) are the Jazzy packages' own files, byte for
+/// byte (as the venv's wheels install them), and work with no installation: encoded, decoded and hashed as
+/// rosidl hashes them.
+#[test]
+fn the_bundled_interfaces_are_jazzys_and_work_without_an_installation() {
+    let bundled = repo().join("radar_ros/library/interfaces");
+    let share = venv().join("share");
+    let mut compared = 0;
+    for pkg in std::fs::read_dir(&bundled).unwrap() {
+        let pkg = pkg.unwrap().path();
+        if !pkg.is_dir() {
+            continue;
+        }
+        for kind in std::fs::read_dir(&pkg).unwrap() {
+            for file in std::fs::read_dir(kind.unwrap().path()).unwrap() {
+                let file = file.unwrap().path();
+                let rel = file.strip_prefix(&bundled).unwrap();
+                let installed = std::fs::read(share.join(rel))
+                    .unwrap_or_else(|e| panic!("{}: not in the venv ({e})", rel.display()));
+                assert_eq!(
+                    std::fs::read(&file).unwrap(),
+                    installed,
+                    "{}",
+                    rel.display()
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 100, "{compared} files compared");
+    // nothing installed: only what radar_ros ships
+    let none = Interfaces::empty();
+    for ty in [
+        "sensor_msgs/msg/LaserScan",
+        "nav_msgs/msg/Odometry",
+        "geometry_msgs/msg/PoseStamped",
+        "diagnostic_msgs/msg/DiagnosticArray",
+        "action_msgs/msg/GoalStatusArray",
+    ] {
+        let (pkg, name) = ty.split_once("/msg/").unwrap();
+        let doc: Value = serde_json::from_str(
+            &std::fs::read_to_string(share.join(format!("{pkg}/msg/{name}.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(
+            none.type_hash(ty).unwrap(),
+            doc["type_hashes"][0]["hash_string"],
+            "{ty}"
+        );
+        let raw = none.encode(ty, &serde_yaml::Value::Null).unwrap();
+        none.decode(ty, &raw).unwrap();
+    }
+    let scan = none
+        .encode(
+            "sensor_msgs/msg/LaserScan",
+            &serde_yaml::from_str("{header: {frame_id: laser}, ranges: [1.5, 2.0]}").unwrap(),
+        )
+        .unwrap();
+    let v = none.decode("sensor_msgs/msg/LaserScan", &scan).unwrap();
+    assert_eq!(
+        (v["header"]["frame_id"].clone(), v["ranges"].clone()),
+        (json!("laser"), json!([1.5, 2.0]))
+    );
+}

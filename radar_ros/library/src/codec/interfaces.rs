@@ -17,11 +17,16 @@ use std::{
     sync::{Arc, Mutex},
 };
 
-use ros2msg::{Field, MessageSpecification, PrimitiveValue, Type, Value as Default};
+use ros2msg::{Field, MessageSpecification, Value as Default};
 use serde_json::Value;
 use serde_yaml::Value as Yaml;
 
-use super::cdr::{Reader, Writer};
+use super::{
+    cdr::{Reader, Writer},
+    primitives::{
+        check_len, fixed, is_octet, is_primitive, primitive_yaml, read_primitive, write_primitive,
+    },
+};
 use crate::RawMessage;
 
 /// Where definitions are looked for, and those read so far.
@@ -67,7 +72,9 @@ fn split(ros_type: &str) -> Result<TypeName<'_>, String> {
 }
 
 impl Interfaces {
-    /// Definitions looked for as ROS 2 tools look: in `share/` of every prefix of `AMENT_PREFIX_PATH`.
+    /// Definitions looked for as ROS 2 tools look: in `share/` of every prefix of `AMENT_PREFIX_PATH`, then in
+    /// the interfaces radar_ros ships (std_msgs, builtin_interfaces, geometry_msgs, sensor_msgs, nav_msgs,
+    /// std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs).
     pub fn from_env() -> Interfaces {
         let roots = std::env::var_os("AMENT_PREFIX_PATH")
             .map(|p| {
@@ -78,6 +85,14 @@ impl Interfaces {
             .unwrap_or_default();
         Interfaces {
             roots: std::sync::RwLock::new(roots),
+            read: Mutex::new(HashMap::new()),
+        }
+    }
+
+    /// Definitions of the interfaces radar_ros ships only, whatever the environment says.
+    pub fn empty() -> Interfaces {
+        Interfaces {
+            roots: std::sync::RwLock::new(Vec::new()),
             read: Mutex::new(HashMap::new()),
         }
     }
@@ -172,26 +187,21 @@ impl Interfaces {
             .iter()
             .map(|r| r.join(t.pkg).join(t.kind).join(&file))
             .collect();
-        let Some(path) = looked.iter().find(|p| p.is_file()) else {
-            return Err(format!(
-                "no definition of {ros_type}: looked in {} (source the ROS 2 installation that has {}, set \
-                 AMENT_PREFIX_PATH, or give the directory that holds {}/{}/{file})",
-                if looked.is_empty() {
-                    "no directory: AMENT_PREFIX_PATH is not set".to_owned()
-                } else {
-                    looked
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                },
-                t.pkg,
-                t.pkg,
-                t.kind
-            ));
+        let bundled_path = format!("{}/{}/{file}", t.pkg, t.kind);
+        let (text, origin) = match looked.iter().find(|p| p.is_file()) {
+            Some(path) => (
+                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?,
+                path.display().to_string(),
+            ),
+            None => match super::bundled::find(&bundled_path) {
+                Some(text) => (
+                    text.to_owned(),
+                    format!("radar_ros's bundled {bundled_path}"),
+                ),
+                None => return Err(not_found(ros_type, t, &file, &looked)),
+            },
         };
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bad = |e: ros2msg::ParseError| format!("{}: {e}", path.display());
+        let bad = |e: ros2msg::ParseError| format!("{origin}: {e}");
         let base = file.rsplit_once('.').map_or(file.as_str(), |(b, _)| b);
         let section = |i: usize| {
             text.split("\n---")
@@ -422,6 +432,27 @@ impl Interfaces {
     }
 }
 
+/// What to do when `ros_type`'s definition is nowhere: every place looked in, and the bundled packages.
+fn not_found(ros_type: &str, t: &TypeName<'_>, file: &str, looked: &[PathBuf]) -> String {
+    format!(
+        "no definition of {ros_type}: looked in {} and in the interfaces radar_ros ships ({}) (source the ROS 2 \
+         installation that has {}, set AMENT_PREFIX_PATH, or give the directory that holds {}/{}/{file})",
+        if looked.is_empty() {
+            "no directory (AMENT_PREFIX_PATH is not set)".to_owned()
+        } else {
+            looked
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
+        super::bundled::packages().join(", "),
+        t.pkg,
+        t.pkg,
+        t.kind
+    )
+}
+
 /// `Name_Request` -> (`Name.srv`, `_Request`).
 fn split_part<'a>(
     name: &str,
@@ -441,150 +472,4 @@ fn split_part<'a>(
                 parts.join(", ")
             )
         })
-}
-
-fn fixed(t: &Type) -> bool {
-    t.is_array && t.array_size.is_some() && !t.is_upper_bound
-}
-
-fn is_octet(t: &Type) -> bool {
-    matches!(t.base_type.type_name.as_str(), "byte" | "uint8" | "char")
-}
-
-fn check_len(t: &Type, n: usize, at: &str) -> Result<(), String> {
-    match t.array_size {
-        Some(size) if fixed(t) && n != size as usize => {
-            Err(format!("{at}: exactly {size} elements, not {n}"))
-        }
-        Some(bound) if t.is_upper_bound && n > bound as usize => {
-            Err(format!("{at}: at most {bound} elements, not {n}"))
-        }
-        _ => Ok(()),
-    }
-}
-
-pub(super) fn is_primitive(name: &str) -> bool {
-    matches!(
-        name,
-        "bool"
-            | "byte"
-            | "char"
-            | "float32"
-            | "float64"
-            | "int8"
-            | "uint8"
-            | "int16"
-            | "uint16"
-            | "int32"
-            | "uint32"
-            | "int64"
-            | "uint64"
-            | "string"
-            | "wstring"
-    )
-}
-
-fn primitive_yaml(v: &PrimitiveValue) -> Yaml {
-    match v {
-        PrimitiveValue::Bool(b) => Yaml::from(*b),
-        PrimitiveValue::Int8(x) => Yaml::from(*x),
-        PrimitiveValue::UInt8(x) => Yaml::from(*x),
-        PrimitiveValue::Int16(x) => Yaml::from(*x),
-        PrimitiveValue::UInt16(x) => Yaml::from(*x),
-        PrimitiveValue::Int32(x) => Yaml::from(*x),
-        PrimitiveValue::UInt32(x) => Yaml::from(*x),
-        PrimitiveValue::Int64(x) => Yaml::from(*x),
-        PrimitiveValue::UInt64(x) => Yaml::from(*x),
-        PrimitiveValue::Float32(x) => Yaml::from(f64::from(*x)),
-        PrimitiveValue::Float64(x) => Yaml::from(*x),
-        PrimitiveValue::String(s) => Yaml::from(s.clone()),
-    }
-}
-
-fn write_primitive(w: &mut Writer, ty: &str, v: &Yaml, at: &str) -> Result<(), String> {
-    let wrong = || {
-        format!(
-            "{at}: {} is no {ty}",
-            serde_yaml::to_string(v).unwrap_or_default().trim()
-        )
-    };
-    let int = |lo: i128, hi: i128| -> Result<i128, String> {
-        let n: i128 = match v {
-            Yaml::Null => 0,
-            Yaml::Bool(b) => i128::from(*b),
-            Yaml::Number(n) => n
-                .as_i64()
-                .map(i128::from)
-                .or_else(|| n.as_u64().map(i128::from))
-                .ok_or_else(wrong)?,
-            // a one-character string for a char or byte
-            Yaml::String(s) if s.chars().count() == 1 && matches!(ty, "char" | "byte") => {
-                i128::from(s.chars().next().map_or(0, |c| c as u32))
-            }
-            _ => return Err(wrong()),
-        };
-        if n < lo || n > hi {
-            return Err(format!("{at}: {n} is out of a {ty}'s range {lo}..={hi}"));
-        }
-        Ok(n)
-    };
-    let float = || -> Result<f64, String> {
-        match v {
-            Yaml::Null => Ok(0.0),
-            Yaml::Number(n) => n.as_f64().ok_or_else(wrong),
-            _ => Err(wrong()),
-        }
-    };
-    match ty {
-        "bool" => match v {
-            Yaml::Null => w.u8(0),
-            Yaml::Bool(b) => w.u8(u8::from(*b)),
-            _ => return Err(wrong()),
-        },
-        "byte" | "char" | "uint8" => w.u8(int(0, 255)? as u8),
-        "int8" => w.u8(int(-128, 127)? as i8 as u8),
-        "int16" => w.u16(int(i16::MIN.into(), i16::MAX.into())? as i16 as u16),
-        "uint16" => w.u16(int(0, u16::MAX.into())? as u16),
-        "int32" => w.u32(int(i32::MIN.into(), i32::MAX.into())? as i32 as u32),
-        "uint32" => w.u32(int(0, u32::MAX.into())? as u32),
-        "int64" => w.u64(int(i64::MIN.into(), i64::MAX.into())? as i64 as u64),
-        "uint64" => w.u64(int(0, u64::MAX.into())? as u64),
-        "float32" => w.u32((float()? as f32).to_bits()),
-        "float64" => w.u64(float()?.to_bits()),
-        "string" | "wstring" => {
-            let s = match v {
-                Yaml::Null => String::new(),
-                Yaml::String(s) => s.clone(),
-                Yaml::Number(n) => n.to_string(),
-                Yaml::Bool(b) => b.to_string(),
-                _ => return Err(wrong()),
-            };
-            if ty == "string" {
-                w.string(&s);
-            } else {
-                w.wstring(&s);
-            }
-        }
-        _ => return Err(wrong()),
-    }
-    Ok(())
-}
-
-fn read_primitive(r: &mut Reader<'_>, ty: &str) -> Result<Value, String> {
-    Ok(match ty {
-        "bool" => Value::from(r.u8()? != 0),
-        "byte" | "char" | "uint8" => Value::from(r.u8()?),
-        "int8" => Value::from(r.u8()? as i8),
-        "int16" => Value::from(r.u16()? as i16),
-        "uint16" => Value::from(r.u16()?),
-        "int32" => Value::from(r.u32()? as i32),
-        "uint32" => Value::from(r.u32()?),
-        "int64" => Value::from(r.u64()? as i64),
-        "uint64" => Value::from(r.u64()?),
-        "float32" => Value::from(f64::from(f32::from_bits(r.u32()?))),
-        "float64" => Value::from(f64::from_bits(r.u64()?)),
-        "string" => Value::from(r.string()?),
-        "wstring" => Value::from(r.wstring()?),
-        other => return Err(format!("{other} is no primitive type")),
-    })
 }
