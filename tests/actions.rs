@@ -603,3 +603,83 @@ async fn b11_another_run_of_a_served_response_does_not_answer_the_goal() {
     assert_eq!(st.last_exit_reason, "completed", "{st:?}");
     drop(fib);
 }
+
+/// The `go_to_pose` example as its documentation says: a fresh process publishes one
+/// `geometry_msgs/msg/PoseStamped` `"{pose: {position: {x: 1.0}}}"` on `/go_to/start` (what `ros2 topic pub
+/// --once` does: rclpy, default QoS, wait for the subscriber), then `radar inject` the same payload; each
+/// drives the response once, with the pose given. Domain 117.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_go_to_pose_example_is_started_by_a_one_shot_pose_stamped() {
+    radar_test_util::require_isolation();
+    let exe = examples_dir("go_to_pose").join("go_to_pose");
+    let robot = tokio::process::Command::new(&exe)
+        .args(["--drive-ms", "200"])
+        .env("ROS_DOMAIN_ID", "117")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("run the example");
+    let mut py = Py::interop(
+        117,
+        &[
+            "pub_once",
+            "/go_to/start",
+            "geometry_msgs/msg/PoseStamped",
+            "{pose: {position: {x: 1.0}}}",
+        ],
+    );
+    // the response's state says when each drive has ended
+    let watcher = radar(117);
+    let states = watcher
+        .state_subscription::<ResponseState>("/go_to/state")
+        .unwrap();
+    let exits = |n: u64| {
+        let states = &states;
+        async move {
+            tokio::time::timeout(T, async { while states.recv().await.unwrap().exits < n {} })
+                .await
+                .unwrap_or_else(|_| panic!("drive {n} did not end"))
+        }
+    };
+    assert_eq!(py.json().await["published"], "/go_to/start");
+    py.succeeds().await;
+    exits(1).await;
+    // the same payload through radar's command line
+    let radar = examples_dir("go_to_pose").parent().unwrap().join("radar");
+    let out = tokio::time::timeout(
+        T,
+        tokio::process::Command::new(&radar)
+            .args([
+                "inject",
+                "/go_to/start",
+                "{pose: {position: {x: 2.5}}, header: {frame_id: map}}",
+            ])
+            .env("ROS_DOMAIN_ID", "117")
+            .output(),
+    )
+    .await
+    .expect("radar inject ends")
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    exits(2).await;
+    unsafe { libc::kill(robot.id().unwrap() as i32, libc::SIGINT) };
+    let out = tokio::time::timeout(T, robot.wait_with_output())
+        .await
+        .expect("the example ends on SIGINT")
+        .unwrap();
+    let stdout = ended_cleanly(out, "go_to_pose");
+    assert!(
+        stdout.contains("going to (1, 0, 0) in frame \"\""),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("going to (2.5, 0, 0) in frame \"map\""),
+        "{stdout}"
+    );
+    assert_eq!(stdout.matches("arrived (completed)").count(), 2, "{stdout}");
+}

@@ -127,18 +127,38 @@ def state(node, a):
         start_type=s.start_type, starts=s.starts, exits=s.exits)
 
 
+def set_fields(msg, values):
+    """Sets `msg`'s fields from a dict of YAML values, nested messages included (rosidl_runtime_py's
+    set_message_fields, which `ros2 topic pub` uses, for the types these tests publish)."""
+    for k, v in values.items():
+        if isinstance(v, dict):
+            set_fields(getattr(msg, k), v)
+        else:
+            current = getattr(msg, k)
+            setattr(msg, k, float(v) if isinstance(current, float) else v)
+    return msg
+
+
 def pub_once(node, a):
     """`ros2 topic pub --once TOPIC std_msgs/msg/Empty` (ros2cli Jazzy, ros2topic/verb/pub.py), run as a fresh
     process per message: a new participant, a publisher with the 'default' QoS profile (reliable, volatile,
     keep-last 10), a poll every 0.1 s until it counts one matched subscription, one publish, 0.1 s of
     keep-alive, exit."""
-    pub = node.create_publisher(Empty, a.topic, 10)
+    ty, msg = Empty, Empty()
+    if a.type:
+        # `ros2 topic pub --once TOPIC TYPE VALUES`: the type's class, its fields set from the YAML values
+        import importlib
+        import yaml
+        pkg, kind, name = a.type.split("/")
+        ty = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
+        msg = set_fields(ty(), yaml.safe_load(a.values or "{}") or {})
+    pub = node.create_publisher(ty, a.topic, 10)
     t0 = time.monotonic()
     while pub.get_subscription_count() < 1:
         if time.monotonic() - t0 > TIMEOUT:
             fail(f"no subscription on {a.topic} within {TIMEOUT}s")
         time.sleep(0.1)
-    pub.publish(Empty())
+    pub.publish(msg)
     out(published=a.topic, matched_after_s=time.monotonic() - t0)
     time.sleep(0.1)
 
@@ -303,6 +323,8 @@ def main():
     b.add_argument("string_slot")
     po = sub.add_parser("pub_once")
     po.add_argument("topic")
+    po.add_argument("type", nargs="?", help="pkg/msg/Name (default std_msgs/msg/Empty)")
+    po.add_argument("values", nargs="?", help="the message's fields as YAML, as ros2 topic pub takes them")
     lo = sub.add_parser("list_once")
     lo.add_argument("manager")
     sa = sub.add_parser("state_all")
