@@ -97,6 +97,9 @@ mod tests {
                 }
             }
         }
-        assert!(definition("nav_msgs/msg/Path").is_none());
+        // a type radar ships the definition of: read from it, every type it uses after it
+        let path = definition("nav_msgs/msg/Path").expect("shipped with radar_ros");
+        assert!(path.contains("MSG: geometry_msgs/PoseStamped\n"), "{path}");
+        assert!(definition("nav2_msgs/msg/Costmap").is_none());
     }
 }

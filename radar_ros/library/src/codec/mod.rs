@@ -202,7 +202,17 @@ mod tests {
         assert!(e.contains("not a std_msgs/msg/Int32"), "{e}");
         let e = encode("std_msgs/msg/Int32", "{value: 3}").unwrap_err();
         assert!(e.contains("no field value"), "{e}");
-        let e = encode("nav_msgs/msg/Path", "{}").unwrap_err();
-        assert!(e.contains("it knows std_msgs/msg/Empty"), "{e}");
+        // a type found nowhere: named, with every place looked in and the packages radar_ros ships
+        let e = encode("nav2_msgs/msg/Costmap", "{}").unwrap_err();
+        assert!(
+            e.contains("nav2_msgs/msg/Costmap") && e.contains("sensor_msgs"),
+            "{e}"
+        );
+        // one radar_ros ships, though not one of its hand-written types
+        assert!(encode(
+            "nav_msgs/msg/Path",
+            "{poses: [{pose: {position: {x: 1.0}}}]}"
+        )
+        .is_ok());
     }
 }
