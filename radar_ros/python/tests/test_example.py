@@ -33,6 +33,18 @@ def by_text(tl: List[Tuple[float, str, float]]) -> Dict[str, List[float]]:
     return d
 
 
+def without_the_listings_tie(tl: List[Tuple[float, str, float]]) -> List[Tuple[float, str, float]]:
+    """Listing 1 counts every 0.5 s from its start at 2 s and interrupts at 4 s: the first run's 4th count falls on
+    the interrupt, and which of the two comes first is the listing's own tie (a few ms of start-up decide it). A
+    count within 100 ms of an interrupt is left out of the comparison; every other line is compared."""
+    interrupts = [t for t, text, _ in tl if text == "count_up interrupted"]
+    return [
+        (t, text, listing)
+        for t, text, listing in tl
+        if not (text.startswith("count_up counts") and any(abs(t - i) <= 0.1 for i in interrupts))
+    ]
+
+
 def test_the_python_listing_1_follows_the_rust_example_within_100_ms_per_step() -> None:
     duration = "9.7"
     py = subprocess.Popen(
@@ -51,7 +63,7 @@ def test_the_python_listing_1_follows_the_rust_example_within_100_ms_per_step() 
     assert py.returncode == 0 and rust.returncode == 0, (py_err, rust_err)
     assert not error_lines(py_err), py_err
     assert not error_lines(rust_err), rust_err
-    py_tl, rust_tl = timeline(py_out), timeline(rust_out)
+    py_tl, rust_tl = without_the_listings_tie(timeline(py_out)), without_the_listings_tie(timeline(rust_out))
     py_at, rust_at = by_text(py_tl), by_text(rust_tl)
     # the same lines, as often
     assert {k: len(v) for k, v in py_at.items()} == {k: len(v) for k, v in rust_at.items()}, (py_out, rust_out)
