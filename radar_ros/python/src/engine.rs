@@ -428,30 +428,10 @@ impl PyEngine {
                 })
             }
             (true, t) if t == EventState::ros_type_name() => {
-                let sub = py
-                    .detach(|| e.radar.state_subscription::<EventState>(topic))
-                    .map_err(to_py)?;
-                let t = sub.topic().to_owned();
-                e.rt().spawn(async move {
-                    while let Ok(m) = sub.recv().await {
-                        if let Ok(raw) = RawMessage::encode(&m) {
-                            deliver_to(&deliver, raw.as_bytes(), &t);
-                        }
-                    }
-                })
+                forward_states::<EventState>(e, py, topic, deliver)?
             }
             (true, t) if t == ResponseState::ros_type_name() => {
-                let sub = py
-                    .detach(|| e.radar.state_subscription::<ResponseState>(topic))
-                    .map_err(to_py)?;
-                let t = sub.topic().to_owned();
-                e.rt().spawn(async move {
-                    while let Ok(m) = sub.recv().await {
-                        if let Ok(raw) = RawMessage::encode(&m) {
-                            deliver_to(&deliver, raw.as_bytes(), &t);
-                        }
-                    }
-                })
+                forward_states::<ResponseState>(e, py, topic, deliver)?
             }
             (true, other) => {
                 return Err(to_py(radar_ros::Error::InvalidName {
@@ -482,4 +462,25 @@ impl PyEngine {
         drop(e);
         r
     }
+}
+
+/// A task that hands every state message on `topic` (a component's latched state, typed `M`) to `deliver` as
+/// its CDR bytes.
+fn forward_states<M: radar_ros::msg::RosMessage>(
+    e: &Engine,
+    py: Python<'_>,
+    topic: &str,
+    deliver: Py<PyAny>,
+) -> PyResult<tokio::task::JoinHandle<()>> {
+    let sub = py
+        .detach(|| e.radar.state_subscription::<M>(topic))
+        .map_err(to_py)?;
+    let t = sub.topic().to_owned();
+    Ok(e.rt().spawn(async move {
+        while let Ok(m) = sub.recv().await {
+            if let Ok(raw) = RawMessage::encode(&m) {
+                deliver_to(&deliver, raw.as_bytes(), &t);
+            }
+        }
+    }))
 }

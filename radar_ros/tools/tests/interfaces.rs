@@ -45,16 +45,16 @@ fn fixtures_py(mode: &str, input: Option<String>) -> Vec<Value> {
         .collect()
 }
 
-/// `fixtures.py ARGS`, with nothing on its stdin.
-fn fixtures_py_args(args: &[&str]) -> Vec<Value> {
+/// The JSON lines a Python script of `tests/python/` prints (venv interpreter, nothing on its stdin).
+fn python_lines(script: &str, args: &[&str]) -> Vec<Value> {
     let out = std::process::Command::new(python())
-        .arg(repo().join("tests/python/fixtures.py"))
+        .arg(repo().join("tests/python").join(script))
         .args(args)
         .output()
         .expect("run the venv's python");
     assert!(
         out.status.success(),
-        "fixtures.py {args:?}: {}",
+        "{script} {args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout)
@@ -398,22 +398,9 @@ async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let py = std::process::Command::new(python())
-        .arg(repo().join("tests/python/mcap_read.py"))
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        py.status.success(),
-        "mcap_read.py: {}",
-        String::from_utf8_lossy(&py.stderr)
-    );
-    let read: Vec<Value> = String::from_utf8_lossy(&py.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let read = python_lines("mcap_read.py", &[file.to_str().unwrap()]);
     // rosbag2's way (rclpy deserializes the CDR into the class the schema names), for every type
-    let by_rclpy = fixtures_py_args(&["mcap", file.to_str().unwrap()]);
+    let by_rclpy = python_lines("fixtures.py", &["mcap", file.to_str().unwrap()]);
     for name in &names {
         let topic = format!("/fxr/{name}/started");
         let want: Vec<&Value> = fixtures
