@@ -1,10 +1,10 @@
 //! Runs the `count_up` example (Listing 1) as a separate process and checks its printed timeline against the
-//! listing, step by step, within 100 ms, and that it ends without an error line. Domain 60. Runs inside `tests/isolated.sh` like every DDS test.
+//! listing, step by step, within 100 ms (counted from the `once` statement, the listing's 0 s), and that it ends without an error line. Domain 60. Runs inside `tests/isolated.sh` like every DDS test.
 
 use std::{path::PathBuf, process::Command};
 
 use radar_ros_examples::test_support::{
-    assert_no_error_lines, examples_dir, require_isolation, timeline, times,
+    assert_no_error_lines, examples_dir, from_line, require_isolation, timeline, times,
 };
 
 fn example_binary() -> PathBuf {
@@ -31,7 +31,7 @@ fn count_up_follows_listing_1_within_100_ms_per_step() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "count_up failed: {stderr}");
     assert_no_error_lines(&stderr, "count_up");
-    let tl = timeline(&stdout, None);
+    let tl = from_line(timeline(&stdout, None), "once start_event start count_up");
 
     near(
         times(&tl, "start_event triggered")[0],

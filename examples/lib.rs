@@ -225,6 +225,18 @@ pub mod test_support {
             .collect()
     }
 
+    /// The timeline with its clock moved so that the first line starting with `first` is at 0 s: the listing's
+    /// 0 s is its statement, not the process start (a debug build on a loaded machine spends 50-150 ms
+    /// making its nodes first).
+    pub fn from_line(tl: Vec<(f64, String)>, first: &str) -> Vec<(f64, String)> {
+        let zero = tl
+            .iter()
+            .find(|(_, s)| s.starts_with(first))
+            .unwrap_or_else(|| panic!("no line starts with {first:?}: {tl:?}"))
+            .0;
+        tl.into_iter().map(|(t, s)| (t - zero, s)).collect()
+    }
+
     /// When `what` was printed, every time.
     pub fn times(tl: &[(f64, String)], what: &str) -> Vec<f64> {
         tl.iter()
