@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the Python environment the interop tests run against: a venv with real rclpy (ROS 2 Jazzy wheels
-# from PyPI, Fast DDS) and this repository's radar_msgs interface package built into it with cmake.
+# from PyPI, Fast DDS) and this repository's interface packages (msgs/) built into it with cmake.
 #
 #   tests/python_env.sh            # prints the venv's path; builds it first if missing or out of date
 #
@@ -14,7 +14,7 @@ VENV=${RADAR_VENV:-$ROOT/target/ros2-venv}
 PY=${PYTHON:-python3}
 
 # what the venv is built from: this script and the interface package
-KEY=$(cat "$0" $(find "$ROOT/msgs/radar_msgs" -type f | sort) | sha256sum | cut -c1-16)
+KEY=$(cat "$0" $(find "$ROOT/msgs" -type f | sort) | sha256sum | cut -c1-16)
 STAMP="$VENV/.radar-env-$KEY"
 if [ -f "$STAMP" ]; then
     echo "$VENV"
@@ -100,18 +100,22 @@ done
 
 BUILD=$(mktemp -d)
 trap 'rm -rf "$BUILD"' EXIT
-(
-    export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV"
-    cmake -S "$ROOT/msgs/radar_msgs" -B "$BUILD" -DCMAKE_INSTALL_PREFIX="$VENV" \
-        -DPython3_EXECUTABLE="$VPY" -DBUILD_TESTING=OFF >&2
-    cmake --build "$BUILD" -j2 >&2
-    cmake --install "$BUILD" >&2
-)
+# every interface package of msgs/: radar_msgs, and radar_demo_msgs (a user's own action, for the generated
+# types of tests/user_crate.rs)
+for pkg in radar_msgs radar_demo_msgs; do
+    (
+        export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV"
+        cmake -S "$ROOT/msgs/$pkg" -B "$BUILD/$pkg" -DCMAKE_INSTALL_PREFIX="$VENV" \
+            -DPython3_EXECUTABLE="$VPY" -DBUILD_TESTING=OFF >&2
+        cmake --build "$BUILD/$pkg" -j2 >&2
+        cmake --install "$BUILD/$pkg" >&2
+    )
+done
 
 # the environment works only if all of this imports
 "$VPY" - >&2 <<'EOF'
 import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg, test_msgs.action, rclpy.action, mcap.reader, mcap_ros2.decoder
-import radar_msgs.msg, radar_msgs.srv
+import radar_msgs.msg, radar_msgs.srv, radar_demo_msgs.action, radar_demo_msgs.msg
 from rclpy.utilities import get_rmw_implementation_identifier
 print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),
       "; radar_msgs:", radar_msgs.msg.ResponseState.__name__, radar_msgs.srv.Connect.__name__)

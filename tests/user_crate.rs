@@ -7,7 +7,15 @@
 //! - The guard: a crate that depends on radar_ros through git and swaps in the crates.io RustDDS 0.15.1 for
 //!   radar_ros's (a `[patch]`) does not build: radar_ros's build script stops it, saying what to do.
 //!
-//! Both build the stack again in their own target directories (a minute or two each). Domain 18.
+//! - Issue 34: a crate outside the workspace with generated interface types (`fixtures/generated_crate`: its
+//!   `build.rs` generates `geometry_msgs` and `test_msgs` from `AMENT_PREFIX_PATH`, set to the rclpy venv as a
+//!   sourced installation sets it, and its own package `radar_demo_msgs` from `msgs/`, copied into the crate)
+//!   builds; every fixture of ROS 2's `test_msgs` comes back from it equal, as a response's start payload and
+//!   as an event's payload (rclpy -> Rust -> rclpy), and its own `Dock` action, served as a RADAR response,
+//!   answers an rclpy `ActionClient`.
+//!
+//! They build the stack again in a target directory of their own (`target/user-crate/target`, shared: a minute
+//! or two the first time). Domains 18 and 118.
 
 use std::{
     path::{Path, PathBuf},
@@ -15,7 +23,7 @@ use std::{
     time::Duration,
 };
 
-use radar_test_util::{repo, require_isolation, Py};
+use radar_test_util::{python, repo, require_isolation, Py};
 use tokio::io::{AsyncBufReadExt, BufReader};
 
 const DOMAIN: u16 = 18;
@@ -31,6 +39,12 @@ fn readme_block(what: &str) -> String {
     let body = &after[start..];
     let body = &body[body.find('\n').unwrap() + 1..];
     body[..body.find("```").unwrap()].to_owned()
+}
+
+/// The target directory the crates of this file build in: their own (not the workspace's), shared among
+/// them (Cargo serializes the builds).
+fn user_target() -> PathBuf {
+    repo().join("target/user-crate/target")
 }
 
 fn cargo() -> Command {
@@ -53,7 +67,7 @@ fn build(dir: &Path, args: &[&str]) -> std::process::Output {
         .args(["build", "--offline"])
         .args(args)
         .current_dir(dir)
-        .env("CARGO_TARGET_DIR", dir.join("target"))
+        .env("CARGO_TARGET_DIR", user_target())
         .output()
         .expect("run cargo")
 }
@@ -97,7 +111,7 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
     );
     assert!(!lock.contains("name = \"rustdds\"") && !lock.contains("name = \"ros2-client\""));
 
-    let mut hello = tokio::process::Command::new(dir.join("target/debug/hello"))
+    let mut hello = tokio::process::Command::new(user_target().join("debug/hello"))
         .env("ROS_DOMAIN_ID", DOMAIN.to_string())
         .env("RUST_LOG", "warn")
         .stdout(std::process::Stdio::piped())
@@ -130,6 +144,150 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
         .unwrap();
     assert!(status.success(), "{status}: {seen:?}");
     py.succeeds().await;
+}
+
+/// Copies the files under `from` into `to` (made as needed).
+fn copy_tree(from: &Path, to: &Path) {
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let (src, dst) = (e.path(), to.join(e.file_name()));
+        if src.is_dir() {
+            copy_tree(&src, &dst);
+        } else {
+            std::fs::create_dir_all(to).unwrap();
+            std::fs::copy(&src, &dst).unwrap();
+        }
+    }
+}
+
+/// Issue 34: generated types in a user's crate, judged by rclpy with ROS 2's own fixtures.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_crate_with_generated_types_echoes_every_test_msgs_fixture_and_serves_its_own_action() {
+    require_isolation();
+    const DOMAIN: u16 = 118;
+    let dir = repo().join("target/user-crate/robot");
+    let _ = std::fs::remove_dir_all(&dir);
+    copy_tree(&repo().join("tests/fixtures/generated_crate"), &dir);
+    copy_tree(
+        &repo().join("msgs/radar_demo_msgs"),
+        &dir.join("interfaces/radar_demo_msgs"),
+    );
+    write(
+        &dir.join("Cargo.toml"),
+        &format!(
+            "[package]\nname = \"robot\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n\
+             [dependencies]\nradar_ros = {{ path = \"{lib}\" }}\n\
+             tokio = {{ version = \"1\", features = [\"rt-multi-thread\", \"macros\"] }}\n\n\
+             [build-dependencies]\nradar_idl = {{ path = \"{idl}\" }}\n\n\
+             # a workspace of its own (it lives under radar_ros's target directory)\n[workspace]\n",
+            lib = repo().join("radar_ros/library").display(),
+            idl = repo().join("radar_ros/idl").display(),
+        ),
+    );
+    // AMENT_PREFIX_PATH as sourcing an installation sets it: the venv holds share/test_msgs, share/geometry_msgs
+    let venv = python().parent().unwrap().parent().unwrap().to_owned();
+    let out = tokio::task::spawn_blocking({
+        let dir = dir.clone();
+        let venv = venv.clone();
+        move || {
+            std::fs::copy(repo().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
+            cargo()
+                .args(["build", "--offline"])
+                .current_dir(&dir)
+                .env("CARGO_TARGET_DIR", user_target())
+                .env("AMENT_PREFIX_PATH", &venv)
+                .output()
+                .expect("run cargo")
+        }
+    })
+    .await
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "the crate with generated types builds: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // generated code is code a person would write: it builds without a warning in a user's binary crate
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("interfaces.rs"),
+        "warnings in the generated code: {stderr}"
+    );
+
+    let mut robot = tokio::process::Command::new(user_target().join("debug/robot"))
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("run the crate's program");
+    let mut lines = BufReader::new(robot.stdout.take().unwrap()).lines();
+    let ready = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
+        .await
+        .expect("the program prints in time")
+        .unwrap()
+        .expect("a line");
+    assert!(ready.starts_with("ready: 13 test_msgs echoes"), "{ready}");
+
+    // every fixture, both ways (the oracle: rclpy's own fixtures and equality)
+    let mut py = Py::start(DOMAIN, "tests/python/generated_types.py", &["roundtrip"]);
+    let mut seen = std::collections::BTreeMap::<String, usize>::new();
+    let mut wrong = Vec::new();
+    while seen.values().sum::<usize>() < 2 * 31 {
+        let v = py.json().await;
+        assert!(v.get("error").is_none(), "{v}");
+        *seen
+            .entry(v["via"].as_str().unwrap().to_owned())
+            .or_default() += 1;
+        if v["equal"] != true {
+            wrong.push(v);
+        }
+    }
+    py.succeeds().await;
+    assert!(
+        wrong.is_empty(),
+        "fixtures that did not come back equal: {wrong:#?}"
+    );
+    assert_eq!(seen["response"], 31);
+    assert_eq!(seen["event"], 31);
+
+    // its own action, through an rclpy ActionClient
+    let mut py = Py::start(DOMAIN, "tests/python/generated_types.py", &["dock"]);
+    let r = py.json().await;
+    py.succeeds().await;
+    assert_eq!(
+        r["status"], 4,
+        "the goal succeeded (GoalStatus.STATUS_SUCCEEDED): {r}"
+    );
+    assert_eq!(r["result_status"], r["docked_constant"], "{r}");
+    // 1.0 from the goal's x, plus the goal's speed left at its default 0.5 by rclpy
+    assert_eq!(r["travelled"], 1.5, "{r}");
+    assert_eq!(
+        r["dock_position"],
+        serde_json::json!([1.0, 2.0, 0.0]),
+        "{r}"
+    );
+    assert_eq!(r["dock_name"], "north+wall", "{r}");
+    let cov = r["dock_covariance"].as_array().unwrap();
+    assert_eq!(cov.len(), 9, "{r}");
+    assert_eq!(cov[8], 9.0, "{r}");
+    let goal_line = tokio::time::timeout(Duration::from_secs(10), lines.next_line())
+        .await
+        .expect("the program printed the goal")
+        .unwrap()
+        .unwrap();
+    assert_eq!(
+        goal_line,
+        "dock: to (1, 2) in \"map\" at 0.5 m/s, tags [\"north\", \"wall\"]"
+    );
+
+    // told to stop, it stops cleanly
+    let pid = robot.id().unwrap().to_string();
+    Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    let status = tokio::time::timeout(Duration::from_secs(10), robot.wait())
+        .await
+        .expect("the program ends on SIGTERM")
+        .unwrap();
+    assert!(status.success(), "{status}");
 }
 
 /// The crates.io RustDDS 0.15.1, unpacked by cargo into its registry cache (`tests/isolated.sh` fetched it, for

@@ -8,56 +8,23 @@
 const RUSTDDS_PATCHES: u32 = 42;
 const ROS2_CLIENT_PATCHES: u32 = 6;
 
-/// The interface definitions shipped in `interfaces/` (`<pkg>/msg|srv|action/<Name>.<ext>`), as a table the
-/// `codec` feature compiles in: `(path, text)` for every file, sorted by path.
-fn bundle_interfaces() {
-    let root =
-        std::path::Path::new(&std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("interfaces");
-    println!("cargo:rerun-if-changed={}", root.display());
-    let mut files = Vec::new();
-    let mut dirs = vec![root.clone()];
-    while let Some(d) = dirs.pop() {
-        let Ok(entries) = std::fs::read_dir(&d) else {
-            continue;
-        };
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                println!("cargo:rerun-if-changed={}", p.display());
-                dirs.push(p);
-            } else if p
-                .extension()
-                .is_some_and(|x| x == "msg" || x == "srv" || x == "action")
-            {
-                let rel = p
-                    .strip_prefix(&root)
-                    .unwrap()
-                    .to_string_lossy()
-                    .replace('\\', "/");
-                files.push((rel, p));
-            }
-        }
+/// `radar_ros::interfaces`: the Rust types of every interface radar_idl ships, generated as a user's build
+/// script generates theirs.
+fn generate_interfaces() {
+    let mut g = radar_idl::rust::Generator::with_interfaces(radar_idl::Interfaces::empty())
+        .standalone("::radar_ros");
+    for pkg in radar_idl::shipped_packages() {
+        g = g.package(pkg);
     }
-    files.sort();
-    let mut out = String::from(
-        "/// Interface definitions shipped with radar_ros: `(pkg/kind/Name.ext, text)`.\n",
-    );
-    out.push_str("pub(crate) static BUNDLED: &[(&str, &str)] = &[\n");
-    for (rel, p) in &files {
-        out.push_str(&format!(
-            "    ({rel:?}, include_str!({:?})),\n",
-            p.display().to_string()
-        ));
+    if let Err(e) = g.write("interfaces.rs") {
+        eprintln!("error: generating radar_ros::interfaces: {e}");
+        std::process::exit(1);
     }
-    out.push_str("];\n");
-    let dest =
-        std::path::Path::new(&std::env::var("OUT_DIR").unwrap()).join("bundled_interfaces.rs");
-    std::fs::write(dest, out).unwrap();
 }
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
-    bundle_interfaces();
+    generate_interfaces();
     let mut wrong = Vec::new();
     for (what, var, need, path, package) in [
         (

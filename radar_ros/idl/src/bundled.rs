@@ -1,4 +1,4 @@
-//! The interface definitions radar_ros ships (`radar_ros/library/interfaces/`: std_msgs, builtin_interfaces,
+//! The interface definitions radar_ros ships (`radar_ros/idl/interfaces/`: std_msgs, builtin_interfaces,
 //! geometry_msgs, sensor_msgs, nav_msgs, std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs, as the
 //! ROS 2 Jazzy packages install them), for a machine without a ROS installation: looked in after
 //! `AMENT_PREFIX_PATH` and the directories given.
@@ -13,14 +13,27 @@ pub(crate) fn find(path: &str) -> Option<&'static str> {
         .map(|i| BUNDLED[i].1)
 }
 
-/// The packages radar_ros ships.
-pub(crate) fn packages() -> Vec<&'static str> {
+/// The packages shipped: std_msgs, builtin_interfaces, geometry_msgs, ... (sorted).
+pub fn packages() -> Vec<&'static str> {
     let mut v: Vec<&str> = BUNDLED
         .iter()
         .filter_map(|(p, _)| p.split('/').next())
         .collect();
     v.dedup();
     v
+}
+
+/// The interfaces of `pkg` shipped, as `(kind, Name)`, sorted.
+pub(crate) fn interfaces_of(pkg: &str) -> Vec<(String, String)> {
+    BUNDLED
+        .iter()
+        .filter_map(|(p, _)| {
+            let mut parts = p.splitn(3, '/');
+            let (in_pkg, kind, file) = (parts.next()?, parts.next()?, parts.next()?);
+            let name = file.rsplit_once('.')?.0;
+            (in_pkg == pkg).then(|| (kind.to_owned(), name.to_owned()))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use ros2msg::{Field, MessageSpecification};
 use sha2::{Digest, Sha256};
 
-use super::{interfaces::Interfaces, primitives::is_primitive};
+use crate::{is_primitive, Interfaces};
 
 /// `type_description_interfaces/msg/FieldType`'s id of a primitive type; a `.msg` `char` is a `uint8`
 /// (rosidl maps it so).

@@ -235,6 +235,31 @@ pub use wire::malformed::MalformedCount;
 pub use wire::names::ComponentName;
 pub use wire::raw::{DynMessage, RawMessage};
 
+/// The Rust types of the interfaces radar_ros ships (ROS 2 Jazzy's `std_msgs`, `builtin_interfaces`,
+/// `geometry_msgs`, `sensor_msgs`, `nav_msgs`, `std_srvs`, `action_msgs`, `unique_identifier_msgs`,
+/// `diagnostic_msgs`), generated from their definitions by [`radar_idl`](https://docs.rs/radar_idl) as a crate's
+/// own build script generates its interfaces, each a [`msg::RosMessage`] with its RIHS01 hash.
+///
+/// ```
+/// use radar_ros::{interfaces::geometry_msgs::msg::PoseStamped, msg::RosMessage};
+/// let mut goal = PoseStamped::default();
+/// goal.pose.position.x = 1.0;
+/// assert_eq!(goal.pose.orientation.w, 1.0); // the definition's default
+/// assert_eq!(PoseStamped::ros_type_name(), "geometry_msgs/msg/PoseStamped");
+/// assert!(PoseStamped::TYPE_HASH.unwrap().starts_with("RIHS01_"));
+/// ```
+pub mod interfaces {
+    include!(concat!(env!("OUT_DIR"), "/interfaces.rs"));
+}
+
+// generated types name radar_ros as `::radar_ros`, inside radar_ros too
+extern crate self as radar_ros;
+
+/// serde, as generated types derive it (`#[serde(crate = "::radar_ros::serde")]`), so that a crate with
+/// generated types needs no serde of its own.
+#[doc(hidden)]
+pub use serde;
+
 /// The RADAR rules themselves, in plain Rust (re-exported from the [`radar_semantics`] crate).
 pub use radar_semantics;
 

@@ -527,32 +527,57 @@ async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
     let _ = std::fs::remove_dir_all(&own);
 }
 
-/// RIHS01 hashes computed from the definitions equal rosidl's: every `share/<pkg>/msg/<Name>.json` the ROS 2
-/// wheels in the venv ship (std_msgs, geometry_msgs, test_msgs, builtin_interfaces, ...), each one's
-/// `type_hashes[0]`.
+/// RIHS01 hashes computed from the definitions equal rosidl's: every `share/<pkg>/msg|srv|action/<Name>.json`
+/// the ROS 2 wheels in the venv ship (std_msgs, geometry_msgs, test_msgs, builtin_interfaces, ...): a message's
+/// own hash and those of the messages it uses, a service's request and response, an action's goal, result and
+/// feedback (the hashes generated types carry). The types rosidl makes up around a service or action
+/// (`_Event`, `_SendGoal_Request`, ...) and the service or action as a whole are not computed yet.
 #[test]
 fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
     let share = venv().join("share");
     let types = Interfaces::from_env().with_dir(&share);
-    let mut checked = Vec::new();
+    let mut checked = std::collections::BTreeSet::new();
     let mut wrong = Vec::new();
     for pkg in std::fs::read_dir(&share).unwrap() {
-        let msg_dir = pkg.unwrap().path().join("msg");
-        let Ok(entries) = std::fs::read_dir(&msg_dir) else {
-            continue;
-        };
-        for e in entries {
-            let path = e.unwrap().path();
-            if path.extension().is_none_or(|x| x != "json") {
+        let pkg = pkg.unwrap().path();
+        for kind in ["msg", "srv", "action"] {
+            let Ok(entries) = std::fs::read_dir(pkg.join(kind)) else {
                 continue;
-            }
-            let doc: Value =
-                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-            let hash = &doc["type_hashes"][0];
-            let ty = hash["type_name"].as_str().unwrap();
-            match types.type_hash(ty) {
-                Ok(h) if h == hash["hash_string"] => checked.push(ty.to_owned()),
-                other => wrong.push(format!("{ty}: {other:?}, rosidl {}", hash["hash_string"])),
+            };
+            for e in entries {
+                let path = e.unwrap().path();
+                if path.extension().is_none_or(|x| x != "json") {
+                    continue;
+                }
+                let doc: Value =
+                    serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+                let base = format!(
+                    "{}/{kind}/{}",
+                    pkg.file_name().unwrap().to_string_lossy(),
+                    path.file_stem().unwrap().to_string_lossy()
+                );
+                let parts: &[&str] = match kind {
+                    "msg" => &[""],
+                    "srv" => &["_Request", "_Response"],
+                    _ => &["_Goal", "_Result", "_Feedback"],
+                };
+                for hash in doc["type_hashes"].as_array().unwrap() {
+                    let ty = hash["type_name"].as_str().unwrap();
+                    let own_part = parts.iter().any(|p| ty == format!("{base}{p}"));
+                    if !own_part && !ty.contains("/msg/") {
+                        continue;
+                    }
+                    match types.type_hash(ty) {
+                        Ok(h) if h == hash["hash_string"] => {
+                            checked.insert(ty.to_owned());
+                        }
+                        other => wrong.push(format!(
+                            "{ty} (in {}): {other:?}, rosidl {}",
+                            path.display(),
+                            hash["hash_string"]
+                        )),
+                    }
+                }
             }
         }
     }
@@ -561,21 +586,23 @@ fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
         "test_msgs/msg/MultiNested",
         "geometry_msgs/msg/PoseStamped",
         "std_msgs/msg/Empty",
+        "std_srvs/srv/SetBool_Request",
+        "test_msgs/srv/Arrays_Response",
+        "test_msgs/action/Fibonacci_Goal",
+        "test_msgs/action/NestedMessage_Feedback",
+        "radar_demo_msgs/action/Dock_Result",
     ] {
-        assert!(
-            checked.iter().any(|t| t == must),
-            "{must} checked: {checked:?}"
-        );
+        assert!(checked.contains(must), "{must} checked: {checked:?}");
     }
-    assert!(checked.len() > 100, "{} checked", checked.len());
+    assert!(checked.len() > 130, "{} checked", checked.len());
 }
 
-/// The interfaces radar_ros ships (`radar_ros/library/interfaces/`) are the Jazzy packages' own files, byte for
+/// The interfaces radar_ros ships (`radar_ros/idl/interfaces/`) are the Jazzy packages' own files, byte for
 /// byte (as the venv's wheels install them), and work with no installation: encoded, decoded and hashed as
 /// rosidl hashes them.
 #[test]
 fn the_bundled_interfaces_are_jazzys_and_work_without_an_installation() {
-    let bundled = repo().join("radar_ros/library/interfaces");
+    let bundled = repo().join("radar_ros/idl/interfaces");
     let share = venv().join("share");
     let mut compared = 0;
     for pkg in std::fs::read_dir(&bundled).unwrap() {

@@ -3,11 +3,9 @@
 //! for any other whose definition is found at run time ([`Interfaces`]: `AMENT_PREFIX_PATH` as ROS 2 tools
 //! read it). A type whose definition is nowhere is shown as its size in bytes.
 
-mod bundled;
 mod cdr;
 mod interfaces;
 mod primitives;
-mod type_hash;
 
 pub use interfaces::Interfaces;
 

@@ -27,26 +27,7 @@ pub(super) fn check_len(t: &Type, n: usize, at: &str) -> Result<(), String> {
     }
 }
 
-pub(super) fn is_primitive(name: &str) -> bool {
-    matches!(
-        name,
-        "bool"
-            | "byte"
-            | "char"
-            | "float32"
-            | "float64"
-            | "int8"
-            | "uint8"
-            | "int16"
-            | "uint16"
-            | "int32"
-            | "uint32"
-            | "int64"
-            | "uint64"
-            | "string"
-            | "wstring"
-    )
-}
+pub(super) use radar_idl::is_primitive;
 
 pub(super) fn primitive_yaml(v: &PrimitiveValue) -> Yaml {
     match v {

@@ -8,6 +8,7 @@ pub(crate) mod malformed;
 pub mod msg;
 #[cfg(test)]
 mod msg_layout;
+mod msg_support;
 pub(crate) mod names;
 pub mod qos;
 pub(crate) mod raw;

@@ -12,6 +12,8 @@
 
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
+pub use super::msg_support::{fixed_array, RosService, WString};
+
 /// A Rust type that is the wire form of a ROS 2 message.
 ///
 /// The serde field order must match the `.msg` definition, because ROS 2 on DDS serializes with CDR, which
@@ -47,6 +49,10 @@ pub trait RosMessage:
             Self::NAME
         )
     }
+
+    /// The RIHS01 hash of the type's definition (`RIHS01_<64 hex digits>`, as rosidl computes it), when known:
+    /// generated types ([`radar_idl::rust`](https://docs.rs/radar_idl)) carry it; hand-written ones may leave it out.
+    const TYPE_HASH: Option<&'static str> = None;
 
     /// The ros2-client form of the type name. ros2-client can name only `msg` interfaces this way; use
     /// [`RosMessage::dds_type_name`] for the others.
