@@ -45,6 +45,9 @@ pub fn table(r: &Results) -> String {
             None,
         );
     }
+    if !r.codec.is_empty() {
+        codec_table(&mut s, &r.codec);
+    }
     if !r.errors.is_empty() {
         let _ = writeln!(s, "\n### Failed\n");
         for e in &r.errors {
@@ -283,6 +286,39 @@ fn ms_table(s: &mut String, title: &str, rows: &[crate::coord::Latency], base_us
             m.p90_us / 1000.0,
             m.max_us / 1000.0,
             ratio(m.p50_us, base_us)
+        );
+    }
+}
+
+/// Encoding and decoding one payload (nanoseconds per message); ratio: p50 against the hand-written struct's
+/// row of the same message and direction.
+fn codec_table(s: &mut String, rows: &[crate::coord::Latency]) {
+    let _ = writeln!(
+        s,
+        "\n### Payload encoding, in one process (nanoseconds per message; ratio = p50 / the hand-written struct's)\n"
+    );
+    let _ = writeln!(s, "| payload: operation | n | p50 | p90 | max | ratio |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+    for l in rows {
+        let m = &l.summary;
+        // codec_<msg>_<encode|decode>_<hand|generated|runtime>
+        let base_key = match l.key.rsplit_once('_') {
+            Some((stem, _)) => format!("{stem}_hand"),
+            None => l.key.clone(),
+        };
+        let base = rows
+            .iter()
+            .find(|b| b.key == base_key)
+            .map(|b| b.summary.p50_us);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.0} | {:.0} | {} |",
+            l.label,
+            m.n,
+            m.p50_us * 1000.0,
+            m.p90_us * 1000.0,
+            m.max_us * 1000.0,
+            ratio(m.p50_us, base)
         );
     }
 }

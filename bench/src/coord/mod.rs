@@ -1,9 +1,10 @@
 //! The coordinator: starts the processes of each scenario, drives them, and collects the numbers. One file per
 //! kind of scenario: [`latency`] (signal hops, interrupts, actions), [`setup`] (making connections),
 //! [`throughput`], [`scale`] (many components, memory), [`failures`] (one-shot publishers, kills),
-//! [`breakdown`] (one hop's stages inside RustDDS).
+//! [`breakdown`] (one hop's stages inside RustDDS), [`codec`] (payload encoding, in this process).
 
 mod breakdown;
+mod codec;
 pub use breakdown::SEGMENTS;
 mod failures;
 mod latency;
@@ -195,6 +196,8 @@ pub struct Results {
     pub kill: Vec<Latency>,
     /// One hop cut into stages by RustDDS's latency probe, per path.
     pub breakdown: Vec<Value>,
+    /// Encoding and decoding one payload: hand-written, generated and run-time types (ns per message).
+    pub codec: Vec<Latency>,
     /// Scenarios that failed, with why.
     pub errors: Vec<String>,
 }
@@ -312,6 +315,7 @@ impl Bench {
             ("kill", |b| Box::pin(b.kill())),
             ("action", |b| Box::pin(b.action())),
             ("security", |b| Box::pin(b.security())),
+            ("codec", |b| Box::pin(b.codec())),
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {

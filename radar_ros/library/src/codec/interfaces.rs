@@ -21,6 +21,7 @@ use super::{
     cdr::{Reader, Writer},
     primitives::{
         check_len, fixed, is_octet, is_primitive, primitive_yaml, read_primitive, write_primitive,
+        At,
     },
 };
 use crate::RawMessage;
@@ -67,7 +68,7 @@ impl Interfaces {
     /// of `ros_type`. A field that does not exist, or a value of the wrong kind, is an error naming it.
     pub fn encode(&self, ros_type: &str, value: &Yaml) -> Result<RawMessage, String> {
         let mut w = Writer::default();
-        self.write_message(&mut w, ros_type, value, ros_type)?;
+        self.write_message(&mut w, ros_type, value, &At::Root(ros_type))?;
         Ok(RawMessage::from_bytes(w.finish()))
     }
 
@@ -83,12 +84,13 @@ impl Interfaces {
         w: &mut Writer,
         ros_type: &str,
         value: &Yaml,
-        path: &str,
+        path: &At<'_>,
     ) -> Result<(), String> {
         let spec = self.definition(ros_type)?;
+        let none = serde_yaml::Mapping::new();
         let given = match value {
-            Yaml::Mapping(m) => m.clone(),
-            Yaml::Null => serde_yaml::Mapping::new(),
+            Yaml::Mapping(m) => m,
+            Yaml::Null => &none,
             other => {
                 return Err(format!(
                     "{path}: a {ros_type} is a mapping of its fields, not {}",
@@ -113,7 +115,7 @@ impl Interfaces {
             w.u8(0); // an empty structure is one byte on the wire
         }
         for f in &spec.fields {
-            let at = format!("{path}.{}", f.name);
+            let at = At::Field(path, &f.name);
             match given.get(f.name.as_str()) {
                 Some(v) => self.write_field(w, f, &spec.pkg_name, v, &at)?,
                 None => self.write_default(w, f, &spec.pkg_name, &at)?,
@@ -128,16 +130,16 @@ impl Interfaces {
         f: &Field,
         pkg: &str,
         v: &Yaml,
-        at: &str,
+        at: &At<'_>,
     ) -> Result<(), String> {
         let t = &f.field_type;
         if !t.is_array {
             return self.write_one(w, f, pkg, v, at);
         }
-        let items: Vec<Yaml> = match v {
-            Yaml::Sequence(s) => s.clone(),
+        let items: std::borrow::Cow<'_, [Yaml]> = match v {
+            Yaml::Sequence(s) => s.into(),
             // bytes given as a string of characters (byte[] and uint8[] fields)
-            Yaml::String(s) if is_octet(t) => s.bytes().map(Yaml::from).collect(),
+            Yaml::String(s) if is_octet(t) => s.bytes().map(Yaml::from).collect::<Vec<_>>().into(),
             other => {
                 return Err(format!(
                     "{at}: give a list, not {}",
@@ -150,12 +152,18 @@ impl Interfaces {
             w.u32(items.len() as u32);
         }
         for (i, item) in items.iter().enumerate() {
-            self.write_one(w, f, pkg, item, &format!("{at}[{i}]"))?;
+            self.write_one(w, f, pkg, item, &At::Index(at, i))?;
         }
         Ok(())
     }
 
-    fn write_default(&self, w: &mut Writer, f: &Field, pkg: &str, at: &str) -> Result<(), String> {
+    fn write_default(
+        &self,
+        w: &mut Writer,
+        f: &Field,
+        pkg: &str,
+        at: &At<'_>,
+    ) -> Result<(), String> {
         let t = &f.field_type;
         match (&f.default_value, t.is_array) {
             (Some(Default::Array(values)), true) => {
@@ -172,7 +180,7 @@ impl Interfaces {
             }
             (_, true) if fixed(t) => {
                 for i in 0..t.array_size.unwrap_or(0) {
-                    self.write_one(w, f, pkg, &Yaml::Null, &format!("{at}[{i}]"))?;
+                    self.write_one(w, f, pkg, &Yaml::Null, &At::Index(at, i as usize))?;
                 }
                 Ok(())
             }
@@ -191,7 +199,7 @@ impl Interfaces {
         f: &Field,
         pkg: &str,
         v: &Yaml,
-        at: &str,
+        at: &At<'_>,
     ) -> Result<(), String> {
         let b = &f.field_type.base_type;
         if is_primitive(&b.type_name) {

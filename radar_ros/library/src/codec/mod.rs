@@ -93,7 +93,7 @@ pub fn add_interfaces_dir(dir: impl Into<std::path::PathBuf>) {
     run_time_types().add_dir(dir);
 }
 
-/// The `ros2msg` schema (as rosbag2 stores it in MCAP) of a type found at run time ([`Interfaces::schema`]).
+/// The `ros2msg` schema (as rosbag2 stores it in MCAP) of a type found at run time ([`radar_idl::Interfaces::schema`]).
 pub fn schema(ros_type: &str) -> Result<String, String> {
     run_time_types().schema(ros_type)
 }

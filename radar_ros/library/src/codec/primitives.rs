@@ -7,6 +7,28 @@ use serde_yaml::Value as Yaml;
 
 use super::cdr::{Reader, Writer};
 
+/// Where in a payload a value is (`geometry_msgs/msg/Pose.position.x`, `...ranges[3]`), for error messages;
+/// written out only when one is made.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum At<'a> {
+    /// The message's type.
+    Root(&'a str),
+    /// A field of the value at the first.
+    Field(&'a At<'a>, &'a str),
+    /// An element of the sequence at the first.
+    Index(&'a At<'a>, usize),
+}
+
+impl std::fmt::Display for At<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            At::Root(t) => f.write_str(t),
+            At::Field(up, name) => write!(f, "{up}.{name}"),
+            At::Index(up, i) => write!(f, "{up}[{i}]"),
+        }
+    }
+}
+
 pub(super) fn fixed(t: &Type) -> bool {
     t.is_array && t.array_size.is_some() && !t.is_upper_bound
 }
@@ -15,7 +37,7 @@ pub(super) fn is_octet(t: &Type) -> bool {
     matches!(t.base_type.type_name.as_str(), "byte" | "uint8" | "char")
 }
 
-pub(super) fn check_len(t: &Type, n: usize, at: &str) -> Result<(), String> {
+pub(super) fn check_len(t: &Type, n: usize, at: &At<'_>) -> Result<(), String> {
     match t.array_size {
         Some(size) if fixed(t) && n != size as usize => {
             Err(format!("{at}: exactly {size} elements, not {n}"))
@@ -46,7 +68,12 @@ pub(super) fn primitive_yaml(v: &PrimitiveValue) -> Yaml {
     }
 }
 
-pub(super) fn write_primitive(w: &mut Writer, ty: &str, v: &Yaml, at: &str) -> Result<(), String> {
+pub(super) fn write_primitive(
+    w: &mut Writer,
+    ty: &str,
+    v: &Yaml,
+    at: &At<'_>,
+) -> Result<(), String> {
     let wrong = || {
         format!(
             "{at}: {} is no {ty}",
@@ -97,11 +124,11 @@ pub(super) fn write_primitive(w: &mut Writer, ty: &str, v: &Yaml, at: &str) -> R
         "float32" => w.u32((float()? as f32).to_bits()),
         "float64" => w.u64(float()?.to_bits()),
         "string" | "wstring" => {
-            let s = match v {
-                Yaml::Null => String::new(),
-                Yaml::String(s) => s.clone(),
-                Yaml::Number(n) => n.to_string(),
-                Yaml::Bool(b) => b.to_string(),
+            let s: std::borrow::Cow<'_, str> = match v {
+                Yaml::Null => "".into(),
+                Yaml::String(s) => s.as_str().into(),
+                Yaml::Number(n) => n.to_string().into(),
+                Yaml::Bool(b) => b.to_string().into(),
                 _ => return Err(wrong()),
             };
             if ty == "string" {

@@ -106,23 +106,22 @@ macro_rules! ros_message {
     };
 }
 
-/// `std_msgs/msg/Empty`: the default payload of every RADAR signal.
+// The standard types RADAR users need most: generated from their definitions with the rest of
+// `radar_ros::interfaces` (the names radar_ros has always given them stay).
+
+/// `std_msgs/msg/Empty`: the default payload of every RADAR signal
+/// ([`interfaces::std_msgs::msg::Empty`](crate::interfaces::std_msgs::msg::Empty)).
 ///
 /// ROS 2 serializes an empty struct with one padding byte (rclpy does so); a zero-sized Rust type would put
-/// nothing on the wire and peers would receive nothing, so this carries that byte explicitly.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Empty {
-    structure_needs_at_least_one_member: u8,
-}
-ros_message!(Empty, "std_msgs", "Empty");
-
-/// `std_msgs/msg/String`.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct StringMsg {
-    /// The text.
-    pub data: String,
-}
-ros_message!(StringMsg, "std_msgs", "String");
+/// nothing on the wire and peers would receive nothing, so it carries that byte explicitly.
+pub use crate::interfaces::std_msgs::msg::Empty;
+/// `std_msgs/msg/String` ([`interfaces::std_msgs::msg::String`](crate::interfaces::std_msgs::msg::String)).
+pub use crate::interfaces::std_msgs::msg::String as StringMsg;
+pub use crate::interfaces::{
+    builtin_interfaces::msg::Time,
+    geometry_msgs::msg::{Point, Pose, PoseStamped, Quaternion},
+    std_msgs::msg::{Bool, Float64, Header, Int32, Int64},
+};
 
 impl From<&str> for StringMsg {
     fn from(s: &str) -> Self {
@@ -130,47 +129,18 @@ impl From<&str> for StringMsg {
     }
 }
 
-/// `std_msgs/msg/Bool`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Bool {
-    /// The value.
-    pub data: bool,
+impl PartialOrd for Time {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
 }
-ros_message!(Bool, "std_msgs", "Bool");
 
-/// `std_msgs/msg/Int32`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Int32 {
-    /// The value.
-    pub data: i32,
+/// Times in order: by second, then nanosecond.
+impl Ord for Time {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        (self.sec, self.nanosec).cmp(&(other.sec, other.nanosec))
+    }
 }
-ros_message!(Int32, "std_msgs", "Int32");
-
-/// `std_msgs/msg/Int64`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Int64 {
-    /// The value.
-    pub data: i64,
-}
-ros_message!(Int64, "std_msgs", "Int64");
-
-/// `std_msgs/msg/Float64`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Float64 {
-    /// The value.
-    pub data: f64,
-}
-ros_message!(Float64, "std_msgs", "Float64");
-
-/// `builtin_interfaces/msg/Time`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct Time {
-    /// Seconds since the Unix epoch.
-    pub sec: i32,
-    /// Nanoseconds within the second.
-    pub nanosec: u32,
-}
-ros_message!(Time, "builtin_interfaces", "Time");
 
 impl Time {
     /// The wall-clock time now.
@@ -209,74 +179,6 @@ impl Time {
         i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
     }
 }
-
-/// `std_msgs/msg/Header`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Header {
-    /// Acquisition time.
-    pub stamp: Time,
-    /// Coordinate frame.
-    pub frame_id: String,
-}
-ros_message!(Header, "std_msgs", "Header");
-
-/// `geometry_msgs/msg/Point`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Point {
-    /// X.
-    pub x: f64,
-    /// Y.
-    pub y: f64,
-    /// Z.
-    pub z: f64,
-}
-ros_message!(Point, "geometry_msgs", "Point");
-
-/// `geometry_msgs/msg/Quaternion`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Quaternion {
-    /// X.
-    pub x: f64,
-    /// Y.
-    pub y: f64,
-    /// Z.
-    pub z: f64,
-    /// W.
-    pub w: f64,
-}
-ros_message!(Quaternion, "geometry_msgs", "Quaternion");
-
-impl Default for Quaternion {
-    /// The identity rotation, as in the `.msg` defaults.
-    fn default() -> Self {
-        Quaternion {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            w: 1.0,
-        }
-    }
-}
-
-/// `geometry_msgs/msg/Pose`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Pose {
-    /// Position.
-    pub position: Point,
-    /// Orientation.
-    pub orientation: Quaternion,
-}
-ros_message!(Pose, "geometry_msgs", "Pose");
-
-/// `geometry_msgs/msg/PoseStamped`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct PoseStamped {
-    /// Header.
-    pub header: Header,
-    /// Pose.
-    pub pose: Pose,
-}
-ros_message!(PoseStamped, "geometry_msgs", "PoseStamped");
 
 /// `radar_msgs/msg/ResponseState`: what a response is doing, published transient-local on `<response>/state`.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
