@@ -58,6 +58,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "the_generation_changes_only_when_what_routes_are_chosen_from_changes",
         "user_data_is_a_padded_octet_sequence_on_the_wire",
         "participants_announce_their_user_data_and_read_their_peers",
+        // patch 43: an endpoint's USER_DATA (ROS 2's type hash) in discovery
+        "an_endpoints_user_data_is_announced_as_a_padded_octet_sequence_and_read_back",
         // patch 42: a received sample does not keep its receive buffer alive
         "a_received_payload_is_copied_out_of_the_receive_buffer",
         // patch 41: a reader forgets the instances that are gone

@@ -314,7 +314,11 @@ fn topic(
             reason: "an endpoint's topic must be absolute here".into(),
         });
     }
-    let dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
+    let mut dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
+    if let Some(hash) = ty.hash {
+        // as ROS 2 Jazzy announces a topic endpoint's type (REP 2011): the endpoints made on this topic take it
+        dds_qos = dds_qos.with_user_data(format!("typehash={hash};"));
+    }
     let participant = graph
         .domain_participant()
         .ok_or_else(|| Error::Closed(format!("the DDS participant (creating topic {topic})")))?;

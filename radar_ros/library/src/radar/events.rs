@@ -24,7 +24,8 @@ impl Radar {
     pub fn spawn_event<E: Event>(&self, name: &str, mut event: E) -> Result<EventHandle> {
         let name = self.resolve(name)?;
         let payload_t =
-            crate::wire::raw::component_type(&event.payload_type(), "its payload type")?;
+            crate::wire::raw::component_type(&event.payload_type(), "its payload type")?
+                .with_hash_of::<E::Payload>();
         let mut claimed = self.participant().claim_node(&name)?;
         let node = &mut claimed.node;
         let mut params = crate::node::params::Declared::default();

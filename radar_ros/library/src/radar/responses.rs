@@ -57,8 +57,10 @@ impl Radar {
             params: &mut params,
         })?;
         let types = SlotTypes {
-            start: crate::wire::raw::component_type(&response.start_type(), "its start type")?,
-            output: crate::wire::raw::component_type(&response.output_type(), "its output type")?,
+            start: crate::wire::raw::component_type(&response.start_type(), "its start type")?
+                .with_hash_of::<R::Start>(),
+            output: crate::wire::raw::component_type(&response.output_type(), "its output type")?
+                .with_hash_of::<R::Output>(),
         };
         let mut endpoints = self.response_endpoints::<R>(node, &name, &types)?;
         endpoints.io.incomplete_output = response.incomplete_output();

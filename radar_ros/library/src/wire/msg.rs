@@ -12,7 +12,7 @@
 
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
-pub use super::msg_support::{fixed_array, RosService, WString};
+pub use super::msg_support::{fixed_array, WString};
 
 /// A Rust type that is the wire form of a ROS 2 message.
 ///
@@ -61,21 +61,59 @@ pub trait RosMessage:
     }
 }
 
-/// A message type as radar_ros creates topics with it: the ROS name and the DDS name.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// A ROS 2 service type: `pkg/srv/Name` with its request and response messages (generated ones implement it).
+pub trait RosService: Send + Sync + 'static {
+    /// The ROS package, e.g. `"std_srvs"`.
+    const PACKAGE: &'static str;
+    /// The service's name in the package, e.g. `"Trigger"`.
+    const NAME: &'static str;
+    /// `<Name>_Request`.
+    type Request: RosMessage;
+    /// `<Name>_Response`.
+    type Response: RosMessage;
+
+    /// `pkg/srv/Name`, as `ros2 service` shows it.
+    fn ros_type_name() -> String {
+        format!("{}/srv/{}", Self::PACKAGE, Self::NAME)
+    }
+}
+
+/// A message type as radar_ros creates topics with it: the ROS name and the DDS name (what it is compared by),
+/// and its RIHS01 hash when known (announced in the endpoints' USER_DATA as ROS 2 Jazzy does).
+#[derive(Clone, Debug)]
 pub(crate) struct TypeName {
     /// `pkg/msg/Name`
     pub(crate) ros: String,
     /// `pkg::msg::dds_::Name_`
     pub(crate) dds: String,
+    /// `RIHS01_...`
+    pub(crate) hash: Option<&'static str>,
 }
+
+impl PartialEq for TypeName {
+    fn eq(&self, other: &Self) -> bool {
+        self.ros == other.ros && self.dds == other.dds
+    }
+}
+
+impl Eq for TypeName {}
 
 impl TypeName {
     pub(crate) fn of<M: RosMessage>() -> TypeName {
         TypeName {
             ros: M::ros_type_name(),
             dds: M::dds_type_name(),
+            hash: M::TYPE_HASH,
         }
+    }
+
+    /// This type, with `M`'s hash if it is `M` (a component whose Rust type is `M` says its ROS type as a
+    /// string, which may name another type at run time).
+    pub(crate) fn with_hash_of<M: RosMessage>(mut self) -> TypeName {
+        if self.ros == M::ros_type_name() {
+            self.hash = M::TYPE_HASH;
+        }
+        self
     }
 
     /// `pkg`, `msg` or `action`, `Name`.
@@ -83,6 +121,7 @@ impl TypeName {
         TypeName {
             ros: format!("{package}/{interface}/{name}"),
             dds: format!("{package}::{interface}::dds_::{name}_"),
+            hash: None,
         }
     }
 }

@@ -1,30 +1,11 @@
-//! What generated message types need beyond serde's defaults: `wstring` as ROS 2 puts it on the wire, fixed
-//! arrays of any length, and the service trait.
+//! What generated message types need beyond serde's defaults: `wstring` as ROS 2 puts it on the wire, and
+//! fixed arrays of any length.
 
 use serde::{
     de::{Error as _, SeqAccess, Visitor},
     ser::SerializeTuple,
     Deserialize, Deserializer, Serialize, Serializer,
 };
-
-use super::msg::RosMessage;
-
-/// A ROS 2 service type: `pkg/srv/Name` with its request and response messages (generated ones implement it).
-pub trait RosService: Send + Sync + 'static {
-    /// The ROS package, e.g. `"std_srvs"`.
-    const PACKAGE: &'static str;
-    /// The service's name in the package, e.g. `"Trigger"`.
-    const NAME: &'static str;
-    /// `<Name>_Request`.
-    type Request: RosMessage;
-    /// `<Name>_Response`.
-    type Response: RosMessage;
-
-    /// `pkg/srv/Name`, as `ros2 service` shows it.
-    fn ros_type_name() -> String {
-        format!("{}/srv/{}", Self::PACKAGE, Self::NAME)
-    }
-}
 
 /// A `wstring` field: text that ROS 2 (rmw_fastrtps, rclpy) puts on the wire as its UTF-16 code units, each
 /// as a 4-byte `wchar`, after a 4-byte count.

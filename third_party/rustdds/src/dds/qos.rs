@@ -210,6 +210,7 @@ impl QosPolicyBuilder {
       // (drop glue) which is incompatible with `const fn`, and the built-in QoS
       // policies never need it. Set it via `QosPolicies::with_data_representation`.
       data_representation: None,
+      user_data: None,
       #[cfg(feature = "security")]
       property: None,
     }
@@ -235,6 +236,9 @@ pub struct QosPolicies {
   pub(crate) resource_limits: Option<policy::ResourceLimits>,
   pub(crate) lifespan: Option<policy::Lifespan>,
   pub(crate) data_representation: Option<policy::DataRepresentation>,
+  /// USER_DATA (DDS v1.4 Section 2.2.3.1) of a DataWriter or DataReader, the
+  /// octets announced in its SEDP data (RADAR patch 43).
+  pub(crate) user_data: Option<Vec<u8>>,
   #[cfg(feature = "security")]
   pub(crate) property: Option<policy::Property>,
 }
@@ -333,6 +337,21 @@ impl QosPolicies {
     self
   }
 
+  /// The USER_DATA QoS policy (DDS v1.4 Section 2.2.3.1), if set.
+  pub fn user_data(&self) -> Option<&[u8]> {
+    self.user_data.as_deref()
+  }
+
+  /// Set the USER_DATA QoS policy (DDS v1.4 Section 2.2.3.1): octets a
+  /// DataWriter or DataReader announces in discovery (`PID_USER_DATA`), as ROS 2
+  /// announces `typehash=RIHS01_...;` (RADAR patch 43). Not part of
+  /// [`QosPolicyBuilder`], which is `const`.
+  #[must_use]
+  pub fn with_user_data(mut self, user_data: impl Into<Vec<u8>>) -> Self {
+    self.user_data = Some(user_data.into());
+    self
+  }
+
   #[cfg(feature = "security")]
   pub fn property(&self) -> Option<policy::Property> {
     self.property.clone()
@@ -362,6 +381,7 @@ impl QosPolicies {
         .data_representation
         .clone()
         .or(self.data_representation.clone()),
+      user_data: other.user_data.clone().or(self.user_data.clone()),
       #[cfg(feature = "security")]
       property: other.property.clone().or(self.property.clone()),
     }
@@ -566,6 +586,7 @@ impl QosPolicies {
       resource_limits,
       lifespan,
       data_representation,
+      user_data,
       #[cfg(feature = "security")]
         property: _, // TODO: properties to parameter list?
     } = self;
@@ -652,6 +673,8 @@ impl QosPolicies {
       data_representation,
       policy::DataRepresentation
     );
+    // a sequence<octet>, as the participant's (RADAR patch 43)
+    emit_option!(PID_USER_DATA, user_data, Vec<u8>);
 
     Ok(pl)
   }
@@ -718,6 +741,7 @@ impl QosPolicies {
     let lifespan: Option<policy::Lifespan> = get_option!(PID_LIFESPAN);
     let data_representation: Option<policy::DataRepresentation> =
       get_option!(PID_DATA_REPRESENTATION);
+    let user_data: Option<Vec<u8>> = get_option!(PID_USER_DATA);
 
     #[cfg(feature = "security")]
     let property: Option<policy::Property> = None; // TODO: Should also properties be read?
@@ -738,6 +762,7 @@ impl QosPolicies {
       resource_limits,
       lifespan,
       data_representation,
+      user_data,
       #[cfg(feature = "security")]
       property,
     })

@@ -180,6 +180,7 @@ pub struct SubscriptionBuiltinTopicData {
   // pub durability_service: Option<DurabilityService>,
   lifespan: Option<Lifespan>,
   data_representation: Option<DataRepresentation>,
+  user_data: Option<Vec<u8>>,
 
   // From spec Remote Procedure Call over DDS:
   service_instance_name: Option<String>,
@@ -220,6 +221,7 @@ impl SubscriptionBuiltinTopicData {
       presentation: None,
       lifespan: None,
       data_representation: None,
+      user_data: None,
       // DDS-RPC
       // TODO: these are not implemented
       service_instance_name: None,  // Note: Not implemented
@@ -268,6 +270,7 @@ impl SubscriptionBuiltinTopicData {
     self.presentation = qos.presentation;
     self.lifespan = qos.lifespan;
     self.data_representation = qos.data_representation.clone();
+    self.user_data = qos.user_data.clone();
     // history does not exist
     // resource_limits does not exist
   }
@@ -287,6 +290,7 @@ impl SubscriptionBuiltinTopicData {
       resource_limits: None, // nor Resource Limits, see Figure 8.30 in RTPS spec 2.5
       lifespan: self.lifespan,
       data_representation: self.data_representation.clone(),
+      user_data: self.user_data.clone(),
 
       #[cfg(feature = "security")]
       property: None, // TODO: no property QoS?
@@ -418,11 +422,8 @@ impl PlCdrDeserialize for DiscoveredReaderData {
 
     let qos = QosPolicies::from_parameter_list(ctx, &pl_map)?;
 
-    let user_data = pl_map
-      .get(&ParameterId::PID_USER_DATA)
-      .and_then(|v| v.first())
-      .map(|p| p.value.clone())
-      .unwrap_or_default();
+    // the octets of the sequence<octet>, not the parameter's raw bytes (RADAR patch 43)
+    let user_data = qos.user_data().map(<[u8]>::to_vec).unwrap_or_default();
 
     Ok(DiscoveredReaderData {
       reader_proxy: ReaderProxy::new(
@@ -489,6 +490,7 @@ impl ParameterListable for DiscoveredReaderData {
           presentation: _,
           lifespan: _,
           data_representation: _,
+          user_data: _,
 
           service_instance_name,
           related_datawriter_key,
@@ -645,6 +647,7 @@ pub struct PublicationBuiltinTopicData {
   pub destination_order: Option<DestinationOrder>,
   pub presentation: Option<Presentation>,
   pub data_representation: Option<DataRepresentation>,
+  pub user_data: Option<Vec<u8>>,
 
   // From Remote Procedure Call over DDS:
   pub service_instance_name: Option<String>,
@@ -684,6 +687,7 @@ impl PublicationBuiltinTopicData {
       destination_order: None,
       presentation: None,
       data_representation: None,
+      user_data: None,
 
       service_instance_name: None,  // TODO: These are not supported/used
       related_datareader_key: None, // TODO
@@ -719,6 +723,7 @@ impl PublicationBuiltinTopicData {
     self.destination_order = qos.destination_order;
     self.presentation = qos.presentation;
     self.data_representation = qos.data_representation.clone();
+    self.user_data = qos.user_data.clone();
   }
 
   pub fn qos(&self) -> QosPolicies {
@@ -736,6 +741,7 @@ impl PublicationBuiltinTopicData {
       resource_limits: None, // nor Resource Limits, see Figure 8.30 in RTPS spec 2.5
       lifespan: self.lifespan,
       data_representation: self.data_representation.clone(),
+      user_data: self.user_data.clone(),
       #[cfg(feature = "security")]
       property: None, // TODO: no property Qos?
     }
@@ -877,11 +883,8 @@ impl PlCdrDeserialize for DiscoveredWriterData {
 
     let qos = QosPolicies::from_parameter_list(ctx, &pl_map)?;
 
-    let user_data = pl_map
-      .get(&ParameterId::PID_USER_DATA)
-      .and_then(|v| v.first())
-      .map(|p| p.value.clone())
-      .unwrap_or_default();
+    // the octets of the sequence<octet>, not the parameter's raw bytes (RADAR patch 43)
+    let user_data = qos.user_data().map(<[u8]>::to_vec).unwrap_or_default();
 
     Ok(DiscoveredWriterData {
       last_updated: Instant::now(),
@@ -949,6 +952,7 @@ impl ParameterListable for DiscoveredWriterData {
           presentation: _,
           lifespan: _,
           data_representation: _,
+          user_data: _,
 
           service_instance_name,
           related_datareader_key,
@@ -1097,6 +1101,7 @@ impl HasQoSPolicy for TopicBuiltinTopicData {
       resource_limits: self.resource_limits,
       lifespan: self.lifespan,
       data_representation: None, // Topic-level DATA_REPRESENTATION not tracked
+      user_data: None,          // nor TOPIC_DATA
       #[cfg(feature = "security")]
       property: None, // TODO: no property Qos?
     }
@@ -1471,6 +1476,60 @@ mod tests {
     let sdata2 =
       PlCdrSerializerAdapter::<DiscoveredWriterData, LittleEndian>::to_bytes(&dwd2).unwrap();
     assert_eq!(sdata, sdata2);
+  }
+
+  #[test]
+  fn an_endpoints_user_data_is_announced_as_a_padded_octet_sequence_and_read_back() {
+    // RADAR patch 43: a DataWriter's USER_DATA QoS goes out as PID_USER_DATA (0x002c), a sequence<octet>
+    // (its length, the octets, padding to 4), as rmw_fastrtps announces `typehash=RIHS01_...;`
+    let text = b"typehash=RIHS01_0123;";
+    let mut writer_proxy = writer_proxy_data().unwrap();
+    let mut pub_topic_data = publication_builtin_topic_data().unwrap();
+    writer_proxy.remote_writer_guid = pub_topic_data.key;
+    pub_topic_data.set_qos(&pub_topic_data.qos().with_user_data(text.to_vec()));
+    let dwd = DiscoveredWriterData {
+      last_updated: Instant::now(),
+      writer_proxy,
+      publication_topic_data: pub_topic_data,
+      user_data: text.to_vec(),
+    };
+    let bytes = dwd
+      .to_pl_cdr_bytes(RepresentationIdentifier::PL_CDR_LE)
+      .unwrap();
+    let mut wire = vec![0x2c, 0x00, 28, 0x00, text.len() as u8, 0, 0, 0];
+    wire.extend_from_slice(text);
+    wire.extend_from_slice(&[0, 0, 0]);
+    assert!(
+      bytes.windows(wire.len()).any(|w| w == wire.as_slice()),
+      "PID_USER_DATA as the spec lays it out in {bytes:x?}"
+    );
+    let back: DiscoveredWriterData =
+      PlCdrDeserializerAdapter::from_bytes(&bytes, RepresentationIdentifier::PL_CDR_LE).unwrap();
+    assert_eq!(back.user_data, text.to_vec(), "the octets, not the parameter");
+    assert_eq!(
+      back.publication_topic_data.qos().user_data(),
+      Some(&text[..])
+    );
+
+    // and a reader's, the same way
+    let mut sub = subscription_builtin_topic_data().unwrap();
+    sub.set_qos(&sub.qos().with_user_data(text.to_vec()));
+    let mut reader_proxy = reader_proxy_data().unwrap();
+    reader_proxy.remote_reader_guid = sub.key();
+    let drd = DiscoveredReaderData {
+      reader_proxy,
+      subscription_topic_data: sub,
+      content_filter: None,
+      user_data: text.to_vec(),
+    };
+    let bytes = drd
+      .to_pl_cdr_bytes(RepresentationIdentifier::PL_CDR_LE)
+      .unwrap();
+    assert!(bytes.windows(wire.len()).any(|w| w == wire.as_slice()));
+    let back: DiscoveredReaderData =
+      PlCdrDeserializerAdapter::from_bytes(&bytes, RepresentationIdentifier::PL_CDR_LE).unwrap();
+    assert_eq!(back.user_data, text.to_vec());
+    assert_eq!(back, drd);
   }
 
   // Do not test ser/deser. This is never seen on the wire out of
