@@ -79,12 +79,13 @@ enum Cmd {
     },
     /// A live timeline of the signals and state changes of every component, or those named (like rtprint).
     ///
-    /// Times are relative to when watching began. Events are watched through their state topics, so watching does
-    /// not make them check; --activate listens to their triggered signal instead (and so activates them).
+    /// Times are relative to when watching began. Events' triggered signals are only observed: every trigger is
+    /// shown, but watching does not make an event check (its reader announces that it only observes);
+    /// --activate listens as a subscriber does, and so activates them.
     Watch {
         /// Components to watch (default: all, including ones that appear later).
         names: Vec<String>,
-        /// Listen to events' triggered signals (this activates them) instead of their state topics.
+        /// Listen to events' triggered signals as a listener (this activates them) rather than only observe.
         #[arg(long)]
         activate: bool,
         /// Stop after this many seconds (default: until Ctrl-C).
@@ -132,16 +133,17 @@ enum Cmd {
     /// Record signals, their payloads and state changes to an MCAP file (like rtlog).
     ///
     /// With ROS 2 message schemas (ros2msg schemas, cdr messages, as rosbag2 writes them), so Foxglove and
-    /// ros2 bag tooling open it. Events are recorded through their state topics unless --activate (which records triggered, and
-    /// activates them). Types radar has schemas for: std_msgs basics, geometry_msgs Point, Quaternion, Pose,
-    /// PoseStamped, builtin_interfaces Time, radar_msgs, test_msgs Fibonacci; others are skipped, said once.
+    /// ros2 bag tooling open it. Events' triggered signals are recorded by a reader that only observes: every
+    /// trigger is in the file, and recording does not make an event check; --activate listens as a subscriber
+    /// does (and so activates them). Any type whose definition is found (AMENT_PREFIX_PATH, --interfaces, the
+    /// shipped ones) is recorded with its schema; others are skipped, said once.
     Record {
         /// The MCAP file to write.
         #[arg(short = 'o', long = "output", value_name = "FILE.mcap")]
         output: std::path::PathBuf,
         /// Components to record (default: all, including ones that appear later).
         names: Vec<String>,
-        /// Record events' triggered signals (this activates them).
+        /// Listen to events' triggered signals as a listener (this activates them) rather than only observe.
         #[arg(long)]
         activate: bool,
         /// Stop after this many seconds (default: until Ctrl-C).

@@ -5,8 +5,8 @@ use radar_ros::{Component, Radar};
 use crate::common::Fallible;
 
 /// The signals that show a component's activity, `(topic, type, label)`: a response's three; an event's
-/// `triggered` only if `activate` (listening to it makes the event check).
-pub(crate) fn signal_topics(c: &Component, activate: bool) -> Vec<(String, String, &'static str)> {
+/// `triggered`.
+pub(crate) fn signal_topics(c: &Component) -> Vec<(String, String, &'static str)> {
     let of = |s: radar_ros::Signal, label| (s.topic().to_owned(), s.ros_type().to_owned(), label);
     match c {
         Component::Response(r) => vec![
@@ -14,8 +14,7 @@ pub(crate) fn signal_topics(c: &Component, activate: bool) -> Vec<(String, Strin
             of(r.interrupted(), "interrupted"),
             of(r.exited(), "exited"),
         ],
-        Component::Event(e) if activate => vec![of(e.triggered(), "triggered")],
-        Component::Event(_) => Vec::new(),
+        Component::Event(e) => vec![of(e.triggered(), "triggered")],
     }
 }
 
@@ -40,10 +39,15 @@ pub(crate) fn forward_signals<T: Send + 'static>(
     make: impl Fn(SignalSample<'_>) -> T + Clone + Send + 'static,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
     let mut tasks = Vec::new();
-    for (topic, ros_type, label) in signal_topics(c, activate) {
-        let sub = radar
-            .raw_subscription(&topic, &ros_type)
-            .map_err(|e| e.to_string())?;
+    for (topic, ros_type, label) in signal_topics(c) {
+        // an event's `triggered` is only observed (the event does not count this reader as a listener, so
+        // watching changes nothing), unless `activate`
+        let sub = if label == "triggered" && !activate {
+            radar.observe_raw(&topic, &ros_type)
+        } else {
+            radar.raw_subscription(&topic, &ros_type)
+        }
+        .map_err(|e| e.to_string())?;
         let (tx, make) = (tx.clone(), make.clone());
         tasks.push(tokio::spawn(async move {
             while let Ok((body, stamp)) = sub.recv_stamped().await {

@@ -32,6 +32,9 @@ use crate::departure::LossCause;
 mod discovery;
 pub(crate) mod lookup;
 mod nodes;
+mod observers;
+
+pub(crate) use observers::OBSERVER_USER_DATA;
 
 pub use nodes::GraphNode;
 
@@ -58,12 +61,19 @@ struct Entry {
     tx: Option<watch::Sender<usize>>,
     /// For a reader: the writers of other participants that have shown they send to it (RustDDS patch 18).
     heard: BTreeSet<GUID>,
+    /// For a writer: the matched readers that only observe (`radar_observe=1;` in their USER_DATA).
+    observing: BTreeSet<GUID>,
+    /// For a writer: the count of matched readers that do not only observe ([`Graph::watch_listeners`]).
+    listeners_tx: Option<watch::Sender<usize>>,
 }
 
 impl Entry {
     fn notify(&self) {
         if let Some(tx) = &self.tx {
             tx.send_replace(self.peers.len());
+        }
+        if let Some(tx) = &self.listeners_tx {
+            tx.send_replace(self.peers.len() - self.observing.len());
         }
     }
 }
@@ -82,6 +92,8 @@ struct Table {
     /// caller whose request is answered after it left owns nothing (B7). A participant that exits cleanly is
     /// known gone by its endpoints' disposes at once, by itself only when its lease runs out.
     left: HashMap<GUID, std::time::Instant>,
+    /// Readers, local and remote, that only observe (`observers.rs`).
+    observers: std::collections::HashSet<GUID>,
 }
 
 /// How long a participant that left is remembered.
@@ -309,6 +321,17 @@ impl Graph {
         e.peers.insert(peer)
     }
 
+    /// [`Graph::admit`] for a local writer's reader `peer`, noting whether it only observes.
+    fn admit_reader(t: &mut Table, writer: GUID, peer: GUID, ty: Option<String>) -> bool {
+        let observes = t.observers.contains(&peer);
+        let e = t.writers.entry(writer).or_default();
+        let added = Self::admit(e, Side::Writer, peer, ty);
+        if added && observes {
+            e.observing.insert(peer);
+        }
+        added
+    }
+
     fn watch(&self, side: Side, guid: GUID, topic: &str, dds_type: &str) -> watch::Receiver<usize> {
         let mut t = self.table.lock().unwrap();
         let map = match side {
@@ -414,6 +437,11 @@ impl Graph {
     fn apply(&self, ev: DomainParticipantStatusEvent) {
         self.index_event(&ev);
         let mut t = self.table.lock().unwrap();
+        if let DomainParticipantStatusEvent::ReaderDetected { reader } = &ev {
+            if observers::observes(&reader.user_data) {
+                Self::mark_observer_in(&mut t, reader.guid);
+            }
+        }
         match ev {
             DomainParticipantStatusEvent::RemoteReaderMatched {
                 local_writer,
@@ -423,9 +451,8 @@ impl Graph {
                     return;
                 }
                 let ty = self.peer_type(&t, Side::Writer, remote_reader);
-                let e = t.writers.entry(local_writer).or_default();
-                if Self::admit(e, Side::Writer, remote_reader, ty) {
-                    e.notify();
+                if Self::admit_reader(&mut t, local_writer, remote_reader, ty) {
+                    t.writers[&local_writer].notify();
                 }
             }
             DomainParticipantStatusEvent::RemoteWriterMatched {
@@ -505,6 +532,7 @@ impl Graph {
         for e in map.values_mut() {
             e.rejected.retain(|g| !pred(g));
             e.heard.retain(|g| !pred(g));
+            e.observing.retain(|g| !pred(g));
             let before = e.peers.len();
             e.peers.retain(|g| !pred(g));
             if e.peers.len() != before {

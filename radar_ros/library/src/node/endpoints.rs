@@ -306,6 +306,7 @@ fn topic(
     topic: &str,
     ty: &TypeName,
     qos: &QosProfile,
+    observer: bool,
 ) -> Result<ros2_client::dds::rustdds::Topic> {
     let name = topic_name(topic)?;
     if !name.is_absolute() {
@@ -315,9 +316,14 @@ fn topic(
         });
     }
     let mut dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
-    if let Some(hash) = ty.hash {
-        // as ROS 2 Jazzy announces a topic endpoint's type (REP 2011): the endpoints made on this topic take it
-        dds_qos = dds_qos.with_user_data(format!("typehash={hash};"));
+    // USER_DATA, which the endpoints made on this topic take: the type's hash as ROS 2 Jazzy announces it
+    // (REP 2011), and for a reader that only observes, that it does (`graph/observers.rs`)
+    let mut user_data = ty.hash.map(|h| format!("typehash={h};")).unwrap_or_default();
+    if observer {
+        user_data.push_str(crate::graph::OBSERVER_USER_DATA);
+    }
+    if !user_data.is_empty() {
+        dds_qos = dds_qos.with_user_data(user_data);
     }
     let participant = graph
         .domain_participant()
@@ -341,7 +347,7 @@ pub(crate) fn publisher<M: serde::Serialize>(
     ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Publisher<M>>> {
-    let t = topic(graph, topic_abs, ty, qos)?;
+    let t = topic(graph, topic_abs, ty, qos, false)?;
     crate::node::declared::record_node(node, crate::node::declared::Access::Publish, topic_abs);
     let inner = node
         .create_publisher(&t, Some(qos.clone()))
@@ -364,7 +370,31 @@ pub(crate) fn subscription<M: 'static>(
     ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Subscription<M>>> {
-    let t = topic(graph, topic_abs, ty, qos)?;
+    subscription_as(graph, node, topic_abs, ty, qos, false)
+}
+
+/// [`subscription`] that only observes: an event does not count it as a listener (`graph/observers.rs`).
+pub(crate) fn observer_subscription<M: 'static>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Subscription<M>>> {
+    let s = subscription_as(graph, node, topic_abs, ty, qos, true)?;
+    graph.mark_observer(s.guid);
+    Ok(s)
+}
+
+fn subscription_as<M: 'static>(
+    graph: &Graph,
+    node: &mut Node,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+    observer: bool,
+) -> Result<Watched<Subscription<M>>> {
+    let t = topic(graph, topic_abs, ty, qos, observer)?;
     crate::node::declared::record_node(node, crate::node::declared::Access::Subscribe, topic_abs);
     let inner = node
         .create_subscription(&t, Some(qos.clone()))

@@ -522,6 +522,20 @@ impl Participant {
         Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
     }
 
+    /// [`Participant::raw_subscription`] that only observes: events do not count it as a listener.
+    pub(crate) fn raw_observer(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+    ) -> Result<RawSubscription> {
+        let ty = parse_type_name(ros_type)?;
+        let (topic, s) = self.on_client_node(topic, |node, t| {
+            endpoints::observer_subscription(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+        })?;
+        Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
+    }
+
     /// The pooled raw writer of `ros_type` on the absolute `topic` with history `depth`, held until
     /// [`Participant::release`] (see [`crate::node::pool`]).
     pub(crate) fn pooled_writer(&self, key: &Key) -> Result<Arc<RawPublisher>> {

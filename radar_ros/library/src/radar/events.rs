@@ -52,7 +52,8 @@ impl Radar {
             &name.endpoint(crate::Endpoint::State),
             &state_qos(),
         )?;
-        let listeners = triggered.matched.clone();
+        // its listeners: readers of `triggered` that do not only observe (`graph/observers.rs`)
+        let listeners = self.graph().watch_listeners(triggered.guid());
         let st = EventState {
             stamp: Time::now(),
             name: name.fully_qualified(),

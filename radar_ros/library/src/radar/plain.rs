@@ -89,6 +89,22 @@ impl Radar {
             .raw_subscription(topic, ros_type, SIGNAL_DEPTH)
     }
 
+    /// [`Radar::raw_subscription`] that only observes: it receives every sample, but an event whose
+    /// `triggered` it reads does not count it as a listener, so it never makes the event check (its reader
+    /// announces `radar_observe=1;` in its DDS USER_DATA). What `radar record` and `radar watch` use: they see each
+    /// trigger of an event that something else keeps active, and change nothing.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
+    /// let triggers = radar.observe_raw("/start_event/triggered", "std_msgs/msg/Empty")?;
+    /// let (body, stamp_ns) = triggers.recv_stamped().await?;
+    /// # Ok(()) }
+    /// ```
+    pub fn observe_raw(&self, topic: &str, ros_type: &str) -> Result<RawSubscription> {
+        self.participant()
+            .raw_observer(topic, ros_type, SIGNAL_DEPTH)
+    }
+
     /// Sends `payload` into a slot directly (the paper's `rtinject`): waits for the slot's subscriber (default
     /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT), `.timeout(d)` to change), then publishes once. The writer
     /// comes from the participant's pool: injecting into the same slot again within a few seconds reuses it.

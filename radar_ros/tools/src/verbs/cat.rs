@@ -70,7 +70,7 @@ async fn gather(radar: &Radar, c: Component) -> Fallible<Card> {
             topics.push((slot.topic().to_owned(), "slot", slot.ros_type().to_owned()));
         }
     }
-    for (topic, ty, _) in signal_topics(&c, true) {
+    for (topic, ty, _) in signal_topics(&c) {
         topics.push((topic, "signal", ty));
     }
     topics.push((c.name().topic("state"), "state", state_type(&c).to_owned()));
