@@ -30,7 +30,11 @@ async fn an_observer_sees_the_triggers_an_rclpy_listener_causes_and_never_activa
     assert_eq!(s.activations, 0, "{s:?}");
 
     // a plain rclpy subscriber is a listener: the event checks, and the observer sees every trigger too
-    let mut sub = Py::start(DOMAIN, "tests/python/subscribe.py", &["/obs/tick/triggered"]);
+    let mut sub = Py::start(
+        DOMAIN,
+        "tests/python/subscribe.py",
+        &["/obs/tick/triggered"],
+    );
     assert_eq!(sub.json().await["subscribed"], true);
     tokio::time::timeout(Duration::from_secs(10), state.wait_for(|s| s.active))
         .await

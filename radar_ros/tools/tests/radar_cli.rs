@@ -647,3 +647,86 @@ async fn an_rclpy_response_is_listed_and_driven() {
     );
     py.expect_line("interrupted").await;
 }
+
+/// Issue 35: `radar record` with its default options, beside the README's `count_up` (Listing 1), records
+/// `start_event`'s trigger about 2 s after the event began to check, as an observer: the recorder does not keep
+/// the event checking, so `start_event` still stops when its `once` fires (its state says inactive, and it never
+/// triggers again, as it would at 4 s with one more listener). Read back by Python's `mcap` readers. Domain 121.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn record_of_count_up_holds_start_event_s_trigger_and_changes_nothing() {
+    use radar_ros_examples::test_support::{examples_dir, require_isolation};
+    require_isolation();
+    let domain = "121";
+    let dir = std::env::temp_dir().join(format!("radar_record_cu_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("count_up.mcap");
+    let file_s = file.to_str().unwrap().to_owned();
+    let args = ["record", "-o", &file_s, "--duration", "8", "--json"].map(str::to_owned);
+    let recorder = tokio::spawn(async move {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        radar_in(domain, &args).await
+    });
+    tokio::time::sleep(Duration::from_millis(1000)).await;
+    let example = tokio::process::Command::new(examples_dir("count_up").join("count_up"))
+        .args(["--duration", "6"])
+        .env("ROS_DOMAIN_ID", domain)
+        .stdout(std::process::Stdio::null())
+        .kill_on_drop(true)
+        .output();
+    let example = tokio::time::timeout(Duration::from_secs(30), example)
+        .await
+        .expect("count_up ends")
+        .unwrap();
+    assert!(
+        example.status.success(),
+        "{}",
+        String::from_utf8_lossy(&example.stderr)
+    );
+    let recorded = recorder.await.unwrap();
+    assert!(
+        recorded.status.success(),
+        "{}",
+        String::from_utf8_lossy(&recorded.stderr)
+    );
+
+    let py = std::process::Command::new(radar_test_util::python())
+        .arg(radar_test_util::repo().join("tests/python/mcap_read.py"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    let messages: Vec<Value> = String::from_utf8_lossy(&py.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let on =
+        |topic: &str| -> Vec<&Value> { messages.iter().filter(|m| m["topic"] == topic).collect() };
+    let secs = |m: &Value| m["log_time"].as_u64().unwrap() as f64 / 1e9;
+    let triggers = on("/start_event/triggered");
+    assert_eq!(
+        triggers.len(),
+        1,
+        "one trigger of start_event: {triggers:?}"
+    );
+    let states = on("/start_event/state");
+    let began = states
+        .iter()
+        .find(|m| m["msg"]["active"] == true)
+        .unwrap_or_else(|| panic!("start_event began to check: {states:?}"));
+    let after = secs(triggers[0]) - secs(began);
+    assert!(
+        (after - 2.0).abs() <= 0.3,
+        "start_event triggered {after:.3} s after it began to check (the listing: 2 s)"
+    );
+    // the once fired: start_event stops checking although the recorder still reads its triggered
+    let last = states.last().unwrap();
+    assert_eq!(last["msg"]["active"], false, "{last}");
+    assert_eq!(last["msg"]["activations"], 1, "{last}");
+    assert!(secs(last) > secs(triggers[0]), "{last}");
+    // and count_up's runs are there too
+    assert!(!on("/count_up/started").is_empty(), "{messages:?}");
+}

@@ -318,7 +318,10 @@ fn topic(
     let mut dds_qos: ros2_client::dds::rustdds::QosPolicies = qos.into();
     // USER_DATA, which the endpoints made on this topic take: the type's hash as ROS 2 Jazzy announces it
     // (REP 2011), and for a reader that only observes, that it does (`graph/observers.rs`)
-    let mut user_data = ty.hash.map(|h| format!("typehash={h};")).unwrap_or_default();
+    let mut user_data = ty
+        .hash
+        .map(|h| format!("typehash={h};"))
+        .unwrap_or_default();
     if observer {
         user_data.push_str(crate::graph::OBSERVER_USER_DATA);
     }
