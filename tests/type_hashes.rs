@@ -1,7 +1,8 @@
 //! Issue 34: radar_ros's endpoints announce their type hash as ROS 2 Jazzy does (`typehash=RIHS01_...;` in the
 //! DDS USER_DATA of each topic endpoint, REP 2011; RustDDS patch 43), so `ros2 topic info -v` shows it. The
 //! oracle: rclpy (rmw_fastrtps) reading it from discovery, against the hash rosidl wrote into the venv's
-//! `share/geometry_msgs/msg/PoseStamped.json`. Domain 119.
+//! `share/geometry_msgs/msg/PoseStamped.json` (and `radar_msgs/msg/ResponseState.json`, which rosidl built from
+//! `msgs/radar_msgs`). Domain 119.
 
 use radar_ros::{msg::PoseStamped, FnResponse};
 use radar_test_util::{python, radar, require_isolation, Py};
@@ -32,7 +33,7 @@ async fn rclpy_reads_the_type_hash_of_radar_ros_endpoints_from_discovery() {
     let mut py = Py::start(
         DOMAIN,
         "tests/python/type_hashes.py",
-        &["/go_to/start", "/go_to/exited"],
+        &["/go_to/start", "/go_to/exited", "/go_to/state"],
     );
     let mut seen = Vec::new();
     loop {
@@ -55,5 +56,16 @@ async fn rclpy_reads_the_type_hash_of_radar_ros_endpoints_from_discovery() {
         .find(|v| v["topic"] == "/go_to/exited" && v["kind"] == "publisher")
         .unwrap_or_else(|| panic!("exited's publisher: {seen:#?}"));
     assert_eq!(exited["hash"], expected.as_str(), "{exited}");
+    // radar_ros's own state messages carry theirs too (radar_msgs, as rosidl built it into the venv from msgs/)
+    let state = seen
+        .iter()
+        .find(|v| v["topic"] == "/go_to/state" && v["kind"] == "publisher")
+        .unwrap_or_else(|| panic!("state's publisher: {seen:#?}"));
+    assert_eq!(state["type"], "radar_msgs/msg/ResponseState", "{state}");
+    assert_eq!(
+        state["hash"],
+        rosidl_hash("radar_msgs", "ResponseState").as_str(),
+        "{state}"
+    );
     go_to.shutdown().await.unwrap();
 }

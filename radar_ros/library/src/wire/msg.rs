@@ -126,14 +126,22 @@ impl TypeName {
     }
 }
 
-/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, or for a part of an
-/// action: `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");`.
+/// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, with its RIHS01 hash:
+/// `ros_message!(MyType, "my_pkg", "MyType", hash Some("RIHS01_..."))`, or for a part of an action:
+/// `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");`. (Generated types implement it themselves.)
 #[macro_export]
 macro_rules! ros_message {
     ($ty:ty, $pkg:literal, $name:literal) => {
         impl $crate::msg::RosMessage for $ty {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = $name;
+        }
+    };
+    ($ty:ty, $pkg:literal, $name:literal, hash $hash:expr) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+            const TYPE_HASH: Option<&'static str> = $hash;
         }
     };
     ($ty:ty, $pkg:literal, action $name:literal) => {
@@ -263,7 +271,7 @@ pub struct ResponseState {
     /// Slot messages that did not decode as their type, dropped (shown at the next state change).
     pub malformed: u64,
 }
-ros_message!(ResponseState, "radar_msgs", "ResponseState");
+ros_message!(ResponseState, "radar_msgs", "ResponseState", hash <crate::interfaces::radar_msgs::msg::ResponseState as RosMessage>::TYPE_HASH);
 
 impl ResponseState {
     /// Idle: waiting for `start`.
@@ -298,7 +306,7 @@ pub struct EventState {
     /// The last such error, empty if none.
     pub last_error: String,
 }
-ros_message!(EventState, "radar_msgs", "EventState");
+ros_message!(EventState, "radar_msgs", "EventState", hash <crate::interfaces::radar_msgs::msg::EventState as RosMessage>::TYPE_HASH);
 
 /// `radar_msgs/msg/Connection`: one live connection, as a manager lists it.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -337,7 +345,7 @@ pub struct Connection {
     /// The last of them: which closure and its message, else empty.
     pub panic: String,
 }
-ros_message!(Connection, "radar_msgs", "Connection");
+ros_message!(Connection, "radar_msgs", "Connection", hash <crate::interfaces::radar_msgs::msg::Connection as RosMessage>::TYPE_HASH);
 
 impl Connection {
     /// `once`.
@@ -374,7 +382,7 @@ pub struct ConnectionList {
     /// The connections.
     pub connections: Vec<Connection>,
 }
-ros_message!(ConnectionList, "radar_msgs", "ConnectionList");
+ros_message!(ConnectionList, "radar_msgs", "ConnectionList", hash <crate::interfaces::radar_msgs::msg::ConnectionList as RosMessage>::TYPE_HASH);
 
 /// Request of `radar_msgs/srv/Connect`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
