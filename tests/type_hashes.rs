@@ -30,10 +30,14 @@ async fn rclpy_reads_the_type_hash_of_radar_ros_endpoints_from_discovery() {
             FnResponse::new(|goal: PoseStamped| async move { Ok(goal) }),
         )
         .unwrap();
+    // an endpoint typed at run time (as relays and the tools make them) of a type radar_ros ships
+    let _raw = radar
+        .raw_subscription("/raw/odom", "nav_msgs/msg/Odometry")
+        .unwrap();
     let mut py = Py::start(
         DOMAIN,
         "tests/python/type_hashes.py",
-        &["/go_to/start", "/go_to/exited", "/go_to/state"],
+        &["/go_to/start", "/go_to/exited", "/go_to/state", "/raw/odom"],
     );
     let mut seen = Vec::new();
     loop {
@@ -66,6 +70,15 @@ async fn rclpy_reads_the_type_hash_of_radar_ros_endpoints_from_discovery() {
         state["hash"],
         rosidl_hash("radar_msgs", "ResponseState").as_str(),
         "{state}"
+    );
+    let raw = seen
+        .iter()
+        .find(|v| v["topic"] == "/raw/odom" && v["kind"] == "subscription")
+        .unwrap_or_else(|| panic!("the raw subscription: {seen:#?}"));
+    assert_eq!(
+        raw["hash"],
+        rosidl_hash("nav_msgs", "Odometry").as_str(),
+        "{raw}"
     );
     go_to.shutdown().await.unwrap();
 }

@@ -121,9 +121,19 @@ impl TypeName {
         TypeName {
             ros: format!("{package}/{interface}/{name}"),
             dds: format!("{package}::{interface}::dds_::{name}_"),
-            hash: None,
+            hash: type_hash_of(&format!("{package}/{interface}/{name}")),
         }
     }
+}
+
+/// The RIHS01 hash of `ros_type` (`pkg/msg/Name`) if it is one of the types radar_ros ships
+/// ([`crate::interfaces`]): what an endpoint typed at run time (a relay, a raw publisher) announces.
+pub(crate) fn type_hash_of(ros_type: &str) -> Option<&'static str> {
+    let table = crate::interfaces::TYPE_HASHES;
+    table
+        .binary_search_by(|(t, _)| (*t).cmp(ros_type))
+        .ok()
+        .map(|i| table[i].1)
 }
 
 /// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, with its RIHS01 hash:
