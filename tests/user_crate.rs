@@ -62,12 +62,18 @@ fn write(path: &Path, text: &str) {
 /// `tests/isolated.sh` fetched every crate before, and the workspace's `Cargo.lock`, copied in, pins them); the
 /// output.
 fn build(dir: &Path, args: &[&str]) -> std::process::Output {
+    build_with(dir, args, &[])
+}
+
+/// [`build`] with more environment variables.
+fn build_with(dir: &Path, args: &[&str], env: &[(&str, &std::ffi::OsStr)]) -> std::process::Output {
     std::fs::copy(repo().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
     cargo()
         .args(["build", "--offline"])
         .args(args)
         .current_dir(dir)
         .env("CARGO_TARGET_DIR", user_target())
+        .envs(env.iter().copied())
         .output()
         .expect("run cargo")
 }
@@ -187,17 +193,7 @@ async fn a_crate_with_generated_types_echoes_every_test_msgs_fixture_and_serves_
     let venv = python().parent().unwrap().parent().unwrap().to_owned();
     let out = tokio::task::spawn_blocking({
         let dir = dir.clone();
-        let venv = venv.clone();
-        move || {
-            std::fs::copy(repo().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
-            cargo()
-                .args(["build", "--offline"])
-                .current_dir(&dir)
-                .env("CARGO_TARGET_DIR", user_target())
-                .env("AMENT_PREFIX_PATH", &venv)
-                .output()
-                .expect("run cargo")
-        }
+        move || build_with(&dir, &[], &[("AMENT_PREFIX_PATH", venv.as_os_str())])
     })
     .await
     .unwrap();
@@ -359,6 +355,7 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
     for part in [
         "radar_ros/library/src",
         "radar_ros/semantics",
+        "radar_ros/idl",
         "third_party/ros2-client",
     ] {
         copy(&repo().join(part), &ws.join(part));

@@ -24,7 +24,6 @@ fn generate_interfaces() {
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
-    generate_interfaces();
     let mut wrong = Vec::new();
     for (what, var, need, path, package) in [
         (
@@ -61,4 +60,5 @@ fn main() {
         }
         std::process::exit(1);
     }
+    generate_interfaces();
 }

@@ -422,22 +422,10 @@ impl Generator {
 
     fn primitive(&self, ty: &str) -> String {
         match ty {
-            "bool" => "bool",
-            "byte" | "char" | "uint8" => "u8",
-            "int8" => "i8",
-            "int16" => "i16",
-            "uint16" => "u16",
-            "int32" => "i32",
-            "uint32" => "u32",
-            "int64" => "i64",
-            "uint64" => "u64",
-            "float32" => "f32",
-            "float64" => "f64",
-            "string" => "::std::string::String",
-            "wstring" => return format!("{}::msg::WString", self.runtime),
-            other => other,
+            "string" => "::std::string::String".to_owned(),
+            "wstring" => format!("{}::msg::WString", self.runtime),
+            other => number(other).unwrap_or(other).to_owned(),
         }
-        .to_owned()
     }
 
     fn field_type(&self, f: &Field, in_pkg: &str, uses: &mut BTreeSet<String>) -> String {
@@ -520,23 +508,32 @@ impl Generator {
     }
 }
 
+/// The Rust type of a ROS number or `bool` (`char` and `byte` are `u8`, as rosidl maps them).
+fn number(ty: &str) -> Option<&'static str> {
+    Some(match ty {
+        "bool" => "bool",
+        "byte" | "char" | "uint8" => "u8",
+        "int8" => "i8",
+        "int16" => "i16",
+        "uint16" => "u16",
+        "int32" => "i32",
+        "uint32" => "u32",
+        "int64" => "i64",
+        "uint64" => "u64",
+        "float32" => "f32",
+        "float64" => "f64",
+        _ => return None,
+    })
+}
+
 /// A constant's value as a Rust literal of its type (a string as a `&str` literal).
 fn constant(ty: &str, v: &PrimitiveValue) -> String {
     let int = |x: i128| -> String {
-        let suffix = match ty {
-            "byte" | "char" | "uint8" => "u8",
-            "int8" => "i8",
-            "int16" => "i16",
-            "uint16" => "u16",
-            "int32" => "i32",
-            "uint32" => "u32",
-            "int64" => "i64",
-            "uint64" => "u64",
-            "float32" => return format!("{x}.0_f32"),
-            "float64" => return format!("{x}.0_f64"),
-            _ => "",
-        };
-        format!("{x}_{suffix}")
+        match number(ty) {
+            Some(f @ ("f32" | "f64")) => format!("{x}.0_{f}"),
+            Some(suffix) if suffix != "bool" => format!("{x}_{suffix}"),
+            _ => x.to_string(),
+        }
     };
     let float = |x: f64| -> String {
         let mut s = if ty == "float32" {

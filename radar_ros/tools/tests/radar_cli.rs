@@ -44,6 +44,24 @@ async fn radar_in(domain: &str, args: &[&str]) -> Output {
     .unwrap()
 }
 
+/// Every message of an MCAP file as the independent Python readers decode it (`tests/python/mcap_read.py`).
+fn mcap_messages(file: &std::path::Path) -> Vec<Value> {
+    let py = std::process::Command::new(radar_test_util::python())
+        .arg(radar_test_util::repo().join("tests/python/mcap_read.py"))
+        .arg(file)
+        .output()
+        .unwrap();
+    assert!(
+        py.status.success(),
+        "mcap_read.py: {}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    String::from_utf8_lossy(&py.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
 /// The JSON document `radar ARGS --json` printed (its last line); fails unless it succeeded.
 async fn json(domain: &str, args: &[&str]) -> Value {
     let mut all = args.to_vec();
@@ -554,20 +572,7 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
     let summary: Value = serde_json::from_slice(&recorded.stdout).unwrap();
 
     // read back by the Python mcap readers, decoding with the schemas in the file
-    let py = std::process::Command::new(radar_test_util::python())
-        .arg(radar_test_util::repo().join("tests/python/mcap_read.py"))
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        py.status.success(),
-        "mcap_read.py: {}",
-        String::from_utf8_lossy(&py.stderr)
-    );
-    let messages: Vec<Value> = String::from_utf8_lossy(&py.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let messages = mcap_messages(&file);
     assert_eq!(messages.len() as u64, summary["messages"].as_u64().unwrap());
     let on =
         |topic: &str| -> Vec<&Value> { messages.iter().filter(|m| m["topic"] == topic).collect() };
@@ -689,20 +694,7 @@ async fn record_of_count_up_holds_start_event_s_trigger_and_changes_nothing() {
         String::from_utf8_lossy(&recorded.stderr)
     );
 
-    let py = std::process::Command::new(radar_test_util::python())
-        .arg(radar_test_util::repo().join("tests/python/mcap_read.py"))
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        py.status.success(),
-        "{}",
-        String::from_utf8_lossy(&py.stderr)
-    );
-    let messages: Vec<Value> = String::from_utf8_lossy(&py.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let messages = mcap_messages(&file);
     let on =
         |topic: &str| -> Vec<&Value> { messages.iter().filter(|m| m["topic"] == topic).collect() };
     let secs = |m: &Value| m["log_time"].as_u64().unwrap() as f64 / 1e9;
