@@ -22,10 +22,9 @@ use std::{
 use crate::{
     connections::manager::Manager,
     error::Result,
-    node::endpoints::{
-        malformed, publish_connections, reply, service_server, typed_publisher, Throttle,
-    },
+    node::endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
     node::participant::Participant,
+    node::services::service_server,
     node::shutdown::ComponentTask,
     wire::msg::{ConnectionList, ListRequest, ListResponse},
     wire::names::ComponentName,

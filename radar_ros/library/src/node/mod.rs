@@ -9,5 +9,6 @@ pub(crate) mod participant;
 pub(crate) mod pool;
 pub mod ros_args;
 pub mod rosout;
+pub(crate) mod services;
 pub(crate) mod shutdown;
 pub(crate) mod topics;

@@ -515,11 +515,7 @@ impl Participant {
         ros_type: &str,
         depth: usize,
     ) -> Result<RawSubscription> {
-        let ty = parse_type_name(ros_type)?;
-        let (topic, s) = self.on_client_node(topic, |node, t| {
-            endpoints::subscription(&self.graph, node, t, &ty, &signal_qos_depth(depth))
-        })?;
-        Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
+        self.raw_reader(topic, ros_type, depth, false)
     }
 
     /// [`Participant::raw_subscription`] that only observes: events do not count it as a listener.
@@ -529,9 +525,20 @@ impl Participant {
         ros_type: &str,
         depth: usize,
     ) -> Result<RawSubscription> {
+        self.raw_reader(topic, ros_type, depth, true)
+    }
+
+    fn raw_reader(
+        &self,
+        topic: &str,
+        ros_type: &str,
+        depth: usize,
+        observer: bool,
+    ) -> Result<RawSubscription> {
         let ty = parse_type_name(ros_type)?;
+        let qos = signal_qos_depth(depth);
         let (topic, s) = self.on_client_node(topic, |node, t| {
-            endpoints::observer_subscription(&self.graph, node, t, &ty, &signal_qos_depth(depth))
+            endpoints::subscription_as(&self.graph, node, t, &ty, &qos, observer)
         })?;
         Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
     }

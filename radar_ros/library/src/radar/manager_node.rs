@@ -36,9 +36,8 @@ use futures::StreamExt;
 use crate::{
     connections::manager::ConnectionGuard,
     error::{Error, Result},
-    node::endpoints::{
-        malformed, publish_connections, reply, service_server, typed_publisher, Throttle,
-    },
+    node::endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
+    node::services::service_server,
     node::shutdown::ComponentTask,
     radar::Radar,
     wait::DEFAULT_TIMEOUT,

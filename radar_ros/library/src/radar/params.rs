@@ -1,7 +1,7 @@
 //! Another node's parameters, read through its parameter services (what `ros2 param dump` does): any ROS 2 node,
 //! a radar_ros component or an rclcpp/rclpy node.
 
-use crate::{error::Error, node::endpoints::service_client_of, radar::Radar, wait::Wait};
+use crate::{error::Error, node::services::service_client_of, radar::Radar, wait::Wait};
 use ros2_client::{
     rcl_interfaces::{
         GetParametersRequest, GetParametersResponse, ListParametersRequest, ListParametersResponse,

@@ -2,7 +2,7 @@
 //! (`connections/remote.rs`).
 
 use crate::connections::remote::RemoteManager;
-use crate::{error::Error, node::endpoints::service_client, radar::Radar, wait::Wait};
+use crate::{error::Error, node::services::service_client, radar::Radar, wait::Wait};
 use ros2_client::{NodeName, NodeOptions};
 
 impl Radar {

@@ -19,8 +19,9 @@ use super::{store::Range, Params};
 use crate::{
     error::Result,
     graph::Graph,
-    node::endpoints::{publisher, reply, service_server_of, Watched},
+    node::endpoints::{publisher, reply, Watched},
     node::participant::Participant,
+    node::services::service_server_of,
 };
 
 /// The writer of `/parameter_events` of one node (rclcpp's QoS: reliable, volatile, keep-last 1000).
