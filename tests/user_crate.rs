@@ -213,9 +213,18 @@ async fn a_crate_with_generated_types_echoes_every_test_msgs_fixture_and_serves_
         .env("ROS_DOMAIN_ID", DOMAIN.to_string())
         .env("RUST_LOG", "warn")
         .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
         .kill_on_drop(true)
         .spawn()
         .expect("run the crate's program");
+    let mut robot_err = robot.stderr.take().unwrap();
+    let stderr = tokio::spawn(async move {
+        let mut s = String::new();
+        tokio::io::AsyncReadExt::read_to_string(&mut robot_err, &mut s)
+            .await
+            .unwrap();
+        s
+    });
     let mut lines = BufReader::new(robot.stdout.take().unwrap()).lines();
     let ready = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
         .await
@@ -284,6 +293,11 @@ async fn a_crate_with_generated_types_echoes_every_test_msgs_fixture_and_serves_
         .expect("the program ends on SIGTERM")
         .unwrap();
     assert!(status.success(), "{status}");
+    let stderr = stderr.await.unwrap();
+    assert!(
+        !stderr.lines().any(|l| l.contains("ERROR")),
+        "a program told to stop logs no error: {stderr}"
+    );
 }
 
 /// The crates.io RustDDS 0.15.1, unpacked by cargo into its registry cache (`tests/isolated.sh` fetched it, for

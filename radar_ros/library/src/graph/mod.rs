@@ -419,6 +419,7 @@ impl Graph {
         t.forgotten
             .retain(|_, at| now.duration_since(*at) < FORGOTTEN_FOR);
         t.forgotten.insert(guid, now);
+        t.observers.remove(&guid);
         t.writers.remove(&guid);
         t.readers.remove(&guid);
         Self::remove_where(&mut t.writers, |g| *g == guid, &LossCause::Left);
@@ -480,6 +481,7 @@ impl Graph {
             }
             DomainParticipantStatusEvent::ReaderLost { guid, reason } => {
                 Self::note_left(&mut t, guid);
+                t.observers.remove(&guid);
                 Self::remove_where(&mut t.writers, |g| *g == guid, &cause_of(&reason));
             }
             DomainParticipantStatusEvent::WriterLost { guid, reason } => {
@@ -494,6 +496,7 @@ impl Graph {
                 let mut who = GUID::new_participant_guid();
                 who.prefix = id;
                 Self::note_left(&mut t, participant_of(who));
+                t.observers.retain(|g| g.prefix != id);
                 let _ = self.lost.send(who);
                 let cause = cause_of(&reason);
                 Self::remove_where(&mut t.writers, |g| g.prefix == id, &cause);

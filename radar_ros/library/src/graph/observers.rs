@@ -43,17 +43,9 @@ impl Graph {
 
     /// Notes an observing reader, also among the readers already matched with local writers.
     pub(super) fn mark_observer_in(t: &mut Table, reader: GUID) {
+        // forgotten when the reader is lost, its participant is lost, or it is deleted (`mod.rs`)
         if !t.observers.insert(reader) {
             return;
-        }
-        if t.observers.len() > 4096 {
-            // readers that left are not told apart here: keep those still matched, and this one
-            let matched: std::collections::HashSet<GUID> = t
-                .writers
-                .values()
-                .flat_map(|e| e.observing.iter().copied())
-                .collect();
-            t.observers.retain(|g| *g == reader || matched.contains(g));
         }
         for e in t.writers.values_mut() {
             if e.peers.contains(&reader) && e.observing.insert(reader) {
