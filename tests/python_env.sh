@@ -39,6 +39,9 @@ command -v pkg-config >/dev/null || missing+=(pkg-config)
 dpkg -s libfastrtps-dev >/dev/null 2>&1 || missing+=(libfastrtps-dev)
 # and libfaketime, for a peer whose clock is off (tests/clocks.rs)
 dpkg -s faketime >/dev/null 2>&1 || missing+=(faketime)
+# and Debian's Chromium, the real browser of radar view's page test (radar_ros/tools/tests/view.rs), which
+# Playwright drives as it is (no `playwright install`: that downloads a browser, and this machine has no internet)
+command -v chromium >/dev/null || missing+=(chromium)
 command -v cmake >/dev/null || missing+=(cmake)
 command -v g++ >/dev/null || missing+=(g++)
 "$PY" -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
@@ -83,7 +86,8 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     catkin_pkg==1.1.1 \
     maturin==1.16.0 \
     pytest==9.2.0 \
-    mypy==2.4.1 >&2
+    mypy==2.4.1 \
+    playwright==1.65.2 >&2
 
 # The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake
 # refuses because they do not exist here: point them at this venv's.
@@ -116,6 +120,7 @@ done
 "$VPY" - >&2 <<'EOF'
 import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg, test_msgs.action, rclpy.action, mcap.reader, mcap_ros2.decoder
 import radar_msgs.msg, radar_msgs.srv, radar_demo_msgs.action, radar_demo_msgs.msg
+import playwright.sync_api
 from rclpy.utilities import get_rmw_implementation_identifier
 print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),
       "; radar_msgs:", radar_msgs.msg.ResponseState.__name__, radar_msgs.srv.Connect.__name__)

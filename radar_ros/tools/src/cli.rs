@@ -163,6 +163,14 @@ enum Cmd {
         #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
         wait: f64,
     },
+    /// A running RADAR system in a browser, live: components, connections, states, signals.
+    ///
+    /// Serves a page (everything it needs is in this binary; nothing is loaded from the internet) that draws
+    /// every program, event, response and connection of the domain as `radar graph` does, with each component's
+    /// state, a timeline of signals with their payloads, parameters and a namespace filter, pushed over a
+    /// WebSocket: a snapshot, then the changes, at most --rate messages a second. Events' triggered signals are
+    /// only observed (viewing makes no event check). Listens on 127.0.0.1 unless --bind says otherwise.
+    View(crate::view::Options),
     /// Remove a connection made through a manager's services (like rtdis).
     Dis {
         /// The connection's id, as `radar con` or `radar cat` showed it.
@@ -435,6 +443,7 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
         Cmd::Replay { input, rate, wait } => {
             verbs::replay::replay(radar, out, input, rate, secs(wait)?).await
         }
+        Cmd::View(options) => crate::view::view(radar, out, options).await,
         Cmd::Dis { id, manager: named } => verbs::con::dis(radar, out, manager(named), id).await,
     }
 }

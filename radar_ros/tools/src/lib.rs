@@ -12,6 +12,7 @@
 //! radar graph [-o FILE.svg|FILE.dot]       components and live connections as a picture     (rtstodot)
 //! radar record -o FILE.mcap [NAMES]        signals and state changes to MCAP (ros2msg/cdr)  (rtlog)
 //! radar replay FILE.mcap [--rate R]        publish the recorded signals with their timing   (rtlog)
+//! radar view [--port N] [--allow-act]      the system live in a browser (graph, states, timeline)
 //! ```
 //!
 //! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
@@ -19,8 +20,8 @@
 //!
 //! Layout: [`cli`] parses the arguments and runs one module of `verbs` per verb; `common` and `components` hold
 //! what several verbs share; [`codec`] turns payloads to and from YAML/JSON, [`schemas`] gives the ROS 2 message
-//! definitions a recording stores, [`picture`] draws `radar graph`, and [`mcap_out`] writes recordings that
-//! survive being cut off.
+//! definitions a recording stores, [`picture`] draws `radar graph`, [`mcap_out`] writes recordings that
+//! survive being cut off, and `view` serves `radar view`'s page and WebSocket.
 
 #![warn(missing_docs)]
 
@@ -32,3 +33,4 @@ pub mod mcap_out;
 pub mod picture;
 pub mod schemas;
 mod verbs;
+mod view;

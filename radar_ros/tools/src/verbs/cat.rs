@@ -151,7 +151,7 @@ fn connection_line(k: &radar_ros::msg::Connection) -> String {
 }
 
 /// A parameter value as JSON (`ros2 param get` shows the same values).
-fn param_json(v: &radar_ros::params::ParameterValue) -> Value {
+pub(crate) fn param_json(v: &radar_ros::params::ParameterValue) -> Value {
     use radar_ros::params::ParameterValue as P;
     match v {
         P::NotSet => Value::Null,

@@ -1,0 +1,96 @@
+//! `radar view`: a running RADAR system in a browser, live. The feed ([`feed`]) follows the graph, the hub
+//! ([`hub`]) keeps the [`model`] and sends each page a snapshot and then its changes (bounded per second), and
+//! the server ([`server`]) serves the page and its WebSocket.
+
+mod feed;
+mod hub;
+pub(crate) mod model;
+mod server;
+
+use std::{net::IpAddr, sync::Arc};
+
+use radar_ros::Radar;
+use serde_json::json;
+
+use crate::common::{Fallible, Out, Stop};
+
+/// What `radar view` was asked for (its command-line arguments).
+#[derive(clap::Args)]
+pub(crate) struct Options {
+    /// The port to listen on (0: any free one; the first line says which).
+    #[arg(long, default_value_t = 8780)]
+    pub(crate) port: u16,
+    /// The address to listen on; 0.0.0.0 lets other machines open the page.
+    #[arg(long, default_value = "127.0.0.1", value_name = "ADDR")]
+    pub(crate) bind: IpAddr,
+    /// Let the page start, interrupt and exit responses (what `radar act` does).
+    #[arg(long)]
+    pub(crate) allow_act: bool,
+    /// Updates sent to each page a second, at most (changes in between are merged).
+    #[arg(long, default_value_t = 10.0, value_name = "PER_SECOND")]
+    pub(crate) rate: f64,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    pub(crate) duration: Option<f64>,
+}
+
+/// Serves the view until Ctrl-C, SIGTERM or `duration`.
+pub(crate) async fn view(radar: &Radar, out: &Out, o: Options) -> Fallible<()> {
+    let mut stop = Stop::catch()?;
+    if !(o.rate.is_finite() && o.rate > 0.0 && o.rate <= 100.0) {
+        return Err(format!(
+            "--rate {}: give the number of updates a second, above 0 and at most 100",
+            o.rate
+        ));
+    }
+    let listener = tokio::net::TcpListener::bind((o.bind, o.port))
+        .await
+        .map_err(|e| {
+            format!(
+                "cannot listen on {}:{}: {e} (another radar view there? give --port N, or --port 0 for any free port)",
+                o.bind, o.port
+            )
+        })?;
+    let addr = listener
+        .local_addr()
+        .map_err(|e| format!("cannot tell the port listened on: {e}"))?;
+    if !addr.ip().is_loopback() {
+        eprintln!(
+            "radar view: listening on {addr}: other machines can open it{}",
+            match o.allow_act {
+                true => ", and with --allow-act anyone who can reach it can start and interrupt responses",
+                false => "",
+            }
+        );
+    }
+    let (seen_tx, seen_rx) = tokio::sync::mpsc::unbounded_channel();
+    let (ask_tx, ask_rx) = tokio::sync::mpsc::unbounded_channel();
+    let info = json!({ "domain": radar.domain_id(), "allow_act": o.allow_act, "rate": o.rate });
+    let info = info.as_object().cloned().unwrap_or_default();
+    let hub = tokio::spawn(hub::run(
+        model::Limits::default(),
+        o.rate,
+        info,
+        seen_rx,
+        ask_rx,
+    ));
+    let feed = tokio::spawn(feed::run(radar.clone(), seen_tx));
+    let url = format!("http://{addr}/");
+    if out.json {
+        println!("{}", json!({ "url": url, "domain": radar.domain_id() }));
+    } else {
+        println!(
+            "radar view of ROS_DOMAIN_ID {}: open {url} in a browser (Ctrl-C to stop)",
+            radar.domain_id()
+        );
+    }
+    let shared = Arc::new(server::Shared::new(radar.clone(), ask_tx, o.allow_act));
+    let serve = axum::serve(listener, server::app(shared));
+    let result = tokio::select! {
+        r = serve => r.map_err(|e| format!("the view's server stopped: {e}")),
+        _ = stop.after(o.duration) => Ok(()),
+    };
+    feed.abort();
+    hub.abort();
+    result
+}
