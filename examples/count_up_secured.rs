@@ -8,7 +8,8 @@
 //! hundred ms after the statement), and it ends without an error or warning line. Everything in it talks to
 //! itself: every signal is a match of one participant's own endpoints (RustDDS patch 27). Needs the `security`
 //! feature and `RADAR_CLI` (the `radar` binary built with it): `tests/security_feature.rs` runs it. Domain
-//! 220; inside `tests/isolated.sh`.
+//! 220; inside `tests/isolated.sh`. After it, `radar view` secured in its own enclave shows the secured
+//! program (issue 35).
 //!
 //! Also Listings 2 and 3 (`launch_scripts/deliberative.sh`: the deliberative program and its three
 //! components, four secured programs, each its own participant) make and drop their connections as in the
@@ -229,7 +230,98 @@ fn secured_count_up_follows_listing_1() {
         "second run completes",
     );
     near(started[2] - te, 5.0, "count_up restarts again");
+    secured_view_sees_count_up_from_its_own_enclave(&ks);
     let _ = std::fs::remove_dir_all(&ks);
+}
+
+/// Issue 35: `radar view`, secured with nothing but the `ROS_SECURITY_*` variables, runs in its own enclave
+/// (`/radar_view`, made with `radar security create_enclave`): the live graph lists its node there, and its
+/// WebSocket shows the secured `count_up` with its state. After the timed run (a view beside it would load the
+/// machine while Listing 1's timing is checked).
+fn secured_view_sees_count_up_from_its_own_enclave(ks: &std::path::Path) {
+    let ks_s = ks.to_str().unwrap();
+    radar(&["security", "create_enclave", ks_s, "/radar_view"]);
+    let secured = |c: &mut Command| {
+        c.env("ROS_DOMAIN_ID", "220")
+            .env("ROS_SECURITY_KEYSTORE", ks)
+            .env("ROS_SECURITY_ENABLE", "true")
+            .env("ROS_SECURITY_STRATEGY", "Enforce")
+            .env_remove("ROS_SECURITY_ENCLAVE_OVERRIDE");
+    };
+    let mut view = Command::new(radar_cli());
+    view.args(["view", "--port", "0", "--json", "--duration", "20"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    secured(&mut view);
+    let mut view = view.spawn().expect("run radar view");
+    let mut first = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(view.stdout.take().unwrap()),
+        &mut first,
+    )
+    .unwrap();
+    let said: serde_json::Value = serde_json::from_str(&first).expect("radar view's first line");
+    let ws_url = format!(
+        "{}ws",
+        said["url"].as_str().unwrap().replacen("http", "ws", 1)
+    );
+    let mut count_up = Command::new(examples_dir("count_up").join("count_up"));
+    count_up
+        .args(["--duration", "8", "--ros-args", "--enclave", "/count_up"])
+        .stdout(std::process::Stdio::null());
+    secured(&mut count_up);
+    let mut count_up = count_up.spawn().expect("run count_up");
+
+    let (mut ws, _) = tungstenite::connect(ws_url.as_str()).expect("the view's WebSocket");
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(15);
+    let mut state = serde_json::Value::Null;
+    while state.is_null() {
+        assert!(
+            std::time::Instant::now() < end,
+            "the secured view never showed count_up's state"
+        );
+        let m = ws.read().expect("a message from the view");
+        let Ok(text) = m.to_text() else { continue };
+        let m: serde_json::Value = serde_json::from_str(text).unwrap();
+        if let Some(c) = m["components"]
+            .as_array()
+            .and_then(|cs| cs.iter().find(|c| c["name"] == "/count_up"))
+        {
+            state = c["state"].clone();
+        }
+    }
+    println!("the secured view shows /count_up: {state}");
+    // the view's own node (radar_cli_<pid>), in its own enclave, as the secured graph lists it (asked from
+    // the view's enclave: count_up's permissions are only what it declared)
+    let mut policy = Command::new(radar_cli());
+    policy
+        .args(["security", "generate_policy"])
+        .arg(ks.join("view_policy.xml"));
+    secured(&mut policy);
+    policy.env("ROS_SECURITY_ENCLAVE_OVERRIDE", "/radar_view");
+    let listed = policy.output().expect("run radar");
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&listed.stdout),
+        String::from_utf8_lossy(&listed.stderr),
+    );
+    let node = format!("/radar_cli_{} (enclave /radar_view)", view.id());
+    assert!(
+        stdout.lines().any(|l| l == node),
+        "{node} listed: {stdout}{stderr}"
+    );
+    // the view's fragmented samples (its many readers) reach a secured peer (RustDDS patch 44: each fragment
+    // was refused as too long, logged as an error)
+    assert_no_error_lines(
+        &stderr,
+        "radar security generate_policy beside the secured view",
+    );
+    assert!(count_up.wait().unwrap().success());
+    let _ = view.kill();
+    let out = view.wait_with_output().unwrap();
+    assert_no_error_lines(
+        &String::from_utf8_lossy(&out.stderr),
+        "the secured radar view",
+    );
 }
 
 /// Listings 2 and 3 as four secured processes (the components and the deliberative program, enclave `/robot`

@@ -8,7 +8,7 @@
 //! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
-//!   security handshake target);
+//!   security handshake target; 44: an encoded fragment run is parsed);
 //! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -107,6 +107,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "per_endpoint_handle_tests",
         "lock_tests",
         "unregistered_sender_tests",
+        "an_encoded_payload_longer_than_its_fragment_run",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -185,6 +186,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "two_readers_of_one_participant_matched_with_one_writer_each_get_keys_and_decode",
             "the_plugins_are_handed_over_when_released",
             "a_submessage_from_a_participant_without_registered_endpoints_has_no_keys",
+            "an_encoded_payload_longer_than_its_fragment_run_is_parsed",
         ],
     );
     // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the

@@ -365,11 +365,16 @@ pub async fn run(cli: Cli) -> Result<(), String> {
         other => other,
     };
     // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
-    let radar = Radar::builder()
+    let mut builder = Radar::builder()
         .program(&format!("radar_cli_{}", std::process::id()))
-        .handle_signals(false)
-        .build()
-        .map_err(|e| e.to_string())?;
+        .handle_signals(false);
+    // the view runs in an enclave of its own when secured
+    if let Cmd::View(v) = &cmd {
+        if let Some(secured) = v.security()? {
+            builder = builder.security(Some(secured));
+        }
+    }
+    let radar = builder.build().map_err(|e| e.to_string())?;
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
     dispatch(&radar, &out, discovery, cmd).await
 }

@@ -32,6 +32,28 @@ pub(crate) struct Options {
     /// Stop after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub(crate) duration: Option<f64>,
+    /// Under DDS Security (ROS_SECURITY_ENABLE=true), the enclave the view runs in: its own, so that its
+    /// permissions can be what a viewer needs (ROS_SECURITY_ENCLAVE_OVERRIDE still wins). Make it with
+    /// `radar security create_enclave KEYSTORE /radar_view`.
+    #[arg(long, default_value = "/radar_view", value_name = "NAME")]
+    pub(crate) enclave: String,
+}
+
+impl Options {
+    /// The security the view's participant runs with: what the environment says, in the view's own enclave
+    /// unless ROS_SECURITY_ENCLAVE_OVERRIDE names one; `None` when not secured (the environment decides).
+    pub(crate) fn security(&self) -> Fallible<Option<radar_ros::security::SecurityOptions>> {
+        let plain = radar_ros::ros_args::RosArgs::parse(["radar"]).map_err(|e| e.to_string())?;
+        let Some(mut s) =
+            radar_ros::security::SecurityOptions::from_env(&plain).map_err(|e| e.to_string())?
+        else {
+            return Ok(None);
+        };
+        if std::env::var("ROS_SECURITY_ENCLAVE_OVERRIDE").map_or(true, |v| v.is_empty()) {
+            s.enclave = self.enclave.clone();
+        }
+        Ok(Some(s))
+    }
 }
 
 /// Serves the view until Ctrl-C, SIGTERM or `duration`.

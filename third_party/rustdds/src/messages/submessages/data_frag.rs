@@ -269,7 +269,13 @@ impl DataFrag {
       _ => {}
     }
 
+    // Without security the payload is the fragments themselves: no more than the run holds. With security it
+    // may be encoded (the crypto header and MAC around the run's fragments: a 256-byte fragment arrives as about
+    // 300 bytes), so the receiver checks the decoded payload's length instead, in
+    // `MessageReceiver::decode_and_handle_datafrag` (radar_ros patch 44).
+    #[cfg(not(feature = "security"))]
     let max_payload_bytes = (count_u32 as usize) * (fragment_size as usize);
+    #[cfg(not(feature = "security"))]
     if datafrag.serialized_payload.len() > max_payload_bytes {
       return Err(io::Error::new(
         io::ErrorKind::InvalidData,
@@ -368,6 +374,7 @@ mod tests {
     assert!(DataFrag::deserialize(&bytes, BitFlags::<DATAFRAG_Flags>::empty()).is_err());
   }
 
+  #[cfg(not(feature = "security"))]
   #[test]
   fn deserialize_rejects_oversized_payload_for_fragment_run() {
     let df = DataFrag {
@@ -395,5 +402,26 @@ mod tests {
     };
     let bytes = serialize_body(&df);
     assert!(DataFrag::deserialize(&bytes, BitFlags::<DATAFRAG_Flags>::empty()).is_err());
+  }
+
+  /// radar_ros patch 44: with security, a DataFrag's payload may be encoded (longer than its fragment run); it
+  /// is parsed, and its length is checked once decoded (by the message receiver).
+  #[cfg(feature = "security")]
+  #[test]
+  fn an_encoded_payload_longer_than_its_fragment_run_is_parsed() {
+    let df = DataFrag {
+      writer_sn: SequenceNumber::new(1),
+      fragment_starting_num: FragmentNumber::new(1),
+      fragments_in_submessage: 1,
+      fragment_size: 256,
+      data_size: 1068,
+      // one 256-byte fragment as the builtin AES-GCM transform encodes it: header, body, MAC
+      serialized_payload: Bytes::from(vec![7u8; 300]),
+      ..Default::default()
+    };
+    let bytes = serialize_body(&df);
+    let parsed = DataFrag::deserialize(&bytes, BitFlags::<DATAFRAG_Flags>::empty())
+      .expect("an encoded fragment run is parsed");
+    assert_eq!(parsed.serialized_payload.len(), 300);
   }
 }
