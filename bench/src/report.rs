@@ -48,6 +48,9 @@ pub fn table(r: &Results) -> String {
     if !r.codec.is_empty() {
         codec_table(&mut s, &r.codec);
     }
+    for v in &r.view {
+        view_table(&mut s, v);
+    }
     if !r.errors.is_empty() {
         let _ = writeln!(s, "\n### Failed\n");
         for e in &r.errors {
@@ -266,6 +269,65 @@ fn memory_table(s: &mut String, runs: &[serde_json::Value]) {
             rss.last().map(|x| x.0).unwrap_or(0),
             (last - tenth) * 1024.0,
             m["secs"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+}
+
+/// `radar view` with many components: the first picture, the updates a page gets, a browser's memory.
+fn view_table(s: &mut String, v: &serde_json::Value) {
+    let f = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let _ = writeln!(
+        s,
+        "\n### radar view, {} components ({} events, {} responses)\n",
+        v["components"], v["events"], v["responses"]
+    );
+    let _ = writeln!(s, "| what | value |\n|---|---:|");
+    let _ = writeln!(
+        s,
+        "| view started -> a page holds every component with its state | {:.2} s |",
+        f(&v["first_picture_s"])
+    );
+    let _ = writeln!(
+        s,
+        "| a page joining later: its snapshot | {:.1} ms, {:.0} KiB |",
+        f(&v["snapshot_ms"]),
+        f(&v["snapshot_kib"])
+    );
+    if let Some(b) = v["browser"].as_object() {
+        let _ = writeln!(
+            s,
+            "| chromium: page opened -> every component drawn | {:.2} s |",
+            f(&b["first_picture_s"])
+        );
+        let samples = b["samples"].as_array().cloned().unwrap_or_default();
+        let mib = |x: &serde_json::Value| f(&x["heap"]) / 1048576.0;
+        if let (Some(first), Some(last)) = (samples.first(), samples.last()) {
+            let _ = writeln!(
+                s,
+                "| chromium JS heap (performance.memory): first / after {:.0} s of updates | {:.1} / {:.1} MiB ({} DOM elements) |",
+                f(&last["t"]),
+                mib(first),
+                mib(last),
+                last["dom"]
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\n| starts/s | messages/s to a page | KiB/s | component updates/s | timeline lines/s | dropped/s | view CPU |"
+    );
+    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|");
+    for st in v["steps"].as_array().into_iter().flatten() {
+        let _ = writeln!(
+            s,
+            "| {:.0} | {:.1} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0}% |",
+            f(&st["starts_per_s"]),
+            f(&st["messages_per_s"]),
+            f(&st["kib_per_s"]),
+            f(&st["component_updates_per_s"]),
+            f(&st["lines_per_s"]),
+            f(&st["dropped_per_s"]),
+            f(&st["view_cpu"]) * 100.0
         );
     }
 }

@@ -1,7 +1,8 @@
 //! The coordinator: starts the processes of each scenario, drives them, and collects the numbers. One file per
 //! kind of scenario: [`latency`] (signal hops, interrupts, actions), [`setup`] (making connections),
 //! [`throughput`], [`scale`] (many components, memory), [`failures`] (one-shot publishers, kills),
-//! [`breakdown`] (one hop's stages inside RustDDS), [`codec`] (payload encoding, in this process).
+//! [`breakdown`] (one hop's stages inside RustDDS), [`codec`] (payload encoding, in this process), [`view`]
+//! (`radar view` with 2,000 components).
 
 mod breakdown;
 mod codec;
@@ -12,6 +13,7 @@ mod scale;
 mod security;
 mod setup;
 mod throughput;
+mod view;
 
 use std::{
     path::{Path, PathBuf},
@@ -198,6 +200,8 @@ pub struct Results {
     pub breakdown: Vec<Value>,
     /// Encoding and decoding one payload: hand-written, generated and run-time types (ns per message).
     pub codec: Vec<Latency>,
+    /// `radar view` with many components: first picture, update rates, a browser's memory.
+    pub view: Vec<Value>,
     /// Scenarios that failed, with why.
     pub errors: Vec<String>,
 }
@@ -316,6 +320,7 @@ impl Bench {
             ("action", |b| Box::pin(b.action())),
             ("security", |b| Box::pin(b.security())),
             ("codec", |b| Box::pin(b.codec())),
+            ("view", |b| Box::pin(b.view())),
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {

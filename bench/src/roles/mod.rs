@@ -2,12 +2,13 @@
 //! coordinator's commands ([`crate::proto`]). Latencies are taken with the shared monotonic clock
 //! ([`crate::clock`]): stamped right before a publish (or when an event's check resolves), read where the
 //! receiving code begins to run. The roles by kind: [`raw`] (the baseline), [`signals`] (latency), [`setup`]
-//! (connecting), [`scale`].
+//! (connecting), [`scale`], [`view`] (the system `radar view` watches).
 
 mod raw;
 mod scale;
 mod setup;
 mod signals;
+mod view;
 
 use std::{
     collections::HashMap,
@@ -90,6 +91,7 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
             )
             .await
         }
+        "view-system" => view::view_system(num("--events")?, num("--responses")?).await,
         other => bail!("unknown role {other:?}"),
     }
 }
