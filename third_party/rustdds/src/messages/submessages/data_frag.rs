@@ -387,7 +387,10 @@ mod tests {
       ..Default::default()
     };
     let bytes = serialize_body(&df);
-    assert!(DataFrag::deserialize(&bytes, BitFlags::<DATAFRAG_Flags>::empty()).is_err());
+    // (little-endian, as written: refused for its length, not for a misread header)
+    let e = DataFrag::deserialize(&bytes, BitFlags::from_flag(DATAFRAG_Flags::Endianness))
+      .expect_err("a payload longer than its fragment run");
+    assert!(e.to_string().contains("exceeds fragmentsInSubmessage"), "{e}");
   }
 
   #[test]
@@ -420,7 +423,7 @@ mod tests {
       ..Default::default()
     };
     let bytes = serialize_body(&df);
-    let parsed = DataFrag::deserialize(&bytes, BitFlags::<DATAFRAG_Flags>::empty())
+    let parsed = DataFrag::deserialize(&bytes, BitFlags::from_flag(DATAFRAG_Flags::Endianness))
       .expect("an encoded fragment run is parsed");
     assert_eq!(parsed.serialized_payload.len(), 300);
   }
