@@ -94,6 +94,24 @@ impl NodeEntitiesInfo {
     &self.reader_gid_seq
   }
 
+  /// A node's info with these readers and writers, each once, in the order given. (radar_ros patch 7: in time
+  /// linear in their number; `add_reader`/`add_writer` look through the list each time.)
+  pub fn with_entities(
+    name: NodeName,
+    readers: impl IntoIterator<Item = Gid>,
+    writers: impl IntoIterator<Item = Gid>,
+  ) -> NodeEntitiesInfo {
+    let once = |gids: &mut dyn Iterator<Item = Gid>| {
+      let mut seen = std::collections::HashSet::new();
+      gids.filter(|g| seen.insert(*g)).collect::<Vec<_>>()
+    };
+    NodeEntitiesInfo {
+      name,
+      reader_gid_seq: once(&mut readers.into_iter()),
+      writer_gid_seq: once(&mut writers.into_iter()),
+    }
+  }
+
   pub fn add_writer(&mut self, gid: Gid) {
     if !self.writer_gid_seq.contains(&gid) {
       self.writer_gid_seq.push(gid);

@@ -744,23 +744,17 @@ impl Node {
   }
 
   // Generates ROS2 node info from added readers and writers.
+  // (radar_ros patch 7: made in one pass, linear in the number of readers and writers; it is made again at
+  // every reader or writer created, so adding each with a search through the list made a node of N endpoints
+  // cost O(N^3) to build.)
   fn generate_node_info(&self) -> NodeEntitiesInfo {
-    let mut node_info = NodeEntitiesInfo::new(self.node_name.clone());
-
-    node_info.add_writer(Gid::from(self.parameter_events_writer.guid()));
-    if let Some(ref row) = *self.rosout_writer {
-      node_info.add_writer(Gid::from(row.guid()));
-    }
-
-    for reader in &self.readers {
-      node_info.add_reader(*reader);
-    }
-
-    for writer in &self.writers {
-      node_info.add_writer(*writer);
-    }
-
-    node_info
+    let own_writers = std::iter::once(Gid::from(self.parameter_events_writer.guid()))
+      .chain((*self.rosout_writer).as_ref().map(|row| Gid::from(row.guid())));
+    NodeEntitiesInfo::with_entities(
+      self.node_name.clone(),
+      self.readers.iter().copied(),
+      own_writers.chain(self.writers.iter().copied()),
+    )
   }
 
   fn suppress_node_info_updates(&mut self, suppress: bool) {

@@ -77,6 +77,13 @@ impl Introspect<'_> {
         topics.into_iter().collect()
     }
 
+    /// A count that grows whenever discovery reports something (a participant, reader or writer found, lost or
+    /// matched): a tool that lists the graph over and over compares it with the count it last listed at, and
+    /// lists again only when it changed (listing 2,000 components copies all of discovery's data).
+    pub fn generation(&self) -> u64 {
+        *self.radar.graph().changes().borrow()
+    }
+
     /// Waits until discovery has been quiet for `quiet` (no participant or endpoint found or lost): what a
     /// command-line tool does before it reports what is on the graph. Unbounded unless `.timeout(d)`; a
     /// timeout running out is not an error here (the graph is as settled as it got). Cancel safe: it only

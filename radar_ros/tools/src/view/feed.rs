@@ -34,8 +34,15 @@ pub(crate) async fn run(radar: Radar, tx: UnboundedSender<Seen>) {
     let mut managers: BTreeMap<String, Tasks> = BTreeMap::new();
     let mut rescan = tokio::time::interval(RESCAN);
     rescan.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut listed_at = None;
     while !tx.is_closed() {
         rescan.tick().await;
+        // listed again only when discovery reported something since
+        let generation = radar.introspect().generation();
+        if listed_at == Some(generation) {
+            continue;
+        }
+        listed_at = Some(generation);
         let now = radar.components();
         let names: std::collections::BTreeSet<String> =
             now.iter().map(|c| c.name().fully_qualified()).collect();

@@ -25,6 +25,7 @@ window.radarViewLoaded = Date.now();
 window.radarView = view;
 
 let dirty = { graph: true, timeline: true, card: true };
+const changedBoxes = new Set(); // components whose box shows an old state
 let scheduled = false;
 function schedule(what) {
   for (const w of what) dirty[w] = true;
@@ -68,6 +69,7 @@ function take(m) {
       view.allowAct = !!m.allow_act;
       document.getElementById("domain").textContent = `ROS_DOMAIN_ID ${m.domain}`;
       setStatus("live", "live");
+      dirty.timelineAll = true;
       schedule(["graph", "timeline", "card"]);
       break;
     case "changes":
@@ -77,16 +79,23 @@ function take(m) {
         return;
       }
       view.seq = m.seq;
+      // only what changed is drawn again: the graph when its shape may have, the boxes that changed, the
+      // timeline when lines came, the card when its component or the connections changed
+      const what = [];
       for (const c of m.components) {
-        if (!view.components.has(c.name)) dirty.graph = true;
+        if (!view.components.has(c.name)) what.push("graph");
         view.components.set(c.name, c);
+        changedBoxes.add(c.name);
+        if (c.name === view.selected) what.push("card");
       }
-      for (const n of m.gone) { view.components.delete(n); dirty.graph = true; }
-      for (const [k, v] of Object.entries(m.managers)) { view.managers.set(k, v); dirty.graph = true; }
-      for (const k of m.managers_gone) { view.managers.delete(k); dirty.graph = true; }
+      if (m.gone.length || Object.keys(m.managers).length || m.managers_gone.length) what.push("graph", "card");
+      for (const n of m.gone) view.components.delete(n);
+      for (const [k, v] of Object.entries(m.managers)) view.managers.set(k, v);
+      for (const k of m.managers_gone) view.managers.delete(k);
+      if (m.timeline.length || m.dropped) what.push("timeline");
       addLines(m.timeline);
       view.dropped += m.dropped;
-      schedule(["graph", "timeline", "card"]);
+      schedule(what.length ? what : ["boxes"]);
       break;
     case "params":
       view.params.set(m.component, m.params);
@@ -370,20 +379,34 @@ function fmtTime(ns) {
   return d.toLocaleTimeString([], { hour12: false }) + "." + String(d.getMilliseconds()).padStart(3, "0");
 }
 
-// newest first, in the order they were sent (they come in on several topics, so not quite in that order)
-function drawTimeline() {
+// newest first, in the order they were sent (they come in on several topics, so not quite in that order): new
+// lines go on top; the table is made again only when one is older than the newest shown, or the filter changed
+let shownTo = 0, shownNewest = -Infinity;
+const byTime = (a, b) => (a.t || 0) - (b.t || 0) || a.n - b.n;
+function lineRow(l) {
+  const tr = el(null, "tr", { "data-component": l.component, "data-signal": l.signal, "data-n": l.n });
+  tr.appendChild(el(null, "td", { class: "time" }, fmtTime(l.t)));
+  tr.appendChild(el(null, "td", {}, l.component));
+  tr.appendChild(el(null, "td", {}, l.signal));
+  const text = JSON.stringify(l.payload);
+  tr.appendChild(el(null, "td", { class: "payload", title: text }, text));
+  return tr;
+}
+function drawTimeline(all) {
   const body = document.querySelector("#timeline tbody");
-  const shown = view.lines.filter((l) => inFilter(l.component))
-    .sort((a, b) => (b.t || 0) - (a.t || 0) || b.n - a.n);
-  body.replaceChildren(...shown.map((l) => {
-    const tr = el(null, "tr", { "data-component": l.component, "data-signal": l.signal, "data-n": l.n });
-    tr.appendChild(el(null, "td", { class: "time" }, fmtTime(l.t)));
-    tr.appendChild(el(null, "td", {}, l.component));
-    tr.appendChild(el(null, "td", {}, l.signal));
-    const text = JSON.stringify(l.payload);
-    tr.appendChild(el(null, "td", { class: "payload", title: text }, text));
-    return tr;
-  }));
+  const fresh = view.lines.filter((l) => l.n > shownTo && inFilter(l.component)).sort(byTime);
+  if (all || (fresh.length && (fresh[0].t || 0) < shownNewest)) {
+    const shown = view.lines.filter((l) => inFilter(l.component)).sort(byTime).reverse();
+    body.replaceChildren(...shown.map(lineRow));
+    shownNewest = shown.length ? (shown[0].t || 0) : -Infinity;
+  } else {
+    for (const l of fresh) {
+      body.insertBefore(lineRow(l), body.firstChild);
+      shownNewest = Math.max(shownNewest, l.t || 0);
+    }
+    while (body.children.length > MAX_ROWS) body.removeChild(body.lastChild);
+  }
+  if (view.lines.length) shownTo = view.lines[view.lines.length - 1].n;
   document.getElementById("dropped").textContent =
     view.dropped ? `(${view.dropped} signals not shown: more than the page's update bound)` : "";
 }
@@ -393,24 +416,29 @@ function drawTimeline() {
 let graphShape = "";
 function render() {
   scheduled = false;
-  // the graph is drawn again only when its shape changed; otherwise the boxes' text and colour change
-  const shape = JSON.stringify([view.filter, view.selected, [...view.components.keys()],
-    connections().map((e) => [e.id, e.source, e.target, e.until, e.state_label, e.delivered])]);
-  if (dirty.graph && shape !== graphShape) {
-    graphShape = shape;
-    drawGraph();
-  } else {
-    for (const name of boxes.keys()) updateBox(name);
+  // the graph is drawn again only when its shape changed; otherwise only the boxes that changed
+  let drawn = false;
+  if (dirty.graph) {
+    const shape = JSON.stringify([view.filter, view.selected, [...view.components.keys()],
+      connections().map((e) => [e.id, e.source, e.target, e.until, e.state_label, e.delivered])]);
+    if (shape !== graphShape) {
+      graphShape = shape;
+      drawGraph();
+      drawn = true;
+    }
+    document.getElementById("counts").textContent =
+      `${view.components.size} components, ${connections().length} connections`;
   }
-  if (dirty.timeline) drawTimeline();
+  if (!drawn) for (const name of changedBoxes) updateBox(name);
+  changedBoxes.clear();
+  if (dirty.timeline) drawTimeline(dirty.timelineAll);
   if (dirty.card) drawCard();
-  document.getElementById("counts").textContent =
-    `${view.components.size} components, ${connections().length} connections`;
   dirty = { graph: false, timeline: false, card: false };
 }
 
 document.getElementById("filter").addEventListener("input", (e) => {
   view.filter = e.target.value.trim();
+  dirty.timelineAll = true;
   schedule(["graph", "timeline"]);
 });
 
