@@ -1,12 +1,17 @@
 //! `radar view` (issue 35): the page in a real browser during Listing 1 (Debian's chromium driven by Playwright
 //! for Python, `tests/python/view_browser.py`), and the WebSocket as a client that is not a browser sees it: a
 //! snapshot, then every change in order, at most `--rate` messages a second however fast the system moves.
-//! Domains 122-124.
+//! The same data for Foxglove and Lichtblick (`--foxglove`, the Foxglove SDK's server), read by a client that
+//! speaks the SDK's WebSocket protocol (`foxglove.sdk.v1`) as the protocol's documents lay it out. Domains
+//! 122-125.
 
 use std::{collections::BTreeMap, process::Stdio, time::Duration};
 
 use futures::{SinkExt, StreamExt};
-use radar_ros::{msg::Empty, msg::ResponseState, DiscoveryRange, FnResponse, Radar};
+use radar_ros::{
+    msg::{Empty, ResponseState, StringMsg},
+    DiscoveryRange, FnResponse, Radar, TimerEvent,
+};
 use radar_ros_examples::test_support::{examples_dir, require_isolation};
 use serde_json::{json, Value};
 use tokio::io::{AsyncBufReadExt, BufReader};
@@ -412,4 +417,165 @@ async fn a_flood_is_held_to_the_rate_and_nothing_is_lost_uncounted() {
         );
     }
     view.stop().await;
+}
+
+/// `--foxglove 0`: a client of the Foxglove SDK's protocol sees a JSON channel per state and per signal (schemas
+/// named after their ROS types), receives a response's `started` payload and state as message data, and the
+/// connection graph shows the program's manager subscribing the event's `triggered` and publishing into the
+/// response's `start` (the `whenever` made here).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn foxglove_clients_get_states_signals_and_the_connection_graph() {
+    require_isolation();
+    let domain = 125;
+    let r = radar(domain, "view_foxglove");
+    let tick = r
+        .spawn_event("/fx/tick", TimerEvent::new(Duration::from_millis(300)))
+        .unwrap();
+    let job = r
+        .spawn_response(
+            "/fx/job",
+            FnResponse::new(|s: StringMsg| async move { Ok(s) }),
+        )
+        .unwrap();
+    let _whenever = r
+        .whenever(&tick)
+        .start(&job)
+        .map(|_: Empty| StringMsg::from("go"))
+        .await
+        .unwrap();
+    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["view", "--port", "0", "--foxglove", "0", "--json"])
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env_remove("RUST_LOG")
+        .stdout(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let first = tokio::time::timeout(Duration::from_secs(20), lines.next_line())
+        .await
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    let said: Value = serde_json::from_str(&first).unwrap();
+    let url = said["foxglove"]
+        .as_str()
+        .unwrap_or_else(|| panic!("no foxglove URL: {said}"));
+    assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
+    let mut req = url.into_client_request().unwrap();
+    req.headers_mut()
+        .insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+    let (mut ws, resp) = tokio_tungstenite::connect_async(req).await.unwrap();
+    assert_eq!(resp.headers()["sec-websocket-protocol"], "foxglove.sdk.v1");
+    ws.send(tungstenite::Message::Text(
+        json!({ "op": "subscribeConnectionGraph" })
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+
+    let mut channels: BTreeMap<String, Value> = BTreeMap::new();
+    let mut subscribed = false;
+    let (mut started, mut state, mut graph) = (None, None, None::<Value>);
+    let end = tokio::time::Instant::now() + Duration::from_secs(30);
+    while started.is_none() || state.is_none() || graph.is_none() {
+        let m = tokio::time::timeout_at(end, ws.next())
+            .await
+            .unwrap_or_else(|_| {
+                panic!("not all seen: channels {channels:?}, started {started:?}, state {state:?}, graph {graph:?}")
+            })
+            .unwrap()
+            .unwrap();
+        match m {
+            tungstenite::Message::Text(t) => {
+                let v: Value = serde_json::from_str(&t).unwrap();
+                match v["op"].as_str() {
+                    Some("serverInfo") => {
+                        let caps = v["capabilities"].as_array().unwrap();
+                        assert!(caps.contains(&json!("connectionGraph")), "{v}");
+                    }
+                    Some("advertise") => {
+                        for c in v["channels"].as_array().unwrap() {
+                            channels.insert(c["topic"].as_str().unwrap().into(), c.clone());
+                        }
+                    }
+                    Some("connectionGraphUpdate") => {
+                        let published = &v["publishedTopics"];
+                        let ok = published.as_array().is_some_and(|ts| {
+                            ts.iter().any(|t| {
+                                t["name"] == "/fx/job/start"
+                                    && t["publisherIds"].as_array().is_some_and(|ids| {
+                                        ids.iter()
+                                            .any(|i| i.as_str().unwrap().contains("view_foxglove"))
+                                    })
+                            })
+                        });
+                        if ok {
+                            graph = Some(v);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            tungstenite::Message::Binary(b) => {
+                // opcode 1 (message data), subscription id, log time, the JSON payload
+                assert_eq!(b[0], 1);
+                let id = u32::from_le_bytes(b[1..5].try_into().unwrap());
+                let body: Value = serde_json::from_slice(&b[13..]).unwrap();
+                match id {
+                    1 => started = Some(body),
+                    2 => state = Some(body),
+                    _ => panic!("subscription {id}"),
+                }
+            }
+            _ => {}
+        }
+        if !subscribed
+            && channels.contains_key("/fx/job/started")
+            && channels.contains_key("/fx/job/state")
+        {
+            let subs = json!({ "op": "subscribe", "subscriptions": [
+                { "id": 1, "channelId": channels["/fx/job/started"]["id"] },
+                { "id": 2, "channelId": channels["/fx/job/state"]["id"] },
+            ]});
+            ws.send(tungstenite::Message::Text(subs.to_string().into()))
+                .await
+                .unwrap();
+            subscribed = true;
+        }
+    }
+    let st = &channels["/fx/job/state"];
+    assert_eq!(st["encoding"], "json");
+    assert_eq!(st["schemaName"], "radar_msgs/msg/ResponseState");
+    assert_eq!(st["schemaEncoding"], "jsonschema");
+    let schema: Value = serde_json::from_str(st["schema"].as_str().unwrap()).unwrap();
+    assert_eq!(
+        schema["properties"]["starts"]["type"], "integer",
+        "{schema}"
+    );
+    assert_eq!(
+        channels["/fx/job/started"]["schemaName"],
+        "std_msgs/msg/String"
+    );
+    assert_eq!(
+        channels["/fx/tick/state"]["schemaName"],
+        "radar_msgs/msg/EventState"
+    );
+    assert_eq!(started.unwrap(), json!({ "data": "go" }));
+    assert_eq!(state.unwrap()["name"], "/fx/job");
+    let graph = graph.unwrap();
+    let subscribers = graph["subscribedTopics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["name"] == "/fx/tick/triggered")
+        .unwrap_or_else(|| panic!("{graph}"));
+    assert!(
+        subscribers["subscriberIds"]
+            .to_string()
+            .contains("view_foxglove"),
+        "{graph}"
+    );
+    let _ = child.kill().await;
 }

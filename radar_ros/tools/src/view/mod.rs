@@ -3,6 +3,8 @@
 //! the server ([`server`]) serves the page and its WebSocket.
 
 mod feed;
+#[cfg(feature = "foxglove")]
+mod foxglove;
 mod hub;
 pub(crate) mod model;
 mod server;
@@ -37,6 +39,11 @@ pub(crate) struct Options {
     /// `radar security create_enclave KEYSTORE /radar_view`.
     #[arg(long, default_value = "/radar_view", value_name = "NAME")]
     pub(crate) enclave: String,
+    /// Also serve the live data to Foxglove or Lichtblick (the Foxglove SDK's WebSocket protocol) on this port
+    /// (0: any free one), on --bind's address: components' states and signals as channels, and the
+    /// connection graph. Needs the `foxglove` cargo feature.
+    #[arg(long, value_name = "PORT")]
+    pub(crate) foxglove: Option<u16>,
 }
 
 impl Options {
@@ -97,14 +104,25 @@ pub(crate) async fn view(radar: &Radar, out: &Out, o: Options) -> Fallible<()> {
         ask_rx,
     ));
     let feed = tokio::spawn(feed::run(radar.clone(), seen_tx));
+    let foxglove = match o.foxglove {
+        None => None,
+        Some(port) => Some(foxglove_server(o.bind, port, &ask_tx).await?),
+    };
     let url = format!("http://{addr}/");
+    let foxglove_url = foxglove.as_ref().map(|(url, _)| url.clone());
     if out.json {
-        println!("{}", json!({ "url": url, "domain": radar.domain_id() }));
+        println!(
+            "{}",
+            json!({ "url": url, "domain": radar.domain_id(), "foxglove": foxglove_url })
+        );
     } else {
         println!(
             "radar view of ROS_DOMAIN_ID {}: open {url} in a browser (Ctrl-C to stop)",
             radar.domain_id()
         );
+        if let Some(f) = &foxglove_url {
+            println!("Foxglove or Lichtblick: open the connection {f}");
+        }
     }
     let shared = Arc::new(server::Shared::new(radar.clone(), ask_tx, o.allow_act));
     let serve = axum::serve(listener, server::app(shared));
@@ -114,5 +132,35 @@ pub(crate) async fn view(radar: &Radar, out: &Out, o: Options) -> Fallible<()> {
     };
     feed.abort();
     hub.abort();
+    if let Some((_, task)) = foxglove {
+        task.abort();
+    }
     result
+}
+
+/// The Foxglove server (`--foxglove PORT`): its URL and the task that feeds it.
+#[cfg(feature = "foxglove")]
+async fn foxglove_server(
+    bind: IpAddr,
+    port: u16,
+    asks: &tokio::sync::mpsc::UnboundedSender<hub::Ask>,
+) -> Fallible<(String, tokio::task::JoinHandle<()>)> {
+    let (port, task) = foxglove::start(bind, port, asks.clone()).await?;
+    let host = match bind {
+        IpAddr::V6(a) => format!("[{a}]"),
+        a => a.to_string(),
+    };
+    Ok((format!("ws://{host}:{port}"), task))
+}
+
+/// Without the `foxglove` feature: says how to build it.
+#[cfg(not(feature = "foxglove"))]
+async fn foxglove_server(
+    _bind: IpAddr,
+    _port: u16,
+    _asks: &tokio::sync::mpsc::UnboundedSender<hub::Ask>,
+) -> Fallible<(String, tokio::task::JoinHandle<()>)> {
+    Err("--foxglove: this radar was built without Foxglove: build it with `cargo build -p radar_tools \
+         --features foxglove`"
+        .into())
 }
