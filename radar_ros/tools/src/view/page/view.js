@@ -216,12 +216,31 @@ function drawGraph() {
   svg.appendChild(defs);
   const edgeLayer = el(SVG, "g", { id: "edges" });
   svg.appendChild(edgeLayer);
+  // the edges into one box (connections and their untils) spread over its side, each its own slot
+  const into = new Map(), slot = new Map();
+  const ends = [];
   for (const e of edges) {
-    drawEdge(edgeLayer, e.sourceNode, e.targetNode, e.kind_label + (e.state_label !== "armed" ? " waiting" : ""),
+    ends.push([e, "to"]);
+    if (e.untilNode) ends.push([e, "until"]);
+  }
+  // in the order of their sources from the top, so that they do not cross on the way in
+  const fromY = ([e, which]) => (boxes.get(which === "to" ? e.sourceNode : e.untilNode) || { y: 0 }).y;
+  ends.sort((p, q) => fromY(p) - fromY(q));
+  for (const [e, which] of ends) {
+    const n = (into.get(e.targetNode) || 0) + 1;
+    into.set(e.targetNode, n);
+    slot.set(`${e.id} ${e.manager} ${which}`, n);
+  }
+  entryY = (e, which) => {
+    const n = into.get(e.targetNode) || 1, k = slot.get(`${e.id} ${e.manager} ${which}`) || 1;
+    return (BOX_H * k) / (n + 1);
+  };
+  for (const e of edges) {
+    drawEdge(edgeLayer, e.sourceNode, e.targetNode, entryY(e, "to"), e.kind_label + (e.state_label !== "armed" ? " waiting" : ""),
              `${e.kind_label} ${e.signal} → ${e.slot} #${e.id}`,
              `${e.manager}: ${e.state_label}, ${e.delivered} delivered${e.departure ? ", " + e.departure : ""}`,
              { "data-connection": e.id, "data-kind": e.kind_label });
-    if (e.untilNode) drawEdge(edgeLayer, e.untilNode, e.targetNode, "until", `until #${e.id}`, `${e.manager}: until`,
+    if (e.untilNode) drawEdge(edgeLayer, e.untilNode, e.targetNode, entryY(e, "until"), "until", `until #${e.id}`, `${e.manager}: until`,
                               { "data-until": e.id });
   }
   for (const [name, b] of boxes) {
@@ -238,18 +257,20 @@ function drawGraph() {
   }
 }
 
-function drawEdge(layer, from, to, cls, label, tip, data) {
+// `dy`: where on the target's side the edge goes in
+let entryY = () => BOX_H / 2;
+function drawEdge(layer, from, to, dy, cls, label, tip, data) {
   const a = boxes.get(from), b = boxes.get(to);
   if (!a || !b) return;
   const x1 = a.x + BOX_W, y1 = a.y + BOX_H / 2;
   let d, lx, ly;
   if (b.x > a.x) {
-    const x2 = b.x, y2 = b.y + BOX_H / 2, mx = (x1 + x2) / 2;
+    const x2 = b.x, y2 = b.y + dy, mx = (x1 + x2) / 2;
     d = `M${x1},${y1} C${mx},${y1} ${mx},${y2} ${x2},${y2}`;
     lx = mx; ly = (y1 + y2) / 2 - 4;
   } else {
     // same column or backwards: out of the right side and back in
-    const x2 = b.x + BOX_W, y2 = b.y + BOX_H / 2, out = Math.max(x1, x2) + 70;
+    const x2 = b.x + BOX_W, y2 = b.y + dy, out = Math.max(x1, x2) + 70;
     d = `M${x1},${y1} C${out},${y1} ${out},${y2} ${x2},${y2}`;
     lx = out - 30; ly = (y1 + y2) / 2;
   }
