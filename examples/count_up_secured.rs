@@ -292,29 +292,34 @@ fn secured_view_sees_count_up_from_its_own_enclave(ks: &std::path::Path) {
     }
     println!("the secured view shows /count_up: {state}");
     // the view's own node (radar_cli_<pid>), in its own enclave, as the secured graph lists it (asked from
-    // the view's enclave: count_up's permissions are only what it declared)
-    let mut policy = Command::new(radar_cli());
-    policy
-        .args(["security", "generate_policy"])
-        .arg(ks.join("view_policy.xml"));
-    secured(&mut policy);
-    policy.env("ROS_SECURITY_ENCLAVE_OVERRIDE", "/radar_view");
-    let listed = policy.output().expect("run radar");
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&listed.stdout),
-        String::from_utf8_lossy(&listed.stderr),
-    );
+    // the view's enclave: count_up's permissions are only what it declared); asked again until it shows (a
+    // listing can come before secure discovery has brought the view's node)
     let node = format!("/radar_cli_{} (enclave /radar_view)", view.id());
-    assert!(
-        stdout.lines().any(|l| l == node),
-        "{node} listed: {stdout}{stderr}"
-    );
-    // the view's fragmented samples (its many readers) reach a secured peer (RustDDS patch 44: each fragment
-    // was refused as too long, logged as an error)
-    assert_no_error_lines(
-        &stderr,
-        "radar security generate_policy beside the secured view",
-    );
+    let mut tries = 0;
+    loop {
+        let mut policy = Command::new(radar_cli());
+        policy
+            .args(["security", "generate_policy"])
+            .arg(ks.join("view_policy.xml"));
+        secured(&mut policy);
+        policy.env("ROS_SECURITY_ENCLAVE_OVERRIDE", "/radar_view");
+        let listed = policy.output().expect("run radar");
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&listed.stdout),
+            String::from_utf8_lossy(&listed.stderr),
+        );
+        // the view's fragmented samples (its many readers) reach a secured peer (RustDDS patch 44: each
+        // fragment was refused as too long, logged as an error)
+        assert_no_error_lines(
+            &stderr,
+            "radar security generate_policy beside the secured view",
+        );
+        if stdout.lines().any(|l| l == node) {
+            break;
+        }
+        tries += 1;
+        assert!(tries < 5, "{node} listed: {stdout}{stderr}");
+    }
     assert!(count_up.wait().unwrap().success());
     let _ = view.kill();
     let out = view.wait_with_output().unwrap();
