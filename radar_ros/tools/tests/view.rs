@@ -21,6 +21,8 @@ use tokio_tungstenite::tungstenite::{self, client::IntoClientRequest};
 struct View {
     child: tokio::process::Child,
     url: String,
+    /// Its first line, as JSON (`url`, `domain`, `foxglove`).
+    said: Value,
 }
 
 impl View {
@@ -48,7 +50,7 @@ impl View {
             url.starts_with("http://127.0.0.1:"),
             "loopback by default: {url}"
         );
-        View { child, url }
+        View { child, url, said }
     }
 
     fn ws(&self) -> String {
@@ -443,21 +445,8 @@ async fn foxglove_clients_get_states_signals_and_the_connection_graph() {
         .map(|_: Empty| StringMsg::from("go"))
         .await
         .unwrap();
-    let mut child = tokio::process::Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(["view", "--port", "0", "--foxglove", "0", "--json"])
-        .env("ROS_DOMAIN_ID", domain.to_string())
-        .env_remove("RUST_LOG")
-        .stdout(Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let first = tokio::time::timeout(Duration::from_secs(20), lines.next_line())
-        .await
-        .unwrap()
-        .unwrap()
-        .unwrap();
-    let said: Value = serde_json::from_str(&first).unwrap();
+    let view = View::start(domain, &["--foxglove", "0"]).await;
+    let said = &view.said;
     let url = said["foxglove"]
         .as_str()
         .unwrap_or_else(|| panic!("no foxglove URL: {said}"));
@@ -577,5 +566,5 @@ async fn foxglove_clients_get_states_signals_and_the_connection_graph() {
             .contains("view_foxglove"),
         "{graph}"
     );
-    let _ = child.kill().await;
+    view.stop().await;
 }
