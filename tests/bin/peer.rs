@@ -25,7 +25,9 @@
 //!   matched both ways with that many peers each, see `ResponseHandle::wait_for_peers`),
 //!   `publisher TOPIC` (an Empty
 //!   signal publisher), `emit TOPIC` (publish once on it, after a subscriber matched), `emit-now TOPIC`
-//!   (publish once at once, without waiting), `emit-exit TOPIC`
+//!   (publish once at once, without waiting), `matched TOPIC` (until that publisher has matched a subscriber: DDS
+//!   does not deliver a volatile sample written before its writer knew the reader, whatever the reader knew),
+//!   `emit-exit TOPIC`
 //!   (publish, then exit at once), `quit` (leave the graph cleanly and exit). Killed from outside for crashes.
 //! - `radar_test_peer check-env`: creates a participant from the environment (ROS_DOMAIN_ID, ...) and prints
 //!   `ok`, or prints the error and exits with status 2.
@@ -480,6 +482,17 @@ async fn host(radar: Radar) {
                     Err(e) => say(&format!("err {e}")),
                 }
             }
+            ["matched", topic] => match publishers.get(*topic) {
+                Some(p) => match p
+                    .wait_for_subscribers(1)
+                    .timeout(Duration::from_secs(10))
+                    .await
+                {
+                    Ok(()) => say("ok"),
+                    Err(e) => say(&format!("err {e}")),
+                },
+                None => say(&format!("err no publisher on {topic}")),
+            },
             ["emit-now", topic] => match publishers.get(*topic) {
                 // publish at once, without waiting for a subscriber (the caller knows it has matched)
                 Some(p) => match p.publish(Empty::default()) {
