@@ -1980,6 +1980,54 @@ mod tests {
   }
 
   #[test]
+  fn many_readers_made_at_once_are_all_made() {
+    // RADAR patch 46: the queue of readers for the event loop to build holds 100, and a reader that did not
+    // fit was refused ("Cannot add DataReader. Error: sending on a full channel"): `radar view` meeting
+    // 2,000 components made a few dozen of its readers fail. Now making a reader waits for room, as making a
+    // writer does. Four threads make 150 readers each while the event loop is kept busy by the participant
+    // matching every one of them with a writer of the same topic.
+    let dp = super::DomainParticipantBuilder::new(test_domain_id(28))
+      .build()
+      .expect("participant");
+    let topic = dp
+      .create_topic(
+        "many_readers".to_string(),
+        "RandomData".to_string(),
+        &QosPolicies::qos_none(),
+        TopicKind::NoKey,
+      )
+      .unwrap();
+    let publisher = dp.create_publisher(&QosPolicies::qos_none()).unwrap();
+    let _writer = publisher
+      .create_datawriter_no_key_cdr::<RandomData>(&topic, None)
+      .unwrap();
+    let made: Vec<Vec<_>> = std::thread::scope(|s| {
+      let threads: Vec<_> = (0..4)
+        .map(|_| {
+          s.spawn(|| {
+            let subscriber = dp.create_subscriber(&QosPolicies::qos_none()).unwrap();
+            (0..150)
+              .map(|_| subscriber.create_datareader_no_key_cdr::<RandomData>(&topic, None))
+              .collect::<Vec<_>>()
+          })
+        })
+        .collect();
+      threads.into_iter().map(|t| t.join().unwrap()).collect()
+    });
+    let failed: Vec<String> = made
+      .iter()
+      .flatten()
+      .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
+      .collect();
+    assert!(
+      failed.is_empty(),
+      "{} of 600 readers refused, the first: {:?}",
+      failed.len(),
+      failed.first()
+    );
+  }
+
+  #[test]
   fn participants_announce_their_user_data_and_read_their_peers() {
     use crate::structure::entity::RTPSEntity;
     // RADAR patch 29: ROS 2 puts a participant's enclave in its USER_DATA (`enclave=/path;`) and its graph

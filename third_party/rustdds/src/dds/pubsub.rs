@@ -1322,10 +1322,13 @@ impl InnerSubscriber {
     )?;
 
     // Send reader ingredients to DP event loop, where the actual reader will be
-    // constructed
+    // constructed. Waits for room as the writer path does (RADAR patch 46): the queue holds 100, and a
+    // program that made more readers than that at once (`radar view` meeting 2,000 components) had the rest
+    // refused with "sending on a full channel". No lock is held here (the Discovery DB guard is released
+    // above), so the event loop, which drains the queue, cannot be waiting for us.
     self
       .sender_add_reader
-      .try_send(new_reader)
+      .send(new_reader)
       .or_else(|e| create_error_poisoned!("Cannot add DataReader. Error: {}", e))?;
 
     // Return the DataReader to user
