@@ -33,6 +33,7 @@ mod discovery;
 pub(crate) mod lookup;
 mod nodes;
 mod observers;
+mod peers;
 
 pub(crate) use observers::OBSERVER_USER_DATA;
 
@@ -88,19 +89,22 @@ struct Table {
     /// before a reader of this participant was deleted is matched with it by the event loop afterwards, and no
     /// loss is reported for a local endpoint): such a match is not counted, or the count would never drop.
     forgotten: HashMap<GUID, std::time::Instant>,
+    /// `forgotten`'s length at which it is pruned next (`peers.rs`).
+    forgotten_prune_at: usize,
+    /// Peer -> the local endpoints (and their side) that may hold it in a set (`peers.rs`).
+    mentions: HashMap<GUID, std::collections::HashSet<(Side, GUID)>>,
     /// Participants (by their participant GUID) and remote endpoints that left the graph lately, and when: a
     /// caller whose request is answered after it left owns nothing (B7). A participant that exits cleanly is
     /// known gone by its endpoints' disposes at once, by itself only when its lease runs out.
     left: HashMap<GUID, std::time::Instant>,
+    /// `left`'s length at which it is pruned next.
+    left_prune_at: usize,
     /// Readers, local and remote, that only observe (`observers.rs`).
     observers: std::collections::HashSet<GUID>,
 }
 
 /// How long a participant that left is remembered.
 const LEFT_FOR: std::time::Duration = std::time::Duration::from_secs(600);
-
-/// How long a deleted local endpoint is remembered (far above the event loop's delay).
-const FORGOTTEN_FOR: std::time::Duration = std::time::Duration::from_secs(30);
 
 /// Shared match table of one DDS participant.
 #[derive(Clone)]
@@ -139,7 +143,7 @@ pub(crate) fn no_deadline() -> tokio::time::Instant {
     tokio::time::Instant::now() + std::time::Duration::from_secs(86_400 * 365)
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
 enum Side {
     /// Our writer, their reader.
     Writer,
@@ -362,18 +366,20 @@ impl Graph {
                 Self::admit(e, side, peer, ty);
             }
             // local endpoints that matched this one before it had a type are checked now too
-            let other = match side {
-                Side::Writer => &mut t.readers,
-                Side::Reader => &mut t.writers,
-            };
             let other_side = match side {
                 Side::Writer => Side::Reader,
                 Side::Reader => Side::Writer,
             };
-            for o in other.values_mut() {
-                if o.peers.remove(&guid) {
-                    Self::admit(o, other_side, guid, Some(dds_type.to_owned()));
-                    o.notify();
+            for o in t.holders(&guid, other_side) {
+                let other = match side {
+                    Side::Writer => &mut t.readers,
+                    Side::Reader => &mut t.writers,
+                };
+                if let Some(o) = other.get_mut(&o) {
+                    if o.peers.remove(&guid) {
+                        Self::admit(o, other_side, guid, Some(dds_type.to_owned()));
+                        o.notify();
+                    }
                 }
             }
         }
@@ -400,13 +406,16 @@ impl Graph {
 
     fn note_left(t: &mut Table, guid: GUID) {
         let now = std::time::Instant::now();
-        if t.left.len() > 1024 {
+        // pruned when twice as many as after the last pruning (every time past 1,024 made a process whose
+        // peer of 10,000 endpoints left scan the list 10,000 times)
+        if t.left.len() >= t.left_prune_at.max(1024) {
             t.left.retain(|_, at| now.duration_since(*at) < LEFT_FOR);
             if t.left.len() > 4096 {
                 // a graph where endpoints come and go very often: remember the last minute only
                 t.left
                     .retain(|_, at| now.duration_since(*at) < std::time::Duration::from_secs(60));
             }
+            t.left_prune_at = 2 * t.left.len();
         }
         t.left.insert(guid, now);
     }
@@ -414,16 +423,7 @@ impl Graph {
     /// Forgets a local endpoint that was deleted (also as the peer of other local endpoints).
     pub(crate) fn forget(&self, guid: GUID) {
         self.index.lock().unwrap().remove(&guid);
-        let mut t = self.table.lock().unwrap();
-        let now = std::time::Instant::now();
-        t.forgotten
-            .retain(|_, at| now.duration_since(*at) < FORGOTTEN_FOR);
-        t.forgotten.insert(guid, now);
-        t.observers.remove(&guid);
-        t.writers.remove(&guid);
-        t.readers.remove(&guid);
-        Self::remove_where(&mut t.writers, |g| *g == guid, &LossCause::Left);
-        Self::remove_where(&mut t.readers, |g| *g == guid, &LossCause::Left);
+        self.table.lock().unwrap().forget_local(guid);
     }
 
     /// Why the last peer that left local endpoint `guid` left, if one did.
@@ -448,9 +448,10 @@ impl Graph {
                 local_writer,
                 remote_reader,
             } => {
-                if t.forgotten.contains_key(&remote_reader) {
+                if t.was_forgotten(&remote_reader) {
                     return;
                 }
+                t.mention(remote_reader, Side::Writer, local_writer);
                 let ty = self.peer_type(&t, Side::Writer, remote_reader);
                 if Self::admit_reader(&mut t, local_writer, remote_reader, ty) {
                     t.writers[&local_writer].notify();
@@ -460,9 +461,10 @@ impl Graph {
                 local_reader,
                 remote_writer,
             } => {
-                if t.forgotten.contains_key(&remote_writer) {
+                if t.was_forgotten(&remote_writer) {
                     return;
                 }
+                t.mention(remote_writer, Side::Reader, local_reader);
                 let ty = self.peer_type(&t, Side::Reader, remote_writer);
                 let e = t.readers.entry(local_reader).or_default();
                 if Self::admit(e, Side::Reader, remote_writer, ty) {
@@ -473,6 +475,7 @@ impl Graph {
                 local_reader,
                 remote_writer,
             } => {
+                t.mention(remote_writer, Side::Reader, local_reader);
                 t.readers
                     .entry(local_reader)
                     .or_default()
@@ -482,11 +485,11 @@ impl Graph {
             DomainParticipantStatusEvent::ReaderLost { guid, reason } => {
                 Self::note_left(&mut t, guid);
                 t.observers.remove(&guid);
-                Self::remove_where(&mut t.writers, |g| *g == guid, &cause_of(&reason));
+                t.drop_peers(&[guid], &cause_of(&reason));
             }
             DomainParticipantStatusEvent::WriterLost { guid, reason } => {
                 Self::note_left(&mut t, guid);
-                Self::remove_where(&mut t.readers, |g| *g == guid, &cause_of(&reason));
+                t.drop_peers(&[guid], &cause_of(&reason));
             }
             DomainParticipantStatusEvent::ParticipantDiscovered { dpd } => {
                 t.left.remove(&participant_of(dpd.guid));
@@ -498,9 +501,8 @@ impl Graph {
                 Self::note_left(&mut t, participant_of(who));
                 t.observers.retain(|g| g.prefix != id);
                 let _ = self.lost.send(who);
-                let cause = cause_of(&reason);
-                Self::remove_where(&mut t.writers, |g| g.prefix == id, &cause);
-                Self::remove_where(&mut t.readers, |g| g.prefix == id, &cause);
+                let gone = t.mentioned_of_participant(who);
+                t.drop_peers(&gone, &cause_of(&reason));
             }
             _ => {}
         }
@@ -524,24 +526,6 @@ impl Graph {
                 index.remove_matching(|g| g.prefix == id)
             }
             _ => {}
-        }
-    }
-
-    fn remove_where(
-        map: &mut HashMap<GUID, Entry>,
-        pred: impl Fn(&GUID) -> bool,
-        cause: &LossCause,
-    ) {
-        for e in map.values_mut() {
-            e.rejected.retain(|g| !pred(g));
-            e.heard.retain(|g| !pred(g));
-            e.observing.retain(|g| !pred(g));
-            let before = e.peers.len();
-            e.peers.retain(|g| !pred(g));
-            if e.peers.len() != before {
-                e.last_loss = Some(cause.clone());
-                e.notify();
-            }
         }
     }
 

@@ -47,9 +47,11 @@ impl Graph {
         if !t.observers.insert(reader) {
             return;
         }
-        for e in t.writers.values_mut() {
-            if e.peers.contains(&reader) && e.observing.insert(reader) {
-                e.notify();
+        for w in t.holders(&reader, super::Side::Writer) {
+            if let Some(e) = t.writers.get_mut(&w) {
+                if e.peers.contains(&reader) && e.observing.insert(reader) {
+                    e.notify();
+                }
             }
         }
     }
