@@ -144,6 +144,24 @@ impl Child {
         let _ = self.child.kill().await;
     }
 
+    /// Sends SIGTERM, as a service manager stops a program, and waits up to `timeout`: how long it took to
+    /// exit and its exit code (killed, and an error, past `timeout`).
+    pub async fn terminate(mut self, timeout: Duration) -> Result<(Duration, Option<i32>)> {
+        let pid = self.pid();
+        let t = std::time::Instant::now();
+        // SAFETY: kill(2) on our own child's pid; it has not been reaped (we hold it)
+        if pid == 0 || unsafe { libc::kill(pid as i32, libc::SIGTERM) } != 0 {
+            bail!("could not send SIGTERM to `{}`", self.what);
+        }
+        match tokio::time::timeout(timeout, self.child.wait()).await {
+            Ok(status) => Ok((t.elapsed(), status?.code())),
+            Err(_) => {
+                let _ = self.child.kill().await;
+                bail!("`{}` did not exit within {timeout:?} of SIGTERM", self.what)
+            }
+        }
+    }
+
     /// Asks the child to quit and waits for it (killed after 5 s).
     pub async fn quit(mut self) {
         let _ = self.stdin.write_all(b"quit\n").await;

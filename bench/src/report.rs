@@ -229,6 +229,10 @@ fn scale_table(s: &mut String, sc: &serde_json::Value) {
             format!("{:.2}% of a core", f("cpu_idle_connected") * 100.0),
         ),
         (
+            "SIGTERM -> exited (exit code)",
+            format!("{:.0} ms ({})", f("sigterm_ms"), sc["sigterm_code"]),
+        ),
+        (
             "RSS: participant / + components / + connections",
             format!(
                 "{:.1} / {:.1} / {:.1} MiB",
@@ -292,6 +296,12 @@ fn view_table(s: &mut String, v: &serde_json::Value) {
         "| a page joining later: its snapshot | {:.1} ms, {:.0} KiB |",
         f(&v["snapshot_ms"]),
         f(&v["snapshot_kib"])
+    );
+    let _ = writeln!(
+        s,
+        "| the watched process told to stop (SIGTERM) -> exited, the view attached (exit code) | {:.0} ms ({}) |",
+        f(&v["sigterm_ms"]),
+        v["sigterm_code"]
     );
     if let Some(b) = v["browser"].as_object() {
         let _ = writeln!(
@@ -394,11 +404,11 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
     );
     let _ = writeln!(
         s,
-        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (measured from, after the last connection) | connect all | drop -> all inactive |"
+        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (measured from, after the last connection) | connect all | drop -> all inactive | SIGTERM -> exited |"
     );
     let _ = writeln!(
         s,
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     for sc in steps {
         let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
@@ -406,7 +416,7 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
         let per_k = |k: &str| f(k) * 100.0 * 1000.0 / n;
         let _ = writeln!(
             s,
-            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.2}% ({:.1} s) | {:.0} ms ({} connections) | {:.0} ms |",
+            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.2}% ({:.1} s) | {:.0} ms ({} connections) | {:.0} ms | {:.0} ms ({}) |",
             f("spawn_ms"),
             f("spawn_ms") / n,
             f("bytes_per_event") / 1024.0,
@@ -420,6 +430,8 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
             f("connect_ms"),
             sc["connections"],
             f("all_inactive_ms"),
+            f("sigterm_ms"),
+            sc["sigterm_code"],
         );
     }
 }

@@ -49,8 +49,11 @@ impl Bench {
             Duration::from_secs(1200),
         )
         .await?;
-        let report = s.ask_json("report", START).await?;
-        s.quit().await;
+        let mut report = s.ask_json("report", START).await?;
+        // told to stop with every component and connection still there (a service manager's SIGTERM)
+        let (stop, code) = s.terminate(Duration::from_secs(120)).await?;
+        report["sigterm_ms"] = (stop.as_secs_f64() * 1e3).into();
+        report["sigterm_code"] = code.into();
         Ok(report)
     }
 

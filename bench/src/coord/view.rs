@@ -154,10 +154,12 @@ impl Bench {
             );
             None
         };
+        // the watched system told to stop while the view still watches every component
+        let (stop, stop_code) = sys.terminate(Duration::from_secs(120)).await?;
         let _ = view.kill().await;
-        sys.quit().await;
         self.results.view.push(json!({
             "components": n, "events": events, "responses": responses,
+            "sigterm_ms": stop.as_secs_f64() * 1e3, "sigterm_code": stop_code,
             "first_picture_s": first_picture_s, "snapshot_ms": snapshot_ms,
             "snapshot_kib": snapshot.len() as f64 / 1024.0, "steps": steps, "browser": browser,
         }));
