@@ -621,10 +621,6 @@ impl DomainParticipant {
     self.dpi.lock().unwrap().participant_id()
   }
 
-  pub(crate) fn only_networks(&self) -> Option<Arc<[IpAddr]>> {
-    self.dpi.lock().ok().and_then(|g| g.only_networks())
-  }
-
   /// Gets all DiscoveredTopics from DDS network
   ///
   /// # Examples
@@ -1212,10 +1208,6 @@ impl DomainParticipantDisc {
     self.dpi.dds_cache()
   }
 
-  pub(crate) fn only_networks(&self) -> Option<Arc<[IpAddr]>> {
-    self.dpi.only_networks()
-  }
-
   #[cfg(feature = "security")] // just to avoid warning
   pub(crate) fn qos(&self) -> QosPolicies {
     self.dpi.qos()
@@ -1349,8 +1341,6 @@ pub(crate) struct DomainParticipantInner {
   self_locators: HashMap<mio1::Token, Vec<Locator>>,
 
   security_plugins_handle: Option<SecurityPluginsHandle>,
-
-  only_networks: Option<Arc<[IpAddr]>>,
 }
 
 impl DomainParticipantInner {
@@ -1641,16 +1631,11 @@ impl DomainParticipantInner {
       status_receiver,
       self_locators,
       security_plugins_handle,
-      only_networks,
     })
   }
 
   pub fn dds_cache(&self) -> Arc<RwLock<DDSCache>> {
     self.dds_cache.clone()
-  }
-
-  pub(crate) fn only_networks(&self) -> Option<Arc<[IpAddr]>> {
-    self.only_networks.clone()
   }
 
   #[cfg(feature = "security")] // just to avoid warning
@@ -1977,6 +1962,56 @@ mod tests {
       most = most.max(std::sync::Arc::strong_count(&dp.dpi));
     }
     assert_eq!(most, 1, "only the application holds the participant");
+  }
+
+  #[test]
+  fn a_writer_is_announced_at_the_port_its_participant_listens_on() {
+    // RADAR patch 47: a writer's announced unicast locators were computed from the port the participant
+    // should have had; when that port was taken, the participant listened on another one and its writers
+    // were announced where nobody listens (their readers' ACKNACKs lost). Take participant 0's user traffic
+    // port, then make the participant and a writer.
+    use crate::{rtps::constant::USER_TRAFFIC_LISTENER_TOKEN, structure::entity::RTPSEntity};
+    let domain = test_domain_id(29);
+    let taken_port = user_traffic_unicast_port(domain, 0);
+    let _taken = std::net::UdpSocket::bind(("0.0.0.0", taken_port)).expect("take the port");
+    let dp = super::DomainParticipantBuilder::new(domain)
+      .build()
+      .expect("participant");
+    assert_eq!(dp.participant_id(), 0, "the discovery port was free");
+    let listening: Vec<Locator> = dp
+      .self_locators()
+      .remove(&USER_TRAFFIC_LISTENER_TOKEN)
+      .expect("a user traffic listener");
+    assert!(!listening.is_empty());
+    let topic = dp
+      .create_topic(
+        "announced_port".to_string(),
+        "RandomData".to_string(),
+        &QosPolicies::qos_none(),
+        TopicKind::NoKey,
+      )
+      .unwrap();
+    let publisher = dp.create_publisher(&QosPolicies::qos_none()).unwrap();
+    let writer = publisher
+      .create_datawriter_no_key_cdr::<RandomData>(&topic, None)
+      .unwrap();
+    let db = dp.discovery_db();
+    let announced = crate::discovery::discovery_db::discovery_db_read(&db)
+      .get_local_topic_writer(writer.guid())
+      .expect("the writer is in the discovery DB")
+      .writer_proxy
+      .unicast_locator_list
+      .clone();
+    let port = |l: &Locator| match l {
+      Locator::UdpV4(a) => a.port(),
+      Locator::UdpV6(a) => a.port(),
+      other => panic!("not a UDP locator: {other:?}"),
+    };
+    assert!(
+      announced.iter().all(|l| port(l) != taken_port),
+      "announced at the taken port {taken_port}: {announced:?}"
+    );
+    assert_eq!(announced, listening);
   }
 
   #[test]

@@ -28,7 +28,7 @@ use crate::{
     parameter::Parameter,
     parameter_list::{ParameterList, ParameterListable},
   },
-  network::{constant::user_traffic_unicast_port, util::get_local_unicast_locators_filtered},
+  rtps::constant::USER_TRAFFIC_LISTENER_TOKEN,
   rtps::{rtps_reader_proxy::RtpsReaderProxy, rtps_writer_proxy::RtpsWriterProxy},
   serialization::{
     pl_cdr_adapters::{
@@ -798,9 +798,15 @@ impl DiscoveredWriterData {
     dp: &DomainParticipant,
     security_info: Option<EndpointSecurityInfo>,
   ) -> Self {
-    let unicast_port = user_traffic_unicast_port(dp.domain_id(), dp.participant_id());
-    let only_nets = dp.only_networks();
-    let unicast_addresses = get_local_unicast_locators_filtered(unicast_port, only_nets.as_deref());
+    // The addresses the participant's user traffic listener has (RADAR patch 47): they were computed again
+    // for every writer, reading every network interface from the kernel (a tenth of the time spent making
+    // endpoints), and from the port number the listener should have had: a participant whose port was taken
+    // (it then listens on another) announced its writers at a port nobody listens on, and their readers'
+    // acknowledgements were lost. Readers already announce these (`RtpsReaderProxy::from_reader`).
+    let unicast_addresses = dp
+      .self_locators()
+      .remove(&USER_TRAFFIC_LISTENER_TOKEN)
+      .unwrap_or_default();
     // TODO: Why empty vector below? No multicast?
     let writer_proxy = WriterProxy::new(writer.guid(), vec![], unicast_addresses);
     let publication_topic_data = PublicationBuiltinTopicData::new_with_qos(
