@@ -309,13 +309,10 @@ fn secured_view_sees_count_up_from_its_own_enclave(ks: &std::path::Path) {
             String::from_utf8_lossy(&listed.stderr),
         );
         // the view's fragmented samples (its many readers) reach a secured peer (RustDDS patch 44: each
-        // fragment was refused as too long, logged as an error). Only that error is checked here: a listing
-        // that starts right after the one before it, on the same ports, may be sent what was meant for its
-        // predecessor and fail to decrypt it (logged as errors: a known problem, see issue 35's closing note)
-        assert!(
-            !stderr.contains("DataFrag"),
-            "the secured view's fragments refused: {stderr}"
-        );
+        // fragment was refused as too long, logged as an error), and a listing that starts right after the one
+        // before it, on the same ports, is sent what was meant for its predecessor for a while: it does not
+        // decode, and is reported as a warning once per peer (RustDDS patch 48: an ERROR line per message)
+        assert_no_error_lines(&stderr, "radar security generate_policy beside the secured view");
         if stdout.lines().any(|l| l == node) {
             break;
         }

@@ -108,6 +108,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "lock_tests",
         "unregistered_sender_tests",
         "an_encoded_payload_longer_than_its_fragment_run",
+        "decode_failures::",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -187,6 +188,8 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "the_plugins_are_handed_over_when_released",
             "a_submessage_from_a_participant_without_registered_endpoints_has_no_keys",
             "an_encoded_payload_longer_than_its_fragment_run_is_parsed",
+            "a_source_is_reported_once_per_period_with_how_many_were_not",
+            "many_sources_are_bounded",
         ],
     );
     // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the

@@ -1,6 +1,9 @@
 #[allow(dead_code)] // We allow this, since extra constants are not too harmful.
 pub(crate) mod constant;
 
+// used by secured builds only; its tests run in every build
+#[cfg_attr(not(feature = "security"), allow(dead_code))]
+pub(crate) mod decode_failures;
 pub(crate) mod dp_event_loop;
 pub(crate) mod early_arrivals;
 pub(crate) mod fragment_assembler;

@@ -158,6 +158,10 @@ pub(crate) struct MessageReceiver {
   // For certain topics we have to allow unprotected rtps messages even if the domain is
   // rtps-protected
   must_be_rtps_protection_special_case: bool,
+
+  /// Secured traffic that did not decode, per source (RADAR patch 48).
+  #[cfg(feature = "security")]
+  decode_failures: crate::rtps::decode_failures::DecodeFailures,
 }
 
 impl MessageReceiver {
@@ -195,6 +199,8 @@ impl MessageReceiver {
       #[cfg(feature = "security")]
       // Protection on by default
       must_be_rtps_protection_special_case: true,
+      #[cfg(feature = "security")]
+      decode_failures: Default::default(),
     }
   }
 
@@ -458,7 +464,14 @@ impl MessageReceiver {
                  message decoding."
               )
             }
-            Err(e) => return error!("{e:?}"),
+            Err(e) => {
+              return crate::rtps::decode_failures::report(
+                &mut self.decode_failures,
+                self.source_guid_prefix,
+                "A secured RTPS message",
+                &e,
+              )
+            }
           }
         } else {
           if security_plugins.rtps_not_protected(&self.dest_guid_prefix) {
@@ -1037,9 +1050,12 @@ impl MessageReceiver {
           &self.source_guid_prefix,
         );
         match decode_result {
-          Err(e) => {
-            error!("Submessage decoding failed: {e:?}");
-          }
+          Err(e) => crate::rtps::decode_failures::report(
+            &mut self.decode_failures,
+            self.source_guid_prefix,
+            "A secured submessage",
+            &e,
+          ),
           Ok(DecodeOutcome::Success(DecodedSubmessage::Writer(
             decoded_writer_submessage,
             approved_receiving_datareader_crypto_handles,
