@@ -1,5 +1,5 @@
 use std::{
-  collections::{BTreeMap, BTreeSet},
+  collections::{BTreeMap, BTreeSet, HashMap},
   sync::{Arc, RwLock, RwLockReadGuard, RwLockWriteGuard},
   time::Instant,
 };
@@ -83,6 +83,12 @@ pub(crate) struct DiscoveryDB {
   // The topics each sender described (RADAR patch 45): an endpoint that goes is taken out of its own topics,
   // not looked for in every topic.
   topics_by_sender: BTreeMap<GUID, BTreeSet<String>>,
+  // The readers and the writers, local and remote, of each topic (RADAR patch 49): a superset (an endpoint is
+  // added when stored, taken out when removed by GUID, and what is left of participants that went is pruned by
+  // `topic_cleanup`), so `readers_on_topic` and `writers_on_topic` look up a topic's endpoints instead of
+  // comparing every endpoint's topic name, once per endpoint made.
+  readers_by_topic: HashMap<String, BTreeSet<GUID>>,
+  writers_by_topic: HashMap<String, BTreeSet<GUID>>,
 
   // sender for notifying (potential) waiters in participant.find_topic() call
   topic_updated_sender: std::sync::mpsc::SyncSender<()>,
@@ -111,6 +117,28 @@ fn move_by_guid_prefix<D>(
   let to_move: Vec<GUID> = from.range(guid_prefix.range()).map(|(g, _)| *g).collect();
   for guid in to_move {
     from.remove(&guid).map(|d| to.insert(guid, d));
+  }
+}
+
+/// Notes endpoint `guid` on `topic` in a topic index (RADAR patch 49).
+fn index(by_topic: &mut HashMap<String, BTreeSet<GUID>>, topic: &str, guid: GUID) {
+  match by_topic.get_mut(topic) {
+    Some(guids) => {
+      guids.insert(guid);
+    }
+    None => {
+      by_topic.insert(topic.to_string(), BTreeSet::from([guid]));
+    }
+  }
+}
+
+/// Takes endpoint `guid` on `topic` out of a topic index.
+fn unindex(by_topic: &mut HashMap<String, BTreeSet<GUID>>, topic: &str, guid: GUID) {
+  if let Some(guids) = by_topic.get_mut(topic) {
+    guids.remove(&guid);
+    if guids.is_empty() {
+      by_topic.remove(topic);
+    }
   }
 }
 
@@ -162,6 +190,8 @@ impl DiscoveryDB {
       attic_order: std::collections::VecDeque::new(),
       topics: BTreeMap::new(),
       topics_by_sender: BTreeMap::new(),
+      readers_by_topic: HashMap::new(),
+      writers_by_topic: HashMap::new(),
       topic_updated_sender,
       participant_status_sender,
     }
@@ -389,7 +419,9 @@ impl DiscoveryDB {
 
   pub fn remove_topic_reader(&mut self, guid: GUID) {
     info!("remove_topic_reader {guid:?}");
-    self.external_topic_readers.remove(&guid);
+    if let Some(r) = self.external_topic_readers.remove(&guid) {
+      unindex(&mut self.readers_by_topic, r.subscription_topic_data.topic_name(), guid);
+    }
     self.forget_topic_data_from(guid);
   }
 
@@ -409,7 +441,9 @@ impl DiscoveryDB {
 
 
   pub fn remove_topic_writer(&mut self, guid: GUID) {
-    self.external_topic_writers.remove(&guid);
+    if let Some(w) = self.external_topic_writers.remove(&guid) {
+      unindex(&mut self.writers_by_topic, &w.publication_topic_data.topic_name, guid);
+    }
     self.forget_topic_data_from(guid);
   }
 
@@ -481,6 +515,23 @@ impl DiscoveryDB {
           .map(|p| p.publication_topic_data.topic_name.as_str()),
       )
       .collect();
+    // the endpoint index keeps what is stored, in the attic too (RADAR patch 49)
+    let (readers, readers_attic) = (&self.local_topic_readers, &self.external_topic_readers_attic);
+    let external_readers = &self.external_topic_readers;
+    self.readers_by_topic.retain(|_, guids| {
+      guids.retain(|g| {
+        readers.contains_key(g) || external_readers.contains_key(g) || readers_attic.contains_key(g)
+      });
+      !guids.is_empty()
+    });
+    let (writers, writers_attic) = (&self.local_topic_writers, &self.external_topic_writers_attic);
+    let external_writers = &self.external_topic_writers;
+    self.writers_by_topic.retain(|_, guids| {
+      guids.retain(|g| {
+        writers.contains_key(g) || external_writers.contains_key(g) || writers_attic.contains_key(g)
+      });
+      !guids.is_empty()
+    });
     let dead_topics: Vec<String> = self
       .topics
       .keys()
@@ -503,6 +554,11 @@ impl DiscoveryDB {
 
   pub fn update_local_topic_writer(&mut self, writer: DiscoveredWriterData) {
     self.local_writers_generation += 1;
+    index(
+      &mut self.writers_by_topic,
+      &writer.publication_topic_data.topic_name,
+      writer.writer_proxy.remote_writer_guid,
+    );
     self
       .local_topic_writers
       .insert(writer.writer_proxy.remote_writer_guid, writer);
@@ -510,7 +566,9 @@ impl DiscoveryDB {
 
   pub fn remove_local_topic_writer(&mut self, guid: GUID) {
     self.local_writers_generation += 1;
-    self.local_topic_writers.remove(&guid);
+    if let Some(w) = self.local_topic_writers.remove(&guid) {
+      unindex(&mut self.writers_by_topic, &w.publication_topic_data.topic_name, guid);
+    }
   }
 
   /// Changes whenever a local writer is added, updated or removed.
@@ -568,6 +626,7 @@ impl DiscoveryDB {
       ..data.clone()
     };
 
+    index(&mut self.readers_by_topic, enriched.subscription_topic_data.topic_name(), guid);
     self.external_topic_readers.insert(guid, enriched.clone());
     debug!("External reader: {enriched:?}");
 
@@ -625,6 +684,7 @@ impl DiscoveryDB {
       ..data.clone()
     };
 
+    index(&mut self.writers_by_topic, &enriched.publication_topic_data.topic_name, guid);
     self.external_topic_writers.insert(guid, enriched.clone());
     debug!("External writer: {enriched:?}");
 
@@ -795,6 +855,11 @@ impl DiscoveryDB {
 
   /// Inserts a record built by [`Self::local_topic_reader_data`].
   pub fn update_local_topic_reader(&mut self, discovered_reader_data: DiscoveredReaderData) {
+    index(
+      &mut self.readers_by_topic,
+      discovered_reader_data.subscription_topic_data.topic_name(),
+      discovered_reader_data.reader_proxy.remote_reader_guid,
+    );
     self.local_topic_readers.insert(
       discovered_reader_data.reader_proxy.remote_reader_guid,
       discovered_reader_data,
@@ -802,7 +867,9 @@ impl DiscoveryDB {
   }
 
   pub fn remove_local_topic_reader(&mut self, guid: GUID) {
-    self.local_topic_readers.remove(&guid);
+    if let Some(r) = self.local_topic_readers.remove(&guid) {
+      unindex(&mut self.readers_by_topic, r.subscription_topic_data.topic_name(), guid);
+    }
   }
 
   pub fn get_local_topic_reader(&self, guid: GUID) -> Option<&DiscoveredReaderData> {
@@ -883,34 +950,39 @@ impl DiscoveryDB {
       .collect()
   }
 
+  /// The writers, remote then local, on `topic_name` (through the topic index, RADAR patch 49).
   pub fn writers_on_topic(&self, topic_name: &str) -> Vec<&DiscoveredWriterData> {
-    // Get external & local writers on the topic
-    let exernal_writers = self
-      .external_topic_writers
-      .values()
-      .filter(|wd| wd.publication_topic_data.topic_name() == topic_name);
-    let local_writers = self
-      .local_topic_writers
-      .values()
-      .filter(|wd| wd.publication_topic_data.topic_name() == topic_name);
-    // Combine & return
-    let combined: Vec<&DiscoveredWriterData> = exernal_writers.chain(local_writers).collect();
-    combined
+    let guids = self.writers_by_topic.get(topic_name).into_iter().flatten();
+    let on_topic = |wd: &&DiscoveredWriterData| wd.publication_topic_data.topic_name() == topic_name;
+    let mut all: Vec<&DiscoveredWriterData> = guids
+      .clone()
+      .filter_map(|g| self.external_topic_writers.get(g))
+      .filter(on_topic)
+      .collect();
+    all.extend(
+      guids
+        .filter_map(|g| self.local_topic_writers.get(g))
+        .filter(on_topic),
+    );
+    all
   }
 
+  /// The readers, remote then local, on `topic_name` (through the topic index, RADAR patch 49).
   pub fn readers_on_topic(&self, topic_name: &str) -> Vec<&DiscoveredReaderData> {
-    // Get external & local readers on the topic
-    let exernal_readers = self
-      .external_topic_readers
-      .values()
-      .filter(|rd| rd.subscription_topic_data.topic_name() == topic_name);
-    let local_readers = self
-      .local_topic_readers
-      .values()
-      .filter(|rd| rd.subscription_topic_data.topic_name() == topic_name);
-    // Combine & return
-    let combined: Vec<&DiscoveredReaderData> = exernal_readers.chain(local_readers).collect();
-    combined
+    let guids = self.readers_by_topic.get(topic_name).into_iter().flatten();
+    let on_topic =
+      |rd: &&DiscoveredReaderData| rd.subscription_topic_data.topic_name() == topic_name;
+    let mut all: Vec<&DiscoveredReaderData> = guids
+      .clone()
+      .filter_map(|g| self.external_topic_readers.get(g))
+      .filter(on_topic)
+      .collect();
+    all.extend(
+      guids
+        .filter_map(|g| self.local_topic_readers.get(g))
+        .filter(on_topic),
+    );
+    all
   }
 
   // // TODO: return iterator somehow?
@@ -1135,6 +1207,124 @@ mod tests {
     db.topic_cleanup();
     assert_eq!(senders(&db), s(&[]));
     assert_eq!(db.topic_index_len(), 0);
+  }
+
+  // RADAR patch 49: the endpoints of a topic, found through the topic index, are those a scan of every
+  // endpoint finds, through endpoints added, removed, their participants lost (to the attic) and back
+  #[test]
+  fn the_endpoints_of_a_topic_are_found_as_a_scan_finds_them() {
+    let (discovery_db_event_sender, _discovery_db_event_receiver) =
+      std::sync::mpsc::sync_channel::<()>(1024);
+    let (status_sender, _status_receiver) = sync_status_channel(1024).unwrap();
+    let mut db = DiscoveryDB::new(
+      GUID::new_participant_guid(),
+      discovery_db_event_sender,
+      status_sender,
+    );
+    let topics = ["a", "b", "c"];
+    let participant = |db: &mut DiscoveryDB, p: u8| {
+      let mut d = spdp_participant_data().unwrap();
+      d.participant_guid = GUID::new(GuidPrefix::new(&[p; 12]), EntityId::PARTICIPANT);
+      db.update_participant(&d);
+    };
+    let reader = |db: &mut DiscoveryDB, p: u8, e: u8, topic: &str| {
+      let guid = GUID::new(
+        GuidPrefix::new(&[p; 12]),
+        EntityId::new([0, 1, e], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      let mut proxy = reader_proxy_data().unwrap();
+      proxy.remote_reader_guid = guid;
+      let sub = SubscriptionBuiltinTopicData::new(
+        guid,
+        None,
+        topic.to_string(),
+        "RandomData".to_string(),
+        &QosPolicies::qos_none(),
+        None,
+      );
+      db.update_subscription(&DiscoveredReaderData {
+        reader_proxy: proxy,
+        subscription_topic_data: sub,
+        content_filter: None,
+        user_data: Vec::new(),
+      });
+      guid
+    };
+    let writer = |db: &mut DiscoveryDB, p: u8, e: u8, topic: &str, local: bool| {
+      let guid = GUID::new(
+        GuidPrefix::new(&[p; 12]),
+        EntityId::new([0, 2, e], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+      );
+      let mut wp = writer_proxy_data().unwrap();
+      wp.remote_writer_guid = guid;
+      let mut publication = publication_builtin_topic_data().unwrap();
+      publication.key = guid;
+      publication.topic_name = topic.to_string();
+      let w = DiscoveredWriterData {
+        last_updated: Instant::now(),
+        writer_proxy: wp,
+        publication_topic_data: publication,
+        user_data: Vec::new(),
+      };
+      if local {
+        db.update_local_topic_writer(w);
+      } else {
+        db.update_publication(&w);
+      }
+      guid
+    };
+    // the oracle: every endpoint stored, filtered by its topic name
+    let check = |db: &DiscoveryDB, step: &str| {
+      for t in topics {
+        let scan_r: Vec<GUID> = db
+          .get_all_external_topic_readers()
+          .chain(db.get_all_local_topic_readers())
+          .filter(|r| r.subscription_topic_data.topic_name() == t)
+          .map(|r| r.reader_proxy.remote_reader_guid)
+          .collect();
+        let scan_w: Vec<GUID> = db
+          .get_all_external_topic_writers()
+          .chain(db.get_all_local_topic_writers())
+          .filter(|w| w.publication_topic_data.topic_name() == t)
+          .map(|w| w.writer_proxy.remote_writer_guid)
+          .collect();
+        let found_r: Vec<GUID> = db
+          .readers_on_topic(t)
+          .iter()
+          .map(|r| r.reader_proxy.remote_reader_guid)
+          .collect();
+        let found_w: Vec<GUID> = db
+          .writers_on_topic(t)
+          .iter()
+          .map(|w| w.writer_proxy.remote_writer_guid)
+          .collect();
+        assert_eq!(found_r, scan_r, "{step}: readers of {t}");
+        assert_eq!(found_w, scan_w, "{step}: writers of {t}");
+      }
+    };
+    participant(&mut db, 1);
+    participant(&mut db, 2);
+    let r1a = reader(&mut db, 1, 1, "a");
+    reader(&mut db, 1, 2, "b");
+    reader(&mut db, 2, 1, "a");
+    let w1a = writer(&mut db, 1, 1, "a", false);
+    writer(&mut db, 2, 1, "c", false);
+    let local = writer(&mut db, 7, 1, "a", true);
+    check(&db, "added");
+    assert_eq!(db.readers_on_topic("a").len(), 2);
+    assert_eq!(db.writers_on_topic("a").len(), 2);
+    db.remove_topic_reader(r1a);
+    db.remove_topic_writer(w1a);
+    db.remove_local_topic_writer(local);
+    check(&db, "removed by GUID");
+    db.remove_participant(GuidPrefix::new(&[2; 12]), false);
+    check(&db, "participant 2 lost (its endpoints to the attic)");
+    participant(&mut db, 2);
+    check(&db, "participant 2 back");
+    db.remove_participant(GuidPrefix::new(&[1; 12]), true);
+    db.topic_cleanup();
+    check(&db, "participant 1 gone, cleaned up");
+    assert!(db.readers_by_topic.values().flatten().all(|g| g.prefix != GuidPrefix::new(&[1; 12])));
   }
 
   // RADAR patch 37: a writer and a reader announced before their participant get its addresses when it comes
