@@ -312,7 +312,10 @@ fn secured_view_sees_count_up_from_its_own_enclave(ks: &std::path::Path) {
         // fragment was refused as too long, logged as an error), and a listing that starts right after the one
         // before it, on the same ports, is sent what was meant for its predecessor for a while: it does not
         // decode, and is reported as a warning once per peer (RustDDS patch 48: an ERROR line per message)
-        assert_no_error_lines(&stderr, "radar security generate_policy beside the secured view");
+        assert_no_error_lines(
+            &stderr,
+            "radar security generate_policy beside the secured view",
+        );
         if stdout.lines().any(|l| l == node) {
             break;
         }
