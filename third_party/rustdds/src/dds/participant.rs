@@ -736,6 +736,12 @@ impl DomainParticipant {
     self.dpi.lock().unwrap().discovery_instances_of(prefix)
   }
 
+  /// Test only: see `DomainParticipantDisc::pause_discovery`.
+  #[cfg(test)]
+  pub(crate) fn pause_discovery(&self) -> std::sync::mpsc::Sender<()> {
+    self.dpi.lock().unwrap().pause_discovery()
+  }
+
   pub(crate) fn new_entity_id(&self, entity_kind: EntityKind) -> EntityId {
     self.dpi.lock().unwrap().new_entity_id(entity_kind)
   }
@@ -1216,6 +1222,19 @@ impl DomainParticipantDisc {
   // pub(crate) fn discovery_db(&self) -> Arc<RwLock<DiscoveryDB>> {
   //   self.dpi.lock().unwrap().discovery_db.clone()
   // }
+
+  /// Test only: pauses Discovery (RADAR patch 50) until the returned sender is sent to or dropped.
+  #[cfg(test)]
+  pub(crate) fn pause_discovery(&self) -> std::sync::mpsc::Sender<()> {
+    let (resume, paused) = std::sync::mpsc::channel();
+    self
+      .discovery_command_sender
+      .send(DiscoveryCommand::Pause {
+        resume: crate::discovery::discovery::PauseHandle(Arc::new(std::sync::Mutex::new(paused))),
+      })
+      .expect("discovery runs");
+    resume
+  }
 
   /// Test only: how many instances Discovery's SEDP readers keep for the
   /// endpoints of participant `prefix`, or None if Discovery does not answer.
@@ -2012,6 +2031,60 @@ mod tests {
       "announced at the taken port {taken_port}: {announced:?}"
     );
     assert_eq!(announced, listening);
+  }
+
+  #[test]
+  fn endpoints_made_while_discovery_is_busy_are_all_announced() {
+    // RADAR patch 50: the event loop tells Discovery of every endpoint made through a queue of 1024, and a
+    // command that did not fit was dropped ("Failed to inform Discovery about the new endpoint: sending on a
+    // full channel"): that endpoint was never announced, and no peer ever matched it. Seen when a process made
+    // 2,000 components beside another busy one. Here Discovery is paused while 700 readers are made (each
+    // also sends Discovery an AddTopic, so the queue fills), then let go; a second participant must see them
+    // all.
+    use crate::structure::entity::RTPSEntity;
+    let domain = test_domain_id(30);
+    let a = super::DomainParticipantBuilder::new(domain)
+      .build()
+      .expect("participant a");
+    let b = super::DomainParticipantBuilder::new(domain)
+      .build()
+      .expect("participant b");
+    let subscriber = a.create_subscriber(&QosPolicies::qos_none()).unwrap();
+    let resume = a.pause_discovery();
+    let readers: Vec<_> = (0..700)
+      .map(|i| {
+        let topic = a
+          .create_topic(
+            format!("busy_discovery_{i}"),
+            "RandomData".to_string(),
+            &QosPolicies::qos_none(),
+            TopicKind::NoKey,
+          )
+          .unwrap();
+        subscriber
+          .create_datareader_no_key_cdr::<RandomData>(&topic, None)
+          .unwrap()
+      })
+      .collect();
+    // the event loop has made them all before Discovery goes on
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    drop(resume);
+    let prefix = a.guid().prefix;
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    let mut seen = 0;
+    while std::time::Instant::now() < until {
+      seen = b
+        .discovered_readers()
+        .iter()
+        .filter(|r| r.reader_proxy.remote_reader_guid.prefix == prefix)
+        .filter(|r| r.subscription_topic_data.topic_name().starts_with("busy_discovery_"))
+        .count();
+      if seen == readers.len() {
+        break;
+      }
+      std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert_eq!(seen, readers.len(), "readers of a that b discovered");
   }
 
   #[test]

@@ -680,8 +680,10 @@ impl InnerPublisher {
         topic_name: topic.name(),
       }) {
         // Log the error but don't quit, failing to inform Discovery about the topic
-        // shouldn't be that serious
-        error!(
+        // shouldn't be that serious. (RADAR patch 50: at debug level. The topic announcement is optional in
+        // DDS and unused by ROS 2; the endpoint itself is announced through the event loop, which keeps what
+        // Discovery's full queue did not take. A burst of endpoints logged an ERROR line for each.)
+        debug!(
           "Failed send DiscoveryCommand::AddTopic about topic {}: {}",
           topic.name(),
           e
@@ -1293,8 +1295,10 @@ impl InnerSubscriber {
         topic_name: topic.name(),
       }) {
         // Log the error but don't quit, failing to inform Discovery about the topic
-        // shouldn't be that serious
-        error!(
+        // shouldn't be that serious. (RADAR patch 50: at debug level. The topic announcement is optional in
+        // DDS and unused by ROS 2; the endpoint itself is announced through the event loop, which keeps what
+        // Discovery's full queue did not take. A burst of endpoints logged an ERROR line for each.)
+        debug!(
           "Failed send DiscoveryCommand::AddTopic about topic {}: {}",
           topic.name(),
           e

@@ -108,6 +108,11 @@ pub enum DiscoveryCommand {
     reply: CountReply,
   },
 
+  /// Test only: Discovery stops handling anything until `resume` is sent to, or dropped (at most 30 s),
+  /// as it does when it is busy (RADAR patch 50).
+  #[cfg(test)]
+  Pause { resume: PauseHandle },
+
   #[cfg(feature = "security")]
   StartKeyExchangeWithRemoteParticipant {
     participant_guid_prefix: GuidPrefix,
@@ -148,6 +153,36 @@ impl Ord for CountReply {
 }
 #[cfg(test)]
 impl std::hash::Hash for CountReply {
+  fn hash<H: std::hash::Hasher>(&self, _: &mut H) {}
+}
+
+/// Test only: what a `Pause` command waits on. All compare equal, as `CountReply`.
+#[cfg(test)]
+#[derive(Clone)]
+pub struct PauseHandle(pub Arc<std::sync::Mutex<std::sync::mpsc::Receiver<()>>>);
+
+#[cfg(test)]
+impl PartialEq for PauseHandle {
+  fn eq(&self, _: &Self) -> bool {
+    true
+  }
+}
+#[cfg(test)]
+impl Eq for PauseHandle {}
+#[cfg(test)]
+impl PartialOrd for PauseHandle {
+  fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+    Some(self.cmp(other))
+  }
+}
+#[cfg(test)]
+impl Ord for PauseHandle {
+  fn cmp(&self, _: &Self) -> std::cmp::Ordering {
+    std::cmp::Ordering::Equal
+  }
+}
+#[cfg(test)]
+impl std::hash::Hash for PauseHandle {
   fn hash<H: std::hash::Hasher>(&self, _: &mut H) {}
 }
 
@@ -903,6 +938,14 @@ impl Discovery {
                   }
                   self.send_endpoint_dispose_message(guid);
                   discovery_db_write(&self.discovery_db).remove_local_topic_reader(guid);
+                }
+                #[cfg(test)]
+                DiscoveryCommand::Pause { resume } => {
+                  let _ = resume
+                    .0
+                    .lock()
+                    .unwrap()
+                    .recv_timeout(StdDuration::from_secs(30));
                 }
                 #[cfg(test)]
                 DiscoveryCommand::CountInstancesOf { prefix, reply } => {

@@ -63,6 +63,10 @@ use crate::{
 #[cfg(not(feature = "security"))]
 use crate::no_security::security_plugins::SecurityPluginsHandle;
 
+/// How soon the loop tries again to tell Discovery of new endpoints its full queue did not take (RADAR
+/// patch 50).
+const DISCOVERY_BACKLOG_RETRY: Duration = Duration::from_millis(5);
+
 #[derive(Clone, Debug)]
 pub struct DomainInfo {
   pub domain_participant_guid: GUID,
@@ -142,6 +146,10 @@ pub struct DPEventLoop {
 
   discovery_update_notification_receiver: WakeReceiver<DiscoveryNotificationType>,
   discovery_command_sender: WakeSender<DiscoveryCommand>,
+  /// New local endpoints Discovery has not been told of yet: its queue was full (RADAR patch 50). Sent, in
+  /// order, before any newer one, at every turn of the loop (which then waits at most
+  /// `DISCOVERY_BACKLOG_RETRY`).
+  discovery_backlog: std::collections::VecDeque<DiscoveryCommand>,
 
   // Same-host loopback feature (participant-builder `same_host_loopback` knob):
   // when true, the SPDP writer announces to the localhost peers and writers may
@@ -267,6 +275,7 @@ impl DPEventLoop {
       discovery_update_notification_receiver,
       participant_status_sender,
       discovery_command_sender,
+      discovery_backlog: std::collections::VecDeque::new(),
       same_host_loopback,
     })
   }
@@ -313,6 +322,11 @@ impl DPEventLoop {
         Duration::from_millis(2000)
       } else {
         Duration::from_millis(2)
+      };
+      let idle_cap = if ev_wrapper.discovery_backlog.is_empty() {
+        idle_cap
+      } else {
+        idle_cap.min(DISCOVERY_BACKLOG_RETRY)
       };
       let poll_timeout = timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
@@ -439,6 +453,7 @@ impl DPEventLoop {
       }
     }
 
+    self.flush_discovery_backlog();
     self.handle_reader_action(readers_to_remove);
     self.handle_writer_action(writers_to_remove);
     self.handle_writer_acknack_action();
@@ -1338,23 +1353,45 @@ impl DPEventLoop {
     }
   }
 
-  fn inform_discovery_about_new_local_endpoint(&self, guid: GUID) {
+  fn inform_discovery_about_new_local_endpoint(&mut self, guid: GUID) {
     let discovery_command = if guid.entity_id.kind().is_writer() {
       DiscoveryCommand::AddLocalWriter { guid }
     } else {
       DiscoveryCommand::AddLocalReader { guid }
     };
+    // RADAR patch 50: a command that does not fit waits in the backlog (it was dropped, and the endpoint was
+    // never announced: no peer ever matched it). The loop must not block on Discovery, which may be waiting
+    // on the loop's own notification queue.
+    self.discovery_backlog.push_back(discovery_command);
+    self.flush_discovery_backlog();
+  }
 
-    match self.discovery_command_sender.try_send(discovery_command) {
-      Ok(()) => {}
-      // radar_ros patch 20: discovery has ended, the participant is closing (`close()`, or dropped while
-      // handles live): an endpoint made now is never announced, and that is not an error of the program
-      Err(std::sync::mpsc::TrySendError::Disconnected(_)) => log::debug!(
-        "Endpoint {guid:?} made while the participant closes: discovery has ended, not announced"
-      ),
-      Err(e) => log::error!(
-        "Failed to inform Discovery about the new endpoint: {e}. Endpoint guid: {guid:?}"
-      ),
+  /// Tells Discovery of the endpoints in the backlog, oldest first, as long as its queue takes them.
+  fn flush_discovery_backlog(&mut self) {
+    while let Some(command) = self.discovery_backlog.pop_front() {
+      match self.discovery_command_sender.try_send(command) {
+        Ok(()) => {}
+        Err(std::sync::mpsc::TrySendError::Full(command)) => {
+          if self.discovery_backlog.len() % 1000 == 999 {
+            debug!(
+              "Discovery's queue is full: {} new endpoints wait to be announced",
+              self.discovery_backlog.len() + 1
+            );
+          }
+          self.discovery_backlog.push_front(command);
+          return;
+        }
+        // radar_ros patch 20: discovery has ended, the participant is closing (`close()`, or dropped while
+        // handles live): an endpoint made now is never announced, and that is not an error of the program
+        Err(std::sync::mpsc::TrySendError::Disconnected(_)) => {
+          log::debug!(
+            "{} endpoints made while the participant closes: discovery has ended, not announced",
+            self.discovery_backlog.len() + 1
+          );
+          self.discovery_backlog.clear();
+          return;
+        }
+      }
     }
   }
 }
