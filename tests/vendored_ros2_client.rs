@@ -134,43 +134,14 @@ async fn wait_for_acknowledgments_returns_once_the_reader_has_everything() {
 /// times, not once per endpoint, and the last one lists every endpoint.
 #[tokio::test(flavor = "multi_thread")]
 async fn many_endpoints_at_once_send_ros_discovery_info_a_few_times_not_once_each() {
-    use ros2_client::{builtin_topics::ros_discovery, entities_info::ParticipantEntitiesInfo};
     init_logs();
     require_isolation();
-    // the other participant reads every `ros_discovery_info` sample (reliable, keep all)
     let other = rustdds::DomainParticipant::new(DOMAIN).unwrap();
-    let all = rustdds::QosPolicyBuilder::new()
-        .reliability(rustdds::policy::Reliability::Reliable {
-            max_blocking_time: rustdds::Duration::ZERO,
-        })
-        .history(rustdds::policy::History::KeepAll)
-        .durability(rustdds::policy::Durability::Volatile)
-        .build();
-    let topic = other
-        .create_topic(
-            ros_discovery::TOPIC_NAME.to_string(),
-            ros_discovery::TYPE_NAME.to_string(),
-            &all,
-            rustdds::TopicKind::NoKey,
-        )
-        .unwrap();
-    let mut reader = other
-        .create_subscriber(&all)
-        .unwrap()
-        .create_datareader_no_key_cdr::<ParticipantEntitiesInfo>(&topic, Some(all.clone()))
-        .unwrap();
+    let mut reader = discovery_info_reader(&other);
     let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
     let me = ros2_client::Gid::from(rustdds::RTPSEntity::guid(&ctx.domain_participant()));
     let mut n = node(&ctx, "many_endpoints");
-    let mine = |reader: &mut rustdds::no_key::DataReaderCdr<ParticipantEntitiesInfo>| {
-        let mut v = Vec::new();
-        while let Ok(Some(s)) = reader.take_next_sample() {
-            if s.value().gid() == me {
-                v.push(s.value().clone());
-            }
-        }
-        v
-    };
+    let mine = |reader: &mut DiscoveryInfoReader| discovery_info_of(reader, me);
     // the node is known: its first update has arrived
     let t0 = std::time::Instant::now();
     while mine(&mut reader).is_empty() {
@@ -215,6 +186,126 @@ async fn many_endpoints_at_once_send_ros_discovery_info_a_few_times_not_once_eac
         .map(|ni| ni.writers().len())
         .unwrap_or(0);
     assert!(listed >= 60, "the last update lists every writer: {listed}");
+}
+
+type DiscoveryInfoReader =
+    rustdds::no_key::DataReaderCdr<ros2_client::entities_info::ParticipantEntitiesInfo>;
+
+/// A reader of every `ros_discovery_info` sample (reliable, keep all) in `other`.
+fn discovery_info_reader(other: &rustdds::DomainParticipant) -> DiscoveryInfoReader {
+    use ros2_client::builtin_topics::ros_discovery;
+    let all = rustdds::QosPolicyBuilder::new()
+        .reliability(rustdds::policy::Reliability::Reliable {
+            max_blocking_time: rustdds::Duration::ZERO,
+        })
+        .history(rustdds::policy::History::KeepAll)
+        .durability(rustdds::policy::Durability::Volatile)
+        .build();
+    let topic = other
+        .create_topic(
+            ros_discovery::TOPIC_NAME.to_string(),
+            ros_discovery::TYPE_NAME.to_string(),
+            &all,
+            rustdds::TopicKind::NoKey,
+        )
+        .unwrap();
+    other
+        .create_subscriber(&all)
+        .unwrap()
+        .create_datareader_no_key_cdr(&topic, Some(all.clone()))
+        .unwrap()
+}
+
+/// The `ros_discovery_info` samples of participant `gid` that `reader` has, oldest first.
+fn discovery_info_of(
+    reader: &mut DiscoveryInfoReader,
+    gid: ros2_client::Gid,
+) -> Vec<ros2_client::entities_info::ParticipantEntitiesInfo> {
+    let mut v = Vec::new();
+    while let Ok(Some(s)) = reader.take_next_sample() {
+        if s.value().gid() == gid {
+            v.push(s.value().clone());
+        }
+    }
+    v
+}
+
+/// Patch 8: a node's `ros_discovery_info` entry is made when it is sent, not at every endpoint the node
+/// creates (each made it again in O(N): O(N^2) for a node of N endpoints, half of a manager's main thread when
+/// it made 1,000 connections). 400 endpoints made back to back make a few entries (the count of entries made in
+/// this process; other tests running beside this one add theirs), not 400; the entry sent last lists them all,
+/// the node's parameter events and rosout writers first, as the node always listed them.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_node_entry_is_made_when_sent_not_at_every_endpoint() {
+    use ros2_client::entities_info::entries_made;
+    init_logs();
+    require_isolation();
+    let other = rustdds::DomainParticipant::new(DOMAIN).unwrap();
+    let mut reader = discovery_info_reader(&other);
+    let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
+    let me = ros2_client::Gid::from(rustdds::RTPSEntity::guid(&ctx.domain_participant()));
+    let mut n = ctx
+        .new_node(
+            NodeName::new("/", "entry_when_sent").unwrap(),
+            NodeOptions::new()
+                .enable_rosout(true)
+                .start_parameter_services(false),
+        )
+        .unwrap();
+    let ty = MessageTypeName::new("std_msgs", "Int32");
+    let before = entries_made();
+    let (mut publishers, mut subscriptions) = (Vec::new(), Vec::new());
+    for i in 0..200 {
+        let t = n
+            .create_topic(
+                &Name::new("/", &format!("p8_{i}")).unwrap(),
+                ty.clone(),
+                &qos(),
+            )
+            .unwrap();
+        publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
+        subscriptions.push(n.create_subscription::<Int32>(&t, Some(qos())).unwrap());
+    }
+    let made = entries_made() - before;
+    assert!(made < 100, "{made} node entries made for 400 endpoints");
+    let mine: std::collections::HashSet<ros2_client::Gid> = publishers
+        .iter()
+        .map(|p| p.guid().into())
+        .chain(subscriptions.iter().map(|s| s.guid().into()))
+        .collect();
+    let t0 = std::time::Instant::now();
+    let entry = loop {
+        let last = discovery_info_of(&mut reader, me).pop().and_then(|info| {
+            info.nodes()
+                .iter()
+                .find(|ni| ni.name() == "entry_when_sent")
+                .cloned()
+        });
+        if let Some(e) = last.filter(|e| e.readers().len() + e.writers().len() >= 400) {
+            break e;
+        }
+        assert!(
+            t0.elapsed() < DISCOVERY,
+            "no entry listing all 400 endpoints"
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    };
+    let listed: std::collections::HashSet<ros2_client::Gid> = entry
+        .readers()
+        .iter()
+        .chain(entry.writers())
+        .copied()
+        .collect();
+    assert!(mine.is_subset(&listed), "every endpoint listed");
+    // parameter events and rosout first (neither is one of the 400), the ros_discovery_info writer last
+    let w = entry.writers();
+    assert_eq!(w.len(), 200 + 3, "the node's writers: {}", w.len());
+    assert!(!mine.contains(&w[0]) && !mine.contains(&w[1]) && !mine.contains(&w[202]));
+    assert_eq!(
+        entry.readers().len(),
+        200,
+        "rosout is not read by this node"
+    );
 }
 
 /// Patch 4: dropping a publisher waits until its subscription has acknowledged what it sent: right after the

@@ -17,7 +17,7 @@ use rustdds::{
 
 use crate::{
   NodeOptions, builtin_topics,
-  entities_info::{NodeEntitiesInfo, ParticipantEntitiesInfo},
+  entities_info::{NodeEntities, ParticipantEntitiesInfo},
   error::CreateResult,
   gid::Gid,
   graph::DiscoveredTopic,
@@ -100,7 +100,7 @@ impl Default for ContextOptions {
 
 /// [Context] communicates with other
 /// participants information in ROS2 network. It keeps track of
-/// [`NodeEntitiesInfo`]s. Also acts as a wrapper for a RustDDS instance.
+/// [`NodeEntitiesInfo`](crate::entities_info::NodeEntitiesInfo)s. Also acts as a wrapper for a RustDDS instance.
 ///
 /// Context is shut down by dropping it, and all of its RosNodes.
 /// There should be no need for `ok()` or `shutdown()` methods.
@@ -318,8 +318,10 @@ impl Context {
     )
   }
 
-  pub(crate) fn update_node(&mut self, node_info: NodeEntitiesInfo) {
-    self.inner.lock().unwrap().update_node(node_info);
+  /// The node's readers or writers changed: its entry is sent with the next `ros_discovery_info`, made from
+  /// `entities` then (radar_ros patch 8).
+  pub(crate) fn update_node(&mut self, entities: &Arc<Mutex<NodeEntities>>) {
+    self.inner.lock().unwrap().update_node(entities);
   }
 
   pub(crate) fn remove_node(&mut self, node_name: &str) {
@@ -340,7 +342,7 @@ impl Context {
 }
 
 struct ContextInner {
-  local_nodes: HashMap<String, NodeEntitiesInfo>,
+  local_nodes: HashMap<String, Arc<Mutex<NodeEntities>>>,
 
   // ROS Discovery: topic, reader and writer
   ros_discovery_topic: Topic,
@@ -526,18 +528,29 @@ impl ContextInner {
   pub fn participant_entities_info(&self) -> ParticipantEntitiesInfo {
     ParticipantEntitiesInfo::new(
       Gid::from(self.domain_participant.guid()),
-      self.local_nodes.values().cloned().collect(),
+      self
+        .local_nodes
+        .values()
+        .map(|node| {
+          node
+            .lock()
+            .unwrap()
+            .info(Gid::from(self.node_writer.guid()))
+        })
+        .collect(),
     )
   }
 
   // Adds new NodeEntitiesInfo and updates our ContextInfo to ROS2 network
-  fn update_node(&mut self, mut node_info: NodeEntitiesInfo) {
-    // Each node connects also to the ROS discovery topic
-    node_info.add_writer(Gid::from(self.node_writer.guid()));
-
-    self
-      .local_nodes
-      .insert(node_info.fully_qualified_name(), node_info);
+  // (Each node lists the ROS discovery topic's writer too: added when the entry is made.)
+  fn update_node(&mut self, entities: &Arc<Mutex<NodeEntities>>) {
+    let fqn = entities.lock().unwrap().name.fully_qualified_name();
+    match self.local_nodes.get(&fqn) {
+      Some(known) if Arc::ptr_eq(known, entities) => {}
+      _ => {
+        self.local_nodes.insert(fqn, Arc::clone(entities));
+      }
+    }
     self.broadcaster.request();
   }
 

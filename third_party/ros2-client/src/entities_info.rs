@@ -101,6 +101,7 @@ impl NodeEntitiesInfo {
     readers: impl IntoIterator<Item = Gid>,
     writers: impl IntoIterator<Item = Gid>,
   ) -> NodeEntitiesInfo {
+    ENTRIES_MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let once = |gids: &mut dyn Iterator<Item = Gid>| {
       let mut seen = std::collections::HashSet::new();
       gids.filter(|g| seen.insert(*g)).collect::<Vec<_>>()
@@ -122,6 +123,55 @@ impl NodeEntitiesInfo {
     if !self.reader_gid_seq.contains(&gid) {
       self.reader_gid_seq.push(gid);
     }
+  }
+}
+
+static ENTRIES_MADE: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// How many node entries [`NodeEntitiesInfo::with_entities`] has made in this process, for tests of how often
+/// a node's entry is made (radar_ros patch 8).
+#[doc(hidden)]
+pub fn entries_made() -> u64 {
+  ENTRIES_MADE.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// A node's readers and writers as they are now, shared by the node (which adds to them) and its context
+/// (which makes the node's `ros_discovery_info` entry from them when it sends). (radar_ros patch 8: the entry
+/// was made again, in O(N), at every endpoint the node created, O(N^2) for a node of N endpoints, though it is
+/// sent at most once per 50 ms since patch 3.)
+#[derive(Debug)]
+pub(crate) struct NodeEntities {
+  pub(crate) name: NodeName,
+  pub(crate) readers: std::collections::BTreeSet<Gid>,
+  pub(crate) writers: std::collections::BTreeSet<Gid>,
+  /// Writers listed before `writers`, in this order (parameter events, rosout), as the node has always
+  /// listed them.
+  pub(crate) first_writers: Vec<Gid>,
+}
+
+impl NodeEntities {
+  pub(crate) fn new(name: NodeName) -> NodeEntities {
+    NodeEntities {
+      name,
+      readers: Default::default(),
+      writers: Default::default(),
+      first_writers: Vec::new(),
+    }
+  }
+
+  /// The node's entry, with `extra_writer` (the context's `ros_discovery_info` writer, which every node
+  /// lists) last unless already listed.
+  pub(crate) fn info(&self, extra_writer: Gid) -> NodeEntitiesInfo {
+    NodeEntitiesInfo::with_entities(
+      self.name.clone(),
+      self.readers.iter().copied(),
+      self
+        .first_writers
+        .iter()
+        .chain(self.writers.iter())
+        .copied()
+        .chain(std::iter::once(extra_writer)),
+    )
   }
 }
 

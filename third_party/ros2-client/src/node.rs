@@ -19,7 +19,7 @@ use crate::{
   action::*,
   action_msgs, builtin_interfaces,
   context::{Context, DEFAULT_SUBSCRIPTION_QOS},
-  entities_info::{NodeEntitiesInfo, ParticipantEntitiesInfo},
+  entities_info::{NodeEntities, NodeEntitiesInfo, ParticipantEntitiesInfo},
   error::{CreateError, CreateResult},
   gid::Gid,
   graph::{EntityKind, GraphEntity, GraphEvent},
@@ -517,9 +517,9 @@ pub struct Node {
   pub(crate) ros_context: Context,
 
   // sets of Readers and Writers belonging to ( = created via) this Node
-  // These indicate what has been created locally.
-  readers: BTreeSet<Gid>,
-  writers: BTreeSet<Gid>,
+  // These indicate what has been created locally. Shared with the context, which makes the node's
+  // ros_discovery_info entry from them when it sends (radar_ros patch 8).
+  entities: Arc<Mutex<NodeEntities>>,
 
   // Temporarily suppress sending updates, to prevent a flood of messages.
   suppress_node_info_updates: bool,
@@ -576,11 +576,10 @@ impl Node {
     .map_err(NodeCreateError::BadParameter)?;
 
     let mut node = Node {
-      node_name,
+      node_name: node_name.clone(),
       options,
       ros_context,
-      readers: BTreeSet::new(),
-      writers: BTreeSet::new(),
+      entities: Arc::new(Mutex::new(NodeEntities::new(node_name.clone()))),
       readers_to_remote_writers: Arc::new(Mutex::new(BTreeMap::new())),
       writers_to_remote_readers: Arc::new(Mutex::new(BTreeMap::new())),
       external_nodes: Arc::new(Mutex::new(BTreeMap::new())),
@@ -595,14 +594,24 @@ impl Node {
     };
 
     node.suppress_node_info_updates(true);
+    node
+      .entities
+      .lock()
+      .unwrap()
+      .first_writers
+      .push(Gid::from(node.parameter_events_writer.guid()));
 
     // rosout_writer defaults to Arc::new(None) at struct construction above, so
     // only overwrite it when rosout publishing is enabled.
     if enable_rosout {
-      node.rosout_writer = Arc::new(Some(
-        // topic already has QoS defined
-        node.create_publisher(&rosout_topic, None)?,
-      ));
+      let rosout_writer: Publisher<Log> = node.create_publisher(&rosout_topic, None)?; // topic already has QoS defined
+      node
+        .entities
+        .lock()
+        .unwrap()
+        .first_writers
+        .push(Gid::from(rosout_writer.guid()));
+      node.rosout_writer = Arc::new(Some(rosout_writer));
     }
     node.rosout_reader = if rosout_reader {
       Some(node.create_subscription(&rosout_topic, None)?)
@@ -743,40 +752,28 @@ impl Node {
     self.stop_spin_sender.is_some()
   }
 
-  // Generates ROS2 node info from added readers and writers.
-  // (radar_ros patch 7: made in one pass, linear in the number of readers and writers; it is made again at
-  // every reader or writer created, so adding each with a search through the list made a node of N endpoints
-  // cost O(N^3) to build.)
-  fn generate_node_info(&self) -> NodeEntitiesInfo {
-    let own_writers = std::iter::once(Gid::from(self.parameter_events_writer.guid()))
-      .chain((*self.rosout_writer).as_ref().map(|row| Gid::from(row.guid())));
-    NodeEntitiesInfo::with_entities(
-      self.node_name.clone(),
-      self.readers.iter().copied(),
-      own_writers.chain(self.writers.iter().copied()),
-    )
-  }
-
   fn suppress_node_info_updates(&mut self, suppress: bool) {
     self.suppress_node_info_updates = suppress;
 
     // Send updates when suppression ends
     if !suppress {
-      self.ros_context.update_node(self.generate_node_info());
+      self.ros_context.update_node(&self.entities);
     }
   }
 
+  // (radar_ros patch 8: the entry is made when the context sends it, not here: making it at every endpoint
+  // cost O(N) each, O(N^2) for a node of N endpoints.)
   fn add_reader(&mut self, reader: Gid) {
-    self.readers.insert(reader);
+    self.entities.lock().unwrap().readers.insert(reader);
     if !self.suppress_node_info_updates {
-      self.ros_context.update_node(self.generate_node_info());
+      self.ros_context.update_node(&self.entities);
     }
   }
 
   fn add_writer(&mut self, writer: Gid) {
-    self.writers.insert(writer);
+    self.entities.lock().unwrap().writers.insert(writer);
     if !self.suppress_node_info_updates {
-      self.ros_context.update_node(self.generate_node_info());
+      self.ros_context.update_node(&self.entities);
     }
   }
 
