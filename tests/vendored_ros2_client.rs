@@ -308,6 +308,80 @@ async fn a_node_entry_is_made_when_sent_not_at_every_endpoint() {
     );
 }
 
+/// Patch 9: a publisher or subscription dropped is taken off its node's `ros_discovery_info` entry, and the
+/// list is sent again (it only grew: a node that makes and drops endpoints, as a RADAR manager does with each
+/// scope's connections, announced every GID it ever had). Five rounds of 40 endpoints made and dropped: the
+/// entry sent after each drop lists none of them and no more than the node had before.
+#[tokio::test(flavor = "multi_thread")]
+async fn dropped_endpoints_leave_their_nodes_entry() {
+    init_logs();
+    require_isolation();
+    let other = rustdds::DomainParticipant::new(DOMAIN).unwrap();
+    let mut reader = discovery_info_reader(&other);
+    let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
+    let me = ros2_client::Gid::from(rustdds::RTPSEntity::guid(&ctx.domain_participant()));
+    let mut n = node(&ctx, "drops_endpoints");
+    let ty = MessageTypeName::new("std_msgs", "Int32");
+    // the node's entry as last sent, once it satisfies `done`
+    let mut last = None;
+    let mut entry_when = |done: &dyn Fn(&ros2_client::entities_info::NodeEntitiesInfo) -> bool| {
+        let t0 = std::time::Instant::now();
+        loop {
+            for info in discovery_info_of(&mut reader, me) {
+                last = info
+                    .nodes()
+                    .iter()
+                    .find(|ni| ni.name() == "drops_endpoints")
+                    .cloned();
+            }
+            match &last {
+                Some(e) if done(e) => return e.clone(),
+                _ => {}
+            }
+            assert!(t0.elapsed() < DISCOVERY, "last entry sent: {last:?}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    };
+    let count =
+        |e: &ros2_client::entities_info::NodeEntitiesInfo| e.readers().len() + e.writers().len();
+    let base = count(&entry_when(&|_| true));
+    for round in 0..5 {
+        let (mut publishers, mut subscriptions) = (Vec::new(), Vec::new());
+        for i in 0..20 {
+            let t = n
+                .create_topic(
+                    &Name::new("/", &format!("p9_{round}_{i}")).unwrap(),
+                    ty.clone(),
+                    &qos(),
+                )
+                .unwrap();
+            publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
+            subscriptions.push(n.create_subscription::<Int32>(&t, Some(qos())).unwrap());
+        }
+        let made: std::collections::HashSet<ros2_client::Gid> = publishers
+            .iter()
+            .map(|p| p.guid().into())
+            .chain(subscriptions.iter().map(|s| s.guid().into()))
+            .collect();
+        let listed = |e: &ros2_client::entities_info::NodeEntitiesInfo| {
+            e.readers()
+                .iter()
+                .chain(e.writers())
+                .filter(|g| made.contains(*g))
+                .count()
+        };
+        entry_when(&|e| listed(e) == 40);
+        drop(publishers);
+        drop(subscriptions);
+        let after = entry_when(&|e| listed(e) == 0);
+        assert_eq!(
+            count(&after),
+            base,
+            "round {round}: the node's own endpoints only"
+        );
+    }
+}
+
 /// Patch 4: dropping a publisher waits until its subscription has acknowledged what it sent: right after the
 /// drop, everything is in the subscription's cache.
 #[tokio::test(flavor = "multi_thread")]

@@ -320,6 +320,11 @@ impl Context {
 
   /// The node's readers or writers changed: its entry is sent with the next `ros_discovery_info`, made from
   /// `entities` then (radar_ros patch 8).
+  /// What a [`Listing`] asks for a broadcast with (radar_ros patch 9).
+  pub(crate) fn broadcaster(&self) -> std::sync::Weak<Broadcaster> {
+    Arc::downgrade(&self._broadcast_thread.broadcaster)
+  }
+
   pub(crate) fn update_node(&mut self, entities: &Arc<Mutex<NodeEntities>>) {
     self.inner.lock().unwrap().update_node(entities);
   }
@@ -373,7 +378,7 @@ const DISCOVERY_INFO_INTERVAL: std::time::Duration = std::time::Duration::from_m
 /// [`DISCOVERY_INFO_INTERVAL`]: the first change after a quiet spell at once, the rest together at the end of
 /// the interval. Every endpoint a node creates used to send the whole participant's entity list, so creating
 /// N endpoints cost O(N^2). (radar_ros patch 3.)
-struct Broadcaster {
+pub(crate) struct Broadcaster {
   state: Mutex<BroadcastState>,
   wake: std::sync::Condvar,
 }
@@ -405,6 +410,39 @@ struct BroadcastState {
   pending: bool,
   last: Option<std::time::Instant>,
   stop: bool,
+}
+
+/// A reader or writer listed in its node's `ros_discovery_info` entry, for as long as the endpoint lives: its
+/// drop takes it off the list and has the list sent again. (radar_ros patch 9: endpoints were never taken off,
+/// so a node that makes and drops endpoints, as a RADAR manager does with each scope's connections, announced
+/// a list that only grew, every GID it ever had, sent whole at every change.) Holds neither the node nor the
+/// context alive.
+pub(crate) struct Listing {
+  pub(crate) entities: std::sync::Weak<Mutex<NodeEntities>>,
+  pub(crate) broadcaster: std::sync::Weak<Broadcaster>,
+  pub(crate) gid: Gid,
+  pub(crate) writer: bool,
+}
+
+impl Drop for Listing {
+  fn drop(&mut self) {
+    let Some(entities) = self.entities.upgrade() else {
+      return;
+    };
+    let removed = {
+      let mut e = entities.lock().unwrap();
+      if self.writer {
+        e.writers.remove(&self.gid)
+      } else {
+        e.readers.remove(&self.gid)
+      }
+    };
+    if removed {
+      if let Some(b) = self.broadcaster.upgrade() {
+        b.request();
+      }
+    }
+  }
 }
 
 impl Broadcaster {

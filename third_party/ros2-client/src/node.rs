@@ -770,6 +770,16 @@ impl Node {
     }
   }
 
+  // an endpoint's place in this node's entry, given up when the endpoint drops (radar_ros patch 9)
+  fn listing(&self, gid: Gid, writer: bool) -> crate::context::Listing {
+    crate::context::Listing {
+      entities: Arc::downgrade(&self.entities),
+      broadcaster: self.ros_context.broadcaster(),
+      gid,
+      writer,
+    }
+  }
+
   fn add_writer(&mut self, writer: Gid) {
     self.entities.lock().unwrap().writers.insert(writer);
     if !self.suppress_node_info_updates {
@@ -1112,8 +1122,9 @@ impl Node {
     qos: Option<QosProfile>,
   ) -> CreateResult<Subscription<D>> {
     let sub = self.ros_context.create_subscription(topic, qos)?;
-    self.add_reader(sub.guid().into());
-    Ok(sub)
+    let gid = sub.guid().into();
+    self.add_reader(gid);
+    Ok(sub.listed(self.listing(gid, false)))
   }
 
   /// Creates ROS2 Publisher
@@ -1129,8 +1140,9 @@ impl Node {
     qos: Option<QosProfile>,
   ) -> CreateResult<Publisher<D>> {
     let p = self.ros_context.create_publisher(topic, qos)?;
-    self.add_writer(p.guid().into());
-    Ok(p)
+    let gid = p.guid().into();
+    self.add_writer(gid);
+    Ok(p.listed(self.listing(gid, true)))
   }
 
   pub(crate) fn create_simpledatareader<D, DA>(

@@ -22,12 +22,24 @@ use crate::error::{ReadError, ReadResult, WriteResult};
 /// DDS
 pub struct Publisher<M: Serialize> {
   datawriter: no_key::DataWriterCdr<M>,
+  // its place in its node's ros_discovery_info entry, given up on drop (radar_ros patch 9); dropped after the
+  // drop below has waited for acknowledgements
+  _listing: Option<crate::context::Listing>,
 }
 
 impl<M: Serialize> Publisher<M> {
   // These must be created from Node
   pub(crate) fn new(datawriter: no_key::DataWriterCdr<M>) -> Publisher<M> {
-    Publisher { datawriter }
+    Publisher {
+      datawriter,
+      _listing: None,
+    }
+  }
+
+  /// Lists this publisher in its node's entry while it lives (radar_ros patch 9).
+  pub(crate) fn listed(mut self, listing: crate::context::Listing) -> Publisher<M> {
+    self._listing = Some(listing);
+    self
   }
 
   pub fn publish(&self, message: M) -> WriteResult<(), M> {
@@ -132,6 +144,8 @@ impl<M: Serialize> Drop for Publisher<M> {
 /// DDS
 pub struct Subscription<M> {
   datareader: no_key::SimpleDataReaderCdr<M>,
+  // its place in its node's ros_discovery_info entry, given up on drop (radar_ros patch 9)
+  _listing: Option<crate::context::Listing>,
 }
 
 impl<M> Subscription<M>
@@ -140,7 +154,16 @@ where
 {
   // These must be created from Node
   pub(crate) fn new(datareader: no_key::SimpleDataReaderCdr<M>) -> Subscription<M> {
-    Subscription { datareader }
+    Subscription {
+      datareader,
+      _listing: None,
+    }
+  }
+
+  /// Lists this subscription in its node's entry while it lives (radar_ros patch 9).
+  pub(crate) fn listed(mut self, listing: crate::context::Listing) -> Subscription<M> {
+    self._listing = Some(listing);
+    self
   }
 
   pub fn take_seed<S>(&self, seed: S) -> ReadResult<Option<(M, MessageInfo)>>
