@@ -41,6 +41,20 @@ with radar_ros.Radar(args=[]) as radar:
 """
 
 
+@pytest.fixture(autouse=True)
+def sigint_as_from_a_terminal() -> Iterator[None]:
+    """The program gets SIGINT's default disposition, as one started from a terminal or by `ros2 launch`. A test
+    run started in the background by a non-interactive shell (`cmd &`) has SIGINT ignored, and an ignored
+    disposition is inherited across exec, so the program would never see Ctrl-C (Python leaves an ignored
+    SIGINT ignored). A handler set here is reset to the default in the child."""
+    before = signal.getsignal(signal.SIGINT)
+    if before == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    if before == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @pytest.fixture
 def program() -> Iterator[str]:
     with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
