@@ -429,14 +429,7 @@ impl Drop for Listing {
     let Some(entities) = self.entities.upgrade() else {
       return;
     };
-    let removed = {
-      let mut e = entities.lock().unwrap();
-      if self.writer {
-        e.writers.remove(&self.gid)
-      } else {
-        e.readers.remove(&self.gid)
-      }
-    };
+    let removed = entities.lock().unwrap().set(self.gid, self.writer, false);
     if removed {
       if let Some(b) = self.broadcaster.upgrade() {
         b.request();
@@ -582,7 +575,7 @@ impl ContextInner {
   // Adds new NodeEntitiesInfo and updates our ContextInfo to ROS2 network
   // (Each node lists the ROS discovery topic's writer too: added when the entry is made.)
   fn update_node(&mut self, entities: &Arc<Mutex<NodeEntities>>) {
-    let fqn = entities.lock().unwrap().name.fully_qualified_name();
+    let fqn = entities.lock().unwrap().fully_qualified_name();
     match self.local_nodes.get(&fqn) {
       Some(known) if Arc::ptr_eq(known, entities) => {}
       _ => {

@@ -141,12 +141,15 @@ pub fn entries_made() -> u64 {
 /// sent at most once per 50 ms since patch 3.)
 #[derive(Debug)]
 pub(crate) struct NodeEntities {
-  pub(crate) name: NodeName,
-  pub(crate) readers: std::collections::BTreeSet<Gid>,
-  pub(crate) writers: std::collections::BTreeSet<Gid>,
+  name: NodeName,
+  readers: std::collections::BTreeSet<Gid>,
+  writers: std::collections::BTreeSet<Gid>,
   /// Writers listed before `writers`, in this order (parameter events, rosout), as the node has always
   /// listed them.
-  pub(crate) first_writers: Vec<Gid>,
+  first_writers: Vec<Gid>,
+  /// The entry as last made, until a change: a participant's list is sent whole, and most of its nodes
+  /// (a RADAR component is a node) have not changed since the last time.
+  made: Option<(Gid, NodeEntitiesInfo)>,
 }
 
 impl NodeEntities {
@@ -156,22 +159,58 @@ impl NodeEntities {
       readers: Default::default(),
       writers: Default::default(),
       first_writers: Vec::new(),
+      made: None,
     }
+  }
+
+  pub(crate) fn fully_qualified_name(&self) -> String {
+    self.name.fully_qualified_name()
+  }
+
+  /// Adds a writer listed before the others (parameter events, then rosout).
+  pub(crate) fn add_first_writer(&mut self, gid: Gid) {
+    self.first_writers.push(gid);
+    self.made = None;
+  }
+
+  /// Adds (`true`) or takes off (`false`) a reader or writer; whether that changed the list.
+  pub(crate) fn set(&mut self, gid: Gid, writer: bool, listed: bool) -> bool {
+    let set = if writer {
+      &mut self.writers
+    } else {
+      &mut self.readers
+    };
+    let changed = if listed {
+      set.insert(gid)
+    } else {
+      set.remove(&gid)
+    };
+    if changed {
+      self.made = None;
+    }
+    changed
   }
 
   /// The node's entry, with `extra_writer` (the context's `ros_discovery_info` writer, which every node
   /// lists) last unless already listed.
-  pub(crate) fn info(&self, extra_writer: Gid) -> NodeEntitiesInfo {
-    NodeEntitiesInfo::with_entities(
-      self.name.clone(),
-      self.readers.iter().copied(),
-      self
-        .first_writers
-        .iter()
-        .chain(self.writers.iter())
-        .copied()
-        .chain(std::iter::once(extra_writer)),
-    )
+  pub(crate) fn info(&mut self, extra_writer: Gid) -> NodeEntitiesInfo {
+    match &self.made {
+      Some((extra, made)) if *extra == extra_writer => made.clone(),
+      _ => {
+        let made = NodeEntitiesInfo::with_entities(
+          self.name.clone(),
+          self.readers.iter().copied(),
+          self
+            .first_writers
+            .iter()
+            .chain(self.writers.iter())
+            .copied()
+            .chain(std::iter::once(extra_writer)),
+        );
+        self.made = Some((extra_writer, made.clone()));
+        made
+      }
+    }
   }
 }
 

@@ -598,8 +598,7 @@ impl Node {
       .entities
       .lock()
       .unwrap()
-      .first_writers
-      .push(Gid::from(node.parameter_events_writer.guid()));
+      .add_first_writer(Gid::from(node.parameter_events_writer.guid()));
 
     // rosout_writer defaults to Arc::new(None) at struct construction above, so
     // only overwrite it when rosout publishing is enabled.
@@ -609,8 +608,7 @@ impl Node {
         .entities
         .lock()
         .unwrap()
-        .first_writers
-        .push(Gid::from(rosout_writer.guid()));
+        .add_first_writer(Gid::from(rosout_writer.guid()));
       node.rosout_writer = Arc::new(Some(rosout_writer));
     }
     node.rosout_reader = if rosout_reader {
@@ -764,7 +762,7 @@ impl Node {
   // (radar_ros patch 8: the entry is made when the context sends it, not here: making it at every endpoint
   // cost O(N) each, O(N^2) for a node of N endpoints.)
   fn add_reader(&mut self, reader: Gid) {
-    self.entities.lock().unwrap().readers.insert(reader);
+    self.entities.lock().unwrap().set(reader, false, true);
     if !self.suppress_node_info_updates {
       self.ros_context.update_node(&self.entities);
     }
@@ -781,7 +779,7 @@ impl Node {
   }
 
   fn add_writer(&mut self, writer: Gid) {
-    self.entities.lock().unwrap().writers.insert(writer);
+    self.entities.lock().unwrap().set(writer, true, true);
     if !self.suppress_node_info_updates {
       self.ros_context.update_node(&self.entities);
     }

@@ -2096,50 +2096,59 @@ impl Discovery {
     }
   }
 
+  // (RADAR patch 52: the database's lock is let go before anything is sent. Sending to the event loop waits
+  // when its queue is full, and the event loop may itself be waiting for this lock: behind a thread that waits
+  // to write it, such as one making a reader. Seen as a hang: 400 endpoints made back to back, 1 run in 6.)
   fn add_local_writer(&self, guid: GUID) {
-    // Get writer data from db
-    let db = discovery_db_read(&self.discovery_db);
-    let writer_data = match db.get_local_topic_writer(guid) {
-      Some(d) => d,
-      None => {
+    let (writer_data, existing_readers) = {
+      let db = discovery_db_read(&self.discovery_db);
+      let Some(writer_data) = db.get_local_topic_writer(guid).cloned() else {
         warn!("Did not find a local writer {guid:?}");
         return;
-      }
+      };
+      let readers: Vec<DiscoveredReaderData> = db
+        .readers_on_topic(writer_data.publication_topic_data.topic_name())
+        .into_iter()
+        .cloned()
+        .collect();
+      (writer_data, readers)
     };
 
     // Publish it to SEDP (if needed)
-    self.sedp_publish_single_user_writer(writer_data);
+    self.sedp_publish_single_user_writer(&writer_data);
 
     // Send the ReaderUpdated notification on any existing readers on the writer's
     // topic This will result in matching the endpoints if possible
-    let existing_readers = db.readers_on_topic(writer_data.publication_topic_data.topic_name());
     for reader in existing_readers {
       self.send_discovery_notification(DiscoveryNotificationType::ReaderUpdated {
-        discovered_reader_data: reader.clone(),
+        discovered_reader_data: reader,
       });
     }
   }
 
   fn add_local_reader(&self, guid: GUID) {
-    // Get reader data from db
-    let db = discovery_db_read(&self.discovery_db);
-    let reader_data = match db.get_local_topic_reader(guid) {
-      Some(d) => d,
-      None => {
+    let (reader_data, existing_writers) = {
+      let db = discovery_db_read(&self.discovery_db);
+      let Some(reader_data) = db.get_local_topic_reader(guid).cloned() else {
         warn!("Did not find a local reader {guid:?}");
         return;
-      }
+      };
+      let writers: Vec<DiscoveredWriterData> = db
+        .writers_on_topic(reader_data.subscription_topic_data.topic_name())
+        .into_iter()
+        .cloned()
+        .collect();
+      (reader_data, writers)
     };
 
     // Publish it to SEDP (if needed)
-    self.sedp_publish_single_user_reader(reader_data);
+    self.sedp_publish_single_user_reader(&reader_data);
 
     // Send the WriterUpdated notification on any existing writers on the readers's
     // topic This will result in matching the endpoints if possible
-    let existing_writers = db.writers_on_topic(reader_data.subscription_topic_data.topic_name());
     for writer in existing_writers {
       self.send_discovery_notification(DiscoveryNotificationType::WriterUpdated {
-        discovered_writer_data: writer.clone(),
+        discovered_writer_data: writer,
       });
     }
   }
