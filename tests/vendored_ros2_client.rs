@@ -230,6 +230,39 @@ fn discovery_info_of(
     v
 }
 
+/// `count` publishers and as many subscriptions made back to back by `n` on topics `{prefix}_{i}`, and the GIDs
+/// of all of them.
+#[allow(clippy::type_complexity)]
+fn pubs_and_subs(
+    n: &mut ros2_client::Node,
+    prefix: &str,
+    count: usize,
+) -> (
+    Vec<ros2_client::Publisher<Int32>>,
+    Vec<ros2_client::Subscription<Int32>>,
+    std::collections::HashSet<ros2_client::Gid>,
+) {
+    let ty = MessageTypeName::new("std_msgs", "Int32");
+    let (mut publishers, mut subscriptions) = (Vec::new(), Vec::new());
+    for i in 0..count {
+        let t = n
+            .create_topic(
+                &Name::new("/", &format!("{prefix}_{i}")).unwrap(),
+                ty.clone(),
+                &qos(),
+            )
+            .unwrap();
+        publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
+        subscriptions.push(n.create_subscription::<Int32>(&t, Some(qos())).unwrap());
+    }
+    let gids = publishers
+        .iter()
+        .map(|p| p.guid().into())
+        .chain(subscriptions.iter().map(|s| s.guid().into()))
+        .collect();
+    (publishers, subscriptions, gids)
+}
+
 /// Patch 8: a node's `ros_discovery_info` entry is made when it is sent, not at every endpoint the node
 /// creates (each made it again in O(N): O(N^2) for a node of N endpoints, half of a manager's main thread when
 /// it made 1,000 connections). 400 endpoints made back to back make a few entries (the count of entries made in
@@ -252,27 +285,10 @@ async fn a_node_entry_is_made_when_sent_not_at_every_endpoint() {
                 .start_parameter_services(false),
         )
         .unwrap();
-    let ty = MessageTypeName::new("std_msgs", "Int32");
     let before = entries_made();
-    let (mut publishers, mut subscriptions) = (Vec::new(), Vec::new());
-    for i in 0..200 {
-        let t = n
-            .create_topic(
-                &Name::new("/", &format!("p8_{i}")).unwrap(),
-                ty.clone(),
-                &qos(),
-            )
-            .unwrap();
-        publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
-        subscriptions.push(n.create_subscription::<Int32>(&t, Some(qos())).unwrap());
-    }
+    let (_publishers, _subscriptions, mine) = pubs_and_subs(&mut n, "p8", 200);
     let made = entries_made() - before;
     assert!(made < 100, "{made} node entries made for 400 endpoints");
-    let mine: std::collections::HashSet<ros2_client::Gid> = publishers
-        .iter()
-        .map(|p| p.guid().into())
-        .chain(subscriptions.iter().map(|s| s.guid().into()))
-        .collect();
     let t0 = std::time::Instant::now();
     let entry = loop {
         let last = discovery_info_of(&mut reader, me).pop().and_then(|info| {
@@ -322,7 +338,6 @@ async fn dropped_endpoints_leave_their_nodes_entry() {
     let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
     let me = ros2_client::Gid::from(rustdds::RTPSEntity::guid(&ctx.domain_participant()));
     let mut n = node(&ctx, "drops_endpoints");
-    let ty = MessageTypeName::new("std_msgs", "Int32");
     // the node's entry as last sent, once it satisfies `done`
     let mut last = None;
     let mut entry_when = |done: &dyn Fn(&ros2_client::entities_info::NodeEntitiesInfo) -> bool| {
@@ -347,23 +362,7 @@ async fn dropped_endpoints_leave_their_nodes_entry() {
         |e: &ros2_client::entities_info::NodeEntitiesInfo| e.readers().len() + e.writers().len();
     let base = count(&entry_when(&|_| true));
     for round in 0..5 {
-        let (mut publishers, mut subscriptions) = (Vec::new(), Vec::new());
-        for i in 0..20 {
-            let t = n
-                .create_topic(
-                    &Name::new("/", &format!("p9_{round}_{i}")).unwrap(),
-                    ty.clone(),
-                    &qos(),
-                )
-                .unwrap();
-            publishers.push(n.create_publisher::<Int32>(&t, Some(qos())).unwrap());
-            subscriptions.push(n.create_subscription::<Int32>(&t, Some(qos())).unwrap());
-        }
-        let made: std::collections::HashSet<ros2_client::Gid> = publishers
-            .iter()
-            .map(|p| p.guid().into())
-            .chain(subscriptions.iter().map(|s| s.guid().into()))
-            .collect();
+        let (publishers, subscriptions, made) = pubs_and_subs(&mut n, &format!("p9_{round}"), 20);
         let listed = |e: &ros2_client::entities_info::NodeEntitiesInfo| {
             e.readers()
                 .iter()
