@@ -926,31 +926,32 @@ impl DiscoveryDB {
       .and_then(|m| m.values().next().map(|t| &t.1))
   }
 
+  /// The writers of `participant` on `topic_name`, in GUID order (through the topic index, RADAR patch 53: a
+  /// scan of the participant's writers made each topic heard of cost as much as the participant had writers).
   pub fn writers_on_topic_and_participant(
     &self,
     topic_name: &str,
     participant: GuidPrefix,
   ) -> Vec<DiscoveredWriterData> {
-    let on_participant = self
-      .external_topic_writers
-      .range(participant.range())
-      .map(|(_guid, dwd)| dwd);
-    debug!("Writers on participant {participant:?} are {on_participant:?}");
-    on_participant
+    let guids = self.writers_by_topic.get(topic_name).into_iter().flatten();
+    guids
+      .filter(|g| g.prefix == participant)
+      .filter_map(|g| self.external_topic_writers.get(g))
       .filter(|dwd| dwd.publication_topic_data.topic_name == topic_name)
       .cloned()
       .collect()
   }
 
+  /// The readers of `participant` on `topic_name`, in GUID order (through the topic index, RADAR patch 53).
   pub fn readers_on_topic_and_participant(
     &self,
     topic_name: &str,
     participant: GuidPrefix,
   ) -> Vec<DiscoveredReaderData> {
-    self
-      .external_topic_readers
-      .range(participant.range())
-      .map(|(_guid, drd)| drd)
+    let guids = self.readers_by_topic.get(topic_name).into_iter().flatten();
+    guids
+      .filter(|g| g.prefix == participant)
+      .filter_map(|g| self.external_topic_readers.get(g))
       .filter(|drd| drd.subscription_topic_data.topic_name() == topic_name)
       .cloned()
       .collect()
@@ -1319,6 +1320,36 @@ mod tests {
           .collect();
         assert_eq!(found_r, scan_r, "{step}: readers of {t}");
         assert_eq!(found_w, scan_w, "{step}: writers of {t}");
+        // RADAR patch 53: a participant's, against a scan of the remote ones in GUID order
+        for p in [1u8, 2, 7] {
+          let prefix = GuidPrefix::new(&[p; 12]);
+          let mut scan_r: Vec<GUID> = db
+            .get_all_external_topic_readers()
+            .filter(|r| r.subscription_topic_data.topic_name() == t)
+            .map(|r| r.reader_proxy.remote_reader_guid)
+            .filter(|g| g.prefix == prefix)
+            .collect();
+          scan_r.sort();
+          let mut scan_w: Vec<GUID> = db
+            .get_all_external_topic_writers()
+            .filter(|w| w.publication_topic_data.topic_name() == t)
+            .map(|w| w.writer_proxy.remote_writer_guid)
+            .filter(|g| g.prefix == prefix)
+            .collect();
+          scan_w.sort();
+          let found_r: Vec<GUID> = db
+            .readers_on_topic_and_participant(t, prefix)
+            .iter()
+            .map(|r| r.reader_proxy.remote_reader_guid)
+            .collect();
+          let found_w: Vec<GUID> = db
+            .writers_on_topic_and_participant(t, prefix)
+            .iter()
+            .map(|w| w.writer_proxy.remote_writer_guid)
+            .collect();
+          assert_eq!(found_r, scan_r, "{step}: readers of participant {p} on {t}");
+          assert_eq!(found_w, scan_w, "{step}: writers of participant {p} on {t}");
+        }
       }
     };
     participant(&mut db, 1);
@@ -1326,12 +1357,14 @@ mod tests {
     let r1a = reader(&mut db, 1, 1, "a");
     reader(&mut db, 1, 2, "b");
     reader(&mut db, 2, 1, "a");
+    reader(&mut db, 1, 3, "a");
+    writer(&mut db, 1, 2, "a", false);
     let w1a = writer(&mut db, 1, 1, "a", false);
     writer(&mut db, 2, 1, "c", false);
     let local = writer(&mut db, 7, 1, "a", true);
     check(&db, "added");
-    assert_eq!(db.readers_on_topic("a").len(), 2);
-    assert_eq!(db.writers_on_topic("a").len(), 2);
+    assert_eq!(db.readers_on_topic("a").len(), 3);
+    assert_eq!(db.writers_on_topic("a").len(), 3);
     db.remove_topic_reader(r1a);
     db.remove_topic_writer(w1a);
     db.remove_local_topic_writer(local);

@@ -42,6 +42,7 @@ use crate::{
     rtps_reader_proxy::RtpsReaderProxy,
     rtps_writer_proxy::RtpsWriterProxy,
     timed_event::DpTimerEvent,
+    topic_index::TopicIndex,
     transmit::InterfaceObservations,
     writer::{Writer, WriterIngredients},
   },
@@ -109,6 +110,9 @@ pub struct DPEventLoop {
   waker: LoopWaker,
 
   writers: HashMap<EntityId, Writer>,
+  /// RADAR patch 53: the local writers and readers by topic, for matching what discovery finds.
+  local_writers_by_topic: TopicIndex,
+  local_readers_by_topic: TopicIndex,
   /// Bumped when a local writer comes or goes, or matches or unmatches a reader (RADAR patch 16).
   writer_match_generation: Rc<std::cell::Cell<u64>>,
   /// The local writers with readers in each participant, as of `writer_match_generation` (the first field):
@@ -265,6 +269,8 @@ impl DPEventLoop {
       writer_ready,
       waker,
       writers: HashMap::new(),
+      local_writers_by_topic: TopicIndex::default(),
+      local_readers_by_topic: TopicIndex::default(),
       writer_match_generation: Rc::new(std::cell::Cell::new(1)),
       writers_by_reader_prefix: (0, HashMap::new()),
       routes_resolved_at: HashMap::new(),
@@ -1014,8 +1020,12 @@ impl DPEventLoop {
       })
       .unwrap_or_else(|e| error!("Cannot report participant status: {e:?}"));
 
-    for writer in self.writers.values_mut() {
-      if remote_reader.subscription_topic_data.topic_name() == writer.topic_name() {
+    // RADAR patch 53: the local writers of its topic, looked up (a scan compared every writer's topic)
+    for eid in self
+      .local_writers_by_topic
+      .on(remote_reader.subscription_topic_data.topic_name())
+    {
+      if let Some(writer) = self.writers.get_mut(&eid) {
         #[cfg(not(feature = "security"))]
         let match_to_reader = true;
         #[cfg(feature = "security")]
@@ -1106,8 +1116,12 @@ impl DPEventLoop {
     // update writer proxies in local readers
     let remote_writer_guid = remote_writer.writer_proxy.remote_writer_guid;
     let mut newly_matched = Vec::new();
-    for reader in self.message_receiver.available_readers.values_mut() {
-      if &remote_writer.publication_topic_data.topic_name == reader.topic_name() {
+    // RADAR patch 53: the local readers of its topic, looked up (a scan compared every reader's topic)
+    for eid in self
+      .local_readers_by_topic
+      .on(&remote_writer.publication_topic_data.topic_name)
+    {
+      if let Some(reader) = self.message_receiver.available_readers.get_mut(&eid) {
         #[cfg(not(feature = "security"))]
         let match_to_writer = true;
         #[cfg(feature = "security")]
@@ -1200,11 +1214,17 @@ impl DPEventLoop {
     // id, so there is nothing to register under the reader token.
     new_reader.set_requested_deadline_check_timer();
     trace!("Add reader: {new_reader:?}");
+    self
+      .local_readers_by_topic
+      .add(new_reader.topic_name(), new_reader.entity_id());
     self.message_receiver.add_reader(new_reader);
   }
 
   fn remove_local_reader(&mut self, reader_guid: GUID) {
-    if self.message_receiver.remove_reader(reader_guid).is_some() {
+    if let Some(reader) = self.message_receiver.remove_reader(reader_guid) {
+      self
+        .local_readers_by_topic
+        .remove(reader.topic_name(), reader.entity_id());
       // The timer is shared and stays with the loop. Reader commands share the
       // poll waker, so there is no per-reader registration to drop. A timeout
       // already scheduled for this reader is ignored on dispatch (lookup miss).
@@ -1257,6 +1277,9 @@ impl DPEventLoop {
     // registration under the writer token.
     new_writer.match_generation = Some(Rc::clone(&self.writer_match_generation));
     self.bump_writer_matches();
+    self
+      .local_writers_by_topic
+      .add(new_writer.topic_name(), new_writer.guid().entity_id);
     self.writers.insert(new_writer.guid().entity_id, new_writer);
   }
 
@@ -1289,7 +1312,10 @@ impl DPEventLoop {
 
   fn remove_local_writer(&mut self, writer_guid: &GUID) {
     self.bump_writer_matches();
-    if self.writers.remove(&writer_guid.entity_id).is_some() {
+    if let Some(writer) = self.writers.remove(&writer_guid.entity_id) {
+      self
+        .local_writers_by_topic
+        .remove(writer.topic_name(), writer_guid.entity_id);
       // The timer is shared and stays with the loop. Stale timeouts are ignored
       // on dispatch (lookup miss).
 
