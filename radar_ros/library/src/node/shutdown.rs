@@ -129,22 +129,39 @@ impl Drop for ComponentTask {
 /// The components of one participant, so that they can all be stopped at once.
 #[derive(Default)]
 pub(crate) struct Components {
-    entries: Mutex<Vec<Weak<Entry>>>,
+    entries: Mutex<Registered>,
     /// Set once the participant is stopping: components make sure their last signals are acknowledged.
     stopping: AtomicBool,
 }
 
+/// The components registered, with the gone ones pruned when the list has doubled since the last pruning:
+/// registering is constant time amortized (pruning on every one made spawning N components O(N^2)).
+#[derive(Default)]
+struct Registered {
+    entries: Vec<Weak<Entry>>,
+    prune_at: usize,
+}
+
+impl Registered {
+    fn push(&mut self, e: Weak<Entry>) {
+        if self.entries.len() >= self.prune_at {
+            self.entries.retain(|e| e.strong_count() > 0);
+            self.prune_at = (2 * self.entries.len()).max(64);
+        }
+        self.entries.push(e);
+    }
+}
+
 impl Components {
     fn register(&self, e: &Arc<Entry>) {
-        let mut entries = self.entries.lock().unwrap();
-        entries.retain(|e| e.strong_count() > 0);
-        entries.push(Arc::downgrade(e));
+        self.entries.lock().unwrap().push(Arc::downgrade(e));
     }
 
     fn live(&self) -> Vec<Arc<Entry>> {
         self.entries
             .lock()
             .unwrap()
+            .entries
             .iter()
             .filter_map(Weak::upgrade)
             .collect()
@@ -389,6 +406,34 @@ mod tests {
         std::thread::spawn(move || drop(rt)).join().unwrap();
         assert!(*done.borrow(), "dropped with the runtime");
         drop(task);
+    }
+
+    #[tokio::test]
+    async fn the_registry_keeps_every_live_component_and_forgets_the_gone_ones() {
+        let components = Components::default();
+        let mut kept = Vec::new();
+        for i in 0..5_000 {
+            let t = ComponentTask::spawn(&components, &format!("/c{i}"), |stop| async move {
+                let _ = stop.await;
+            });
+            // one in ten stays; the rest go at once
+            if i % 10 == 0 {
+                kept.push(t);
+            }
+        }
+        let mut live: Vec<String> = components.live().iter().map(|e| e.name.clone()).collect();
+        live.sort();
+        let mut want: Vec<String> = (0..5_000).step_by(10).map(|i| format!("/c{i}")).collect();
+        want.sort();
+        assert_eq!(live, want, "every live component, and only those");
+        // what is held for the gone ones stays within twice the live ones (and the first 64)
+        let held = components.entries.lock().unwrap().entries.len();
+        assert!(
+            held <= 2 * kept.len() + 64,
+            "{held} entries held for {} live",
+            kept.len()
+        );
+        drop(kept);
     }
 
     #[test]
