@@ -16,6 +16,10 @@
                                      start, queue_one) whose start slot records each Header's age, started by
                                      `whenever T start` through the package's own manager (1 hop); rclpy's
                                      node sits in the same process, unused
+    rclpy_hop.py radar-source --topic NAME
+                                     a Python event NAME through the package whose (async) check resolves
+                                     when `run` feeds it a sequence number, stamped then, as the Rust
+                                     `events` role's; `wait` returns once something listens to it
     rclpy_hop.py oneshot --topic T --seq N
                                      `ros2 topic pub --once`, as the ros2 CLI does it: a fresh process that
                                      polls every 0.1 s until its publisher counts one subscription,
@@ -135,6 +139,34 @@ def radar_sink(topic, lock, record):
     return radar, resp
 
 
+def radar_source(name):
+    """A Python event through the radar_ros package whose check resolves when `run` feeds it a sequence
+    number, stamped at that moment (as the Rust `events` role's); a Rust response's process connects it."""
+    import asyncio
+
+    import radar_ros
+
+    fed = {}
+    ready = threading.Event()
+
+    class Fed(radar_ros.Event):
+        payload_type = Header
+
+        async def check(self):
+            if "queue" not in fed:
+                fed["loop"], fed["queue"] = asyncio.get_running_loop(), asyncio.Queue()
+                ready.set()
+            return stamped(await fed["queue"].get())
+
+    radar = radar_ros.Radar(args=[])
+    ev = radar.spawn_event(name, Fed())
+
+    def feed(seq):
+        fed["loop"].call_soon_threadsafe(fed["queue"].put_nowait, seq)
+
+    return radar, ev, ready, feed
+
+
 def radar_build():
     """How the installed package was built: `release` (pip install), or `dev` (tests/python_package.sh)."""
     from radar_ros import _native
@@ -189,7 +221,8 @@ class Driver:
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("role", choices=["sink", "source", "oneshot", "action-server", "action-client", "radar-sink"])
+    ap.add_argument("role", choices=["sink", "source", "oneshot", "action-server", "action-client", "radar-sink",
+                                         "radar-source"])
     ap.add_argument("--topic", required=True)
     ap.add_argument("--seq", type=int, default=0)
     a = ap.parse_args()
@@ -208,6 +241,8 @@ def main():
         driver = Driver(node, a.topic)
     elif a.role == "radar-sink":
         radar, resp = radar_sink(a.topic, lock, record)
+    elif a.role == "radar-source":
+        radar, ev, ev_ready, feed = radar_source(a.topic)
     elif a.role == "sink":
         def on_msg(h):
             age = now_ns() - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
@@ -249,6 +284,20 @@ def main():
                         raise RuntimeError("no subscriber within 20 s")
                     time.sleep(0.01)
                 answer = "ok"
+            elif w[0] == "wait" and a.role == "radar-source":
+                # something listens (the event checks only then) and its first check is waiting
+                if not ev_ready.wait(20):
+                    raise RuntimeError("the event got no listener within 20 s")
+                answer = "ok"
+            elif w[0] == "run" and a.role == "radar-source":
+                n, period = int(w[1]), int(w[2]) / 1e6
+                start = time.monotonic()
+                for i in range(n):
+                    delay = start + i * period - time.monotonic()
+                    if delay > 0:
+                        time.sleep(delay)
+                    feed(i)
+                answer = f"sent {n}"
             elif w[0] == "run" and a.role == "source":
                 n, period = int(w[1]), int(w[2]) / 1e6
                 start = time.monotonic()
@@ -279,7 +328,7 @@ def main():
         except Exception as e:  # answer, and go on serving
             answer = f"error {e}"
         print(answer, flush=True)
-    if a.role == "radar-sink":
+    if a.role in ("radar-sink", "radar-source"):
         radar.shutdown()
     executor.shutdown()
     spinner.join(timeout=5)

@@ -150,6 +150,48 @@ impl Bench {
             "radar_ros Python package: rclpy publisher -> Python response's start slot (async def; manager in the response's process, 1 hop)",
             &r,
             &note,
+        )?;
+        // a Python event's trigger -> a Rust response's start, beside a Rust event's in the same run (the
+        // manager in the response's process: one hop both)
+        let (r, children) = self.radar_hop(n, p, Host::Response).await?;
+        self.push_latency(
+            "radar_embedded_beside_python",
+            "radar_ros Rust event -> Rust response (manager in the response's process, 1 hop), beside the Python event row",
+            &r,
+            "",
+        )?;
+        for c in children {
+            c.quit().await;
+        }
+        let d = self.domain();
+        let mut ev = self
+            .python(d, &["radar-source", "--topic", "/bench/py_ev"])
+            .await?;
+        let mut resp = self
+            .child(
+                d,
+                &[
+                    "response",
+                    "--name",
+                    "/bench/resp",
+                    "--connect",
+                    "/bench/py_ev",
+                ],
+            )
+            .await?;
+        ev.ask("wait", START).await?;
+        let r = self.paced(&mut ev, &run, &mut resp).await?;
+        ev.quit().await;
+        resp.quit().await;
+        let note = format!(
+            "{} starts ignored (response busy)",
+            r["extra"]["ignored_starts"]
+        );
+        self.push_latency(
+            "radar_python_event_1hop",
+            "radar_ros Python package: Python event (async def check) -> Rust response's start (manager in the response's process, 1 hop)",
+            &r,
+            &note,
         )
     }
 

@@ -90,7 +90,65 @@ impl Bench {
             for c in [mgr, resp, ev] {
                 c.quit().await;
             }
+            self.first_signal_rows(key, how).await?;
         }
+        Ok(())
+    }
+
+    /// A program's first signal to a new peer: a deliberative program (manager, third process) waits for the
+    /// event `/bench/born` to connect it to a response; the event's process is then started, and its event
+    /// triggers once as soon as it is connected, stamped with the time the coordinator started the process.
+    /// The row: process started -> the response's start slot runs (the new participant's discovery, the
+    /// authentication handshake and key exchange when secured, the lookup, arming, and two hops). Fresh
+    /// processes and a domain of their own each round.
+    #[cfg(feature = "security")]
+    async fn first_signal_rows(&mut self, key: &str, how: &str) -> Result<()> {
+        const ROUNDS: usize = 5;
+        let mut lat: Vec<u64> = Vec::new();
+        for _ in 0..ROUNDS {
+            let d = self.domain();
+            let mut resp = self
+                .child(d, &["response", "--name", "/bench/born_resp"])
+                .await?;
+            let mut mgr = self.child(d, &["manager"]).await?;
+            let this = &*self;
+            let (armed, ev) = tokio::join!(
+                mgr.ask("connect /bench/born /bench/born_resp", START),
+                async {
+                    // the program is looking the event up before its process exists
+                    tokio::time::sleep(Duration::from_millis(300)).await;
+                    let born = crate::clock::now_ns().to_string();
+                    this.child(d, &["events", "--names", "/bench/born", "--born", &born])
+                        .await
+                }
+            );
+            let ev = ev?;
+            armed?;
+            let deadline = tokio::time::Instant::now() + START;
+            let got = loop {
+                let r = resp.ask_json("report 0", START).await?;
+                let got: Vec<u64> = serde_json::from_value(r["lat_ns"].clone())?;
+                if !got.is_empty() || tokio::time::Instant::now() > deadline {
+                    break got;
+                }
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            };
+            lat.extend(got.first());
+            for c in [mgr, resp, ev] {
+                c.quit().await;
+            }
+        }
+        self.push_latency(
+            &format!("security_first_signal_{key}"),
+            &format!(
+                "a new peer's first signal: its process started -> the response's start slot ({ROUNDS} rounds; \
+                 program in a third process), {how}"
+            ),
+            &json!({ "lat_ns": lat }),
+            "",
+        )?;
+        let last = self.results.latency.last_mut().unwrap();
+        last.missing = (ROUNDS - lat.len()) as u64;
         Ok(())
     }
 }

@@ -61,6 +61,7 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
                 opt("--connect"),
                 opt("--local-response"),
                 flag("--relay"),
+                opt("--born").map(|b| b.parse()).transpose()?,
             )
             .await
         }

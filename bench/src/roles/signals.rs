@@ -6,11 +6,20 @@ use super::*;
 /// the time the condition "became true".
 pub(super) struct Fed {
     rx: mpsc::UnboundedReceiver<u64>,
+    /// The first check resolves at once, stamped with this time (sequence number 0): when the coordinator
+    /// started this process (`--born`).
+    born: Option<u64>,
 }
 
 impl Event for Fed {
     type Payload = Header;
     async fn check(&mut self) -> Result<Header, SlotError> {
+        if let Some(t) = self.born.take() {
+            let mut h = stamped(0);
+            h.stamp.sec = (t / 1_000_000_000) as i32;
+            h.stamp.nanosec = (t % 1_000_000_000) as u32;
+            return Ok(h);
+        }
         match self.rx.recv().await {
             Some(seq) => Ok(stamped(seq)),
             None => futures::future::pending().await,
@@ -26,20 +35,24 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 /// NAME has a listener, `inactive NAME` until it has none (answering when). With `--connect RESPONSE` this
 /// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process); with
 /// `--local-response NAME` it also runs the recording response NAME (as the role `response` does, answering
-/// `report`) and connects FIRST to it: event, manager and response in one process.
+/// `report`) and connects FIRST to it: event, manager and response in one process. With `--born NS` (when
+/// the coordinator started this process) FIRST triggers once as soon as something listens, stamped NS.
 pub(super) async fn events(
     names: &str,
     connect: Option<String>,
     local_response: Option<String>,
     relay: bool,
+    born: Option<u64>,
 ) -> Result<()> {
     let radar = radar_relaying(relay)?;
     let all: Arc<Mutex<HashMap<String, FedEvent>>> = Default::default();
+    let born = Arc::new(Mutex::new(born));
     let spawn = {
         let (radar, all) = (radar.clone(), all.clone());
         move |name: &str| -> Result<()> {
             let (tx, rx) = mpsc::unbounded_channel();
-            let h = radar.spawn_event(name, Fed { rx })?;
+            let born = born.lock().unwrap().take();
+            let h = radar.spawn_event(name, Fed { rx, born })?;
             all.lock().unwrap().insert(name.to_owned(), (h, tx));
             Ok(())
         }
