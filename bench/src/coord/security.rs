@@ -97,10 +97,10 @@ impl Bench {
 
     /// A program's first signal to a new peer: a deliberative program (manager, third process) waits for the
     /// event `/bench/born` to connect it to a response; the event's process is then started, and its event
-    /// triggers once as soon as it is connected, stamped with the time the coordinator started the process.
-    /// The row: process started -> the response's start slot runs (the new participant's discovery, the
-    /// authentication handshake and key exchange when secured, the lookup, arming, and two hops). Fresh
-    /// processes and a domain of their own each round.
+    /// triggers every 5 ms while listened to, each stamped with the time the coordinator started the process.
+    /// The row: process started -> the response's start slot first runs (the new participant's discovery, the
+    /// authentication handshake and key exchange when secured, the lookup, arming, and two hops; to 5 ms).
+    /// Fresh processes and a domain of their own each round.
     #[cfg(feature = "security")]
     async fn first_signal_rows(&mut self, key: &str, how: &str) -> Result<()> {
         const ROUNDS: usize = 5;
@@ -141,8 +141,8 @@ impl Bench {
         self.push_latency(
             &format!("security_first_signal_{key}"),
             &format!(
-                "a new peer's first signal: its process started -> the response's start slot ({ROUNDS} rounds; \
-                 program in a third process), {how}"
+                "a new peer's first signal: its process started -> the response's start slot ({ROUNDS} rounds, \
+                 to 5 ms; program in a third process), {how}"
             ),
             &json!({ "lat_ns": lat }),
             "",
