@@ -58,6 +58,16 @@ def stamped(seq):
     return h
 
 
+def paced(n, period, send):
+    """Calls send(i) for i in 0..n, one every period seconds from now."""
+    start = time.monotonic()
+    for i in range(n):
+        delay = start + i * period - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        send(i)
+
+
 def oneshot(node, topic, seq):
     """What `ros2 topic pub --once` does after rclpy.init (ros2cli Jazzy, ros2topic/verb/pub.py)."""
     pub = node.create_publisher(Header, topic, QOS)
@@ -289,23 +299,10 @@ def main():
                 if not ev_ready.wait(20):
                     raise RuntimeError("the event got no listener within 20 s")
                 answer = "ok"
-            elif w[0] == "run" and a.role == "radar-source":
-                n, period = int(w[1]), int(w[2]) / 1e6
-                start = time.monotonic()
-                for i in range(n):
-                    delay = start + i * period - time.monotonic()
-                    if delay > 0:
-                        time.sleep(delay)
-                    feed(i)
-                answer = f"sent {n}"
-            elif w[0] == "run" and a.role == "source":
-                n, period = int(w[1]), int(w[2]) / 1e6
-                start = time.monotonic()
-                for i in range(n):
-                    delay = start + i * period - time.monotonic()
-                    if delay > 0:
-                        time.sleep(delay)
-                    pub.publish(stamped(i))
+            elif w[0] == "run" and a.role in ("source", "radar-source"):
+                n = int(w[1])
+                send = feed if a.role == "radar-source" else (lambda i: pub.publish(stamped(i)))
+                paced(n, int(w[2]) / 1e6, send)
                 answer = f"sent {n}"
             elif w[0] == "report" and a.role == "radar-sink":
                 warmup = int(w[1])
