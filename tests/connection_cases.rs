@@ -945,3 +945,73 @@ async fn until_armed_before_anyone_publishes_its_signal_hears_one_shot_publisher
         .await;
     }
 }
+
+/// Holds at once when it begins to check, and never again: a condition already true when a statement
+/// connects it (a door already open, a battery already low). Its one trigger is emitted as soon as the
+/// statement's reader activates it, which is before the statement is fully armed.
+struct AlreadyTrue(bool);
+impl Event for AlreadyTrue {
+    type Payload = Empty;
+    async fn check(&mut self) -> Result<Empty, SlotError> {
+        if std::mem::replace(&mut self.0, true) {
+            std::future::pending::<()>().await;
+        }
+        Ok(Empty::default())
+    }
+}
+
+/// An event whose condition already holds when the statement connects it triggers as the statement's reader
+/// activates it, before the statement is armed (its writer to the slot matched): `once` and `whenever` still
+/// deliver that trigger (it was emitted after the statement ran: C1 counts from when the statement began),
+/// and `waitfor` returns it. The event lives in this participant (the in-process tap) or in another one
+/// (DDS); 10 rounds each, a fresh event each round.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_event_already_true_when_connected_delivers_its_first_trigger() {
+    let r = radar(226);
+    let other = radar(226);
+    let (resp, runs) = counter(&r, "already/count");
+    for round in 0..20u64 {
+        let home = if round % 2 == 0 { &r } else { &other };
+        let ev = home
+            .spawn_event(&format!("already/e{round}"), AlreadyTrue(false))
+            .unwrap();
+        let src = r
+            .event(&format!("/already/e{round}"))
+            .timeout(T)
+            .await
+            .unwrap()
+            .triggered();
+        let started = runs.load(Ordering::SeqCst);
+        let c = if round % 4 < 2 {
+            r.once(src).start(&resp).await.unwrap()
+        } else {
+            r.whenever(src).start(&resp).await.unwrap()
+        };
+        eventually(
+            T,
+            &format!("round {round}: the first trigger's run"),
+            || runs.load(Ordering::SeqCst) == started + 1,
+        )
+        .await;
+        // the state follows the signal (the run may come first)
+        eventually(T, &format!("round {round}: one trigger"), || {
+            ev.state().triggers == 1
+        })
+        .await;
+        drop(c);
+    }
+    // waitfor: the waiter's own reader activates the event
+    for round in 0..10u64 {
+        let home = if round % 2 == 0 { &r } else { &other };
+        let _ev = home
+            .spawn_event(&format!("already/w{round}"), AlreadyTrue(false))
+            .unwrap();
+        let signal = Signal::new(format!("/already/w{round}/triggered"), "std_msgs/msg/Empty");
+        let mut waiter = r.waiter::<Empty>(&signal).timeout(T).await.unwrap();
+        waiter
+            .recv()
+            .timeout(T)
+            .await
+            .unwrap_or_else(|e| panic!("waitfor round {round}: {e}"));
+    }
+}

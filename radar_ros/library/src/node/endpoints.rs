@@ -303,10 +303,9 @@ impl<M: serde::Serialize> SignalWriter<M> {
     /// Emits `m` now, carrying `cause` (`topic` names it in a warning); the source timestamp it carries.
     pub(crate) fn emit(&self, topic: &str, m: M, cause: Option<Cause>) -> i64 {
         let sent = Sent {
-            at: crate::wire::local::now_ns(),
+            at: self.tap.emit(&m, cause),
             by: cause,
         };
-        self.tap.emit(&m, sent.at, cause);
         if let Err(e) = self
             .dds
             .publish_with_options(m, crate::wire::cause::write_options(sent))

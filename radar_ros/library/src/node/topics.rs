@@ -285,8 +285,9 @@ impl SignalSubscription<RawMessage> {
     }
 
     /// The message bodies from publishers of the right type, with when and by which statement they were sent
-    /// (see [`crate::wire::cause`]; the time of reading if the sample has no source time) and their writers. One
-    /// stream for a reader's life (making a stream per message costs as much as the message).
+    /// (see [`crate::wire::cause`]; the time of reading if the sample has no source time), their writers and
+    /// their source times as written (ns, 0 if none). One stream for a reader's life (making a stream per
+    /// message costs as much as the message).
     pub(crate) fn stream_from(
         &self,
     ) -> impl Stream<
@@ -294,6 +295,7 @@ impl SignalSubscription<RawMessage> {
             RawMessage,
             radar_semantics::response::Sent,
             ros2_client::Gid,
+            i64,
         ),
     > + '_ {
         self.subscription
@@ -307,6 +309,7 @@ impl SignalSubscription<RawMessage> {
                     m,
                     crate::wire::cause::sent(&info, crate::wire::local::now_ns()),
                     info.publisher_gid(),
+                    info.source_timestamp().map_or(0, |t| t.to_nanos()),
                 )
             })
     }

@@ -78,6 +78,13 @@ pub(crate) fn sent(info: &MessageInfo, now: i64) -> Sent {
     .received(now)
 }
 
+/// The source time a sample written with time `ns` carries, as its readers read it back (DDS times are
+/// seconds and 2^-32 fractions: a few nanoseconds are rounded away).
+pub(crate) fn on_wire(ns: i64) -> i64 {
+    let t: Timestamp = ROSTime::from_nanos(ns).into();
+    ROSTime::try_from(t).map_or(ns, |r| r.to_nanos())
+}
+
 /// The write options that send a sample as `sent` says.
 pub(crate) fn write_options(sent: Sent) -> WriteOptions {
     let at: Timestamp = ROSTime::from_nanos(sent.at).into();

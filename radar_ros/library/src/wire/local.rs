@@ -12,7 +12,10 @@
 //! listens to the tap (its listener runs in the emitting task, with the time of emission, before the DDS
 //! write) and skips the DDS samples of the writers the tap names, which it already has; samples of other publishers (another
 //! process, `ros2 topic pub`) still come over DDS. The relay keeps its DDS reader either way: it is what the
-//! event counts as a listener.
+//! event counts as a listener. A listener gets what is emitted from the moment it began to listen
+//! ([`TapListener::since`], by the source time the DDS samples carry); what a writer of this process emitted
+//! before (when the statement's reader, made first, activated an event) comes over DDS, so each signal
+//! reaches the relay exactly once, by one way or the other.
 
 use std::{
     collections::HashMap,
@@ -134,8 +137,28 @@ const GONE_WRITERS_KEPT: Duration = Duration::from_secs(10);
 pub(crate) struct Tap {
     /// Every writer of this process that emits on the topic, and since when the gone ones are gone.
     writers: Mutex<HashMap<GUID, Option<Instant>>>,
-    /// The relays listening, each while its token lives.
-    listeners: Mutex<Vec<(Weak<()>, Listener)>>,
+    /// The relays listening, each while its token lives, with the source time from which it gets signals here.
+    listeners: Mutex<Vec<Listening>>,
+}
+
+struct Listening {
+    token: Weak<()>,
+    since: i64,
+    f: Listener,
+}
+
+/// A relay's listening on a tap: it lasts while this lives.
+pub(crate) struct TapListener {
+    _token: Arc<()>,
+    since: i64,
+}
+
+impl TapListener {
+    /// The source time (as DDS samples carry it) from which the listener gets this process's signals through
+    /// the tap; the DDS samples of this process's writers stamped before it did not come through the tap.
+    pub(crate) fn since(&self) -> i64 {
+        self.since
+    }
 }
 
 /// Called with each signal emitted on a tap, its time of emission (ns since the epoch) and its cause, in the
@@ -143,17 +166,26 @@ pub(crate) struct Tap {
 pub(crate) type Listener = Arc<dyn Fn(&RawMessage, i64, Option<Cause>) + Send + Sync>;
 
 impl Tap {
-    /// Hands `m` (emitted at `stamp`, carrying `cause`) to every relay listening, in this task; encodes it
-    /// once, and only if one listens. (The listeners are called outside the tap's lock: a relay is made under
-    /// its manager's lock, and a listener takes that lock.)
-    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, stamp: i64, cause: Option<Cause>) {
-        let listeners: Vec<Listener> = {
+    /// Stamps `m` now (carrying `cause`) and hands it to every relay listening since that stamp, in this
+    /// task; encodes it once, and only if one listens. Returns the time of emission, to be written with the
+    /// DDS sample. (The stamp is taken under the tap's lock, so a signal a listener does not get here is
+    /// stamped before it listened and comes to it over DDS; the listeners are called outside the lock: a
+    /// relay is made under its manager's lock, and a listener takes that lock.)
+    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, cause: Option<Cause>) -> i64 {
+        let (at, stamp, listeners) = {
             let mut l = self.listeners.lock().unwrap();
-            l.retain(|(token, _)| token.strong_count() > 0);
-            l.iter().map(|(_, f)| f.clone()).collect()
+            let at = now_ns();
+            let stamp = crate::wire::cause::on_wire(at);
+            l.retain(|x| x.token.strong_count() > 0);
+            let fs: Vec<Listener> = l
+                .iter()
+                .filter(|x| x.since <= stamp)
+                .map(|x| x.f.clone())
+                .collect();
+            (at, stamp, fs)
         };
         if listeners.is_empty() {
-            return;
+            return at;
         }
         match RawMessage::encode(m) {
             Ok(raw) => {
@@ -165,17 +197,25 @@ impl Tap {
                 tracing::warn!(error = %e, "a signal did not encode for this process's connections")
             }
         }
+        at
     }
 
-    /// Calls `f` with what the components of this process emit here from now on, while the returned token
-    /// lives.
-    pub(crate) fn listen(&self, f: Listener) -> Arc<()> {
+    /// Calls `f` with what the components of this process emit here from now on, while the returned
+    /// listener lives.
+    pub(crate) fn listen(&self, f: Listener) -> TapListener {
         let token = Arc::new(());
-        self.listeners
-            .lock()
-            .unwrap()
-            .push((Arc::downgrade(&token), f));
-        token
+        let mut l = self.listeners.lock().unwrap();
+        // after every stamp taken before (stamps are taken under this lock; the wire rounds them)
+        let since = crate::wire::cause::on_wire(now_ns()) + 1;
+        l.push(Listening {
+            token: Arc::downgrade(&token),
+            since,
+            f,
+        });
+        TapListener {
+            _token: token,
+            since,
+        }
     }
 
     /// Whether a component of this process emits on the topic now.
@@ -202,7 +242,7 @@ impl Tap {
         let mut w = self.writers.lock().unwrap();
         w.retain(|_, gone| gone.is_none_or(|t| t.elapsed() < GONE_WRITERS_KEPT));
         let mut l = self.listeners.lock().unwrap();
-        l.retain(|(token, _)| token.strong_count() > 0);
+        l.retain(|x| x.token.strong_count() > 0);
         w.is_empty() && l.is_empty()
     }
 }
@@ -259,8 +299,8 @@ pub(crate) struct TapWriter {
 
 impl TapWriter {
     /// See [`Tap::emit`].
-    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, stamp: i64, cause: Option<Cause>) {
-        self.tap.emit(m, stamp, cause)
+    pub(crate) fn emit<M: serde::Serialize>(&self, m: &M, cause: Option<Cause>) -> i64 {
+        self.tap.emit(m, cause)
     }
 }
 
@@ -382,15 +422,20 @@ mod tests {
         let taps = Taps::default();
         let w = GUID::new_participant_guid();
         let tap = taps.open("/e/triggered", "std_msgs/msg/Int32", w);
-        tap.emit(&crate::wire::msg::Int32 { data: 1 }, 1, None); // nobody listens: nothing encoded, nothing kept
+        // nobody listens: nothing encoded, nothing kept
+        let before = tap.emit(&crate::wire::msg::Int32 { data: 1 }, None);
         let got: Arc<Mutex<Vec<(RawMessage, i64)>>> = Default::default();
         let g = got.clone();
-        let token = taps
+        let listener = taps
             .get("/e/triggered", "std_msgs/msg/Int32")
             .listen(Arc::new(move |raw, stamp, _| {
                 g.lock().unwrap().push((raw.clone(), stamp))
             }));
-        tap.emit(&crate::wire::msg::Int32 { data: 7 }, 2, None);
+        assert!(
+            crate::wire::cause::on_wire(before) < listener.since(),
+            "what was emitted before listening is older than the listener (it comes over DDS)"
+        );
+        let at = tap.emit(&crate::wire::msg::Int32 { data: 7 }, None);
         {
             let got = got.lock().unwrap();
             assert_eq!(got.len(), 1, "only what came after listening");
@@ -398,14 +443,19 @@ mod tests {
                 got[0].0.decode::<crate::wire::msg::Int32>().unwrap().data,
                 7
             );
-            assert_eq!(got[0].1, 2);
+            assert_eq!(
+                got[0].1,
+                crate::wire::cause::on_wire(at),
+                "the stamp DDS carries"
+            );
+            assert!(got[0].1 >= listener.since(), "its DDS sample is skipped");
         }
-        drop(token);
-        tap.emit(&crate::wire::msg::Int32 { data: 8 }, 3, None);
+        drop(listener);
+        tap.emit(&crate::wire::msg::Int32 { data: 8 }, None);
         assert_eq!(
             got.lock().unwrap().len(),
             1,
-            "nothing once the token is gone"
+            "nothing once the listener is gone"
         );
         assert!(taps
             .get("/e/triggered", "std_msgs/msg/Int32")
@@ -416,6 +466,43 @@ mod tests {
                 .is_local(ros2_client::Gid::from(w)),
             "another type is another tap"
         );
+    }
+
+    /// A signal emitted while a listener registers, from another thread, reaches it exactly once: through the
+    /// tap when stamped at or after [`TapListener::since`], else over DDS (the relay takes a DDS sample of
+    /// this process's writer only when stamped before it). 2,000 rounds, no pause.
+    #[test]
+    fn each_signal_emitted_while_a_listener_registers_is_taken_one_way_exactly() {
+        let taps = Arc::new(Taps::default());
+        let w = GUID::new_participant_guid();
+        let tap = Arc::new(taps.open("/race/triggered", "std_msgs/msg/Int32", w));
+        for round in 0..2_000 {
+            let emitter = {
+                let tap = tap.clone();
+                std::thread::spawn(move || {
+                    (0..4)
+                        .map(|i| tap.emit(&crate::wire::msg::Int32 { data: i }, None))
+                        .collect::<Vec<i64>>()
+                })
+            };
+            let got: Arc<Mutex<Vec<i64>>> = Default::default();
+            let g = got.clone();
+            let listener = taps
+                .get("/race/triggered", "std_msgs/msg/Int32")
+                .listen(Arc::new(move |_, stamp, _| g.lock().unwrap().push(stamp)));
+            let stamps = emitter.join().unwrap();
+            let got = got.lock().unwrap();
+            for at in stamps {
+                let wire = crate::wire::cause::on_wire(at);
+                let by_tap = got.contains(&wire);
+                let by_dds = wire < listener.since();
+                assert!(
+                    by_tap != by_dds,
+                    "round {round}: stamp {wire} since {}: tap {by_tap}, dds {by_dds}",
+                    listener.since()
+                );
+            }
+        }
     }
 
     #[test]

@@ -7,7 +7,9 @@
 //! C1-C7 (the crate documentation, the README and the tests use these numbers):
 //!
 //! - **C1.** A connection delivers only signals emitted at or after it was armed. Older signals (in flight when
-//!   the statement ran, or replayed from a DDS cache) are never delivered.
+//!   the statement ran, or replayed from a DDS cache) are never delivered. A statement that takes a while to
+//!   arm (its endpoints to be matched) counts from when it began ([`ConnectionTable::arm_from`]): its own
+//!   reader may activate an event whose condition already holds, and that trigger is not older than it.
 //! - **C2.** `whenever` delivers every such signal until it is removed; `once` delivers exactly one, then its
 //!   source is released, even when the source emits a burst, and each of several `once`s on one source gets
 //!   exactly one. A signal a connection property refuses (a filter, a transform that gives nothing) is not a
@@ -280,7 +282,34 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
         until: Option<Until<S, T>>,
         armed_at: i64,
     ) -> ConnId {
-        self.clock(armed_at);
+        self.arm_from(source, target, kind, until, armed_at, armed_at)
+    }
+
+    /// Arms a connection at `now` (the receiver's clock, as [`ConnectionTable::arm`] takes it) for the signals
+    /// emitted from `since` on (C1; a time no later than `now`): when the statement began to arm. A runtime
+    /// whose readers activate the source while the statement arms (an event checks only while it is listened
+    /// to, and its condition may already hold) delivers what the source emitted since the statement ran,
+    /// not only since its last endpoint matched; signals older than the statement are still never delivered.
+    ///
+    /// ```
+    /// use radar_semantics::connection::{ConnectionTable, Kind};
+    /// let mut t = ConnectionTable::new();
+    /// // the statement began at 100; its reader activated the event, which triggered at 120; armed at 150
+    /// t.arm_from("door_open", "close/start", Kind::Once, None, 100, 150);
+    /// assert!(t.on_signal(&"door_open", 90).is_empty(), "older than the statement");
+    /// assert_eq!(t.on_signal(&"door_open", 120)[0].target, "close/start");
+    /// ```
+    pub fn arm_from(
+        &mut self,
+        source: S,
+        target: T,
+        kind: Kind,
+        until: Option<Until<S, T>>,
+        since: i64,
+        now: i64,
+    ) -> ConnId {
+        self.clock(now);
+        let armed_at = since.min(now);
         let id = self.next;
         self.next += 1;
         let c = Conn {
@@ -600,6 +629,29 @@ mod tests {
 
     fn targets(d: Vec<Delivery<&'static str>>) -> Vec<&'static str> {
         d.into_iter().map(|d| d.target).collect()
+    }
+
+    #[test]
+    fn c1_a_statement_that_armed_slowly_counts_from_when_it_began_and_no_other_moves() {
+        let mut t = Table::new();
+        // B's statement began at 100 and took until 300 to arm; A's began and armed at 200 meanwhile
+        let a = t.arm("E", "A.start", Kind::Whenever, None, 200);
+        let b = t.arm_from("E", "B.start", Kind::Whenever, None, 100, 300);
+        let d = t.on_signal(&"E", 150);
+        assert_eq!(
+            d.iter().map(|d| d.id).collect::<Vec<_>>(),
+            [b],
+            "emitted after B's statement began, before A's"
+        );
+        assert!(t.on_signal(&"E", 99).is_empty(), "older than both");
+        assert_eq!(t.on_signal(&"E", 250).len(), 2);
+        // (B's earlier start is not a step back of the clock: A still counts from 200, as the first signal showed)
+        // a `since` later than now (a clock stepped back while arming) is taken as now
+        t.remove(a);
+        t.remove(b);
+        let c = t.arm_from("E", "C.start", Kind::Whenever, None, 500, 400);
+        assert!(t.on_signal(&"E", 399).is_empty());
+        assert_eq!(t.on_signal(&"E", 450)[0].id, c);
     }
 
     #[test]

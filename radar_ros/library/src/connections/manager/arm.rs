@@ -154,6 +154,9 @@ struct Matched {
 impl Manager {
     /// Arms a statement: holds its endpoints while discovery matches them, then enters it in the table.
     pub(crate) async fn arm(self: &Arc<Self>, spec: Spec) -> Result<ConnectionGuard> {
+        // C1 counts from here: the statement's own reader may activate an event whose condition already
+        // holds, and its trigger, emitted while the statement arms, is not older than the statement
+        let began = now_ns();
         let plan = Plan::of(&spec)?;
         // this statement's own holds while it arms: released whatever happens
         let held = Holds::new(&self.participant);
@@ -165,7 +168,7 @@ impl Manager {
         if let Some(u) = &spec.until {
             tracing::debug!(response = %u.state, causes, "until: the response keeps causes (C6) or not (C7)");
         }
-        let id = self.enter(plan, &matched, spec, causes)?;
+        let id = self.enter(plan, &matched, spec, causes, began)?;
         drop(held);
         self.changed.send_modify(|g| *g += 1);
         Ok(ConnectionGuard {
@@ -247,13 +250,15 @@ impl Manager {
     }
 
     /// Enters the matched statement in the table: the table's own holds (one relay per source, one outlet per
-    /// slot, shared by every connection on them), the anonymous slot's queue, the connection and its record.
+    /// slot, shared by every connection on them), the anonymous slot's queue, the connection and its record,
+    /// for the signals emitted since `began` (C1).
     fn enter(
         self: &Arc<Self>,
         plan: Plan,
         matched: &Matched,
         spec: Spec,
         causes: bool,
+        began: i64,
     ) -> Result<radar_semantics::connection::ConnId> {
         self.watch_instances();
         let mut st = self.state();
@@ -296,7 +301,7 @@ impl Manager {
         });
         let id = st
             .table
-            .arm(plan.source, target, spec.kind, until, now_ns());
+            .arm_from(plan.source, target, spec.kind, until, began, now_ns());
         st.table.set_rearm(id, spec.rearm);
         st.records.insert(
             id,

@@ -14,7 +14,7 @@ use crate::{node::pool::Key, node::topics::RawSubscription, wire::raw::RawMessag
 /// its listening to this process's emitters of the source (ends on drop).
 pub(super) struct Relay {
     _stop: tokio::sync::oneshot::Sender<()>,
-    _tap: Option<Arc<()>>,
+    _tap: Option<crate::wire::local::TapListener>,
 }
 
 impl Manager {
@@ -38,6 +38,7 @@ impl Manager {
                 }
             }))
         });
+        let since = token.as_ref().map(|t| t.since());
         tokio::spawn(async move {
             let mut samples = std::pin::pin!(sub.stream_from());
             loop {
@@ -45,9 +46,11 @@ impl Manager {
                     biased;
                     _ = &mut stop_rx => break,
                     r = samples.next() => match (r, me.upgrade()) {
-                        // already taken from the tap
-                        (Some((_, _, gid)), Some(_)) if tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
-                        (Some((raw, sent, _)), Some(m)) => m.dispatch(&source, raw, sent),
+                        // already taken from the tap (unless emitted before the relay listened to it)
+                        (Some((_, _, gid, stamp)), Some(_))
+                            if since.is_some_and(|s| stamp >= s)
+                                && tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
+                        (Some((raw, sent, _, _)), Some(m)) => m.dispatch(&source, raw, sent),
                         _ => break,
                     },
                     change = presence.next() => match (change, me.upgrade()) {
