@@ -8,7 +8,8 @@
 //! - RustDDS's unit tests for radar_ros's security patches (25: padded encrypted payloads; 27: several matches
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
-//!   security handshake target; 44: an encoded fragment run is parsed);
+//!   security handshake target; 44: an encoded fragment run is parsed; 54: authentication messages resent soon
+//!   after their first sending);
 //! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -109,6 +110,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "unregistered_sender_tests",
         "an_encoded_payload_longer_than_its_fragment_run",
         "decode_failures::",
+        "quick_resend_tests",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -190,6 +192,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "an_encoded_payload_longer_than_its_fragment_run_is_parsed",
             "a_source_is_reported_once_per_period_with_how_many_were_not",
             "many_sources_are_bounded",
+            "a_stored_authentication_message_is_resent_soon_then_left_to_the_periodic_resend",
         ],
     );
     // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the

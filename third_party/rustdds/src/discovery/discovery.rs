@@ -271,6 +271,9 @@ enum DiscoveryTimerEvent {
   PublishParticipantMessage,
   #[cfg(feature = "security")]
   CachedSecureMessageResend,
+  // RADAR patch 54: a one-shot resend of authentication messages soon after they were first sent
+  #[cfg(feature = "security")]
+  QuickSecureMessageResend,
 }
 
 // Enum indicating if secure discovery allows normal discovery to process
@@ -355,6 +358,9 @@ pub(crate) struct Discovery {
   // per-topic timers and the separate participant/topic cleanup and secure
   // resend timers), so discovery uses a single timer background thread.
   discovery_timer: SharedTimer<DiscoveryTimerEvent>,
+  // RADAR patch 54: when the one-shot quick resend timer is set for, if it is
+  #[cfg(feature = "security")]
+  quick_secure_resend_at: Option<std::time::Instant>,
   /// The smallest Automatic liveliness lease of the local writers, and the local writers' generation it was
   /// computed for.
   min_auto_lease_cache: Option<(u64, Option<crate::Duration>)>,
@@ -823,6 +829,8 @@ impl Discovery {
       dcps_participant_message, // liveliness messages
 
       discovery_timer,
+      #[cfg(feature = "security")]
+      quick_secure_resend_at: None,
       min_auto_lease_cache: None,
       lease,
       user_data,
@@ -1059,6 +1067,14 @@ impl Discovery {
                     DiscoveryTimerEvent::CachedSecureMessageResend,
                   );
                 }
+                #[cfg(feature = "security")]
+                DiscoveryTimerEvent::QuickSecureMessageResend => {
+                  self.quick_secure_resend_at = None;
+                  if let Some(security) = self.security_opt.as_mut() {
+                    security
+                      .quick_resend_due_messages(&self.dcps_participant_stateless_message.writer);
+                  }
+                }
               }
             }
           }
@@ -1105,8 +1121,31 @@ impl Discovery {
           }
         } // match
       } // for
+      #[cfg(feature = "security")]
+      self.schedule_quick_secure_resend();
     } // loop
   } // fn
+
+  /// RADAR patch 54: sets the one-shot timer for the next quick resend of an authentication message, if one
+  /// is due earlier than any set.
+  #[cfg(feature = "security")]
+  fn schedule_quick_secure_resend(&mut self) {
+    let Some(due) = self
+      .security_opt
+      .as_ref()
+      .and_then(|s| s.next_quick_resend())
+    else {
+      return;
+    };
+    if self.quick_secure_resend_at.is_some_and(|at| at <= due) {
+      return;
+    }
+    self.quick_secure_resend_at = Some(due);
+    self.discovery_timer.borrow_mut().set_timeout(
+      due.saturating_duration_since(std::time::Instant::now()),
+      DiscoveryTimerEvent::QuickSecureMessageResend,
+    );
+  }
 
   // Initialize our own participant data into the Discovery DB.
   // That causes ReaderProxies and WriterProxies to be constructed and
