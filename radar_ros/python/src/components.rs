@@ -10,7 +10,7 @@ use pyo3::{
 use radar_ros::{DynMessage, Event, ExitAction, ExitReason, Response, SlotError, StartPolicy};
 
 use crate::slot_loop::{
-    body, describe, is_slot_error, panic_with, run_slot, wait_begun, Ended, SlotLoop,
+    body, describe, ended_by, panic_with, run_slot, wait_begun, Ended, SlotLoop,
 };
 
 /// A response whose slots are the Python object `runner`'s coroutine methods `start(body: bytes) -> bytes`,
@@ -49,22 +49,17 @@ impl Response for PyResponse {
             let coro = runner
                 .bind(py)
                 .call_method1("start", (PyBytes::new(py, payload.0.as_bytes()), ack))?;
-            slots.schedule_acked(py, coro, Some(begun_tx))
+            slots.schedule_acked(py, coro, Some(begun_tx), |v| body(v, "start"))
         });
         if call.is_ok() {
             wait_begun(&begun);
         }
-        let res = match call {
+        let ended = match call {
             Ok(call) => call.result().await,
-            Err(e) => Err(e),
+            Err(e) => Python::attach(|py| ended_by(py, &e)),
         };
-        let ended = Python::attach(|py| match res {
-            Ok(v) => Ended::Value(v),
-            Err(e) if is_slot_error(py, &e) => Ended::Failed(e.value(py).to_string()),
-            Err(e) => Ended::Panicked(describe(py, &e)),
-        });
         match ended {
-            Ended::Value(v) => Python::attach(|py| body(py, &v, "start")).map_err(SlotError::msg),
+            Ended::Value(v) => Ok(v),
             Ended::Failed(m) => Err(SlotError::msg(m)),
             Ended::Panicked(m) => panic_with(m),
         }
@@ -72,9 +67,11 @@ impl Response for PyResponse {
 
     async fn interrupt(&mut self) {
         let runner = self.runner.clone();
-        if let Ended::Failed(m) | Ended::Panicked(m) = run_slot(&self.slots, move |py| {
-            runner.bind(py).call_method0("interrupt")
-        })
+        if let Ended::Failed(m) | Ended::Panicked(m) = run_slot(
+            &self.slots,
+            move |py| runner.bind(py).call_method0("interrupt"),
+            |_| Ok(()),
+        )
         .await
         {
             panic_with(m)
@@ -84,15 +81,15 @@ impl Response for PyResponse {
     async fn exit(&mut self, reason: ExitReason) -> ExitAction {
         let runner = self.runner.clone();
         let why = reason.describe();
-        match run_slot(&self.slots, move |py| {
-            runner.bind(py).call_method1("exit", (why,))
-        })
+        match run_slot(
+            &self.slots,
+            move |py| runner.bind(py).call_method1("exit", (why,)),
+            |v| Ok(v.is_truthy().unwrap_or(false)),
+        )
         .await
         {
-            Ended::Value(v) => match Python::attach(|py| v.bind(py).is_truthy().unwrap_or(false)) {
-                true => ExitAction::Restart,
-                false => ExitAction::Done,
-            },
+            Ended::Value(true) => ExitAction::Restart,
+            Ended::Value(false) => ExitAction::Done,
             Ended::Failed(m) | Ended::Panicked(m) => panic_with(m),
         }
     }
@@ -145,8 +142,14 @@ impl Event for PyEvent {
 
     async fn check(&mut self) -> Result<DynMessage, SlotError> {
         let runner = self.runner.clone();
-        match run_slot(&self.slots, move |py| runner.bind(py).call_method0("check")).await {
-            Ended::Value(v) => Python::attach(|py| body(py, &v, "check")).map_err(SlotError::msg),
+        match run_slot(
+            &self.slots,
+            move |py| runner.bind(py).call_method0("check"),
+            |v| body(v, "check"),
+        )
+        .await
+        {
+            Ended::Value(v) => Ok(v),
             Ended::Failed(m) => Err(SlotError::msg(m)),
             Ended::Panicked(m) => panic_with(m),
         }

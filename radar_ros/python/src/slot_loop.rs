@@ -21,25 +21,33 @@ pub(crate) struct SlotLoop {
 }
 
 impl SlotLoop {
-    /// Schedules the coroutine `coro` on the loop; its result (or exception) arrives through the returned
-    /// call, which cancels the coroutine if dropped before it finished.
-    pub(crate) fn schedule(&self, py: Python<'_>, coro: Bound<'_, PyAny>) -> PyResult<PyCall> {
-        self.schedule_acked(py, coro, None)
+    /// Schedules the coroutine `coro` on the loop; how it ended arrives through the returned call, which
+    /// cancels the coroutine if dropped before it finished. `value` reads its return value into Rust in the
+    /// loop's thread, as the coroutine ends (that thread holds the GIL then: the engine's side takes no GIL to
+    /// read the outcome); a value it refuses ends the slot as failed, with its message.
+    pub(crate) fn schedule<T: Send + 'static>(
+        &self,
+        py: Python<'_>,
+        coro: Bound<'_, PyAny>,
+        value: impl Fn(&Bound<'_, PyAny>) -> Result<T, String> + Send + Sync + 'static,
+    ) -> PyResult<PyCall<T>> {
+        self.schedule_acked(py, coro, None, value)
     }
 
     /// [`schedule`](Self::schedule), also sending on `begun` when the coroutine ends (in case it ended before
     /// it could say it had begun).
-    pub(crate) fn schedule_acked(
+    pub(crate) fn schedule_acked<T: Send + 'static>(
         &self,
         py: Python<'_>,
         coro: Bound<'_, PyAny>,
         begun: Option<std::sync::mpsc::SyncSender<()>>,
-    ) -> PyResult<PyCall> {
+        value: impl Fn(&Bound<'_, PyAny>) -> Result<T, String> + Send + Sync + 'static,
+    ) -> PyResult<PyCall<T>> {
         let fut = self
             .submit
             .bind(py)
             .call1((coro, self.event_loop.bind(py)))?;
-        let (tx, rx) = tokio::sync::oneshot::channel::<PyResult<Py<PyAny>>>();
+        let (tx, rx) = tokio::sync::oneshot::channel::<Ended<T>>();
         let tx = Mutex::new(Some(tx));
         let done = PyCFunction::new_closure(
             py,
@@ -47,9 +55,15 @@ impl SlotLoop {
             None,
             move |args: &Bound<'_, PyTuple>, _kw: Option<&Bound<'_, PyDict>>| -> PyResult<()> {
                 let fut = args.get_item(0)?;
-                let res = fut.call_method0("result").map(Bound::unbind);
+                let ended = match fut.call_method0("result") {
+                    Ok(v) => match value(&v) {
+                        Ok(v) => Ended::Value(v),
+                        Err(m) => Ended::Failed(m),
+                    },
+                    Err(e) => ended_by(args.py(), &e),
+                };
                 if let Some(tx) = tx.lock().unwrap().take() {
-                    let _ = tx.send(res);
+                    let _ = tx.send(ended);
                 }
                 if let Some(b) = &begun {
                     let _ = b.try_send(());
@@ -66,26 +80,41 @@ impl SlotLoop {
 }
 
 /// A Python coroutine running on the slot loop, seen from Rust.
-pub(crate) struct PyCall {
+pub(crate) struct PyCall<T> {
     pub(crate) fut: Option<Py<PyAny>>,
-    pub(crate) rx: tokio::sync::oneshot::Receiver<PyResult<Py<PyAny>>>,
+    pub(crate) rx: tokio::sync::oneshot::Receiver<Ended<T>>,
 }
 
-impl PyCall {
-    pub(crate) async fn result(mut self) -> PyResult<Py<PyAny>> {
+impl<T> PyCall<T> {
+    /// How the coroutine ended (read in the loop's thread; no GIL taken here unless the loop stopped).
+    pub(crate) async fn result(mut self) -> Ended<T> {
         let r = (&mut self.rx).await;
-        self.fut = None;
-        r.unwrap_or_else(|_| Err(PyRuntimeError::new_err("the slot loop stopped")))
+        if let Some(fut) = self.fut.take() {
+            // done: nothing to cancel, and its reference is dropped when a thread next holds the GIL
+            drop(fut);
+        }
+        r.unwrap_or_else(|_| {
+            Python::attach(|py| ended_by(py, &PyRuntimeError::new_err("the slot loop stopped")))
+        })
     }
 }
 
-impl Drop for PyCall {
+impl<T> Drop for PyCall<T> {
     fn drop(&mut self) {
         if let Some(fut) = self.fut.take() {
             Python::attach(|py| {
                 let _ = fut.bind(py).call_method0("cancel");
             });
         }
+    }
+}
+
+/// How a slot that raised `e` ended: failed (a `radar_ros.SlotError`) or panicked (any other exception).
+pub(crate) fn ended_by<T>(py: Python<'_>, e: &PyErr) -> Ended<T> {
+    if is_slot_error(py, e) {
+        Ended::Failed(e.value(py).to_string())
+    } else {
+        Ended::Panicked(describe(py, e))
     }
 }
 
@@ -117,26 +146,27 @@ pub(crate) fn is_slot_error(py: Python<'_>, e: &PyErr) -> bool {
 
 /// How a Python slot ended, in Rust's terms: a value, a `SlotError` (failed), or any other exception (as a
 /// panic of a Rust slot: the run ends as panicked with the exception and its traceback).
-pub(crate) enum Ended {
-    Value(Py<PyAny>),
+pub(crate) enum Ended<T> {
+    Value(T),
     Failed(String),
     Panicked(String),
 }
 
-pub(crate) async fn run_slot(
+/// Runs the coroutine `make` gives on the loop and waits for how it ended, its value read by `value`.
+pub(crate) async fn run_slot<T: Send + 'static>(
     loop_: &SlotLoop,
     make: impl FnOnce(Python<'_>) -> PyResult<Bound<'_, PyAny>>,
-) -> Ended {
-    let call = Python::attach(|py| make(py).and_then(|coro| loop_.schedule(py, coro)));
-    let res = match call {
+    value: impl Fn(&Bound<'_, PyAny>) -> Result<T, String> + Send + Sync + 'static,
+) -> Ended<T> {
+    let call = Python::attach(|py| {
+        make(py)
+            .and_then(|coro| loop_.schedule(py, coro, value))
+            .map_err(|e| ended_by(py, &e))
+    });
+    match call {
         Ok(call) => call.result().await,
-        Err(e) => Err(e),
-    };
-    Python::attach(|py| match res {
-        Ok(v) => Ended::Value(v),
-        Err(e) if is_slot_error(py, &e) => Ended::Failed(e.value(py).to_string()),
-        Err(e) => Ended::Panicked(describe(py, &e)),
-    })
+        Err(ended) => ended,
+    }
 }
 
 /// Waits (at most 1 s: a loop blocked by user code must not hold up the engine for ever) until a Python
@@ -157,14 +187,14 @@ pub(crate) fn panic_with(msg: String) -> ! {
     std::panic::resume_unwind(Box::new(msg))
 }
 
-pub(crate) fn body(py: Python<'_>, v: &Py<PyAny>, what: &str) -> Result<DynMessage, String> {
-    v.bind(py)
-        .extract::<Vec<u8>>()
+/// The payload's bytes a slot returned (`what` names the slot in the error).
+pub(crate) fn body(v: &Bound<'_, PyAny>, what: &str) -> Result<DynMessage, String> {
+    v.extract::<Vec<u8>>()
         .map(|b| DynMessage(RawMessage::from_bytes(b)))
         .map_err(|_| {
             format!(
                 "{what} returned {}, not the payload's bytes",
-                v.bind(py).repr().map(|r| r.to_string()).unwrap_or_default()
+                v.repr().map(|r| r.to_string()).unwrap_or_default()
             )
         })
 }

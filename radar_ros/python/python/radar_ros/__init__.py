@@ -270,10 +270,13 @@ class _Runner:
         """Runs the slot ``fn``; ``begun()`` is called once it has begun: an ``async def`` run up to its first
         ``await``, a plain function's thread started."""
         if _is_async(fn):
+            if begun is None:
+                # in this task: a task of its own would cost a loop iteration each way (a check's trigger
+                # waits for them); cancelling this task cancels it alike
+                return await fn(*args)
             task = asyncio.ensure_future(fn(*args))
-            if begun is not None:
-                # after the task's first step, which ensure_future scheduled just before
-                asyncio.get_running_loop().call_soon(begun)
+            # after the task's first step, which ensure_future scheduled just before
+            asyncio.get_running_loop().call_soon(begun)
             return await task
         return await _in_thread(fn, args, self._name, begun)
 
