@@ -141,9 +141,10 @@ fn throughput_table(s: &mut String, throughput: &[crate::coord::Throughput]) {
     );
     let _ = writeln!(
         s,
-        "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step | connect all (by name, from the manager's process) |"
+        "| path | connections | max lossless | ratio | relay CPU at that rate | first lossy step | connect all (by name, from the manager's process; the components settled) | the same, the components just started |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|---:|");
+    let ms = |v: Option<f64>| v.map_or_else(|| "-".into(), |ms| format!("{ms:.0} ms"));
     for t in throughput {
         let lossy = t
             .steps
@@ -158,16 +159,15 @@ fn throughput_table(s: &mut String, throughput: &[crate::coord::Throughput]) {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0} | {} | {} | {} | {} |",
+            "| {} | {} | {:.0} | {} | {} | {} | {} | {} |",
             t.label,
             t.connections,
             t.max_lossless,
             ratio(t.max_lossless, base),
             cpu,
             lossy,
-            t.connect_ms
-                .map(|ms| format!("{ms:.0} ms"))
-                .unwrap_or_else(|| "-".into())
+            ms(t.connect_ms),
+            ms(t.connect_fresh_ms),
         );
     }
 }

@@ -173,8 +173,11 @@ pub struct Throughput {
     pub max_lossless: f64,
     /// Relay CPU at that rate.
     pub relay_cpu: f64,
-    /// Time to make all the connections from the manager's process, each found by name (ms; none for raw).
+    /// Time to make all the connections from the manager's process, each found by name, the components'
+    /// processes settled (their own discovery of each other over; ms; none for raw).
     pub connect_ms: Option<f64>,
+    /// The same from a first manager started as soon as the components' processes were (ms; none for raw).
+    pub connect_fresh_ms: Option<f64>,
     /// Every step run.
     pub steps: Vec<Step>,
 }

@@ -9,7 +9,7 @@ impl Bench {
         label: &str,
         n: usize,
         r: (f64, f64, Vec<Step>),
-        connect_ms: Option<f64>,
+        connect_ms: Option<(f64, f64)>,
     ) {
         self.results.throughput.push(Throughput {
             key: key.into(),
@@ -17,9 +17,41 @@ impl Bench {
             connections: n,
             max_lossless: r.0,
             relay_cpu: r.1,
-            connect_ms,
+            connect_ms: connect_ms.map(|c| c.0),
+            connect_fresh_ms: connect_ms.map(|c| c.1),
             steps: r.2,
         });
+    }
+
+    /// `connect-many` of `n` from `mgr`: the time it says (ms).
+    async fn connect_many(mgr: &mut Child, n: usize) -> Result<f64> {
+        let armed = mgr
+            .ask(
+                &format!("connect-many /bench/src /bench/sink {n}"),
+                Duration::from_secs(300),
+            )
+            .await?;
+        armed
+            .strip_prefix("armed ")
+            .and_then(|ms| ms.trim().parse::<f64>().ok())
+            .ok_or_else(|| anyhow!("connect-many said {armed:?}"))
+    }
+
+    /// Waits (at most 30 s) until the processes `pids` together use under 5% of a core over half a second:
+    /// their discovery of each other (and of a manager that left) is over.
+    async fn settled(pids: &[u32]) -> Result<()> {
+        let window = Duration::from_millis(500);
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let used = || -> Result<Duration> { pids.iter().map(|p| cpu_time(*p)).sum() };
+        loop {
+            let before = used()?;
+            tokio::time::sleep(window).await;
+            if (used()? - before).as_secs_f64() < 0.05 * window.as_secs_f64()
+                || Instant::now() > deadline
+            {
+                return Ok(());
+            }
+        }
     }
 
     /// The most signals per second forwarded with no loss.
@@ -81,17 +113,17 @@ impl Bench {
             let mut src = self
                 .child(d, &["sources", "--prefix", "/bench/src", "--count", &ns])
                 .await?;
+            // a program started with the components' processes (they still discover each other), then one
+            // connecting to them once they run settled, as a program does to a robot's running components
+            let mut first = self.child(d, &["manager"]).await?;
+            let fresh = Self::connect_many(&mut first, n).await?;
+            first.quit().await;
+            Self::settled(&[sink.pid(), src.pid()]).await?;
             let mut mgr = self.child(d, &["manager"]).await?;
-            let armed = mgr
-                .ask(
-                    &format!("connect-many /bench/src /bench/sink {n}"),
-                    Duration::from_secs(300),
-                )
-                .await?;
-            eprintln!("radar_bench: {n} connections {armed}");
-            let connect_ms = armed
-                .strip_prefix("armed ")
-                .and_then(|ms| ms.trim().parse::<f64>().ok());
+            let connect = Self::connect_many(&mut mgr, n).await?;
+            eprintln!(
+                "radar_bench: {n} connections armed in {connect} ms ({fresh} ms with the components just started)"
+            );
             src.ask("wait", Duration::from_secs(60)).await?;
             tokio::time::sleep(Duration::from_millis(300)).await;
             let pid = mgr.pid();
@@ -101,7 +133,7 @@ impl Bench {
                 &format!("radar_ros manager process, {n} live connection(s), load spread over all"),
                 n,
                 r,
-                connect_ms,
+                Some((connect, fresh)),
             );
             for c in [mgr, src, sink] {
                 c.quit().await;
