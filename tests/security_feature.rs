@@ -9,7 +9,7 @@
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
 //!   security handshake target; 44: an encoded fragment run is parsed; 54: authentication messages resent soon
-//!   after their first sending);
+//!   after their first sending; 55: session keys kept once derived);
 //! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -111,6 +111,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "an_encoded_payload_longer_than_its_fragment_run",
         "decode_failures::",
         "quick_resend_tests",
+        "session_key_cache_tests",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -193,6 +194,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "a_source_is_reported_once_per_period_with_how_many_were_not",
             "many_sources_are_bounded",
             "a_stored_authentication_message_is_resent_soon_then_left_to_the_periodic_resend",
+            "a_kept_session_key_is_the_derived_one_and_the_cache_is_bounded",
         ],
     );
     // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the

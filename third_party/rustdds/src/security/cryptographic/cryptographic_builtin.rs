@@ -290,7 +290,27 @@ impl CryptographicBuiltin {
     BuiltinInitializationVector::new(self.session_id(), rand::random())
   }
 
+  /// RADAR patch 55: the session key of `master_key`, `master_salt` and the IV's session id, derived once
+  /// and kept (see [`session_key_cache`]), not derived again (an HMAC-SHA256, four SHA-256 blocks) for
+  /// every submessage and payload encoded or decoded: the session id changes seldom (never, today), so a
+  /// secured hop derived the same few keys several times per message on each side.
   fn compute_session_key(
+    rec_spec: ReceiverSpecific,
+    master_key: &BuiltinKey,
+    master_salt: &BuiltinKey,
+    iv: BuiltinInitializationVector,
+  ) -> BuiltinKey {
+    if let BuiltinKey::None = master_key {
+      return BuiltinKey::None;
+    }
+    session_key_cache::get_or_derive(
+      session_key_cache::Inputs::new(rec_spec, master_key, master_salt, iv.session_id()),
+      || Self::derive_session_key(rec_spec, master_key, master_salt, iv),
+    )
+  }
+
+  /// The session key as DDS Security 1.1, 9.5.3.3.3 computes it.
+  fn derive_session_key(
     rec_spec: ReceiverSpecific,
     master_key: &BuiltinKey,
     master_salt: &BuiltinKey,
@@ -507,4 +527,134 @@ struct DecodeSessionMaterials {
   // knows it
   receiver_specific_key: Option<ReceiverSpecificKeyMaterial>,
   // Either we have receiver specific key material specific to us or not.
+}
+
+/// RADAR patch 55: derived session keys, by what they are derived from. Bounded: emptied when it holds
+/// [`session_key_cache::LIMIT`] keys (a process with more secured endpoints than that derives again, as
+/// before). A derived key is as secret as the master key it comes from, which the plugin keeps too.
+mod session_key_cache {
+  use std::{
+    collections::HashMap,
+    sync::{Mutex, OnceLock},
+  };
+
+  use super::{BuiltinKey, ReceiverSpecific};
+  use crate::security::cryptographic::cryptographic_builtin::types::SessionId;
+
+  pub(super) const LIMIT: usize = 4096;
+
+  /// What a session key is derived from: whether it is receiver-specific, the master key and salt (each
+  /// with its length, zero-padded to 32 bytes) and the session id.
+  #[derive(Clone, Copy, PartialEq, Eq, Hash)]
+  pub(super) struct Inputs([u8; 71]);
+
+  impl Inputs {
+    pub(super) fn new(
+      rec_spec: ReceiverSpecific,
+      master_key: &BuiltinKey,
+      master_salt: &BuiltinKey,
+      session_id: SessionId,
+    ) -> Self {
+      let mut b = [0u8; 71];
+      b[0] = u8::from(rec_spec == ReceiverSpecific::Yes);
+      let (k, s) = (master_key.as_bytes(), master_salt.as_bytes());
+      b[1] = k.len() as u8;
+      b[2..2 + k.len().min(32)].copy_from_slice(&k[..k.len().min(32)]);
+      b[34] = s.len() as u8;
+      b[35..35 + s.len().min(32)].copy_from_slice(&s[..s.len().min(32)]);
+      b[67..71].copy_from_slice(session_id.as_bytes());
+      Inputs(b)
+    }
+  }
+
+  fn cache() -> &'static Mutex<HashMap<Inputs, BuiltinKey>> {
+    static CACHE: OnceLock<Mutex<HashMap<Inputs, BuiltinKey>>> = OnceLock::new();
+    CACHE.get_or_init(Default::default)
+  }
+
+  /// The key derived from `inputs`: kept, or derived by `derive` and kept.
+  pub(super) fn get_or_derive(inputs: Inputs, derive: impl FnOnce() -> BuiltinKey) -> BuiltinKey {
+    if let Some(k) = cache().lock().unwrap().get(&inputs) {
+      return k.clone();
+    }
+    let k = derive();
+    let mut c = cache().lock().unwrap();
+    if c.len() >= LIMIT {
+      c.clear();
+    }
+    c.insert(inputs, k.clone());
+    k
+  }
+
+  #[cfg(test)]
+  pub(super) fn len() -> usize {
+    cache().lock().unwrap().len()
+  }
+}
+
+#[cfg(test)]
+mod session_key_cache_tests {
+  use super::{
+    builtin_key::BuiltinKey, key_material::ReceiverSpecific, types::BuiltinInitializationVector,
+    types::SessionId, CryptographicBuiltin,
+  };
+
+  fn key(seed: u8, aes256: bool) -> BuiltinKey {
+    let b: Vec<u8> = (0..32).map(|i| seed.wrapping_mul(31).wrapping_add(i)).collect();
+    if aes256 {
+      BuiltinKey::AES256(b.try_into().unwrap())
+    } else {
+      BuiltinKey::AES128(b[..16].try_into().unwrap())
+    }
+  }
+
+  /// RADAR patch 55: a kept session key is the key DDS Security's derivation gives, for every kind of
+  /// input (receiver-specific or not, AES-128 and AES-256 master keys, several salts and session ids), the
+  /// first time and again; inputs that differ in any part give their own keys; the cache stays bounded.
+  #[test]
+  fn a_kept_session_key_is_the_derived_one_and_the_cache_is_bounded() {
+    let mut seen = std::collections::HashSet::new();
+    for seed in 0..20u8 {
+      for aes256 in [false, true] {
+        for rec in [ReceiverSpecific::No, ReceiverSpecific::Yes] {
+          for sid in [[1, 3, 3, 7], [0, 0, 0, 1]] {
+            let (k, salt) = (key(seed, aes256), key(seed.wrapping_add(100), aes256));
+            let iv = BuiltinInitializationVector::new(SessionId::new(sid), [seed; 8]);
+            let derived = CryptographicBuiltin::derive_session_key(rec, &k, &salt, iv);
+            for _ in 0..2 {
+              assert_eq!(
+                CryptographicBuiltin::compute_session_key(rec, &k, &salt, iv),
+                derived
+              );
+            }
+            seen.insert(derived.as_bytes().to_vec());
+          }
+        }
+      }
+    }
+    assert_eq!(seen.len(), 20 * 2 * 2 * 2, "every input its own key");
+    assert_eq!(
+      CryptographicBuiltin::compute_session_key(
+        ReceiverSpecific::No,
+        &BuiltinKey::None,
+        &key(1, false),
+        BuiltinInitializationVector::new(SessionId::new([1, 3, 3, 7]), [0; 8])
+      ),
+      BuiltinKey::None
+    );
+    for seed in 0..=(super::session_key_cache::LIMIT / 200) as u32 {
+      for n in 0..200u32 {
+        let mut b = [0u8; 32];
+        b[..4].copy_from_slice(&(seed * 200 + n).to_le_bytes());
+        let iv = BuiltinInitializationVector::new(SessionId::new([9, 9, 9, 9]), [0; 8]);
+        CryptographicBuiltin::compute_session_key(
+          ReceiverSpecific::No,
+          &BuiltinKey::AES256(b),
+          &key(2, true),
+          iv,
+        );
+        assert!(super::session_key_cache::len() <= super::session_key_cache::LIMIT);
+      }
+    }
+  }
 }
