@@ -97,9 +97,10 @@ impl Bench {
 
     /// A program's first signal to a new peer: a deliberative program (manager, third process) waits for the
     /// event `/bench/born` to connect it to a response; the event's process is then started, and its event
-    /// triggers every 5 ms while listened to, each stamped with the time the coordinator started the process.
-    /// The row: process started -> the response's start slot first runs (the new participant's discovery, the
-    /// authentication handshake and key exchange when secured, the lookup, arming, and two hops; to 5 ms).
+    /// triggers once, as soon as it is listened to (a condition already true), stamped with the time the
+    /// coordinator started the process. The row: process started -> the response's start slot runs (the new
+    /// participant's discovery, the authentication handshake and key exchange when secured, the lookup,
+    /// arming, and two hops); a round whose trigger never arrives is counted missing.
     /// Fresh processes and a domain of their own each round.
     #[cfg(feature = "security")]
     async fn first_signal_rows(&mut self, key: &str, how: &str) -> Result<()> {
@@ -142,7 +143,7 @@ impl Bench {
             &format!("security_first_signal_{key}"),
             &format!(
                 "a new peer's first signal: its process started -> the response's start slot ({ROUNDS} rounds, \
-                 to 5 ms; program in a third process), {how}"
+                 its one trigger; program in a third process), {how}"
             ),
             &json!({ "lat_ns": lat }),
             "",

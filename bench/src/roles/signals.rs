@@ -6,17 +6,17 @@ use super::*;
 /// the time the condition "became true".
 pub(super) struct Fed {
     rx: mpsc::UnboundedReceiver<u64>,
-    /// Every check resolves 5 ms after it began, stamped with this time (sequence number 0): when the
-    /// coordinator started this process (`--born`). Every 5 ms, not once: the event becomes active when a relay
-    /// reader matches it, which can be before the connection is armed, and a trigger then is not delivered (C1).
+    /// The first check resolves at once, stamped with this time (sequence number 0): when the coordinator
+    /// started this process (`--born`); later ones never do. A condition already true when the program
+    /// connects it: its one trigger is emitted as the statement's reader activates the event, before the
+    /// statement is armed, and is delivered (C1 counts from when the statement began).
     born: Option<u64>,
 }
 
 impl Event for Fed {
     type Payload = Header;
     async fn check(&mut self) -> Result<Header, SlotError> {
-        if let Some(t) = self.born {
-            tokio::time::sleep(Duration::from_millis(5)).await;
+        if let Some(t) = self.born.take() {
             let mut h = stamped(0);
             h.stamp.sec = (t / 1_000_000_000) as i32;
             h.stamp.nanosec = (t % 1_000_000_000) as u32;
@@ -38,7 +38,7 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 /// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process); with
 /// `--local-response NAME` it also runs the recording response NAME (as the role `response` does, answering
 /// `report`) and connects FIRST to it: event, manager and response in one process. With `--born NS` (when
-/// the coordinator started this process) FIRST triggers every 5 ms while something listens, stamped NS.
+/// the coordinator started this process) FIRST triggers once, as soon as something listens, stamped NS.
 pub(super) async fn events(
     names: &str,
     connect: Option<String>,
