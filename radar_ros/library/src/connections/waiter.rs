@@ -19,8 +19,9 @@
 //! If the component leaves the graph before it sends the signal, the wait ends with
 //! [`Error::ComponentLost`](crate::Error::ComponentLost) (see [components that leave](crate#when-components-leave)).
 //!
-//! Which signals a waiter sees: those its source emits after it is armed (stamped at or after the moment the
-//! relay was armed, by the emitter's clock), from any publisher of the source's type that discovery has
+//! Which signals a waiter sees: those its source emits once it is armed, and those emitted while it armed
+//! (stamped, by the emitter's clock, at or after the moment arming began: C1; the waiter's own reader may
+//! activate an event whose condition already holds), from any publisher of the source's type that discovery has
 //! matched with the waiter's reader; for a publisher in this process that means every one, for one in another
 //! process every one that has matched the reader back (DDS completes discovery on each side separately:
 //! see the crate documentation on arming).
