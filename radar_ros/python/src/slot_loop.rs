@@ -89,10 +89,8 @@ impl<T> PyCall<T> {
     /// How the coroutine ended (read in the loop's thread; no GIL taken here unless the loop stopped).
     pub(crate) async fn result(mut self) -> Ended<T> {
         let r = (&mut self.rx).await;
-        if let Some(fut) = self.fut.take() {
-            // done: nothing to cancel, and its reference is dropped when a thread next holds the GIL
-            drop(fut);
-        }
+        // done: nothing to cancel (its reference is dropped when a thread next holds the GIL)
+        self.fut = None;
         r.unwrap_or_else(|_| {
             Python::attach(|py| ended_by(py, &PyRuntimeError::new_err("the slot loop stopped")))
         })
