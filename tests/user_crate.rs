@@ -49,7 +49,12 @@ fn user_target() -> PathBuf {
 
 fn cargo() -> Command {
     let mut c = Command::new(env!("CARGO"));
-    c.env_remove("RUSTFLAGS").env_remove("CARGO_TARGET_DIR");
+    // built once per run: no incremental state (2 GB of it), line tables only (most of the rest); disk is what a
+    // CI machine runs out of first
+    c.env_remove("RUSTFLAGS")
+        .env_remove("CARGO_TARGET_DIR")
+        .env("CARGO_INCREMENTAL", "0")
+        .env("CARGO_PROFILE_DEV_DEBUG", "line-tables-only");
     c
 }
 
@@ -76,6 +81,22 @@ fn build_with(dir: &Path, args: &[&str], env: &[(&str, &std::ffi::OsStr)]) -> st
         .envs(env.iter().copied())
         .output()
         .expect("run cargo")
+}
+
+/// What cargo said in `stderr`, without its progress lines (`Compiling`, `Blocking`, ...), so that a failure's
+/// message shows the error itself rather than a page of crate names that a CI log cuts before the error.
+fn cargo_said(stderr: &[u8]) -> String {
+    let text = String::from_utf8_lossy(stderr);
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            let l = l.trim_start();
+            !["Compiling ", "Blocking ", "Checking ", "Locking ", "Adding ", "Updating ", "Downgrading "]
+                .iter()
+                .any(|p| l.starts_with(p))
+        })
+        .collect();
+    format!("({} progress lines left out)\n{}", text.lines().count() - kept.len(), kept.join("\n"))
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -108,7 +129,7 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
     assert!(
         out.status.success(),
         "the user's crate builds: {}",
-        String::from_utf8_lossy(&out.stderr)
+        cargo_said(&out.stderr)
     );
     // it links radar_ros's own stack, not the crates.io one
     let lock = std::fs::read_to_string(dir.join("Cargo.lock")).unwrap();
@@ -200,7 +221,7 @@ async fn a_crate_with_generated_types_echoes_every_test_msgs_fixture_and_serves_
     assert!(
         out.status.success(),
         "the crate with generated types builds: {}",
-        String::from_utf8_lossy(&out.stderr)
+        cargo_said(&out.stderr)
     );
     // generated code is code a person would write: it builds without a warning in a user's binary crate
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -317,7 +338,7 @@ fn crates_io_rustdds() -> PathBuf {
     assert!(
         out.status.success(),
         "the crates.io RustDDS is not in cargo's cache (tests/isolated.sh fetches it): {}",
-        String::from_utf8_lossy(&out.stderr)
+        cargo_said(&out.stderr)
     );
     let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let manifest = meta["packages"]
@@ -402,7 +423,8 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
     std::fs::write(r2c, m).unwrap();
     let out = build(&ws, &["-p", "radar_ros"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "the build goes through: {stderr}");
+    let said = cargo_said(&out.stderr);
+    assert!(!out.status.success(), "the build goes through: {said}");
     // how many patches radar_ros asks for, as its build script says
     let build_rs = std::fs::read_to_string(repo().join("radar_ros/library/build.rs")).unwrap();
     let need = build_rs
@@ -416,6 +438,6 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
         ))
             && stderr.contains("remove the `[patch]`")
             && !stderr.contains("error[E"),
-        "radar_ros's build script stops it first, saying what to do: {stderr}"
+        "radar_ros's build script stops it first, saying what to do: {said}"
     );
 }
