@@ -91,12 +91,24 @@ fn cargo_said(stderr: &[u8]) -> String {
         .lines()
         .filter(|l| {
             let l = l.trim_start();
-            !["Compiling ", "Blocking ", "Checking ", "Locking ", "Adding ", "Updating ", "Downgrading "]
-                .iter()
-                .any(|p| l.starts_with(p))
+            ![
+                "Compiling ",
+                "Blocking ",
+                "Checking ",
+                "Locking ",
+                "Adding ",
+                "Updating ",
+                "Downgrading ",
+            ]
+            .iter()
+            .any(|p| l.starts_with(p))
         })
         .collect();
-    format!("({} progress lines left out)\n{}", text.lines().count() - kept.len(), kept.join("\n"))
+    format!(
+        "({} progress lines left out)\n{}",
+        text.lines().count() - kept.len(),
+        kept.join("\n")
+    )
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
