@@ -453,3 +453,81 @@ def test_an_interrupt_right_after_a_start_finds_the_behaviour_begun(kind: str) -
             exited.recv(timeout=WAIT)
             eventually(lambda: len(b.log) == 3 * (i + 1), "the run's slots")
             assert b.log[-3:] == ["began", "interrupt", "exit:interrupted"], (i, b.log)
+
+
+def test_a_start_behaviour_run_in_the_runners_task_says_it_began_after_its_first_step_and_cancels_alike() -> None:
+    """The package runs an `async def start` inside the task the engine scheduled (no task of its own, a loop
+    iteration less on the start path): `begun` is said once it reached its first `await` (or ended before
+    one), its value and exceptions come out as `await` gives them, values its awaits resolve to reach it,
+    and cancelling the task cancels it at its `await` (its `finally` runs)."""
+    from radar_ros import _begun_after_first_step
+
+    async def scenario() -> None:
+        log: List[str] = []
+
+        def begun() -> None:
+            log.append("begun")
+
+        loop = asyncio.get_running_loop()
+        fut: "asyncio.Future[int]" = loop.create_future()
+
+        async def behaviour(x: int) -> int:
+            log.append("first step")
+            got = await fut
+            log.append(f"got {got}")
+            await asyncio.sleep(0)
+            return x + got
+
+        task = asyncio.ensure_future(_begun_after_first_step(behaviour(1), begun))
+        await asyncio.sleep(0)
+        assert log == ["first step", "begun"]
+        fut.set_result(41)
+        assert await task == 42
+        assert log == ["first step", "begun", "got 41"]
+
+        async def fails_at_once() -> None:
+            raise ValueError("no")
+
+        log.clear()
+        with pytest.raises(ValueError, match="no"):
+            await _begun_after_first_step(fails_at_once(), begun)
+        assert log == ["begun"]
+
+        async def returns_at_once() -> str:
+            return "done"
+
+        log.clear()
+        assert await _begun_after_first_step(returns_at_once(), begun) == "done"
+        assert log == ["begun"]
+
+        async def runs_long() -> None:
+            try:
+                await asyncio.sleep(3600)
+            except asyncio.CancelledError:
+                log.append("cancelled at its await")
+                raise
+            finally:
+                log.append("finally")
+
+        log.clear()
+        task = asyncio.ensure_future(_begun_after_first_step(runs_long(), begun))
+        await asyncio.sleep(0)
+        task.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        assert log == ["begun", "cancelled at its await", "finally"]
+
+        async def catches_and_goes_on() -> str:
+            try:
+                await asyncio.sleep(3600)
+            except asyncio.CancelledError:
+                await asyncio.sleep(0)
+                return "handled"
+            return "slept"
+
+        task = asyncio.ensure_future(_begun_after_first_step(catches_and_goes_on(), begun))
+        await asyncio.sleep(0)
+        task.cancel()
+        assert await task == "handled"
+
+    asyncio.run(scenario())

@@ -31,9 +31,10 @@ import signal as _signal_module
 import sys
 import threading
 import time
+import types
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Generator, List, Optional, Tuple, Union
 
 from . import _native
 from ._errors import (
@@ -212,6 +213,39 @@ def _is_async(fn: Any) -> bool:
     return inspect.iscoroutinefunction(fn) or inspect.iscoroutinefunction(getattr(fn, "__call__", None))
 
 
+@types.coroutine
+def _begun_after_first_step(coro: Any, begun: Callable[[], None]) -> Generator[Any, Any, Any]:
+    """Runs the coroutine ``coro`` in the awaiting task, as ``await coro`` does, calling ``begun()`` once it has
+    run up to its first suspension (or ended before one). A task of its own would tell the same, one loop
+    iteration later on the start path; cancelling the awaiting task cancels ``coro`` at its ``await`` alike."""
+    it = coro.__await__()
+    try:
+        suspended = it.send(None)
+    except StopIteration as done:
+        begun()
+        return done.value
+    except BaseException:
+        begun()
+        raise
+    begun()
+    while True:
+        try:
+            sent = yield suspended
+        except GeneratorExit:
+            it.close()
+            raise
+        except BaseException as e:  # noqa: BLE001 - passed on into the coroutine, as `await` does
+            try:
+                suspended = it.throw(e)
+            except StopIteration as done:
+                return done.value
+        else:
+            try:
+                suspended = it.send(sent)
+            except StopIteration as done:
+                return done.value
+
+
 async def _in_thread(
     fn: Callable[..., Any], args: Tuple[Any, ...], name: str, begun: Optional[Callable[[], None]] = None
 ) -> Any:
@@ -270,14 +304,11 @@ class _Runner:
         """Runs the slot ``fn``; ``begun()`` is called once it has begun: an ``async def`` run up to its first
         ``await``, a plain function's thread started."""
         if _is_async(fn):
+            # in this task: a task of its own would cost a loop iteration each way (a check's trigger and a
+            # start's behaviour wait for them); cancelling this task cancels it alike
             if begun is None:
-                # in this task: a task of its own would cost a loop iteration each way (a check's trigger
-                # waits for them); cancelling this task cancels it alike
                 return await fn(*args)
-            task = asyncio.ensure_future(fn(*args))
-            # after the task's first step, which ensure_future scheduled just before
-            asyncio.get_running_loop().call_soon(begun)
-            return await task
+            return await _begun_after_first_step(fn(*args), begun)
         return await _in_thread(fn, args, self._name, begun)
 
 
