@@ -31,6 +31,8 @@ the QoS is the RADAR signal QoS (reliable, volatile, keep-last 10, which is rclp
 """
 import argparse
 import json
+import os
+import statistics
 import sys
 import threading
 import time
@@ -130,14 +132,20 @@ def radar_sink(topic, lock, record):
     """A Python response through the radar_ros package, started by `whenever topic start` (1 hop)."""
     import radar_ros
 
+    stages = staged_runner(radar_ros) if os.environ.get("RADAR_BENCH_STAGES") == "1" else None
+
     class Sink(radar_ros.Response):
         start_type = Header
         start_policy = "queue_one"
 
         async def start(self, h):
-            age = now_ns() - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
+            t = now_ns()
+            age = t - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
             with lock:
                 record.append((int(h.frame_id), age))
+                if stages is not None and stages["pending"]:
+                    stages["runs"][int(h.frame_id)] = stages["pending"] + [t]
+                    stages["pending"] = None
 
     radar = radar_ros.Radar(args=[])
     resp = radar.spawn_response("/bench/py_sink", Sink())
@@ -146,7 +154,52 @@ def radar_sink(topic, lock, record):
     connections = []
     threading.Thread(target=lambda: connections.append(statement.connect()), daemon=True).start()
     resp.connections = connections  # kept as long as the response
-    return radar, resp
+    return radar, resp, stages
+
+
+def staged_runner(radar_ros):
+    """RADAR_BENCH_STAGES=1: where a Python response's start goes between the engine and the user's slot.
+    Wraps the package's runner (its `start` is called by the engine's task, on the engine's thread, and returns
+    the coroutine the slot loop runs) and its payload decoding, stamping: the engine's call, the coroutine's
+    first step on the loop's thread, the payload decoded; the slot itself stamps when it begins."""
+    stages = {"pending": None, "runs": {}}
+    runner = radar_ros._ResponseRunner
+    orig_start, orig_decode = runner.start, radar_ros.decode
+
+    def start(self, body, begun):
+        called = now_ns()
+
+        async def staged():
+            stages["pending"] = [called, now_ns()]
+            return await orig_start(self, body, begun)
+        return staged()
+
+    def decode(*a, **k):
+        out = orig_decode(*a, **k)
+        if stages["pending"] is not None and len(stages["pending"]) == 2:
+            stages["pending"].append(now_ns())
+        return out
+
+    runner.start = start
+    radar_ros.decode = decode
+    return stages
+
+
+def stage_p50s(stages, got):
+    """The p50 of each stage (us) of the runs in `stages`, the first from the publisher's stamp (`got`:
+    the (seq, age) pairs of the runs counted)."""
+    names = ["publish -> engine calls the slot", "-> coroutine's first step on the loop",
+             "-> payload decoded", "-> user's start begins"]
+    cols = [[] for _ in names]
+    for seq, age in got:
+        run = stages["runs"].get(seq, [])
+        if len(run) != 4:
+            continue
+        begin = run[3]
+        published = begin - age
+        for i, (a, b) in enumerate(zip([published] + run[:3], run)):
+            cols[i].append((b - a) / 1000)
+    return [[n, round(statistics.median(c), 1)] for n, c in zip(names, cols) if c]
 
 
 def radar_source(name):
@@ -245,12 +298,13 @@ def main():
     record = []
     actions = {}
     driver = None
+    radar_stages = None
     if a.role == "action-server":
         server = action_server(node, a.topic, lock, actions)
     elif a.role == "action-client":
         driver = Driver(node, a.topic)
     elif a.role == "radar-sink":
-        radar, resp = radar_sink(a.topic, lock, record)
+        radar, resp, radar_stages = radar_sink(a.topic, lock, record)
     elif a.role == "radar-source":
         radar, ev, ev_ready, feed = radar_source(a.topic)
     elif a.role == "sink":
@@ -309,10 +363,12 @@ def main():
                 with lock:
                     got = list(record)
                     record.clear()
-                st = resp.state()
+                    extra = {"not_started": resp.state()["ignored_starts"], "build": radar_build()}
+                    if radar_stages is not None:
+                        extra["stages_us"] = stage_p50s(radar_stages, [(s, l) for s, l in got if s >= warmup])
+                        radar_stages["runs"].clear()
                 answer = json.dumps({"lat_ns": [l for s, l in got if s >= warmup], "received": len(got),
-                                     "extra": {"not_started": st["ignored_starts"],
-                                               "build": radar_build()}})
+                                     "extra": extra})
             elif w[0] == "report" and a.role == "sink":
                 warmup = int(w[1])
                 with lock:

@@ -140,11 +140,19 @@ impl Bench {
         let r = self.paced(&mut src, &run, &mut sink).await?;
         src.quit().await;
         sink.quit().await;
-        let note = format!(
+        let mut note = format!(
             "radar_ros package {}; {} starts queued or ignored (response busy)",
             r["extra"]["build"].as_str().unwrap_or("?"),
             r["extra"]["not_started"]
         );
+        // RADAR_BENCH_STAGES=1 (read by the Python process): the p50 of each stage, in order
+        if let Some(stages) = r["extra"]["stages_us"].as_array() {
+            let parts: Vec<String> = stages
+                .iter()
+                .map(|s| format!("{} {} us", s[0].as_str().unwrap_or("?"), s[1]))
+                .collect();
+            note.push_str(&format!("; stages (p50): {}", parts.join(", ")));
+        }
         self.push_latency(
             "radar_python_1hop",
             "radar_ros Python package: rclpy publisher -> Python response's start slot (async def; manager in the response's process, 1 hop)",
