@@ -13,7 +13,8 @@ use pyo3::{
 };
 use radar_ros::{DynMessage, RawMessage};
 
-/// The asyncio loop Python slots run on, and `asyncio.run_coroutine_threadsafe`.
+/// The asyncio loop Python slots run on, and the package's `_SlotCall(coro, loop, done)`, which runs `coro` in
+/// a task of the loop with `done(task)` called as it ends, and has `cancel()`.
 #[derive(Clone)]
 pub(crate) struct SlotLoop {
     pub(crate) event_loop: Arc<Py<PyAny>>,
@@ -43,10 +44,6 @@ impl SlotLoop {
         begun: Option<std::sync::mpsc::SyncSender<()>>,
         value: impl Fn(&Bound<'_, PyAny>) -> Result<T, String> + Send + Sync + 'static,
     ) -> PyResult<PyCall<T>> {
-        let fut = self
-            .submit
-            .bind(py)
-            .call1((coro, self.event_loop.bind(py)))?;
         let (tx, rx) = tokio::sync::oneshot::channel::<Ended<T>>();
         let tx = Mutex::new(Some(tx));
         let done = PyCFunction::new_closure(
@@ -71,7 +68,11 @@ impl SlotLoop {
                 Ok(())
             },
         )?;
-        fut.call_method1("add_done_callback", (done,))?;
+        // the last thing done holding the GIL: the loop's thread, woken by it, does not wait for the GIL
+        let fut = self
+            .submit
+            .bind(py)
+            .call1((coro, self.event_loop.bind(py), done))?;
         Ok(PyCall {
             fut: Some(fut.unbind()),
             rx,
@@ -79,7 +80,7 @@ impl SlotLoop {
     }
 }
 
-/// A Python coroutine running on the slot loop, seen from Rust.
+/// A Python coroutine running on the slot loop, seen from Rust (`fut`: its `_SlotCall`).
 pub(crate) struct PyCall<T> {
     pub(crate) fut: Option<Py<PyAny>>,
     pub(crate) rx: tokio::sync::oneshot::Receiver<Ended<T>>,
