@@ -531,3 +531,74 @@ def test_a_start_behaviour_run_in_the_runners_task_says_it_began_after_its_first
         assert await task == "handled"
 
     asyncio.run(scenario())
+
+
+def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_from_another_thread() -> None:
+    """How the engine hands a slot's coroutine to the slot loop (`_SlotCall`): it runs in a task of the loop,
+    `done(task)` is called in the loop's thread with its outcome, and `cancel()` from another thread cancels it
+    at its `await`, or, called before the loop took it, keeps it from running at all (closed, no warning)."""
+    import gc
+    import warnings
+
+    from radar_ros import _SlotCall
+
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
+    try:
+        ended: "List[Any]" = []
+        got = threading.Event()
+
+        def done(task: "asyncio.Task[Any]") -> None:
+            ended.append((threading.current_thread() is thread, task.cancelled() or task.result()))
+            got.set()
+
+        async def answer() -> int:
+            await asyncio.sleep(0)
+            return 42
+
+        _SlotCall(answer(), loop, done)
+        assert got.wait(WAIT)
+        assert ended == [(True, 42)]
+
+        log: List[str] = []
+        running = threading.Event()
+
+        async def long() -> None:
+            running.set()
+            try:
+                await asyncio.sleep(3600)
+            except asyncio.CancelledError:
+                log.append("cancelled at its await")
+                raise
+
+        got.clear()
+        call = _SlotCall(long(), loop, done)
+        assert running.wait(WAIT)
+        call.cancel()
+        assert got.wait(WAIT)
+        assert ended[-1] == (True, True) and log == ["cancelled at its await"]
+
+        # cancelled before its first step (the loop held busy, so cancel() comes before the loop takes it): its
+        # body never runs, it is not left unawaited, and done() says it was cancelled
+        gate = threading.Event()
+        loop.call_soon_threadsafe(gate.wait, WAIT)
+        ran: List[str] = []
+
+        async def never() -> None:
+            ran.append("ran")
+
+        got.clear()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            call = _SlotCall(never(), loop, done)
+            call.cancel()
+            gate.set()
+            assert got.wait(WAIT)
+            gc.collect()
+        assert ran == [] and ended[-1] == (True, True)
+        assert not [w for w in caught if "never awaited" in str(w.message)]
+    finally:
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(WAIT)
+        loop.close()

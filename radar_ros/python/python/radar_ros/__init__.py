@@ -217,36 +217,32 @@ class _SlotCall:
     """A coroutine the engine runs on the slot loop, from the engine's thread: the coroutine runs in a task of
     the loop, ``done(task)`` is called in the loop's thread as it ends, and :meth:`cancel` (any thread) cancels
     it. What ``asyncio.run_coroutine_threadsafe`` does without its thread-safe future and the callbacks that
-    chain the two, which the loop's thread ran before the coroutine's first step (about 40 us at p50 on a
-    2-core machine); the engine reads the outcome in the loop's thread anyway."""
+    chain the two, which the loop's thread ran before the coroutine's first step; the engine reads the outcome
+    in the loop's thread anyway."""
 
-    __slots__ = ("_loop", "_coro", "_done", "_task", "_cancelled")
+    __slots__ = ("_loop", "_coro", "_done", "_task")
 
     def __init__(self, coro: Any, loop: asyncio.AbstractEventLoop, done: Callable[[Any], None]):
         self._loop = loop
         self._coro = coro
         self._done = done
         self._task: Optional["asyncio.Task[Any]"] = None
-        self._cancelled = False
         loop.call_soon_threadsafe(self._begin)
 
     def _begin(self) -> None:
-        if self._cancelled:
-            self._coro.close()
-            return
         self._task = self._loop.create_task(self._coro)
         self._task.add_done_callback(self._done)
 
     def cancel(self) -> None:
-        """Cancels the coroutine (at its current ``await``), or keeps it from starting; from any thread."""
+        """Cancels the coroutine at its current ``await`` (before its first step if it has not taken it: its
+        body does not run); from any thread."""
         try:
             self._loop.call_soon_threadsafe(self._cancel)
         except RuntimeError:  # the loop is closed: nothing runs on it any more
             pass
 
     def _cancel(self) -> None:
-        # runs on the loop after _begin (call_soon_threadsafe keeps the order)
-        self._cancelled = True
+        # on the loop, after _begin: call_soon_threadsafe keeps the order of its calls
         if self._task is not None:
             self._task.cancel()
 
