@@ -9,7 +9,8 @@
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
 //!   security handshake target; 44: an encoded fragment run is parsed; 54: authentication messages resent soon
-//!   after their first sending; 55: session keys kept once derived);
+//!   after their first sending; 55: session keys kept once derived; 56: a secured writer sends from its own
+//!   thread, and a secured reader decodes every sample);
 //! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -112,6 +113,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "decode_failures::",
         "quick_resend_tests",
         "session_key_cache_tests",
+        "secured_inline_send",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
@@ -195,6 +197,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "many_sources_are_bounded",
             "a_stored_authentication_message_is_resent_soon_then_left_to_the_periodic_resend",
             "a_kept_session_key_is_the_derived_one_and_the_cache_is_bounded",
+            "a_secured_writer_sends_from_its_own_thread_and_the_secured_reader_decodes_every_sample",
         ],
     );
     // patch 32's bounded fuzz step with the security handshake target, on its own (a CPU burst beside the

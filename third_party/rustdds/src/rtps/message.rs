@@ -183,6 +183,12 @@ impl MessageBuilder {
       .sum()
   }
 
+  /// How many submessages are built so far (RADAR patch 56: a DATA whose payload failed to encode is
+  /// left out, which a sender must notice).
+  pub fn submessage_count(&self) -> usize {
+    self.submessages.len()
+  }
+
   /// Serialized size of the whole RTPS message (20-byte header + submessages)
   /// that `add_header_and_build` would produce. Used by the writer's DATA
   /// coalescing loop to keep an aggregated datagram under an MTU-safe budget.

@@ -1816,7 +1816,6 @@ impl Writer {
       if !inline_send_enabled()
         || self.like_stateless
         || !self.push_mode
-        || self.security_plugins.is_some()
         || self.my_guid.entity_id.kind().is_built_in()
         || !self.extra_unicast_destinations.is_empty()
         || self.readers.is_empty()
@@ -1841,6 +1840,14 @@ impl Writer {
         dests,
         max_payload: self.max_unfragmented_serialized_payload(None),
         heartbeat: self.is_reliable(),
+        #[cfg(feature = "security")]
+        secured: self
+          .security_plugins
+          .as_ref()
+          .map(|plugins| crate::rtps::writer_send_buffer::InlineSecurity {
+            plugins: plugins.clone(),
+            readers: self.readers.keys().copied().collect(),
+          }),
       })
     })();
     self.send_buffer.set_inline_plan(plan);
@@ -1853,49 +1860,12 @@ impl Writer {
     readers: &[&RtpsReaderProxy],
   ) -> SecurityResult<Message> {
     // If we have security plugins, use them, otherwise pass through
-    if let Some(security_plugins_handle) = &self.security_plugins {
-      // Get the source and destination GUIDs
-      let source_guid = self.guid();
-      let destination_guid_list: Vec<GUID> = readers
-        .iter()
-        .map(|reader_proxy| reader_proxy.remote_reader_guid)
-        .collect();
-      // Destructure
-      let Message {
-        header,
-        submessages,
-      } = message;
-
-      // Encode submessages
-      SecurityResult::<Vec<Vec<Submessage>>>::from_iter(submessages.iter().map(|submessage| {
-        security_plugins_handle
-          .get_plugins()
-          .encode_datawriter_submessage(submessage.clone(), &source_guid, &destination_guid_list)
-          // Convert each encoding output to a Vec of 1 or 3 submessages
-          .map(Vec::from)
-      }))
-      // Flatten and convert back to Message
-      .map(|encoded_submessages| Message {
-        header,
-        submessages: encoded_submessages.concat(),
-      })
-      // Encode message
-      .and_then(|message| {
-        // Convert GUIDs to GuidPrefixes
-        let source_guid_prefix = source_guid.prefix;
-        let destination_guid_prefix_list: Vec<GuidPrefix> = destination_guid_list
-          .iter()
-          .map(|guid| guid.prefix)
-          .collect();
-        // Encode message
-        security_plugins_handle.get_plugins().encode_message(
-          message,
-          &source_guid_prefix,
-          &destination_guid_prefix_list,
-        )
-      })
-    } else {
-      Ok(message)
+    match &self.security_plugins {
+      Some(handle) => {
+        let destinations: Vec<GUID> = readers.iter().map(|r| r.remote_reader_guid).collect();
+        security_encode_for(handle, self.guid(), &destinations, message)
+      }
+      None => Ok(message),
     }
   }
 
@@ -2478,7 +2448,15 @@ pub(crate) fn send_inline(
   if let Some(ts) = cc.write_options.source_timestamp() {
     builder = builder.ts_msg(endianness, Some(ts));
   }
-  builder = builder.data_msg(&cc, EntityId::UNKNOWN, writer_guid, endianness, None);
+  #[cfg(feature = "security")]
+  let plugins = plan.secured.as_ref().map(|s| &s.plugins);
+  #[cfg(not(feature = "security"))]
+  let plugins = None;
+  let before = builder.submessage_count();
+  builder = builder.data_msg(&cc, EntityId::UNKNOWN, writer_guid, endianness, plugins);
+  if builder.submessage_count() == before {
+    return false; // the payload could not be encoded: the event loop's Writer deals with the sample
+  }
   if plan.heartbeat {
     builder = builder.heartbeat_msg(
       writer_guid.entity_id,
@@ -2491,16 +2469,76 @@ pub(crate) fn send_inline(
       false,
     );
   }
-  let Ok(buffer) = builder
-    .add_header_and_build(writer_guid.prefix)
-    .write_to_vec_fast(endianness)
-  else {
+  let message = builder.add_header_and_build(writer_guid.prefix);
+  // RADAR patch 56: a secured writer's sample is protected as the Writer protects it, for every matched
+  // reader; one whose keys are not exchanged yet leaves the sample to the event loop (which sends to the
+  // ready ones and lets repair reach the rest)
+  #[cfg(feature = "security")]
+  let message = match &plan.secured {
+    Some(secured) => {
+      let ready = {
+        let plugins = secured.plugins.get_plugins();
+        secured
+          .readers
+          .iter()
+          .all(|r| plugins.remote_endpoint_keys_ready(&writer_guid, r))
+      };
+      if !ready {
+        return false;
+      }
+      match security_encode_for(&secured.plugins, writer_guid, &secured.readers, message) {
+        Ok(m) => m,
+        Err(_) => return false,
+      }
+    }
+    None => message,
+  };
+  let Ok(buffer) = message.write_to_vec_fast(endianness) else {
     return false;
   };
-  plan
+  let sent = plan
     .dests
     .iter()
-    .all(|d| matches!(socket.send_to(&buffer, d), Ok(n) if n == buffer.len()))
+    .all(|d| matches!(socket.send_to(&buffer, d), Ok(n) if n == buffer.len()));
+  if sent {
+    send_buffer.note_inline_send();
+  }
+  sent
+}
+
+/// Protects `message` from writer `source_guid` for the readers `destinations` (each submessage, then the
+/// message, with receiver-specific MACs for each). Used by the event loop's Writer and (RADAR patch 56) by
+/// DataWriters sending from their own thread.
+#[cfg(feature = "security")]
+fn security_encode_for(
+  handle: &SecurityPluginsHandle,
+  source_guid: GUID,
+  destinations: &[GUID],
+  message: Message,
+) -> SecurityResult<Message> {
+  let plugins = handle.get_plugins();
+  let Message {
+    header,
+    submessages,
+  } = message;
+  let mut encoded: Vec<Submessage> = Vec::with_capacity(submessages.len() * 3);
+  for submessage in submessages {
+    // each encodes to 1 or 3 submessages
+    encoded.extend(Vec::from(plugins.encode_datawriter_submessage(
+      submessage,
+      &source_guid,
+      destinations,
+    )?));
+  }
+  let destination_prefixes: Vec<GuidPrefix> = destinations.iter().map(|g| g.prefix).collect();
+  plugins.encode_message(
+    Message {
+      header,
+      submessages: encoded,
+    },
+    &source_guid.prefix,
+    &destination_prefixes,
+  )
 }
 
 fn repair_interval_for(deadline: Option<Duration>) -> std::time::Duration {
@@ -3218,6 +3256,7 @@ mod tests {
 
       let sn = admit(&send_buffer);
       assert!(send_inline(&send_buffer, &plan, writer.my_guid, sn));
+      assert_eq!(send_buffer.inline_sends(), 1, "a sent sample is counted");
       // the Writer announced itself to the new reader (a HEARTBEAT) before: the datagram with the DATA
       let mut buf = vec![0u8; 65536];
       let msg = loop {
@@ -3372,6 +3411,125 @@ mod tests {
       let guid = *writer.readers.keys().next().unwrap();
       writer.reader_lost(guid);
       assert!(send_buffer.inline_plan().is_none(), "no readers: nothing to send to");
+    }
+  }
+
+  /// RADAR patch 56: secured DataWriters send from their own thread too, protected as the event loop's
+  /// Writer protects them.
+  #[cfg(feature = "security")]
+  mod secured_inline_send {
+    use std::time::{Duration as StdDuration, Instant};
+
+    use serde::{Deserialize, Serialize};
+
+    use crate::{
+      policy, test::test_domain::test_domain_id, DomainParticipant, DomainParticipantBuilder,
+      DomainParticipantSecurityConfigFiles, QosPolicyBuilder, TopicKind,
+    };
+
+    /// A participant secured with the example configuration (its governance encrypts topic "Square":
+    /// payload, submessages and whole messages).
+    fn secured_participant(domain: u16) -> DomainParticipant {
+      let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/security_configuration_files"
+      );
+      DomainParticipantBuilder::new(domain)
+        .builtin_security(DomainParticipantSecurityConfigFiles::with_ros_default_names(
+          dir,
+          "password123".to_string(),
+        ))
+        .build()
+        .expect("a secured participant from the example configuration")
+    }
+
+    #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+    struct Shape {
+      n: u32,
+    }
+
+    const PROBE: u32 = 1_000_000;
+
+    #[test]
+    fn a_secured_writer_sends_from_its_own_thread_and_the_secured_reader_decodes_every_sample() {
+      // the example permissions grant domain 0 only
+      let domain = test_domain_id(0);
+      let a = secured_participant(domain);
+      let b = secured_participant(domain);
+      let qos = QosPolicyBuilder::new()
+        .reliability(policy::Reliability::Reliable {
+          max_blocking_time: crate::Duration::from_secs(1),
+        })
+        .history(policy::History::KeepAll)
+        // room for the whole burst in the reader's cache (without resource limits it keeps 64 unread)
+        .resource_limits(policy::ResourceLimits {
+          max_samples: 1000,
+          max_instances: 1,
+          max_samples_per_instance: 1000,
+        })
+        .build();
+      let topic = |p: &DomainParticipant| {
+        p.create_topic(
+          "Square".to_string(),
+          "ShapeType".to_string(),
+          &qos,
+          TopicKind::NoKey,
+        )
+        .unwrap()
+      };
+      let writer = a
+        .create_publisher(&qos)
+        .unwrap()
+        .create_datawriter_no_key_cdr::<Shape>(&topic(&a), None)
+        .unwrap();
+      let mut reader = b
+        .create_subscriber(&qos)
+        .unwrap()
+        .create_datareader_no_key_cdr::<Shape>(&topic(&b), None)
+        .unwrap();
+
+      // authentication, matching and the key exchange: until a probe gets through
+      let deadline = Instant::now() + StdDuration::from_secs(30);
+      let mut probe = PROBE;
+      'matched: loop {
+        assert!(
+          Instant::now() < deadline,
+          "the secured participants matched and exchanged keys within 30 s"
+        );
+        writer.write(Shape { n: probe }, None).unwrap();
+        probe += 1;
+        std::thread::sleep(StdDuration::from_millis(100));
+        while let Ok(Some(s)) = reader.take_next_sample() {
+          if s.value().n >= PROBE {
+            break 'matched;
+          }
+        }
+      }
+
+      let before = writer.inline_sends();
+      for n in 0..200 {
+        writer.write(Shape { n }, None).unwrap();
+      }
+      let sent_inline = writer.inline_sends() - before;
+
+      let mut got = Vec::new();
+      let deadline = Instant::now() + StdDuration::from_secs(10);
+      while got.len() < 200 && Instant::now() < deadline {
+        match reader.take_next_sample() {
+          Ok(Some(s)) if s.value().n < PROBE => got.push(s.value().n),
+          Ok(Some(_)) => {}
+          _ => std::thread::sleep(StdDuration::from_millis(5)),
+        }
+      }
+      assert_eq!(
+        got,
+        (0..200).collect::<Vec<u32>>(),
+        "the secured reader decoded every sample, in order"
+      );
+      assert_eq!(
+        sent_inline, 200,
+        "with keys exchanged, every sample went on the wire from the writing thread"
+      );
     }
   }
 

@@ -90,7 +90,7 @@ struct Inner {
 /// RADAR patch 22: where a DataWriter may send a new sample from its own thread, as the event loop's Writer
 /// would (the same unicast destinations), without waking the event loop first. Published by the Writer
 /// whenever its matched readers or their routes change; absent when any reader needs more than one plain
-/// unicast datagram (multicast, the legacy all-locators route, security, a built-in or stateless writer).
+/// unicast datagram (multicast, the legacy all-locators route, a built-in or stateless writer).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct InlinePlan {
   /// One datagram to each.
@@ -99,6 +99,38 @@ pub(crate) struct InlinePlan {
   pub max_payload: usize,
   /// Whether to piggyback a HEARTBEAT (reliable writer), as the Writer does.
   pub heartbeat: bool,
+  /// RADAR patch 56: a secured writer's plugins and matched readers, to encode as the Writer does.
+  #[cfg(feature = "security")]
+  pub secured: Option<InlineSecurity>,
+}
+
+/// RADAR patch 56: what a secured Writer's DataWriter needs to protect a sample it sends itself: the plugins
+/// (payload, submessage and message encoding) and every matched reader (receiver-specific MACs), exactly the
+/// readers the event loop would encode for once each one's keys are exchanged.
+#[cfg(feature = "security")]
+#[derive(Clone)]
+pub(crate) struct InlineSecurity {
+  pub plugins: crate::security::security_plugins::SecurityPluginsHandle,
+  pub readers: Vec<GUID>,
+}
+
+#[cfg(feature = "security")]
+impl PartialEq for InlineSecurity {
+  fn eq(&self, other: &Self) -> bool {
+    self.plugins.is_same(&other.plugins) && self.readers == other.readers
+  }
+}
+
+#[cfg(feature = "security")]
+impl Eq for InlineSecurity {}
+
+#[cfg(feature = "security")]
+impl std::fmt::Debug for InlineSecurity {
+  fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+    f.debug_struct("InlineSecurity")
+      .field("readers", &self.readers)
+      .finish_non_exhaustive()
+  }
 }
 
 struct Shared {
@@ -128,6 +160,8 @@ struct Shared {
   inline_plan: Mutex<Option<Arc<InlinePlan>>>,
   /// The Writer's HEARTBEAT count, shared so that a HEARTBEAT sent from the DataWriter's thread counts too.
   heartbeat_count: std::sync::atomic::AtomicI32,
+  /// RADAR patch 56: how many samples the DataWriter put on the wire itself (tests read it).
+  inline_sends: std::sync::atomic::AtomicU64,
 }
 
 /// A shared, flow-controlled buffer of samples between a `DataWriter`
@@ -187,6 +221,7 @@ impl WriterSendBuffer {
         topic_name,
         inline_plan: Mutex::new(None),
         heartbeat_count: std::sync::atomic::AtomicI32::new(1),
+        inline_sends: std::sync::atomic::AtomicU64::new(0),
       }),
     }
   }
@@ -512,6 +547,23 @@ impl WriterSendBuffer {
     if p.as_deref() != plan.as_ref() {
       *p = plan.map(Arc::new);
     }
+  }
+
+  /// RADAR patch 56: one more sample went on the wire from the DataWriter's thread.
+  pub fn note_inline_send(&self) {
+    self
+      .shared
+      .inline_sends
+      .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+  }
+
+  /// RADAR patch 56: how many samples went on the wire from the DataWriter's thread.
+  #[cfg(test)]
+  pub fn inline_sends(&self) -> u64 {
+    self
+      .shared
+      .inline_sends
+      .load(std::sync::atomic::Ordering::Relaxed)
   }
 
   /// RADAR patch 22: the current plan for sends from the DataWriter's thread, if any.

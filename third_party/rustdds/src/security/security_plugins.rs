@@ -1375,6 +1375,11 @@ impl SecurityPluginsHandle {
   /// that met another one holding it (the event loop encoding a sample while the discovery thread exchanged
   /// keys, or a new endpoint being registered) stalled 100 ms: secured signals had a 100 ms tail, and making
   /// an endpoint took ~10 ms on average.
+  /// RADAR patch 56: whether both handles are to the same plugins.
+  pub(crate) fn is_same(&self, other: &Self) -> bool {
+    Arc::ptr_eq(&self.inner, &other.inner)
+  }
+
   pub(crate) fn get_plugins(&self) -> MutexGuard<'_, SecurityPlugins> {
     match self.lock() {
       Ok(guard) => guard,

@@ -52,6 +52,12 @@ impl<D, SA> DataWriter<D, SA>
 where
   SA: SerializerAdapter<D>,
 {
+  /// RADAR patch 56: how many samples this DataWriter put on the wire from its own thread.
+  #[cfg(all(test, feature = "security"))]
+  pub(crate) fn inline_sends(&self) -> u64 {
+    self.keyed_datawriter.inline_sends()
+  }
+
   pub(crate) fn from_keyed(
     keyed: datawriter_with_key::DataWriter<NoKeyWrapper<D>, SAWrapper<SA>>,
   ) -> Self {

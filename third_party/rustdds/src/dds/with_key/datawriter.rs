@@ -233,6 +233,12 @@ where
   D: Keyed,
   SA: SerializerAdapter<D>,
 {
+  /// RADAR patch 56: how many samples this DataWriter put on the wire from its own thread.
+  #[cfg(all(test, feature = "security"))]
+  pub(crate) fn inline_sends(&self) -> u64 {
+    self.send_buffer.inline_sends()
+  }
+
   #[allow(clippy::too_many_arguments)]
   pub(crate) fn new(
     publisher: Publisher,
