@@ -82,7 +82,10 @@ impl Bench {
 
     /// Collects the probe's stamps of a run's processes (the first is the writer's side, the one that
     /// reported is the reader's) and joins them with the report.
-    async fn probe_children(&mut self, hop: Result<(Value, Vec<Child>)>) -> Result<Value> {
+    pub(super) async fn probe_children(
+        &mut self,
+        hop: Result<(Value, Vec<Child>)>,
+    ) -> Result<Value> {
         let (report, mut children) = hop?;
         let mut stamps = Vec::new();
         for c in &mut children {
@@ -107,7 +110,7 @@ impl Bench {
         Ok(join(&at, self.plan.warmup, &writer, &reader))
     }
 
-    fn push_breakdown(&mut self, key: &str, label: &str, r: Result<Value>) {
+    pub(super) fn push_breakdown(&mut self, key: &str, label: &str, r: Result<Value>) {
         match r {
             Ok(mut v) => {
                 v["key"] = json!(key);

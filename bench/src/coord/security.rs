@@ -66,6 +66,19 @@ impl Bench {
             for c in children {
                 c.quit().await;
             }
+            // where its time goes: the same hop again with RustDDS's probe on (stamped after decoding when
+            // secured: decoding is in "parse the RTPS message")
+            let plain_env = self.child_env.clone();
+            self.child_env
+                .push(("RUSTDDS_PROBE_TOPIC".into(), "rt/bench/ev/triggered".into()));
+            let hop = self.radar_hop(n, p, latency::Host::Response).await;
+            let r = self.probe_children(hop).await;
+            self.push_breakdown(
+                &format!("security_{key}"),
+                &format!("radar_ros, manager in the response's process, {how}"),
+                r,
+            );
+            self.child_env = plain_env;
 
             let d = self.domain();
             let ev = self
