@@ -533,6 +533,33 @@ def test_a_start_behaviour_run_in_the_runners_task_says_it_began_after_its_first
     asyncio.run(scenario())
 
 
+def test_a_slot_call_to_a_closed_loop_raises_and_closes_its_coroutine() -> None:
+    """A slot handed over after the slot loop closed (a program shutting down): `_SlotCall` raises, so the engine
+    sees the slot fail, and the coroutine is closed, not left for Python to warn that it was never awaited."""
+    import gc
+    import warnings
+
+    from radar_ros import _SlotCall
+
+    ran: List[str] = []
+
+    async def body() -> None:
+        ran.append("ran")
+
+    loop = asyncio.new_event_loop()
+    loop.close()
+    coro = body()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(RuntimeError):
+            _SlotCall(coro, loop, lambda task: None)
+        assert coro.cr_frame is None, "closed"
+        del coro
+        gc.collect()
+    assert ran == []
+    assert not [w for w in caught if "never awaited" in str(w.message)]
+
+
 def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_from_another_thread() -> None:
     """How the engine hands a slot's coroutine to the slot loop (`_SlotCall`): it runs in a task of the loop,
     `done(task)` is called in the loop's thread with its outcome, and `cancel()` from another thread cancels it

@@ -224,13 +224,20 @@ class _SlotCall:
 
     def __init__(self, coro: Any, loop: asyncio.AbstractEventLoop, done: Callable[[Any], None]):
         self._loop = loop
-        self._coro = coro
+        self._coro: Any = coro
         self._done = done
         self._task: Optional["asyncio.Task[Any]"] = None
-        loop.call_soon_threadsafe(self._begin)
+        try:
+            loop.call_soon_threadsafe(self._begin)
+        except BaseException:
+            # the loop is closed: the coroutine never runs; closed here, not left to warn "never awaited"
+            self._coro = None
+            coro.close()
+            raise
 
     def _begin(self) -> None:
-        self._task = self._loop.create_task(self._coro)
+        coro, self._coro = self._coro, None  # the task holds it from here on
+        self._task = self._loop.create_task(coro)
         self._task.add_done_callback(self._done)
 
     def cancel(self) -> None:
