@@ -53,7 +53,10 @@ use crate::{
 #[cfg(feature = "security")]
 use crate::{
   rtps::Submessage,
-  security::{security_plugins::SecurityPluginsHandle, SecurityResult},
+  security::{
+    security_plugins::{SecurityPlugins, SecurityPluginsHandle},
+    SecurityResult,
+  },
 };
 #[cfg(not(feature = "security"))]
 use crate::no_security::SecurityPluginsHandle;
@@ -1863,7 +1866,7 @@ impl Writer {
     match &self.security_plugins {
       Some(handle) => {
         let destinations: Vec<GUID> = readers.iter().map(|r| r.remote_reader_guid).collect();
-        security_encode_for(handle, self.guid(), &destinations, message)
+        security_encode_for(&handle.get_plugins(), self.guid(), &destinations, message)
       }
       None => Ok(message),
     }
@@ -2476,17 +2479,15 @@ pub(crate) fn send_inline(
   #[cfg(feature = "security")]
   let message = match &plan.secured {
     Some(secured) => {
-      let ready = {
-        let plugins = secured.plugins.get_plugins();
-        secured
-          .readers
-          .iter()
-          .all(|r| plugins.remote_endpoint_keys_ready(&writer_guid, r))
-      };
-      if !ready {
+      let plugins = secured.plugins.get_plugins();
+      if !secured
+        .readers
+        .iter()
+        .all(|r| plugins.remote_endpoint_keys_ready(&writer_guid, r))
+      {
         return false;
       }
-      match security_encode_for(&secured.plugins, writer_guid, &secured.readers, message) {
+      match security_encode_for(&plugins, writer_guid, &secured.readers, message) {
         Ok(m) => m,
         Err(_) => return false,
       }
@@ -2511,12 +2512,11 @@ pub(crate) fn send_inline(
 /// DataWriters sending from their own thread.
 #[cfg(feature = "security")]
 fn security_encode_for(
-  handle: &SecurityPluginsHandle,
+  plugins: &SecurityPlugins,
   source_guid: GUID,
   destinations: &[GUID],
   message: Message,
 ) -> SecurityResult<Message> {
-  let plugins = handle.get_plugins();
   let Message {
     header,
     submessages,

@@ -160,7 +160,8 @@ struct Shared {
   inline_plan: Mutex<Option<Arc<InlinePlan>>>,
   /// The Writer's HEARTBEAT count, shared so that a HEARTBEAT sent from the DataWriter's thread counts too.
   heartbeat_count: std::sync::atomic::AtomicI32,
-  /// RADAR patch 56: how many samples the DataWriter put on the wire itself (tests read it).
+  /// RADAR patch 56: how many samples the DataWriter put on the wire itself (kept for tests only).
+  #[cfg(test)]
   inline_sends: std::sync::atomic::AtomicU64,
 }
 
@@ -221,6 +222,7 @@ impl WriterSendBuffer {
         topic_name,
         inline_plan: Mutex::new(None),
         heartbeat_count: std::sync::atomic::AtomicI32::new(1),
+        #[cfg(test)]
         inline_sends: std::sync::atomic::AtomicU64::new(0),
       }),
     }
@@ -551,6 +553,7 @@ impl WriterSendBuffer {
 
   /// RADAR patch 56: one more sample went on the wire from the DataWriter's thread.
   pub fn note_inline_send(&self) {
+    #[cfg(test)]
     self
       .shared
       .inline_sends
