@@ -339,6 +339,40 @@ async fn every_program_shows_its_connections_on_its_program_node() {
     assert_ne!(na, nb);
 }
 
+/// A program's name is its `Radar`'s: when the last handle to it is dropped, the name comes back, so a program
+/// made again under that name right after (a test that runs one plain and then secured, a tool that
+/// reconnects) is that name, not `<name>_2`, though something of the first (here one of its events, as a
+/// component's task being let go of on a worker thread is) still holds its participant. Repeated, with no
+/// pause between, as a race is. Before, the name came back only when the participant went, so under load the
+/// second was `again_2`, whose endpoints a policy made from the first run did not grant.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_program_made_again_right_after_the_first_ends_has_its_name() {
+    let mut left = None;
+    for round in 0..20 {
+        let program = radar_ros::Radar::builder()
+            .domain_id(72)
+            .discovery_range(radar_ros::DiscoveryRange::Subnet)
+            .program("again")
+            .build()
+            .unwrap();
+        assert_eq!(
+            program.program_node().fully_qualified(),
+            "/again",
+            "round {round}"
+        );
+        let tick = program
+            .spawn_event(
+                &format!("again_tick_{round}"),
+                TimerEvent::new(Duration::from_millis(5)),
+            )
+            .unwrap();
+        let (count, _runs) = counter(&program, &format!("again_count_{round}"));
+        let _guard = program.whenever(&tick).start(&count).await.unwrap();
+        left = Some(tick);
+    }
+    drop(left);
+}
+
 /// Issue 19, B7: a caller that leaves while its connection is still arming owns nothing: when the arming ends,
 /// the connection is dropped, not kept for a dead owner. Before, the caller's departure was handled first (it
 /// owned nothing yet) and the connection, recorded afterwards, lived on for ever.

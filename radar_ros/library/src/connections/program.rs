@@ -8,9 +8,9 @@
 //!
 //! The node is named after the program: the executable's name and the process id (`count_up` -> node
 //! `/count_up_4242`: several processes of one executable, as a launch of components often is, stay apart), or
-//! exactly what [`RadarBuilder::program`](crate::RadarBuilder::program) says; a second participant of that
-//! name in one process gets `_2`, and so on. The node is also the one plain publishers and subscriptions of the program
-//! live on. Unlike [`Radar::serve_manager`](crate::Radar::serve_manager) it takes no connect requests from
+//! exactly what [`RadarBuilder::program`](crate::RadarBuilder::program) says; a second program of that
+//! name alive in one process gets `_2`, and so on (a name comes back when the last handle to its `Radar` is
+//! dropped). The node is also the one plain publishers and subscriptions of the program live on. Unlike [`Radar::serve_manager`](crate::Radar::serve_manager) it takes no connect requests from
 //! others; it only shows. `ros2 topic echo /count_up_4242/connections` (with transient-local durability)
 //! prints them; the `radar` command line reads them from every program.
 

@@ -73,7 +73,7 @@ pub(crate) struct Participant {
     stop_graph: Mutex<Option<tokio::sync::oneshot::Sender<()>>>,
     /// Says when the graph's thread has ended (it let go of the DDS participant).
     graph_ended: Mutex<Option<std::sync::mpsc::Receiver<()>>>,
-    /// The program node's name, once made (released from `PROGRAM_NODES` on drop).
+    /// The program node's name, once made.
     program_node: Mutex<Option<String>>,
     /// The slots of this process's responses, for in-process delivery.
     inlets: Arc<crate::wire::local::Inlets>,
@@ -127,9 +127,18 @@ impl Drop for Participant {
         if let Some(ended) = self.graph_ended.lock().unwrap().take() {
             let _ = ended.recv_timeout(std::time::Duration::from_secs(2));
         }
-        if let Some(name) = self.program_node.lock().unwrap().take() {
-            PROGRAM_NODES.lock().unwrap().remove(&name);
-        }
+    }
+}
+
+/// A program node's name held in `PROGRAM_NODES`, given back when dropped: by the last handle to its `Radar`,
+/// not when the participant goes (something of the program, such as a component's task let go of on a worker
+/// thread, may hold that a while after the program ended), so a program made again under the name right after
+/// has it.
+pub(crate) struct ProgramName(String);
+
+impl Drop for ProgramName {
+    fn drop(&mut self) {
+        PROGRAM_NODES.lock().unwrap().remove(&self.0);
     }
 }
 
@@ -369,9 +378,12 @@ impl Participant {
     /// Creates this participant's program node: the node of its plain endpoints, which also shows the
     /// program's connections (see `program.rs`). Named `node` in the participant's namespace, and
     /// `<node>_<n>` for the n-th participant of the process with that name, so each is
-    /// distinct on the graph and none takes a name a component may want (process-wide: every participant of
-    /// the process is counted). Returns the node's name.
-    pub(crate) fn start_program_node(self: &Arc<Self>, node: &str) -> Result<ComponentName> {
+    /// distinct on the graph and none takes a name a component may want (process-wide: every program of the
+    /// process that has not ended is counted). Returns the node's name and the claim that holds it.
+    pub(crate) fn start_program_node(
+        self: &Arc<Self>,
+        node: &str,
+    ) -> Result<(ComponentName, ProgramName)> {
         let mut k = 1;
         loop {
             let base = match k {
@@ -384,10 +396,11 @@ impl Participant {
             if !self.names.lock().unwrap().contains(&fq)
                 && PROGRAM_NODES.lock().unwrap().insert(fq.clone())
             {
+                let claim = ProgramName(fq.clone());
                 self.names.lock().unwrap().insert(fq.clone());
                 *self.program_node.lock().unwrap() = Some(fq);
                 *self.client.lock().unwrap() = Some(self.new_node(name.namespace(), name.base())?);
-                return Ok(name);
+                return Ok((name, claim));
             }
             k += 1;
         }

@@ -296,7 +296,7 @@ fn start(s: Settings) -> Result<Radar> {
     if let Some(file) = s.generate_policy.clone() {
         generate_policy(&participant, file, s.policy_enclave.clone());
     }
-    let program_node = participant.start_program_node(&s.program)?;
+    let (program_node, program_name) = participant.start_program_node(&s.program)?;
     let manager = Arc::new(Manager::new(participant.clone(), s.local_delivery));
     let task = crate::connections::program::serve_program(&participant, &manager, &program_node)?;
     let rosout = crate::node::rosout::start(
@@ -325,6 +325,7 @@ fn start(s: Settings) -> Result<Radar> {
     Ok(Radar {
         program: Arc::new(ProgramNode {
             name: program_node,
+            _claim: program_name,
             _task: task,
             _rosout: rosout,
             _sim_clock: sim_clock,
@@ -377,6 +378,8 @@ pub struct Radar {
 /// The program node, the task that shows its connections, its `/rosout` writer, and what follows `/clock`.
 struct ProgramNode {
     name: ComponentName,
+    /// Holds the name in the process until the last handle to the program goes.
+    _claim: crate::node::participant::ProgramName,
     _task: crate::node::shutdown::ComponentTask,
     _rosout: crate::node::rosout::Publishing,
     _sim_clock: Option<crate::node::clock::SimClock>,
