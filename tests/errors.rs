@@ -92,9 +92,15 @@ async fn invalid_names_fail_before_anything_is_created() {
 }
 
 fn check_env(value: &str) -> (i32, String, String) {
+    check_env_with(&[("ROS_DOMAIN_ID", value)])
+}
+
+/// `radar_test_peer check-env` run with `vars` set (and `RMW_IMPLEMENTATION` unset unless given).
+fn check_env_with(vars: &[(&str, &str)]) -> (i32, String, String) {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar_test_peer"))
         .arg("check-env")
-        .env("ROS_DOMAIN_ID", value)
+        .env_remove("RMW_IMPLEMENTATION")
+        .envs(vars.iter().copied())
         .output()
         .expect("run radar_test_peer");
     (
@@ -125,6 +131,39 @@ fn wrong_ros_domain_id_values_fail_with_a_clear_error() {
     assert_eq!((code, out.trim()), (0, "ok domain=57"), "{err}");
     let (code, out, _) = check_env("");
     assert_eq!((code, out.trim()), (0, "ok domain=0"));
+}
+
+/// `RMW_IMPLEMENTATION`, as ROS 2 chooses its middleware: a program started in a shell set up for a Zenoh system
+/// (`rmw_zenoh_cpp`) stops at once saying it speaks DDS only and what to set, instead of running on DDS and
+/// seeing none of its peers; a DDS middleware's name (as a Fast DDS or Cyclone DDS system sets) runs.
+#[test]
+fn a_middleware_this_build_does_not_speak_stops_the_program_saying_what_to_set() {
+    radar_test_util::require_isolation();
+    let domain = std::env::var("ROS_DOMAIN_ID").unwrap_or_default();
+    for rmw in ["rmw_zenoh_cpp", "rmw_nothing_cpp"] {
+        let (code, _, err) =
+            check_env_with(&[("ROS_DOMAIN_ID", &domain), ("RMW_IMPLEMENTATION", rmw)]);
+        assert_eq!(code, 2, "RMW_IMPLEMENTATION={rmw} must fail: {err}");
+        assert!(
+            err.contains(&format!("invalid RMW_IMPLEMENTATION \"{rmw}\""))
+                && err.contains("unset RMW_IMPLEMENTATION"),
+            "{rmw}: {err}"
+        );
+    }
+    let (_, _, err) = check_env_with(&[
+        ("ROS_DOMAIN_ID", &domain),
+        ("RMW_IMPLEMENTATION", "rmw_zenoh_cpp"),
+    ]);
+    assert!(err.contains("DDS only"), "{err}");
+    for rmw in ["rmw_fastrtps_cpp", "rmw_cyclonedds_cpp", ""] {
+        let (code, out, err) =
+            check_env_with(&[("ROS_DOMAIN_ID", &domain), ("RMW_IMPLEMENTATION", rmw)]);
+        assert_eq!(
+            (code, out.trim().starts_with("ok")),
+            (0, true),
+            "{rmw}: {err}"
+        );
+    }
 }
 
 /// Four bytes on the wire under the name std_msgs/msg/Empty's neighbour String: a string length with no text.

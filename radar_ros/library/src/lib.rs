@@ -181,6 +181,11 @@
 //! cannot signal each other; use the default subnet range (a private network namespace isolates it, as the
 //! test suite does with `tests/isolated.sh`).
 //!
+//! `RMW_IMPLEMENTATION` is read as ROS 2 reads it: unset or a DDS middleware (`rmw_fastrtps_cpp`,
+//! `rmw_cyclonedds_cpp`, ...; they all speak RTPS, as radar_ros does) runs; `rmw_zenoh_cpp` or a name radar_ros
+//! does not know stops [`RadarBuilder::build`] with an error that says what to set, since a program on DDS
+//! among peers on Zenoh would see none of them.
+//!
 //! ## Layers
 //!
 //! The [`radar_semantics`] crate holds the RADAR rules in plain Rust (no DDS, no runtime). This crate binds

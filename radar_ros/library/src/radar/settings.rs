@@ -1,6 +1,6 @@
 //! What a [`Radar`](crate::Radar) is built from, settled before anything starts: the builder's choices over the
-//! command line (`--ros-args`) and the environment (`ROS_DOMAIN_ID`, `ROS_AUTOMATIC_DISCOVERY_RANGE`,
-//! `RADAR_LEASE_SECONDS`, `ROS_SECURITY_*`, `RADAR_GENERATE_POLICY`), read and checked with no DDS and no I/O
+//! command line (`--ros-args`) and the environment (`RMW_IMPLEMENTATION`, `ROS_DOMAIN_ID`,
+//! `ROS_AUTOMATIC_DISCOVERY_RANGE`, `RADAR_LEASE_SECONDS`, `ROS_SECURITY_*`, `RADAR_GENERATE_POLICY`), read and checked with no DDS and no I/O
 //! beyond the lookups given. [`RadarBuilder::build`](crate::RadarBuilder::build) settles them, then starts the
 //! participant from them.
 //!
@@ -166,6 +166,7 @@ impl Asked {
                 .or(self.namespace.as_deref())
                 .unwrap_or("/"),
         )?;
+        middleware_in(env)?;
         let domain_id = match self.domain_id {
             Some(id) => parse_domain_id(&id.to_string())?,
             None => domain_id_in(env)?,
@@ -272,6 +273,49 @@ pub(crate) fn discovery_range_in(env: Env<'_>) -> Result<DiscoveryRange> {
     }
 }
 
+/// The ROS 2 middlewares whose wire this build speaks: every DDS one (RTPS is one wire protocol).
+const DDS_MIDDLEWARES: [&str; 5] = [
+    "rmw_fastrtps_cpp",
+    "rmw_fastrtps_dynamic_cpp",
+    "rmw_cyclonedds_cpp",
+    "rmw_connextdds",
+    "rmw_gurumdds_cpp",
+];
+
+/// `RMW_IMPLEMENTATION` as ROS 2 reads it to choose its middleware. Unset, empty or a DDS one: this build's DDS,
+/// which talks to every DDS middleware. `rmw_zenoh_cpp` (or any other): an error that says so before anything
+/// starts, as rcl refuses a middleware it cannot load; a program that ran on DDS among peers on Zenoh would
+/// see none of them and say nothing.
+pub(crate) fn middleware_in(env: Env<'_>) -> Result<()> {
+    let value = match env("RMW_IMPLEMENTATION") {
+        Err(std::env::VarError::NotPresent) => return Ok(()),
+        Err(std::env::VarError::NotUnicode(v)) => v.to_string_lossy().into_owned(),
+        Ok(v) => v,
+    };
+    let name = value.trim();
+    if name.is_empty() || DDS_MIDDLEWARES.contains(&name) {
+        return Ok(());
+    }
+    let then = "; unset RMW_IMPLEMENTATION or set a DDS one (rmw_fastrtps_cpp, rmw_cyclonedds_cpp) for this \
+                program and its ROS 2 peers";
+    let reason = if name == "rmw_zenoh_cpp" {
+        format!(
+            "this build of radar_ros speaks DDS only (not yet Zenoh): over DDS, this program would see none of its peers \
+             on Zenoh{then}, or join the two sides with zenoh-bridge-ros2dds"
+        )
+    } else {
+        format!(
+            "it is not a ROS 2 middleware radar_ros knows (it speaks DDS: {}){then}",
+            DDS_MIDDLEWARES.join(", ")
+        )
+    };
+    Err(Error::Config {
+        setting: "RMW_IMPLEMENTATION",
+        value,
+        reason,
+    })
+}
+
 /// `RADAR_LEASE_SECONDS` (seconds, may have a fraction; unset: [`DEFAULT_LEASE`]).
 pub(crate) fn lease_in(env: Env<'_>) -> Result<Duration> {
     let value = match env("RADAR_LEASE_SECONDS") {
@@ -339,6 +383,7 @@ mod tests {
         let e = env(&[
             ("ROS_DOMAIN_ID", "42"),
             ("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST"),
+            ("RMW_IMPLEMENTATION", "rmw_cyclonedds_cpp"),
             ("RADAR_LEASE_SECONDS", "1.5"),
             ("RADAR_GENERATE_POLICY", "/tmp/p.xml"),
         ]);
@@ -412,6 +457,19 @@ mod tests {
         assert!(e.contains("ROS_DOMAIN_ID") && e.contains("0 to 232"), "{e}");
         let e = settle(&[("ROS_AUTOMATIC_DISCOVERY_RANGE", "MARS")], Some("p"));
         assert!(e.contains("SUBNET, LOCALHOST"), "{e}");
+        let e = settle(&[("RMW_IMPLEMENTATION", "rmw_zenoh_cpp")], Some("p"));
+        assert!(
+            e.contains("RMW_IMPLEMENTATION")
+                && e.contains("rmw_zenoh_cpp")
+                && e.contains("DDS only")
+                && e.contains("unset RMW_IMPLEMENTATION"),
+            "{e}"
+        );
+        let e = settle(&[("RMW_IMPLEMENTATION", "rmw_nothing")], Some("p"));
+        assert!(
+            e.contains("rmw_nothing") && e.contains("rmw_cyclonedds_cpp"),
+            "{e}"
+        );
         let e = settle(&[("RADAR_LEASE_SECONDS", "0")], Some("p"));
         assert!(e.contains("from 0.1 up"), "{e}");
         let e = settle(&[], Some("a/b"));
