@@ -1605,11 +1605,18 @@ impl Discovery {
         match t {
           Sample::Value((topic_data, writer)) => {
             debug!("sedp_receive_topic_data discovered {:?}", topic_data);
-            discovery_db_write(&self.discovery_db).update_topic_data(
+            let changed = discovery_db_write(&self.discovery_db).update_topic_data(
               &topic_data,
               writer,
               DiscoveredVia::Topic,
             );
+            // RADAR patch 57: a repeat of what this participant already said of the topic
+            // (it says it again with every endpoint it makes on it) changes no match; telling
+            // the event loop of every endpoint on the topic again made each new endpoint cost
+            // as much as the topic had (a node's `rt/parameter_events` writer: every node's)
+            if !changed {
+              continue;
+            }
             // Now check if we know any readers of writers to this topic. The topic QoS
             // could cause these to became viable matches against local
             // writers/readers. This is because at least RTI Connext sends QoS

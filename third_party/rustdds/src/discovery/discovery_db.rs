@@ -88,6 +88,11 @@ pub(crate) struct DiscoveryDB {
   // The topics each sender described (RADAR patch 45): an endpoint that goes is taken out of its own topics,
   // not looked for in every topic.
   topics_by_sender: BTreeMap<GUID, BTreeSet<String>>,
+  // The type names the senders of each topic gave, with how many gave each (RADAR patch 57): a sender new to a
+  // topic is checked against these, not against every sender of the topic (`rt/parameter_events` has one per
+  // node, so each node made cost as much as the nodes before it).
+  // (Almost every topic has one type: a short list, not a map, keeps this to a few dozen bytes per topic.)
+  topic_types: HashMap<String, Vec<(String, usize)>>,
   // The readers and the writers, local and remote, of each topic (RADAR patch 49): a superset (an endpoint is
   // added when stored, taken out when removed by GUID, and what is left of participants that went is pruned by
   // `topic_cleanup`), so `readers_on_topic` and `writers_on_topic` look up a topic's endpoints instead of
@@ -122,6 +127,32 @@ fn move_by_guid_prefix<D>(
   let to_move: Vec<GUID> = from.range(guid_prefix.range()).map(|(g, _)| *g).collect();
   for guid in to_move {
     from.remove(&guid).map(|d| to.insert(guid, d));
+  }
+}
+
+/// Counts one sender more (`add`) or less of `topic` giving `type_name` (RADAR patch 57).
+fn count_type(
+  types: &mut HashMap<String, Vec<(String, usize)>>,
+  topic: &str,
+  type_name: &str,
+  add: bool,
+) {
+  if add {
+    let by_type = match types.get_mut(topic) {
+      Some(by_type) => by_type,
+      None => types.entry(topic.to_owned()).or_insert_with(|| Vec::with_capacity(1)),
+    };
+    match by_type.iter_mut().find(|(ty, _)| ty == type_name) {
+      Some((_, n)) => *n += 1,
+      None => by_type.push((type_name.to_owned(), 1)),
+    }
+  } else if let Some(by_type) = types.get_mut(topic) {
+    if let Some(i) = by_type.iter().position(|(ty, _)| ty == type_name) {
+      by_type[i].1 -= 1;
+      if by_type[i].1 == 0 {
+        by_type.swap_remove(i);
+      }
+    }
   }
 }
 
@@ -195,6 +226,7 @@ impl DiscoveryDB {
       attic_order: std::collections::VecDeque::new(),
       topics: BTreeMap::new(),
       topics_by_sender: BTreeMap::new(),
+      topic_types: HashMap::new(),
       readers_by_topic: HashMap::new(),
       writers_by_topic: HashMap::new(),
       topic_updated_sender,
@@ -375,9 +407,12 @@ impl DiscoveryDB {
   fn forget_topic_data_from(&mut self, gone: GUID) {
     for topic in self.topics_by_sender.remove(&gone).unwrap_or_default() {
       if let Some(senders) = self.topics.get_mut(&topic) {
-        senders.remove(&gone);
+        if let Some(sent) = senders.remove(&gone) {
+          count_type(&mut self.topic_types, &topic, &sent.1.topic_data.type_name, false);
+        }
         if senders.is_empty() {
           self.topics.remove(&topic);
+          self.topic_types.remove(&topic);
         }
       }
     }
@@ -391,6 +426,16 @@ impl DiscoveryDB {
       .iter()
       .map(|(t, s)| (t.clone(), s.len()))
       .collect()
+  }
+
+  /// The type names the senders of `topic` gave, with how many gave each (tests).
+  #[cfg(test)]
+  pub(crate) fn topic_type_counts(&self, topic: &str) -> BTreeMap<String, usize> {
+    self
+      .topic_types
+      .get(topic)
+      .map(|by_type| by_type.iter().cloned().collect())
+      .unwrap_or_default()
   }
 
   /// How many senders the topic index holds (tests).
@@ -544,6 +589,7 @@ impl DiscoveryDB {
       .cloned()
       .collect();
     for dt in dead_topics {
+      self.topic_types.remove(&dt);
       if let Some(senders) = self.topics.remove(&dt) {
         for g in senders.keys() {
           if let Some(described) = self.topics_by_sender.get_mut(g) {
@@ -719,17 +765,23 @@ impl DiscoveryDB {
   }
 
   // Topic update sends notifications, in case someone was waiting to find a
-  // topic. Return value indicates whether the topic (name) was new to us. This
-  // is used to add
+  // topic.
+  /// Records `dtd` from `updater`. Returns whether that changed what is known: the
+  /// topic or this source of it was new, or its data (type, QoS) differed from what
+  /// this source said before, or it came from the Topic topic for the first time.
+  /// A participant announces a topic again with every writer or reader it makes on
+  /// it (every node's `rt/parameter_events` writer): an unchanged repeat changes
+  /// nothing (RADAR patch 57).
   pub fn update_topic_data(
     &mut self,
     dtd: &DiscoveredTopicData,
     updater: GUID,
     discovered_via: DiscoveredVia,
-  ) {
+  ) -> bool {
     trace!("Update topic data: {:?}", dtd);
     let topic_name = dtd.topic_data.name.clone();
     let mut notify = false;
+    let mut changed = true;
     let mut inconsistency_event_to_send = None;
 
     if let Some(t) = self.topics.get_mut(&dtd.topic_data.name) {
@@ -740,9 +792,12 @@ impl DiscoveryDB {
           // TODO: Why do we have this logic? Where is the spec? Or ant reason for it?
           // Is it even triggered ever?
           if discovered_via == DiscoveredVia::Topic {
+            changed =
+              old_dtd.0 != DiscoveredVia::Topic || old_dtd.1.topic_data != dtd.topic_data;
             **old_dtd = (discovered_via, dtd.clone()); // update QoS
             notify = true;
           } else {
+            changed = false;
             debug!(
               "Topic {:?} update ignored from {:?}. Already have this.",
               topic_name, updater
@@ -768,7 +823,13 @@ impl DiscoveryDB {
           });
         }
       } else {
-        for (source_guid, sent) in t.iter() {
+        // only when a sender gave another type is there one to find (patch 57)
+        let others = self
+          .topic_types
+          .get(&topic_name)
+          .is_some_and(|types| types.iter().any(|(ty, _)| *ty != dtd.topic_data.type_name));
+        let senders = if others { Some(t.iter()) } else { None };
+        for (source_guid, sent) in senders.into_iter().flatten() {
           let existing_dtd = &sent.1;
           if topics_inconsistent(&existing_dtd.topic_data, &dtd.topic_data) {
             inconsistency_event_to_send = Some(DomainParticipantStatusEvent::InconsistentTopic {
@@ -784,6 +845,7 @@ impl DiscoveryDB {
         // We have to topic, but not from this participant
         // TODO: Check that there is agreement about topic type name (at least)
         t.insert(updater, Box::new((discovered_via, dtd.clone()))); // this should return None
+        count_type(&mut self.topic_types, &topic_name, &dtd.topic_data.type_name, true);
         self
           .topics_by_sender
           .entry(updater)
@@ -800,6 +862,7 @@ impl DiscoveryDB {
         .entry(updater)
         .or_default()
         .insert(topic_name.clone());
+      count_type(&mut self.topic_types, &topic_name, &dtd.topic_data.type_name, true);
       self.topics.insert(topic_name, b);
       self.send_participant_status(DomainParticipantStatusEvent::TopicDetected {
         name: dtd.topic_data.name.clone(),
@@ -817,6 +880,7 @@ impl DiscoveryDB {
         // because usually there is no-one at the other end receiving.
         .unwrap_or_else(|e| trace!("update_topic_data: Notification send failed: {e:?}"));
     }
+    changed
   }
 
   // local topic readers
@@ -1227,6 +1291,121 @@ mod tests {
     db.topic_cleanup();
     assert_eq!(senders(&db), s(&[]));
     assert_eq!(db.topic_index_len(), 0);
+  }
+
+  // RADAR patch 57: a participant says what it knows of a topic again with every endpoint it makes on it.
+  // A repeat that changes nothing says so (Discovery then tells the event loop nothing: before, every endpoint
+  // of the topic was told again, once per endpoint made), and a sender new to a topic is checked against the
+  // type names its senders gave, not against each sender: an inconsistent type is still reported exactly when
+  // a sender of the topic gave another type (against the test's own record of who gave what), through
+  // senders added and taken away.
+  #[test]
+  fn a_repeated_topic_changes_nothing_and_types_are_checked_against_what_senders_gave() {
+    let (discovery_db_event_sender, _discovery_db_event_receiver) =
+      std::sync::mpsc::sync_channel::<()>(1024);
+    let (status_sender, status) = sync_status_channel(4096).unwrap();
+    let mut db = DiscoveryDB::new(
+      GUID::new_participant_guid(),
+      discovery_db_event_sender,
+      status_sender,
+    );
+    let inconsistent = |status: &crate::dds::statusevents::StatusChannelReceiver<
+      DomainParticipantStatusEvent,
+    >| {
+      let mut n = 0;
+      while let Ok(e) = status.try_recv() {
+        n += usize::from(matches!(
+          e,
+          DomainParticipantStatusEvent::InconsistentTopic { .. }
+        ));
+      }
+      n
+    };
+
+    // the same participant's topic data, through the Topic topic
+    let p = GUID::new(GuidPrefix::new(&[9; 12]), EntityId::PARTICIPANT);
+    let topic = |qos: &QosPolicies| {
+      DiscoveredTopicData::new(
+        Utc::now(),
+        TopicBuiltinTopicData::new(
+          None,
+          "rt/parameter_events".to_string(),
+          "rcl_interfaces::msg::dds_::ParameterEvent_".to_string(),
+          qos,
+        ),
+      )
+    };
+    let plain = QosPolicies::qos_none();
+    let latched = QosPolicies::builder()
+      .durability(crate::dds::qos::policy::Durability::TransientLocal)
+      .build();
+    assert!(db.update_topic_data(&topic(&plain), p, DiscoveredVia::Topic), "new");
+    assert!(!db.update_topic_data(&topic(&plain), p, DiscoveredVia::Topic), "a repeat");
+    assert!(db.update_topic_data(&topic(&latched), p, DiscoveredVia::Topic), "its QoS changed");
+    assert!(!db.update_topic_data(&topic(&latched), p, DiscoveredVia::Topic));
+    let q = GUID::new(GuidPrefix::new(&[8; 12]), EntityId::PARTICIPANT);
+    assert!(db.update_topic_data(&topic(&plain), q, DiscoveredVia::Publication), "a new sender");
+    assert!(!db.update_topic_data(&topic(&plain), q, DiscoveredVia::Publication));
+    assert!(db.update_topic_data(&topic(&plain), q, DiscoveredVia::Topic), "first via Topic");
+    assert!(!db.update_topic_data(&topic(&plain), q, DiscoveredVia::Topic));
+    assert_eq!(inconsistent(&status), 0);
+
+    // readers of one topic with type A or B, added and taken away in a fixed pseudo-random order
+    let reader = |db: &mut DiscoveryDB, i: u32, ty: &str| {
+      let guid = GUID::new(
+        GuidPrefix::new(&[(i % 200) as u8 + 1; 12]),
+        EntityId::new(
+          [(i / 200) as u8, 0, 1],
+          EntityKind::READER_NO_KEY_USER_DEFINED,
+        ),
+      );
+      let mut proxy = reader_proxy_data().unwrap();
+      proxy.remote_reader_guid = guid;
+      let sub = SubscriptionBuiltinTopicData::new(
+        guid,
+        None,
+        "shared".to_string(),
+        ty.to_string(),
+        &QosPolicies::qos_none(),
+        None,
+      );
+      db.update_subscription(&DiscoveredReaderData {
+        reader_proxy: proxy,
+        subscription_topic_data: sub,
+        content_filter: None,
+        user_data: Vec::new(),
+      });
+      guid
+    };
+    let mut held: Vec<(GUID, &str)> = Vec::new();
+    let mut x: u32 = 12345;
+    let mut reported = 0;
+    for i in 0..2000 {
+      x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+      if x % 5 == 0 && !held.is_empty() {
+        let (g, _) = held.remove((x as usize / 7) % held.len());
+        db.remove_topic_reader(g);
+        continue;
+      }
+      let ty = if x % 97 < 3 { "B" } else { "A" };
+      let expected = held.iter().any(|(_, t)| *t != ty);
+      let g = reader(&mut db, i, ty);
+      held.push((g, ty));
+      let n = inconsistent(&status);
+      assert_eq!(n, usize::from(expected), "reader {i} of type {ty}, held {}", held.len());
+      reported += n;
+    }
+    assert!(reported > 10, "the order makes both cases: {reported} reported");
+    // the counts are what is held (a count left behind would send every new sender to the scan)
+    let mut model = BTreeMap::new();
+    for (_, ty) in &held {
+      *model.entry(ty.to_string()).or_insert(0) += 1;
+    }
+    assert_eq!(db.topic_type_counts("shared"), model);
+    for (g, _) in held {
+      db.remove_topic_reader(g);
+    }
+    assert!(db.topic_type_counts("shared").is_empty());
   }
 
   // RADAR patch 49: the endpoints of a topic, found through the topic index, are those a scan of every
