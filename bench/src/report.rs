@@ -404,11 +404,11 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
     );
     let _ = writeln!(
         s,
-        "| components | spawn | per component | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (measured from, after the last connection) | connect all | drop -> all inactive | SIGTERM -> exited |"
+        "| components | spawn | per component | per event, first / last tenth | per response, first / last tenth | RSS per event | RSS per response | fds (participant) | idle CPU per 1,000 components | idle CPU, connected, per 1,000 | the same once discovery settled (measured from, after the last connection) | connect all | drop -> all inactive | SIGTERM -> exited |"
     );
     let _ = writeln!(
         s,
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     for sc in steps {
         let f = |k: &str| sc[k].as_f64().unwrap_or(f64::NAN);
@@ -416,9 +416,13 @@ fn scale_curve_table(s: &mut String, steps: &[serde_json::Value]) {
         let per_k = |k: &str| f(k) * 100.0 * 1000.0 / n;
         let _ = writeln!(
             s,
-            "| {n} | {:.0} ms | {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.2}% ({:.1} s) | {:.0} ms ({} connections) | {:.0} ms | {:.0} ms ({}) |",
+            "| {n} | {:.0} ms | {:.2} ms | {:.2} / {:.2} ms | {:.2} / {:.2} ms | {:.1} KiB | {:.1} KiB | {} ({}) | {:.2}% of a core | {:.2}% | {:.2}% ({:.1} s) | {:.0} ms ({} connections) | {:.0} ms | {:.0} ms ({}) |",
             f("spawn_ms"),
             f("spawn_ms") / n,
+            f("spawn_event_first_tenth_ms"),
+            f("spawn_event_last_tenth_ms"),
+            f("spawn_response_first_tenth_ms"),
+            f("spawn_response_last_tenth_ms"),
             f("bytes_per_event") / 1024.0,
             f("bytes_per_response") / 1024.0,
             sc["fds_components"],

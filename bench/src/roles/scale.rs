@@ -78,6 +78,32 @@ impl Event for Idle {
     }
 }
 
+/// Spawns `n` components with `spawn`, one after the other, and times the first and the last tenth of them:
+/// milliseconds per component in each (flat in N when the two are alike; the process holds nine tenths more
+/// in the last).
+fn spawn_timed<T>(
+    n: usize,
+    mut spawn: impl FnMut(usize) -> radar_ros::Result<T>,
+) -> radar_ros::Result<(Vec<T>, (f64, f64))> {
+    let tenth = (n / 10).max(1);
+    let mut made = Vec::with_capacity(n);
+    let (mut first, mut last) = (f64::NAN, f64::NAN);
+    let mut t = now_ns();
+    for i in 0..n {
+        if i == n.saturating_sub(tenth) {
+            t = now_ns();
+        }
+        made.push(spawn(i)?);
+        if i + 1 == tenth {
+            first = (now_ns() - t) as f64 / 1e6 / tenth as f64;
+        }
+    }
+    if n > 0 {
+        last = (now_ns() - t) as f64 / 1e6 / tenth.min(n) as f64;
+    }
+    Ok((made, (first, last)))
+}
+
 pub(super) fn cpu_self() -> Duration {
     crate::proto::cpu_time(std::process::id()).unwrap_or_default()
 }
@@ -136,21 +162,19 @@ pub(super) async fn scale(
     let fds0 = open_fds();
     let cpu_empty = idle_cpu(idle).await;
     let t = now_ns();
-    let evs: Vec<EventHandle> = (0..events)
-        .map(|i| radar.spawn_event(&format!("/scale/ev_{i}"), Idle))
-        .collect::<radar_ros::Result<_>>()?;
+    let (evs, ev_tenths): (Vec<EventHandle>, _) = spawn_timed(events, |i| {
+        radar.spawn_event(&format!("/scale/ev_{i}"), Idle)
+    })?;
     let events_ms = (now_ns() - t) as f64 / 1e6;
     tokio::time::sleep(Duration::from_millis(300)).await;
     let rss_events = rss_bytes();
     let t_resp = now_ns();
-    let resps: Vec<_> = (0..responses)
-        .map(|i| {
-            radar.spawn_response(
-                &format!("/scale/resp_{i}"),
-                FnResponse::new(|_: Empty| async { Ok::<_, SlotError>(Empty::default()) }),
-            )
-        })
-        .collect::<radar_ros::Result<_>>()?;
+    let (resps, resp_tenths): (Vec<_>, _) = spawn_timed(responses, |i| {
+        radar.spawn_response(
+            &format!("/scale/resp_{i}"),
+            FnResponse::new(|_: Empty| async { Ok::<_, SlotError>(Empty::default()) }),
+        )
+    })?;
     let spawn_ms = events_ms + (now_ns() - t_resp) as f64 / 1e6;
     let fds1 = open_fds();
     tokio::time::sleep(Duration::from_millis(500)).await;
@@ -225,6 +249,9 @@ pub(super) async fn scale(
         "cpu_idle_connected": cpu_connected,
         "cpu_idle_connected_settled": cpu_settled, "settle_ms": settle_ms,
         "spawn_ms": spawn_ms, "connect_ms": connect_ms, "drop_ms": drop_ms,
+        "spawn_event_first_tenth_ms": ev_tenths.0, "spawn_event_last_tenth_ms": ev_tenths.1,
+        "spawn_response_first_tenth_ms": resp_tenths.0,
+        "spawn_response_last_tenth_ms": resp_tenths.1,
         "all_inactive_ms": inactive_ms, "active_while_connected": active,
         "still_active_after_teardown": still_active,
     });
