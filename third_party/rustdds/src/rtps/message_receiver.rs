@@ -16,7 +16,7 @@ use crate::{
   polling::WakeSender,
   rtps::{
     early_arrivals::{worth_holding, EarlyArrivals, ReceiverSnapshot},
-    reader::Reader,
+    reader::{MatchIndex, Reader},
     transmit::InterfaceObservations,
     Message, Submessage, SubmessageBody,
   },
@@ -115,13 +115,12 @@ impl Default for MessageReceiverState<'_> {
 /// Entities. (See RTPS spec Section 8.3.7)
 pub(crate) struct MessageReceiver {
   pub available_readers: BTreeMap<EntityId, Reader>,
-  /// Bumped when a reader is added or removed, or the writers a reader matched change (RADAR patch 16).
-  match_generation: Rc<std::cell::Cell<u64>>,
-  /// For a writer whose submessages name no reader: the readers they go to, as of `match_generation`
-  /// (the first field). Looking through every reader per submessage cost more than the submessage when a
-  /// participant has thousands of readers (RADAR patch 16).
-  targets_by_writer: (u64, std::collections::HashMap<GUID, Vec<EntityId>>),
-  /// The readers with a matched writer, as of `match_generation` (the first field): the periodic
+  /// Which readers each writer reaches, kept by the readers, and a generation bumped at every change of a
+  /// reader or its matches (RADAR patches 16, 58). For a writer whose submessages name no reader, they go to
+  /// its readers here: looking through every reader per submessage cost more than the submessage when a
+  /// participant has thousands of readers.
+  match_index: Rc<std::cell::RefCell<MatchIndex>>,
+  /// The readers with a matched writer, as of the index's generation (the first field): the periodic
   /// preemptive ACKNACKs look at these only (RADAR patch 16).
   readers_with_writers: (u64, Vec<EntityId>),
   // GuidPrefix sent in this channel needs to be RTPSMessage source_guid_prefix. Writer needs this
@@ -174,8 +173,7 @@ impl MessageReceiver {
   ) -> Self {
     Self {
       available_readers: BTreeMap::new(),
-      match_generation: Rc::new(std::cell::Cell::new(0)),
-      targets_by_writer: (0, std::collections::HashMap::new()),
+      match_index: Rc::default(),
       readers_with_writers: (u64::MAX, Vec::new()),
       acknack_sender,
       spdp_liveness_sender,
@@ -289,55 +287,50 @@ impl MessageReceiver {
     match self.available_readers.entry(eid) {
       Entry::Occupied(_) => warn!("Already have Reader {eid:?} - not adding."),
       Entry::Vacant(e) => {
-        new_reader.match_generation = Some(Rc::clone(&self.match_generation));
+        new_reader.match_index = Some(Rc::clone(&self.match_index));
+        let mut index = self.match_index.borrow_mut();
+        for writer in new_reader.matched_writer_guids() {
+          index.change(writer, eid, true);
+        }
+        index.generation = index.generation.wrapping_add(1);
+        drop(index);
         e.insert(new_reader);
-        self.bump_match_generation();
       }
     }
   }
 
   pub fn remove_reader(&mut self, old_reader_guid: GUID) -> Option<Reader> {
-    self.bump_match_generation();
-    self.available_readers.remove(&old_reader_guid.entity_id)
-  }
-
-  fn bump_match_generation(&self) {
-    let g = &self.match_generation;
-    g.set(g.get().wrapping_add(1));
-  }
-
-  /// The readers that take `sending_writer`'s submessages addressed to no reader in particular.
-  fn targets_of(&mut self, sending_writer: GUID) -> Vec<EntityId> {
-    let generation = self.match_generation.get();
-    if self.targets_by_writer.0 != generation {
-      self.targets_by_writer = (generation, std::collections::HashMap::new());
+    let eid = old_reader_guid.entity_id;
+    let mut removed = self.available_readers.remove(&eid);
+    let mut index = self.match_index.borrow_mut();
+    if let Some(reader) = removed.as_mut() {
+      for writer in reader.matched_writer_guids() {
+        index.change(writer, eid, false);
+      }
+      reader.match_index = None;
     }
-    let readers = &self.available_readers;
-    self
-      .targets_by_writer
-      .1
-      .entry(sending_writer)
-      .or_insert_with(|| {
-        let sending_writer_entity_id = sending_writer.entity_id;
-        readers
-          .values()
-          .filter(|target_reader| {
-            // Reader must have matched the writer
-            target_reader.has_matched_writer(sending_writer)
-              // But there are two exceptions:
-              // 1. SPDP reader must read from unknown SPDP writers
-              //  TODO: This logic here is uglyish. Can we just inject a
-              //  presupposed writer (proxy) to the built-in reader as it is created?
-              || (sending_writer_entity_id == EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER
-                && target_reader.entity_id() == EntityId::SPDP_BUILTIN_PARTICIPANT_READER)
-              // 2. ParticipantStatelessReader does not contain any writers, since it is stateless
-              || (sending_writer_entity_id == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_WRITER
-                && target_reader.entity_id() == EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_READER)
-          })
-          .map(Reader::entity_id)
-          .collect()
-      })
-      .clone()
+    index.generation = index.generation.wrapping_add(1);
+    removed
+  }
+
+  /// The readers that take `sending_writer`'s submessages addressed to no reader in particular: those that
+  /// matched it (the index, patch 58), and two exceptions: the SPDP reader reads from unknown SPDP writers, and
+  /// the stateless participant reader holds no writers (it is stateless).
+  fn targets_of(&mut self, sending_writer: GUID) -> Vec<EntityId> {
+    let mut targets = self.match_index.borrow().readers_of(sending_writer).to_vec();
+    let exception = match sending_writer.entity_id {
+      EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER => Some(EntityId::SPDP_BUILTIN_PARTICIPANT_READER),
+      EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_WRITER => {
+        Some(EntityId::P2P_BUILTIN_PARTICIPANT_STATELESS_READER)
+      }
+      _ => None,
+    };
+    if let Some(reader) = exception.filter(|r| self.available_readers.contains_key(r)) {
+      if let Err(at) = targets.binary_search(&reader) {
+        targets.insert(at, reader);
+      }
+    }
+    targets
   }
 
   pub fn reader_mut(&mut self, reader_id: EntityId) -> Option<&mut Reader> {
@@ -1231,7 +1224,7 @@ impl MessageReceiver {
 
   // sends 0 seqnum acknacks for those writer that haven't had any action
   pub fn send_preemptive_acknacks(&mut self) {
-    let generation = self.match_generation.get();
+    let generation = self.match_index.borrow().generation;
     if self.readers_with_writers.0 != generation {
       let with: Vec<EntityId> = self
         .available_readers
@@ -1518,6 +1511,125 @@ mod tests {
       .is_some();
     assert!(removed);
     assert!(message_receiver.targets_of(writer).is_empty());
+  }
+
+  /// A reader of `prefix` with entity key `key` (or `entity`), for the index test.
+  fn plain_reader(prefix: GuidPrefix, entity: EntityId) -> Reader {
+    let (notification_sender, _notification_receiver) =
+      crate::mio_source::notification_channel(100);
+    let (_notification_event_source, notification_event_sender) =
+      mio_source::make_poll_channel().unwrap();
+    let (status_sender, _status_receiver) = sync_status_channel::<DataReaderStatus>(4).unwrap();
+    let (participant_status_sender, _participant_status_receiver) =
+      sync_status_channel(16).unwrap();
+    let (_reader_command_sender, reader_command_receiver) =
+      wake_channel::<ReaderCommand>(10, &LoopWaker::new());
+    let qos_policy = QosPolicies::qos_none();
+    let dds_cache = Arc::new(RwLock::new(DDSCache::new()));
+    let topic_cache_handle = dds_cache.write().unwrap().add_new_topic(
+      "test".to_string(),
+      TypeDesc::new("test".to_string()),
+      &qos_policy,
+    );
+    Reader::new(
+      ReaderIngredients {
+        guid: GUID::new_with_prefix_and_id(prefix, entity),
+        notification_sender,
+        status_sender,
+        topic_name: "test".to_string(),
+        topic_cache_handle,
+        like_stateless: false,
+        qos_policy,
+        data_reader_command_receiver: reader_command_receiver,
+        data_reader_waker: Arc::new(Mutex::new(None)),
+        poll_event_sender: notification_event_sender,
+        security_plugins: None,
+        discovery_notify: None,
+      },
+      Rc::new(UDPSender::new_with_random_port().unwrap()),
+      new_shared_timer(),
+      participant_status_sender,
+    )
+  }
+
+  // RADAR patch 58: the readers a writer's submessages to no reader in particular reach come from an index
+  // the readers keep, and are those a scan of every reader finds (the definition patch 16 cached): through
+  // readers added (some already matched), writers matched and lost, readers removed, in a fixed pseudo-random
+  // order; the SPDP reader also takes every SPDP writer's.
+  #[test]
+  fn the_readers_a_writer_reaches_are_those_a_scan_finds() {
+    let (mut message_receiver, _) = shapes_demo_receiver(false);
+    let prefix = message_receiver.own_guid_prefix;
+    let remote = GuidPrefix::new(&[7; 12]);
+    let writers: Vec<GUID> = (0..4)
+      .map(|k| {
+        GUID::new_with_prefix_and_id(
+          remote,
+          EntityId::create_custom_entity_id([0, 0, k], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+        )
+      })
+      .chain([GUID::new_with_prefix_and_id(
+        remote,
+        EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER,
+      )])
+      .collect();
+    let scan = |mr: &MessageReceiver, w: GUID| -> Vec<EntityId> {
+      mr.available_readers
+        .values()
+        .filter(|r| {
+          r.has_matched_writer(w)
+            || (w.entity_id == EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER
+              && r.entity_id() == EntityId::SPDP_BUILTIN_PARTICIPANT_READER)
+        })
+        .map(Reader::entity_id)
+        .collect()
+    };
+    let proxy = |w: GUID| RtpsWriterProxy::new(w, vec![], vec![], EntityId::UNKNOWN);
+    message_receiver.add_reader(plain_reader(prefix, EntityId::SPDP_BUILTIN_PARTICIPANT_READER));
+    let mut next_key: u32 = 1;
+    let mut x: u32 = 777;
+    for step in 0..400 {
+      x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+      let readers: Vec<EntityId> = message_receiver.available_readers.keys().copied().collect();
+      let w = writers[(x as usize >> 8) % writers.len()];
+      match (x >> 4) % 6 {
+        0 if readers.len() < 40 => {
+          let key = next_key.to_be_bytes();
+          next_key += 1;
+          let mut r = plain_reader(
+            prefix,
+            EntityId::create_custom_entity_id([key[1], key[2], key[3]], EntityKind::READER_NO_KEY_USER_DEFINED),
+          );
+          if x % 3 == 0 {
+            r.update_writer_proxy(proxy(w), &QosPolicies::qos_none());
+          }
+          message_receiver.add_reader(r);
+        }
+        1 if readers.len() > 3 => {
+          let r = readers[(x as usize >> 12) % readers.len()];
+          if r != EntityId::SPDP_BUILTIN_PARTICIPANT_READER {
+            let removed = message_receiver.remove_reader(GUID::new_with_prefix_and_id(prefix, r));
+            assert!(removed.is_some());
+          }
+        }
+        2 | 3 => {
+          let r = readers[(x as usize >> 12) % readers.len()];
+          message_receiver
+            .reader_mut(r)
+            .unwrap()
+            .update_writer_proxy(proxy(w), &QosPolicies::qos_none());
+        }
+        _ => {
+          let r = readers[(x as usize >> 12) % readers.len()];
+          message_receiver.reader_mut(r).unwrap().remove_writer_proxy(w);
+        }
+      }
+      for &w in &writers {
+        assert_eq!(message_receiver.targets_of(w), scan(&message_receiver, w), "step {step}, writer {w:?}");
+      }
+    }
+    let reached: usize = writers.iter().map(|&w| message_receiver.targets_of(w).len()).sum();
+    assert!(reached > 5, "the order leaves matches to find: {reached}");
   }
 
   #[test]

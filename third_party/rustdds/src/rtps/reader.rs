@@ -100,6 +100,42 @@ impl fmt::Debug for ReaderIngredients {
   }
 }
 
+/// Which local readers each writer reaches, kept by the readers as they match and lose writers (RADAR patch
+/// 58), and a generation bumped at every change. A writer's submessages addressed to no reader in particular go
+/// to these; patch 16 cached the answer per writer but threw the whole cache away at any reader's change, so
+/// while a process made endpoints every received submessage looked through every reader again.
+#[derive(Default)]
+pub(crate) struct MatchIndex {
+  /// Bumped when a reader is added or removed, or the writers a reader matched change.
+  pub(crate) generation: u64,
+  /// The readers (in entity order) that matched each writer.
+  by_writer: std::collections::HashMap<GUID, Vec<EntityId>>,
+}
+
+impl MatchIndex {
+  /// Records that `reader` matched (`matched`) or lost `writer`.
+  pub(crate) fn change(&mut self, writer: GUID, reader: EntityId, matched: bool) {
+    self.generation = self.generation.wrapping_add(1);
+    let readers = self.by_writer.entry(writer).or_default();
+    match (readers.binary_search(&reader), matched) {
+      (Err(at), true) => readers.insert(at, reader),
+      (Ok(at), false) => {
+        readers.remove(at);
+        if readers.is_empty() {
+          self.by_writer.remove(&writer);
+        }
+      }
+      _ => {}
+    }
+  }
+
+  /// The readers that matched `writer`, in entity order.
+  pub(crate) fn readers_of(&self, writer: GUID) -> &[EntityId] {
+    self.by_writer.get(&writer).map_or(&[], Vec::as_slice)
+  }
+}
+
+
 pub(crate) struct Reader {
   // Should the instant be sent?
   notification_sender: crate::mio_source::NotificationSender,
@@ -136,9 +172,9 @@ pub(crate) struct Reader {
   fragment_assemblers: BTreeMap<GUID, FragmentAssembler>,
   last_fragment_garbage_collect: Timestamp,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
-  /// Bumped when the set of matched writers changes (RADAR patch 16): the message receiver's cache of which
-  /// readers a writer's multicast reaches is valid while it stays put. Set by the message receiver.
-  pub(crate) match_generation: Option<Rc<std::cell::Cell<u64>>>,
+  /// The message receiver's index of which readers each writer reaches (RADAR patches 16, 58): told of every
+  /// writer this reader matches or loses. Set by the message receiver.
+  pub(crate) match_index: Option<Rc<std::cell::RefCell<MatchIndex>>>,
   writer_match_count_total: i32, // total count, never decreases
 
   requested_deadline_missed_count: i32,
@@ -206,7 +242,7 @@ impl Reader {
       fragment_assemblers: BTreeMap::new(),
       last_fragment_garbage_collect: Timestamp::now(),
       matched_writers: BTreeMap::new(),
-      match_generation: None,
+      match_index: None,
       writer_match_count_total: 0,
       requested_deadline_missed_count: 0,
       offered_incompatible_qos_count: 0,
@@ -468,23 +504,31 @@ impl Reader {
       op.update_contents(proxy);
       0
     } else {
-      self.matched_writers.insert(proxy.remote_writer_guid, proxy);
-      self.matches_changed();
+      let writer = proxy.remote_writer_guid;
+      self.matched_writers.insert(writer, proxy);
+      self.matches_changed(writer, true);
       1
     }
   }
 
-  /// Tells the message receiver that this reader's matched writers changed.
-  fn matches_changed(&self) {
-    if let Some(g) = &self.match_generation {
-      g.set(g.get().wrapping_add(1));
+  /// Tells the message receiver that this reader matched (`matched`) or lost `writer`.
+  fn matches_changed(&self, writer: GUID, matched: bool) {
+    if let Some(index) = &self.match_index {
+      index
+        .borrow_mut()
+        .change(writer, self.my_guid.entity_id, matched);
     }
+  }
+
+  /// The writers this reader has matched.
+  pub(crate) fn matched_writer_guids(&self) -> impl Iterator<Item = GUID> + '_ {
+    self.matched_writers.keys().copied()
   }
 
   pub fn remove_writer_proxy(&mut self, writer_guid: GUID) {
     if self.matched_writers.contains_key(&writer_guid) {
       self.matched_writers.remove(&writer_guid);
-      self.matches_changed();
+      self.matches_changed(writer_guid, false);
       // RADAR patch 38: only a reliable reader awaits samples. For a best-effort one this left a marker
       // after the writer's last sample, and when the writer was matched again (its participant back after
       // its lease ran out, as the SPDP writer of a peer stopped for a few seconds is) every sample from it
