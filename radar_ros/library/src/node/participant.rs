@@ -130,10 +130,15 @@ impl Drop for Participant {
     }
 }
 
-/// A program node's name held in `PROGRAM_NODES`, given back when dropped: by the last handle to its `Radar`,
-/// not when the participant goes (something of the program, such as a component's task let go of on a worker
-/// thread, may hold that a while after the program ended), so a program made again under the name right after
-/// has it.
+/// Writes a program's policy from its domain and its nodes' names (see [`Participant::generate_policy`]).
+pub(crate) type PolicyWriter = Box<dyn FnOnce(u16, &std::collections::BTreeSet<String>) + Send>;
+
+/// The program nodes of this process (fully qualified), so that each live program's is distinct.
+static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
+    Mutex::new(std::collections::BTreeSet::new());
+
+/// A name held in `PROGRAM_NODES` until the last handle to its `Radar` drops it, not until the participant goes
+/// (a component's task let go of on a worker thread may hold that a while after the program ended).
 pub(crate) struct ProgramName(String);
 
 impl Drop for ProgramName {
@@ -141,13 +146,6 @@ impl Drop for ProgramName {
         PROGRAM_NODES.lock().unwrap().remove(&self.0);
     }
 }
-
-/// The program nodes of this process (fully qualified), so that each participant's is distinct.
-/// Writes a program's policy from its domain and its nodes' names (see [`Participant::generate_policy`]).
-pub(crate) type PolicyWriter = Box<dyn FnOnce(u16, &std::collections::BTreeSet<String>) + Send>;
-
-static PROGRAM_NODES: Mutex<std::collections::BTreeSet<String>> =
-    Mutex::new(std::collections::BTreeSet::new());
 
 impl Participant {
     /// Has `write` called with this participant's domain and node names when it ends
