@@ -9,7 +9,8 @@ use radar_ros::{
     FnResponse, TimerEvent,
 };
 use radar_test_util::{
-    call_once, counter, eventually, peer_with_first_line, radar, ManagerClient, DISCOVERY,
+    call_once, counter, eventually, peer_with_first_line, radar, radar_with, ManagerClient,
+    DISCOVERY,
 };
 
 fn req(kind: u8, source: &str, target: &str) -> ConnectRequest {
@@ -272,12 +273,7 @@ async fn a_killed_deliberative_program_takes_its_connections_with_it() {
 /// statement's guard does.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_program_shows_its_connections_on_its_program_node() {
-    let program = radar_ros::Radar::builder()
-        .domain_id(72)
-        .discovery_range(radar_ros::DiscoveryRange::Subnet)
-        .program("patrol")
-        .build()
-        .unwrap();
+    let program = radar_with(72, |b| b.program("patrol"));
     assert_eq!(program.program_node().fully_qualified(), "/patrol");
     let tick = program
         .spawn_event("tick", TimerEvent::new(Duration::from_millis(100)))
@@ -349,12 +345,7 @@ async fn every_program_shows_its_connections_on_its_program_node() {
 async fn a_program_made_again_right_after_the_first_ends_has_its_name() {
     let mut left = None;
     for round in 0..20 {
-        let program = radar_ros::Radar::builder()
-            .domain_id(72)
-            .discovery_range(radar_ros::DiscoveryRange::Subnet)
-            .program("again")
-            .build()
-            .unwrap();
+        let program = radar_with(72, |b| b.program("again"));
         assert_eq!(
             program.program_node().fully_qualified(),
             "/again",

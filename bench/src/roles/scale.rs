@@ -99,7 +99,7 @@ fn spawn_timed<T>(
         }
     }
     if n > 0 {
-        last = (now_ns() - t) as f64 / 1e6 / tenth.min(n) as f64;
+        last = (now_ns() - t) as f64 / 1e6 / tenth as f64;
     }
     Ok((made, (first, last)))
 }

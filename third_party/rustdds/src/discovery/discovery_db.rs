@@ -823,24 +823,25 @@ impl DiscoveryDB {
           });
         }
       } else {
-        // only when a sender gave another type is there one to find (patch 57)
+        // only when a sender gave another type is there one to find (patch 57); the last found is reported
         let others = self
           .topic_types
           .get(&topic_name)
           .is_some_and(|types| types.iter().any(|(ty, _)| *ty != dtd.topic_data.type_name));
-        let senders = if others { Some(t.iter()) } else { None };
-        for (source_guid, sent) in senders.into_iter().flatten() {
-          let existing_dtd = &sent.1;
-          if topics_inconsistent(&existing_dtd.topic_data, &dtd.topic_data) {
-            inconsistency_event_to_send = Some(DomainParticipantStatusEvent::InconsistentTopic {
-              previous_topic_data: Box::new((&existing_dtd.topic_data).into()),
-              previous_source: *source_guid,
-              discovered_topic_data: Box::new((&dtd.topic_data).into()),
-              discovery_source: updater,
-            });
-            // Note: There are potentially several sources of inconsistency
-            // (loop), but we will report only one of them.
-          }
+        let previous = others
+          .then(|| {
+            t.iter()
+              .rev()
+              .find(|(_, sent)| topics_inconsistent(&sent.1.topic_data, &dtd.topic_data))
+          })
+          .flatten();
+        if let Some((source_guid, sent)) = previous {
+          inconsistency_event_to_send = Some(DomainParticipantStatusEvent::InconsistentTopic {
+            previous_topic_data: Box::new((&sent.1.topic_data).into()),
+            previous_source: *source_guid,
+            discovered_topic_data: Box::new((&dtd.topic_data).into()),
+            discovery_source: updater,
+          });
         }
         // We have to topic, but not from this participant
         // TODO: Check that there is agreement about topic type name (at least)

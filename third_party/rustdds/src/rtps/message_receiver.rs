@@ -288,12 +288,7 @@ impl MessageReceiver {
       Entry::Occupied(_) => warn!("Already have Reader {eid:?} - not adding."),
       Entry::Vacant(e) => {
         new_reader.match_index = Some(Rc::clone(&self.match_index));
-        let mut index = self.match_index.borrow_mut();
-        for writer in new_reader.matched_writer_guids() {
-          index.change(writer, eid, true);
-        }
-        index.generation = index.generation.wrapping_add(1);
-        drop(index);
+        (self.match_index.borrow_mut()).reader(eid, new_reader.matched_writer_guids(), true);
         e.insert(new_reader);
       }
     }
@@ -302,21 +297,17 @@ impl MessageReceiver {
   pub fn remove_reader(&mut self, old_reader_guid: GUID) -> Option<Reader> {
     let eid = old_reader_guid.entity_id;
     let mut removed = self.available_readers.remove(&eid);
-    let mut index = self.match_index.borrow_mut();
     if let Some(reader) = removed.as_mut() {
-      for writer in reader.matched_writer_guids() {
-        index.change(writer, eid, false);
-      }
+      (self.match_index.borrow_mut()).reader(eid, reader.matched_writer_guids(), false);
       reader.match_index = None;
     }
-    index.generation = index.generation.wrapping_add(1);
     removed
   }
 
   /// The readers that take `sending_writer`'s submessages addressed to no reader in particular: those that
   /// matched it (the index, patch 58), and two exceptions: the SPDP reader reads from unknown SPDP writers, and
   /// the stateless participant reader holds no writers (it is stateless).
-  fn targets_of(&mut self, sending_writer: GUID) -> Vec<EntityId> {
+  fn targets_of(&self, sending_writer: GUID) -> Vec<EntityId> {
     let mut targets = self.match_index.borrow().readers_of(sending_writer).to_vec();
     let exception = match sending_writer.entity_id {
       EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER => Some(EntityId::SPDP_BUILTIN_PARTICIPANT_READER),

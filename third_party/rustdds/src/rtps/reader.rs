@@ -129,6 +129,19 @@ impl MatchIndex {
     }
   }
 
+  /// Records that `reader` came (`present`) or went, with the writers it has matched.
+  pub(crate) fn reader(
+    &mut self,
+    reader: EntityId,
+    writers: impl Iterator<Item = GUID>,
+    present: bool,
+  ) {
+    for writer in writers {
+      self.change(writer, reader, present);
+    }
+    self.generation = self.generation.wrapping_add(1);
+  }
+
   /// The readers that matched `writer`, in entity order.
   pub(crate) fn readers_of(&self, writer: GUID) -> &[EntityId] {
     self.by_writer.get(&writer).map_or(&[], Vec::as_slice)
