@@ -2,7 +2,10 @@
 //! counts, the filter for samples from peers of another type, and the task behind a component handle.
 
 use futures::{Stream, StreamExt};
-use ros2_client::{MessageInfo, Name, Node, Publisher, QosProfile, Subscription};
+use ros2_client::{
+    dds::{Node, Publisher, Subscription},
+    MessageInfo, Name, QosProfile,
+};
 
 use radar_semantics::response::{Cause, Sent};
 
@@ -429,7 +432,7 @@ pub(crate) const REPLY_WAIT: std::time::Duration = std::time::Duration::from_sec
 /// (`ros2 service call`, rclpy's `call_async` right after `wait_for_service`) can send its request before
 /// our side has matched its reply reader, and a reply sent then goes nowhere.
 pub(crate) fn reply<Req, Resp>(
-    srv: &std::sync::Arc<ros2_client::Server<Req, Resp>>,
+    srv: &std::sync::Arc<ros2_client::dds::Server<Req, Resp>>,
     graph: &crate::graph::Graph,
     manager: &str,
     service: &'static str,

@@ -10,7 +10,8 @@ use std::{
     sync::{Arc, Mutex},
 };
 
-use ros2_client::{Context, Node, NodeName, NodeOptions, QosProfile};
+use ros2_client::dds::{Context, Node};
+use ros2_client::{NodeName, NodeOptions, QosProfile};
 
 use crate::{
     error::{Error, Result},
@@ -18,10 +19,7 @@ use crate::{
     node::endpoints,
     node::pool::{Dir, Key, Pool},
     node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
-    wire::msg::RosMessage,
-    wire::names::ComponentName,
-    wire::qos::signal_qos_depth,
-    wire::raw::parse_type_name,
+    wire::{msg::RosMessage, names::ComponentName, qos::signal_qos_depth, raw::parse_type_name},
 };
 
 /// Names this process serves (actions, managers): a client here is matched with them locally, which

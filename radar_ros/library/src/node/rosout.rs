@@ -199,15 +199,18 @@ impl Drop for Publishing {
 /// The `/rosout` writer of the program node `node`.
 pub(crate) fn writer(
     graph: &crate::graph::Graph,
-    node: &mut ros2_client::Node,
-) -> Result<Watched<ros2_client::Publisher<Log>>> {
+    node: &mut ros2_client::dds::Node,
+) -> Result<Watched<ros2_client::dds::Publisher<Log>>> {
     let ty = crate::wire::raw::parse_type_name("rcl_interfaces/msg/Log")?;
     publisher(graph, node, "/rosout", &ty, &crate::wire::qos::rosout_qos())
 }
 
 /// Starts publishing the layer's lines with `writer` ([`writer`]) of the program node `program` (fully
 /// qualified).
-pub(crate) fn start(writer: Watched<ros2_client::Publisher<Log>>, program: &str) -> Publishing {
+pub(crate) fn start(
+    writer: Watched<ros2_client::dds::Publisher<Log>>,
+    program: &str,
+) -> Publishing {
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Log>();
     let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

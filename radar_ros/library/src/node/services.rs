@@ -2,7 +2,7 @@
 //! rcl_interfaces' parameter services): one way to make their servers and clients, with the names and QoS rmw
 //! gives them.
 
-use ros2_client::{Name, Node};
+use ros2_client::{dds::Node, Name};
 
 use crate::error::{Error, Result};
 
@@ -21,7 +21,7 @@ pub(crate) fn service_server<Req, Resp>(
     fq: &str,
     service: &str,
     ty: &str,
-) -> Result<ros2_client::Server<Req, Resp>>
+) -> Result<ros2_client::dds::Server<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -36,7 +36,7 @@ pub(crate) fn service_server_of<Req, Resp>(
     service: &str,
     package: &str,
     ty: &str,
-) -> Result<ros2_client::Server<Req, Resp>>
+) -> Result<ros2_client::dds::Server<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -52,7 +52,7 @@ where
         crate::node::declared::Access::Reply,
         |node, name, t, q| {
             node.create_server::<Req, Resp>(
-                ros2_client::ServiceMapping::Enhanced,
+                ros2_client::dds::ServiceMapping::Enhanced,
                 name,
                 t,
                 q.clone(),
@@ -108,7 +108,7 @@ pub(crate) fn service_client<Req, Resp>(
     fq: &str,
     service: &str,
     ty: &str,
-) -> Result<ros2_client::Client<Req, Resp>>
+) -> Result<ros2_client::dds::Client<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -123,7 +123,7 @@ pub(crate) fn service_client_of<Req, Resp>(
     service: &str,
     package: &str,
     ty: &str,
-) -> Result<ros2_client::Client<Req, Resp>>
+) -> Result<ros2_client::dds::Client<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -139,7 +139,7 @@ where
         crate::node::declared::Access::Request,
         |node, name, t, q| {
             node.create_client::<Req, Resp>(
-                ros2_client::ServiceMapping::Enhanced,
+                ros2_client::dds::ServiceMapping::Enhanced,
                 name,
                 t,
                 q.clone(),

@@ -30,7 +30,7 @@ use crate::{
 pub struct SignalPublisher<M: serde::Serialize> {
     topic: String,
     ros_type: String,
-    publisher: Watched<ros2_client::Publisher<M>>,
+    publisher: Watched<ros2_client::dds::Publisher<M>>,
 }
 
 /// A publisher of message bodies of a type known only by name (see [`Radar::raw_publisher`](crate::Radar::raw_publisher)).
@@ -40,7 +40,7 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
     pub(crate) fn new(
         topic: String,
         ros_type: String,
-        publisher: Watched<ros2_client::Publisher<M>>,
+        publisher: Watched<ros2_client::dds::Publisher<M>>,
     ) -> SignalPublisher<M> {
         SignalPublisher {
             topic,
@@ -135,7 +135,7 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
 pub struct SignalSubscription<M: 'static> {
     topic: String,
     ros_type: String,
-    subscription: Watched<ros2_client::Subscription<M>>,
+    subscription: Watched<ros2_client::dds::Subscription<M>>,
 }
 
 /// A subscription delivering message bodies of a type known only by name (see [`Radar::raw_subscription`](crate::Radar::raw_subscription)).
@@ -145,7 +145,7 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
     pub(crate) fn new(
         topic: String,
         ros_type: String,
-        subscription: Watched<ros2_client::Subscription<M>>,
+        subscription: Watched<ros2_client::dds::Subscription<M>>,
     ) -> SignalSubscription<M> {
         SignalSubscription {
             topic,

@@ -183,13 +183,13 @@ impl Radar {
 
 /// A manager node's three service servers.
 struct Services {
-    connect: Arc<ros2_client::Server<ConnectRequest, ConnectResponse>>,
-    disconnect: Arc<ros2_client::Server<DisconnectRequest, DisconnectResponse>>,
-    list: Arc<ros2_client::Server<ListRequest, ListResponse>>,
+    connect: Arc<ros2_client::dds::Server<ConnectRequest, ConnectResponse>>,
+    disconnect: Arc<ros2_client::dds::Server<DisconnectRequest, DisconnectResponse>>,
+    list: Arc<ros2_client::dds::Server<ListRequest, ListResponse>>,
 }
 
 impl Services {
-    fn create(node: &mut ros2_client::Node, fq: &str) -> Result<Services> {
+    fn create(node: &mut ros2_client::dds::Node, fq: &str) -> Result<Services> {
         Ok(Services {
             connect: Arc::new(service_server(node, fq, "connect", "Connect")?),
             disconnect: Arc::new(service_server(node, fq, "disconnect", "Disconnect")?),
@@ -232,7 +232,7 @@ impl Serving {
     async fn run(
         mut self,
         services: Services,
-        list_pub: crate::node::endpoints::Watched<ros2_client::Publisher<ConnectionList>>,
+        list_pub: crate::node::endpoints::Watched<ros2_client::dds::Publisher<ConnectionList>>,
         mut lost: tokio::sync::broadcast::Receiver<ros2_client::dds::rustdds::GUID>,
         owners: crate::node::topics::SignalSubscription<crate::wire::msg::Empty>,
         mut stop: tokio::sync::oneshot::Receiver<()>,

@@ -17,7 +17,7 @@ mod waitfor;
 
 use std::sync::Arc;
 
-use ros2_client::{dds::rustdds::DomainParticipantBuilder, Context};
+use ros2_client::dds::{rustdds::DomainParticipantBuilder, Context};
 
 use crate::{
     connections::manager::Manager,
@@ -460,7 +460,7 @@ impl Radar {
     /// let node = radar.context().new_node(NodeName::new("/", "my_plain_node").unwrap(), NodeOptions::new());
     /// # }
     /// ```
-    pub fn context(&self) -> &ros2_client::Context {
+    pub fn context(&self) -> &ros2_client::dds::Context {
         self.participant.context()
     }
 

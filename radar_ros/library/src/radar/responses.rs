@@ -44,7 +44,11 @@ impl Radar {
         &self,
         name: &str,
         announce: Announce,
-        make: impl FnOnce(&mut ros2_client::Node, &crate::graph::Graph, &ComponentName) -> Result<R>,
+        make: impl FnOnce(
+            &mut ros2_client::dds::Node,
+            &crate::graph::Graph,
+            &ComponentName,
+        ) -> Result<R>,
     ) -> Result<ResponseHandle> {
         let name = self.resolve(name)?;
         let mut claimed = self.participant().claim_node(&name)?;
@@ -109,7 +113,7 @@ impl Radar {
     /// has discovered it, and knows this response keeps causes, C6), the signal writers.
     fn response_endpoints<R: Response>(
         &self,
-        node: &mut ros2_client::Node,
+        node: &mut ros2_client::dds::Node,
         name: &ComponentName,
         types: &SlotTypes,
     ) -> Result<Endpoints<R>> {

@@ -155,7 +155,7 @@ pub(crate) struct ActionProxy<A: Action> {
     pub(crate) client: Arc<Client<A>>,
     pub(crate) graph: Graph,
     pub(crate) action: String,
-    pub(crate) feedback: Arc<Watched<ros2_client::Publisher<A::Feedback>>>,
+    pub(crate) feedback: Arc<Watched<ros2_client::dds::Publisher<A::Feedback>>>,
     pub(crate) goal: Arc<Mutex<GoalTrack>>,
     pub(crate) options: ActionResponseOptions,
     /// Whether this process serves the action itself (its endpoints are matched locally, unseen by

@@ -211,7 +211,7 @@ impl Declared {
     pub(crate) fn declare(
         &mut self,
         participant: &crate::node::participant::Participant,
-        node: &mut ros2_client::Node,
+        node: &mut ros2_client::dds::Node,
         decls: impl IntoIterator<Item = ParamDecl>,
     ) -> Result<Params> {
         let fq = node.fully_qualified_name();
@@ -233,7 +233,7 @@ impl Declared {
 /// Returns the handle and the guard that keeps the services up.
 pub(crate) fn declare(
     participant: &crate::node::participant::Participant,
-    node: &mut ros2_client::Node,
+    node: &mut ros2_client::dds::Node,
     fq: &str,
     decls: impl IntoIterator<Item = ParamDecl>,
 ) -> Result<(Params, serve::Serving)> {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use futures::StreamExt;
 use ros2_client::{
+    dds::{Publisher, Server},
     parameters::raw,
     rcl_interfaces::{
         DescribeParametersRequest, DescribeParametersResponse, GetParameterTypesRequest,
@@ -12,7 +13,7 @@ use ros2_client::{
         ListParametersRequest, ListParametersResponse, ListParametersResult,
         SetParametersAtomicallyResponse, SetParametersRequest, SetParametersResponse,
     },
-    ParameterValue, Publisher, Server,
+    ParameterValue,
 };
 
 use super::{store::Range, Params};
@@ -28,7 +29,7 @@ use crate::{
 pub(crate) struct Events(Watched<Publisher<raw::ParameterEvent>>);
 
 impl Events {
-    pub(crate) fn create(graph: &Graph, node: &mut ros2_client::Node) -> Result<Events> {
+    pub(crate) fn create(graph: &Graph, node: &mut ros2_client::dds::Node) -> Result<Events> {
         let ty = crate::wire::raw::parse_type_name("rcl_interfaces/msg/ParameterEvent")?;
         Ok(Events(publisher(
             graph,
@@ -91,7 +92,7 @@ struct Servers {
 /// `set_parameters_atomically`, `list_parameters`, `describe_parameters`.
 pub(crate) fn serve(
     participant: &Participant,
-    node: &mut ros2_client::Node,
+    node: &mut ros2_client::dds::Node,
     params: &Params,
 ) -> Result<Serving> {
     let fq = params.node().to_owned();
