@@ -87,6 +87,7 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     maturin==1.16.0 \
     pytest==9.2.0 \
     mypy==2.4.1 \
+    eclipse-zenoh==1.10.2 \
     playwright==1.65.2 >&2
 
 # The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake

@@ -94,9 +94,72 @@ pub fn known_type_hash(dds_type_name: &str) -> Option<&'static str> {
   if let Some(hash) = JAZZY_INTEROP_HASHES.get(dds_type_name) {
     return Some(hash.as_str());
   }
-  STD_MSGS_SCALAR_HASHES
-    .get(dds_type_name)
-    .map(String::as_str)
+  if let Some(hash) = STD_MSGS_SCALAR_HASHES.get(dds_type_name) {
+    return Some(hash.as_str());
+  }
+  REGISTERED.read().unwrap().get(dds_type_name).copied()
+}
+
+lazy_static::lazy_static! {
+  /// Hashes given by [`register_type_hash`]: DDS type name -> `RIHS01_...`. A value is leaked once per type
+  /// name (the set of types a process speaks is bounded), so lookups hand out `&'static str` as the tables do.
+  static ref REGISTERED: std::sync::RwLock<std::collections::HashMap<String, &'static str>> =
+    std::sync::RwLock::new(std::collections::HashMap::new());
+}
+
+/// Is `hash` a well-formed REP-2016 version 1 hash: `RIHS01_` and 64 lowercase hexadecimal digits.
+fn well_formed(hash: &str) -> bool {
+  hash.strip_prefix("RIHS01_").is_some_and(|hex| {
+    hex.len() == 64 && hex.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+  })
+}
+
+/// Tells the Zenoh backend the REP-2016 hash of a type it has no table entry for, so that its senders'
+/// keys, its queryables and every liveliness token name the type as rosidl does (an `rmw_zenoh` peer
+/// matches only on the exact hash). `dds_type_name` is the DDS form
+/// ([`MessageTypeName::dds_msg_type`](crate::MessageTypeName::dds_msg_type),
+/// [`ServiceTypeName::dds_service_type`](crate::ServiceTypeName::dds_service_type)); `hash` is
+/// `RIHS01_<64 lowercase hex digits>`, as in `share/<pkg>/msg/<Name>.json`'s `type_hashes`.
+///
+/// Registering the hash a type already has is a no-op. A malformed hash, or a different hash for a type
+/// already known (from the built-in tables or an earlier registration), is refused with a message saying
+/// which: a process cannot speak one type under two hashes. Entities made before a registration keep the
+/// hash they were made with.
+pub fn register_type_hash(dds_type_name: &str, hash: &str) -> Result<(), String> {
+  if !well_formed(hash) {
+    return Err(format!(
+      "{hash:?} is not a RIHS01 type hash (`RIHS01_` and 64 lowercase hex digits) for {dds_type_name}"
+    ));
+  }
+  let mut registered = REGISTERED.write().unwrap();
+  let known = match registered.get(dds_type_name) {
+    Some(known) => Some(*known),
+    None => {
+      drop(registered);
+      let known = known_type_hash(dds_type_name);
+      registered = REGISTERED.write().unwrap();
+      known
+    }
+  };
+  match known {
+    Some(known) if known == hash => Ok(()),
+    Some(known) => Err(format!(
+      "{dds_type_name} is already known with hash {known}; refusing {hash}"
+    )),
+    None => {
+      // a registration between the two locks above wins the same way
+      let entry = registered
+        .entry(dds_type_name.to_owned())
+        .or_insert_with(|| Box::leak(hash.to_owned().into_boxed_str()));
+      if *entry == hash {
+        Ok(())
+      } else {
+        Err(format!(
+          "{dds_type_name} is already known with hash {entry}; refusing {hash}"
+        ))
+      }
+    }
+  }
 }
 
 /// The hash to place in a *sender's* (publisher/client) concrete key: the known
@@ -131,6 +194,31 @@ mod tests {
     assert_eq!(sender_hash("pkg::msg::dds_::Nope_"), PLACEHOLDER_HASH);
     assert_ne!(sender_hash("pkg::msg::dds_::Nope_"), WILDCARD);
     assert!(sender_hash("std_msgs::msg::dds_::String_").starts_with("RIHS01_"));
+  }
+
+  #[test]
+  fn a_registered_hash_is_what_senders_name_and_conflicts_are_refused() {
+    let dds = "radar_patch10_test::msg::dds_::Probe_";
+    let hash = "RIHS01_0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
+    assert_eq!(sender_hash(dds), PLACEHOLDER_HASH);
+    assert!(register_type_hash(dds, "RIHS01_00").is_err());
+    assert!(register_type_hash(dds, &hash.to_uppercase()).is_err());
+    assert!(register_type_hash(dds, &hash.replace("RIHS01", "RIHS02")).is_err());
+    assert_eq!(sender_hash(dds), PLACEHOLDER_HASH, "a refused hash is not kept");
+    register_type_hash(dds, hash).unwrap();
+    assert_eq!(known_type_hash(dds), Some(hash));
+    assert_eq!(sender_hash(dds), hash);
+    register_type_hash(dds, hash).expect("the same hash again is a no-op");
+    let other = "RIHS01_1123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
+    let refused = register_type_hash(dds, other).unwrap_err();
+    assert!(refused.contains(hash) && refused.contains(other), "{refused}");
+    assert_eq!(sender_hash(dds), hash);
+    // a type the tables know keeps its hash
+    let string = "std_msgs::msg::dds_::String_";
+    assert!(register_type_hash(string, other).is_err());
+    let known = known_type_hash(string).unwrap().to_owned();
+    register_type_hash(string, &known).unwrap();
+    assert_eq!(sender_hash(string), known);
   }
 
   #[test]

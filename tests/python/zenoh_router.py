@@ -1,0 +1,28 @@
+"""A Zenoh router as rmw_zenoh's default layout has one: router mode, gossip scouting on, multicast scouting
+off, listening on the endpoint given (rmw_zenoh's own listens on tcp/[::]:7447).
+
+    python zenoh_router.py tcp/127.0.0.1:PORT
+
+Prints "up" once listening and runs until its stdin closes (the test that started it ended).
+"""
+
+import json
+import sys
+
+import zenoh
+
+
+def main() -> None:
+    endpoint = sys.argv[1]
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", json.dumps([endpoint]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("scouting/gossip/enabled", "true")
+    with zenoh.open(conf):
+        print("up", flush=True)
+        sys.stdin.read()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,86 @@
+//! Issue 37 (under way): radar_ros's `zenoh` feature, which builds ros2-client's Zenoh backend beside DDS. The
+//! workspace's own build leaves it off (a DDS-only build stays small), so this builds radar_ros with it in
+//! `target/zenoh-feature` (a few minutes the first time) and checks, in order:
+//! - clippy (`-D warnings`) on radar_ros with the feature, all targets;
+//! - `radar_ros/library/tests/zenoh.rs` over real Zenoh: radar_ros's types cross to and from a peer written from
+//!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
+//!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
+//!   (ros2-client patch 10), and a hash that is malformed or in conflict is refused;
+//! - `mypy --strict` on the two Python scripts.
+//!
+//! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
+//! (tests/python_env.sh); runs inside tests/isolated.sh.
+
+use std::process::{Command, Output};
+
+use radar_test_util::{python, repo};
+
+fn cargo(args: &[&str]) -> Output {
+    let venv = python().parent().unwrap().parent().unwrap().to_owned();
+    Command::new(env!("CARGO"))
+        .args(args)
+        .current_dir(repo())
+        .env_remove("RUSTFLAGS")
+        .env("CARGO_TARGET_DIR", repo().join("target/zenoh-feature"))
+        .env("RADAR_VENV", venv)
+        .output()
+        .expect("run cargo")
+}
+
+fn check(out: &Output, what: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+#[test]
+fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
+    check(
+        &cargo(&[
+            "clippy",
+            "-p",
+            "radar_ros",
+            "--features",
+            "zenoh",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]),
+        "clippy with the zenoh feature",
+    );
+    let test = [
+        "test",
+        "-p",
+        "radar_ros",
+        "--features",
+        "zenoh",
+        "--test",
+        "zenoh",
+    ];
+    let mut no_run = test.to_vec();
+    no_run.push("--no-run");
+    check(&cargo(&no_run), "building radar_ros/library/tests/zenoh.rs");
+    let out = check(&cargo(&test), "radar_ros/library/tests/zenoh.rs");
+    for t in [
+        "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",
+        "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
+    ] {
+        assert!(
+            out.lines()
+                .any(|l| l.starts_with("test ") && l.contains(t) && l.ends_with("... ok")),
+            "{t} ran and passed:\n{out}"
+        );
+    }
+    let scripts = repo().join("tests/python");
+    let mypy = Command::new(python())
+        .args(["-m", "mypy", "--strict", "zenoh_peer.py", "zenoh_router.py"])
+        .current_dir(&scripts)
+        .output()
+        .expect("run mypy");
+    check(&mypy, "mypy --strict on the Zenoh peer and router");
+}
