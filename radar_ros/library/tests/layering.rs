@@ -143,6 +143,51 @@ fn every_folder_uses_only_the_layers_below_it() {
     assert!(up.is_empty(), "imports that reach up a layer: {up:?}");
 }
 
+/// Issue 37 (docs/zenoh.md): above `node/` and `graph/`, the transport is named only through
+/// `node/transport.rs`, so that a second transport changes the layers below and not the binding of the
+/// semantics. `radar/mod.rs` is where the transport is chosen and built, and may name it.
+#[test]
+fn only_the_transport_layers_name_the_transport() {
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let named = [
+        "rustdds",
+        "ros2_client::dds",
+        "ros2_client::action",
+        "ros2_client::builtin_topics",
+        "ros2_client::entities_info",
+    ];
+    let mut found = Vec::new();
+    for path in file_modules(&src).into_values() {
+        let rel = path
+            .strip_prefix(&src)
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let above = ["components/", "connections/", "radar/", "codec/"]
+            .iter()
+            .any(|d| rel.starts_with(d));
+        if !above || rel == "radar/mod.rs" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap();
+        for (i, line) in code.lines().enumerate() {
+            let line = line.trim();
+            if line.starts_with("//") {
+                continue;
+            }
+            if let Some(n) = named.iter().find(|n| line.contains(*n)) {
+                found.push(format!("{rel}:{}: {n}", i + 1));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "name these through crate::node::transport (or move the code into node/ or graph/):\n{}",
+        found.join("\n")
+    );
+}
+
 #[test]
 fn root_re_exports_count_as_imports_of_their_module() {
     let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");

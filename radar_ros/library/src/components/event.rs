@@ -382,7 +382,7 @@ async fn on_listeners<E: Event>(
 pub(crate) async fn drive_event<E: Event>(
     event: E,
     triggered: SignalWriter<E::Payload>,
-    state_pub: Watched<ros2_client::dds::Publisher<EventState>>,
+    state_pub: Watched<crate::node::transport::Publisher<EventState>>,
     state_tx: watch::Sender<EventState>,
     mut st: EventState,
     mut listeners: watch::Receiver<usize>,

@@ -14,7 +14,7 @@ use crate::{
 
 /// Access to a component's own node while it is being set up.
 pub struct ComponentNode<'a> {
-    pub(crate) node: &'a mut ros2_client::dds::Node,
+    pub(crate) node: &'a mut crate::node::transport::RosNode,
     pub(crate) participant: &'a crate::node::participant::Participant,
     pub(crate) params: &'a mut crate::node::params::Declared,
 }
@@ -93,7 +93,7 @@ impl ComponentNode<'_> {
 /// A subscription made on a component's node (see [`ComponentNode::subscribe`]).
 pub struct EventSubscription<M: RosMessage> {
     topic: String,
-    inner: Watched<ros2_client::dds::Subscription<M>>,
+    inner: Watched<crate::node::transport::Subscription<M>>,
 }
 
 impl<M: RosMessage> EventSubscription<M> {

@@ -15,7 +15,7 @@
 //! `select!` branch that lost) does not take back a request already sent: a connection may still be made,
 //! and is listed by [`RemoteManager::list`].
 
-use ros2_client::dds::{Client, Node};
+use crate::node::transport::{Client, RosNode as Node};
 
 use crate::{
     error::{Error, Result},

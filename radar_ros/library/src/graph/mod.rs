@@ -31,7 +31,7 @@ use crate::departure::LossCause;
 
 mod discovery;
 pub(crate) mod lookup;
-mod nodes;
+pub(crate) mod nodes;
 mod observers;
 mod peers;
 
@@ -260,6 +260,14 @@ impl Graph {
     /// The DDS participant, once set (until the participant shuts down).
     pub(crate) fn domain_participant(&self) -> Option<rustdds::DomainParticipant> {
         self.participant.lock().unwrap().clone()
+    }
+
+    /// This participant's id on the graph (a fresh one once the participant has shut down).
+    pub(crate) fn own_id(&self) -> GUID {
+        use rustdds::RTPSEntity;
+        self.domain_participant()
+            .map(|p| p.guid())
+            .unwrap_or_else(GUID::new_participant_guid)
     }
 
     pub(crate) fn set_participant(&self, p: rustdds::DomainParticipant) {

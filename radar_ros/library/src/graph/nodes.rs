@@ -6,6 +6,66 @@ use std::collections::{BTreeSet, HashMap};
 use ros2_client::{dds::rustdds::GUID, entities_info::ParticipantEntitiesInfo, Gid};
 
 use super::Graph;
+use crate::error::{Error, Result};
+
+/// A reader of `ros_discovery_info`, made before the graph settles: each participant's writer is durable, so
+/// its last sample comes when the reader matches it (see [`DiscoveryInfo::take`]).
+pub(crate) struct DiscoveryInfo {
+    reader: ros2_client::dds::rustdds::no_key::DataReaderCdr<ParticipantEntitiesInfo>,
+    me: GUID,
+}
+
+impl DiscoveryInfo {
+    /// Starts reading `ros_discovery_info` on the graph's participant.
+    pub(crate) fn read(graph: &Graph) -> Result<DiscoveryInfo> {
+        use ros2_client::{builtin_topics::ros_discovery, dds::rustdds};
+        let dp = graph
+            .domain_participant()
+            .ok_or_else(|| Error::Closed("the DDS participant".into()))?;
+        let what = "read ros_discovery_info";
+        let qos = rustdds::QosPolicyBuilder::new()
+            .durability(rustdds::policy::Durability::TransientLocal)
+            .reliable(rustdds::Duration::ZERO)
+            .history(rustdds::policy::History::KeepLast { depth: 4096 })
+            .build();
+        let topic = dp
+            .create_topic(
+                ros_discovery::TOPIC_NAME.to_owned(),
+                ros_discovery::TYPE_NAME.to_owned(),
+                &qos,
+                rustdds::TopicKind::NoKey,
+            )
+            .map_err(|e| Error::transport(what, e))?;
+        let reader = dp
+            .create_subscriber(&qos)
+            .and_then(|s| {
+                s.create_datareader_no_key_cdr::<ParticipantEntitiesInfo>(&topic, Some(qos))
+            })
+            .map_err(|e| Error::transport(what, e))?;
+        Ok(DiscoveryInfo {
+            reader,
+            me: rustdds::RTPSEntity::guid(&dp),
+        })
+    }
+
+    /// The nodes of the other programs the samples received so far describe (see [`Graph::nodes`]).
+    pub(crate) fn take(mut self, graph: &Graph) -> Vec<GraphNode> {
+        let mut infos: Vec<ParticipantEntitiesInfo> = Vec::new();
+        let mut bad = 0;
+        while bad < 1000 {
+            match self.reader.take_next_sample() {
+                Ok(Some(s)) => infos.push(s.into_value()),
+                Ok(None) => break,
+                // a sample that does not decode (a peer's bad node name): the others still count
+                Err(e) => {
+                    bad += 1;
+                    tracing::debug!(error = %e, "an undecodable ros_discovery_info sample")
+                }
+            }
+        }
+        graph.nodes(&infos, self.me)
+    }
+}
 
 /// A ROS node of another program on the graph, as `ros2 node info` shows it: its name, the security enclave
 /// its participant announced (ROS 2 writes `enclave=/path;` in the participant's DDS USER_DATA; `/` when it

@@ -12,3 +12,4 @@ pub mod rosout;
 pub(crate) mod services;
 pub(crate) mod shutdown;
 pub(crate) mod topics;
+pub(crate) mod transport;

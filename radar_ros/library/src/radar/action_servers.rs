@@ -3,6 +3,7 @@
 
 use crate::components::action::server::{serve, ActionServerHandle, ServerIo};
 use crate::components::action::{wire::action_server, Action};
+use crate::node::transport::action::AsyncActionServer;
 use crate::{
     error::{Error, Result},
     radar::Radar,
@@ -10,7 +11,6 @@ use crate::{
     wire::names::ComponentName,
     wire::refs::AsResponse,
 };
-use ros2_client::action::AsyncActionServer;
 use std::sync::Arc;
 
 impl Radar {

@@ -5,7 +5,7 @@
 use std::{collections::BTreeSet, time::Duration};
 
 pub use crate::graph::GraphNode;
-use crate::{error::Error, radar::Radar, wait::Wait, wire::msg::RosMessage};
+use crate::{radar::Radar, wait::Wait, wire::msg::RosMessage};
 
 /// The DDS type name of a `Connect` request, as a manager's `connect` server announces it.
 const CONNECT_REQUEST: &str = "radar_msgs::srv::dds_::Connect_Request_";
@@ -136,57 +136,17 @@ impl Introspect<'_> {
     /// timeout running out is not an error (the graph is as settled as it got). What `radar security
     /// generate_policy` writes a policy from.
     pub fn nodes(&self) -> Wait<'static, Vec<GraphNode>> {
-        use ros2_client::{
-            builtin_topics::ros_discovery, dds::rustdds, entities_info::ParticipantEntitiesInfo,
-        };
         let radar = self.radar.clone();
         Wait::new(Some(crate::DEFAULT_TIMEOUT), move |max| async move {
             let max = max.unwrap_or(crate::DEFAULT_TIMEOUT);
             let started = tokio::time::Instant::now();
-            let dp = radar
-                .graph()
-                .domain_participant()
-                .ok_or_else(|| Error::Closed("the DDS participant".into()))?;
-            let what = "read ros_discovery_info";
-            let qos = rustdds::QosPolicyBuilder::new()
-                .durability(rustdds::policy::Durability::TransientLocal)
-                .reliable(rustdds::Duration::ZERO)
-                .history(rustdds::policy::History::KeepLast { depth: 4096 })
-                .build();
-            let topic = dp
-                .create_topic(
-                    ros_discovery::TOPIC_NAME.to_owned(),
-                    ros_discovery::TYPE_NAME.to_owned(),
-                    &qos,
-                    rustdds::TopicKind::NoKey,
-                )
-                .map_err(|e| Error::transport(what, e))?;
-            let mut reader = dp
-                .create_subscriber(&qos)
-                .and_then(|s| {
-                    s.create_datareader_no_key_cdr::<ParticipantEntitiesInfo>(&topic, Some(qos))
-                })
-                .map_err(|e| Error::transport(what, e))?;
-            // each participant's writer is durable: its last sample comes when the reader matches it
+            let info = crate::graph::nodes::DiscoveryInfo::read(radar.graph())?;
             radar
                 .introspect()
                 .settle(Duration::from_millis(300))
                 .timeout(max.saturating_sub(started.elapsed()))
                 .await?;
-            let mut infos: Vec<ParticipantEntitiesInfo> = Vec::new();
-            let mut bad = 0;
-            while bad < 1000 {
-                match reader.take_next_sample() {
-                    Ok(Some(s)) => infos.push(s.into_value()),
-                    Ok(None) => break,
-                    // a sample that does not decode (a peer's bad node name): the others still count
-                    Err(e) => {
-                        bad += 1;
-                        tracing::debug!(error = %e, "an undecodable ros_discovery_info sample")
-                    }
-                }
-            }
-            let mut out = radar.graph().nodes(&infos, rustdds::RTPSEntity::guid(&dp));
+            let mut out = info.take(radar.graph());
             out.sort_by_key(|n| (n.enclave.clone(), n.fully_qualified()));
             Ok(out)
         })

@@ -25,6 +25,7 @@
 //! service) keeps the lease as its only bound.
 //! Errors come back as `ok = false` with a message saying what to do.
 
+use crate::node::transport::{EndpointId, Publisher, RosNode, Server};
 use std::{
     collections::{HashMap, HashSet},
     sync::Arc,
@@ -183,13 +184,13 @@ impl Radar {
 
 /// A manager node's three service servers.
 struct Services {
-    connect: Arc<ros2_client::dds::Server<ConnectRequest, ConnectResponse>>,
-    disconnect: Arc<ros2_client::dds::Server<DisconnectRequest, DisconnectResponse>>,
-    list: Arc<ros2_client::dds::Server<ListRequest, ListResponse>>,
+    connect: Arc<Server<ConnectRequest, ConnectResponse>>,
+    disconnect: Arc<Server<DisconnectRequest, DisconnectResponse>>,
+    list: Arc<Server<ListRequest, ListResponse>>,
 }
 
 impl Services {
-    fn create(node: &mut ros2_client::dds::Node, fq: &str) -> Result<Services> {
+    fn create(node: &mut RosNode, fq: &str) -> Result<Services> {
         Ok(Services {
             connect: Arc::new(service_server(node, fq, "connect", "Connect")?),
             disconnect: Arc::new(service_server(node, fq, "disconnect", "Disconnect")?),
@@ -199,19 +200,19 @@ impl Services {
 }
 
 /// A connection made through the service, with its owner's participant (none: detached).
-type Owned = (ConnectionGuard, Option<ros2_client::dds::rustdds::GUID>);
+type Owned = (ConnectionGuard, Option<EndpointId>);
 
 /// What a connect request ended with: its request id, its owner, the connection or why not.
 type Done = (
     ros2_client::RmwRequestId,
-    Option<ros2_client::dds::rustdds::GUID>,
+    Option<EndpointId>,
     Result<ConnectionGuard>,
 );
 
 /// An owner's participant, as the first 12 bytes of its GUIDs (the prefix).
 type OwnerKey = [u8; 12];
 
-fn owner_key(guid: ros2_client::dds::rustdds::GUID) -> OwnerKey {
+fn owner_key(guid: EndpointId) -> OwnerKey {
     let mut k = [0; 12];
     k.copy_from_slice(&guid.to_bytes()[..12]);
     k
@@ -232,8 +233,8 @@ impl Serving {
     async fn run(
         mut self,
         services: Services,
-        list_pub: crate::node::endpoints::Watched<ros2_client::dds::Publisher<ConnectionList>>,
-        mut lost: tokio::sync::broadcast::Receiver<ros2_client::dds::rustdds::GUID>,
+        list_pub: crate::node::endpoints::Watched<Publisher<ConnectionList>>,
+        mut lost: tokio::sync::broadcast::Receiver<EndpointId>,
         owners: crate::node::topics::SignalSubscription<crate::wire::msg::Empty>,
         mut stop: tokio::sync::oneshot::Receiver<()>,
     ) {
@@ -241,10 +242,7 @@ impl Serving {
         let (beat_tx, mut beats) = tokio::sync::mpsc::unbounded_channel::<OwnerKey>();
         let reader = tokio::spawn(async move {
             while let Ok((_, gid)) = owners.recv_from().await {
-                if beat_tx
-                    .send(owner_key(ros2_client::dds::rustdds::GUID::from(gid)))
-                    .is_err()
-                {
+                if beat_tx.send(owner_key(EndpointId::from(gid))).is_err() {
                     break;
                 }
             }
@@ -317,7 +315,7 @@ impl Serving {
         done: tokio::sync::mpsc::UnboundedSender<Done>,
     ) {
         let radar = self.radar.clone();
-        let caller: ros2_client::dds::rustdds::GUID = id.writer_gid.into();
+        let caller: EndpointId = id.writer_gid.into();
         tokio::spawn(async move {
             let owner = match req.detach {
                 true => format!("detached, by service caller {:?}", caller.prefix),
@@ -429,10 +427,7 @@ impl Serving {
     /// A participant left the graph: its connections go. False once departures can no longer be heard.
     fn owner_left(
         &mut self,
-        gone: std::result::Result<
-            ros2_client::dds::rustdds::GUID,
-            tokio::sync::broadcast::error::RecvError,
-        >,
+        gone: std::result::Result<EndpointId, tokio::sync::broadcast::error::RecvError>,
     ) -> bool {
         use tokio::sync::broadcast::error::RecvError;
         let before = self.owned.len();

@@ -45,7 +45,7 @@ impl Radar {
         name: &str,
         announce: Announce,
         make: impl FnOnce(
-            &mut ros2_client::dds::Node,
+            &mut crate::node::transport::RosNode,
             &crate::graph::Graph,
             &ComponentName,
         ) -> Result<R>,
@@ -113,7 +113,7 @@ impl Radar {
     /// has discovered it, and knows this response keeps causes, C6), the signal writers.
     fn response_endpoints<R: Response>(
         &self,
-        node: &mut ros2_client::dds::Node,
+        node: &mut crate::node::transport::RosNode,
         name: &ComponentName,
         types: &SlotTypes,
     ) -> Result<Endpoints<R>> {

@@ -155,7 +155,7 @@ pub(crate) struct ActionProxy<A: Action> {
     pub(crate) client: Arc<Client<A>>,
     pub(crate) graph: Graph,
     pub(crate) action: String,
-    pub(crate) feedback: Arc<Watched<ros2_client::dds::Publisher<A::Feedback>>>,
+    pub(crate) feedback: Arc<Watched<crate::node::transport::Publisher<A::Feedback>>>,
     pub(crate) goal: Arc<Mutex<GoalTrack>>,
     pub(crate) options: ActionResponseOptions,
     /// Whether this process serves the action itself (its endpoints are matched locally, unseen by
@@ -163,7 +163,7 @@ pub(crate) struct ActionProxy<A: Action> {
     pub(crate) local: crate::node::participant::Served,
     /// The server found by the last start, and the graph's change count then: while nothing on the graph
     /// changed, it is still there (the scan of discovery data costs tens of microseconds a start).
-    pub(crate) known: Option<(u64, ros2_client::dds::rustdds::GUID)>,
+    pub(crate) known: Option<(u64, crate::node::transport::EndpointId)>,
 }
 
 impl<A: Action> ActionProxy<A> {
@@ -178,7 +178,7 @@ impl<A: Action> ActionProxy<A> {
     /// The server's participant once it is matched both ways (`None`: served in this process).
     async fn wait_server(
         &mut self,
-    ) -> std::result::Result<Option<ros2_client::dds::rustdds::GUID>, SlotError> {
+    ) -> std::result::Result<Option<crate::node::transport::EndpointId>, SlotError> {
         let mut changes = self.graph.changes();
         if let Some((v, server)) = self.known {
             if v == *changes.borrow_and_update() {
@@ -228,7 +228,7 @@ impl<A: Action> ActionProxy<A> {
     }
 
     /// Resolves when the server's participant no longer offers the action (left, crashed, or cut off).
-    async fn server_gone(&self, server: Option<ros2_client::dds::rustdds::GUID>) -> SlotError {
+    async fn server_gone(&self, server: Option<crate::node::transport::EndpointId>) -> SlotError {
         let Some(server) = server else {
             return std::future::pending().await;
         };

@@ -3,7 +3,7 @@
 
 use std::{sync::Arc, time::Duration};
 
-use ros2_client::action::{AsyncActionServer, GoalEndStatus, GoalId};
+use crate::node::transport::action::{AsyncActionServer, GoalEndStatus, GoalId};
 
 use radar_semantics::{
     response::ExitReason,
@@ -77,17 +77,9 @@ type Server<A> = AsyncActionServer<
 /// the same participant never takes one for its own.
 static SERVER_STATEMENTS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1 << 48);
 
-fn graph_guid(graph: &Graph) -> ros2_client::dds::rustdds::GUID {
-    use ros2_client::dds::rustdds::RTPSEntity;
-    graph
-        .domain_participant()
-        .map(|p| p.guid())
-        .unwrap_or_else(ros2_client::dds::rustdds::GUID::new_participant_guid)
-}
-
 enum Incoming<G> {
-    Goal(ros2_client::action::NewGoalHandle<Wire<G>>),
-    Cancel(ros2_client::action::CancelHandle),
+    Goal(crate::node::transport::action::NewGoalHandle<Wire<G>>),
+    Cancel(crate::node::transport::action::CancelHandle),
 }
 
 /// Waits (at most [`REPLY_WAIT`] each) until every participant that has a request writer on the action's
@@ -114,12 +106,12 @@ async fn wait_callers(graph: &Graph, action: &str, service: ActionService) {
 
 /// The goal the server runs: the handle ros2-client gave for it, by how far it got.
 enum Handle<G> {
-    Accepted(ros2_client::action::AcceptedGoalHandle<Wire<G>>),
-    Executing(ros2_client::action::ExecutingGoalHandle<Wire<G>>),
+    Accepted(crate::node::transport::action::AcceptedGoalHandle<Wire<G>>),
+    Executing(crate::node::transport::action::ExecutingGoalHandle<Wire<G>>),
 }
 
 /// A goal just read: its handle and its payload.
-type NewGoal<G> = (ros2_client::action::NewGoalHandle<Wire<G>>, G);
+type NewGoal<G> = (crate::node::transport::action::NewGoalHandle<Wire<G>>, G);
 
 /// What the rules look at: the response's last state and whether its start slot is matched.
 fn view(state: &Option<ResponseState>, on_graph: bool) -> ResponseView {
@@ -149,7 +141,7 @@ struct Serving<A: Action> {
     /// A goal just read, until the rules accept or reject it.
     new: Option<NewGoal<A::Goal>>,
     /// The cancel request just read, until the rules answer it.
-    cancel: Option<ros2_client::action::CancelHandle>,
+    cancel: Option<crate::node::transport::action::CancelHandle>,
     /// The current goal's handle.
     goal: Option<(GoalId, Handle<A::Goal>)>,
 }
@@ -306,7 +298,7 @@ pub(crate) async fn serve<A: Action>(
     let (mut incoming, readers) = read_requests::<A>(&server, &graph, &action);
     // this server's starts carry causes of its own (R13): its participant's statement base, and a number no
     // connection of its manager has
-    let statement = (u128::from(crate::wire::cause::statement_base(graph_guid(&graph))) << 64)
+    let statement = (u128::from(crate::wire::cause::statement_base(graph.own_id())) << 64)
         | u128::from(SERVER_STATEMENTS.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
     let mut state = io.state.try_recv();
     let mut s = Serving::<A> {

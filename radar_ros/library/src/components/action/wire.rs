@@ -78,14 +78,14 @@ fn ros_name(fq: &str) -> Result<Name> {
 }
 
 /// ros2-client's action client of `A`.
-pub(crate) type Client<A> = ros2_client::dds::ActionClient<
+pub(crate) type Client<A> = crate::node::transport::ActionClient<
     Wire<<A as Action>::Goal>,
     Wire<<A as Action>::Result>,
     Wire<<A as Action>::Feedback>,
 >;
 
 /// ros2-client's action server of `A` (before it is made async).
-pub(super) type SyncServer<A> = ros2_client::dds::ActionServer<
+pub(super) type SyncServer<A> = crate::node::transport::ActionServer<
     Wire<<A as Action>::Goal>,
     Wire<<A as Action>::Result>,
     Wire<<A as Action>::Feedback>,
@@ -94,12 +94,12 @@ pub(super) type SyncServer<A> = ros2_client::dds::ActionServer<
 /// The action client of `A` at the fully qualified `action` on `node`: the one way radar_ros makes one
 /// (enhanced mapping, signal QoS for the services and feedback, state QoS for the status).
 pub(crate) fn action_client<A: Action>(
-    node: &mut ros2_client::dds::Node,
+    node: &mut crate::node::transport::RosNode,
     action: &str,
 ) -> Result<Client<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Call, action);
     node.create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-        ros2_client::dds::ServiceMapping::Enhanced,
+        crate::node::transport::ServiceMapping::Enhanced,
         &ros_name(action)?,
         &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
         client_qos(),
@@ -110,12 +110,12 @@ pub(crate) fn action_client<A: Action>(
 /// The action server of `A` at the fully qualified `action` on `node`, made as [`action_client`] makes the
 /// client.
 pub(crate) fn action_server<A: Action>(
-    node: &mut ros2_client::dds::Node,
+    node: &mut crate::node::transport::RosNode,
     action: &str,
 ) -> Result<SyncServer<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Execute, action);
     node.create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-        ros2_client::dds::ServiceMapping::Enhanced,
+        crate::node::transport::ServiceMapping::Enhanced,
         &ros_name(action)?,
         &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
         server_qos(),

@@ -38,9 +38,9 @@ pub(crate) struct Inboxes {
 
 /// The slot readers of a response.
 pub(crate) struct SlotReaders {
-    pub(crate) start: Watched<ros2_client::dds::Subscription<RawMessage>>,
-    pub(crate) interrupt: Watched<ros2_client::dds::Subscription<RawMessage>>,
-    pub(crate) exit: Watched<ros2_client::dds::Subscription<RawMessage>>,
+    pub(crate) start: Watched<crate::node::transport::Subscription<RawMessage>>,
+    pub(crate) interrupt: Watched<crate::node::transport::Subscription<RawMessage>>,
+    pub(crate) exit: Watched<crate::node::transport::Subscription<RawMessage>>,
 }
 
 /// A response's writers: its signals and its state.
@@ -54,7 +54,7 @@ pub(crate) struct Io<R: Response> {
     pub(crate) started: SignalWriter<R::Start>,
     pub(crate) interrupted: SignalWriter<Empty>,
     pub(crate) exited: SignalWriter<R::Output>,
-    pub(crate) state_pub: Watched<ros2_client::dds::Publisher<ResponseState>>,
+    pub(crate) state_pub: Watched<crate::node::transport::Publisher<ResponseState>>,
     pub(crate) state_tx: watch::Sender<ResponseState>,
 }
 

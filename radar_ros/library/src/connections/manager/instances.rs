@@ -16,7 +16,7 @@ use std::{
     time::Duration,
 };
 
-use ros2_client::dds::rustdds::GUID;
+use crate::node::transport::EndpointId as GUID;
 
 use super::{End, Manager, Target};
 use crate::{
