@@ -5,15 +5,18 @@
 //! peer ever matches.
 //!
 //! The oracle is a peer written from rmw_zenoh's design document with the eclipse-zenoh wheel and rclpy's CDR
-//! (tests/python/zenoh_peer.py), in rmw_zenoh's default layout: a router (tests/python/zenoh_router.py) for
-//! discovery, sessions in peer mode that find each other through its gossip. It subscribes as rmw_zenoh does,
+//! (tests/python/zenoh_peer.py), in rmw_zenoh's default layout: a router on port 7447
+//! (tests/python/zenoh_router.py) for discovery, sessions in peer mode that find each other through its
+//! gossip. radar_ros's side is told nothing: the backend's default session is rmw_zenoh's (ros2-client patch
+//! 11; before it, a session connected to no router and met no one). The peer subscribes as rmw_zenoh does,
 //! on the exact key with the hash rosidl wrote into the venv's `share/geometry_msgs/msg/PoseStamped.json`.
 //! Checked: both directions carry the message; the attachment (sequence number, source time, 16-byte GID) is
 //! well formed and consistent; the liveliness tokens of radar_ros's side name the topic, the DDS type name and
 //! rosidl's hash. Domain 131 (key expressions carry it; Zenoh has no multicast here).
 //!
-//! Needs the rclpy venv (RADAR_VENV, with the eclipse-zenoh wheel; tests/python_env.sh). Run by
-//! tests/zenoh_feature.rs, which builds radar_ros with the feature.
+//! Needs the rclpy venv (RADAR_VENV, with the eclipse-zenoh wheel; tests/python_env.sh) and the tests' own
+//! network namespace (tests/isolated.sh), where port 7447 is free. Run by tests/zenoh_feature.rs, which builds
+//! radar_ros with the feature.
 #![cfg(feature = "zenoh")]
 
 use std::{
@@ -96,14 +99,6 @@ impl Proc {
     }
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 fn pose(frame: &str, x: f64) -> PoseStamped {
     PoseStamped {
         header: Header {
@@ -134,14 +129,18 @@ fn now_ns() -> i64 {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design() {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let mut router = Proc::start("zenoh_router.py", &[&endpoint]);
+    // port 7447 is the host's router's: only inside the tests' own network namespace
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
+        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
+    );
+    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
     assert_eq!(router.line().await, "up");
     let ros_type = PoseStamped::ros_type_name();
     let mut peer = Proc::start(
         "zenoh_peer.py",
         &[
-            &endpoint,
+            "tcp/localhost:7447",
             &DOMAIN.to_string(),
             &ros_type,
             "/zenoh_probe/to_peer",
@@ -165,13 +164,15 @@ async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_
         "radar_ros ships rosidl's hash"
     );
 
-    // radar_ros's side: the hash it knows given to the Zenoh backend, a session in the same layout
+    // radar_ros's side: the hash it knows given to the Zenoh backend, a session with the backend's default
+    // configuration (rmw_zenoh's: connect to the router at tcp/localhost:7447, gossip; ros2-client patch 11)
     let type_name = MessageTypeName::new(PoseStamped::PACKAGE, PoseStamped::NAME);
     register_type_hash(&type_name.dds_msg_type(), PoseStamped::TYPE_HASH.unwrap()).unwrap();
-    // one test in this binary: nothing else reads the environment meanwhile
-    std::env::set_var(
-        "ZENOH_CONFIG_OVERRIDE",
-        format!("connect/endpoints=[\"{endpoint}\"];scouting/gossip/enabled=true"),
+    assert!(
+        std::env::var_os("ZENOH_CONFIG_OVERRIDE").is_none()
+            && std::env::var_os("ZENOH_SESSION_CONFIG_URI").is_none(),
+        "this test checks the default session configuration: unset ZENOH_CONFIG_OVERRIDE and \
+         ZENOH_SESSION_CONFIG_URI"
     );
     let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
     let node = ctx
@@ -206,8 +207,9 @@ async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_
     while heard.len() < 3 {
         assert!(
             started.elapsed() < WAIT,
-            "the peer heard {} of radar_ros's samples in {WAIT:?} (a publisher must name rosidl's hash \
-             {rosidl_hash}); tokens seen: {tokens:#?}",
+            "the peer heard {} of radar_ros's samples in {WAIT:?} (radar_ros's session must reach the router \
+             at tcp/localhost:7447, and its publisher name rosidl's hash {rosidl_hash}); tokens seen: \
+             {tokens:#?}",
             heard.len()
         );
         tokio::select! {

@@ -249,31 +249,39 @@ fn apply_config_overrides(config: &mut Config, overrides: &str) -> zenoh::Result
   Ok(())
 }
 
-/// Default Zenoh configuration for a ROS 2 peer.
+/// Default Zenoh configuration for a ROS 2 peer: `rmw_zenoh`'s default session
+/// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`, and its design document's table)
+/// in what decides who meets whom. Peer mode; connect to the host's router at
+/// `tcp/localhost:7447` (kept retrying in the background while there is none,
+/// as a peer's connect is); gossip scouting on, so that the router tells peers
+/// of each other and they connect directly; multicast scouting off;
+/// timestamping on, with samples stamped in the future kept (a peer whose clock
+/// is ahead is not dropped). Listening on an IPv4 loopback port rather than
+/// rmw_zenoh's `tcp/localhost:0`, which keeps the crate working where IPv6 is
+/// unavailable (Zenoh's own default listens on `tcp/[::]:0`, which fails
+/// there, e.g. on many CI runners); peers on the same host reach it the same
+/// way. (radar_ros patch 11: the default had no router to connect to, so a
+/// program met no rmw_zenoh peer unless told where the router was.)
 ///
-/// Peer mode, listening on an IPv4 loopback port and with multicast scouting
-/// disabled — the same shape as `rmw_zenoh`'s default session config, which
-/// also keeps the crate working in IPv6-less / restricted-network environments
-/// (Zenoh's own default listens on `tcp/[::]:0`, which fails where IPv6 is
-/// unavailable, e.g. many CI runners).
-///
-/// For a full `rmw_zenoh`-style deployment (connect to `tcp/localhost:7447`,
-/// gossip scouting, timestamping) point `ZENOH_SESSION_CONFIG_URI` at the
-/// desired JSON5 file or supply `ZENOH_CONFIG_OVERRIDE` (see
-/// [`config_from_env`]).
+/// For anything else point `ZENOH_SESSION_CONFIG_URI` at a JSON5 file or
+/// supply `ZENOH_CONFIG_OVERRIDE` (see [`config_from_env`]).
 fn default_config() -> Config {
   let mut config = Config::default();
   // These keys are stable Zenoh config paths; a failure here is a programming
   // error, so surface it loudly rather than silently opening a wrong config.
-  config
-    .insert_json5("mode", "\"peer\"")
-    .expect("valid zenoh config key: mode");
-  config
-    .insert_json5("listen/endpoints", "[\"tcp/127.0.0.1:0\"]")
-    .expect("valid zenoh config key: listen/endpoints");
-  config
-    .insert_json5("scouting/multicast/enabled", "false")
-    .expect("valid zenoh config key: scouting/multicast/enabled");
+  for (key, value) in [
+    ("mode", "\"peer\""),
+    ("connect/endpoints", "[\"tcp/localhost:7447\"]"),
+    ("listen/endpoints", "[\"tcp/127.0.0.1:0\"]"),
+    ("scouting/multicast/enabled", "false"),
+    ("scouting/gossip/enabled", "true"),
+    ("timestamping/enabled", "{ router: true, peer: true, client: false }"),
+    ("timestamping/drop_future_timestamp", "false"),
+  ] {
+    config
+      .insert_json5(key, value)
+      .unwrap_or_else(|e| panic!("valid zenoh config key {key}: {e}"));
+  }
   config
 }
 
