@@ -6,6 +6,9 @@
 //!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
 //!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
 //!   (ros2-client patch 10), and a hash that is malformed or in conflict is refused;
+//! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
+//!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
+//!   times are printed);
 //! - `mypy --strict` on the two Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
@@ -62,9 +65,34 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "--test",
         "zenoh",
     ];
+    let netns = [
+        "test",
+        "-p",
+        "radar_ros",
+        "--features",
+        "zenoh",
+        "--test",
+        "zenoh_netns",
+        "--",
+        "--nocapture",
+    ];
     let mut no_run = test.to_vec();
-    no_run.push("--no-run");
-    check(&cargo(&no_run), "building radar_ros/library/tests/zenoh.rs");
+    no_run.extend(["--test", "zenoh_netns", "--no-run"]);
+    check(
+        &cargo(&no_run),
+        "building radar_ros/library/tests/zenoh.rs and zenoh_netns.rs",
+    );
+    let out = check(&cargo(&netns), "radar_ros/library/tests/zenoh_netns.rs");
+    assert!(
+        out.contains("test result: ok. 1 passed"),
+        "zenoh_netns ran and passed:\n{out}"
+    );
+    for l in out
+        .lines()
+        .filter(|l| l.contains(" in ") && !l.starts_with("test result"))
+    {
+        println!("zenoh_netns: {l}");
+    }
     let out = check(&cargo(&test), "radar_ros/library/tests/zenoh.rs");
     for t in [
         "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",

@@ -2,10 +2,11 @@
 the eclipse-zenoh wheel and rclpy's CDR: what radar_ros's Zenoh side is checked against. Nothing here comes
 from radar_ros or ros2-client.
 
-    python zenoh_peer.py ROUTER_ENDPOINT DOMAIN TYPE TOPIC_IN TOPIC_OUT
+    python zenoh_peer.py ROUTER_ENDPOINT DOMAIN TYPE TOPIC_IN TOPIC_OUT [MODE]
 
 - A session as rmw_zenoh's default one: peer mode, connected to the router, listening on loopback, gossip
-  scouting on, multicast scouting off.
+  scouting on, multicast scouting off. MODE `client` makes it a client of the router instead (how a program
+  on another host reaches a robot's router).
 - A node `zenoh_peer` (liveliness token `@ros2_lv/<domain>/<session id>/0/0/NN/%/%/zenoh_peer`).
 - TYPE (`pkg/msg/Name`) is named as the design says: `pkg::msg::dds_::Name_` and the RIHS01 hash rosidl wrote
   into this venv's `share/pkg/msg/Name.json`.
@@ -80,15 +81,17 @@ def rosidl_hash(ros_type: str) -> str:
 
 def main() -> None:
     router, domain, ros_type, topic_in, topic_out = sys.argv[1:6]
+    mode = sys.argv[6] if len(sys.argv) > 6 else "peer"
     pkg, kind, name = ros_type.split("/")
     msg_class = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
     dds_type = f"{pkg}::{kind}::dds_::{name}_"
     type_hash = rosidl_hash(ros_type)
 
     conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("connect/endpoints", json.dumps([router]))
-    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
+    if mode == "peer":
+        conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("scouting/gossip/enabled", "true")
     with zenoh.open(conf) as session:

@@ -1,5 +1,7 @@
 """A Zenoh router as rmw_zenoh's default layout has one: router mode, gossip scouting on, multicast scouting
-off, listening on the endpoint given (rmw_zenoh's own listens on tcp/[::]:7447).
+off, listening on the endpoint given (rmw_zenoh's own listens on tcp/[::]:7447), and, as rmw_zenoh's router
+configuration says, no failover brokering: it forwards nothing between two peers that cannot reach each other
+(programs on other hosts connect as clients, or through a router of their own).
 
     python zenoh_router.py tcp/127.0.0.1:PORT
 
@@ -19,6 +21,7 @@ def main() -> None:
     conf.insert_json5("listen/endpoints", json.dumps([endpoint]))
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("scouting/gossip/enabled", "true")
+    conf.insert_json5("routing/router/peers_failover_brokering", "false")
     with zenoh.open(conf):
         print("up", flush=True)
         sys.stdin.read()

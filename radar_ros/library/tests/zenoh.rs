@@ -19,113 +19,15 @@
 //! radar_ros with the feature.
 #![cfg(feature = "zenoh")]
 
-use std::{
-    path::PathBuf,
-    process::Stdio,
-    time::{Duration, Instant, SystemTime, UNIX_EPOCH},
-};
+mod zenoh_util;
 
-use radar_ros::msg::{Header, Point, Pose, PoseStamped, Quaternion, RosMessage, Time};
-use ros2_client::{
-    zenoh::{register_type_hash, Context, ContextOptions},
-    MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
-};
+use std::time::Duration;
+
+use ros2_client::zenoh::register_type_hash;
 use serde_json::Value;
-use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
+use zenoh_util::{check_heard, start_peer, Proc, Side};
 
 const DOMAIN: u16 = 131;
-const WAIT: Duration = Duration::from_secs(30);
-
-fn python() -> PathBuf {
-    let venv = std::env::var_os("RADAR_VENV").expect(
-        "RADAR_VENV names the rclpy venv with eclipse-zenoh (tests/python_env.sh builds it)",
-    );
-    let py = PathBuf::from(venv).join("bin/python");
-    assert!(
-        py.exists(),
-        "{} is missing: run tests/python_env.sh",
-        py.display()
-    );
-    py
-}
-
-fn script(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../tests/python")
-        .join(name)
-}
-
-struct Proc {
-    child: tokio::process::Child,
-    lines: Lines<BufReader<tokio::process::ChildStdout>>,
-    stdin: Option<tokio::process::ChildStdin>,
-}
-
-impl Proc {
-    fn start(name: &str, args: &[&str]) -> Proc {
-        let mut child = tokio::process::Command::new(python())
-            .arg(script(name))
-            .args(args)
-            .env("PYTHONUNBUFFERED", "1")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .kill_on_drop(true)
-            .spawn()
-            .expect("start the venv's python");
-        let lines = BufReader::new(child.stdout.take().unwrap()).lines();
-        let stdin = child.stdin.take();
-        Proc {
-            child,
-            lines,
-            stdin,
-        }
-    }
-
-    async fn line(&mut self) -> String {
-        match tokio::time::timeout(WAIT, self.lines.next_line()).await {
-            Ok(Ok(Some(l))) => l,
-            other => panic!(
-                "the python process said nothing more ({other:?}; exit {:?}); its stderr is above",
-                self.child.try_wait()
-            ),
-        }
-    }
-
-    async fn send(&mut self, line: &str) {
-        let stdin = self.stdin.as_mut().unwrap();
-        stdin.write_all(line.as_bytes()).await.unwrap();
-        stdin.write_all(b"\n").await.unwrap();
-        stdin.flush().await.unwrap();
-    }
-}
-
-fn pose(frame: &str, x: f64) -> PoseStamped {
-    PoseStamped {
-        header: Header {
-            stamp: Time {
-                sec: 1_700_000_000,
-                nanosec: 5,
-            },
-            frame_id: frame.into(),
-        },
-        pose: Pose {
-            position: Point { x, y: -2.5, z: 0.0 },
-            orientation: Quaternion {
-                x: 0.0,
-                y: 0.0,
-                z: 0.0,
-                w: 1.0,
-            },
-        },
-    }
-}
-
-fn now_ns() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as i64
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design() {
@@ -136,153 +38,34 @@ async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_
     );
     let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
     assert_eq!(router.line().await, "up");
-    let ros_type = PoseStamped::ros_type_name();
-    let mut peer = Proc::start(
-        "zenoh_peer.py",
-        &[
-            "tcp/localhost:7447",
-            &DOMAIN.to_string(),
-            &ros_type,
-            "/zenoh_probe/to_peer",
-            "/zenoh_probe/from_peer",
-        ],
-    );
-    // the peer's own tokens may come before it says it is up
-    let mut tokens = Vec::new();
-    let up = loop {
-        let v: Value = serde_json::from_str(&peer.line().await).unwrap();
-        if v.get("up").is_some() {
-            break v;
-        }
-        tokens.push(v);
-    };
-    let rosidl_hash = up["hash"].as_str().unwrap().to_owned();
-    let peer_zid = up["up"].as_str().unwrap().to_owned();
-    assert_eq!(
-        PoseStamped::TYPE_HASH,
-        Some(rosidl_hash.as_str()),
-        "radar_ros ships rosidl's hash"
-    );
+    let (mut peer, rosidl_hash, peer_zid, mut tokens) =
+        start_peer(None, "tcp/localhost:7447", DOMAIN, "peer").await;
 
     // radar_ros's side: the hash it knows given to the Zenoh backend, a session with the backend's default
     // configuration (rmw_zenoh's: connect to the router at tcp/localhost:7447, gossip; ros2-client patch 11)
-    let type_name = MessageTypeName::new(PoseStamped::PACKAGE, PoseStamped::NAME);
-    register_type_hash(&type_name.dds_msg_type(), PoseStamped::TYPE_HASH.unwrap()).unwrap();
     assert!(
         std::env::var_os("ZENOH_CONFIG_OVERRIDE").is_none()
             && std::env::var_os("ZENOH_SESSION_CONFIG_URI").is_none(),
         "this test checks the default session configuration: unset ZENOH_CONFIG_OVERRIDE and \
          ZENOH_SESSION_CONFIG_URI"
     );
-    let ctx = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
-    let node = ctx
-        .new_node(
-            NodeName::new("/", "radar_side").unwrap(),
-            NodeOptions::new(),
-        )
-        .unwrap();
-    let qos = QosProfile::default();
-    let to_peer = node.create_topic(
-        &Name::new("/zenoh_probe", "to_peer").unwrap(),
-        type_name.clone(),
-        &qos,
+    let mut side = Side::open(DOMAIN);
+    let why = format!(
+        "radar_ros's session must reach the router at tcp/localhost:7447, and its publisher name rosidl's \
+         hash {rosidl_hash}"
     );
-    let from_peer = node.create_topic(
-        &Name::new("/zenoh_probe", "from_peer").unwrap(),
-        type_name,
-        &qos,
-    );
-    let publisher = node
-        .create_publisher::<PoseStamped>(&to_peer, None)
-        .unwrap();
-    let subscription = node
-        .create_subscription::<PoseStamped>(&from_peer, None)
-        .unwrap();
+    let heard = side.until_heard(&mut peer, 3, &mut tokens, &why).await;
+    check_heard(&heard);
 
-    // radar_ros -> the peer: published until the peer has heard three (no wait for discovery to settle)
-    let started = Instant::now();
-    let mut heard = Vec::new();
-    let mut n = 0;
-    let mut tick = tokio::time::interval(Duration::from_millis(20));
-    while heard.len() < 3 {
-        assert!(
-            started.elapsed() < WAIT,
-            "the peer heard {} of radar_ros's samples in {WAIT:?} (radar_ros's session must reach the router \
-             at tcp/localhost:7447, and its publisher name rosidl's hash {rosidl_hash}); tokens seen: \
-             {tokens:#?}",
-            heard.len()
-        );
-        tokio::select! {
-            _ = tick.tick() => {
-                n += 1;
-                publisher.publish(pose(&format!("to_peer {n}"), n as f64)).unwrap();
-            }
-            line = peer.line() => {
-                let v: Value = serde_json::from_str(&line).unwrap();
-                assert!(v.get("bad_attachment").is_none(), "an attachment not as the design says: {v}");
-                if v.get("token").is_some() {
-                    tokens.push(v);
-                } else if v.get("received").is_some() {
-                    heard.push(v);
-                }
-            }
-        }
-    }
-    for (i, v) in heard.iter().enumerate() {
-        let frame = v["received"]["header"]["frame_id"].as_str().unwrap();
-        let k: i64 = frame.strip_prefix("to_peer ").unwrap().parse().unwrap();
-        assert_eq!(v["received"]["pose"]["position"]["x"], k as f64, "{v}");
-        assert_eq!(v["received"]["pose"]["position"]["y"], -2.5, "{v}");
-        assert_eq!(
-            v["seq"], k,
-            "the sequence number counts the publisher's samples: {v}"
-        );
-        if i > 0 {
-            assert!(
-                v["seq"].as_i64() > heard[i - 1]["seq"].as_i64(),
-                "{heard:#?}"
-            );
-            assert_eq!(
-                v["gid"], heard[0]["gid"],
-                "one publisher, one GID: {heard:#?}"
-            );
-        }
-        let stamp = v["stamp_ns"].as_i64().unwrap();
-        assert!(
-            (now_ns() - stamp).abs() < 60_000_000_000,
-            "source time is now-ish: {v}"
-        );
-        assert_eq!(v["gid"].as_str().unwrap().len(), 32, "a 16-byte GID: {v}");
-    }
-
-    // the peer -> radar_ros: a line per attempt until one arrives
-    let started = Instant::now();
-    let got = loop {
-        assert!(
-            started.elapsed() < WAIT,
-            "nothing from the peer in {WAIT:?}"
-        );
-        peer.send(r#"{"header": {"frame_id": "from_peer"}, "pose": {"position": {"x": 7.25}}}"#)
-            .await;
-        match tokio::time::timeout(Duration::from_millis(100), subscription.async_take()).await {
-            Ok(got) => break got.unwrap(),
-            Err(_) => continue,
-        }
-    };
-    let (msg, info) = got;
+    let (msg, info) = side.hear_peer(&mut peer, 7.25).await;
     assert_eq!(msg.header.frame_id, "from_peer");
-    assert_eq!(msg.pose.position.x, 7.25);
     assert!(
         info.sequence_number() >= 1,
         "the peer's sequence number: {info:?}"
     );
 
     // the tokens the peer saw of radar_ros's side name its node, topics, type and rosidl's hash
-    while let Ok(Some(line)) =
-        tokio::time::timeout(Duration::from_millis(300), peer.lines.next_line())
-            .await
-            .map(|l| l.ok().flatten())
-    {
+    while let Some(line) = peer.line_within(Duration::from_millis(300)).await {
         let v: Value = serde_json::from_str(&line).unwrap();
         if v.get("token").is_some() {
             tokens.push(v);
@@ -324,8 +107,8 @@ async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_
             .any(|p| p.len() == 9 && p[5] == "NN" && p[8] == "radar_side"),
         "the node's token: {ours:#?}"
     );
-    drop(peer.stdin.take());
-    drop(router.stdin.take());
+    peer.close();
+    router.close();
 }
 
 #[test]

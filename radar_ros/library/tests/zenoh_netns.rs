@@ -1,0 +1,222 @@
+//! Issue 37: Zenoh across network namespaces with no path between them but a router, as a fleet runs it (a
+//! robot and a cloud planner that cannot see each other, a router both reach). Three namespaces: the
+//! design-document peer (tests/python/zenoh_peer.py) in one, a router (tests/python/zenoh_router.py, rmw_zenoh's
+//! layout) in another, radar_ros's side in the tests' own; each peer's namespace is linked to the router's
+//! only, which forwards no IP: no multicast, no route from one peer to the other. radar_ros's side is told
+//! where the router is with `ZENOH_CONFIG_OVERRIDE`, as an rmw_zenoh node is.
+//!
+//! Both sides are clients of the router: rmw_zenoh's router does no failover brokering (it forwards nothing
+//! between two peers that cannot reach each other), so a program that cannot reach the others directly
+//! connects as a client (or through a router of its own), as rmw_zenoh's documentation says.
+//!
+//! Checked: `PoseStamped` crosses both ways through the router; again after the router is killed (SIGKILL)
+//! and started anew mid-run (both sessions reconnect by themselves); a peer killed with SIGKILL is seen gone
+//! from radar_ros's graph (its liveliness token dropped) at once (its connection closes), and a peer cut off
+//! (its link down: nothing closes) within the router's lease (10 s, Zenoh's and rmw_zenoh's default). The
+//! times are printed.
+//!
+//! Needs root, iproute2, util-linux (unshare, nsenter) and the venv with eclipse-zenoh; runs inside
+//! tests/isolated.sh (run by tests/zenoh_feature.rs). Domain 132.
+#![cfg(feature = "zenoh")]
+
+mod zenoh_util;
+
+use std::{
+    process::Command,
+    time::{Duration, Instant},
+};
+
+use zenoh_util::{check_heard, start_peer, Proc, Side, WAIT};
+
+const DOMAIN: u16 = 132;
+
+/// A network namespace of its own, held by a `sleep` started in it; gone (with its links) when dropped.
+struct Netns {
+    holder: std::process::Child,
+}
+
+impl Netns {
+    fn new() -> Netns {
+        let holder = Command::new("unshare")
+            .args(["--net", "--", "sleep", "600"])
+            .spawn()
+            .expect("unshare (util-linux) starts a process in a new network namespace");
+        let ns = Netns { holder };
+        let mine = std::fs::read_link("/proc/self/ns/net").unwrap();
+        let started = Instant::now();
+        while std::fs::read_link(format!("/proc/{}/ns/net", ns.pid()))
+            .ok()
+            .as_ref()
+            == Some(&mine)
+        {
+            assert!(started.elapsed() < WAIT, "unshare made no namespace");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        ns.ip(&["link", "set", "lo", "up"]);
+        ns
+    }
+
+    fn pid(&self) -> u32 {
+        self.holder.id()
+    }
+
+    /// `ip ARGS` inside it.
+    fn ip(&self, args: &[&str]) {
+        let net = format!("--net=/proc/{}/ns/net", self.pid());
+        run("nsenter", &[&[net.as_str(), "ip"], args].concat());
+    }
+}
+
+impl Drop for Netns {
+    fn drop(&mut self) {
+        let _ = self.holder.kill();
+        let _ = self.holder.wait();
+    }
+}
+
+fn run(cmd: &str, args: &[&str]) {
+    let out = Command::new(cmd)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{cmd}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cmd} {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A veth pair from `a` (this namespace if `None`) to `b`, addressed `a_addr` and `b_addr` (CIDR).
+fn link(a: Option<&Netns>, a_if: &str, a_addr: &str, b: &Netns, b_if: &str, b_addr: &str) {
+    run(
+        "ip",
+        &["link", "add", a_if, "type", "veth", "peer", "name", b_if],
+    );
+    run("ip", &["link", "set", b_if, "netns", &b.pid().to_string()]);
+    match a {
+        Some(a) => {
+            run("ip", &["link", "set", a_if, "netns", &a.pid().to_string()]);
+            a.ip(&["addr", "add", a_addr, "dev", a_if]);
+            a.ip(&["link", "set", a_if, "up"]);
+        }
+        None => {
+            run("ip", &["addr", "add", a_addr, "dev", a_if]);
+            run("ip", &["link", "set", a_if, "up"]);
+        }
+    }
+    b.ip(&["addr", "add", b_addr, "dev", b_if]);
+    b.ip(&["link", "set", b_if, "up"]);
+}
+
+async fn both_ways(side: &mut Side, peer: &mut Proc, x: f64, why: &str) {
+    let mut tokens = Vec::new();
+    let heard = side.until_heard(peer, 3, &mut tokens, why).await;
+    check_heard(&heard);
+    let (msg, _) = side.hear_peer(peer, x).await;
+    assert_eq!(msg.header.frame_id, "from_peer");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn signals_cross_namespaces_through_a_router_survive_its_restart_and_a_killed_peer_is_seen_gone(
+) {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
+        "run inside tests/isolated.sh: this test adds links to the network namespace it runs in"
+    );
+    let router_ns = Netns::new();
+    let peer_ns = Netns::new();
+    link(
+        None,
+        "zrb0",
+        "10.88.2.2/24",
+        &router_ns,
+        "zrc2",
+        "10.88.2.1/24",
+    );
+    link(
+        Some(&peer_ns),
+        "zra0",
+        "10.88.1.2/24",
+        &router_ns,
+        "zrc1",
+        "10.88.1.1/24",
+    );
+    // the peer's namespace has no route to this one
+    let unreachable = Command::new("nsenter")
+        .arg(format!("--net=/proc/{}/ns/net", peer_ns.pid()))
+        .arg(zenoh_util::python())
+        .args([
+            "-c",
+            "import socket; socket.create_connection(('10.88.2.2', 9), timeout=2)",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&unreachable.stderr);
+    assert!(
+        !unreachable.status.success() && err.contains("unreachable"),
+        "no route from the peer's namespace to radar_ros's: {err}"
+    );
+
+    let router_at = "tcp/0.0.0.0:7447";
+    let mut router = Proc::start_in(Some(router_ns.pid()), "zenoh_router.py", &[router_at]);
+    assert_eq!(router.line().await, "up");
+    let (mut peer, _, _, _) =
+        start_peer(Some(peer_ns.pid()), "tcp/10.88.1.1:7447", DOMAIN, "client").await;
+    // one test in this binary: nothing else reads the environment meanwhile
+    std::env::set_var(
+        "ZENOH_CONFIG_OVERRIDE",
+        "mode=\"client\";connect/endpoints=[\"tcp/10.88.2.1:7447\"]",
+    );
+    let started = Instant::now();
+    let mut side = Side::open(DOMAIN);
+    both_ways(
+        &mut side,
+        &mut peer,
+        1.5,
+        "through the router in its own namespace",
+    )
+    .await;
+    println!("through the router: both ways in {:?}", started.elapsed());
+
+    // the router killed and started anew: both sessions reconnect
+    router.kill().await;
+    let mut router = Proc::start_in(Some(router_ns.pid()), "zenoh_router.py", &[router_at]);
+    assert_eq!(router.line().await, "up");
+    let restarted = Instant::now();
+    both_ways(&mut side, &mut peer, 2.5, "after the router's restart").await;
+    println!(
+        "after a router restart: both ways again in {:?}",
+        restarted.elapsed()
+    );
+
+    // a peer killed with SIGKILL: its subscription's token leaves radar_ros's graph
+    assert!(side.publisher.get_subscription_count(&side.node) >= 1);
+    peer.kill().await;
+    let killed = Instant::now();
+    while side.publisher.get_subscription_count(&side.node) > 0 {
+        assert!(
+            killed.elapsed() < Duration::from_secs(12),
+            "a peer killed with SIGKILL is seen gone within the transport's lease (10 s)"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    println!("a SIGKILLed peer seen gone in {:?}", killed.elapsed());
+
+    // a peer cut off (its link down: no connection closes, nothing is said) is seen gone when the router's
+    // lease on it ends
+    let (mut peer, _, _, _) =
+        start_peer(Some(peer_ns.pid()), "tcp/10.88.1.1:7447", DOMAIN, "client").await;
+    both_ways(&mut side, &mut peer, 3.5, "a second peer").await;
+    router_ns.ip(&["link", "set", "zrc1", "down"]);
+    let cut = Instant::now();
+    while side.publisher.get_subscription_count(&side.node) > 0 {
+        assert!(
+            cut.elapsed() < Duration::from_secs(15),
+            "a peer cut off is seen gone when the router's lease on it ends (10 s, and a keep-alive period)"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    println!("a peer cut off seen gone in {:?}", cut.elapsed());
+    peer.kill().await;
+    router.close();
+}

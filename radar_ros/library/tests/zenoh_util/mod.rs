@@ -1,0 +1,316 @@
+//! What the Zenoh tests share (tests/zenoh.rs, tests/zenoh_netns.rs): the venv's Python processes (the router
+//! and the peer written from rmw_zenoh's design document, tests/python/zenoh_*.py), optionally inside another
+//! network namespace, and radar_ros's side of the exchange.
+
+#![allow(dead_code)] // each test binary uses its part
+
+use std::{
+    path::PathBuf,
+    process::Stdio,
+    time::{Duration, Instant, SystemTime, UNIX_EPOCH},
+};
+
+use radar_ros::msg::{Header, Point, Pose, PoseStamped, Quaternion, RosMessage, Time};
+use ros2_client::{
+    zenoh::{register_type_hash, Context, ContextOptions, Node, Publisher, Subscription},
+    MessageInfo, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+};
+use serde_json::Value;
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
+
+/// How long any one step may take.
+pub const WAIT: Duration = Duration::from_secs(30);
+
+pub fn python() -> PathBuf {
+    let venv = std::env::var_os("RADAR_VENV").expect(
+        "RADAR_VENV names the rclpy venv with eclipse-zenoh (tests/python_env.sh builds it)",
+    );
+    let py = PathBuf::from(venv).join("bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run tests/python_env.sh",
+        py.display()
+    );
+    py
+}
+
+fn script(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/python")
+        .join(name)
+}
+
+/// A Python script of tests/python, killed when dropped; its stdout is read line by line.
+pub struct Proc {
+    child: tokio::process::Child,
+    lines: Lines<BufReader<tokio::process::ChildStdout>>,
+    stdin: Option<tokio::process::ChildStdin>,
+}
+
+impl Proc {
+    pub fn start(name: &str, args: &[&str]) -> Proc {
+        Proc::start_in(None, name, args)
+    }
+
+    /// Starts it in the network namespace of process `netns` (through `nsenter`), or in this one.
+    pub fn start_in(netns: Option<u32>, name: &str, args: &[&str]) -> Proc {
+        let mut cmd = match netns {
+            Some(pid) => {
+                let mut c = tokio::process::Command::new("nsenter");
+                c.arg(format!("--net=/proc/{pid}/ns/net")).arg(python());
+                c
+            }
+            None => tokio::process::Command::new(python()),
+        };
+        let mut child = cmd
+            .arg(script(name))
+            .args(args)
+            .env("PYTHONUNBUFFERED", "1")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("start the venv's python");
+        let lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let stdin = child.stdin.take();
+        Proc {
+            child,
+            lines,
+            stdin,
+        }
+    }
+
+    pub async fn line(&mut self) -> String {
+        match tokio::time::timeout(WAIT, self.lines.next_line()).await {
+            Ok(Ok(Some(l))) => l,
+            other => panic!(
+                "the python process said nothing more ({other:?}; exit {:?}); its stderr is above",
+                self.child.try_wait()
+            ),
+        }
+    }
+
+    /// The next line if one comes within `d`.
+    pub async fn line_within(&mut self, d: Duration) -> Option<String> {
+        tokio::time::timeout(d, self.lines.next_line())
+            .await
+            .ok()
+            .and_then(|l| l.ok().flatten())
+    }
+
+    pub async fn send(&mut self, line: &str) {
+        let stdin = self.stdin.as_mut().unwrap();
+        stdin.write_all(line.as_bytes()).await.unwrap();
+        stdin.write_all(b"\n").await.unwrap();
+        stdin.flush().await.unwrap();
+    }
+
+    /// Closes its stdin (the scripts end on it).
+    pub fn close(&mut self) {
+        drop(self.stdin.take());
+    }
+
+    /// SIGKILL, at once.
+    pub async fn kill(&mut self) {
+        self.child.kill().await.expect("kill the python process");
+    }
+}
+
+/// The design-document peer: `zenoh_peer.py ROUTER DOMAIN pkg/msg/PoseStamped /zenoh_probe/to_peer
+/// /zenoh_probe/from_peer MODE` (`peer` or `client`), started and up. Returns it, rosidl's hash it read, its
+/// session id and the tokens it printed before it was up.
+pub async fn start_peer(
+    netns: Option<u32>,
+    router: &str,
+    domain: u16,
+    mode: &str,
+) -> (Proc, String, String, Vec<Value>) {
+    let mut peer = Proc::start_in(
+        netns,
+        "zenoh_peer.py",
+        &[
+            router,
+            &domain.to_string(),
+            &PoseStamped::ros_type_name(),
+            "/zenoh_probe/to_peer",
+            "/zenoh_probe/from_peer",
+            mode,
+        ],
+    );
+    // the peer's own tokens may come before it says it is up
+    let mut tokens = Vec::new();
+    let up = loop {
+        let v: Value = serde_json::from_str(&peer.line().await).unwrap();
+        if v.get("up").is_some() {
+            break v;
+        }
+        tokens.push(v);
+    };
+    let hash = up["hash"].as_str().unwrap().to_owned();
+    let zid = up["up"].as_str().unwrap().to_owned();
+    assert_eq!(
+        PoseStamped::TYPE_HASH,
+        Some(hash.as_str()),
+        "radar_ros ships rosidl's hash"
+    );
+    (peer, hash, zid, tokens)
+}
+
+/// radar_ros's side: a node `radar_side` publishing `/zenoh_probe/to_peer` and subscribed to
+/// `/zenoh_probe/from_peer`, with rosidl's hash given to the backend. The session's configuration comes from
+/// the environment, as rmw_zenoh's does.
+pub struct Side {
+    _ctx: Context,
+    pub node: Node,
+    pub publisher: Publisher<PoseStamped>,
+    pub subscription: Subscription<PoseStamped>,
+    sent: i64,
+}
+
+impl Side {
+    pub fn open(domain: u16) -> Side {
+        let type_name = MessageTypeName::new(PoseStamped::PACKAGE, PoseStamped::NAME);
+        register_type_hash(&type_name.dds_msg_type(), PoseStamped::TYPE_HASH.unwrap()).unwrap();
+        let ctx = Context::with_options(ContextOptions::new().domain_id(domain)).unwrap();
+        let node = ctx
+            .new_node(
+                NodeName::new("/", "radar_side").unwrap(),
+                NodeOptions::new(),
+            )
+            .unwrap();
+        let qos = QosProfile::default();
+        let topic = |name| {
+            node.create_topic(
+                &Name::new("/zenoh_probe", name).unwrap(),
+                type_name.clone(),
+                &qos,
+            )
+        };
+        let publisher = node.create_publisher(&topic("to_peer"), None).unwrap();
+        let subscription = node.create_subscription(&topic("from_peer"), None).unwrap();
+        Side {
+            _ctx: ctx,
+            node,
+            publisher,
+            subscription,
+            sent: 0,
+        }
+    }
+
+    /// Publishes every 20 ms until the peer has heard `n` more samples (no wait for discovery to settle
+    /// first); returns what it printed of them. Token lines it prints meanwhile go to `tokens`.
+    pub async fn until_heard(
+        &mut self,
+        peer: &mut Proc,
+        n: usize,
+        tokens: &mut Vec<Value>,
+        why: &str,
+    ) -> Vec<Value> {
+        let started = Instant::now();
+        let mut heard = Vec::new();
+        let mut tick = tokio::time::interval(Duration::from_millis(20));
+        while heard.len() < n {
+            assert!(
+                started.elapsed() < WAIT,
+                "the peer heard {} of radar_ros's samples in {WAIT:?} ({why}); tokens seen: {tokens:#?}",
+                heard.len()
+            );
+            tokio::select! {
+                _ = tick.tick() => {
+                    self.sent += 1;
+                    self.publisher.publish(pose(&format!("to_peer {}", self.sent), self.sent as f64)).unwrap();
+                }
+                line = peer.line() => {
+                    let v: Value = serde_json::from_str(&line).unwrap();
+                    assert!(v.get("bad_attachment").is_none(), "an attachment not as the design says: {v}");
+                    if v.get("token").is_some() {
+                        tokens.push(v);
+                    } else if v.get("received").is_some() {
+                        heard.push(v);
+                    }
+                }
+            }
+        }
+        heard
+    }
+
+    /// Has the peer publish (a line per 100 ms) until a sample arrives here.
+    pub async fn hear_peer(&self, peer: &mut Proc, x: f64) -> (PoseStamped, MessageInfo) {
+        let started = Instant::now();
+        loop {
+            assert!(
+                started.elapsed() < WAIT,
+                "nothing from the peer in {WAIT:?}"
+            );
+            peer.send(&format!(
+                r#"{{"header": {{"frame_id": "from_peer"}}, "pose": {{"position": {{"x": {x}}}}}}}"#
+            ))
+            .await;
+            if let Ok(got) =
+                tokio::time::timeout(Duration::from_millis(100), self.subscription.async_take())
+                    .await
+            {
+                let (msg, info) = got.unwrap();
+                if msg.pose.position.x == x {
+                    return (msg, info);
+                }
+            }
+        }
+    }
+}
+
+pub fn pose(frame: &str, x: f64) -> PoseStamped {
+    PoseStamped {
+        header: Header {
+            stamp: Time {
+                sec: 1_700_000_000,
+                nanosec: 5,
+            },
+            frame_id: frame.into(),
+        },
+        pose: Pose {
+            position: Point { x, y: -2.5, z: 0.0 },
+            orientation: Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                w: 1.0,
+            },
+        },
+    }
+}
+
+/// Checks what the peer printed of samples it heard: the message, and the attachment as the design says
+/// (sequence numbers counting the publisher's samples, one GID, a source time of now).
+pub fn check_heard(heard: &[Value]) {
+    let now_ns = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as i64;
+    for (i, v) in heard.iter().enumerate() {
+        let frame = v["received"]["header"]["frame_id"].as_str().unwrap();
+        let k: i64 = frame.strip_prefix("to_peer ").unwrap().parse().unwrap();
+        assert_eq!(v["received"]["pose"]["position"]["x"], k as f64, "{v}");
+        assert_eq!(v["received"]["pose"]["position"]["y"], -2.5, "{v}");
+        assert_eq!(
+            v["seq"], k,
+            "the sequence number counts the publisher's samples: {v}"
+        );
+        if i > 0 {
+            assert!(
+                v["seq"].as_i64() > heard[i - 1]["seq"].as_i64(),
+                "{heard:#?}"
+            );
+            assert_eq!(
+                v["gid"], heard[0]["gid"],
+                "one publisher, one GID: {heard:#?}"
+            );
+        }
+        let stamp = v["stamp_ns"].as_i64().unwrap();
+        assert!(
+            (now_ns - stamp).abs() < 60_000_000_000,
+            "source time is now-ish: {v}"
+        );
+        assert_eq!(v["gid"].as_str().unwrap().len(), 32, "a 16-byte GID: {v}");
+    }
+}
