@@ -255,7 +255,7 @@ pub async fn publish_unreadable_string(r: &Radar, raw: &RawPublisher) {
 
 /// Calls a service until it answers (the server's discovery takes a moment), failing after `timeout`.
 pub async fn call_service<Req, Resp>(
-    client: &ros2_client::Client<Req, Resp>,
+    client: &ros2_client::dds::Client<Req, Resp>,
     req: Req,
     timeout: Duration,
 ) -> Resp
@@ -284,7 +284,7 @@ where
 
 /// Sends one request and waits for its answer (for calls that must not be repeated).
 pub async fn call_once<Req, Resp>(
-    client: &ros2_client::Client<Req, Resp>,
+    client: &ros2_client::dds::Client<Req, Resp>,
     req: Req,
     timeout: Duration,
 ) -> Resp
@@ -301,21 +301,23 @@ where
 
 /// Clients of a manager node's three services, on a node of `radar`'s participant.
 pub struct ManagerClient {
-    _node: ros2_client::Node,
+    _node: ros2_client::dds::Node,
     /// `connect`.
     pub connect:
-        ros2_client::Client<radar_ros::msg::ConnectRequest, radar_ros::msg::ConnectResponse>,
+        ros2_client::dds::Client<radar_ros::msg::ConnectRequest, radar_ros::msg::ConnectResponse>,
     /// `disconnect`.
-    pub disconnect:
-        ros2_client::Client<radar_ros::msg::DisconnectRequest, radar_ros::msg::DisconnectResponse>,
+    pub disconnect: ros2_client::dds::Client<
+        radar_ros::msg::DisconnectRequest,
+        radar_ros::msg::DisconnectResponse,
+    >,
     /// `list`.
-    pub list: ros2_client::Client<radar_ros::msg::ListRequest, radar_ros::msg::ListResponse>,
+    pub list: ros2_client::dds::Client<radar_ros::msg::ListRequest, radar_ros::msg::ListResponse>,
 }
 
 impl ManagerClient {
     /// Makes the clients and waits until the manager answers `list` (so the services are discovered).
     pub async fn new(radar: &Radar, manager: &str, node_name: &str) -> ManagerClient {
-        use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
+        use ros2_client::{dds::ServiceMapping, Name, NodeName, NodeOptions, ServiceTypeName};
         let mut node = radar
             .context()
             .new_node(

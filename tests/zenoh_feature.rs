@@ -1,7 +1,7 @@
 //! Issue 37 (under way): radar_ros's `zenoh` feature, which builds ros2-client's Zenoh backend beside DDS. The
 //! workspace's own build leaves it off (a DDS-only build stays small), so this builds radar_ros with it in
 //! `target/zenoh-feature` (a few minutes the first time) and checks, in order:
-//! - clippy (`-D warnings`) on radar_ros with the feature, all targets;
+//! - clippy (`-D warnings`) on radar_ros and radar_tools with the feature, all targets;
 //! - `radar_ros/library/tests/zenoh.rs` over real Zenoh: radar_ros's types cross to and from a peer written from
 //!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
 //!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
@@ -9,6 +9,8 @@
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
+//! - `radar router` (radar_ros/tools/tests/router.rs): a router as rmw_zenoh's, through which two
+//!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM;
 //! - `mypy --strict` on the two Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
@@ -47,8 +49,10 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "clippy",
             "-p",
             "radar_ros",
+            "-p",
+            "radar_tools",
             "--features",
-            "zenoh",
+            "radar_ros/zenoh,radar_tools/zenoh",
             "--all-targets",
             "--",
             "-D",
@@ -104,6 +108,22 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "{t} ran and passed:\n{out}"
         );
     }
+    let router = [
+        "test",
+        "-p",
+        "radar_tools",
+        "--features",
+        "zenoh",
+        "--test",
+        "router",
+    ];
+    let out = check(&cargo(&router), "radar_ros/tools/tests/router.rs");
+    assert!(
+        out.lines().any(|l| l
+            .contains("radar_router_joins_design_document_peers_and_stops_cleanly")
+            && l.ends_with("... ok")),
+        "radar router's test ran and passed:\n{out}"
+    );
     let scripts = repo().join("tests/python");
     let mypy = Command::new(python())
         .args(["-m", "mypy", "--strict", "zenoh_peer.py", "zenoh_router.py"])

@@ -40,6 +40,13 @@ enum Cmd {
         #[command(subcommand)]
         verb: SecurityVerb,
     },
+    /// Run a Zenoh router as rmw_zenoh runs one (`rmw_zenohd`: ZENOH_ROUTER_CONFIG_URI, else listening on
+    /// tcp/[::]:7447), for programs on Zenoh, until SIGINT or SIGTERM (needs the `zenoh` feature).
+    Router {
+        /// Listen on ENDPOINT instead (e.g. tcp/0.0.0.0:7447). May be given more than once.
+        #[arg(long, value_name = "ENDPOINT")]
+        listen: Vec<String>,
+    },
     /// List the events and responses on the graph, by namespace (like rtls).
     Ls {
         /// Only names in this namespace (e.g. /robot).
@@ -362,6 +369,7 @@ pub async fn run(cli: Cli) -> Result<(), String> {
             verb: SecurityVerb::GeneratePolicy { policy },
         },
         Cmd::Security { verb } => return security(verb, &out),
+        Cmd::Router { listen } => return verbs::router::router(listen, &out).await,
         other => other,
     };
     // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
@@ -386,7 +394,7 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
         Cmd::Security {
             verb: SecurityVerb::GeneratePolicy { policy },
         } => generate_policy(radar, out, discovery, &policy).await,
-        Cmd::Security { .. } => unreachable!("handled above"),
+        Cmd::Security { .. } | Cmd::Router { .. } => unreachable!("handled above"),
         Cmd::Ls { namespace, long } => verbs::ls::ls(radar, out, discovery, namespace, long).await,
         Cmd::Cat { name } => verbs::cat::cat(radar, out, discovery, &name).await,
         Cmd::Act {

@@ -269,6 +269,19 @@ async fn every_verb_sees_and_drives_components_in_another_process() {
         e.contains("built without DDS Security") && e.contains("--features security"),
         "{e}"
     );
+    // nor Zenoh: `radar router` says how to get one (radar_ros/tools/tests/router.rs runs a build with it)
+    if !cfg!(feature = "zenoh") {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+            .arg("router")
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            e.contains("built without Zenoh") && e.contains("--features zenoh"),
+            "{e}"
+        );
+    }
     drop(never);
 }
 

@@ -8,4 +8,5 @@ pub(crate) mod inject;
 pub(crate) mod ls;
 pub(crate) mod record;
 pub(crate) mod replay;
+pub(crate) mod router;
 pub(crate) mod watch;
