@@ -27,7 +27,7 @@
 
 use std::process::{Command, Output};
 
-use radar_test_util::repo;
+use radar_test_util::{check, ran_and_passed, repo};
 
 fn cargo(args: &[&str], env: &[(&str, &std::path::Path)]) -> Output {
     let mut c = Command::new(env!("CARGO"));
@@ -39,26 +39,6 @@ fn cargo(args: &[&str], env: &[(&str, &std::path::Path)]) -> Output {
         c.env(k, v);
     }
     c.output().expect("run cargo")
-}
-
-fn check(out: &Output, what: &str) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed:\n{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
-}
-
-fn ran_and_passed(out: &str, tests: &[&str]) {
-    for t in tests {
-        assert!(
-            out.lines()
-                .any(|l| l.starts_with("test ") && l.contains(t) && l.ends_with("... ok")),
-            "{t} ran and passed:\n{out}"
-        );
-    }
 }
 
 const FEATURES: &str = "radar_ros/security,radar_tools/security,radar_ros_examples/security";

@@ -719,6 +719,29 @@ impl Drop for TwoHosts {
 /// How long a Python process may stay silent when a line is expected.
 pub const PY_TIMEOUT: Duration = Duration::from_secs(20);
 
+/// The stdout of a finished command (a cargo build or test run by a test), which must have succeeded: else the
+/// test fails with `what` and both outputs.
+pub fn check(out: &std::process::Output, what: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// Asserts that cargo test's output `out` has each of `tests` run and passed.
+pub fn ran_and_passed(out: &str, tests: &[&str]) {
+    for t in tests {
+        assert!(
+            out.lines()
+                .any(|l| l.starts_with("test ") && l.contains(t) && l.ends_with("... ok")),
+            "{t} ran and passed:\n{out}"
+        );
+    }
+}
+
 /// The repository's root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

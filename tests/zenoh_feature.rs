@@ -18,7 +18,7 @@
 
 use std::process::{Command, Output};
 
-use radar_test_util::{python, repo};
+use radar_test_util::{check, python, ran_and_passed, repo};
 
 fn cargo(args: &[&str]) -> Output {
     let venv = python().parent().unwrap().parent().unwrap().to_owned();
@@ -30,16 +30,6 @@ fn cargo(args: &[&str]) -> Output {
         .env("RADAR_VENV", venv)
         .output()
         .expect("run cargo")
-}
-
-fn check(out: &Output, what: &str) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed:\n{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
 }
 
 #[test]
@@ -60,26 +50,9 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         ]),
         "clippy with the zenoh feature",
     );
-    let test = [
-        "test",
-        "-p",
-        "radar_ros",
-        "--features",
-        "zenoh",
-        "--test",
-        "zenoh",
-    ];
-    let netns = [
-        "test",
-        "-p",
-        "radar_ros",
-        "--features",
-        "zenoh",
-        "--test",
-        "zenoh_netns",
-        "--",
-        "--nocapture",
-    ];
+    let test = ["test", "-p", "radar_ros", "--features", "zenoh", "--test"];
+    let netns = [&test[..], &["zenoh_netns", "--", "--nocapture"]].concat();
+    let test = [&test[..], &["zenoh"]].concat();
     let mut no_run = test.to_vec();
     no_run.extend(["--test", "zenoh_netns", "--no-run"]);
     check(
@@ -98,16 +71,13 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         println!("zenoh_netns: {l}");
     }
     let out = check(&cargo(&test), "radar_ros/library/tests/zenoh.rs");
-    for t in [
-        "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",
-        "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
-    ] {
-        assert!(
-            out.lines()
-                .any(|l| l.starts_with("test ") && l.contains(t) && l.ends_with("... ok")),
-            "{t} ran and passed:\n{out}"
-        );
-    }
+    ran_and_passed(
+        &out,
+        &[
+            "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",
+            "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
+        ],
+    );
     let router = [
         "test",
         "-p",
@@ -118,11 +88,9 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "router",
     ];
     let out = check(&cargo(&router), "radar_ros/tools/tests/router.rs");
-    assert!(
-        out.lines().any(|l| l
-            .contains("radar_router_joins_design_document_peers_and_stops_cleanly")
-            && l.ends_with("... ok")),
-        "radar router's test ran and passed:\n{out}"
+    ran_and_passed(
+        &out,
+        &["radar_router_joins_design_document_peers_and_stops_cleanly"],
     );
     let scripts = repo().join("tests/python");
     let mypy = Command::new(python())

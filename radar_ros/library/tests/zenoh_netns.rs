@@ -116,6 +116,19 @@ async fn both_ways(side: &mut Side, peer: &mut Proc, x: f64, why: &str) {
     assert_eq!(msg.header.frame_id, "from_peer");
 }
 
+/// How long until radar_ros's graph shows no subscriber of its publisher: at most `bound`.
+async fn seen_gone(side: &Side, bound: Duration, who: &str) -> Duration {
+    let since = Instant::now();
+    while side.publisher.get_subscription_count(&side.node) > 0 {
+        assert!(
+            since.elapsed() < bound,
+            "{who} is seen gone within {bound:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    since.elapsed()
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn signals_cross_namespaces_through_a_router_survive_its_restart_and_a_killed_peer_is_seen_gone(
 ) {
@@ -192,15 +205,8 @@ async fn signals_cross_namespaces_through_a_router_survive_its_restart_and_a_kil
     // a peer killed with SIGKILL: its subscription's token leaves radar_ros's graph
     assert!(side.publisher.get_subscription_count(&side.node) >= 1);
     peer.kill().await;
-    let killed = Instant::now();
-    while side.publisher.get_subscription_count(&side.node) > 0 {
-        assert!(
-            killed.elapsed() < Duration::from_secs(12),
-            "a peer killed with SIGKILL is seen gone within the transport's lease (10 s)"
-        );
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
-    println!("a SIGKILLed peer seen gone in {:?}", killed.elapsed());
+    let gone = seen_gone(&side, Duration::from_secs(12), "a peer killed with SIGKILL").await;
+    println!("a SIGKILLed peer seen gone in {gone:?}");
 
     // a peer cut off (its link down: no connection closes, nothing is said) is seen gone when the router's
     // lease on it ends
@@ -208,15 +214,9 @@ async fn signals_cross_namespaces_through_a_router_survive_its_restart_and_a_kil
         start_peer(Some(peer_ns.pid()), "tcp/10.88.1.1:7447", DOMAIN, "client").await;
     both_ways(&mut side, &mut peer, 3.5, "a second peer").await;
     router_ns.ip(&["link", "set", "zrc1", "down"]);
-    let cut = Instant::now();
-    while side.publisher.get_subscription_count(&side.node) > 0 {
-        assert!(
-            cut.elapsed() < Duration::from_secs(15),
-            "a peer cut off is seen gone when the router's lease on it ends (10 s, and a keep-alive period)"
-        );
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-    println!("a peer cut off seen gone in {:?}", cut.elapsed());
+    // the router's lease on it ends: 10 s, and a keep-alive period
+    let gone = seen_gone(&side, Duration::from_secs(15), "a peer cut off").await;
+    println!("a peer cut off seen gone in {gone:?}");
     peer.kill().await;
     router.close();
 }

@@ -85,7 +85,13 @@ lazy_static::lazy_static! {
 /// Covers the hard-coded interop types plus the computed `std_msgs` scalar
 /// messages ([`STD_MSGS_SCALAR_HASHES`]). Returns `None` for anything else;
 /// callers then fall back to a wildcard/placeholder for the send direction.
+/// Hashes given by [`register_type_hash`] are known too (radar_ros patch 10).
 pub fn known_type_hash(dds_type_name: &str) -> Option<&'static str> {
+  table_hash(dds_type_name).or_else(|| REGISTERED.read().unwrap().get(dds_type_name).copied())
+}
+
+/// The hash the built-in tables give `dds_type_name`, if any.
+fn table_hash(dds_type_name: &str) -> Option<&'static str> {
   if dds_type_name == "std_msgs::msg::dds_::String_" {
     return Some("RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18");
   }
@@ -94,10 +100,9 @@ pub fn known_type_hash(dds_type_name: &str) -> Option<&'static str> {
   if let Some(hash) = JAZZY_INTEROP_HASHES.get(dds_type_name) {
     return Some(hash.as_str());
   }
-  if let Some(hash) = STD_MSGS_SCALAR_HASHES.get(dds_type_name) {
-    return Some(hash.as_str());
-  }
-  REGISTERED.read().unwrap().get(dds_type_name).copied()
+  STD_MSGS_SCALAR_HASHES
+    .get(dds_type_name)
+    .map(String::as_str)
 }
 
 lazy_static::lazy_static! {
@@ -131,34 +136,20 @@ pub fn register_type_hash(dds_type_name: &str, hash: &str) -> Result<(), String>
       "{hash:?} is not a RIHS01 type hash (`RIHS01_` and 64 lowercase hex digits) for {dds_type_name}"
     ));
   }
-  let mut registered = REGISTERED.write().unwrap();
-  let known = match registered.get(dds_type_name) {
-    Some(known) => Some(*known),
-    None => {
-      drop(registered);
-      let known = known_type_hash(dds_type_name);
-      registered = REGISTERED.write().unwrap();
-      known
-    }
+  let known = match table_hash(dds_type_name) {
+    Some(known) => known,
+    None => *REGISTERED
+      .write()
+      .unwrap()
+      .entry(dds_type_name.to_owned())
+      .or_insert_with(|| Box::leak(hash.to_owned().into_boxed_str())),
   };
-  match known {
-    Some(known) if known == hash => Ok(()),
-    Some(known) => Err(format!(
+  if known == hash {
+    Ok(())
+  } else {
+    Err(format!(
       "{dds_type_name} is already known with hash {known}; refusing {hash}"
-    )),
-    None => {
-      // a registration between the two locks above wins the same way
-      let entry = registered
-        .entry(dds_type_name.to_owned())
-        .or_insert_with(|| Box::leak(hash.to_owned().into_boxed_str()));
-      if *entry == hash {
-        Ok(())
-      } else {
-        Err(format!(
-          "{dds_type_name} is already known with hash {entry}; refusing {hash}"
-        ))
-      }
-    }
+    ))
   }
 }
 
