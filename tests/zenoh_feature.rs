@@ -6,6 +6,8 @@
 //!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
 //!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
 //!   (ros2-client patch 10), and a hash that is malformed or in conflict is refused;
+//! - `radar_ros/library/tests/zenoh_latched.rs`: transient local over Zenoh (ros2-client patch 12), both ways with
+//!   the design-document peer's advanced publisher and subscriber: a late subscriber gets the last state;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -52,12 +54,12 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     );
     let test = ["test", "-p", "radar_ros", "--features", "zenoh", "--test"];
     let netns = [&test[..], &["zenoh_netns", "--", "--nocapture"]].concat();
-    let test = [&test[..], &["zenoh"]].concat();
+    let test = [&test[..], &["zenoh", "--test", "zenoh_latched"]].concat();
     let mut no_run = test.to_vec();
     no_run.extend(["--test", "zenoh_netns", "--no-run"]);
     check(
         &cargo(&no_run),
-        "building radar_ros/library/tests/zenoh.rs and zenoh_netns.rs",
+        "building radar_ros/library/tests/zenoh.rs, zenoh_latched.rs and zenoh_netns.rs",
     );
     let out = check(&cargo(&netns), "radar_ros/library/tests/zenoh_netns.rs");
     assert!(
@@ -70,12 +72,16 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     {
         println!("zenoh_netns: {l}");
     }
-    let out = check(&cargo(&test), "radar_ros/library/tests/zenoh.rs");
+    let out = check(
+        &cargo(&test),
+        "radar_ros/library/tests/zenoh.rs and zenoh_latched.rs",
+    );
     ran_and_passed(
         &out,
         &[
             "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",
             "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
+            "latched_state_reaches_a_late_rmw_zenoh_peer_and_a_late_subscription_gets_the_peers",
         ],
     );
     let router = [

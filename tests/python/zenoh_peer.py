@@ -2,11 +2,17 @@
 the eclipse-zenoh wheel and rclpy's CDR: what radar_ros's Zenoh side is checked against. Nothing here comes
 from radar_ros or ros2-client.
 
-    python zenoh_peer.py ROUTER_ENDPOINT DOMAIN TYPE TOPIC_IN TOPIC_OUT [MODE]
+    python zenoh_peer.py ROUTER_ENDPOINT DOMAIN TYPE TOPIC_IN TOPIC_OUT [MODE [DURABILITY]]
 
 - A session as rmw_zenoh's default one: peer mode, connected to the router, listening on loopback, gossip
   scouting on, multicast scouting off. MODE `client` makes it a client of the router instead (how a program
   on another host reaches a robot's router).
+- DURABILITY `transient_local` makes both endpoints latched (keep last 1) as rmw_zenoh makes them since its
+  0.2.2 (ros2/rmw_zenoh#368, "introduce the advanced publisher and subscriber"): the publisher a zenoh-ext
+  advanced publisher with a cache of the depth and publisher detection, the subscription an advanced
+  subscriber with subscriber detection that queries the history of publishers (late ones too) for the
+  depth; both tokens' QoS say transient local. `volatile` (the default): plain Zenoh publisher and
+  subscriber, as the design document describes them.
 - A node `zenoh_peer` (liveliness token `@ros2_lv/<domain>/<session id>/0/0/NN/%/%/zenoh_peer`).
 - TYPE (`pkg/msg/Name`) is named as the design says: `pkg::msg::dds_::Name_` and the RIHS01 hash rosidl wrote
   into this venv's `share/pkg/msg/Name.json`.
@@ -17,7 +23,8 @@ from radar_ros or ros2-client.
   the epoch, 1 byte GID length, the GID); a sample without a well-formed attachment is printed as
   {"bad_attachment": hex}.
 - A publisher on TOPIC_OUT (its `MP` token): each line the test writes on stdin (the message's fields as JSON)
-  is put on the exact key with an attachment as above (sequence numbers from 1, the peer's own random GID).
+  is put on the exact key with an attachment as above (sequence numbers from 1, the peer's own random GID),
+  then {"sent": <sequence number>} is printed.
 - Every liveliness token seen on the domain (history included) is printed as {"token": key, "put": bool}.
 
 Prints {"up": <session id>} once its entities are declared; ends when stdin closes.
@@ -33,10 +40,12 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+import zenoh.ext
 from rclpy.serialization import deserialize_message, serialize_message
 
-# the compact QoS of the design document's examples: reliable, volatile, keep last 10
-QOS = "::,10:,:,:,,"
+# the compact QoS of the design document's examples: reliable, volatile, keep last 10; and reliable,
+# transient local (durability code 1), keep last 1
+QOS = {"volatile": "::,10:,:,:,,", "transient_local": ":1:,1:,:,:,,"}
 NODE = "zenoh_peer"
 
 
@@ -82,6 +91,9 @@ def rosidl_hash(ros_type: str) -> str:
 def main() -> None:
     router, domain, ros_type, topic_in, topic_out = sys.argv[1:6]
     mode = sys.argv[6] if len(sys.argv) > 6 else "peer"
+    durability = sys.argv[7] if len(sys.argv) > 7 else "volatile"
+    if durability not in QOS:
+        sys.exit(f"DURABILITY is one of {sorted(QOS)}, not {durability!r}")
     pkg, kind, name = ros_type.split("/")
     msg_class = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
     dds_type = f"{pkg}::{kind}::dds_::{name}_"
@@ -94,20 +106,23 @@ def main() -> None:
         conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("scouting/gossip/enabled", "true")
+    # rmw_zenoh's session stamps samples; an advanced publisher's cache needs it
+    conf.insert_json5("timestamping/enabled", "true")
     with zenoh.open(conf) as session:
-        serve(session, domain, msg_class, dds_type, type_hash, topic_in, topic_out)
+        serve(session, domain, msg_class, (dds_type, type_hash), (topic_in, topic_out), durability)
 
 
 def serve(
     session: zenoh.Session,
     domain: str,
     msg_class: Any,
-    dds_type: str,
-    type_hash: str,
-    topic_in: str,
-    topic_out: str,
+    named: tuple[str, str],
+    topics: tuple[str, str],
+    durability: str,
 ) -> None:
     """Declares the node and its two endpoints, then publishes a message per line of stdin until it closes."""
+    dds_type, type_hash = named
+    topic_in, topic_out = topics
     zid = str(session.info.zid())
 
     def on_token(sample: zenoh.Sample) -> None:
@@ -120,7 +135,7 @@ def serve(
     def token(entity_id: int, kind_code: str, topic: str) -> str:
         return (
             f"@ros2_lv/{domain}/{zid}/0/{entity_id}/{kind_code}/%/%/{NODE}/"
-            f"{mangle(topic)}/{dds_type}/{type_hash}/{QOS}"
+            f"{mangle(topic)}/{dds_type}/{type_hash}/{QOS[durability]}"
         )
 
     def key(topic: str) -> str:
@@ -142,9 +157,28 @@ def serve(
         )
 
     live = [session.liveliness().declare_token(f"@ros2_lv/{domain}/{zid}/0/0/NN/%/%/{NODE}")]
-    sub = session.declare_subscriber(key(topic_in), on_sample)
+    sub: Any
+    pub: Any
+    if durability == "transient_local":
+        sub = zenoh.ext.declare_advanced_subscriber(
+            session,
+            key(topic_in),
+            on_sample,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+            subscriber_detection=True,
+        )
+    else:
+        sub = session.declare_subscriber(key(topic_in), on_sample)
     live.append(session.liveliness().declare_token(token(10, "MS", topic_in)))
-    pub = session.declare_publisher(key(topic_out))
+    if durability == "transient_local":
+        pub = zenoh.ext.declare_advanced_publisher(
+            session,
+            key(topic_out),
+            cache=zenoh.ext.CacheConfig(max_samples=1),
+            publisher_detection=True,
+        )
+    else:
+        pub = session.declare_publisher(key(topic_out))
     live.append(session.liveliness().declare_token(token(11, "MP", topic_out)))
     gid = os.urandom(16)
     out({"up": zid, "hash": type_hash})
@@ -161,6 +195,7 @@ def serve(
             + gid
         )
         pub.put(serialize_message(msg), attachment=attachment)
+        out({"sent": seq})
     del sub, tokens_sub, live
 
 

@@ -125,6 +125,17 @@ pub async fn start_peer(
     domain: u16,
     mode: &str,
 ) -> (Proc, String, String, Vec<Value>) {
+    start_peer_with(netns, router, domain, mode, "volatile").await
+}
+
+/// [`start_peer`] with the peer's endpoints of `durability` (`volatile` or `transient_local`).
+pub async fn start_peer_with(
+    netns: Option<u32>,
+    router: &str,
+    domain: u16,
+    mode: &str,
+    durability: &str,
+) -> (Proc, String, String, Vec<Value>) {
     let mut peer = Proc::start_in(
         netns,
         "zenoh_peer.py",
@@ -135,6 +146,7 @@ pub async fn start_peer(
             "/zenoh_probe/to_peer",
             "/zenoh_probe/from_peer",
             mode,
+            durability,
         ],
     );
     // the peer's own tokens may come before it says it is up
@@ -169,6 +181,11 @@ pub struct Side {
 
 impl Side {
     pub fn open(domain: u16) -> Side {
+        Side::open_with(domain, QosProfile::default())
+    }
+
+    /// [`Side::open`] with both endpoints of `qos`.
+    pub fn open_with(domain: u16, qos: QosProfile) -> Side {
         let type_name = MessageTypeName::new(PoseStamped::PACKAGE, PoseStamped::NAME);
         register_type_hash(&type_name.dds_msg_type(), PoseStamped::TYPE_HASH.unwrap()).unwrap();
         let ctx = Context::with_options(ContextOptions::new().domain_id(domain)).unwrap();
@@ -178,7 +195,6 @@ impl Side {
                 NodeOptions::new(),
             )
             .unwrap();
-        let qos = QosProfile::default();
         let topic = |name| {
             node.create_topic(
                 &Name::new("/zenoh_probe", name).unwrap(),
@@ -194,6 +210,26 @@ impl Side {
             publisher,
             subscription,
             sent: 0,
+        }
+    }
+
+    /// Another subscription to `/zenoh_probe/from_peer`, of `qos`.
+    pub fn subscription(&self, qos: &QosProfile) -> Subscription<PoseStamped> {
+        let topic = self.node.create_topic(
+            &Name::new("/zenoh_probe", "from_peer").unwrap(),
+            MessageTypeName::new(PoseStamped::PACKAGE, PoseStamped::NAME),
+            qos,
+        );
+        self.node.create_subscription(&topic, None).unwrap()
+    }
+
+    /// Publishes `n` samples at once, counted as [`Side::until_heard`] counts them.
+    pub fn publish(&mut self, n: usize) {
+        for _ in 0..n {
+            self.sent += 1;
+            self.publisher
+                .publish(pose(&format!("to_peer {}", self.sent), self.sent as f64))
+                .unwrap();
         }
     }
 

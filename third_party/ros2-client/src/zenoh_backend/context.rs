@@ -256,7 +256,11 @@ fn apply_config_overrides(config: &mut Config, overrides: &str) -> zenoh::Result
 /// as a peer's connect is); gossip scouting on, so that the router tells peers
 /// of each other and they connect directly; multicast scouting off;
 /// timestamping on, with samples stamped in the future kept (a peer whose clock
-/// is ahead is not dropped). Listening on an IPv4 loopback port rather than
+/// is ahead is not dropped). Timestamping is on in client mode too (rmw_zenoh's
+/// file leaves it off there): a TRANSIENT_LOCAL publisher is an advanced one
+/// with a cache, which Zenoh refuses to declare in a session without
+/// timestamps, and a program that is a client of a remote router (the
+/// cross-host layout) still publishes latched state (radar_ros patch 12). Listening on an IPv4 loopback port rather than
 /// rmw_zenoh's `tcp/localhost:0`, which keeps the crate working where IPv6 is
 /// unavailable (Zenoh's own default listens on `tcp/[::]:0`, which fails
 /// there, e.g. on many CI runners); peers on the same host reach it the same
@@ -275,7 +279,7 @@ fn default_config() -> Config {
     ("listen/endpoints", "[\"tcp/127.0.0.1:0\"]"),
     ("scouting/multicast/enabled", "false"),
     ("scouting/gossip/enabled", "true"),
-    ("timestamping/enabled", "{ router: true, peer: true, client: false }"),
+    ("timestamping/enabled", "{ router: true, peer: true, client: true }"),
     ("timestamping/drop_future_timestamp", "false"),
   ] {
     config

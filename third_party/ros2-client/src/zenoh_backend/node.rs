@@ -38,7 +38,7 @@ use crate::{
   log::Log,
   names::{ActionTypeName, MessageTypeName, Name, NodeName, ServiceTypeName},
   parameters::{Parameter, ParameterStore},
-  qos::QosProfile,
+  qos::{Durability, QosProfile},
 };
 
 /// The `get_result` action service is queried with a long timeout, mirroring
@@ -205,7 +205,7 @@ impl Node {
       &topic.dds_type_name,
       sender_hash,
     );
-    let zenoh_publisher = self.context.session().declare_publisher(key).wait()?;
+    let zenoh_publisher = declare_sender(&self.context, key, &qos)?;
 
     let entity_id = self.next_entity_id.fetch_add(1, Ordering::Relaxed);
     let liveliness_key = self.entity_liveliness_key(
@@ -242,7 +242,7 @@ impl Node {
       &topic.dds_type_name,
       type_hash::WILDCARD,
     );
-    let zenoh_subscriber = self.context.session().declare_subscriber(key).wait()?;
+    let zenoh_subscriber = declare_receiver(&self.context, key, &qos)?;
 
     // The liveliness token, unlike the data key, is concrete
     // (real-or-placeholder hash) — it describes this entity for discovery.
@@ -694,6 +694,62 @@ fn resolve_fqn(name: &Name, node: &NodeName) -> String {
 }
 
 // ---------------------------------------------------------------------------
+
+/// The samples a transient-local endpoint keeps or asks for: its history depth
+/// (at least 1; KEEP_ALL as 1000, a bound rather than none).
+fn history_depth(qos: &QosProfile) -> usize {
+  match qos.history {
+    crate::qos::History::KeepLast { depth } => (depth.max(1)) as usize,
+    crate::qos::History::KeepAll => 1000,
+  }
+}
+
+/// A publisher on `key`: a plain one, or for TRANSIENT_LOCAL an advanced one
+/// with a cache of the history depth that late advanced subscribers can find
+/// and query (publisher detection), as rmw_zenoh declares it.
+fn declare_sender(
+  context: &Context,
+  key: String,
+  qos: &QosProfile,
+) -> CreateResult<super::pubsub::Sender> {
+  use zenoh_ext::{AdvancedPublisherBuilderExt, CacheConfig};
+  let builder = context.session().declare_publisher(key);
+  Ok(match qos.durability {
+    Durability::Volatile => super::pubsub::Sender::Plain(builder.wait()?),
+    Durability::TransientLocal => super::pubsub::Sender::Cached(
+      builder
+        .cache(CacheConfig::default().max_samples(history_depth(qos)))
+        .publisher_detection()
+        .wait()?,
+    ),
+  })
+}
+
+/// A subscriber on `key`: a plain one, or for TRANSIENT_LOCAL an advanced one
+/// that queries the caches of matching publishers, late ones too, for up to
+/// the history depth of samples each (and can be detected), as rmw_zenoh
+/// declares it.
+fn declare_receiver(
+  context: &Context,
+  key: String,
+  qos: &QosProfile,
+) -> CreateResult<super::pubsub::Receiver> {
+  use zenoh_ext::{AdvancedSubscriberBuilderExt, HistoryConfig};
+  let builder = context.session().declare_subscriber(key);
+  Ok(match qos.durability {
+    Durability::Volatile => super::pubsub::Receiver::Plain(builder.wait()?),
+    Durability::TransientLocal => super::pubsub::Receiver::History(
+      builder
+        .history(
+          HistoryConfig::default()
+            .detect_late_publishers()
+            .max_samples(history_depth(qos)),
+        )
+        .subscriber_detection()
+        .wait()?,
+    ),
+  })
+}
 
 #[cfg(test)]
 mod tests {

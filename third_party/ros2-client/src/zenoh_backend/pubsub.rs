@@ -5,6 +5,14 @@
 //! `rmw_zenoh` message shape. A subscription declares a Zenoh subscriber with a
 //! wildcard type-hash (liberal receive, ADR-0007) and yields decoded messages
 //! plus their [`MessageInfo`].
+//!
+//! TRANSIENT_LOCAL durability is carried as rmw_zenoh carries it (since its
+//! 0.2.2, "Introduce the advanced publisher and subscriber", ros2/rmw_zenoh#469):
+//! such a publisher is a zenoh-ext `AdvancedPublisher` with a cache of the QoS
+//! depth and publisher detection, such a subscription an `AdvancedSubscriber`
+//! with subscriber detection and a history query (late publishers detected)
+//! of the same depth, so a late subscriber gets the publisher's last samples.
+//! Volatile endpoints stay plain Zenoh ones.
 
 use std::{
   future::Future,
@@ -22,6 +30,7 @@ use zenoh::{
   pubsub::{Publisher as ZenohPublisher, Subscriber},
   sample::Sample,
 };
+use zenoh_ext::{AdvancedPublisher, AdvancedSubscriber};
 
 use super::{attachment::AttachmentData, cdr, node::Node};
 use crate::{
@@ -38,9 +47,44 @@ fn now_nanos() -> i64 {
     .unwrap_or(0)
 }
 
+/// What a [`Publisher`] puts through: a plain Zenoh publisher (volatile), or
+/// an advanced one whose cache late subscribers query (transient local).
+pub(crate) enum Sender {
+  Plain(ZenohPublisher<'static>),
+  Cached(AdvancedPublisher<'static>),
+}
+
+impl From<ZenohPublisher<'static>> for Sender {
+  fn from(p: ZenohPublisher<'static>) -> Sender {
+    Sender::Plain(p)
+  }
+}
+
+/// What a [`Subscription`] takes from: a plain Zenoh subscriber (volatile), or
+/// an advanced one that first asks matching publishers' caches (transient local).
+pub(crate) enum Receiver {
+  Plain(Subscriber<FifoChannelHandler<Sample>>),
+  History(AdvancedSubscriber<FifoChannelHandler<Sample>>),
+}
+
+impl From<Subscriber<FifoChannelHandler<Sample>>> for Receiver {
+  fn from(s: Subscriber<FifoChannelHandler<Sample>>) -> Receiver {
+    Receiver::Plain(s)
+  }
+}
+
+impl Receiver {
+  fn samples(&self) -> &FifoChannelHandler<Sample> {
+    match self {
+      Receiver::Plain(s) => s,
+      Receiver::History(s) => s,
+    }
+  }
+}
+
 /// A ROS 2 publisher over Zenoh.
 pub struct Publisher<M> {
-  zenoh_publisher: ZenohPublisher<'static>,
+  zenoh_publisher: Sender,
   seq: AtomicI64,
   source_gid: [u8; 16],
   // Kept alive so the entity stays discoverable; dropped => token undeclared.
@@ -54,13 +98,13 @@ pub struct Publisher<M> {
 
 impl<M: Serialize> Publisher<M> {
   pub(crate) fn new(
-    zenoh_publisher: ZenohPublisher<'static>,
+    zenoh_publisher: impl Into<Sender>,
     source_gid: [u8; 16],
     liveliness_token: Option<LivelinessToken>,
     topic_fqn: String,
   ) -> Self {
     Self {
-      zenoh_publisher,
+      zenoh_publisher: zenoh_publisher.into(),
       seq: AtomicI64::new(0),
       source_gid,
       _liveliness_token: liveliness_token,
@@ -88,12 +132,11 @@ impl<M: Serialize> Publisher<M> {
       Ok(encoded) => encoded,
       Err(e) => return Err(write_serialization(e.to_string(), msg)),
     };
-    self
-      .zenoh_publisher
-      .put(payload)
-      .attachment(attachment)
-      .await
-      .map_err(|e| write_middleware(e.to_string(), msg))
+    let sent = match &self.zenoh_publisher {
+      Sender::Plain(p) => p.put(payload).attachment(attachment).await,
+      Sender::Cached(p) => p.put(payload).attachment(attachment).await,
+    };
+    sent.map_err(|e| write_middleware(e.to_string(), msg))
   }
 
   /// Publish a message (blocking).
@@ -102,12 +145,11 @@ impl<M: Serialize> Publisher<M> {
       Ok(encoded) => encoded,
       Err(e) => return Err(write_serialization(e.to_string(), msg)),
     };
-    self
-      .zenoh_publisher
-      .put(payload)
-      .attachment(attachment)
-      .wait()
-      .map_err(|e| write_middleware(e.to_string(), msg))
+    let sent = match &self.zenoh_publisher {
+      Sender::Plain(p) => p.put(payload).attachment(attachment).wait(),
+      Sender::Cached(p) => p.put(payload).attachment(attachment).wait(),
+    };
+    sent.map_err(|e| write_middleware(e.to_string(), msg))
   }
 
   /// This publisher's source [`Gid`].
@@ -137,7 +179,7 @@ impl<M: Serialize> Publisher<M> {
 
 /// A ROS 2 subscription over Zenoh.
 pub struct Subscription<M> {
-  zenoh_subscriber: Subscriber<FifoChannelHandler<Sample>>,
+  zenoh_subscriber: Receiver,
   // Kept alive so the entity stays discoverable; dropped => token undeclared.
   _liveliness_token: Option<LivelinessToken>,
   // The topic's fully-qualified name; see `Publisher::topic_fqn`.
@@ -147,12 +189,12 @@ pub struct Subscription<M> {
 
 impl<M: DeserializeOwned> Subscription<M> {
   pub(crate) fn new(
-    zenoh_subscriber: Subscriber<FifoChannelHandler<Sample>>,
+    zenoh_subscriber: impl Into<Receiver>,
     liveliness_token: Option<LivelinessToken>,
     topic_fqn: String,
   ) -> Self {
     Self {
-      zenoh_subscriber,
+      zenoh_subscriber: zenoh_subscriber.into(),
       _liveliness_token: liveliness_token,
       topic_fqn,
       phantom: PhantomData,
@@ -182,6 +224,7 @@ impl<M: DeserializeOwned> Subscription<M> {
   pub async fn async_take(&self) -> ReadResult<(M, MessageInfo)> {
     let sample = self
       .zenoh_subscriber
+      .samples()
       .recv_async()
       .await
       .map_err(|_| ReadError::Closed)?;
@@ -190,7 +233,7 @@ impl<M: DeserializeOwned> Subscription<M> {
 
   /// Take a message if one is immediately available (non-blocking).
   pub fn try_take(&self) -> ReadResult<Option<(M, MessageInfo)>> {
-    match self.zenoh_subscriber.try_recv() {
+    match self.zenoh_subscriber.samples().try_recv() {
       Ok(Some(sample)) => Self::decode(&sample).map(Some),
       Ok(None) => Ok(None),
       Err(_) => Err(ReadError::Closed),
@@ -253,6 +296,8 @@ mod tests {
     c.insert_json5("mode", "\"peer\"").unwrap();
     c.insert_json5("scouting/multicast/enabled", "false")
       .unwrap();
+    // an advanced (transient-local) publisher needs timestamps, as in rmw_zenoh's session
+    c.insert_json5("timestamping/enabled", "true").unwrap();
     c.insert_json5(
       "listen/endpoints",
       &format!("[\"tcp/127.0.0.1:{listen_port}\"]"),
@@ -318,5 +363,72 @@ mod tests {
     assert_eq!(msg, "hello zenoh!");
     assert!(info.sequence_number() >= 1);
     assert_ne!(info.publisher_gid(), Gid::default());
+  }
+
+  // TRANSIENT_LOCAL (RADAR patch 12): a subscription made after the
+  // publisher has published gets the last `depth` samples from the
+  // publisher's cache; a volatile one made alongside gets none of them.
+  #[test]
+  fn a_late_transient_local_subscription_gets_the_cached_samples() {
+    use crate::qos::{Durability, History};
+    let pub_port = 17531;
+    let sub_port = 17532;
+    let pub_ctx =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(pub_port, None)))
+        .expect("open publisher context");
+    let pub_node = pub_ctx
+      .new_node(NodeName::new("/", "latch_pub").unwrap(), NodeOptions::new())
+      .unwrap();
+    let latched = QosProfile::default()
+      .durability(Durability::TransientLocal)
+      .history(History::KeepLast { depth: 2 });
+    let topic = |n: &Node, qos: &QosProfile| {
+      n.create_topic(
+        &Name::new("/", "latched").unwrap(),
+        MessageTypeName::new("std_msgs", "String"),
+        qos,
+      )
+    };
+    let publisher: Publisher<String> = pub_node
+      .create_publisher(&topic(&pub_node, &latched), None)
+      .expect("create publisher");
+    for m in ["one", "two", "three"] {
+      publisher.publish(m.to_string()).expect("publish");
+    }
+
+    // the subscriber's session only now connects to the publisher's
+    let sub_ctx = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(sub_port, Some(pub_port))),
+    )
+    .expect("open subscriber context");
+    let sub_node = sub_ctx
+      .new_node(NodeName::new("/", "latch_sub").unwrap(), NodeOptions::new())
+      .unwrap();
+    let late: Subscription<String> = sub_node
+      .create_subscription(&topic(&sub_node, &latched), None)
+      .expect("create the transient-local subscription");
+    let volatile: Subscription<String> = sub_node
+      .create_subscription(&topic(&sub_node, &QosProfile::default()), None)
+      .expect("create the volatile subscription");
+
+    let deadline = Instant::now() + Duration::from_secs(15);
+    let mut got = Vec::new();
+    while got.len() < 2 && Instant::now() < deadline {
+      match late.try_take().expect("try_take") {
+        Some((m, info)) => got.push((m, info.sequence_number())),
+        None => std::thread::sleep(Duration::from_millis(20)),
+      }
+    }
+    assert_eq!(
+      got,
+      vec![("two".to_string(), 2), ("three".to_string(), 3)],
+      "the last two (the depth) of the samples published before the subscription"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(late.try_take().expect("try_take").is_none(), "no more");
+    assert!(
+      volatile.try_take().expect("try_take").is_none(),
+      "a volatile subscription gets nothing published before it"
+    );
   }
 }
