@@ -13,6 +13,8 @@
 //!   times are printed);
 //! - `radar router` (radar_ros/tools/tests/router.rs): a router as rmw_zenoh's, through which two
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM;
+//! - `radar_bench quick --only zenoh`: one hop over ros2-client's Zenoh backend, peer to peer and through a
+//!   router, beside DDS (the rows are printed);
 //! - `mypy --strict` on the two Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
@@ -43,8 +45,10 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "radar_ros",
             "-p",
             "radar_tools",
+            "-p",
+            "radar_bench",
             "--features",
-            "radar_ros/zenoh,radar_tools/zenoh",
+            "radar_ros/zenoh,radar_tools/zenoh,radar_bench/zenoh",
             "--all-targets",
             "--",
             "-D",
@@ -98,6 +102,32 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         &out,
         &["radar_router_joins_design_document_peers_and_stops_cleanly"],
     );
+    // the bench's `zenoh` scenario, quick: one hop over Zenoh peer to peer and through a router, beside DDS
+    check(
+        &cargo(&["build", "-p", "radar_bench", "--features", "zenoh"]),
+        "building radar_bench with the zenoh feature",
+    );
+    let bench_out = std::env::temp_dir().join(format!("radar_bench_zenoh_{}", std::process::id()));
+    let bench = Command::new(repo().join("target/zenoh-feature/debug/radar_bench"))
+        .args(["quick", "--only", "zenoh", "--domain", "150", "--out"])
+        .arg(&bench_out)
+        .output()
+        .expect("run radar_bench");
+    let table = check(&bench, "radar_bench quick --only zenoh");
+    for row in [
+        "raw ros2-client over DDS, 1 hop",
+        "raw ros2-client over Zenoh, 1 hop peer to peer",
+        "raw ros2-client over Zenoh, 1 hop through the router",
+    ] {
+        let line = table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {row}")))
+            .unwrap_or_else(|| panic!("a row {row:?} in:\n{table}"));
+        let n: u64 = line.split('|').nth(2).unwrap().trim().parse().unwrap();
+        assert!(n > 0, "samples measured: {line}");
+        println!("radar_bench: {line}");
+    }
+    let _ = std::fs::remove_dir_all(&bench_out);
     let scripts = repo().join("tests/python");
     let mypy = Command::new(python())
         .args(["-m", "mypy", "--strict", "zenoh_peer.py", "zenoh_router.py"])

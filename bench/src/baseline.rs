@@ -8,7 +8,10 @@ use radar_ros::{
     msg::{Header, RosMessage},
     qos::signal_qos,
 };
-use ros2_client::{Context, ContextOptions, Name, Node, NodeName, NodeOptions};
+use ros2_client::{
+    dds::{Context, ContextOptions, Node},
+    Name, NodeName, NodeOptions,
+};
 
 /// How long a child waits for discovery or a peer before it answers with an error.
 pub(crate) const WAIT: Duration = Duration::from_secs(20);
@@ -44,7 +47,7 @@ fn raw_topic(node: &mut Node, topic: &str) -> Result<ros2_client::dds::rustdds::
 pub(crate) fn raw_subscription(
     node: &mut Node,
     topic: &str,
-) -> Result<ros2_client::Subscription<Header>> {
+) -> Result<ros2_client::dds::Subscription<Header>> {
     let t = raw_topic(node, topic)?;
     node.create_subscription::<Header>(&t, Some(signal_qos()))
         .map_err(|e| anyhow!("subscription {topic}: {e:?}"))
@@ -53,7 +56,7 @@ pub(crate) fn raw_subscription(
 pub(crate) fn raw_publisher(
     node: &mut Node,
     topic: &str,
-) -> Result<ros2_client::Publisher<Header>> {
+) -> Result<ros2_client::dds::Publisher<Header>> {
     let t = raw_topic(node, topic)?;
     node.create_publisher::<Header>(&t, Some(signal_qos()))
         .map_err(|e| anyhow!("publisher {topic}: {e:?}"))

@@ -28,7 +28,7 @@ use anyhow::{bail, Context as _, Result};
 fn usage() -> ! {
     eprintln!(
         "usage: radar_bench all|full|quick [--out DIR] [--domain N] [--only a,b] [--venv DIR]\n\
-         scenarios: latency, breakdown, interrupt, setup, throughput, scale, oneshot, memory, kill, action, codec, view"
+         scenarios: latency, breakdown, interrupt, setup, throughput, scale, oneshot, memory, kill, action, codec, view, security (--features security), zenoh (--features zenoh)"
     );
     std::process::exit(2)
 }

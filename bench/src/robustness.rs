@@ -10,7 +10,7 @@ use radar_ros::{
     },
     FnResponse, Radar, SlotError,
 };
-use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
+use ros2_client::{dds::ServiceMapping, Name, NodeName, NodeOptions, ServiceTypeName};
 use serde_json::json;
 
 use crate::{

@@ -14,6 +14,8 @@ mod security;
 mod setup;
 mod throughput;
 mod view;
+#[cfg(feature = "zenoh")]
+mod zenoh;
 
 use std::{
     path::{Path, PathBuf},
@@ -268,13 +270,24 @@ impl Bench {
     }
 
     async fn child(&self, domain: u16, args: &[&str]) -> Result<Child> {
+        self.child_with(domain, args, &[]).await
+    }
+
+    /// [`Bench::child`] with `extra` variables in its environment.
+    async fn child_with(
+        &self,
+        domain: u16,
+        args: &[&str],
+        extra: &[(&str, &str)],
+    ) -> Result<Child> {
         let mut all = vec!["child"];
         all.extend_from_slice(args);
-        let envs: Vec<(&str, &str)> = self
+        let mut envs: Vec<(&str, &str)> = self
             .child_env
             .iter()
             .map(|(k, v)| (k.as_str(), v.as_str()))
             .collect();
+        envs.extend_from_slice(extra);
         Child::start(&self.exe, &all, domain, &envs, START).await
     }
 
@@ -324,6 +337,8 @@ impl Bench {
             ("security", |b| Box::pin(b.security())),
             ("codec", |b| Box::pin(b.codec())),
             ("view", |b| Box::pin(b.view())),
+            #[cfg(feature = "zenoh")]
+            ("zenoh", |b| Box::pin(b.zenoh())),
         ];
         for (key, f) in scenarios {
             if !self.wants(key) {

@@ -9,6 +9,8 @@ mod scale;
 mod setup;
 mod signals;
 mod view;
+#[cfg(feature = "zenoh")]
+mod zenoh;
 
 use std::{
     collections::HashMap,
@@ -93,6 +95,12 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
             .await
         }
         "view-system" => view::view_system(num("--events")?, num("--responses")?).await,
+        #[cfg(feature = "zenoh")]
+        "zenoh-sink" => zenoh::zenoh_sink(&req("--topic")?).await,
+        #[cfg(feature = "zenoh")]
+        "zenoh-source" => zenoh::zenoh_source(&req("--topic")?).await,
+        #[cfg(feature = "zenoh")]
+        "zenoh-router" => zenoh::zenoh_router().await,
         other => bail!("unknown role {other:?}"),
     }
 }

@@ -1,0 +1,82 @@
+//! One hop over Zenoh (issue 37, the `zenoh` feature): raw ros2-client over its Zenoh backend, peer to peer
+//! (rmw_zenoh's default layout: the sessions meet through a router's gossip, then talk directly) and through
+//! the router (both sides its clients: every sample crosses two TCP legs and the router), beside raw
+//! ros2-client over DDS in the same run. The same message, QoS, pacing and clock as the DDS baseline.
+//! radar_ros's own rows over Zenoh come when a `Radar` runs on it (docs/zenoh.md, "The order").
+
+use super::*;
+
+impl Bench {
+    /// The Zenoh rows and the DDS row beside them.
+    pub(super) async fn zenoh(&mut self) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        let run = format!("run {n} {p}");
+        let (r, children) = self.raw_hop(&run, false).await?;
+        self.push_latency(
+            "raw_1hop_beside_zenoh",
+            "raw ros2-client over DDS, 1 hop (publisher -> subscriber), beside the Zenoh rows",
+            &r,
+            "",
+        )?;
+        for c in children {
+            c.quit().await;
+        }
+        let d = self.domain();
+        // a port of the domain's own, far from DDS's (7400 + 250 * domain)
+        let port = 30_000 + u32::from(d);
+        let router_conf = format!(
+            "mode=\"router\";listen/endpoints=[\"tcp/127.0.0.1:{port}\"];connect/endpoints=[];\
+             scouting/multicast/enabled=false;scouting/gossip/enabled=true;\
+             routing/router/peers_failover_brokering=false"
+        );
+        let router = self
+            .child_with(
+                d,
+                &["zenoh-router"],
+                &[("ZENOH_CONFIG_OVERRIDE", &router_conf)],
+            )
+            .await?;
+        for (mode, key, label) in [
+            (
+                "peer",
+                "zenoh_p2p_1hop",
+                "raw ros2-client over Zenoh, 1 hop peer to peer (met through the router's gossip)",
+            ),
+            (
+                "client",
+                "zenoh_router_1hop",
+                "raw ros2-client over Zenoh, 1 hop through the router (both its clients)",
+            ),
+        ] {
+            let conf = format!("mode=\"{mode}\";connect/endpoints=[\"tcp/127.0.0.1:{port}\"]");
+            let env = [("ZENOH_CONFIG_OVERRIDE", conf.as_str())];
+            let topic = format!("/bench/{key}");
+            let mut sink = self
+                .child_with(d, &["zenoh-sink", "--topic", &topic], &env)
+                .await?;
+            let mut src = self
+                .child_with(d, &["zenoh-source", "--topic", &topic], &env)
+                .await?;
+            src.ask("wait", START).await?;
+            let r = self.paced(&mut src, &run, &mut sink).await?;
+            self.push_latency(key, label, &r, "")?;
+            let p50 = |k: &str| {
+                self.results
+                    .latency
+                    .iter()
+                    .find(|l| l.key == k)
+                    .map(|l| l.summary.p50_us)
+            };
+            if let (Some(z), Some(dds)) = (p50(key), p50("raw_1hop_beside_zenoh")) {
+                let note = format!("p50 {:.2}x DDS's beside it", z / dds);
+                if let Some(row) = self.results.latency.last_mut() {
+                    row.note = note;
+                }
+            }
+            src.quit().await;
+            sink.quit().await;
+        }
+        router.quit().await;
+        Ok(())
+    }
+}
