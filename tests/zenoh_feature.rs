@@ -116,6 +116,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     let table = check(&bench, "radar_bench quick --only zenoh");
     for row in [
         "raw ros2-client over DDS, 1 hop",
+        "Zenoh alone (no ros2-client)",
         "raw ros2-client over Zenoh, 1 hop peer to peer",
         "raw ros2-client over Zenoh, 1 hop through the router",
     ] {

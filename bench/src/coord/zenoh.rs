@@ -1,7 +1,7 @@
 //! One hop over Zenoh (issue 37, the `zenoh` feature): raw ros2-client over its Zenoh backend, peer to peer
 //! (rmw_zenoh's default layout: the sessions meet through a router's gossip, then talk directly) and through
 //! the router (both sides its clients: every sample crosses two TCP legs and the router), beside raw
-//! ros2-client over DDS in the same run. The same message, QoS, pacing and clock as the DDS baseline.
+//! ros2-client over DDS in the same run, and Zenoh's own floor (a plain Zenoh pair, no ros2-client). The same message, QoS, pacing and clock as the DDS baseline.
 //! radar_ros's own rows over Zenoh come when a `Radar` runs on it (docs/zenoh.md, "The order").
 
 use super::*;
@@ -36,6 +36,26 @@ impl Bench {
                 &[("ZENOH_CONFIG_OVERRIDE", &router_conf)],
             )
             .await?;
+        // Zenoh's own floor: a plain Zenoh pair, no ros2-client, peer to peer as the next row
+        {
+            let conf = format!("mode=\"peer\";connect/endpoints=[\"tcp/127.0.0.1:{port}\"]");
+            let env = [("ZENOH_CONFIG_OVERRIDE", conf.as_str())];
+            let args = |role| [role, "--topic", "/zenoh_floor"];
+            let mut sink = self.child_with(d, &args("zenoh-floor-sink"), &env).await?;
+            let mut src = self
+                .child_with(d, &args("zenoh-floor-source"), &env)
+                .await?;
+            src.ask("wait", START).await?;
+            let r = self.paced(&mut src, &run, &mut sink).await?;
+            self.push_latency(
+                "zenoh_floor",
+                "Zenoh alone (no ros2-client), 100 bytes peer to peer, taken in Zenoh's callback",
+                &r,
+                "",
+            )?;
+            src.quit().await;
+            sink.quit().await;
+        }
         for (mode, key, label) in [
             (
                 "peer",

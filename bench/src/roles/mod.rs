@@ -101,6 +101,10 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "zenoh-source" => zenoh::zenoh_source(&req("--topic")?).await,
         #[cfg(feature = "zenoh")]
         "zenoh-router" => zenoh::zenoh_router().await,
+        #[cfg(feature = "zenoh")]
+        "zenoh-floor-sink" => zenoh::zenoh_floor_sink(&req("--topic")?).await,
+        #[cfg(feature = "zenoh")]
+        "zenoh-floor-source" => zenoh::zenoh_floor_source(&req("--topic")?).await,
         other => bail!("unknown role {other:?}"),
     }
 }

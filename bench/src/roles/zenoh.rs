@@ -109,3 +109,94 @@ pub(super) async fn zenoh_router() -> Result<()> {
     serve(|w| async move { bail!("unknown command {}", w[0]) }).await;
     Ok(())
 }
+
+/// The key a floor pair uses for `topic`: outside ROS's key space (no domain, type or hash).
+fn floor_key(topic: &str) -> String {
+    format!("radar_bench/floor{topic}")
+}
+
+/// Zenoh's own floor, without ros2-client: a plain Zenoh subscriber in a session configured as the
+/// ros2-client ones are, recording each stamped 100-byte payload's age in Zenoh's callback (as `udp-sink`
+/// does in its thread). `report WARMUP`.
+pub(super) async fn zenoh_floor_sink(name: &str) -> Result<()> {
+    use ::zenoh::Wait;
+    let ctx = Context::with_options(ContextOptions::new())
+        .map_err(|e| anyhow!("a Zenoh session: {e:?}"))?;
+    let rec = Record::default();
+    let r = rec.clone();
+    let _sub = ctx
+        .session()
+        .declare_subscriber(floor_key(name))
+        .callback(move |sample| {
+            let now = now_ns();
+            let b = sample.payload().to_bytes();
+            if b.len() >= 16 {
+                let seq = u64::from_le_bytes(b[0..8].try_into().unwrap_or_default());
+                let t0 = u64::from_le_bytes(b[8..16].try_into().unwrap_or_default());
+                r.push(seq, now.saturating_sub(t0));
+            }
+        })
+        .wait()
+        .map_err(|e| anyhow!("a Zenoh subscriber: {e}"))?;
+    serve(|w| {
+        let rec = rec.clone();
+        async move {
+            match w[0].as_str() {
+                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
+                c => bail!("unknown command {c}"),
+            }
+        }
+    })
+    .await;
+    Ok(())
+}
+
+/// Puts stamped 100-byte payloads with a plain Zenoh publisher: `wait` (until a subscriber matches), `run N
+/// PERIOD_US`.
+pub(super) async fn zenoh_floor_source(name: &str) -> Result<()> {
+    use ::zenoh::Wait;
+    let ctx = Context::with_options(ContextOptions::new())
+        .map_err(|e| anyhow!("a Zenoh session: {e:?}"))?;
+    let publisher = Arc::new(
+        ctx.session()
+            .declare_publisher(floor_key(name))
+            .wait()
+            .map_err(|e| anyhow!("a Zenoh publisher: {e}"))?,
+    );
+    serve(|w| {
+        let p = publisher.clone();
+        async move {
+            match w[0].as_str() {
+                "wait" => {
+                    let started = std::time::Instant::now();
+                    while !p
+                        .matching_status()
+                        .wait()
+                        .map_err(|e| anyhow!("{e}"))?
+                        .matching()
+                    {
+                        if started.elapsed() > WAIT {
+                            bail!("no subscriber within {WAIT:?}");
+                        }
+                        tokio::time::sleep(Duration::from_millis(10)).await;
+                    }
+                    Ok("ok".into())
+                }
+                "run" => {
+                    let (n, period): (u64, u64) = (word(&w, 1)?, word(&w, 2)?);
+                    paced(n, Duration::from_micros(period), |i| {
+                        let mut b = [0u8; 100];
+                        b[0..8].copy_from_slice(&i.to_le_bytes());
+                        b[8..16].copy_from_slice(&now_ns().to_le_bytes());
+                        let _ = p.put(b.to_vec()).wait();
+                    })
+                    .await;
+                    Ok(format!("sent {n}"))
+                }
+                c => bail!("unknown command {c}"),
+            }
+        }
+    })
+    .await;
+    Ok(())
+}
