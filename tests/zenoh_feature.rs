@@ -11,6 +11,8 @@
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
+//! - `radar_ros/library/tests/zenoh_sites.rs`: a router per site, joined to each other, programs peers of their
+//!   own site's router: both ways, the graph across, a site's router killed and back;
 //! - `radar router` (radar_ros/tools/tests/router.rs): a router as rmw_zenoh's, through which two
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM;
 //! - `radar_bench quick --only zenoh`: one hop over ros2-client's Zenoh backend, peer to peer and through a
@@ -57,18 +59,28 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "clippy with the zenoh feature",
     );
     let test = ["test", "-p", "radar_ros", "--features", "zenoh", "--test"];
-    let netns = [&test[..], &["zenoh_netns", "--", "--nocapture"]].concat();
+    let netns = [
+        &test[..],
+        &["zenoh_netns", "--test", "zenoh_sites", "--", "--nocapture"],
+    ]
+    .concat();
     let test = [&test[..], &["zenoh", "--test", "zenoh_latched"]].concat();
     let mut no_run = test.to_vec();
-    no_run.extend(["--test", "zenoh_netns", "--no-run"]);
+    no_run.extend(["--test", "zenoh_netns", "--test", "zenoh_sites", "--no-run"]);
     check(
         &cargo(&no_run),
-        "building radar_ros/library/tests/zenoh.rs, zenoh_latched.rs and zenoh_netns.rs",
+        "building radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_netns.rs and zenoh_sites.rs",
     );
-    let out = check(&cargo(&netns), "radar_ros/library/tests/zenoh_netns.rs");
-    assert!(
-        out.contains("test result: ok. 1 passed"),
-        "zenoh_netns ran and passed:\n{out}"
+    let out = check(
+        &cargo(&netns),
+        "radar_ros/library/tests/zenoh_netns.rs and zenoh_sites.rs",
+    );
+    ran_and_passed(
+        &out,
+        &[
+            "signals_cross_namespaces_through_a_router_survive_its_restart_and_a_killed_peer_is_seen_gone",
+            "two_sites_each_with_its_router_exchange_signals_and_see_each_others_graph",
+        ],
     );
     for l in out
         .lines()

@@ -6,7 +6,7 @@
 
 use std::{
     path::PathBuf,
-    process::Stdio,
+    process::{Command, Stdio},
     time::{Duration, Instant, SystemTime, UNIX_EPOCH},
 };
 
@@ -349,4 +349,82 @@ pub fn check_heard(heard: &[Value]) {
         );
         assert_eq!(v["gid"].as_str().unwrap().len(), 32, "a 16-byte GID: {v}");
     }
+}
+
+/// A network namespace of its own, held by a `sleep` started in it; gone (with its links) when dropped.
+pub struct Netns {
+    holder: std::process::Child,
+}
+
+impl Netns {
+    pub fn new() -> Netns {
+        let holder = Command::new("unshare")
+            .args(["--net", "--", "sleep", "600"])
+            .spawn()
+            .expect("unshare (util-linux) starts a process in a new network namespace");
+        let ns = Netns { holder };
+        let mine = std::fs::read_link("/proc/self/ns/net").unwrap();
+        let started = Instant::now();
+        while std::fs::read_link(format!("/proc/{}/ns/net", ns.pid()))
+            .ok()
+            .as_ref()
+            == Some(&mine)
+        {
+            assert!(started.elapsed() < WAIT, "unshare made no namespace");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        ns.ip(&["link", "set", "lo", "up"]);
+        ns
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.holder.id()
+    }
+
+    /// `ip ARGS` inside it.
+    pub fn ip(&self, args: &[&str]) {
+        let net = format!("--net=/proc/{}/ns/net", self.pid());
+        run("nsenter", &[&[net.as_str(), "ip"], args].concat());
+    }
+}
+
+impl Drop for Netns {
+    fn drop(&mut self) {
+        let _ = self.holder.kill();
+        let _ = self.holder.wait();
+    }
+}
+
+pub fn run(cmd: &str, args: &[&str]) {
+    let out = Command::new(cmd)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{cmd}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cmd} {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A veth pair from `a` (this namespace if `None`) to `b`, addressed `a_addr` and `b_addr` (CIDR).
+pub fn link(a: Option<&Netns>, a_if: &str, a_addr: &str, b: &Netns, b_if: &str, b_addr: &str) {
+    run(
+        "ip",
+        &["link", "add", a_if, "type", "veth", "peer", "name", b_if],
+    );
+    run("ip", &["link", "set", b_if, "netns", &b.pid().to_string()]);
+    match a {
+        Some(a) => {
+            run("ip", &["link", "set", a_if, "netns", &a.pid().to_string()]);
+            a.ip(&["addr", "add", a_addr, "dev", a_if]);
+            a.ip(&["link", "set", a_if, "up"]);
+        }
+        None => {
+            run("ip", &["addr", "add", a_addr, "dev", a_if]);
+            run("ip", &["link", "set", a_if, "up"]);
+        }
+    }
+    b.ip(&["addr", "add", b_addr, "dev", b_if]);
+    b.ip(&["link", "set", b_if, "up"]);
 }
