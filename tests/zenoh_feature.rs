@@ -8,6 +8,8 @@
 //!   (ros2-client patch 10), and a hash that is malformed or in conflict is refused;
 //! - `radar_ros/library/tests/zenoh_latched.rs`: transient local over Zenoh (ros2-client patch 12), both ways with
 //!   the design-document peer's advanced publisher and subscriber: a late subscriber gets the last state;
+//! - `radar_ros/library/tests/zenoh_congestion.rs`: a reliable KEEP_ALL burst larger than Zenoh's queues arrives
+//!   whole and in order (ros2-client patch 13: it blocks on congestion, as rmw_zenoh's);
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -64,13 +66,20 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         &["zenoh_netns", "--test", "zenoh_sites", "--", "--nocapture"],
     ]
     .concat();
-    let test = [&test[..], &["zenoh", "--test", "zenoh_latched"]].concat();
+    let test = [
+        &test[..],
+        &[
+            "zenoh",
+            "--test",
+            "zenoh_latched",
+            "--test",
+            "zenoh_congestion",
+        ],
+    ]
+    .concat();
     let mut no_run = test.to_vec();
     no_run.extend(["--test", "zenoh_netns", "--test", "zenoh_sites", "--no-run"]);
-    check(
-        &cargo(&no_run),
-        "building radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_netns.rs and zenoh_sites.rs",
-    );
+    check(&cargo(&no_run), "building radar_ros's Zenoh tests");
     let out = check(
         &cargo(&netns),
         "radar_ros/library/tests/zenoh_netns.rs and zenoh_sites.rs",
@@ -90,7 +99,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs and zenoh_latched.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs and zenoh_congestion.rs",
     );
     ran_and_passed(
         &out,
@@ -98,6 +107,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design",
             "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
             "latched_state_reaches_a_late_rmw_zenoh_peer_and_a_late_subscription_gets_the_peers",
+            "a_reliable_keep_all_burst_larger_than_zenohs_queues_arrives_whole_and_in_order",
         ],
     );
     let router = [

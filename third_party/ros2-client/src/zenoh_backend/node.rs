@@ -706,14 +706,27 @@ fn history_depth(qos: &QosProfile) -> usize {
 
 /// A publisher on `key`: a plain one, or for TRANSIENT_LOCAL an advanced one
 /// with a cache of the history depth that late advanced subscribers can find
-/// and query (publisher detection), as rmw_zenoh declares it.
+/// and query (publisher detection), as rmw_zenoh declares it; blocking on
+/// congestion when reliable and KEEP_ALL, as rmw_zenoh's does.
 fn declare_sender(
   context: &Context,
   key: String,
   qos: &QosProfile,
 ) -> CreateResult<super::pubsub::Sender> {
+  use zenoh::qos::CongestionControl;
   use zenoh_ext::{AdvancedPublisherBuilderExt, CacheConfig};
-  let builder = context.session().declare_publisher(key);
+  // as rmw_zenoh: a reliable KEEP_ALL publisher waits for room rather than drop
+  // a sample when the link is congested; every other one drops (Zenoh's default)
+  let congestion = match (qos.reliability, qos.history) {
+    (crate::qos::Reliability::Reliable { .. }, crate::qos::History::KeepAll) => {
+      CongestionControl::Block
+    }
+    _ => CongestionControl::Drop,
+  };
+  let builder = context
+    .session()
+    .declare_publisher(key)
+    .congestion_control(congestion);
   Ok(match qos.durability {
     Durability::Volatile => super::pubsub::Sender::Plain(builder.wait()?),
     Durability::TransientLocal => super::pubsub::Sender::Cached(
