@@ -10,6 +10,8 @@
 //!   the design-document peer's advanced publisher and subscriber: a late subscriber gets the last state;
 //! - `radar_ros/library/tests/zenoh_congestion.rs`: a reliable KEEP_ALL burst larger than Zenoh's queues arrives
 //!   whole and in order (ros2-client patch 13: it blocks on congestion, as rmw_zenoh's);
+//! - `radar_ros/library/tests/zenoh_clock.rs`: a peer whose clock is an hour ahead (libfaketime) is heard and
+//!   hears, plain and latched;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -74,6 +76,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_latched",
             "--test",
             "zenoh_congestion",
+            "--test",
+            "zenoh_clock",
         ],
     ]
     .concat();
@@ -99,7 +103,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs and zenoh_congestion.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs and zenoh_clock.rs",
     );
     ran_and_passed(
         &out,
@@ -108,6 +112,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "a_type_hash_given_to_zenoh_is_refused_when_malformed_or_in_conflict",
             "latched_state_reaches_a_late_rmw_zenoh_peer_and_a_late_subscription_gets_the_peers",
             "a_reliable_keep_all_burst_larger_than_zenohs_queues_arrives_whole_and_in_order",
+            "a_peer_an_hour_ahead_is_heard_and_hears_plain_and_latched",
         ],
     );
     let router = [

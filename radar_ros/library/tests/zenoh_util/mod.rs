@@ -54,6 +54,16 @@ impl Proc {
 
     /// Starts it in the network namespace of process `netns` (through `nsenter`), or in this one.
     pub fn start_in(netns: Option<u32>, name: &str, args: &[&str]) -> Proc {
+        Proc::start_with(netns, name, args, &[])
+    }
+
+    /// [`Proc::start_in`] with `envs` added to its environment.
+    pub fn start_with(
+        netns: Option<u32>,
+        name: &str,
+        args: &[&str],
+        envs: &[(&str, &str)],
+    ) -> Proc {
         let mut cmd = match netns {
             Some(pid) => {
                 let mut c = tokio::process::Command::new("nsenter");
@@ -66,6 +76,7 @@ impl Proc {
             .arg(script(name))
             .args(args)
             .env("PYTHONUNBUFFERED", "1")
+            .envs(envs.iter().copied())
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .kill_on_drop(true)
@@ -136,7 +147,19 @@ pub async fn start_peer_with(
     mode: &str,
     durability: &str,
 ) -> (Proc, String, String, Vec<Value>) {
-    let mut peer = Proc::start_in(
+    start_peer_env(netns, router, domain, (mode, durability), &[]).await
+}
+
+/// [`start_peer_with`] (`how`: mode and durability) with `envs` added to the peer's environment.
+pub async fn start_peer_env(
+    netns: Option<u32>,
+    router: &str,
+    domain: u16,
+    how: (&str, &str),
+    envs: &[(&str, &str)],
+) -> (Proc, String, String, Vec<Value>) {
+    let (mode, durability) = how;
+    let mut peer = Proc::start_with(
         netns,
         "zenoh_peer.py",
         &[
@@ -148,6 +171,7 @@ pub async fn start_peer_with(
             mode,
             durability,
         ],
+        envs,
     );
     // the peer's own tokens may come before it says it is up
     let mut tokens = Vec::new();
