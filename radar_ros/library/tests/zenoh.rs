@@ -25,19 +25,14 @@ use std::time::Duration;
 
 use ros2_client::zenoh::register_type_hash;
 use serde_json::Value;
-use zenoh_util::{check_heard, start_peer, Proc, Side};
+use zenoh_util::{check_heard, local_router, start_peer, Side};
 
 const DOMAIN: u16 = 131;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn radar_ros_types_cross_zenoh_to_and_from_a_peer_written_from_rmw_zenohs_design() {
     // port 7447 is the host's router's: only inside the tests' own network namespace
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
-        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
-    );
-    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
-    assert_eq!(router.line().await, "up");
+    let mut router = local_router().await;
     let (mut peer, rosidl_hash, peer_zid, mut tokens) =
         start_peer(None, "tcp/localhost:7447", DOMAIN, "peer").await;
 

@@ -21,7 +21,7 @@ use ros2_client::{
     QosProfile,
 };
 use serde_json::Value;
-use zenoh_util::{start_peer_env, Proc, Side, WAIT};
+use zenoh_util::{local_router, start_peer_env, Proc, Side, WAIT};
 
 const DOMAIN: u16 = 136;
 const LIBFAKETIME: &str = "/usr/lib/x86_64-linux-gnu/faketime/libfaketime.so.1";
@@ -61,12 +61,7 @@ async fn skewed_peer(durability: &str) -> Proc {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_peer_an_hour_ahead_is_heard_and_hears_plain_and_latched() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
-        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
-    );
-    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
-    assert_eq!(router.line().await, "up");
+    let mut router = local_router().await;
 
     // plain: both ways
     let mut peer = skewed_peer("volatile").await;

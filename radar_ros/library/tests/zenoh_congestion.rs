@@ -21,7 +21,7 @@ use ros2_client::{
     zenoh::{Context, ContextOptions, Node, Subscription},
     MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
 };
-use zenoh_util::{Proc, WAIT};
+use zenoh_util::{local_router, WAIT};
 
 const DOMAIN: u16 = 135;
 const BURST: usize = 2_000;
@@ -45,12 +45,7 @@ fn topic(node: &Node, qos: &QosProfile) -> ros2_client::zenoh::Topic {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_reliable_keep_all_burst_larger_than_zenohs_queues_arrives_whole_and_in_order() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
-        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
-    );
-    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
-    assert_eq!(router.line().await, "up");
+    let mut router = local_router().await;
     let keep_all = QosProfile::default()
         .reliability(Reliability::Reliable {
             when_full: WhenFull::DEFAULT,

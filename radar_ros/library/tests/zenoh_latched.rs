@@ -27,7 +27,7 @@ use ros2_client::{
     QosProfile,
 };
 use serde_json::Value;
-use zenoh_util::{check_heard, start_peer_with, Proc, Side, WAIT};
+use zenoh_util::{check_heard, local_router, start_peer_with, Proc, Side, WAIT};
 
 const DOMAIN: u16 = 133;
 
@@ -62,12 +62,7 @@ async fn next_with(peer: &mut Proc, field: &str, tokens: &mut Vec<Value>, why: &
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn latched_state_reaches_a_late_rmw_zenoh_peer_and_a_late_subscription_gets_the_peers() {
-    assert!(
-        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
-        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
-    );
-    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
-    assert_eq!(router.line().await, "up");
+    let mut router = local_router().await;
 
     // radar_ros's side publishes its state three times before anyone listens
     let mut side = Side::open_with(DOMAIN, latched());

@@ -26,17 +26,9 @@ use std::{
     time::{Duration, Instant},
 };
 
-use zenoh_util::{check_heard, link, start_peer, Netns, Proc, Side};
+use zenoh_util::{both_ways, link, start_peer, Netns, Proc, Side};
 
 const DOMAIN: u16 = 132;
-
-async fn both_ways(side: &mut Side, peer: &mut Proc, x: f64, why: &str) {
-    let mut tokens = Vec::new();
-    let heard = side.until_heard(peer, 3, &mut tokens, why).await;
-    check_heard(&heard);
-    let (msg, _) = side.hear_peer(peer, x).await;
-    assert_eq!(msg.header.frame_id, "from_peer");
-}
 
 /// How long until radar_ros's graph shows no subscriber of its publisher: at most `bound`.
 async fn seen_gone(side: &Side, bound: Duration, who: &str) -> Duration {

@@ -18,17 +18,9 @@ mod zenoh_util;
 
 use std::time::{Duration, Instant};
 
-use zenoh_util::{check_heard, link, start_peer, Netns, Proc, Side, WAIT};
+use zenoh_util::{both_ways, link, start_peer, Netns, Proc, Side, WAIT};
 
 const DOMAIN: u16 = 134;
-
-async fn both_ways(side: &mut Side, peer: &mut Proc, x: f64, why: &str) {
-    let mut tokens = Vec::new();
-    let heard = side.until_heard(peer, 3, &mut tokens, why).await;
-    check_heard(&heard);
-    let (msg, _) = side.hear_peer(peer, x).await;
-    assert_eq!(msg.header.frame_id, "from_peer");
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_sites_each_with_its_router_exchange_signals_and_see_each_others_graph() {

@@ -127,6 +127,28 @@ impl Proc {
     }
 }
 
+/// The router of rmw_zenoh's default layout on `tcp/127.0.0.1:7447`, up. Only inside tests/isolated.sh, where
+/// that port is the tests' own namespace's (on the host it is the host's router's).
+pub async fn local_router() -> Proc {
+    assert!(
+        std::env::var("RADAR_ISOLATED").as_deref() == Ok("1"),
+        "run inside tests/isolated.sh: this test starts a Zenoh router on port 7447, rmw_zenoh's"
+    );
+    let mut router = Proc::start("zenoh_router.py", &["tcp/127.0.0.1:7447"]);
+    assert_eq!(router.line().await, "up");
+    router
+}
+
+/// Samples cross both ways: radar_ros's side until the peer has heard three (checked as the design says), then
+/// the peer's until one with `x` arrives.
+pub async fn both_ways(side: &mut Side, peer: &mut Proc, x: f64, why: &str) {
+    let mut tokens = Vec::new();
+    let heard = side.until_heard(peer, 3, &mut tokens, why).await;
+    check_heard(&heard);
+    let (msg, _) = side.hear_peer(peer, x).await;
+    assert_eq!(msg.header.frame_id, "from_peer");
+}
+
 /// The design-document peer: `zenoh_peer.py ROUTER DOMAIN pkg/msg/PoseStamped /zenoh_probe/to_peer
 /// /zenoh_probe/from_peer MODE` (`peer` or `client`), started and up. Returns it, rosidl's hash it read, its
 /// session id and the tokens it printed before it was up.
