@@ -12,6 +12,8 @@
 //!   whole and in order (ros2-client patch 13: it blocks on congestion, as rmw_zenoh's);
 //! - `radar_ros/library/tests/zenoh_clock.rs`: a peer whose clock is an hour ahead (libfaketime) is heard and
 //!   hears, plain and latched;
+//! - `radar_ros/library/tests/zenoh_matched.rs`: matched counts from liveliness tokens as rmw_zenoh counts them
+//!   (ros2-client patch 14), against the design-document peer as it comes and is SIGKILLed;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -78,6 +80,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_congestion",
             "--test",
             "zenoh_clock",
+            "--test",
+            "zenoh_matched",
         ],
     ]
     .concat();
@@ -103,7 +107,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs and zenoh_clock.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs and zenoh_matched.rs",
     );
     ran_and_passed(
         &out,
@@ -113,6 +117,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "latched_state_reaches_a_late_rmw_zenoh_peer_and_a_late_subscription_gets_the_peers",
             "a_reliable_keep_all_burst_larger_than_zenohs_queues_arrives_whole_and_in_order",
             "a_peer_an_hour_ahead_is_heard_and_hears_plain_and_latched",
+            "matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and_is_killed",
         ],
     );
     let router = [

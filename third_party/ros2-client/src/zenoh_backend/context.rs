@@ -14,7 +14,7 @@ use async_channel::Receiver;
 use zenoh::{Config, Session, Wait, pubsub::Subscriber, sample::SampleKind};
 
 use super::{
-  graph_cache::GraphCache,
+  graph_cache::{GraphCache, MatchInfo},
   keyexpr::{self, EntityKind},
   node::Node,
 };
@@ -134,6 +134,13 @@ impl Context {
   /// Number of subscriptions currently discovered on `topic`.
   pub fn subscription_count(&self, topic: &str) -> usize {
     self.inner.graph_cache.subscription_count(topic)
+  }
+
+  /// The number of live endpoints that match `me`, as rmw_zenoh counts matched
+  /// subscriptions of a publisher and publishers of a subscription (see
+  /// [`Publisher::matched_subscription_count`](crate::zenoh::Publisher::matched_subscription_count)).
+  pub fn matched(&self, me: &MatchInfo) -> usize {
+    self.inner.graph_cache.matched(me)
   }
 
   /// Fully-qualified names of all currently discovered nodes.

@@ -13,8 +13,31 @@ use std::{collections::HashMap, sync::Mutex};
 
 use async_channel::{Receiver, Sender};
 
-use super::keyexpr::{ParsedEntity, parse_liveliness_key};
-use crate::graph::{EntityKind, GraphEntity, GraphEvent};
+use super::{
+  keyexpr::{ParsedEntity, parse_liveliness_key},
+  qos_encoding::{compatible, decode_qos},
+};
+use crate::{
+  graph::{EntityKind, GraphEntity, GraphEvent},
+  qos::QosProfile,
+};
+
+/// A publisher or subscription as matching sees it: what its liveliness token says of it (rmw_zenoh's
+/// `TopicInfo`). [`Publisher::endpoint`](crate::zenoh::Publisher::endpoint) and
+/// [`Subscription::endpoint`](crate::zenoh::Subscription::endpoint) give an endpoint's own.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MatchInfo {
+  /// [`EntityKind::Publisher`] or [`EntityKind::Subscription`].
+  pub kind: EntityKind,
+  /// The fully-qualified topic name.
+  pub topic: String,
+  /// The DDS-form type name (`pkg::msg::dds_::Name_`).
+  pub type_name: String,
+  /// The type hash its token names (`RIHS01_...`).
+  pub type_hash: String,
+  /// Its QoS.
+  pub qos: QosProfile,
+}
 
 impl From<&ParsedEntity> for GraphEntity {
   fn from(e: &ParsedEntity) -> Self {
@@ -80,6 +103,36 @@ impl GraphCache {
       .unwrap()
       .values()
       .filter(|e| e.kind == kind && e.topic_name.as_deref() == Some(topic))
+      .count()
+  }
+
+  /// The number of live endpoints that match `me`, as rmw_zenoh's graph cache counts them for
+  /// `rmw_publisher_count_matched_subscriptions` and `rmw_subscription_count_matched_publishers`: those
+  /// of the other kind on the same topic and type whose QoS is compatible with `me`'s (rmw's rules,
+  /// [`compatible`]), this session's own included. Stricter than rmw_zenoh's count in one way: the type
+  /// hash must be the same too, since an rmw_zenoh subscription of another hash listens on another key and
+  /// never hears `me` (rmw_zenoh keys its count by the type name only). An endpoint whose token's QoS does
+  /// not parse is not counted.
+  pub fn matched(&self, me: &MatchInfo) -> usize {
+    let other = match me.kind {
+      EntityKind::Publisher => EntityKind::Subscription,
+      EntityKind::Subscription => EntityKind::Publisher,
+      _ => return 0,
+    };
+    let guard = self.entities.lock().unwrap();
+    guard
+      .values()
+      .filter(|e| {
+        e.kind == other
+          && e.topic_name.as_deref() == Some(me.topic.as_str())
+          && e.type_name.as_deref() == Some(me.type_name.as_str())
+          && e.type_hash.as_deref() == Some(me.type_hash.as_str())
+      })
+      .filter_map(|e| decode_qos(e.qos.as_deref()?).ok())
+      .filter(|theirs| match other {
+        EntityKind::Subscription => compatible(&me.qos, theirs),
+        _ => compatible(theirs, &me.qos),
+      })
       .count()
   }
 
@@ -169,6 +222,62 @@ mod tests {
     cache.apply_delete(&pub_key);
     assert_eq!(cache.publisher_count("/chatter"), 0);
     assert_eq!(cache.len(), 1);
+  }
+
+  /// A token of entity `id` of `kind` on `topic` with type hash `hash` and compact QoS `qos`, as rmw_zenoh
+  /// writes them (the QoS strings below are the design document's format: reliability, durability,
+  /// history and depth, deadline, lifespan, liveliness; empty is the default).
+  fn token(id: u64, kind: EntityKind, topic: &str, hash: &str, qos: &str) -> String {
+    entity_liveliness_keyexpr(0, &ids(id), kind, topic, "std_msgs::msg::dds_::String_", hash, qos)
+  }
+
+  fn me(kind: EntityKind, qos: &str) -> MatchInfo {
+    MatchInfo {
+      kind,
+      topic: "/chatter".into(),
+      type_name: "std_msgs::msg::dds_::String_".into(),
+      type_hash: "RIHS01_x".into(),
+      qos: decode_qos(qos).unwrap(),
+    }
+  }
+
+  #[test]
+  fn counts_matched_endpoints_as_rmw_zenoh_does() {
+    use EntityKind::{Publisher as P, Subscription as S};
+    const RELIABLE: &str = "::,10:,:,:,,";
+    const BEST_EFFORT: &str = "2::,10:,:,:,,";
+    const LATCHED: &str = ":1:,1:,:,:,,";
+    // requests a deadline of 1 s; a publisher offering none (infinite) does not meet it
+    const DEADLINE: &str = "::,10:1,0:,:,,";
+    let cache = GraphCache::default();
+    let subs = [
+      token(1, S, "/chatter", "RIHS01_x", RELIABLE),
+      token(2, S, "/chatter", "RIHS01_x", BEST_EFFORT),
+      token(3, S, "/chatter", "RIHS01_x", LATCHED),
+      token(4, S, "/chatter", "RIHS01_y", RELIABLE),
+      token(5, S, "/other", "RIHS01_x", RELIABLE),
+      token(6, S, "/chatter", "RIHS01_x", DEADLINE),
+      token(7, P, "/chatter", "RIHS01_x", RELIABLE),
+    ];
+    for k in &subs {
+      cache.apply_put(k);
+    }
+    // a reliable volatile publisher serves the reliable and the best-effort subscriptions of its topic, type
+    // and hash: not the transient-local one, not another hash or topic, not one that asks for a deadline,
+    // not a publisher
+    assert_eq!(cache.matched(&me(P, RELIABLE)), 2);
+    // a best-effort publisher only the best-effort one
+    assert_eq!(cache.matched(&me(P, BEST_EFFORT)), 1);
+    // a transient-local publisher all three of those
+    assert_eq!(cache.matched(&me(P, LATCHED)), 3);
+    // a reliable subscription is served by the reliable publisher; a best-effort one too
+    assert_eq!(cache.matched(&me(S, RELIABLE)), 1);
+    cache.apply_put(&token(8, P, "/chatter", "RIHS01_x", BEST_EFFORT));
+    assert_eq!(cache.matched(&me(S, RELIABLE)), 1);
+    assert_eq!(cache.matched(&me(S, BEST_EFFORT)), 2);
+    // a token that goes is no longer counted
+    cache.apply_delete(&subs[1]);
+    assert_eq!(cache.matched(&me(P, RELIABLE)), 1);
   }
 
   #[test]

@@ -22,6 +22,7 @@ use super::{
     SendGoalRequest, SendGoalResponse,
   },
   context::Context,
+  graph_cache::MatchInfo,
   gid, keyexpr,
   parameters::{ParameterClient, ParameterEvent, ParameterServer},
   pubsub::{Publisher, Subscription},
@@ -69,6 +70,17 @@ impl Topic {
   /// The topic's QoS profile.
   pub fn qos(&self) -> &QosProfile {
     &self.qos
+  }
+
+  /// An endpoint of `kind` on this topic, named with type hash `hash`, of `qos`.
+  fn match_info(&self, kind: keyexpr::EntityKind, hash: &str, qos: &QosProfile) -> MatchInfo {
+    MatchInfo {
+      kind,
+      topic: self.fully_qualified_name.clone(),
+      type_name: self.dds_type_name.clone(),
+      type_hash: hash.to_owned(),
+      qos: qos.clone(),
+    }
   }
 }
 
@@ -222,7 +234,7 @@ impl Node {
       zenoh_publisher,
       source_gid,
       token,
-      topic.fully_qualified_name.clone(),
+      topic.match_info(keyexpr::EntityKind::Publisher, sender_hash, &qos),
     ))
   }
 
@@ -260,7 +272,7 @@ impl Node {
     Ok(Subscription::new(
       zenoh_subscriber,
       token,
-      topic.fully_qualified_name.clone(),
+      topic.match_info(keyexpr::EntityKind::Subscription, sub_hash, &qos),
     ))
   }
 
@@ -633,6 +645,12 @@ impl Node {
     self.context.subscription_count(topic)
   }
 
+  /// The number of live endpoints matching `me` (delegates to
+  /// [`Context::matched`](crate::zenoh::Context::matched)).
+  pub fn matched(&self, me: &MatchInfo) -> usize {
+    self.context.matched(me)
+  }
+
   /// Subscribe to ROS graph changes (delegates to
   /// [`Context::graph_event_stream`](crate::Context::graph_event_stream)).
   pub fn graph_event_stream(&self) -> Receiver<GraphEvent> {
@@ -699,7 +717,7 @@ fn resolve_fqn(name: &Name, node: &NodeName) -> String {
 /// (at least 1; KEEP_ALL as 1000, a bound rather than none).
 fn history_depth(qos: &QosProfile) -> usize {
   match qos.history {
-    crate::qos::History::KeepLast { depth } => (depth.max(1)) as usize,
+    crate::qos::History::KeepLast { depth } => depth.max(1),
     crate::qos::History::KeepAll => 1000,
   }
 }

@@ -32,7 +32,7 @@ use zenoh::{
 };
 use zenoh_ext::{AdvancedPublisher, AdvancedSubscriber};
 
-use super::{attachment::AttachmentData, cdr, node::Node};
+use super::{attachment::AttachmentData, cdr, graph_cache::MatchInfo, node::Node};
 use crate::{
   error::{ReadError, ReadResult, WriteResult, write_middleware, write_serialization},
   gid::Gid,
@@ -89,10 +89,10 @@ pub struct Publisher<M> {
   source_gid: [u8; 16],
   // Kept alive so the entity stays discoverable; dropped => token undeclared.
   _liveliness_token: Option<LivelinessToken>,
-  // The topic's fully-qualified name, kept for the `Node`-scoped count/wait
-  // helpers below (mirrors the DDS backend, which looks these up via GUID on
-  // the owning `Node` instead).
-  topic_fqn: String,
+  // What its token says of it (topic, type, hash, QoS), for the `Node`-scoped
+  // count/wait helpers below (mirrors the DDS backend, which looks these up
+  // via GUID on the owning `Node` instead).
+  endpoint: MatchInfo,
   phantom: PhantomData<fn() -> M>,
 }
 
@@ -101,14 +101,14 @@ impl<M: Serialize> Publisher<M> {
     zenoh_publisher: impl Into<Sender>,
     source_gid: [u8; 16],
     liveliness_token: Option<LivelinessToken>,
-    topic_fqn: String,
+    endpoint: MatchInfo,
   ) -> Self {
     Self {
       zenoh_publisher: zenoh_publisher.into(),
       seq: AtomicI64::new(0),
       source_gid,
       _liveliness_token: liveliness_token,
-      topic_fqn,
+      endpoint,
       phantom: PhantomData,
     }
   }
@@ -163,7 +163,24 @@ impl<M: Serialize> Publisher<M> {
   /// `node` must be the [`Node`] that created this Publisher (or at least
   /// share its [`Context`](crate::Context)), or the result is undefined.
   pub fn get_subscription_count(&self, node: &Node) -> usize {
-    node.subscription_count(&self.topic_fqn)
+    node.subscription_count(&self.endpoint.topic)
+  }
+
+  /// The number of subscriptions that match this publisher now, as rmw_zenoh's
+  /// `rmw_publisher_count_matched_subscriptions` counts them (same topic,
+  /// type and hash, compatible QoS; see [`GraphCache::matched`]), from the
+  /// liveliness tokens `node`'s context has seen. The context's
+  /// [`graph_event_stream`](crate::zenoh::Context::graph_event_stream) says
+  /// when it may have changed.
+  ///
+  /// [`GraphCache::matched`]: super::graph_cache::GraphCache::matched
+  pub fn matched_subscription_count(&self, node: &Node) -> usize {
+    node.matched(&self.endpoint)
+  }
+
+  /// What this publisher's liveliness token says of it.
+  pub fn endpoint(&self) -> &MatchInfo {
+    &self.endpoint
   }
 
   /// Waits until there is at least one matched subscription on this topic,
@@ -173,7 +190,7 @@ impl<M: Serialize> Publisher<M> {
   /// share its [`Context`](crate::Context)), or the length of the wait is
   /// undefined.
   pub fn wait_for_subscription<'a>(&'a self, node: &'a Node) -> impl Future<Output = ()> + 'a {
-    node.wait_for_subscription(&self.topic_fqn)
+    node.wait_for_subscription(&self.endpoint.topic)
   }
 }
 
@@ -182,8 +199,8 @@ pub struct Subscription<M> {
   zenoh_subscriber: Receiver,
   // Kept alive so the entity stays discoverable; dropped => token undeclared.
   _liveliness_token: Option<LivelinessToken>,
-  // The topic's fully-qualified name; see `Publisher::topic_fqn`.
-  topic_fqn: String,
+  // See `Publisher::endpoint`.
+  endpoint: MatchInfo,
   phantom: PhantomData<fn() -> M>,
 }
 
@@ -191,12 +208,12 @@ impl<M: DeserializeOwned> Subscription<M> {
   pub(crate) fn new(
     zenoh_subscriber: impl Into<Receiver>,
     liveliness_token: Option<LivelinessToken>,
-    topic_fqn: String,
+    endpoint: MatchInfo,
   ) -> Self {
     Self {
       zenoh_subscriber: zenoh_subscriber.into(),
       _liveliness_token: liveliness_token,
-      topic_fqn,
+      endpoint,
       phantom: PhantomData,
     }
   }
@@ -257,7 +274,19 @@ impl<M: DeserializeOwned> Subscription<M> {
   /// `node` must be the [`Node`] that created this Subscription (or at least
   /// share its [`Context`](crate::Context)), or the result is undefined.
   pub fn get_publisher_count(&self, node: &Node) -> usize {
-    node.publisher_count(&self.topic_fqn)
+    node.publisher_count(&self.endpoint.topic)
+  }
+
+  /// The number of publishers that match this subscription now, as rmw_zenoh's
+  /// `rmw_subscription_count_matched_publishers` counts them (see
+  /// [`Publisher::matched_subscription_count`]).
+  pub fn matched_publisher_count(&self, node: &Node) -> usize {
+    node.matched(&self.endpoint)
+  }
+
+  /// What this subscription's liveliness token says of it.
+  pub fn endpoint(&self) -> &MatchInfo {
+    &self.endpoint
   }
 
   /// Waits until there is at least one matched publisher on this topic,
@@ -267,7 +296,7 @@ impl<M: DeserializeOwned> Subscription<M> {
   /// share its [`Context`](crate::Context)), or the length of the wait is
   /// undefined.
   pub fn wait_for_publisher<'a>(&'a self, node: &'a Node) -> impl Future<Output = ()> + 'a {
-    node.wait_for_publisher(&self.topic_fqn)
+    node.wait_for_publisher(&self.endpoint.topic)
   }
 }
 
@@ -363,6 +392,55 @@ mod tests {
     assert_eq!(msg, "hello zenoh!");
     assert!(info.sequence_number() >= 1);
     assert_ne!(info.publisher_gid(), Gid::default());
+  }
+
+  // Matched counts (RADAR patch 14): a publisher counts a subscription of
+  // another session from its liveliness token once it arrives, one of its own
+  // session too, and stops counting one that is dropped; a subscription
+  // counts the publisher back.
+  #[test]
+  fn a_publisher_counts_the_subscriptions_that_match_it() {
+    let (a_port, b_port) = (17541, 17542);
+    let a = Context::with_options(ContextOptions::new().zenoh_config(make_config(a_port, None)))
+      .expect("open context a");
+    let b = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(b_port, Some(a_port))),
+    )
+    .expect("open context b");
+    let node = |c: &Context, n| c.new_node(NodeName::new("/", n).unwrap(), NodeOptions::new()).unwrap();
+    let (a_node, b_node) = (node(&a, "count_a"), node(&b, "count_b"));
+    let topic = |n: &Node| {
+      n.create_topic(
+        &Name::new("/", "counted").unwrap(),
+        MessageTypeName::new("std_msgs", "String"),
+        &QosProfile::default(),
+      )
+    };
+    let until = |what: &str, f: &dyn Fn() -> bool| {
+      let deadline = Instant::now() + Duration::from_secs(10);
+      while !f() {
+        assert!(Instant::now() < deadline, "{what}");
+        std::thread::sleep(Duration::from_millis(5));
+      }
+    };
+    let publisher: Publisher<String> = a_node.create_publisher(&topic(&a_node), None).unwrap();
+    assert_eq!(publisher.matched_subscription_count(&a_node), 0);
+    let remote: Subscription<String> = b_node.create_subscription(&topic(&b_node), None).unwrap();
+    until("the other session's subscription counted", &|| {
+      publisher.matched_subscription_count(&a_node) == 1
+    });
+    until("the publisher counted back", &|| {
+      remote.matched_publisher_count(&b_node) == 1
+    });
+    let local: Subscription<String> = a_node.create_subscription(&topic(&a_node), None).unwrap();
+    until("this session's own subscription counted", &|| {
+      publisher.matched_subscription_count(&a_node) == 2
+    });
+    drop(remote);
+    drop(local);
+    until("dropped subscriptions no longer counted", &|| {
+      publisher.matched_subscription_count(&a_node) == 0
+    });
   }
 
   // TRANSIENT_LOCAL (RADAR patch 12): a subscription made after the

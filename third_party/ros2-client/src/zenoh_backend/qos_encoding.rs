@@ -23,7 +23,6 @@ use std::time::Duration;
 use crate::qos::{Durability, History, Liveliness, QosProfile, Reliability};
 
 /// `when_full` is not part of the liveliness string. Decode fills this in.
-#[cfg(test)]
 const DECODED_WHEN_FULL: crate::qos::WhenFull = crate::qos::WhenFull::DEFAULT;
 
 // RMW default profile (`rmw_qos_profile_default`) used as the delta reference.
@@ -91,15 +90,44 @@ pub fn encode_qos(q: &QosProfile) -> String {
   format!("{rel}:{dur}:{hist},{depth}:{dl_s},{dl_ns}:{ls_s},{ls_ns}:{liv},{lease_s},{lease_ns}")
 }
 
-// Decoding is only exercised by the encode/decode round-trip tests; remote QoS
-// strings are not interpreted at run time.
+// Decoding reads the QoS of the endpoints in the graph cache, to count the
+// compatible ones (`GraphCache::matched`).
 
 /// Failure to parse a compact QoS string.
-#[cfg(test)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct QosDecodeError;
 
-#[cfg(test)]
+/// Whether a publisher offering `offered` and a subscription requesting `requested` are compatible, by the
+/// rules of rmw's `rmw_qos_profile_check_compatible` (what rmw_zenoh's graph cache applies when it counts
+/// matched endpoints): a best-effort publisher does not serve a reliable subscription, a volatile one not a
+/// transient-local one, and an offered deadline or liveliness lease (infinite when `None`) must not be longer
+/// than the requested one, nor automatic liveliness serve manual-by-topic.
+pub fn compatible(offered: &QosProfile, requested: &QosProfile) -> bool {
+  // `None` is infinite: longer than any finite requested duration
+  let within = |o: Option<Duration>, r: Option<Duration>| match (o, r) {
+    (_, None) => true,
+    (None, Some(_)) => false,
+    (Some(o), Some(r)) => o <= r,
+  };
+  let reliability = !matches!(
+    (&offered.reliability, &requested.reliability),
+    (Reliability::BestEffort, Reliability::Reliable { .. })
+  );
+  let durability = !matches!(
+    (&offered.durability, &requested.durability),
+    (Durability::Volatile, Durability::TransientLocal)
+  );
+  let liveliness = !matches!(
+    (&offered.liveliness, &requested.liveliness),
+    (Liveliness::Automatic, Liveliness::ManualByTopic)
+  );
+  reliability
+    && durability
+    && liveliness
+    && within(offered.deadline, requested.deadline)
+    && within(offered.liveliness_lease, requested.liveliness_lease)
+}
+
 fn parse_duration(sec: &str, nsec: &str) -> Result<Option<Duration>, QosDecodeError> {
   match (sec.is_empty(), nsec.is_empty()) {
     (true, true) => Ok(None),
@@ -113,7 +141,6 @@ fn parse_duration(sec: &str, nsec: &str) -> Result<Option<Duration>, QosDecodeEr
 
 /// Decode a compact liveliness `<qos>` string into a [`QosProfile`], filling
 /// empty (default) fields from the RMW default profile.
-#[cfg(test)]
 pub fn decode_qos(s: &str) -> Result<QosProfile, QosDecodeError> {
   let groups: Vec<&str> = s.split(':').collect();
   if groups.len() != 6 {
