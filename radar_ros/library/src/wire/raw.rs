@@ -15,7 +15,7 @@ use std::fmt;
 use serde::{
     de::{DeserializeSeed, SeqAccess, Visitor},
     ser::SerializeTuple,
-    Deserializer, Serialize, Serializer,
+    Deserialize, Deserializer, Serialize, Serializer,
 };
 
 use crate::error::{Error, Result};
@@ -96,6 +96,14 @@ impl RawMessage {
                     e,
                 )
             })
+    }
+}
+
+/// A whole message body, read as [`RawSeed`] reads it: what a typed subscription of `RawMessage` yields (over
+/// Zenoh, where the backend's subscriptions decode with `Deserialize`, not a seed).
+impl<'de> Deserialize<'de> for RawMessage {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<RawMessage, D::Error> {
+        RawSeed.deserialize(d)
     }
 }
 
@@ -309,6 +317,18 @@ mod tests {
             runs += 1;
         }
         println!("{runs} mutated messages decoded as every type");
+    }
+
+    #[test]
+    fn a_raw_message_deserializes_to_the_whole_body_as_the_seed_reads_it() {
+        let body = RawMessage::encode(&crate::wire::msg::StringMsg::from("kitchen")).unwrap();
+        let (read, _) = ros2_client::dds::rustdds::cdr_encoding::from_bytes::<
+            RawMessage,
+            byteorder::LittleEndian,
+        >(body.as_bytes())
+        .unwrap();
+        assert_eq!(read, body);
+        assert_eq!(read.len(), 12, "a 4-byte length, 7 characters and a nul");
     }
 
     #[test]

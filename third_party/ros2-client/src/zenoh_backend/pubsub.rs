@@ -113,13 +113,17 @@ impl<M: Serialize> Publisher<M> {
     }
   }
 
-  fn encode(&self, msg: &M) -> Result<(Vec<u8>, zenoh::bytes::ZBytes), cdr::CdrError> {
+  fn encode(
+    &self,
+    msg: &M,
+    source_timestamp: i64,
+  ) -> Result<(Vec<u8>, zenoh::bytes::ZBytes), cdr::CdrError> {
     let payload = cdr::to_cdr(msg)?;
     let sequence_number = self.seq.fetch_add(1, Ordering::Relaxed) + 1; // start
     // at 1
     let attachment = AttachmentData {
       sequence_number,
-      source_timestamp: now_nanos(),
+      source_timestamp,
       source_gid: self.source_gid,
     }
     .to_zbytes();
@@ -128,7 +132,7 @@ impl<M: Serialize> Publisher<M> {
 
   /// Publish a message (async).
   pub async fn async_publish(&self, msg: M) -> WriteResult<(), M> {
-    let (payload, attachment) = match self.encode(&msg) {
+    let (payload, attachment) = match self.encode(&msg, now_nanos()) {
       Ok(encoded) => encoded,
       Err(e) => return Err(write_serialization(e.to_string(), msg)),
     };
@@ -141,7 +145,16 @@ impl<M: Serialize> Publisher<M> {
 
   /// Publish a message (blocking).
   pub fn publish(&self, msg: M) -> WriteResult<(), M> {
-    let (payload, attachment) = match self.encode(&msg) {
+    self.publish_stamped(msg, ROSTime::from_nanos(now_nanos()))
+  }
+
+  /// Publish a message (blocking) whose attachment carries `source_timestamp`
+  /// as its source time, not the time of this call: what a relay that
+  /// forwards a sample needs, as the DDS backend's `publish_with_options`
+  /// with a source timestamp. Subscribers read it as
+  /// `MessageInfo::source_timestamp`.
+  pub fn publish_stamped(&self, msg: M, source_timestamp: ROSTime) -> WriteResult<(), M> {
+    let (payload, attachment) = match self.encode(&msg, source_timestamp.to_nanos()) {
       Ok(encoded) => encoded,
       Err(e) => return Err(write_serialization(e.to_string(), msg)),
     };
