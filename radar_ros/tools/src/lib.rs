@@ -29,6 +29,7 @@ pub mod cli;
 pub use radar_ros::codec;
 mod common;
 mod components;
+pub mod logging;
 pub mod mcap_out;
 pub mod picture;
 pub mod schemas;

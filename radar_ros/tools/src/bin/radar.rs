@@ -5,15 +5,9 @@ use clap::Parser;
 #[tokio::main]
 async fn main() {
     let cli = radar_tools::cli::Cli::parse();
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-                "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error"
-                    .into()
-            }),
-        )
-        .with_writer(std::io::stderr)
-        .try_init();
+    radar_tools::logging::init(
+        "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error",
+    );
     if let Err(e) = radar_tools::cli::run(cli).await {
         eprintln!("radar: {e}");
         std::process::exit(1);

@@ -4,13 +4,7 @@
 
 #[tokio::main]
 async fn main() {
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=error".into()),
-        )
-        .with_writer(std::io::stderr)
-        .try_init();
+    radar_tools::logging::init("info,rustdds=error,ros2_client=error");
     let name = std::env::args()
         .nth(1)
         .unwrap_or_else(|| "radar_manager".into());

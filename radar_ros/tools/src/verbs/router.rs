@@ -1,8 +1,9 @@
 //! `radar router`: a Zenoh router as rmw_zenoh runs one (`ros2 run rmw_zenoh_cpp rmw_zenohd`), for a host whose
 //! programs use Zenoh (docs/zenoh.md), without a ROS installation. Its configuration is read as rmw_zenohd
 //! reads it: the JSON5 file `ZENOH_ROUTER_CONFIG_URI` names, or rmw_zenoh's default router (router mode,
-//! listening on `tcp/[::]:7447`, gossip scouting on, multicast scouting off, no failover brokering between
-//! peers that cannot reach each other, timestamps), then `ZENOH_CONFIG_OVERRIDE` (`key=value;...`) on top;
+//! listening on `tcp/[::]:7447`, gossip scouting on, multicast scouting off, timestamps; rmw_zenoh's file also
+//! turns failover brokering off, a key the Zenoh here no longer has, which only made the router warn that it
+//! is deprecated at every start, so it is left out), then `ZENOH_CONFIG_OVERRIDE` (`key=value;...`) on top;
 //! `--listen` replaces the endpoints it listens on. Runs until SIGINT or SIGTERM, then closes the session.
 
 use crate::common::Out;
@@ -14,7 +15,6 @@ const DEFAULT: &[(&str, &str)] = &[
     ("listen/endpoints", "[\"tcp/[::]:7447\"]"),
     ("scouting/multicast/enabled", "false"),
     ("scouting/gossip/enabled", "true"),
-    ("routing/router/peers_failover_brokering", "false"),
     (
         "timestamping/enabled",
         "{ router: true, peer: true, client: false }",
