@@ -7,7 +7,8 @@
 //! on 7447, sessions in peer mode). Checked, for three peer processes in turn (each SIGKILLed, the next
 //! started at once):
 //! - radar_ros's publisher counts nothing before the peer, then exactly its subscription; radar_ros's
-//!   subscription counts the peer's publisher;
+//!   subscription counts the peer's publisher; each count's watch (`watch_matched`) says each change as the
+//!   tokens come and go, and what it says is the count then;
 //! - a sample published the moment the count reaches one reaches the peer (what `wait_for_subscribers`
 //!   promises over DDS: nothing sent from then on is lost to discovery), with no settling sleep;
 //! - endpoints the peer's would not match count nothing beside it: another type on the same topic, a
@@ -39,18 +40,25 @@ fn reliable() -> QosProfile {
     QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
 }
 
-/// Polls `count` until it is `n`; how long that took.
-async fn until_count(what: &str, n: usize, count: impl Fn() -> usize) -> Duration {
+/// Waits on `counts` (a `watch_matched` receiver) until it says `n`; how long that took. The count it says
+/// must be the one asked for then (`count`).
+async fn until_count(
+    what: &str,
+    n: usize,
+    counts: &async_channel::Receiver<usize>,
+    count: impl Fn() -> usize,
+) -> Duration {
     let started = Instant::now();
-    while count() != n {
-        assert!(
-            started.elapsed() < WAIT,
-            "{what}: {} after {WAIT:?}, expected {n}",
-            count()
-        );
-        tokio::time::sleep(Duration::from_millis(1)).await;
+    loop {
+        let said = tokio::time::timeout_at((started + WAIT).into(), counts.recv())
+            .await
+            .unwrap_or_else(|_| panic!("{what}: not {n} after {WAIT:?} ({} now)", count()))
+            .expect("the watch lives as long as the endpoint");
+        if said == n {
+            assert_eq!(count(), n, "{what}: the watch and the count agree");
+            return started.elapsed();
+        }
     }
-    started.elapsed()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -63,6 +71,17 @@ async fn matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and
     let node = &side.node;
     assert_eq!(publisher.matched_subscription_count(node), 0);
     assert_eq!(subscription.matched_publisher_count(node), 0);
+    // the counts as they change, from the tokens (no polling)
+    let (pub_counts, sub_counts) = (
+        publisher.watch_matched(node),
+        subscription.watch_matched(node),
+    );
+    assert_eq!(
+        pub_counts.try_recv(),
+        Ok(0),
+        "a watch says the count at once"
+    );
+    assert_eq!(sub_counts.try_recv(), Ok(0));
 
     let probe = |name: &str, ty: MessageTypeName, qos: QosProfile| {
         node.create_topic(&Name::new("/zenoh_probe", name).unwrap(), ty, &qos)
@@ -72,16 +91,22 @@ async fn matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and
     for round in 1..=3 {
         let (mut peer, _, _, _) = start_peer(None, "tcp/localhost:7447", DOMAIN, "peer").await;
 
-        let counted = until_count("radar_ros's publisher's matched subscriptions", 1, || {
-            publisher.matched_subscription_count(node)
-        })
+        let counted = until_count(
+            "radar_ros's publisher's matched subscriptions",
+            1,
+            &pub_counts,
+            || publisher.matched_subscription_count(node),
+        )
         .await;
         // at once, no settling: this sample must reach the peer
         let x = 100.0 + round as f64;
         publisher.publish(pose("first", x)).unwrap();
-        let back = until_count("radar_ros's subscription's matched publishers", 1, || {
-            subscription.matched_publisher_count(node)
-        })
+        let back = until_count(
+            "radar_ros's subscription's matched publishers",
+            1,
+            &sub_counts,
+            || subscription.matched_publisher_count(node),
+        )
         .await;
         let heard = loop {
             let line = tokio::time::timeout(WAIT, peer.line())
@@ -150,12 +175,14 @@ async fn matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and
         let gone = until_count(
             "radar_ros's publisher's matched subscriptions after SIGKILL",
             0,
+            &pub_counts,
             || publisher.matched_subscription_count(node),
         )
         .await;
         until_count(
             "radar_ros's subscription's matched publishers after SIGKILL",
             0,
+            &sub_counts,
             || subscription.matched_publisher_count(node),
         )
         .await;

@@ -99,8 +99,8 @@ impl RawMessage {
     }
 }
 
-/// A whole message body, read as [`RawSeed`] reads it: what a typed subscription of `RawMessage` yields (over
-/// Zenoh, where the backend's subscriptions decode with `Deserialize`, not a seed).
+/// A whole message body, as the subscriptions over DDS read it (with a seed): what a typed subscription of
+/// `RawMessage` yields over Zenoh, where the backend's subscriptions decode with `Deserialize`.
 impl<'de> Deserialize<'de> for RawMessage {
     fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<RawMessage, D::Error> {
         RawSeed.deserialize(d)

@@ -143,6 +143,12 @@ impl Context {
     self.inner.graph_cache.matched(me)
   }
 
+  /// The number of live endpoints matching `me`, now and as it changes (see
+  /// [`Publisher::watch_matched`](crate::zenoh::Publisher::watch_matched)).
+  pub fn watch_matched(&self, me: MatchInfo) -> Receiver<usize> {
+    self.inner.graph_cache.watch_matched(me)
+  }
+
   /// Fully-qualified names of all currently discovered nodes.
   pub fn node_names(&self) -> Vec<String> {
     self.inner.graph_cache.node_names()

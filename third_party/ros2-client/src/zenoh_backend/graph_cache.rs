@@ -58,6 +58,17 @@ pub struct GraphCache {
   // Fan-out event subscribers (one unbounded channel per `subscribe()` caller),
   // mirroring the DDS backend's `status_event_senders`.
   subscribers: Mutex<Vec<Sender<GraphEvent>>>,
+  // Live matched counts (`watch_matched`), recounted when a token of their
+  // topic comes or goes. Locked before `entities` wherever both are held.
+  watches: Mutex<Vec<MatchWatch>>,
+}
+
+/// One [`GraphCache::watch_matched`]: the endpoint, the count it was last
+/// sent, and where to.
+struct MatchWatch {
+  me: MatchInfo,
+  last: usize,
+  tx: Sender<usize>,
 }
 
 impl GraphCache {
@@ -65,7 +76,9 @@ impl GraphCache {
   pub fn apply_put(&self, key: &str) {
     if let Some(entity) = parse_liveliness_key(key) {
       let event = GraphEvent::EntityDeclared(GraphEntity::from(&entity));
+      let topic = entity.topic_name.clone();
       self.entities.lock().unwrap().insert(key.to_owned(), entity);
+      self.recount(topic.as_deref());
       self.broadcast(event);
     }
   }
@@ -74,6 +87,7 @@ impl GraphCache {
   pub fn apply_delete(&self, key: &str) {
     let removed = self.entities.lock().unwrap().remove(key);
     if let Some(entity) = removed {
+      self.recount(entity.topic_name.as_deref());
       self.broadcast(GraphEvent::EntityUndeclared(GraphEntity::from(&entity)));
     }
   }
@@ -134,6 +148,35 @@ impl GraphCache {
         _ => compatible(theirs, &me.qos),
       })
       .count()
+  }
+
+  /// The number of endpoints matching `me` ([`GraphCache::matched`]) now and
+  /// as it changes: the receiver gets the count at once, then each new one
+  /// when a token of `me`'s topic comes or goes and the count changes. Drop
+  /// the receiver to stop watching.
+  pub fn watch_matched(&self, me: MatchInfo) -> Receiver<usize> {
+    let (tx, rx) = async_channel::unbounded();
+    // counted under the watches' lock: a token that arrives meanwhile is
+    // recounted after this watch is in the list
+    let mut watches = self.watches.lock().unwrap();
+    let last = self.matched(&me);
+    let _ = tx.try_send(last);
+    watches.push(MatchWatch { me, last, tx });
+    rx
+  }
+
+  /// Recounts the watches of `topic` and sends those that changed.
+  fn recount(&self, topic: Option<&str>) {
+    let Some(topic) = topic else { return };
+    let mut watches = self.watches.lock().unwrap();
+    watches.retain(|w| !w.tx.is_closed());
+    for w in watches.iter_mut().filter(|w| w.me.topic == topic) {
+      let n = self.matched(&w.me);
+      if n != w.last {
+        w.last = n;
+        let _ = w.tx.try_send(n);
+      }
+    }
   }
 
   /// Number of discovered publishers on a topic (by fully-qualified name).
@@ -278,6 +321,30 @@ mod tests {
     // a token that goes is no longer counted
     cache.apply_delete(&subs[1]);
     assert_eq!(cache.matched(&me(P, RELIABLE)), 1);
+  }
+
+  #[test]
+  fn a_watch_gets_the_count_at_once_then_each_change_of_it() {
+    use EntityKind::{Publisher as P, Subscription as S};
+    const RELIABLE: &str = "::,10:,:,:,,";
+    let cache = GraphCache::default();
+    let first = token(1, S, "/chatter", "RIHS01_x", RELIABLE);
+    cache.apply_put(&first);
+    let counts = cache.watch_matched(me(P, RELIABLE));
+    assert_eq!(counts.try_recv(), Ok(1), "the count at once");
+    let second = token(2, S, "/chatter", "RIHS01_x", RELIABLE);
+    cache.apply_put(&second);
+    // a token on another topic, or of another hash, changes nothing: nothing sent
+    cache.apply_put(&token(3, S, "/other", "RIHS01_x", RELIABLE));
+    cache.apply_put(&token(4, S, "/chatter", "RIHS01_y", RELIABLE));
+    cache.apply_delete(&first);
+    cache.apply_delete(&second);
+    let sent: Vec<usize> = std::iter::from_fn(|| counts.try_recv().ok()).collect();
+    assert_eq!(sent, [2, 1, 0]);
+    // a dropped receiver is forgotten at the next change of its topic
+    drop(counts);
+    cache.apply_put(&first);
+    assert!(cache.watches.lock().unwrap().is_empty());
   }
 
   #[test]

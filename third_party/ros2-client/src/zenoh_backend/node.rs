@@ -651,6 +651,12 @@ impl Node {
     self.context.matched(me)
   }
 
+  /// The number of live endpoints matching `me`, now and as it changes
+  /// (delegates to [`Context::watch_matched`](crate::zenoh::Context::watch_matched)).
+  pub fn watch_matched(&self, me: MatchInfo) -> Receiver<usize> {
+    self.context.watch_matched(me)
+  }
+
   /// Subscribe to ROS graph changes (delegates to
   /// [`Context::graph_event_stream`](crate::Context::graph_event_stream)).
   pub fn graph_event_stream(&self) -> Receiver<GraphEvent> {

@@ -191,6 +191,13 @@ impl<M: Serialize> Publisher<M> {
     node.matched(&self.endpoint)
   }
 
+  /// [`Publisher::matched_subscription_count`] now and as it changes: the
+  /// receiver gets the count at once, then each new one (recounted when a
+  /// token of this topic comes or goes, no polling). Drop it to stop.
+  pub fn watch_matched(&self, node: &Node) -> async_channel::Receiver<usize> {
+    node.watch_matched(self.endpoint.clone())
+  }
+
   /// What this publisher's liveliness token says of it.
   pub fn endpoint(&self) -> &MatchInfo {
     &self.endpoint
@@ -295,6 +302,12 @@ impl<M: DeserializeOwned> Subscription<M> {
   /// [`Publisher::matched_subscription_count`]).
   pub fn matched_publisher_count(&self, node: &Node) -> usize {
     node.matched(&self.endpoint)
+  }
+
+  /// [`Subscription::matched_publisher_count`] now and as it changes (see
+  /// [`Publisher::watch_matched`]).
+  pub fn watch_matched(&self, node: &Node) -> async_channel::Receiver<usize> {
+    node.watch_matched(self.endpoint.clone())
   }
 
   /// What this subscription's liveliness token says of it.
