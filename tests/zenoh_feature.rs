@@ -16,6 +16,8 @@
 //!   (ros2-client patch 14), against the design-document peer as it comes and is SIGKILLed;
 //! - `radar_ros/library/tests/zenoh_raw.rs`: raw bodies and a given source time (ros2-client patch 15) both ways
 //!   with the design-document peer, what the manager's relays need;
+//! - `radar_ros/library/tests/zenoh_signals.rs`: `radar_ros::ZenohSignals`, radar_ros's signal publishers and
+//!   subscriptions over Zenoh, waiting, sending and hearing against the design-document peer;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -87,6 +89,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_matched",
             "--test",
             "zenoh_raw",
+            "--test",
+            "zenoh_signals",
         ],
     ]
     .concat();
@@ -112,7 +116,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs and zenoh_raw.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs and zenoh_signals.rs",
     );
     ran_and_passed(
         &out,
@@ -124,6 +128,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "a_peer_an_hour_ahead_is_heard_and_hears_plain_and_latched",
             "matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and_is_killed",
             "raw_bodies_and_their_source_times_cross_zenoh_to_and_from_a_design_document_peer",
+            "radar_ros_signal_endpoints_over_zenoh_wait_send_and_hear_as_over_dds",
         ],
     );
     let router = [

@@ -184,7 +184,8 @@
 //! `RMW_IMPLEMENTATION` is read as ROS 2 reads it: unset or a DDS middleware (`rmw_fastrtps_cpp`,
 //! `rmw_cyclonedds_cpp`, ...; they all speak RTPS, as radar_ros does) runs; `rmw_zenoh_cpp` or a name radar_ros
 //! does not know stops [`RadarBuilder::build`] with an error that says what to set, since a program on DDS
-//! among peers on Zenoh would see none of them.
+//! among peers on Zenoh would see none of them. With the `zenoh` feature, `ZenohSignals` gives signal
+//! publishers and subscriptions over Zenoh (docs/zenoh.md).
 //!
 //! ## Layers
 //!
@@ -230,6 +231,8 @@ pub use error::{Error, Result, SlotError, Source};
 pub use graph::lookup::Component;
 pub use node::shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
 pub use node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription};
+#[cfg(feature = "zenoh")]
+pub use node::zenoh::ZenohSignals;
 pub use radar::manager_node::{ManagerHandle, OWNER_SILENT};
 pub use radar::settings::{DiscoveryRange, DEFAULT_LEASE};
 pub use radar::{domain_id_from_env, Radar, RadarBuilder};

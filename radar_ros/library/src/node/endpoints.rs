@@ -16,19 +16,41 @@ use crate::{
     wire::msg::TypeName,
 };
 
-/// A ROS endpoint with its live match count from the participant's [`Graph`] (peers of the same type only).
-/// Dropping it removes it from the graph.
+/// A ROS endpoint with its live match count (peers of the same type only): from the participant's [`Graph`]
+/// over DDS, from the liveliness tokens over Zenoh. Dropping it removes it from the graph.
 pub(crate) struct Watched<T> {
     inner: T,
-    guid: ros2_client::dds::rustdds::GUID,
-    graph: Graph,
+    matching: Matching,
+}
+
+/// What an endpoint is matched with, whichever transport it is on: the live count and where it comes from.
+pub(crate) struct Matching {
+    source: Source,
     /// Matched peers now and as they change.
     pub(crate) matched: tokio::sync::watch::Receiver<usize>,
 }
 
-impl<T> Watched<T> {
-    /// Waits until at least `n` peers of the same type are matched, and those in this participant have
-    /// matched this endpoint back (see `Graph::reciprocated`), so that nothing sent from now on is lost.
+enum Source {
+    /// The endpoint's GUID in the participant's graph (RustDDS's match events).
+    Dds {
+        guid: ros2_client::dds::rustdds::GUID,
+        graph: Graph,
+    },
+    /// Over Zenoh the count comes from the liveliness tokens (ros2-client's `watch_matched`, bridged by a task
+    /// that ends with the endpoint); samples that do not decode are counted here.
+    #[cfg(feature = "zenoh")]
+    Zenoh {
+        malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
+        bridge: tokio::task::AbortHandle,
+    },
+}
+
+impl Matching {
+    /// Waits until at least `n` peers of the same type are matched, and over DDS those in this participant
+    /// have matched this endpoint back (see `Graph::reciprocated`), so that nothing sent from now on is lost.
+    /// (Over Zenoh a subscription's interest is declared before its token, on the same link: a sample sent
+    /// once the token is counted arrives, `tests/zenoh_matched.rs`.)
+    #[allow(irrefutable_let_patterns)] // without the zenoh feature, DDS is the only source
     pub(crate) async fn wait_matched(
         &self,
         n: usize,
@@ -47,21 +69,27 @@ impl<T> Watched<T> {
                 })
             }
         }
-        while !self.graph.reciprocated(self.guid) {
-            if tokio::time::Instant::now() >= deadline {
-                return Err(Error::Timeout {
-                    what: format!("{} (matched on this side only)", what()),
-                    after: timeout,
-                });
+        if let Source::Dds { guid, graph } = &self.source {
+            while !graph.reciprocated(*guid) {
+                if tokio::time::Instant::now() >= deadline {
+                    return Err(Error::Timeout {
+                        what: format!("{} (matched on this side only)", what()),
+                        after: timeout,
+                    });
+                }
+                tokio::time::sleep(std::time::Duration::from_millis(1)).await;
             }
-            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
         }
         Ok(())
     }
 
-    /// Why the last peer that went went, if one did.
+    /// Why the last peer that went went, if one did (over Zenoh a token's deletion does not say: none).
     pub(crate) fn last_loss(&self) -> Option<crate::departure::LossCause> {
-        self.graph.last_loss(self.guid)
+        match &self.source {
+            Source::Dds { guid, graph } => graph.last_loss(*guid),
+            #[cfg(feature = "zenoh")]
+            Source::Zenoh { .. } => None,
+        }
     }
 
     /// The number of peers matched now.
@@ -69,9 +97,69 @@ impl<T> Watched<T> {
         *self.matched.borrow()
     }
 
+    /// Whether a sample from this writer should be used (false for peers of another type). Over Zenoh a
+    /// subscription hears its type name only (the key carries it): every sample is used.
+    pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
+        match &self.source {
+            Source::Dds { guid, graph } => graph.accepts(*guid, info.publisher_gid()),
+            #[cfg(feature = "zenoh")]
+            Source::Zenoh { .. } => true,
+        }
+    }
+
+    /// Where samples that do not decode are counted.
+    fn malformed(&self) -> &crate::wire::malformed::Malformed {
+        match &self.source {
+            Source::Dds { graph, .. } => graph.malformed(),
+            #[cfg(feature = "zenoh")]
+            Source::Zenoh { malformed, .. } => malformed,
+        }
+    }
+
+    /// The samples of `stream` (a stream of this endpoint's subscription) that come from peers of the
+    /// subscription's type, in arrival order. RustDDS matches endpoints whatever their types, so samples of a
+    /// peer of another type are dropped here (the graph warned when it matched); samples that do not decode
+    /// are dropped and counted (a warning names the expected type, once per topic). Nothing stops the stream
+    /// but the subscription ending.
+    pub(crate) fn accepted<'a, T: 'a>(
+        &'a self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>> + 'a,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = (T, MessageInfo)> + 'a {
+        stream.filter_map(move |r| async move {
+            match r {
+                Ok((m, info)) if self.accepts(&info) => Some((m, info)),
+                Ok(_) => None,
+                Err(e) => {
+                    // the transport does not say who sent it
+                    self.malformed().note(topic, expected, None, &e);
+                    None
+                }
+            }
+        })
+    }
+}
+
+impl<T> Watched<T> {
+    /// Its matching: the live count, waiting on it, why the last peer left.
+    pub(crate) fn matching(&self) -> &Matching {
+        &self.matching
+    }
+
     /// Whether a sample from this writer should be used (false for peers of another type).
     pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
-        self.graph.accepts(self.guid, info.publisher_gid())
+        self.matching.accepts(info)
+    }
+
+    /// See [`Matching::accepted`].
+    pub(crate) fn accepted<'a, S: 'a>(
+        &'a self,
+        stream: impl Stream<Item = ros2_client::ReadResult<(S, MessageInfo)>> + 'a,
+        topic: &'a str,
+        expected: &'a str,
+    ) -> impl Stream<Item = (S, MessageInfo)> + 'a {
+        self.matching.accepted(stream, topic, expected)
     }
 }
 
@@ -85,32 +173,6 @@ impl<M: 'static + serde::de::DeserializeOwned> Watched<Subscription<M>> {
                 Err(_) | Ok(None) => return None,
             }
         }
-    }
-}
-
-impl<M: 'static> Watched<Subscription<M>> {
-    /// The samples of `stream` (a stream of this subscription) that come from peers of the subscription's type,
-    /// in arrival order. RustDDS matches endpoints whatever their types, so samples of a peer of another type
-    /// are dropped here (the graph warned when it matched); samples that do not decode are dropped and counted
-    /// (a warning names the expected type, once per topic). Nothing stops the stream but the subscription
-    /// ending.
-    pub(crate) fn accepted<'a, T: 'a>(
-        &'a self,
-        stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>> + 'a,
-        topic: &'a str,
-        expected: &'a str,
-    ) -> impl Stream<Item = (T, MessageInfo)> + 'a {
-        stream.filter_map(move |r| async move {
-            match r {
-                Ok((m, info)) if self.accepts(&info) => Some((m, info)),
-                Ok(_) => None,
-                Err(e) => {
-                    // the transport does not say who sent it
-                    self.graph.malformed().note(topic, expected, None, &e);
-                    None
-                }
-            }
-        })
     }
 }
 
@@ -132,7 +194,9 @@ impl Watched<Subscription<crate::wire::raw::RawMessage>> {
             Ok(m) => Some((m, info)),
             Err(e) => {
                 let who = format!("{:?}", info.publisher_gid());
-                self.graph.malformed().note(topic, expected, Some(&who), &e);
+                self.matching
+                    .malformed()
+                    .note(topic, expected, Some(&who), &e);
                 None
             }
         })
@@ -146,10 +210,48 @@ impl<T> std::ops::Deref for Watched<T> {
     }
 }
 
-impl<T> Drop for Watched<T> {
+impl Drop for Matching {
     fn drop(&mut self) {
-        self.graph.forget(self.guid);
+        match &self.source {
+            Source::Dds { guid, graph } => graph.forget(*guid),
+            #[cfg(feature = "zenoh")]
+            Source::Zenoh { bridge, .. } => bridge.abort(),
+        }
     }
+}
+
+/// `inner`, an endpoint over Zenoh, with its matched count from `counts` (its `watch_matched`: the count at once,
+/// then each change), kept current by a task on the caller's tokio runtime that ends with the endpoint.
+#[cfg(feature = "zenoh")]
+pub(crate) fn over_zenoh<T>(
+    inner: T,
+    counts: async_channel::Receiver<usize>,
+    malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
+) -> Result<Watched<T>> {
+    let runtime = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
+        setting: "tokio runtime",
+        value: "none".into(),
+        reason: "make Zenoh endpoints inside a tokio runtime (#[tokio::main], or Runtime::enter): each keeps \
+                 its matched count current from a task"
+            .into(),
+    })?;
+    let (tx, matched) = tokio::sync::watch::channel(counts.try_recv().unwrap_or(0));
+    let bridge = runtime
+        .spawn(async move {
+            while let Ok(n) = counts.recv().await {
+                if tx.send(n).is_err() {
+                    break;
+                }
+            }
+        })
+        .abort_handle();
+    Ok(Watched {
+        inner,
+        matching: Matching {
+            source: Source::Zenoh { malformed, bridge },
+            matched,
+        },
+    })
 }
 
 pub(crate) fn topic_name(topic: &str) -> Result<Name> {
@@ -219,9 +321,13 @@ pub(crate) fn publisher<M: serde::Serialize>(
     let matched = graph.watch_writer(guid, topic_abs, &ty.dds);
     Ok(Watched {
         inner,
-        guid,
-        graph: graph.clone(),
-        matched,
+        matching: Matching {
+            source: Source::Dds {
+                guid,
+                graph: graph.clone(),
+            },
+            matched,
+        },
     })
 }
 
@@ -258,9 +364,13 @@ pub(crate) fn subscription_as<M: 'static>(
     }
     Ok(Watched {
         inner,
-        guid,
-        graph: graph.clone(),
-        matched,
+        matching: Matching {
+            source: Source::Dds {
+                guid,
+                graph: graph.clone(),
+            },
+            matched,
+        },
     })
 }
 
@@ -299,7 +409,7 @@ impl<M: serde::Serialize> SignalWriter<M> {
         topic: &str,
         ros_type: &str,
     ) -> Self {
-        let tap = taps.open(topic, ros_type, dds.guid);
+        let tap = taps.open(topic, ros_type, dds.guid());
         SignalWriter { dds, tap }
     }
 

@@ -3,6 +3,7 @@
 
 pub mod clock;
 pub(crate) mod declared;
+pub(crate) mod domain;
 pub(crate) mod endpoints;
 pub mod params;
 pub(crate) mod participant;
@@ -13,3 +14,5 @@ pub(crate) mod services;
 pub(crate) mod shutdown;
 pub(crate) mod topics;
 pub(crate) mod transport;
+#[cfg(feature = "zenoh")]
+pub(crate) mod zenoh;

@@ -26,11 +26,30 @@ use crate::{
 };
 
 /// A publisher on one topic that can wait for its subscribers: of `M` (see [`Radar::signal_publisher`](crate::Radar::signal_publisher)), or
-/// of raw message bodies ([`RawPublisher`]).
+/// of raw message bodies ([`RawPublisher`]). Over DDS, or over Zenoh (see `ZenohSignals`, with the `zenoh`
+/// feature).
 pub struct SignalPublisher<M: serde::Serialize> {
     topic: String,
     ros_type: String,
-    publisher: Watched<ros2_client::dds::Publisher<M>>,
+    publisher: PublisherOn<M>,
+}
+
+/// A publisher on the transport it was made on (see `SubscriptionOn`).
+#[allow(clippy::large_enum_variant)]
+enum PublisherOn<M: serde::Serialize> {
+    Dds(Watched<ros2_client::dds::Publisher<M>>),
+    #[cfg(feature = "zenoh")]
+    Zenoh(Watched<ros2_client::zenoh::Publisher<M>>),
+}
+
+impl<M: serde::Serialize> PublisherOn<M> {
+    fn matching(&self) -> &crate::node::endpoints::Matching {
+        match self {
+            PublisherOn::Dds(p) => p.matching(),
+            #[cfg(feature = "zenoh")]
+            PublisherOn::Zenoh(p) => p.matching(),
+        }
+    }
 }
 
 /// A publisher of message bodies of a type known only by name (see [`Radar::raw_publisher`](crate::Radar::raw_publisher)).
@@ -45,7 +64,21 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
         SignalPublisher {
             topic,
             ros_type,
-            publisher,
+            publisher: PublisherOn::Dds(publisher),
+        }
+    }
+
+    /// A publisher over Zenoh.
+    #[cfg(feature = "zenoh")]
+    pub(crate) fn over_zenoh(
+        topic: String,
+        ros_type: String,
+        publisher: Watched<ros2_client::zenoh::Publisher<M>>,
+    ) -> SignalPublisher<M> {
+        SignalPublisher {
+            topic,
+            ros_type,
+            publisher: PublisherOn::Zenoh(publisher),
         }
     }
 
@@ -72,30 +105,40 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
     /// # Ok(()) }
     /// ```
     pub fn publish(&self, m: M) -> Result<()> {
-        self.publisher
-            .publish(m)
-            .map_err(|e| Error::send(&self.topic, e.forget_data()))
+        match &self.publisher {
+            PublisherOn::Dds(p) => p.publish(m),
+            #[cfg(feature = "zenoh")]
+            PublisherOn::Zenoh(p) => p.publish(m),
+        }
+        .map_err(|e| Error::send(&self.topic, e.forget_data()))
     }
 
     /// Sends one message as `sent` says: with that source time, and carrying that cause (see
     /// [`crate::wire::cause`]).
+    /// Over Zenoh the source time goes into rmw_zenoh's attachment and the cause is not carried (docs/zenoh.md).
     pub(crate) fn publish_sent(&self, m: M, sent: radar_semantics::response::Sent) -> Result<()> {
-        self.publisher
-            .publish_with_options(m, crate::wire::cause::write_options(sent))
-            .map(|_| ())
-            .map_err(|e| Error::send(&self.topic, e.forget_data()))
+        match &self.publisher {
+            PublisherOn::Dds(p) => p
+                .publish_with_options(m, crate::wire::cause::write_options(sent))
+                .map(|_| ()),
+            #[cfg(feature = "zenoh")]
+            PublisherOn::Zenoh(p) => {
+                p.publish_stamped(m, ros2_client::ROSTime::from_nanos(sent.at))
+            }
+        }
+        .map_err(|e| Error::send(&self.topic, e.forget_data()))
     }
 
     /// Subscriptions (of the same type) matched now.
     pub fn subscribers(&self) -> usize {
-        self.publisher.matched_now()
+        self.publisher.matching().matched_now()
     }
 
     /// Waits until at least `n` subscriptions of the same type are matched (default limit
     /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT); `.timeout(d)` to change it).
     pub fn wait_for_subscribers(&self, n: usize) -> Wait<'_, ()> {
         Wait::discovery(move |t| {
-            self.publisher.wait_matched(n, t, move || {
+            self.publisher.matching().wait_matched(n, t, move || {
                 format!("{n} subscriber(s) on {} ({})", self.topic, self.ros_type)
             })
         })
@@ -103,13 +146,14 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
 
     /// The live count of matched subscriptions.
     pub(crate) fn matched_watch(&self) -> tokio::sync::watch::Receiver<usize> {
-        self.publisher.matched.clone()
+        self.publisher.matching().matched.clone()
     }
 
     /// The last subscriber left: who, and why (as far as DDS told).
     pub(crate) fn departure(&self) -> crate::departure::Departure {
         let cause = self
             .publisher
+            .matching()
             .last_loss()
             .unwrap_or(crate::departure::LossCause::Left);
         crate::departure::Departure::of_subscriber(&self.topic, cause)
@@ -118,7 +162,7 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
     /// Waits until no subscription is matched (default limit [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT)).
     pub fn wait_for_no_subscribers(&self) -> Wait<'_, ()> {
         Wait::discovery(move |t| async move {
-            let mut rx = self.publisher.matched.clone();
+            let mut rx = self.publisher.matching().matched.clone();
             tokio::time::timeout(t, rx.wait_for(|c| *c == 0))
                 .await
                 .map(|_| ())
@@ -135,7 +179,26 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
 pub struct SignalSubscription<M: 'static> {
     topic: String,
     ros_type: String,
-    subscription: Watched<ros2_client::dds::Subscription<M>>,
+    subscription: SubscriptionOn<M>,
+}
+
+/// A subscription on the transport it was made on. (One per endpoint, made once: the variants' sizes differ, and
+/// boxing the larger would only add a pointer to follow on each sample.)
+#[allow(clippy::large_enum_variant)]
+enum SubscriptionOn<M: 'static> {
+    Dds(Watched<ros2_client::dds::Subscription<M>>),
+    #[cfg(feature = "zenoh")]
+    Zenoh(Watched<ros2_client::zenoh::Subscription<M>>),
+}
+
+impl<M: 'static> SubscriptionOn<M> {
+    fn matching(&self) -> &crate::node::endpoints::Matching {
+        match self {
+            SubscriptionOn::Dds(s) => s.matching(),
+            #[cfg(feature = "zenoh")]
+            SubscriptionOn::Zenoh(s) => s.matching(),
+        }
+    }
 }
 
 /// A subscription delivering message bodies of a type known only by name (see [`Radar::raw_subscription`](crate::Radar::raw_subscription)).
@@ -150,7 +213,21 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
         SignalSubscription {
             topic,
             ros_type,
-            subscription,
+            subscription: SubscriptionOn::Dds(subscription),
+        }
+    }
+
+    /// A subscription over Zenoh.
+    #[cfg(feature = "zenoh")]
+    pub(crate) fn over_zenoh(
+        topic: String,
+        ros_type: String,
+        subscription: Watched<ros2_client::zenoh::Subscription<M>>,
+    ) -> SignalSubscription<M> {
+        SignalSubscription {
+            topic,
+            ros_type,
+            subscription: SubscriptionOn::Zenoh(subscription),
         }
     }
 
@@ -166,14 +243,14 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
 
     /// Publishers (of the same type) matched now.
     pub fn publishers(&self) -> usize {
-        self.subscription.matched_now()
+        self.subscription.matching().matched_now()
     }
 
     /// Waits until at least `n` publishers of the same type are matched (default limit
     /// [`DEFAULT_TIMEOUT`](crate::DEFAULT_TIMEOUT); `.timeout(d)` to change it).
     pub fn wait_for_publishers(&self, n: usize) -> Wait<'_, ()> {
         Wait::discovery(move |t| {
-            self.subscription.wait_matched(n, t, move || {
+            self.subscription.matching().wait_matched(n, t, move || {
                 format!("{n} publisher(s) on {} ({})", self.topic, self.ros_type)
             })
         })
@@ -181,13 +258,14 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
 
     /// The live count of matched publishers.
     pub(crate) fn matched_watch(&self) -> tokio::sync::watch::Receiver<usize> {
-        self.subscription.matched.clone()
+        self.subscription.matching().matched.clone()
     }
 
     /// The last publisher left: who, and why (as far as DDS told).
     pub(crate) fn departure(&self) -> crate::departure::Departure {
         let cause = self
             .subscription
+            .matching()
             .last_loss()
             .unwrap_or(crate::departure::LossCause::Left);
         crate::departure::Departure::of_publisher(&self.topic, cause)
@@ -211,7 +289,7 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
         &self,
         stream: impl Stream<Item = ros2_client::ReadResult<(T, MessageInfo)>>,
     ) -> Result<(T, MessageInfo)> {
-        let mut accepted = Box::pin(self.subscription.accepted(
+        let mut accepted = Box::pin(self.subscription.matching().accepted(
             stream,
             &self.topic,
             &self.ros_type,
@@ -228,8 +306,22 @@ impl<M: RosMessage> SignalSubscription<M> {
     /// unless `.timeout(d)`. Malformed messages, and messages of publishers of another type, are skipped.
     pub fn recv_stamped(&self) -> Wait<'_, (M, i64)> {
         Wait::signal(format!("a message on {}", self.topic), async move {
-            self.next_stamped(self.subscription.async_stream()).await
+            self.next_stamped(self.messages()).await
         })
+    }
+
+    /// This subscription's samples, whichever transport it is on.
+    fn messages(&self) -> impl Stream<Item = ros2_client::ReadResult<(M, MessageInfo)>> + '_ {
+        #[cfg(not(feature = "zenoh"))]
+        {
+            let SubscriptionOn::Dds(s) = &self.subscription;
+            s.async_stream()
+        }
+        #[cfg(feature = "zenoh")]
+        match &self.subscription {
+            SubscriptionOn::Dds(s) => futures::future::Either::Left(s.async_stream()),
+            SubscriptionOn::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
+        }
     }
 
     /// The next message; unbounded unless `.timeout(d)`.
@@ -247,26 +339,34 @@ impl<M: RosMessage> SignalSubscription<M> {
     /// ```
     pub fn recv(&self) -> Wait<'_, M> {
         Wait::signal(format!("a message on {}", self.topic), async move {
-            self.next_stamped(self.subscription.async_stream())
-                .await
-                .map(|(m, _)| m)
+            self.next_stamped(self.messages()).await.map(|(m, _)| m)
         })
     }
 
     /// Takes a message that has already arrived, without waiting.
     pub fn try_recv(&self) -> Option<M> {
-        self.subscription.take_accepted()
+        match &self.subscription {
+            SubscriptionOn::Dds(s) => s.take_accepted(),
+            #[cfg(feature = "zenoh")]
+            SubscriptionOn::Zenoh(s) => loop {
+                match s.try_take() {
+                    Ok(Some((m, info))) if s.accepts(&info) => return Some(m),
+                    Ok(Some(_)) => continue,
+                    Err(_) | Ok(None) => return None,
+                }
+            },
+        }
     }
 
     /// The next message with the GID of its publisher.
     pub(crate) async fn recv_from(&self) -> Result<(M, ros2_client::Gid)> {
-        let (m, info) = self.next_info(self.subscription.async_stream()).await?;
+        let (m, info) = self.next_info(self.messages()).await?;
         Ok((m, info.publisher_gid()))
     }
 
     /// The next message with when and by which statement it was sent (see [`crate::wire::cause`]).
     pub(crate) async fn recv_sent(&self) -> Result<(M, radar_semantics::response::Sent)> {
-        let (m, info) = self.next_info(self.subscription.async_stream()).await?;
+        let (m, info) = self.next_info(self.messages()).await?;
         Ok((
             m,
             crate::wire::cause::sent(&info, crate::wire::local::now_ns()),
@@ -275,12 +375,28 @@ impl<M: RosMessage> SignalSubscription<M> {
 }
 
 impl SignalSubscription<RawMessage> {
+    /// This subscription's message bodies, whichever transport it is on (over DDS read with a seed, over
+    /// Zenoh with `RawMessage`'s `Deserialize`).
+    fn bodies(
+        &self,
+    ) -> impl Stream<Item = ros2_client::ReadResult<(RawMessage, MessageInfo)>> + '_ {
+        #[cfg(not(feature = "zenoh"))]
+        {
+            let SubscriptionOn::Dds(s) = &self.subscription;
+            s.async_stream_seed(RawSeed)
+        }
+        #[cfg(feature = "zenoh")]
+        match &self.subscription {
+            SubscriptionOn::Dds(s) => futures::future::Either::Left(s.async_stream_seed(RawSeed)),
+            SubscriptionOn::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
+        }
+    }
+
     /// The next message body with its source timestamp (ns since the epoch, 0 if unknown); unbounded unless
     /// `.timeout(d)`. Samples from publishers of another type, and unreadable ones, are skipped.
     pub fn recv_stamped(&self) -> Wait<'_, (RawMessage, i64)> {
         Wait::signal(format!("a message on {}", self.topic), async move {
-            self.next_stamped(self.subscription.async_stream_seed(RawSeed))
-                .await
+            self.next_stamped(self.bodies()).await
         })
     }
 
@@ -299,11 +415,8 @@ impl SignalSubscription<RawMessage> {
         ),
     > + '_ {
         self.subscription
-            .accepted(
-                self.subscription.async_stream_seed(RawSeed),
-                &self.topic,
-                &self.ros_type,
-            )
+            .matching()
+            .accepted(self.bodies(), &self.topic, &self.ros_type)
             .map(|(m, info)| {
                 (
                     m,

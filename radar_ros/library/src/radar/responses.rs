@@ -69,14 +69,14 @@ impl Radar {
         let mut endpoints = self.response_endpoints::<R>(node, &name, &types)?;
         endpoints.io.incomplete_output = response.incomplete_output();
         let slot_publishers = [
-            endpoints.slots.start.matched.clone(),
-            endpoints.slots.interrupt.matched.clone(),
-            endpoints.slots.exit.matched.clone(),
+            endpoints.slots.start.matching().matched.clone(),
+            endpoints.slots.interrupt.matching().matched.clone(),
+            endpoints.slots.exit.matching().matched.clone(),
         ];
         let signal_subscribers = [
-            endpoints.io.started.matched.clone(),
-            endpoints.io.interrupted.matched.clone(),
-            endpoints.io.exited.matched.clone(),
+            endpoints.io.started.matching().matched.clone(),
+            endpoints.io.interrupted.matching().matched.clone(),
+            endpoints.io.exited.matching().matched.clone(),
         ];
         let policy = response.start_policy();
         let machine = ResponseMachine::<R::Start, R::Output>::with_announce(policy, announce);

@@ -16,37 +16,6 @@ use crate::{
     wire::names::{validate_namespace, ComponentName},
 };
 
-/// Parses a `ROS_DOMAIN_ID` value the way ROS 2 tools do: empty means 0, otherwise a whole number 0..=232.
-pub(crate) fn parse_domain_id(value: &str) -> Result<u16> {
-    let v = value.trim();
-    if v.is_empty() {
-        return Ok(0);
-    }
-    let bad = |reason: &str| {
-        Error::Config {
-        setting: "ROS_DOMAIN_ID",
-        value: value.to_owned(),
-        reason: format!(
-            "{reason}; set ROS_DOMAIN_ID to a whole number from 0 to 232 (0-101 and 215-232 avoid the Linux \
-             ephemeral port range), or unset it for domain 0"
-        ),
-    }
-    };
-    let n: u64 = v.parse().map_err(|_| bad("it is not a whole number"))?;
-    if n > 232 {
-        return Err(bad(
-            "it is above 232, the largest domain whose UDP ports fit in 16 bits",
-        ));
-    }
-    if (102..=214).contains(&n) {
-        tracing::warn!(
-            domain = n,
-            "ROS_DOMAIN_ID {n} maps to UDP ports in the Linux ephemeral range; prefer 0-101 or 215-232"
-        );
-    }
-    Ok(n as u16)
-}
-
 /// How far DDS discovery reaches, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE`.
 ///
 /// Known limitation: with [`DiscoveryRange::Localhost`], RustDDS 0.15 does not deliver messages between a
@@ -98,8 +67,7 @@ pub(crate) fn parse_lease(value: &str) -> Result<std::time::Duration> {
     Ok(std::time::Duration::from_secs_f64(secs))
 }
 
-/// A lookup of environment variables, as [`std::env::var`] answers (tests give their own).
-pub(crate) type Env<'a> = &'a dyn Fn(&str) -> std::result::Result<String, std::env::VarError>;
+pub(crate) use crate::node::domain::{domain_id_in, parse_domain_id, Env};
 
 /// What the builder says, before the command line and the environment are read.
 #[derive(Clone, Debug, Default)]
@@ -238,19 +206,6 @@ fn program_name(p: String) -> Result<String> {
     Ok(p)
 }
 
-/// `ROS_DOMAIN_ID` as every ROS 2 tool reads it (0 when unset).
-pub(crate) fn domain_id_in(env: Env<'_>) -> Result<u16> {
-    match env("ROS_DOMAIN_ID") {
-        Ok(v) => parse_domain_id(&v),
-        Err(std::env::VarError::NotPresent) => Ok(0),
-        Err(std::env::VarError::NotUnicode(v)) => Err(Error::Config {
-            setting: "ROS_DOMAIN_ID",
-            value: v.to_string_lossy().into_owned(),
-            reason: "it is not valid UTF-8; set it to a whole number from 0 to 232".into(),
-        }),
-    }
-}
-
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE` (and the older `ROS_LOCALHOST_ONLY=1`) as ROS 2 Jazzy reads them. Unset or
 /// `SUBNET`/`SYSTEM_DEFAULT` give [`DiscoveryRange::Subnet`]; `LOCALHOST` and `OFF` give
 /// [`DiscoveryRange::Localhost`] (RADAR needs same-host discovery, so `OFF` is taken as `LOCALHOST`).
@@ -300,8 +255,9 @@ pub(crate) fn middleware_in(env: Env<'_>) -> Result<()> {
                 program and its ROS 2 peers";
     let reason = if name == "rmw_zenoh_cpp" {
         format!(
-            "this build of radar_ros speaks DDS only (not yet Zenoh): over DDS, this program would see none of its peers \
-             on Zenoh{then}, or join the two sides with zenoh-bridge-ros2dds"
+            "a radar_ros `Radar` speaks DDS only (not yet Zenoh): over DDS, this program would see none of its peers \
+             on Zenoh{then}, or join the two sides with zenoh-bridge-ros2dds; a program that only sends into slots \
+             and hears signals can use radar_ros::ZenohSignals over Zenoh (radar_ros's `zenoh` feature)"
         )
     } else {
         format!(

@@ -1,0 +1,203 @@
+//! Signal endpoints over Zenoh: [`ZenohSignals`] (issue 37; docs/zenoh.md, step 3's first half).
+
+use std::sync::Arc;
+
+use ros2_client::{
+    zenoh::{register_type_hash, Context, ContextOptions, Node, Topic},
+    MessageTypeName, NodeName, NodeOptions, QosProfile,
+};
+
+use crate::{
+    error::{Error, Result},
+    node::endpoints::{over_zenoh, topic_name},
+    node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
+    wire::malformed::Malformed,
+    wire::msg::{RosMessage, TypeName},
+    wire::qos::{signal_qos, state_qos},
+    wire::raw::RawMessage,
+};
+
+/// Signal endpoints over Zenoh, as a ROS 2 program under `RMW_IMPLEMENTATION=rmw_zenoh_cpp` has them (issue 37,
+/// the first half of docs/zenoh.md's step 3): a Zenoh session and a node on it, making the same [`SignalPublisher`],
+/// [`SignalSubscription`], [`RawPublisher`] and [`RawSubscription`] a `Radar` makes over DDS,
+/// with the same waits (`wait_for_subscribers` counts matched peers from the liveliness tokens as rmw_zenoh
+/// does) and the same names, types, type hashes and QoS on the wire. What a program that only injects into
+/// slots or listens to signals needs, across a router, where DDS discovery does not reach. Components and
+/// connections over Zenoh come with a `Radar` on Zenoh (step 3's second half).
+///
+/// ```no_run
+/// # async fn f() -> radar_ros::Result<()> {
+/// use radar_ros::{msg::Empty, ZenohSignals};
+/// // the session as rmw_zenoh's: ROS_DOMAIN_ID, ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE, else a peer
+/// // that connects to the router at tcp/localhost:7447
+/// let zenoh = ZenohSignals::open("cloud_planner")?;
+/// let start = zenoh.signal_publisher::<Empty>("/robot3/back_off/start")?;
+/// start.wait_for_subscribers(1).await?;
+/// start.publish(Empty::default())?;
+/// let exited = zenoh.signal_subscription::<Empty>("/robot3/back_off/exited")?;
+/// exited.recv().await?;
+/// # Ok(()) }
+/// ```
+///
+/// Endpoints are made inside a tokio runtime (each keeps its matched count current from a small task).
+pub struct ZenohSignals {
+    node: Node,
+    malformed: Arc<Malformed>,
+    // after the node: the session closes when the last handle goes
+    _ctx: Context,
+}
+
+impl ZenohSignals {
+    /// Opens a Zenoh session configured as rmw_zenoh configures one (`ZENOH_SESSION_CONFIG_URI`'s file, else
+    /// rmw_zenoh's default session: a peer that connects to the router at `tcp/localhost:7447`;
+    /// `ZENOH_CONFIG_OVERRIDE` on top), on `ROS_DOMAIN_ID`'s domain, with a node `node_name` in the root
+    /// namespace.
+    ///
+    /// ```no_run
+    /// # fn f() -> radar_ros::Result<()> {
+    /// let zenoh = radar_ros::ZenohSignals::open("cloud_planner")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn open(node_name: &str) -> Result<ZenohSignals> {
+        let domain = crate::node::domain::domain_id_in(&|k| std::env::var(k))?;
+        let name = NodeName::new("/", node_name).map_err(|e| Error::InvalidName {
+            name: node_name.to_owned(),
+            reason: format!("{e}"),
+        })?;
+        let ctx = Context::with_options(ContextOptions::new().domain_id(domain))
+            .map_err(|e| Error::transport("a Zenoh session (as rmw_zenoh's: is ZENOH_SESSION_CONFIG_URI or ZENOH_CONFIG_OVERRIDE right?)", e))?;
+        let options = NodeOptions::new()
+            .enable_rosout(false)
+            .start_parameter_services(false);
+        let node = ctx
+            .new_node(name, options)
+            .map_err(|e| Error::transport(format!("node /{node_name} over Zenoh"), e))?;
+        Ok(ZenohSignals {
+            node,
+            malformed: Arc::default(),
+            _ctx: ctx,
+        })
+    }
+
+    /// A publisher on `topic` (relative names resolve in the root namespace), with signal QoS.
+    ///
+    /// ```no_run
+    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// let p = zenoh.signal_publisher::<radar_ros::msg::Empty>("/dock/interrupt")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn signal_publisher<M: RosMessage>(&self, topic: &str) -> Result<SignalPublisher<M>> {
+        self.publisher(topic, TypeName::of::<M>(), &signal_qos())
+    }
+
+    /// A subscription to `topic`, with signal QoS.
+    ///
+    /// ```no_run
+    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// let s = zenoh.signal_subscription::<radar_ros::msg::Empty>("/dock/exited")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn signal_subscription<M: RosMessage>(&self, topic: &str) -> Result<SignalSubscription<M>> {
+        self.subscription(topic, TypeName::of::<M>(), &signal_qos())
+    }
+
+    /// A subscription to a component's transient-local `state` topic: gets the current state on subscribing
+    /// (from the publisher's cache, as rmw_zenoh's latched topics).
+    ///
+    /// ```no_run
+    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// let s = zenoh.state_subscription::<radar_ros::msg::ResponseState>("/dock/state")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn state_subscription<M: RosMessage>(&self, topic: &str) -> Result<SignalSubscription<M>> {
+        self.subscription(topic, TypeName::of::<M>(), &state_qos())
+    }
+
+    /// A publisher of `ros_type` (e.g. `std_msgs/msg/String`) on `topic` that sends message bodies unchanged
+    /// (signal QoS).
+    ///
+    /// ```no_run
+    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// let p = zenoh.raw_publisher("/say/start", "std_msgs/msg/String")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn raw_publisher(&self, topic: &str, ros_type: &str) -> Result<RawPublisher> {
+        let ty = crate::wire::raw::parse_type_name(ros_type)?;
+        self.publisher::<RawMessage>(topic, ty, &signal_qos())
+    }
+
+    /// A subscription to `ros_type` on `topic` that yields message bodies unchanged (signal QoS).
+    ///
+    /// ```no_run
+    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// let s = zenoh.raw_subscription("/say/exited", "std_msgs/msg/String")?;
+    /// # Ok(()) }
+    /// ```
+    pub fn raw_subscription(&self, topic: &str, ros_type: &str) -> Result<RawSubscription> {
+        let ty = crate::wire::raw::parse_type_name(ros_type)?;
+        self.subscription::<RawMessage>(topic, ty, &signal_qos())
+    }
+
+    fn publisher<M: serde::Serialize + Send + Sync + 'static>(
+        &self,
+        topic: &str,
+        ty: TypeName,
+        qos: &QosProfile,
+    ) -> Result<SignalPublisher<M>> {
+        let (abs, t) = self.topic(topic, &ty, qos)?;
+        let p = self
+            .node
+            .create_publisher::<M>(&t, None)
+            .map_err(|e| Error::transport(format!("a publisher on {abs} over Zenoh"), e))?;
+        let counts = p.watch_matched(&self.node);
+        let watched = over_zenoh(p, counts, self.malformed.clone())?;
+        Ok(SignalPublisher::over_zenoh(abs, ty.ros, watched))
+    }
+
+    fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
+        &self,
+        topic: &str,
+        ty: TypeName,
+        qos: &QosProfile,
+    ) -> Result<SignalSubscription<M>> {
+        let (abs, t) = self.topic(topic, &ty, qos)?;
+        let s = self
+            .node
+            .create_subscription::<M>(&t, None)
+            .map_err(|e| Error::transport(format!("a subscription to {abs} over Zenoh"), e))?;
+        let counts = s.watch_matched(&self.node);
+        let watched = over_zenoh(s, counts, self.malformed.clone())?;
+        Ok(SignalSubscription::over_zenoh(abs, ty.ros, watched))
+    }
+
+    /// The absolute topic and the Zenoh topic of type `ty`, its hash given to the backend (what rmw_zenoh
+    /// peers match on).
+    fn topic(&self, topic: &str, ty: &TypeName, qos: &QosProfile) -> Result<(String, Topic)> {
+        let abs = if topic.starts_with('/') {
+            topic.to_owned()
+        } else {
+            format!("/{topic}")
+        };
+        let name = topic_name(&abs)?;
+        let (package, rest) = ty.ros.split_once('/').unwrap_or(("", &ty.ros));
+        let base = rest.rsplit('/').next().unwrap_or(rest);
+        if rest.starts_with("action/") {
+            return Err(Error::InvalidName {
+                name: ty.ros.clone(),
+                reason: "a signal over Zenoh carries a message type (package/msg/Name), not an action's part"
+                    .into(),
+            });
+        }
+        if let Some(hash) = ty.hash {
+            register_type_hash(&ty.dds, hash).map_err(|reason| Error::InvalidName {
+                name: ty.ros.clone(),
+                reason,
+            })?;
+        }
+        Ok((
+            abs,
+            self.node
+                .create_topic(&name, MessageTypeName::new(package, base), qos),
+        ))
+    }
+}
