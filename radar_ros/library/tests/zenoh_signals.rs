@@ -7,7 +7,9 @@
 //! `wait_for_subscribers(1)` returns once the peer's subscription is there and a message published then
 //! reaches it; `wait_for_publishers(1)`, then the peer's samples arrive through `recv_stamped` (with the
 //! peer's source time) and through a raw subscription (decoded here); the peer SIGKILLed,
-//! `wait_for_no_subscribers` returns and both counts are zero; a bad topic or type name is refused, saying so.
+//! `wait_for_no_subscribers` returns and both counts are zero; a sample of the same type name and another hash
+//! (put by hand on the key the design document gives) is not heard, one of this hash is (ros2-client patch
+//! 16); a bad topic or type name is refused, saying so.
 //!
 //! Domain 139. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
 //! tests/zenoh_feature.rs.
@@ -17,7 +19,11 @@ mod zenoh_util;
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use radar_ros::{msg::PoseStamped, Error, ZenohSignals};
+use radar_ros::{
+    msg::{PoseStamped, RosMessage},
+    Error, RawMessage, ZenohSignals,
+};
+use ros2_client::zenoh::{Context, ContextOptions};
 use serde_json::Value;
 use zenoh_util::{local_router, pose, start_peer, WAIT};
 
@@ -110,6 +116,50 @@ async fn radar_ros_signal_endpoints_over_zenoh_wait_send_and_hear_as_over_dds() 
         "wait_for_subscribers returned {} ms after the peer was up; the peer gone {} ms after SIGKILL",
         waited.as_millis(),
         gone.as_millis()
+    );
+
+    // a publisher of the same type name and another hash (another definition of the type) is not heard, as
+    // rmw_zenoh's subscriptions do not hear it (they listen on their hash's key; ros2-client patch 16): samples
+    // put by hand on the keys the design document gives, `<domain>/<topic>/<type>/<hash>`, CDR with its header
+    let other = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).unwrap();
+    let key = |hash: &str| {
+        format!("{DOMAIN}/zenoh_probe/from_peer/geometry_msgs::msg::dds_::PoseStamped_/{hash}")
+    };
+    let right = key(PoseStamped::TYPE_HASH.unwrap());
+    let wrong = key(&format!("RIHS01_{}1", "0".repeat(63)));
+    let cdr = |x: f64| {
+        let mut bytes = vec![0, 1, 0, 0];
+        bytes.extend(
+            RawMessage::encode(&pose("by hand", x))
+                .unwrap()
+                .into_bytes(),
+        );
+        bytes
+    };
+    let next_x = || async {
+        let (body, _) = raw_from_peer
+            .recv_stamped()
+            .timeout(Duration::from_millis(100))
+            .await
+            .ok()?;
+        Some(body.decode::<PoseStamped>().unwrap().pose.position.x)
+    };
+    // until the hand-made session's samples reach the subscription, then nothing left in flight
+    let started = Instant::now();
+    loop {
+        assert!(started.elapsed() < WAIT, "nothing put by hand arrived");
+        other.session().put(&right, cdr(1.0)).await.unwrap();
+        if next_x().await.is_some() {
+            break;
+        }
+    }
+    while next_x().await.is_some() {}
+    other.session().put(&wrong, cdr(2.0)).await.unwrap();
+    other.session().put(&right, cdr(3.0)).await.unwrap();
+    assert_eq!(
+        next_x().await,
+        Some(3.0),
+        "the sample of another hash is not heard; the one after it, of this hash, is"
     );
 
     // bad input: refused, saying what is wrong

@@ -98,7 +98,8 @@ impl Matching {
     }
 
     /// Whether a sample from this writer should be used (false for peers of another type). Over Zenoh a
-    /// subscription hears its type name only (the key carries it): every sample is used.
+    /// subscription hears its type only (the key carries the type and, when known, its hash: ros2-client
+    /// patch 16): every sample is used.
     pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
         match &self.source {
             Source::Dds { guid, graph } => graph.accepts(*guid, info.publisher_gid()),

@@ -246,13 +246,16 @@ impl Node {
   ) -> CreateResult<Subscription<M>> {
     let qos = qos.unwrap_or_else(|| topic.qos.clone());
     let domain = self.context.domain_id();
-    // A subscription listens with a wildcard type-hash to receive from any
+    // A subscription of a type whose hash is known listens on that hash only,
+    // as rmw_zenoh's do (a publisher of another hash has another definition
+    // of the type: its bytes are not this type's; radar_ros patch 16). One
+    // whose hash is unknown listens with a wildcard, to receive from any
     // publisher regardless of its hash (liberal receive, ADR-0007).
     let key = keyexpr::topic_keyexpr(
       domain,
       &topic.fully_qualified_name,
       &topic.dds_type_name,
-      type_hash::WILDCARD,
+      type_hash::known_type_hash(&topic.dds_type_name).unwrap_or(type_hash::WILDCARD),
     );
     let zenoh_subscriber = declare_receiver(&self.context, key, &qos)?;
 

@@ -2,9 +2,10 @@
 //!
 //! A publisher `put`s a CDR payload (see [`super::cdr`]) with an
 //! [`AttachmentData`] carrying `(sequence, source_timestamp, source_gid)` — the
-//! `rmw_zenoh` message shape. A subscription declares a Zenoh subscriber with a
-//! wildcard type-hash (liberal receive, ADR-0007) and yields decoded messages
-//! plus their [`MessageInfo`].
+//! `rmw_zenoh` message shape. A subscription declares a Zenoh subscriber on its
+//! type's hash when it is known (as rmw_zenoh's), else with a wildcard
+//! type-hash (liberal receive, ADR-0007), and yields decoded messages plus
+//! their [`MessageInfo`].
 //!
 //! TRANSIENT_LOCAL durability is carried as rmw_zenoh carries it (since its
 //! 0.2.2, "Introduce the advanced publisher and subscriber", ros2/rmw_zenoh#469):
