@@ -19,8 +19,10 @@ use crate::{
 /// A ROS endpoint with its live match count (peers of the same type only): from the participant's [`Graph`]
 /// over DDS, from the liveliness tokens over Zenoh. Dropping it removes it from the graph.
 pub(crate) struct Watched<T> {
-    inner: T,
+    // before `inner`: fields drop in order, and the graph forgets the endpoint before the endpoint goes (as
+    // before the matching had a type of its own), so its own departure is not taken for a peer's
     matching: Matching,
+    inner: T,
 }
 
 /// What an endpoint is matched with, whichever transport it is on: the live count and where it comes from.
