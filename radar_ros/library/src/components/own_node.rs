@@ -113,7 +113,11 @@ impl<M: RosMessage> EventSubscription<M> {
         crate::Wait::signal(format!("a message on {}", self.topic), async move {
             let expected = M::ros_type_name();
             let stream = self.inner.async_stream();
-            let mut accepted = Box::pin(self.inner.accepted(stream, &self.topic, &expected));
+            let mut accepted = Box::pin(self.inner.matching().accepted(
+                stream,
+                &self.topic,
+                &expected,
+            ));
             match accepted.next().await {
                 Some((m, _)) => Ok(m),
                 None => Err(crate::Error::Closed(self.topic.clone())),

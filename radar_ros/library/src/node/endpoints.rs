@@ -110,6 +110,21 @@ impl Matching {
         }
     }
 
+    /// The first sample `take` gives (one taken from the subscription's queue without waiting, each call)
+    /// that comes from a peer of the subscription's type; `None` once the queue is empty or the transport fails.
+    pub(crate) fn first_accepted<M>(
+        &self,
+        mut take: impl FnMut() -> ros2_client::ReadResult<Option<(M, MessageInfo)>>,
+    ) -> Option<M> {
+        loop {
+            match take() {
+                Ok(Some((m, info))) if self.accepts(&info) => return Some(m),
+                Ok(Some(_)) => continue,
+                Err(_) | Ok(None) => return None,
+            }
+        }
+    }
+
     /// Where samples that do not decode are counted.
     fn malformed(&self) -> &crate::wire::malformed::Malformed {
         match &self.source {
@@ -149,33 +164,12 @@ impl<T> Watched<T> {
     pub(crate) fn matching(&self) -> &Matching {
         &self.matching
     }
-
-    /// Whether a sample from this writer should be used (false for peers of another type).
-    pub(crate) fn accepts(&self, info: &MessageInfo) -> bool {
-        self.matching.accepts(info)
-    }
-
-    /// See [`Matching::accepted`].
-    pub(crate) fn accepted<'a, S: 'a>(
-        &'a self,
-        stream: impl Stream<Item = ros2_client::ReadResult<(S, MessageInfo)>> + 'a,
-        topic: &'a str,
-        expected: &'a str,
-    ) -> impl Stream<Item = (S, MessageInfo)> + 'a {
-        self.matching.accepted(stream, topic, expected)
-    }
 }
 
 impl<M: 'static + serde::de::DeserializeOwned> Watched<Subscription<M>> {
     /// A sample that has already arrived from a peer of the right type, without waiting.
     pub(crate) fn take_accepted(&self) -> Option<M> {
-        loop {
-            match self.take() {
-                Ok(Some((m, info))) if self.accepts(&info) => return Some(m),
-                Ok(Some(_)) => continue,
-                Err(_) | Ok(None) => return None,
-            }
-        }
+        self.matching.first_accepted(|| self.take())
     }
 }
 
@@ -188,21 +182,22 @@ impl Watched<Subscription<crate::wire::raw::RawMessage>> {
         topic: &'a str,
         expected: &'a str,
     ) -> impl Stream<Item = Option<(M, MessageInfo)>> + 'a {
-        self.accepted(
-            self.async_stream_seed(crate::wire::raw::RawSeed),
-            topic,
-            expected,
-        )
-        .map(move |(raw, info)| match raw.decode::<M>() {
-            Ok(m) => Some((m, info)),
-            Err(e) => {
-                let who = format!("{:?}", info.publisher_gid());
-                self.matching
-                    .malformed()
-                    .note(topic, expected, Some(&who), &e);
-                None
-            }
-        })
+        self.matching
+            .accepted(
+                self.async_stream_seed(crate::wire::raw::RawSeed),
+                topic,
+                expected,
+            )
+            .map(move |(raw, info)| match raw.decode::<M>() {
+                Ok(m) => Some((m, info)),
+                Err(e) => {
+                    let who = format!("{:?}", info.publisher_gid());
+                    self.matching
+                        .malformed()
+                        .note(topic, expected, Some(&who), &e);
+                    None
+                }
+            })
     }
 }
 

@@ -348,13 +348,7 @@ impl<M: RosMessage> SignalSubscription<M> {
         match &self.subscription {
             SubscriptionOn::Dds(s) => s.take_accepted(),
             #[cfg(feature = "zenoh")]
-            SubscriptionOn::Zenoh(s) => loop {
-                match s.try_take() {
-                    Ok(Some((m, info))) if s.accepts(&info) => return Some(m),
-                    Ok(Some(_)) => continue,
-                    Err(_) | Ok(None) => return None,
-                }
-            },
+            SubscriptionOn::Zenoh(s) => s.matching().first_accepted(|| s.try_take()),
         }
     }
 
