@@ -2,16 +2,14 @@
 //! counts, the filter for samples from peers of another type, and the task behind a component handle.
 
 use futures::{Stream, StreamExt};
-use ros2_client::{
-    dds::{Node, Publisher, Subscription},
-    MessageInfo, Name, QosProfile,
-};
+use ros2_client::{dds::Node, MessageInfo, Name, QosProfile};
 
 use radar_semantics::response::{Cause, Sent};
 
 use crate::{
     error::{Error, Result},
     graph::Graph,
+    node::transport::{Publisher, Subscription},
     wire::local::{TapWriter, Taps},
     wire::msg::TypeName,
 };
@@ -183,11 +181,7 @@ impl Watched<Subscription<crate::wire::raw::RawMessage>> {
         expected: &'a str,
     ) -> impl Stream<Item = Option<(M, MessageInfo)>> + 'a {
         self.matching
-            .accepted(
-                self.async_stream_seed(crate::wire::raw::RawSeed),
-                topic,
-                expected,
-            )
+            .accepted(self.bodies(), topic, expected)
             .map(move |(raw, info)| match raw.decode::<M>() {
                 Ok(m) => Some((m, info)),
                 Err(e) => {
@@ -318,7 +312,7 @@ pub(crate) fn publisher<M: serde::Serialize>(
     let guid = inner.guid();
     let matched = graph.watch_writer(guid, topic_abs, &ty.dds);
     Ok(Watched {
-        inner,
+        inner: Publisher::Dds(inner),
         matching: Matching {
             source: Source::Dds {
                 guid,
@@ -361,7 +355,7 @@ pub(crate) fn subscription_as<M: 'static>(
         graph.mark_observer(guid);
     }
     Ok(Watched {
-        inner,
+        inner: Subscription::Dds(inner),
         matching: Matching {
             source: Source::Dds {
                 guid,
@@ -407,7 +401,7 @@ impl<M: serde::Serialize> SignalWriter<M> {
         topic: &str,
         ros_type: &str,
     ) -> Self {
-        let tap = taps.open(topic, ros_type, dds.guid());
+        let tap = taps.open(topic, ros_type, dds.id());
         SignalWriter { dds, tap }
     }
 
@@ -417,10 +411,7 @@ impl<M: serde::Serialize> SignalWriter<M> {
             at: self.tap.emit(&m, cause),
             by: cause,
         };
-        if let Err(e) = self
-            .dds
-            .publish_with_options(m, crate::wire::cause::write_options(sent))
-        {
+        if let Err(e) = self.dds.publish_sent(m, sent) {
             tracing::warn!(topic, error = %e.forget_data(), "could not publish");
         }
         sent.at

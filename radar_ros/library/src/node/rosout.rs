@@ -200,7 +200,7 @@ impl Drop for Publishing {
 pub(crate) fn writer(
     graph: &crate::graph::Graph,
     node: &mut ros2_client::dds::Node,
-) -> Result<Watched<ros2_client::dds::Publisher<Log>>> {
+) -> Result<Watched<crate::node::transport::Publisher<Log>>> {
     let ty = crate::wire::raw::parse_type_name("rcl_interfaces/msg/Log")?;
     publisher(graph, node, "/rosout", &ty, &crate::wire::qos::rosout_qos())
 }
@@ -208,7 +208,7 @@ pub(crate) fn writer(
 /// Starts publishing the layer's lines with `writer` ([`writer`]) of the program node `program` (fully
 /// qualified).
 pub(crate) fn start(
-    writer: Watched<ros2_client::dds::Publisher<Log>>,
+    writer: Watched<crate::node::transport::Publisher<Log>>,
     program: &str,
 ) -> Publishing {
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);

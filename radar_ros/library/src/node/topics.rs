@@ -20,9 +20,10 @@ use ros2_client::MessageInfo;
 use crate::{
     error::{Error, Result},
     node::endpoints::Watched,
+    node::transport::{Publisher, Subscription},
     wait::Wait,
     wire::msg::RosMessage,
-    wire::raw::{RawMessage, RawSeed},
+    wire::raw::RawMessage,
 };
 
 /// A publisher on one topic that can wait for its subscribers: of `M` (see [`Radar::signal_publisher`](crate::Radar::signal_publisher)), or
@@ -31,54 +32,23 @@ use crate::{
 pub struct SignalPublisher<M: serde::Serialize> {
     topic: String,
     ros_type: String,
-    publisher: PublisherOn<M>,
-}
-
-/// A publisher on the transport it was made on (see `SubscriptionOn`).
-#[allow(clippy::large_enum_variant)]
-enum PublisherOn<M: serde::Serialize> {
-    Dds(Watched<ros2_client::dds::Publisher<M>>),
-    #[cfg(feature = "zenoh")]
-    Zenoh(Watched<ros2_client::zenoh::Publisher<M>>),
-}
-
-impl<M: serde::Serialize> PublisherOn<M> {
-    fn matching(&self) -> &crate::node::endpoints::Matching {
-        match self {
-            PublisherOn::Dds(p) => p.matching(),
-            #[cfg(feature = "zenoh")]
-            PublisherOn::Zenoh(p) => p.matching(),
-        }
-    }
+    publisher: Watched<Publisher<M>>,
 }
 
 /// A publisher of message bodies of a type known only by name (see [`Radar::raw_publisher`](crate::Radar::raw_publisher)).
 pub type RawPublisher = SignalPublisher<RawMessage>;
 
 impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
+    /// `publisher`, which writes `ros_type` on the absolute `topic` (over either transport).
     pub(crate) fn new(
         topic: String,
         ros_type: String,
-        publisher: Watched<ros2_client::dds::Publisher<M>>,
+        publisher: Watched<Publisher<M>>,
     ) -> SignalPublisher<M> {
         SignalPublisher {
             topic,
             ros_type,
-            publisher: PublisherOn::Dds(publisher),
-        }
-    }
-
-    /// A publisher over Zenoh.
-    #[cfg(feature = "zenoh")]
-    pub(crate) fn over_zenoh(
-        topic: String,
-        ros_type: String,
-        publisher: Watched<ros2_client::zenoh::Publisher<M>>,
-    ) -> SignalPublisher<M> {
-        SignalPublisher {
-            topic,
-            ros_type,
-            publisher: PublisherOn::Zenoh(publisher),
+            publisher,
         }
     }
 
@@ -105,28 +75,18 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
     /// # Ok(()) }
     /// ```
     pub fn publish(&self, m: M) -> Result<()> {
-        match &self.publisher {
-            PublisherOn::Dds(p) => p.publish(m),
-            #[cfg(feature = "zenoh")]
-            PublisherOn::Zenoh(p) => p.publish(m),
-        }
-        .map_err(|e| Error::send(&self.topic, e.forget_data()))
+        self.publisher
+            .publish(m)
+            .map_err(|e| Error::send(&self.topic, e.forget_data()))
     }
 
     /// Sends one message as `sent` says: with that source time, and carrying that cause (see
     /// [`crate::wire::cause`]).
     /// Over Zenoh the source time goes into rmw_zenoh's attachment and the cause is not carried (docs/zenoh.md).
     pub(crate) fn publish_sent(&self, m: M, sent: radar_semantics::response::Sent) -> Result<()> {
-        match &self.publisher {
-            PublisherOn::Dds(p) => p
-                .publish_with_options(m, crate::wire::cause::write_options(sent))
-                .map(|_| ()),
-            #[cfg(feature = "zenoh")]
-            PublisherOn::Zenoh(p) => {
-                p.publish_stamped(m, ros2_client::ROSTime::from_nanos(sent.at))
-            }
-        }
-        .map_err(|e| Error::send(&self.topic, e.forget_data()))
+        self.publisher
+            .publish_sent(m, sent)
+            .map_err(|e| Error::send(&self.topic, e.forget_data()))
     }
 
     /// Subscriptions (of the same type) matched now.
@@ -179,55 +139,23 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
 pub struct SignalSubscription<M: 'static> {
     topic: String,
     ros_type: String,
-    subscription: SubscriptionOn<M>,
-}
-
-/// A subscription on the transport it was made on. (One per endpoint, made once: the variants' sizes differ, and
-/// boxing the larger would only add a pointer to follow on each sample.)
-#[allow(clippy::large_enum_variant)]
-enum SubscriptionOn<M: 'static> {
-    Dds(Watched<ros2_client::dds::Subscription<M>>),
-    #[cfg(feature = "zenoh")]
-    Zenoh(Watched<ros2_client::zenoh::Subscription<M>>),
-}
-
-impl<M: 'static> SubscriptionOn<M> {
-    fn matching(&self) -> &crate::node::endpoints::Matching {
-        match self {
-            SubscriptionOn::Dds(s) => s.matching(),
-            #[cfg(feature = "zenoh")]
-            SubscriptionOn::Zenoh(s) => s.matching(),
-        }
-    }
+    subscription: Watched<Subscription<M>>,
 }
 
 /// A subscription delivering message bodies of a type known only by name (see [`Radar::raw_subscription`](crate::Radar::raw_subscription)).
 pub type RawSubscription = SignalSubscription<RawMessage>;
 
 impl<M: Send + Sync + 'static> SignalSubscription<M> {
+    /// `subscription`, which reads `ros_type` on the absolute `topic` (over either transport).
     pub(crate) fn new(
         topic: String,
         ros_type: String,
-        subscription: Watched<ros2_client::dds::Subscription<M>>,
+        subscription: Watched<Subscription<M>>,
     ) -> SignalSubscription<M> {
         SignalSubscription {
             topic,
             ros_type,
-            subscription: SubscriptionOn::Dds(subscription),
-        }
-    }
-
-    /// A subscription over Zenoh.
-    #[cfg(feature = "zenoh")]
-    pub(crate) fn over_zenoh(
-        topic: String,
-        ros_type: String,
-        subscription: Watched<ros2_client::zenoh::Subscription<M>>,
-    ) -> SignalSubscription<M> {
-        SignalSubscription {
-            topic,
-            ros_type,
-            subscription: SubscriptionOn::Zenoh(subscription),
+            subscription,
         }
     }
 
@@ -312,16 +240,7 @@ impl<M: RosMessage> SignalSubscription<M> {
 
     /// This subscription's samples, whichever transport it is on.
     fn messages(&self) -> impl Stream<Item = ros2_client::ReadResult<(M, MessageInfo)>> + '_ {
-        #[cfg(not(feature = "zenoh"))]
-        {
-            let SubscriptionOn::Dds(s) = &self.subscription;
-            s.async_stream()
-        }
-        #[cfg(feature = "zenoh")]
-        match &self.subscription {
-            SubscriptionOn::Dds(s) => futures::future::Either::Left(s.async_stream()),
-            SubscriptionOn::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
-        }
+        self.subscription.async_stream()
     }
 
     /// The next message; unbounded unless `.timeout(d)`.
@@ -345,11 +264,7 @@ impl<M: RosMessage> SignalSubscription<M> {
 
     /// Takes a message that has already arrived, without waiting.
     pub fn try_recv(&self) -> Option<M> {
-        match &self.subscription {
-            SubscriptionOn::Dds(s) => s.take_accepted(),
-            #[cfg(feature = "zenoh")]
-            SubscriptionOn::Zenoh(s) => s.matching().first_accepted(|| s.try_take()),
-        }
+        self.subscription.take_accepted()
     }
 
     /// The next message with the GID of its publisher.
@@ -374,16 +289,7 @@ impl SignalSubscription<RawMessage> {
     fn bodies(
         &self,
     ) -> impl Stream<Item = ros2_client::ReadResult<(RawMessage, MessageInfo)>> + '_ {
-        #[cfg(not(feature = "zenoh"))]
-        {
-            let SubscriptionOn::Dds(s) = &self.subscription;
-            s.async_stream_seed(RawSeed)
-        }
-        #[cfg(feature = "zenoh")]
-        match &self.subscription {
-            SubscriptionOn::Dds(s) => futures::future::Either::Left(s.async_stream_seed(RawSeed)),
-            SubscriptionOn::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
-        }
+        self.subscription.bodies()
     }
 
     /// The next message body with its source timestamp (ns since the epoch, 0 if unknown); unbounded unless

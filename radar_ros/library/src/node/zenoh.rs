@@ -11,6 +11,7 @@ use crate::{
     error::{Error, Result},
     node::endpoints::{over_zenoh, topic_name},
     node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
+    node::transport::{Publisher, Subscription},
     wire::malformed::Malformed,
     wire::msg::{RosMessage, TypeName},
     wire::qos::{signal_qos, state_qos},
@@ -150,8 +151,8 @@ impl ZenohSignals {
             .create_publisher::<M>(&t, None)
             .map_err(|e| Error::transport(format!("a publisher on {abs} over Zenoh"), e))?;
         let counts = p.watch_matched(&self.node);
-        let watched = over_zenoh(p, counts, self.malformed.clone())?;
-        Ok(SignalPublisher::over_zenoh(abs, ty.ros, watched))
+        let watched = over_zenoh(Publisher::Zenoh(p), counts, self.malformed.clone())?;
+        Ok(SignalPublisher::new(abs, ty.ros, watched))
     }
 
     fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
@@ -166,8 +167,8 @@ impl ZenohSignals {
             .create_subscription::<M>(&t, None)
             .map_err(|e| Error::transport(format!("a subscription to {abs} over Zenoh"), e))?;
         let counts = s.watch_matched(&self.node);
-        let watched = over_zenoh(s, counts, self.malformed.clone())?;
-        Ok(SignalSubscription::over_zenoh(abs, ty.ros, watched))
+        let watched = over_zenoh(Subscription::Zenoh(s), counts, self.malformed.clone())?;
+        Ok(SignalSubscription::new(abs, ty.ros, watched))
     }
 
     /// The absolute topic and the Zenoh topic of type `ty`, its hash given to the backend (what rmw_zenoh

@@ -53,7 +53,7 @@ impl Radar {
             &state_qos(),
         )?;
         // its listeners: readers of `triggered` that do not only observe (`graph/observers.rs`)
-        let listeners = self.graph().watch_listeners(triggered.guid());
+        let listeners = self.graph().watch_listeners(triggered.id());
         let st = EventState {
             stamp: Time::now(),
             name: name.fully_qualified(),
@@ -63,7 +63,7 @@ impl Radar {
         emit(&state_pub, "state", st.clone());
         let (state_tx, state_rx) = watch::channel(st.clone());
         let graph = self.graph().clone();
-        let guid = triggered.guid();
+        let guid = triggered.id();
         let task = self
             .participant()
             .spawn_component(claimed, params, move |stop_rx| async move {

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use futures::StreamExt;
 use ros2_client::{
-    dds::{Publisher, Server},
+    dds::Server,
     parameters::raw,
     rcl_interfaces::{
         DescribeParametersRequest, DescribeParametersResponse, GetParameterTypesRequest,
@@ -26,7 +26,7 @@ use crate::{
 };
 
 /// The writer of `/parameter_events` of one node (rclcpp's QoS: reliable, volatile, keep-last 1000).
-pub(crate) struct Events(Watched<Publisher<raw::ParameterEvent>>);
+pub(crate) struct Events(Watched<crate::node::transport::Publisher<raw::ParameterEvent>>);
 
 impl Events {
     pub(crate) fn create(graph: &Graph, node: &mut ros2_client::dds::Node) -> Result<Events> {
