@@ -18,6 +18,8 @@
 //!   with the design-document peer, what the manager's relays need;
 //! - `radar_ros/library/tests/zenoh_signals.rs`: `radar_ros::ZenohSignals`, radar_ros's signal publishers and
 //!   subscriptions over Zenoh, waiting, sending and hearing against the design-document peer;
+//! - `radar_ros/library/tests/zenoh_radar.rs`: a `Radar` on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`): Listing 2's
+//!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -91,6 +93,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_raw",
             "--test",
             "zenoh_signals",
+            "--test",
+            "zenoh_radar",
         ],
     ]
     .concat();
@@ -116,7 +120,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs and zenoh_signals.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs and zenoh_radar.rs",
     );
     ran_and_passed(
         &out,
@@ -129,6 +133,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "matched_counts_over_zenoh_follow_a_design_document_peer_as_it_comes_and_is_killed",
             "raw_bodies_and_their_source_times_cross_zenoh_to_and_from_a_design_document_peer",
             "radar_ros_signal_endpoints_over_zenoh_wait_send_and_hear_as_over_dds",
+            "listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper",
         ],
     );
     let router = [

@@ -39,7 +39,7 @@ pub(crate) fn record(domain: u16, node: &str, access: Access, name: &str) {
 }
 
 /// [`record`] for a ros2-client node.
-pub(crate) fn record_node(node: &ros2_client::dds::Node, access: Access, name: &str) {
+pub(crate) fn record_node(node: &crate::node::transport::RosNode, access: Access, name: &str) {
     record(node.domain_id(), &node.fully_qualified_name(), access, name);
 }
 

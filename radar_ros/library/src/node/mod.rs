@@ -7,6 +7,7 @@ pub(crate) mod domain;
 pub(crate) mod endpoints;
 pub mod params;
 pub(crate) mod participant;
+pub(crate) mod plain;
 pub(crate) mod pool;
 pub mod ros_args;
 pub mod rosout;
@@ -14,5 +15,6 @@ pub(crate) mod services;
 pub(crate) mod shutdown;
 pub(crate) mod topics;
 pub(crate) mod transport;
+pub(crate) mod watched;
 #[cfg(feature = "zenoh")]
 pub(crate) mod zenoh;

@@ -10,16 +10,14 @@ use std::{
     sync::{Arc, Mutex},
 };
 
-use ros2_client::dds::{Context, Node};
-use ros2_client::{NodeName, NodeOptions, QosProfile};
+use ros2_client::{NodeName, NodeOptions};
 
 use crate::{
     error::{Error, Result},
     graph::Graph,
-    node::endpoints,
-    node::pool::{Dir, Key, Pool},
-    node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
-    wire::{msg::RosMessage, names::ComponentName, qos::signal_qos_depth, raw::parse_type_name},
+    node::pool::Pool,
+    node::transport::RosNode as Node,
+    wire::names::ComponentName,
 };
 
 /// Names this process serves (actions, managers): a client here is matched with them locally, which
@@ -52,9 +50,22 @@ impl Drop for ServedMark {
     }
 }
 
-/// One DDS participant and what hangs off it.
+/// The transport a participant is on: a DDS participant (its ros2-client context), or a Zenoh session as
+/// rmw_zenoh's (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`, the `zenoh` feature).
+pub(crate) enum Ctx {
+    /// DDS.
+    Dds(ros2_client::dds::Context),
+    /// Zenoh, with where its endpoints count samples that do not decode.
+    #[cfg(feature = "zenoh")]
+    Zenoh(
+        ros2_client::zenoh::Context,
+        Arc<crate::wire::malformed::Malformed>,
+    ),
+}
+
+/// One DDS participant (or Zenoh session) and what hangs off it.
 pub(crate) struct Participant {
-    ctx: Context,
+    ctx: Ctx,
     domain_id: u16,
     namespace: String,
     graph: Graph,
@@ -109,7 +120,12 @@ impl crate::node::shutdown::Stoppable for Participant {
 
     fn leave(&self) {
         self.write_policy();
-        self.ctx.domain_participant().close();
+        match &self.ctx {
+            Ctx::Dds(ctx) => ctx.domain_participant().close(),
+            // over Zenoh each node and endpoint drops its liveliness token as it goes
+            #[cfg(feature = "zenoh")]
+            Ctx::Zenoh(..) => {}
+        }
     }
 }
 
@@ -170,11 +186,12 @@ impl Participant {
         }
     }
 
+    #[allow(irrefutable_let_patterns)] // without the zenoh feature, DDS is the only transport
     /// Wraps `ctx`, starting the graph's discovery task on a thread of its own (so that discovery goes on when
     /// the program's runtime has gone: exit slots that run after `main` returns may look components up) and the
     /// pool's sweeper on `rt`.
     pub(crate) fn start(
-        ctx: Context,
+        ctx: Ctx,
         domain_id: u16,
         namespace: String,
         (ros_args, rule_node): (Arc<crate::node::ros_args::RosArgs>, String),
@@ -182,10 +199,24 @@ impl Participant {
         rt: &tokio::runtime::Handle,
     ) -> Arc<Participant> {
         let graph = Graph::default();
-        graph.set_participant(ctx.domain_participant());
         let (stop, stop_rx) = tokio::sync::oneshot::channel();
         let (ended_tx, ended) = std::sync::mpsc::channel();
-        let run = graph.clone().run(ctx.domain_participant(), stop_rx);
+        let Ctx::Dds(dds) = &ctx else {
+            // over Zenoh the graph is the liveliness tokens', which each endpoint watches itself
+            let _ = ended_tx.send(());
+            return Self::with(
+                ctx,
+                domain_id,
+                namespace,
+                graph,
+                (stop, ended),
+                (ros_args, rule_node),
+                shutdown_timeout,
+                rt,
+            );
+        };
+        graph.set_participant(dds.domain_participant());
+        let run = graph.clone().run(dds.domain_participant(), stop_rx);
         let on_thread = std::thread::Builder::new()
             .name("radar-graph".into())
             .spawn(move || {
@@ -201,6 +232,33 @@ impl Participant {
         if let Err(e) = on_thread {
             tracing::error!("cannot start the ROS graph's thread: {e}");
         }
+        Self::with(
+            ctx,
+            domain_id,
+            namespace,
+            graph,
+            (stop, ended),
+            (ros_args, rule_node),
+            shutdown_timeout,
+            rt,
+        )
+    }
+
+    /// The participant on `ctx`, its graph started (over DDS).
+    #[allow(clippy::too_many_arguments)]
+    fn with(
+        ctx: Ctx,
+        domain_id: u16,
+        namespace: String,
+        graph: Graph,
+        (stop, ended): (
+            tokio::sync::oneshot::Sender<()>,
+            std::sync::mpsc::Receiver<()>,
+        ),
+        (ros_args, rule_node): (Arc<crate::node::ros_args::RosArgs>, String),
+        shutdown_timeout: std::time::Duration,
+        rt: &tokio::runtime::Handle,
+    ) -> Arc<Participant> {
         let pool = Arc::new(Pool::default());
         rt.spawn(Pool::sweeper(Arc::downgrade(&pool)));
         Arc::new(Participant {
@@ -274,14 +332,33 @@ impl Participant {
         self.shutdown_timeout
     }
 
-    /// The DDS participant's GUID.
-    pub(crate) fn guid(&self) -> ros2_client::dds::rustdds::GUID {
-        use ros2_client::dds::rustdds::RTPSEntity;
-        self.ctx.domain_participant().guid()
+    /// The DDS participant's GUID; over Zenoh the session's id (16 bytes as well).
+    pub(crate) fn guid(&self) -> crate::node::transport::EndpointId {
+        match &self.ctx {
+            Ctx::Dds(ctx) => {
+                use ros2_client::dds::rustdds::RTPSEntity;
+                ctx.domain_participant().guid()
+            }
+            #[cfg(feature = "zenoh")]
+            Ctx::Zenoh(ctx, _) => {
+                crate::node::transport::EndpointId::from_bytes(ctx.session().zid().to_le_bytes())
+            }
+        }
     }
 
-    pub(crate) fn context(&self) -> &Context {
-        &self.ctx
+    /// The DDS context, over DDS.
+    #[allow(irrefutable_let_patterns)] // without the zenoh feature, DDS is the only transport
+    pub(crate) fn dds_context(&self) -> Option<&ros2_client::dds::Context> {
+        match &self.ctx {
+            Ctx::Dds(ctx) => Some(ctx),
+            #[cfg(feature = "zenoh")]
+            Ctx::Zenoh(..) => None,
+        }
+    }
+
+    /// Whether this participant is on Zenoh.
+    pub(crate) fn over_zenoh(&self) -> bool {
+        self.dds_context().is_none()
     }
 
     pub(crate) fn domain_id(&self) -> u16 {
@@ -356,7 +433,7 @@ impl Participant {
 
     /// Creates a plain node: no rosout, no parameter services (a RADAR node's endpoints are its signals and
     /// its state).
-    fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
+    pub(crate) fn new_node(&self, namespace: &str, base: &str) -> Result<Node> {
         let fq = ComponentName::resolve(base, namespace)?.fully_qualified();
         let name = NodeName::new(namespace, base).map_err(|e| Error::InvalidName {
             name: fq.clone(),
@@ -366,9 +443,23 @@ impl Participant {
             .enable_rosout(false)
             .start_parameter_services(false);
         self.note_node(&fq);
-        self.ctx
-            .new_node(name, options)
-            .map_err(|e| Error::transport(format!("node {fq}"), e))
+        match &self.ctx {
+            Ctx::Dds(ctx) => ctx
+                .new_node(name, options)
+                .map(Node::Dds)
+                .map_err(|e| Error::transport(format!("node {fq}"), e)),
+            #[cfg(feature = "zenoh")]
+            Ctx::Zenoh(ctx, malformed) => ctx
+                .new_node(name, options)
+                .map(|node| {
+                    Node::Zenoh(crate::node::transport::ZenohNode {
+                        node,
+                        domain_id: self.domain_id,
+                        malformed: malformed.clone(),
+                    })
+                })
+                .map_err(|e| Error::transport(format!("node {fq} over Zenoh"), e)),
+        }
     }
 
     /// Creates this participant's program node: the node of its plain endpoints, which also shows the
@@ -469,112 +560,6 @@ impl Participant {
                 fut.await;
             }
         })
-    }
-
-    /// Makes an endpoint on the client node: `make(node, absolute topic)`.
-    fn on_client_node<T>(
-        &self,
-        topic: &str,
-        make: impl FnOnce(&mut Node, &str) -> Result<T>,
-    ) -> Result<(String, T)> {
-        let topic = self.resolve_topic(topic)?;
-        let e = self.with_client_node(|node| make(node, &topic))?;
-        Ok((topic, e))
-    }
-
-    /// A typed publisher on the client node (absolute or relative `topic`).
-    pub(crate) fn publisher<M: RosMessage>(
-        &self,
-        topic: &str,
-        qos: &QosProfile,
-    ) -> Result<SignalPublisher<M>> {
-        let (topic, p) = self.on_client_node(topic, |node, t| {
-            endpoints::typed_publisher(&self.graph, node, t, qos)
-        })?;
-        Ok(SignalPublisher::new(topic, M::ros_type_name(), p))
-    }
-
-    /// A typed subscription on the client node (absolute or relative `topic`).
-    pub(crate) fn subscription<M: RosMessage>(
-        &self,
-        topic: &str,
-        qos: &QosProfile,
-    ) -> Result<SignalSubscription<M>> {
-        let (topic, s) = self.on_client_node(topic, |node, t| {
-            endpoints::typed_subscription(&self.graph, node, t, qos)
-        })?;
-        Ok(SignalSubscription::new(topic, M::ros_type_name(), s))
-    }
-
-    /// A raw publisher of `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
-    pub(crate) fn raw_publisher(
-        &self,
-        topic: &str,
-        ros_type: &str,
-        depth: usize,
-    ) -> Result<RawPublisher> {
-        let ty = parse_type_name(ros_type)?;
-        let (topic, p) = self.on_client_node(topic, |node, t| {
-            endpoints::publisher(&self.graph, node, t, &ty, &signal_qos_depth(depth))
-        })?;
-        Ok(RawPublisher::new(topic, ros_type.to_owned(), p))
-    }
-
-    /// A raw subscription to `ros_type` on `topic` (reliable, volatile, keep-last `depth`).
-    pub(crate) fn raw_subscription(
-        &self,
-        topic: &str,
-        ros_type: &str,
-        depth: usize,
-    ) -> Result<RawSubscription> {
-        self.raw_reader(topic, ros_type, depth, false)
-    }
-
-    /// [`Participant::raw_subscription`] that only observes: events do not count it as a listener.
-    pub(crate) fn raw_observer(
-        &self,
-        topic: &str,
-        ros_type: &str,
-        depth: usize,
-    ) -> Result<RawSubscription> {
-        self.raw_reader(topic, ros_type, depth, true)
-    }
-
-    fn raw_reader(
-        &self,
-        topic: &str,
-        ros_type: &str,
-        depth: usize,
-        observer: bool,
-    ) -> Result<RawSubscription> {
-        let ty = parse_type_name(ros_type)?;
-        let qos = signal_qos_depth(depth);
-        let (topic, s) = self.on_client_node(topic, |node, t| {
-            endpoints::subscription_as(&self.graph, node, t, &ty, &qos, observer)
-        })?;
-        Ok(RawSubscription::new(topic, ros_type.to_owned(), s))
-    }
-
-    /// The pooled raw writer of `ros_type` on the absolute `topic` with history `depth`, held until
-    /// [`Participant::release`] (see [`crate::node::pool`]).
-    pub(crate) fn pooled_writer(&self, key: &Key) -> Result<Arc<RawPublisher>> {
-        debug_assert_eq!(key.dir, Dir::Writer);
-        self.pool.writer(key, || {
-            self.raw_publisher(&key.topic, &key.ros_type, key.depth)
-        })
-    }
-
-    /// The pooled raw reader for `key`, held until [`Participant::release`].
-    pub(crate) fn pooled_reader(&self, key: &Key) -> Result<Arc<RawSubscription>> {
-        debug_assert_eq!(key.dir, Dir::Reader);
-        self.pool.reader(key, || {
-            self.raw_subscription(&key.topic, &key.ros_type, key.depth)
-        })
-    }
-
-    /// Gives up one hold on a pooled endpoint; whether it is gone.
-    pub(crate) fn release(&self, key: &Key) -> bool {
-        self.pool.release(key)
     }
 }
 

@@ -199,7 +199,7 @@ impl Drop for Publishing {
 /// The `/rosout` writer of the program node `node`.
 pub(crate) fn writer(
     graph: &crate::graph::Graph,
-    node: &mut ros2_client::dds::Node,
+    node: &mut crate::node::transport::RosNode,
 ) -> Result<Watched<crate::node::transport::Publisher<Log>>> {
     let ty = crate::wire::raw::parse_type_name("rcl_interfaces/msg/Log")?;
     publisher(graph, node, "/rosout", &ty, &crate::wire::qos::rosout_qos())

@@ -2,9 +2,12 @@
 //! rcl_interfaces' parameter services): one way to make their servers and clients, with the names and QoS rmw
 //! gives them.
 
-use ros2_client::{dds::Node, Name};
+use ros2_client::Name;
 
-use crate::error::{Error, Result};
+use crate::{
+    error::{Error, Result},
+    node::transport::{Client, RosNode as Node, Server},
+};
 
 /// The ROS name of the service `<fq>/<service>` (a manager's `connect`, a node's `get_parameters`, ...), checked.
 fn service_name(fq: &str, service: &str) -> Result<Name> {
@@ -21,7 +24,7 @@ pub(crate) fn service_server<Req, Resp>(
     fq: &str,
     service: &str,
     ty: &str,
-) -> Result<ros2_client::dds::Server<Req, Resp>>
+) -> Result<Server<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -36,7 +39,7 @@ pub(crate) fn service_server_of<Req, Resp>(
     service: &str,
     package: &str,
     ty: &str,
-) -> Result<ros2_client::dds::Server<Req, Resp>>
+) -> Result<Server<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -58,9 +61,20 @@ where
                 q.clone(),
                 q,
             )
+            .map(Server::Dds)
+            .map_err(|e| Box::new(e) as BoxError)
+        },
+        #[cfg(feature = "zenoh")]
+        |node, name, t| {
+            node.create_server::<Req, Resp>(name, t)
+                .map(Server::Zenoh)
+                .map_err(|e| Box::new(e) as BoxError)
         },
     )
 }
+
+/// Why a server or client could not be made, whichever transport.
+type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Where a service endpoint goes: service `<fq>/<service>` of type `<package>/srv/<ty>`.
 struct ServiceAt<'a> {
@@ -71,18 +85,24 @@ struct ServiceAt<'a> {
 }
 
 impl ServiceAt<'_> {
-    /// Makes a server or a client (`make(node, name, type, qos)`) as rmw does (enhanced mapping, the signal QoS
-    /// both ways), recording the access (`Reply`: a server, `Request`: a client) a security policy must grant.
-    fn make<T, E: std::error::Error + Send + Sync + 'static>(
+    /// Makes a server or a client as rmw does: over DDS `dds(node, name, type, qos)` (enhanced mapping, the
+    /// signal QoS both ways), over Zenoh `zenoh(node, name, type)` (a queryable, or queries, as rmw_zenoh's);
+    /// recording the access (`Reply`: a server, `Request`: a client) a security policy must grant.
+    fn make<T>(
         &self,
         node: &mut Node,
         access: crate::node::declared::Access,
-        make: impl FnOnce(
-            &mut Node,
+        dds: impl FnOnce(
+            &mut ros2_client::dds::Node,
             &Name,
             &ros2_client::ServiceTypeName,
             ros2_client::QosProfile,
-        ) -> std::result::Result<T, E>,
+        ) -> std::result::Result<T, BoxError>,
+        #[cfg(feature = "zenoh")] zenoh: impl FnOnce(
+            &ros2_client::zenoh::Node,
+            &Name,
+            &ros2_client::ServiceTypeName,
+        ) -> std::result::Result<T, BoxError>,
     ) -> Result<T> {
         let path = format!("{}/{}", self.fq.trim_end_matches('/'), self.service);
         crate::node::declared::record_node(node, access, &path);
@@ -91,13 +111,13 @@ impl ServiceAt<'_> {
             crate::node::declared::Access::Reply => format!("service {}/{}", self.fq, self.service),
             _ => format!("a client of {}/{}", self.fq, self.service),
         };
-        make(
-            node,
-            &name,
-            &ros2_client::ServiceTypeName::new(self.package, self.ty),
-            crate::wire::qos::signal_qos(),
-        )
-        .map_err(|e| Error::transport(what, e))
+        let ty = ros2_client::ServiceTypeName::new(self.package, self.ty);
+        match node {
+            Node::Dds(node) => dds(node, &name, &ty, crate::wire::qos::signal_qos()),
+            #[cfg(feature = "zenoh")]
+            Node::Zenoh(node) => zenoh(&node.node, &name, &ty),
+        }
+        .map_err(|e| Error::transport(what, crate::error::Text(e.to_string())))
     }
 }
 
@@ -108,7 +128,7 @@ pub(crate) fn service_client<Req, Resp>(
     fq: &str,
     service: &str,
     ty: &str,
-) -> Result<ros2_client::dds::Client<Req, Resp>>
+) -> Result<Client<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -123,7 +143,7 @@ pub(crate) fn service_client_of<Req, Resp>(
     service: &str,
     package: &str,
     ty: &str,
-) -> Result<ros2_client::dds::Client<Req, Resp>>
+) -> Result<Client<Req, Resp>>
 where
     Req: ros2_client::Message + Clone + 'static,
     Resp: ros2_client::Message + Clone + 'static,
@@ -145,6 +165,14 @@ where
                 q.clone(),
                 q,
             )
+            .map(Client::Dds)
+            .map_err(|e| Box::new(e) as BoxError)
+        },
+        #[cfg(feature = "zenoh")]
+        |node, name, t| {
+            node.create_client::<Req, Resp>(name, t)
+                .map(Client::Zenoh)
+                .map_err(|e| Box::new(e) as BoxError)
         },
     )
 }

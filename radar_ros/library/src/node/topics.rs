@@ -19,8 +19,8 @@ use ros2_client::MessageInfo;
 
 use crate::{
     error::{Error, Result},
-    node::endpoints::Watched,
     node::transport::{Publisher, Subscription},
+    node::watched::Watched,
     wait::Wait,
     wire::msg::RosMessage,
     wire::raw::RawMessage,

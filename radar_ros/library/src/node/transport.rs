@@ -3,19 +3,166 @@
 //! ros2-client's DDS backend themselves (`tests/layering.rs` checks it), so that a second transport (Zenoh,
 //! docs/zenoh.md) changes these and the layers below them, not the binding of the semantics.
 //!
-//! Topic endpoints ([`Publisher`], [`Subscription`]) are over DDS or, with the `zenoh` feature, over Zenoh: an
-//! enum each (not a trait object: each sample takes one match, and the hot path stays monomorphic). Nodes,
-//! services and actions are DDS's today.
+//! Nodes ([`RosNode`]), topic endpoints ([`Publisher`], [`Subscription`]) and services ([`Server`], [`Client`])
+//! are over DDS or, with the `zenoh` feature, over Zenoh: an enum each (not a trait object: each sample takes
+//! one match, and the hot path stays monomorphic). Actions are DDS's only today.
 
-use futures::Stream;
-use ros2_client::{MessageInfo, ReadResult};
+use futures::{Stream, StreamExt};
+use ros2_client::{MessageInfo, ReadResult, RmwRequestId};
 
-/// A ROS node of a component or program.
-pub(crate) type RosNode = ros2_client::dds::Node;
-/// A service server.
-pub(crate) type Server<Q, A> = ros2_client::dds::Server<Q, A>;
-/// A service client.
-pub(crate) type Client<Q, A> = ros2_client::dds::Client<Q, A>;
+use crate::error::{Result, Text};
+
+/// A ROS node of a component or program, on the transport of its participant. (One per component, made once
+/// and kept in place: the variants' sizes differ.)
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum RosNode {
+    /// Over DDS.
+    Dds(ros2_client::dds::Node),
+    /// Over Zenoh, as rmw_zenoh's.
+    #[cfg(feature = "zenoh")]
+    Zenoh(ZenohNode),
+}
+
+/// A node over Zenoh, with what its endpoints need that the backend's node does not say.
+#[cfg(feature = "zenoh")]
+pub(crate) struct ZenohNode {
+    /// The backend's node.
+    pub(crate) node: ros2_client::zenoh::Node,
+    /// Its domain.
+    pub(crate) domain_id: u16,
+    /// Where samples that do not decode are counted (the participant's).
+    pub(crate) malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
+}
+
+impl RosNode {
+    /// Its domain.
+    pub(crate) fn domain_id(&self) -> u16 {
+        match self {
+            RosNode::Dds(n) => n.domain_id(),
+            #[cfg(feature = "zenoh")]
+            RosNode::Zenoh(n) => n.domain_id,
+        }
+    }
+
+    /// Its fully qualified name.
+    pub(crate) fn fully_qualified_name(&self) -> String {
+        match self {
+            RosNode::Dds(n) => n.fully_qualified_name(),
+            #[cfg(feature = "zenoh")]
+            RosNode::Zenoh(n) => n.node.fully_qualified_name(),
+        }
+    }
+
+    /// The DDS node, for what only DDS has (`what` names it in the error over Zenoh).
+    #[cfg_attr(not(feature = "zenoh"), allow(unused_variables))] // `what` names Zenoh's refusal
+    pub(crate) fn dds(&mut self, what: &str) -> Result<&mut ros2_client::dds::Node> {
+        match self {
+            RosNode::Dds(n) => Ok(n),
+            #[cfg(feature = "zenoh")]
+            RosNode::Zenoh(n) => Err(crate::error::Error::Config {
+                setting: "RMW_IMPLEMENTATION",
+                value: "rmw_zenoh_cpp".into(),
+                reason: format!(
+                    "{what} on node {}: not over Zenoh yet in radar_ros (docs/zenoh.md, step 6); run this \
+                     program over DDS (unset RMW_IMPLEMENTATION)",
+                    n.node.fully_qualified_name()
+                ),
+            }),
+        }
+    }
+}
+
+/// A service server, on the transport of its node (made once: the variants' sizes may differ).
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Server<Q: ros2_client::Message, A: ros2_client::Message> {
+    /// Over DDS.
+    Dds(ros2_client::dds::Server<Q, A>),
+    /// Over Zenoh: a queryable, as rmw_zenoh's.
+    #[cfg(feature = "zenoh")]
+    Zenoh(ros2_client::zenoh::Server<Q, A>),
+}
+
+impl<Q, A> Server<Q, A>
+where
+    Q: ros2_client::Message + 'static,
+    A: ros2_client::Message + 'static,
+{
+    /// The requests as they arrive, with their ids (a request that cannot be read: an error saying why).
+    pub(crate) fn receive_request_stream(
+        &self,
+    ) -> impl Stream<Item = std::result::Result<(RmwRequestId, Q), Text>> + '_ {
+        let text = |e: &dyn std::fmt::Display| Text(e.to_string());
+        #[cfg(not(feature = "zenoh"))]
+        {
+            let Server::Dds(s) = self;
+            s.receive_request_stream()
+                .map(move |r| r.map_err(|e| text(&e)))
+        }
+        #[cfg(feature = "zenoh")]
+        match self {
+            Server::Dds(s) => futures::future::Either::Left(
+                s.receive_request_stream()
+                    .map(move |r| r.map_err(|e| text(&e))),
+            ),
+            Server::Zenoh(s) => futures::future::Either::Right(
+                futures::stream::unfold(s, |s| async move {
+                    Some((s.async_receive_request().await, s))
+                })
+                .map(move |r| r.map_err(|e| text(&e))),
+            ),
+        }
+    }
+
+    /// Answers request `id`.
+    pub(crate) async fn async_send_response(
+        &self,
+        id: RmwRequestId,
+        resp: A,
+    ) -> std::result::Result<(), Text> {
+        match self {
+            Server::Dds(s) => s
+                .async_send_response(id, resp)
+                .await
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            Server::Zenoh(s) => s.send_response(id, resp).map_err(|e| Text(e.to_string())),
+        }
+    }
+
+    /// Whether a reply to a caller needs the caller's reply reader matched first (DDS: a reply sent before goes
+    /// nowhere; Zenoh: the reply travels back on the query's own path).
+    pub(crate) fn replies_need_match(&self) -> bool {
+        matches!(self, Server::Dds(_))
+    }
+}
+
+/// A service client, on the transport of its node (made once: the variants' sizes may differ).
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Client<Q: ros2_client::Message, A: ros2_client::Message> {
+    /// Over DDS.
+    Dds(ros2_client::dds::Client<Q, A>),
+    /// Over Zenoh: a query, as rmw_zenoh's.
+    #[cfg(feature = "zenoh")]
+    Zenoh(ros2_client::zenoh::Client<Q, A>),
+}
+
+impl<Q, A> Client<Q, A>
+where
+    Q: ros2_client::Message + 'static,
+    A: ros2_client::Message + 'static,
+{
+    /// Calls the service and waits for its answer (unbounded: the caller bounds it).
+    pub(crate) async fn async_call_service(&self, req: Q) -> std::result::Result<A, Text> {
+        match self {
+            Client::Dds(c) => c
+                .async_call_service(req)
+                .await
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            Client::Zenoh(c) => c.async_call(req).await.map_err(|e| Text(e.to_string())),
+        }
+    }
+}
 /// What identifies an endpoint, or a participant, on the graph: a DDS GUID (16 bytes, as an rmw_zenoh GID).
 pub(crate) type EndpointId = ros2_client::dds::rustdds::GUID;
 /// Actions: clients, servers, goal and cancel handles.

@@ -1,4 +1,5 @@
-//! Signal endpoints over Zenoh: [`ZenohSignals`] (issue 37; docs/zenoh.md, step 3's first half).
+//! Endpoints over Zenoh: [`ZenohSignals`] (issue 37; docs/zenoh.md, step 3's first half), and how a `Radar`
+//! on Zenoh makes its topic endpoints (step 3's second half).
 
 use std::sync::Arc;
 
@@ -9,10 +10,9 @@ use ros2_client::{
 
 use crate::{
     error::{Error, Result},
-    node::endpoints::{over_zenoh, topic_name},
     node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
-    node::transport::{Publisher, Subscription},
-    wire::malformed::Malformed,
+    node::transport::{Publisher, Subscription, ZenohNode},
+    node::watched::{over_zenoh, topic_name, Watched},
     wire::msg::{RosMessage, TypeName},
     wire::qos::{signal_qos, state_qos},
     wire::raw::RawMessage,
@@ -42,8 +42,7 @@ use crate::{
 ///
 /// Endpoints are made inside a tokio runtime (each keeps its matched count current from a small task).
 pub struct ZenohSignals {
-    node: Node,
-    malformed: Arc<Malformed>,
+    node: ZenohNode,
     // after the node: the session closes when the last handle goes
     _ctx: Context,
 }
@@ -74,8 +73,11 @@ impl ZenohSignals {
             .new_node(name, options)
             .map_err(|e| Error::transport(format!("node /{node_name} over Zenoh"), e))?;
         Ok(ZenohSignals {
-            node,
-            malformed: Arc::default(),
+            node: ZenohNode {
+                node,
+                domain_id: domain,
+                malformed: Arc::default(),
+            },
             _ctx: ctx,
         })
     }
@@ -145,14 +147,9 @@ impl ZenohSignals {
         ty: TypeName,
         qos: &QosProfile,
     ) -> Result<SignalPublisher<M>> {
-        let (abs, t) = self.topic(topic, &ty, qos)?;
-        let p = self
-            .node
-            .create_publisher::<M>(&t, None)
-            .map_err(|e| Error::transport(format!("a publisher on {abs} over Zenoh"), e))?;
-        let counts = p.watch_matched(&self.node);
-        let watched = over_zenoh(Publisher::Zenoh(p), counts, self.malformed.clone())?;
-        Ok(SignalPublisher::new(abs, ty.ros, watched))
+        let abs = absolute(topic);
+        let p = publisher(&self.node, &abs, &ty, qos)?;
+        Ok(SignalPublisher::new(abs, ty.ros, p))
     }
 
     fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
@@ -161,44 +158,73 @@ impl ZenohSignals {
         ty: TypeName,
         qos: &QosProfile,
     ) -> Result<SignalSubscription<M>> {
-        let (abs, t) = self.topic(topic, &ty, qos)?;
-        let s = self
-            .node
-            .create_subscription::<M>(&t, None)
-            .map_err(|e| Error::transport(format!("a subscription to {abs} over Zenoh"), e))?;
-        let counts = s.watch_matched(&self.node);
-        let watched = over_zenoh(Subscription::Zenoh(s), counts, self.malformed.clone())?;
-        Ok(SignalSubscription::new(abs, ty.ros, watched))
+        let abs = absolute(topic);
+        let s = subscription(&self.node, &abs, &ty, qos)?;
+        Ok(SignalSubscription::new(abs, ty.ros, s))
     }
+}
 
-    /// The absolute topic and the Zenoh topic of type `ty`, its hash given to the backend (what rmw_zenoh
-    /// peers match on).
-    fn topic(&self, topic: &str, ty: &TypeName, qos: &QosProfile) -> Result<(String, Topic)> {
-        let abs = if topic.starts_with('/') {
-            topic.to_owned()
-        } else {
-            format!("/{topic}")
-        };
-        let name = topic_name(&abs)?;
-        let (package, rest) = ty.ros.split_once('/').unwrap_or(("", &ty.ros));
-        let base = rest.rsplit('/').next().unwrap_or(rest);
-        if rest.starts_with("action/") {
-            return Err(Error::InvalidName {
-                name: ty.ros.clone(),
-                reason: "a signal over Zenoh carries a message type (package/msg/Name), not an action's part"
-                    .into(),
-            });
-        }
-        if let Some(hash) = ty.hash {
-            register_type_hash(&ty.dds, hash).map_err(|reason| Error::InvalidName {
-                name: ty.ros.clone(),
-                reason,
-            })?;
-        }
-        Ok((
-            abs,
-            self.node
-                .create_topic(&name, MessageTypeName::new(package, base), qos),
-        ))
+/// `topic`, absolute (a relative name in the root namespace).
+fn absolute(topic: &str) -> String {
+    if topic.starts_with('/') {
+        topic.to_owned()
+    } else {
+        format!("/{topic}")
     }
+}
+
+/// A publisher of `M` on the absolute `topic_abs` of node `z`, announced as type `ty` with QoS `qos`, its
+/// matched count from the liveliness tokens (ros2-client patch 14).
+pub(crate) fn publisher<M: serde::Serialize + Send + Sync + 'static>(
+    z: &ZenohNode,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Publisher<M>>> {
+    let t = topic(&z.node, topic_abs, ty, qos)?;
+    let p = z
+        .node
+        .create_publisher::<M>(&t, None)
+        .map_err(|e| Error::transport(format!("a publisher on {topic_abs} over Zenoh"), e))?;
+    let counts = p.watch_matched(&z.node);
+    over_zenoh(Publisher::Zenoh(p), counts, z.malformed.clone())
+}
+
+/// A subscription of `M` to the absolute `topic_abs` of node `z` (see [`publisher`]).
+pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
+    z: &ZenohNode,
+    topic_abs: &str,
+    ty: &TypeName,
+    qos: &QosProfile,
+) -> Result<Watched<Subscription<M>>> {
+    let t = topic(&z.node, topic_abs, ty, qos)?;
+    let s = z
+        .node
+        .create_subscription::<M>(&t, None)
+        .map_err(|e| Error::transport(format!("a subscription to {topic_abs} over Zenoh"), e))?;
+    let counts = s.watch_matched(&z.node);
+    over_zenoh(Subscription::Zenoh(s), counts, z.malformed.clone())
+}
+
+/// The Zenoh topic of type `ty` on the absolute `abs`, its hash given to the backend (what rmw_zenoh peers
+/// match on).
+fn topic(node: &Node, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topic> {
+    let name = topic_name(abs)?;
+    let (package, rest) = ty.ros.split_once('/').unwrap_or(("", &ty.ros));
+    let base = rest.rsplit('/').next().unwrap_or(rest);
+    if rest.starts_with("action/") {
+        return Err(Error::InvalidName {
+            name: ty.ros.clone(),
+            reason: "a topic over Zenoh carries a message type (package/msg/Name), not an action's part (actions \
+                     are not over Zenoh yet in radar_ros)"
+                .into(),
+        });
+    }
+    if let Some(hash) = ty.hash {
+        register_type_hash(&ty.dds, hash).map_err(|reason| Error::InvalidName {
+            name: ty.ros.clone(),
+            reason,
+        })?;
+    }
+    Ok(node.create_topic(&name, MessageTypeName::new(package, base), qos))
 }

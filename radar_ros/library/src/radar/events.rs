@@ -53,7 +53,7 @@ impl Radar {
             &state_qos(),
         )?;
         // its listeners: readers of `triggered` that do not only observe (`graph/observers.rs`)
-        let listeners = self.graph().watch_listeners(triggered.id());
+        let listeners = triggered.matching().listeners();
         let st = EventState {
             stamp: Time::now(),
             name: name.fully_qualified(),

@@ -3,6 +3,7 @@
 
 mod action_clients;
 mod action_servers;
+mod builder;
 mod events;
 pub mod introspect;
 mod lookup;
@@ -17,14 +18,16 @@ mod waitfor;
 
 use std::sync::Arc;
 
+pub use builder::RadarBuilder;
+
 use ros2_client::dds::{rustdds::DomainParticipantBuilder, Context};
 
 use crate::{
     connections::manager::Manager,
     error::{Error, Result},
     graph::Graph,
-    node::participant::Participant,
-    radar::settings::{DiscoveryRange, Settings},
+    node::participant::{Ctx, Participant},
+    radar::settings::{DiscoveryRange, Middleware, Settings},
     wire::names::ComponentName,
 };
 
@@ -38,182 +41,6 @@ use crate::{
 /// ```
 pub fn domain_id_from_env() -> Result<u16> {
     crate::radar::settings::domain_id_in(&|k| std::env::var(k))
-}
-
-/// Configures a [`Radar`].
-#[derive(Clone, Debug, Default)]
-#[must_use]
-pub struct RadarBuilder {
-    /// What the code asked for; the command line and the environment fill in the rest when it is built.
-    asked: crate::radar::settings::Asked,
-}
-
-impl RadarBuilder {
-    /// Uses these ROS arguments instead of the process's own `--ros-args` (which [`RadarBuilder::build`] reads
-    /// from `std::env::args` otherwise). `-r __ns:=` and `-r __node:=` there override
-    /// [`RadarBuilder::namespace`] and [`RadarBuilder::program`], as the command line overrides code in rclcpp.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use radar_ros::ros_args::RosArgs;
-    /// let args = RosArgs::parse(["patrol", "--ros-args", "-r", "__ns:=/robot1"])?;
-    /// let radar = radar_ros::Radar::builder().ros_args(args).build()?;
-    /// assert_eq!(radar.namespace(), "/robot1");
-    /// # Ok(()) }
-    /// ```
-    pub fn ros_args(mut self, args: crate::node::ros_args::RosArgs) -> Self {
-        self.asked.ros_args = Some(args);
-        self
-    }
-
-    /// Whether components follow a simulator's `/clock` instead of the wall clock (see [`crate::node::clock`]).
-    /// Default: the `use_sim_time` parameter of the command line (`--ros-args -p use_sim_time:=true`), else
-    /// off.
-    pub fn use_sim_time(mut self, on: bool) -> Self {
-        self.asked.sim_time = Some(on);
-        self
-    }
-
-    /// Uses this DDS domain instead of `ROS_DOMAIN_ID`.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// let radar = radar_ros::Radar::builder().domain_id(42).build()?;
-    /// assert_eq!(radar.domain_id(), 42);
-    /// # Ok(()) }
-    /// ```
-    pub fn domain_id(mut self, id: u16) -> Self {
-        self.asked.domain_id = Some(id);
-        self
-    }
-
-    /// The namespace that relative component names resolve in (default `/`).
-    pub fn namespace(mut self, ns: &str) -> Self {
-        self.asked.namespace = Some(ns.to_owned());
-        self
-    }
-
-    /// Uses this discovery range instead of `ROS_AUTOMATIC_DISCOVERY_RANGE`.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use radar_ros::{DiscoveryRange, Radar};
-    /// let radar = Radar::builder().discovery_range(DiscoveryRange::Subnet).build()?;
-    /// # Ok(()) }
-    /// ```
-    pub fn discovery_range(mut self, range: DiscoveryRange) -> Self {
-        self.asked.range = Some(range);
-        self
-    }
-
-    /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`](crate::DEFAULT_LEASE): how soon peers
-    /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`](crate::DEFAULT_LEASE) for the trade-off).
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use std::time::Duration;
-    /// let radar = radar_ros::Radar::builder().lease(Duration::from_secs(10)).build()?; // over Wi-Fi, say
-    /// # Ok(()) }
-    /// ```
-    pub fn lease(mut self, lease: std::time::Duration) -> Self {
-        self.asked.lease = Some(lease);
-        self
-    }
-
-    /// Names the program's node (default: the executable's file name, made a valid ROS name, and the process
-    /// id: `count_up_4242`); see [`Radar::program_node`]. The name must not be a component's of this process.
-    /// Give each process of a system its own name.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// let radar = radar_ros::Radar::builder().program("patrol").build()?;
-    /// assert_eq!(radar.program_node().fully_qualified(), "/patrol");
-    /// # Ok(()) }
-    /// ```
-    pub fn program(mut self, name: &str) -> Self {
-        self.asked.program = Some(name.to_owned());
-        self
-    }
-
-    /// Whether connections made through this `Radar` hand their signals to the responses of this process
-    /// directly (default `true`): the signal takes one DDS hop (from its source) instead of two (source ->
-    /// manager -> response), and nothing of it is written on the slot's topic. With `false` every delivery is
-    /// written on the slot's topic, as the manager of another process does; a connection made while its
-    /// response runs in this process keeps the way it was armed with until it ends.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// // every start shows on `/<response>/start` (for `ros2 topic echo`, or a recording)
-    /// let radar = radar_ros::Radar::builder().local_delivery(false).build()?;
-    /// # Ok(()) }
-    /// ```
-    pub fn local_delivery(mut self, on: bool) -> Self {
-        self.asked.local_delivery = Some(on);
-        self
-    }
-
-    /// Whether SIGINT and SIGTERM stop this `Radar`'s components (default `true`): the exit slots of running
-    /// responses run, `exited` and the final states are sent, the program leaves the ROS graph, and the process
-    /// exits (status 0; see [the shutdown rules](crate#when-the-program-is-told-to-stop)). The handler is the
-    /// process's: the first `Radar` that asks for it installs it, and it stops every `Radar` that asked.
-    ///
-    /// With `false`, the program handles the signals itself (before this `Radar` is built), and calls
-    /// [`Radar::shutdown`] when told to stop, so that the exit slots still run:
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// let radar = radar_ros::Radar::builder().handle_signals(false).build()?;
-    /// // ... spawn components, make connections ...
-    /// tokio::signal::ctrl_c().await.ok();
-    /// radar.shutdown().await?; // exit slots run, `exited` is sent, the program leaves the graph
-    /// # Ok(()) }
-    /// ```
-    pub fn handle_signals(mut self, on: bool) -> Self {
-        self.asked.signals = Some(on);
-        self
-    }
-
-    /// How long a program told to stop waits for its components, exit slots included (default
-    /// [`DEFAULT_SHUTDOWN_TIMEOUT`](crate::DEFAULT_SHUTDOWN_TIMEOUT), 5 s); after that it names what did not
-    /// finish, and exits with status 1.
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use std::time::Duration;
-    /// // the arm's exit slot parks it, which takes up to 10 s
-    /// let radar = radar_ros::Radar::builder().shutdown_timeout(Duration::from_secs(15)).build()?;
-    /// # Ok(()) }
-    /// ```
-    pub fn shutdown_timeout(mut self, d: std::time::Duration) -> Self {
-        self.asked.shutdown_timeout = Some(d);
-        self
-    }
-
-    /// DDS Security from this enclave (`Some`), or none (`None`), instead of what `ROS_SECURITY_ENABLE`,
-    /// `ROS_SECURITY_KEYSTORE`, `ROS_SECURITY_STRATEGY`, `ROS_SECURITY_ENCLAVE_OVERRIDE` and `--enclave` say
-    /// (see [`crate::security`]).
-    ///
-    /// ```no_run
-    /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use radar_ros::security::SecurityOptions;
-    /// let radar = radar_ros::Radar::builder()
-    ///     .security(Some(SecurityOptions::enforce("/etc/robot/keystore", "/robot/planner")))
-    ///     .build()?;
-    /// # Ok(()) }
-    /// ```
-    pub fn security(mut self, opts: Option<crate::security::SecurityOptions>) -> Self {
-        self.asked.security = Some(opts);
-        self
-    }
-
-    /// Creates the DDS participant. Must be called inside a tokio runtime.
-    pub fn build(self) -> Result<Radar> {
-        let settings = self.asked.settle(
-            &|k| std::env::var(k),
-            crate::node::ros_args::RosArgs::from_env,
-        )?;
-        start(settings)
-    }
 }
 
 /// The DDS participant the settings ask for: domain, lease, discovery range, the enclave (as rmw announces it
@@ -263,6 +90,51 @@ fn dds_participant(s: &Settings) -> Result<rustdds::DomainParticipant> {
     })
 }
 
+/// The Zenoh session the settings ask for (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`), configured as rmw_zenoh's:
+/// `ZENOH_SESSION_CONFIG_URI`'s file, else a peer that connects to the router at `tcp/localhost:7447`;
+/// `ZENOH_CONFIG_OVERRIDE` on top; the domain's keys.
+#[cfg(feature = "zenoh")]
+fn zenoh_context(s: &Settings) -> Result<Ctx> {
+    if let Some(o) = &s.security {
+        return Err(Error::Config {
+            setting: "ROS_SECURITY_ENABLE",
+            value: o.enclave.clone(),
+            reason: "DDS Security does not apply over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp): secure the Zenoh \
+                     session in ZENOH_SESSION_CONFIG_URI's file (TLS, access control) and unset ROS_SECURITY_ENABLE, \
+                     or run over DDS"
+                .into(),
+        });
+    }
+    let ctx = ros2_client::zenoh::Context::with_options(
+        ros2_client::zenoh::ContextOptions::new().domain_id(s.domain_id),
+    )
+    .map_err(|e| {
+        Error::transport(
+            format!(
+                "a Zenoh session in domain {} (as rmw_zenoh's: are ZENOH_SESSION_CONFIG_URI and \
+                 ZENOH_CONFIG_OVERRIDE right?)",
+                s.domain_id
+            ),
+            e,
+        )
+    })?;
+    tracing::info!(
+        domain = s.domain_id,
+        "over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp)"
+    );
+    Ok(Ctx::Zenoh(ctx, Default::default()))
+}
+
+/// Without the `zenoh` feature, settings never choose Zenoh (`settings::middleware_in` refuses it).
+#[cfg(not(feature = "zenoh"))]
+fn zenoh_context(_: &Settings) -> Result<Ctx> {
+    Err(Error::Config {
+        setting: "RMW_IMPLEMENTATION",
+        value: "rmw_zenoh_cpp".into(),
+        reason: "this build of radar_ros speaks DDS only: build it with its `zenoh` feature".into(),
+    })
+}
+
 /// Starts a `Radar` from settled settings: the participant, the signal handlers, the program node with its
 /// manager, services, `/rosout` and (if asked) the simulator's clock.
 fn start(s: Settings) -> Result<Radar> {
@@ -273,8 +145,14 @@ fn start(s: Settings) -> Result<Radar> {
             "there is no tokio runtime: create the Radar inside #[tokio::main] or Runtime::block_on"
                 .into(),
     })?;
-    let ctx = Context::from_domain_participant(dds_participant(&s)?)
-        .map_err(|e| Error::transport(format!("a ROS 2 context in domain {}", s.domain_id), e))?;
+    let ctx = match s.middleware {
+        Middleware::Dds => Ctx::Dds(
+            Context::from_domain_participant(dds_participant(&s)?).map_err(|e| {
+                Error::transport(format!("a ROS 2 context in domain {}", s.domain_id), e)
+            })?,
+        ),
+        Middleware::Zenoh => zenoh_context(&s)?,
+    };
     let participant = Participant::start(
         ctx,
         s.domain_id,
@@ -460,8 +338,40 @@ impl Radar {
     /// let node = radar.context().new_node(NodeName::new("/", "my_plain_node").unwrap(), NodeOptions::new());
     /// # }
     /// ```
+    ///
+    /// # Panics
+    /// When this `Radar` runs over Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp` in a build with the `zenoh`
+    /// feature), which has no DDS context: code that runs on either uses [`Radar::dds_context`].
     pub fn context(&self) -> &ros2_client::dds::Context {
-        self.participant.context()
+        self.dds_context().expect(
+            "Radar::context: this Radar runs over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp) and has no DDS \
+             context; use Radar::dds_context",
+        )
+    }
+
+    /// The underlying ros2-client DDS context, or `None` when this `Radar` runs over Zenoh.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) {
+    /// if let Some(ctx) = radar.dds_context() {
+    ///     println!("DDS participant {:?}", ctx.domain_participant().domain_id());
+    /// }
+    /// # }
+    /// ```
+    pub fn dds_context(&self) -> Option<&ros2_client::dds::Context> {
+        self.participant.dds_context()
+    }
+
+    /// Whether this `Radar` runs over Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`, the `zenoh` feature) rather
+    /// than DDS.
+    ///
+    /// ```no_run
+    /// # async fn f(radar: radar_ros::Radar) {
+    /// println!("over {}", if radar.over_zenoh() { "Zenoh" } else { "DDS" });
+    /// # }
+    /// ```
+    pub fn over_zenoh(&self) -> bool {
+        self.participant.over_zenoh()
     }
 
     /// Resolves and validates a component name against this participant's namespace.

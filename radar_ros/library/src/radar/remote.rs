@@ -3,7 +3,6 @@
 
 use crate::connections::remote::RemoteManager;
 use crate::{error::Error, node::services::service_client, radar::Radar, wait::Wait};
-use ros2_client::{NodeName, NodeOptions};
 
 impl Radar {
     /// Clients of the manager node `name`'s services, once they are matched both ways (default limit
@@ -16,22 +15,7 @@ impl Radar {
             static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
             let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let base = format!("{}_client_{k}", radar.program_node().base());
-            radar.participant().note_node(
-                &crate::wire::names::ComponentName::resolve(&base, radar.namespace())?
-                    .fully_qualified(),
-            );
-            let mut node = radar
-                .context()
-                .new_node(
-                    NodeName::new(radar.namespace(), &base).map_err(|e| Error::InvalidName {
-                        name: base.clone(),
-                        reason: format!("{e}"),
-                    })?,
-                    NodeOptions::new()
-                        .enable_rosout(false)
-                        .start_parameter_services(false),
-                )
-                .map_err(|e| Error::transport(format!("node {base}"), e))?;
+            let mut node = radar.participant().new_node(radar.namespace(), &base)?;
             let m = RemoteManager {
                 owner: radar.participant().clone(),
                 connect: service_client(&mut node, &name, "connect", "Connect")?,

@@ -110,6 +110,17 @@ pub(crate) struct Settings {
     pub(crate) sim_time: Option<bool>,
     /// `RADAR_GENERATE_POLICY`: where to write the policy of what the program declares.
     pub(crate) generate_policy: Option<std::path::PathBuf>,
+    /// The transport `RMW_IMPLEMENTATION` chose.
+    pub(crate) middleware: Middleware,
+}
+
+/// The transport a `Radar` runs on, as `RMW_IMPLEMENTATION` chooses it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Middleware {
+    /// DDS (unset, empty, or a DDS middleware).
+    Dds,
+    /// Zenoh (`rmw_zenoh_cpp`, in a build with the `zenoh` feature).
+    Zenoh,
 }
 
 impl Asked {
@@ -134,7 +145,7 @@ impl Asked {
                 .or(self.namespace.as_deref())
                 .unwrap_or("/"),
         )?;
-        middleware_in(env)?;
+        let middleware = middleware_in(env)?;
         let domain_id = match self.domain_id {
             Some(id) => parse_domain_id(&id.to_string())?,
             None => domain_id_in(env)?,
@@ -188,6 +199,7 @@ impl Asked {
                 .unwrap_or(crate::node::shutdown::DEFAULT_SHUTDOWN_TIMEOUT),
             sim_time: self.sim_time,
             generate_policy,
+            middleware,
         })
     }
 }
@@ -238,26 +250,29 @@ const DDS_MIDDLEWARES: [&str; 5] = [
 ];
 
 /// `RMW_IMPLEMENTATION` as ROS 2 reads it to choose its middleware. Unset, empty or a DDS one: this build's DDS,
-/// which talks to every DDS middleware. `rmw_zenoh_cpp` (or any other): an error that says so before anything
-/// starts, as rcl refuses a middleware it cannot load; a program that ran on DDS among peers on Zenoh would
-/// see none of them and say nothing.
-pub(crate) fn middleware_in(env: Env<'_>) -> Result<()> {
+/// which talks to every DDS middleware. `rmw_zenoh_cpp`: Zenoh, in a build with the `zenoh` feature (without it,
+/// an error that says to build with it). Any other: an error that says so before anything starts, as rcl
+/// refuses a middleware it cannot load; a program that ran on DDS among peers on Zenoh would see none of them
+/// and say nothing.
+pub(crate) fn middleware_in(env: Env<'_>) -> Result<Middleware> {
     let value = match env("RMW_IMPLEMENTATION") {
-        Err(std::env::VarError::NotPresent) => return Ok(()),
+        Err(std::env::VarError::NotPresent) => return Ok(Middleware::Dds),
         Err(std::env::VarError::NotUnicode(v)) => v.to_string_lossy().into_owned(),
         Ok(v) => v,
     };
     let name = value.trim();
     if name.is_empty() || DDS_MIDDLEWARES.contains(&name) {
-        return Ok(());
+        return Ok(Middleware::Dds);
+    }
+    if name == "rmw_zenoh_cpp" && cfg!(feature = "zenoh") {
+        return Ok(Middleware::Zenoh);
     }
     let then = "; unset RMW_IMPLEMENTATION or set a DDS one (rmw_fastrtps_cpp, rmw_cyclonedds_cpp) for this \
                 program and its ROS 2 peers";
     let reason = if name == "rmw_zenoh_cpp" {
         format!(
-            "a radar_ros `Radar` speaks DDS only (not yet Zenoh): over DDS, this program would see none of its peers \
-             on Zenoh{then}, or join the two sides with zenoh-bridge-ros2dds; a program that only sends into slots \
-             and hears signals can use radar_ros::ZenohSignals over Zenoh (radar_ros's `zenoh` feature)"
+            "this build of radar_ros speaks DDS only: build it with its `zenoh` feature to run over Zenoh \
+             (docs/zenoh.md); over DDS, this program would see none of its peers on Zenoh{then}"
         )
     } else {
         format!(
@@ -413,14 +428,18 @@ mod tests {
         assert!(e.contains("ROS_DOMAIN_ID") && e.contains("0 to 232"), "{e}");
         let e = settle(&[("ROS_AUTOMATIC_DISCOVERY_RANGE", "MARS")], Some("p"));
         assert!(e.contains("SUBNET, LOCALHOST"), "{e}");
-        let e = settle(&[("RMW_IMPLEMENTATION", "rmw_zenoh_cpp")], Some("p"));
-        assert!(
-            e.contains("RMW_IMPLEMENTATION")
-                && e.contains("rmw_zenoh_cpp")
-                && e.contains("DDS only")
-                && e.contains("unset RMW_IMPLEMENTATION"),
-            "{e}"
-        );
+        #[cfg(not(feature = "zenoh"))]
+        {
+            let e = settle(&[("RMW_IMPLEMENTATION", "rmw_zenoh_cpp")], Some("p"));
+            assert!(
+                e.contains("RMW_IMPLEMENTATION")
+                    && e.contains("rmw_zenoh_cpp")
+                    && e.contains("DDS only")
+                    && e.contains("`zenoh` feature")
+                    && e.contains("unset RMW_IMPLEMENTATION"),
+                "{e}"
+            );
+        }
         let e = settle(&[("RMW_IMPLEMENTATION", "rmw_nothing")], Some("p"));
         assert!(
             e.contains("rmw_nothing") && e.contains("rmw_cyclonedds_cpp"),

@@ -76,6 +76,9 @@ impl Proc {
             .arg(script(name))
             .args(args)
             .env("PYTHONUNBUFFERED", "1")
+            // the helpers use rclpy's serialization only, never its middleware: rcl refuses an
+            // RMW_IMPLEMENTATION (rmw_zenoh_cpp, which a test of radar_ros on Zenoh sets) its wheels lack
+            .env_remove("RMW_IMPLEMENTATION")
             .envs(envs.iter().copied())
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -180,6 +183,19 @@ pub async fn start_peer_env(
     how: (&str, &str),
     envs: &[(&str, &str)],
 ) -> (Proc, String, String, Vec<Value>) {
+    let topics = ("/zenoh_probe/to_peer", "/zenoh_probe/from_peer");
+    start_peer_on(netns, router, domain, how, topics, envs).await
+}
+
+/// [`start_peer_env`] with the peer subscribed to `topics.0` and publishing `topics.1` (PoseStamped both).
+pub async fn start_peer_on(
+    netns: Option<u32>,
+    router: &str,
+    domain: u16,
+    how: (&str, &str),
+    topics: (&str, &str),
+    envs: &[(&str, &str)],
+) -> (Proc, String, String, Vec<Value>) {
     let (mode, durability) = how;
     let mut peer = Proc::start_with(
         netns,
@@ -188,8 +204,8 @@ pub async fn start_peer_env(
             router,
             &domain.to_string(),
             &PoseStamped::ros_type_name(),
-            "/zenoh_probe/to_peer",
-            "/zenoh_probe/from_peer",
+            topics.0,
+            topics.1,
             mode,
             durability,
         ],

@@ -98,13 +98,14 @@ pub(crate) fn action_client<A: Action>(
     action: &str,
 ) -> Result<Client<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Call, action);
-    node.create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-        crate::node::transport::ServiceMapping::Enhanced,
-        &ros_name(action)?,
-        &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
-        client_qos(),
-    )
-    .map_err(|e| Error::transport(format!("an action client for {action}"), e))
+    node.dds("an action client")?
+        .create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+            crate::node::transport::ServiceMapping::Enhanced,
+            &ros_name(action)?,
+            &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
+            client_qos(),
+        )
+        .map_err(|e| Error::transport(format!("an action client for {action}"), e))
 }
 
 /// The action server of `A` at the fully qualified `action` on `node`, made as [`action_client`] makes the
@@ -114,11 +115,12 @@ pub(crate) fn action_server<A: Action>(
     action: &str,
 ) -> Result<SyncServer<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Execute, action);
-    node.create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-        crate::node::transport::ServiceMapping::Enhanced,
-        &ros_name(action)?,
-        &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
-        server_qos(),
-    )
-    .map_err(|e| Error::transport(format!("an action server for {action}"), e))
+    node.dds("an action server")?
+        .create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+            crate::node::transport::ServiceMapping::Enhanced,
+            &ros_name(action)?,
+            &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
+            server_qos(),
+        )
+        .map_err(|e| Error::transport(format!("an action server for {action}"), e))
 }

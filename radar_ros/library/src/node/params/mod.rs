@@ -211,7 +211,7 @@ impl Declared {
     pub(crate) fn declare(
         &mut self,
         participant: &crate::node::participant::Participant,
-        node: &mut ros2_client::dds::Node,
+        node: &mut crate::node::transport::RosNode,
         decls: impl IntoIterator<Item = ParamDecl>,
     ) -> Result<Params> {
         let fq = node.fully_qualified_name();
@@ -233,7 +233,7 @@ impl Declared {
 /// Returns the handle and the guard that keeps the services up.
 pub(crate) fn declare(
     participant: &crate::node::participant::Participant,
-    node: &mut ros2_client::dds::Node,
+    node: &mut crate::node::transport::RosNode,
     fq: &str,
     decls: impl IntoIterator<Item = ParamDecl>,
 ) -> Result<(Params, serve::Serving)> {

@@ -5,7 +5,6 @@ use std::sync::Arc;
 
 use futures::StreamExt;
 use ros2_client::{
-    dds::Server,
     parameters::raw,
     rcl_interfaces::{
         DescribeParametersRequest, DescribeParametersResponse, GetParameterTypesRequest,
@@ -29,7 +28,10 @@ use crate::{
 pub(crate) struct Events(Watched<crate::node::transport::Publisher<raw::ParameterEvent>>);
 
 impl Events {
-    pub(crate) fn create(graph: &Graph, node: &mut ros2_client::dds::Node) -> Result<Events> {
+    pub(crate) fn create(
+        graph: &Graph,
+        node: &mut crate::node::transport::RosNode,
+    ) -> Result<Events> {
         let ty = crate::wire::raw::parse_type_name("rcl_interfaces/msg/ParameterEvent")?;
         Ok(Events(publisher(
             graph,
@@ -77,7 +79,7 @@ impl Drop for Serving {
     }
 }
 
-type Srv<Q, A> = Arc<Server<Q, A>>;
+type Srv<Q, A> = Arc<crate::node::transport::Server<Q, A>>;
 
 struct Servers {
     get: Srv<GetParametersRequest, GetParametersResponse>,
@@ -92,7 +94,7 @@ struct Servers {
 /// `set_parameters_atomically`, `list_parameters`, `describe_parameters`.
 pub(crate) fn serve(
     participant: &Participant,
-    node: &mut ros2_client::dds::Node,
+    node: &mut crate::node::transport::RosNode,
     params: &Params,
 ) -> Result<Serving> {
     let fq = params.node().to_owned();
