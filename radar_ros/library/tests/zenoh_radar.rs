@@ -8,8 +8,17 @@
 //! of this program (`/zr/bumper`, a `TopicEvent`) triggers on those with `x > 1`; `whenever bumper start dock`;
 //! the response `/zr/dock` runs and its `started` reaches the peer, carrying the pose that triggered it, and its
 //! `exited` reaches this program's own subscription. The peer sees the program's nodes and endpoints in the
-//! liveliness tokens, as an rmw_zenoh peer's graph shows them. No settling sleeps: each wait is on a match
-//! count or a sample. With the transport refused (RMW_IMPLEMENTATION unset), the test fails at its first check.
+//! liveliness tokens, as an rmw_zenoh peer's graph shows them.
+//!
+//! Then across processes: another program on Zenoh (this binary again, `ZR_ROLE=remote`) runs a response
+//! `/zr/far` and serves a manager node `/zr/manager`. This program finds `/zr/far` on the graph the tokens make
+//! (ros2-client patch 17, `graph/tokens.rs`), and `whenever bumper start far` made here delivers there; through
+//! the other program's manager (its services over Zenoh queryables) `connect` makes the same connection there,
+//! `list` shows it, the peer's next bump starts far through it, `disconnect` removes it. The other program
+//! SIGKILLed, `/zr/far` leaves this program's graph (the time is printed). No settling sleeps: each wait is on
+//! a match count, a sample or the graph. With the transport refused (RMW_IMPLEMENTATION unset) the test fails
+//! at its first check; with the tokens' graph empty, at the lookup of `/zr/far`; with no type hash given to
+//! Zenoh, at the first wait for the peer.
 //!
 //! Domain 140. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
 //! tests/zenoh_feature.rs.
@@ -24,18 +33,24 @@ use std::sync::{
 
 use radar_ros::{
     msg::{Empty, PoseStamped, RosMessage},
-    FnResponse, Radar, TopicEvent,
+    FnResponse, Radar, RemoteStatement, TopicEvent,
 };
 use serde_json::Value;
 use zenoh_util::{local_router, start_peer_on, WAIT};
 
 const DOMAIN: u16 = 140;
 
+/// This test's name: the other program is this binary run again with `ZR_ROLE=remote`, this test only.
+const NAME: &str = "listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper";
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     // the one test of this binary: its environment is its own
     std::env::set_var("ROS_DOMAIN_ID", DOMAIN.to_string());
     std::env::set_var("RMW_IMPLEMENTATION", "rmw_zenoh_cpp");
+    if std::env::var("ZR_ROLE").as_deref() == Ok("remote") {
+        return remote_program().await;
+    }
     let _router = local_router().await;
     let radar = Radar::builder()
         .program("zr_program")
@@ -135,5 +150,125 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
         "dock's `started` publisher and `start` subscription, and the bumper's subscription, with rosidl's \
          hash: {tokens:#?}"
     );
+
+    // another program over Zenoh: a response `/zr/far` and a manager node `/zr/manager`
+    let mut remote = tokio::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", NAME, "--nocapture", "--test-threads=1"])
+        .env("ZR_ROLE", "remote")
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let mut out =
+        tokio::io::AsyncBufReadExt::lines(tokio::io::BufReader::new(remote.stdout.take().unwrap()));
+    loop {
+        let line = tokio::time::timeout(WAIT, out.next_line())
+            .await
+            .expect("the remote program says it is up")
+            .unwrap()
+            .expect("the remote program ended before it was up");
+        if line.ends_with("ZR_UP") {
+            break;
+        }
+    }
+    // found through the graph the tokens make
+    let far = radar.response("/zr/far").timeout(WAIT).await.unwrap();
+    let far_started = radar
+        .signal_subscription::<PoseStamped>("/zr/far/started")
+        .unwrap();
+    far_started
+        .wait_for_publishers(1)
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let bump = |frame: &str, x: f64| {
+        format!(r#"{{"header": {{"frame_id": "{frame}"}}, "pose": {{"position": {{"x": {x}}}}}}}"#)
+    };
+    {
+        // this program's manager relays to a slot of the other program
+        let _far = radar.whenever(&bumper).start(&far).await.unwrap();
+        peer.send(&bump("to far", 3.5)).await;
+        let p = far_started.recv().timeout(WAIT).await.unwrap();
+        assert_eq!(p.header.frame_id, "to far", "far started with the bump");
+    }
+    // the other program's manager, through its services over Zenoh (queryables)
+    let m = radar
+        .remote_manager("/zr/manager")
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let id = m
+        .connect(RemoteStatement::whenever("/zr/bumper/triggered").to("/zr/far/start"))
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let listed = m.list().timeout(WAIT).await.unwrap();
+    assert!(
+        listed
+            .iter()
+            .any(|c| c.id == id && c.target == "/zr/far/start"),
+        "the remote manager lists the connection it made: {listed:?}"
+    );
+    peer.send(&bump("through the remote manager", 4.5)).await;
+    let p = far_started.recv().timeout(WAIT).await.unwrap();
+    assert_eq!(p.header.frame_id, "through the remote manager");
+    m.disconnect(id).timeout(WAIT).await.unwrap();
+    assert!(
+        m.list()
+            .timeout(WAIT)
+            .await
+            .unwrap()
+            .iter()
+            .all(|c| c.id != id),
+        "gone once disconnected"
+    );
+
+    // the other program killed: its components leave this program's graph
+    let listed = |radar: &Radar| {
+        radar
+            .components()
+            .iter()
+            .any(|c| c.name().fully_qualified() == "/zr/far")
+    };
+    assert!(listed(&radar), "far is on the graph while its process runs");
+    remote.kill().await.unwrap();
+    let killed = std::time::Instant::now();
+    while listed(&radar) {
+        assert!(
+            killed.elapsed() < WAIT,
+            "far left the graph with its process"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+    }
+    println!(
+        "zenoh_radar: far gone from the graph {:?} after SIGKILL",
+        killed.elapsed()
+    );
     peer.close();
+}
+
+/// The other program: a response `/zr/far` (whose start type is the peer's pose) and a manager node
+/// `/zr/manager`, over Zenoh, until its stdin closes or it is killed.
+async fn remote_program() {
+    let radar = Radar::builder()
+        .program("zr_remote")
+        .handle_signals(false)
+        .build()
+        .unwrap();
+    assert!(radar.over_zenoh());
+    let _far = radar
+        .spawn_response(
+            "/zr/far",
+            FnResponse::new(|_: PoseStamped| async move { Ok(Empty::default()) }),
+        )
+        .unwrap();
+    let _manager = radar.serve_manager("/zr/manager").unwrap();
+    println!("ZR_UP");
+    let mut line = String::new();
+    let _ = tokio::io::AsyncBufReadExt::read_line(
+        &mut tokio::io::BufReader::new(tokio::io::stdin()),
+        &mut line,
+    )
+    .await;
 }

@@ -237,6 +237,8 @@ pub mod zenoh {
   #[doc(inline)]
   pub use crate::zenoh_backend::graph_cache::MatchInfo;
   #[doc(inline)]
+  pub use crate::zenoh_backend::keyexpr::ParsedEntity;
+  #[doc(inline)]
   pub use crate::zenoh_backend::node::{Node, Topic};
   #[doc(inline)]
   pub use crate::zenoh_backend::pubsub::{Publisher, Subscription};

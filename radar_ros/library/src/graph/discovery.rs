@@ -51,6 +51,12 @@ impl TopicIndex {
         }
     }
 
+    /// Makes the next lookup rebuild the index (over Zenoh, after each change of the tokens).
+    #[cfg(feature = "zenoh")]
+    pub(super) fn invalidate(&mut self) {
+        self.synced = None;
+    }
+
     pub(super) fn remove_matching(&mut self, pred: impl Fn(&GUID) -> bool) {
         let gone: Vec<GUID> = self.topic_of.keys().filter(|g| pred(g)).copied().collect();
         for g in gone {
@@ -71,6 +77,16 @@ impl Graph {
     }
 
     pub(super) fn scan(&self) -> Vec<(bool, GUID, String, String)> {
+        // over Zenoh every endpoint, this session's included, is in the tokens
+        #[cfg(feature = "zenoh")]
+        if let Some(all) = self.token_endpoints(false) {
+            return all
+                .into_iter()
+                .filter_map(|(w, g, dds, ty)| {
+                    crate::wire::dds_names::ros_topic(&dds).map(|t| (w, g, t.to_owned(), ty))
+                })
+                .collect();
+        }
         let mut out = Vec::new();
         {
             let t = self.table.lock().unwrap();
@@ -186,6 +202,23 @@ impl Graph {
     /// remote writer that a local reader matched (`false`). How a client knows a service or an action server is
     /// reachable both ways before it sends a request. Endpoints in this participant are not seen here.
     pub(crate) fn participants_matched_on(&self, wanted: &[(bool, String)]) -> BTreeSet<GUID> {
+        // over Zenoh an endpoint named by a token is reachable (no match to wait for)
+        #[cfg(feature = "zenoh")]
+        if let Some(remote) = self.token_endpoints(true) {
+            let mut found: Option<BTreeSet<GUID>> = None;
+            for (remote_reads, topic) in wanted {
+                let here: BTreeSet<GUID> = remote
+                    .iter()
+                    .filter(|(w, _, t, _)| *w != *remote_reads && t == topic)
+                    .map(|(_, g, _, _)| super::participant_of(*g))
+                    .collect();
+                found = Some(match found {
+                    None => here,
+                    Some(f) => f.intersection(&here).copied().collect(),
+                });
+            }
+            return found.unwrap_or_default();
+        }
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return BTreeSet::new();
         };
@@ -240,6 +273,10 @@ impl Graph {
     /// Every endpoint of other participants that discovery knows: `(is_writer, GUID, DDS topic, DDS type)`,
     /// services' and actions' topics (`rq`, `rr`) included. For listings.
     pub(crate) fn remote_dds_endpoints(&self) -> Vec<(bool, GUID, String, String)> {
+        #[cfg(feature = "zenoh")]
+        if let Some(remote) = self.token_endpoints(true) {
+            return remote;
+        }
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return Vec::new();
         };
@@ -269,6 +306,11 @@ impl Graph {
     /// The participants discovery knows (this one included): each one's GUID and the USER_DATA it announced
     /// (ROS 2's `enclave=/path;`).
     pub(crate) fn participants(&self) -> Vec<(GUID, Vec<u8>)> {
+        // over Zenoh the tokens do not carry the enclave to radar_ros (ros2-client's parse drops it)
+        #[cfg(feature = "zenoh")]
+        if let Some(sessions) = self.token_sessions() {
+            return sessions.into_iter().map(|g| (g, Vec::new())).collect();
+        }
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return Vec::new();
         };
@@ -281,6 +323,14 @@ impl Graph {
     /// The DDS topics of discovered remote readers of DDS type `dds_type` (a service's servers, for its
     /// request type).
     pub(crate) fn discovered_reader_topics(&self, dds_type: &str) -> BTreeSet<String> {
+        #[cfg(feature = "zenoh")]
+        if let Some(remote) = self.token_endpoints(true) {
+            return remote
+                .into_iter()
+                .filter(|(w, _, _, ty)| !*w && ty == dds_type)
+                .map(|(_, _, t, _)| t)
+                .collect();
+        }
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return BTreeSet::new();
         };
@@ -294,6 +344,14 @@ impl Graph {
     /// The DDS type names that discovered remote readers on DDS topic `dds_topic` announce (a service's
     /// servers, for its request topic).
     pub(crate) fn discovered_reader_types(&self, dds_topic: &str) -> BTreeSet<String> {
+        #[cfg(feature = "zenoh")]
+        if let Some(remote) = self.token_endpoints(true) {
+            return remote
+                .into_iter()
+                .filter(|(w, _, t, _)| !*w && t == dds_topic)
+                .map(|(_, _, _, ty)| ty)
+                .collect();
+        }
         let Some(p) = self.participant.lock().unwrap().clone() else {
             return BTreeSet::new();
         };

@@ -34,6 +34,8 @@ pub(crate) mod lookup;
 pub(crate) mod nodes;
 mod observers;
 mod peers;
+#[cfg(feature = "zenoh")]
+pub(crate) mod tokens;
 
 pub(crate) use observers::OBSERVER_USER_DATA;
 
@@ -120,6 +122,9 @@ pub(crate) struct Graph {
     malformed: Arc<crate::wire::malformed::Malformed>,
     /// Every endpoint by topic, for lookups by name.
     index: Arc<Mutex<TopicIndex>>,
+    /// Over Zenoh, the session whose liveliness tokens are the graph (`tokens.rs`).
+    #[cfg(feature = "zenoh")]
+    zenoh: Arc<Mutex<Option<tokens::Tokens>>>,
 }
 
 impl Default for Graph {
@@ -131,6 +136,8 @@ impl Default for Graph {
             changed: Arc::new(watch::channel(0).0),
             malformed: Default::default(),
             index: Default::default(),
+            #[cfg(feature = "zenoh")]
+            zenoh: Default::default(),
         }
     }
 }
@@ -252,6 +259,17 @@ impl Graph {
         }
     }
 
+    /// The endpoint whose GID is `gid` (a sample's writer, a request's client) as the graph names it: over DDS
+    /// its GUID, whose prefix is its process; over Zenoh, where a GID is a hash of its token, its session's
+    /// participant GUID when a token names it (else the GID as it is).
+    pub(crate) fn process_of_gid(&self, gid: ros2_client::Gid) -> GUID {
+        #[cfg(feature = "zenoh")]
+        if let Some(session) = self.session_of_gid(gid) {
+            return session;
+        }
+        GUID::from(gid)
+    }
+
     /// Tells of every participant that leaves the graph from now on.
     pub(crate) fn participants_lost(&self) -> tokio::sync::broadcast::Receiver<GUID> {
         self.lost.subscribe()
@@ -265,6 +283,10 @@ impl Graph {
     /// This participant's id on the graph (a fresh one once the participant has shut down).
     pub(crate) fn own_id(&self) -> GUID {
         use rustdds::RTPSEntity;
+        #[cfg(feature = "zenoh")]
+        if let Some(own) = self.own_session() {
+            return own;
+        }
         self.domain_participant()
             .map(|p| p.guid())
             .unwrap_or_else(GUID::new_participant_guid)

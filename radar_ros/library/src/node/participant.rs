@@ -186,7 +186,6 @@ impl Participant {
         }
     }
 
-    #[allow(irrefutable_let_patterns)] // without the zenoh feature, DDS is the only transport
     /// Wraps `ctx`, starting the graph's discovery task on a thread of its own (so that discovery goes on when
     /// the program's runtime has gone: exit slots that run after `main` returns may look components up) and the
     /// pool's sweeper on `rt`.
@@ -201,22 +200,19 @@ impl Participant {
         let graph = Graph::default();
         let (stop, stop_rx) = tokio::sync::oneshot::channel();
         let (ended_tx, ended) = std::sync::mpsc::channel();
-        let Ctx::Dds(dds) = &ctx else {
-            // over Zenoh the graph is the liveliness tokens', which each endpoint watches itself
-            let _ = ended_tx.send(());
-            return Self::with(
-                ctx,
-                domain_id,
-                namespace,
-                graph,
-                (stop, ended),
-                (ros_args, rule_node),
-                shutdown_timeout,
-                rt,
-            );
+        let run: std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>> = match &ctx {
+            Ctx::Dds(dds) => {
+                graph.set_participant(dds.domain_participant());
+                Box::pin(graph.clone().run(dds.domain_participant(), stop_rx))
+            }
+            // over Zenoh the graph is the liveliness tokens' (`graph/tokens.rs`); match counts each endpoint
+            // watches itself
+            #[cfg(feature = "zenoh")]
+            Ctx::Zenoh(z, _) => {
+                graph.set_zenoh(z.clone());
+                Box::pin(graph.clone().run_tokens(stop_rx))
+            }
         };
-        graph.set_participant(dds.domain_participant());
-        let run = graph.clone().run(dds.domain_participant(), stop_rx);
         let on_thread = std::thread::Builder::new()
             .name("radar-graph".into())
             .spawn(move || {
@@ -341,7 +337,7 @@ impl Participant {
             }
             #[cfg(feature = "zenoh")]
             Ctx::Zenoh(ctx, _) => {
-                crate::node::transport::EndpointId::from_bytes(ctx.session().zid().to_le_bytes())
+                crate::graph::tokens::participant_of_session(&ctx.session().zid().to_string())
             }
         }
     }

@@ -240,9 +240,11 @@ impl Serving {
     ) {
         // owners' beats, read in a task of their own (a read is not to be cut by the loop's other branches)
         let (beat_tx, mut beats) = tokio::sync::mpsc::unbounded_channel::<OwnerKey>();
+        let graph = self.radar.graph().clone();
         let reader = tokio::spawn(async move {
             while let Ok((_, gid)) = owners.recv_from().await {
-                if beat_tx.send(owner_key(EndpointId::from(gid))).is_err() {
+                // over Zenoh a GID is a hash of its token: the graph tells its process
+                if beat_tx.send(owner_key(graph.process_of_gid(gid))).is_err() {
                     break;
                 }
             }
@@ -315,7 +317,7 @@ impl Serving {
         done: tokio::sync::mpsc::UnboundedSender<Done>,
     ) {
         let radar = self.radar.clone();
-        let caller: EndpointId = id.writer_gid.into();
+        let caller: EndpointId = radar.graph().process_of_gid(id.writer_gid);
         tokio::spawn(async move {
             let owner = match req.detach {
                 true => format!("detached, by service caller {:?}", caller.prefix),

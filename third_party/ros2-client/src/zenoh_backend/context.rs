@@ -15,6 +15,7 @@ use zenoh::{Config, Session, Wait, pubsub::Subscriber, sample::SampleKind};
 
 use super::{
   graph_cache::{GraphCache, MatchInfo},
+  keyexpr::ParsedEntity,
   keyexpr::{self, EntityKind},
   node::Node,
 };
@@ -152,6 +153,14 @@ impl Context {
   /// Fully-qualified names of all currently discovered nodes.
   pub fn node_names(&self) -> Vec<String> {
     self.inner.graph_cache.node_names()
+  }
+
+  /// Every live entity of the ROS graph on this domain, as its liveliness token names it (session id,
+  /// node and entity ids, kind, node, topic or service, type, hash, QoS), this session's own included, with
+  /// its GID (what its samples' and requests' attachments carry, as rmw_zenoh derives it from the token). A
+  /// snapshot: [`Self::graph_event_stream`] says when to take the next. (radar_ros patch 17.)
+  pub fn graph_entities(&self) -> Vec<(crate::Gid, ParsedEntity)> {
+    self.inner.graph_cache.entities()
   }
 
   /// Subscribe to ROS graph changes. Each returned stream receives every
@@ -387,6 +396,54 @@ mod tests {
 
     assert_eq!(ctx_b.publisher_count("/chatter"), 1);
     assert!(ctx_b.node_names().contains(&"/talker".to_string()));
+  }
+
+  // radar_ros patch 17: the graph's entities as their tokens name them, with the session that declared each.
+  #[test]
+  fn graph_entities_name_the_session_node_and_endpoint_of_each_token() {
+    let (a_port, b_port) = (17543, 17544);
+    let ctx_a =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(a_port, None))).unwrap();
+    let ctx_b =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(b_port, Some(a_port))))
+        .unwrap();
+    let node_a = ctx_a
+      .new_node(NodeName::new("/robot", "talker").unwrap(), NodeOptions::new().enable_rosout(false))
+      .unwrap();
+    let topic = node_a.create_topic(
+      &Name::new("/", "chatter").unwrap(),
+      MessageTypeName::new("std_msgs", "String"),
+      &QosProfile::publisher_default(),
+    );
+    let publisher: Publisher<String> = node_a.create_publisher(&topic, None).unwrap();
+    let a_zid = ctx_a.session().zid().to_string();
+    let of_a = |ctx: &Context| {
+      ctx
+        .graph_entities()
+        .into_iter()
+        .filter(|(_, e)| e.zid == a_zid && e.topic_name.as_deref() == Some("/chatter"))
+        .collect::<Vec<_>>()
+    };
+    let deadline = Instant::now() + Duration::from_secs(15);
+    while Instant::now() < deadline && of_a(&ctx_b).is_empty() {
+      std::thread::sleep(Duration::from_millis(20));
+    }
+    let seen = of_a(&ctx_b);
+    assert_eq!(seen.len(), 1, "{seen:?}");
+    let (gid, e) = &seen[0];
+    assert_eq!(*gid, publisher.gid(), "the GID its samples carry");
+    assert_eq!(
+      (e.kind, e.namespace.as_str(), e.node_name.as_str()),
+      (EntityKind::Publisher, "/robot", "talker")
+    );
+    assert_eq!(e.type_name.as_deref(), Some("std_msgs::msg::dds_::String_"));
+    assert_eq!(of_a(&ctx_a).len(), 1, "a session sees its own tokens too");
+    drop(publisher);
+    let deadline = Instant::now() + Duration::from_secs(15);
+    while Instant::now() < deadline && !of_a(&ctx_b).is_empty() {
+      std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(of_a(&ctx_b).is_empty(), "gone with its publisher");
   }
 
   // A client-mode config that reaches its session only through a Zenoh router

@@ -202,6 +202,20 @@ impl GraphCache {
     names
   }
 
+  /// Every live entity, as its token names it (this session's own included), with its GID as rmw_zenoh
+  /// derives it from the token (what its samples' and requests' attachments carry): a snapshot, for a graph
+  /// that needs more than counts and names (the session, node and entity ids that tell processes apart).
+  /// (radar_ros patch 17.)
+  pub fn entities(&self) -> Vec<(crate::Gid, ParsedEntity)> {
+    self
+      .entities
+      .lock()
+      .unwrap()
+      .iter()
+      .map(|(key, e)| (crate::Gid::from(super::gid::gid_from_liveliness_key(key)), e.clone()))
+      .collect()
+  }
+
   /// Total number of cached entities (all kinds).
   #[cfg(test)]
   pub fn len(&self) -> usize {
