@@ -12,11 +12,13 @@ use ros2_client::{dds::rustdds::GUID, zenoh::ParsedEntity, EntityKind};
 use super::Graph;
 use crate::wire::dds_names;
 
-/// The Zenoh session a graph reads its tokens from, and its own id (to tell its own endpoints apart).
+/// The Zenoh session a graph reads its tokens from, its own id (to tell its own endpoints apart), and how long
+/// a session's tokens must stay gone for it to be taken as gone (the lease).
 #[derive(Clone)]
 pub(super) struct Tokens {
     ctx: ros2_client::zenoh::Context,
     own: String,
+    grace: std::time::Duration,
 }
 
 /// The participant GUID of the Zenoh session `zid` (its hex id, as tokens write it): the first 12 bytes of the id
@@ -81,10 +83,10 @@ fn as_dds(e: &ParsedEntity) -> Vec<(bool, GUID, String, String)> {
 
 impl Graph {
     /// Reads the graph from the tokens of the Zenoh session `ctx` from now on (over Zenoh, instead of
-    /// [`Graph::set_participant`]).
-    pub(crate) fn set_zenoh(&self, ctx: ros2_client::zenoh::Context) {
+    /// [`Graph::set_participant`]); a session whose tokens are gone for `grace` has left.
+    pub(crate) fn set_zenoh(&self, ctx: ros2_client::zenoh::Context, grace: std::time::Duration) {
         let own = ctx.session().zid().to_string();
-        *self.zenoh.lock().unwrap() = Some(Tokens { ctx, own });
+        *self.zenoh.lock().unwrap() = Some(Tokens { ctx, own, grace });
     }
 
     /// This session's participant GUID over Zenoh (`None` over DDS).
@@ -134,16 +136,34 @@ impl Graph {
     }
 
     /// Over Zenoh: follows the tokens until `stop` fires, telling of each change ([`Graph::changes`]) and of
-    /// each session that left (its last token gone: [`Graph::participants_lost`], [`Graph::has_left`]).
+    /// each session that left ([`Graph::participants_lost`], [`Graph::has_left`]): one whose tokens have all been
+    /// gone for the grace (a router restart makes every other session's tokens vanish for a moment: not a
+    /// departure, as a DDS peer silent for less than its lease is not one).
     pub(crate) async fn run_tokens(self, mut stop: tokio::sync::oneshot::Receiver<()>) {
         let Some(t) = self.zenoh.lock().unwrap().clone() else {
             return;
         };
         let events = t.ctx.graph_event_stream();
-        let mut sessions = self.token_sessions().unwrap_or_default();
+        let mut present = self.token_sessions().unwrap_or_default();
+        // sessions whose tokens are gone, since when
+        let mut missing: std::collections::HashMap<GUID, tokio::time::Instant> = Default::default();
+        let mut check =
+            tokio::time::interval((t.grace / 4).max(std::time::Duration::from_millis(50)));
         loop {
             tokio::select! {
                 _ = &mut stop => break,
+                _ = check.tick() => {
+                    let gone: Vec<GUID> = missing
+                        .iter()
+                        .filter(|(_, since)| since.elapsed() >= t.grace)
+                        .map(|(g, _)| *g)
+                        .collect();
+                    for g in gone {
+                        missing.remove(&g);
+                        Graph::note_left(&mut self.table.lock().unwrap(), g);
+                        let _ = self.lost.send(g);
+                    }
+                }
                 ev = events.recv() => {
                     if ev.is_err() {
                         break;
@@ -151,11 +171,13 @@ impl Graph {
                     // a burst of tokens (a process starting) is read once
                     while events.try_recv().is_ok() {}
                     let now = self.token_sessions().unwrap_or_default();
-                    for gone in sessions.difference(&now) {
-                        Graph::note_left(&mut self.table.lock().unwrap(), *gone);
-                        let _ = self.lost.send(*gone);
+                    for g in present.difference(&now) {
+                        missing.entry(*g).or_insert_with(tokio::time::Instant::now);
                     }
-                    sessions = now;
+                    for g in &now {
+                        missing.remove(g);
+                    }
+                    present = now;
                     self.index.lock().unwrap().invalidate();
                     self.changed.send_modify(|g| *g = g.wrapping_add(1));
                 }

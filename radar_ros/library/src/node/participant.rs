@@ -55,11 +55,13 @@ impl Drop for ServedMark {
 pub(crate) enum Ctx {
     /// DDS.
     Dds(ros2_client::dds::Context),
-    /// Zenoh, with where its endpoints count samples that do not decode.
+    /// Zenoh, with where its endpoints count samples that do not decode, and how long a departure must last
+    /// to be believed (the lease).
     #[cfg(feature = "zenoh")]
     Zenoh(
         ros2_client::zenoh::Context,
         Arc<crate::wire::malformed::Malformed>,
+        std::time::Duration,
     ),
 }
 
@@ -208,8 +210,8 @@ impl Participant {
             // over Zenoh the graph is the liveliness tokens' (`graph/tokens.rs`); match counts each endpoint
             // watches itself
             #[cfg(feature = "zenoh")]
-            Ctx::Zenoh(z, _) => {
-                graph.set_zenoh(z.clone());
+            Ctx::Zenoh(z, _, grace) => {
+                graph.set_zenoh(z.clone(), *grace);
                 Box::pin(graph.clone().run_tokens(stop_rx))
             }
         };
@@ -336,7 +338,7 @@ impl Participant {
                 ctx.domain_participant().guid()
             }
             #[cfg(feature = "zenoh")]
-            Ctx::Zenoh(ctx, _) => {
+            Ctx::Zenoh(ctx, ..) => {
                 crate::graph::tokens::participant_of_session(&ctx.session().zid().to_string())
             }
         }
@@ -445,13 +447,14 @@ impl Participant {
                 .map(Node::Dds)
                 .map_err(|e| Error::transport(format!("node {fq}"), e)),
             #[cfg(feature = "zenoh")]
-            Ctx::Zenoh(ctx, malformed) => ctx
+            Ctx::Zenoh(ctx, malformed, grace) => ctx
                 .new_node(name, options)
                 .map(|node| {
                     Node::Zenoh(crate::node::transport::ZenohNode {
                         node,
                         domain_id: self.domain_id,
                         malformed: malformed.clone(),
+                        grace: *grace,
                     })
                 })
                 .map_err(|e| Error::transport(format!("node {fq} over Zenoh"), e)),

@@ -32,6 +32,9 @@ pub(crate) struct ZenohNode {
     pub(crate) domain_id: u16,
     /// Where samples that do not decode are counted (the participant's).
     pub(crate) malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
+    /// How long a fall of a match count must last to be believed (the lease: a router restart is not a
+    /// departure).
+    pub(crate) grace: std::time::Duration,
 }
 
 impl RosNode {

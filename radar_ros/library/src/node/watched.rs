@@ -219,12 +219,16 @@ impl Drop for Matching {
 }
 
 /// `inner`, an endpoint over Zenoh, with its matched count from `counts` (its `watch_matched`: the count at once,
-/// then each change), kept current by a task on the caller's tokio runtime that ends with the endpoint.
+/// then each change), kept current by a task on the caller's tokio runtime that ends with the endpoint. A rise
+/// is said at once; a fall only once it has lasted `grace` (the lease): a router restart makes every peer's
+/// tokens vanish and come back within a second, and a peer is not taken for gone for that (as over DDS a
+/// peer silent for less than its lease is not).
 #[cfg(feature = "zenoh")]
 pub(crate) fn over_zenoh<T>(
     inner: T,
     counts: async_channel::Receiver<usize>,
     malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
+    grace: std::time::Duration,
 ) -> Result<Watched<T>> {
     let runtime = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
         setting: "tokio runtime",
@@ -234,15 +238,7 @@ pub(crate) fn over_zenoh<T>(
             .into(),
     })?;
     let (tx, matched) = tokio::sync::watch::channel(counts.try_recv().unwrap_or(0));
-    let bridge = runtime
-        .spawn(async move {
-            while let Ok(n) = counts.recv().await {
-                if tx.send(n).is_err() {
-                    break;
-                }
-            }
-        })
-        .abort_handle();
+    let bridge = runtime.spawn(held_falls(counts, tx, grace)).abort_handle();
     Ok(Watched {
         inner,
         matching: Matching {
@@ -250,6 +246,48 @@ pub(crate) fn over_zenoh<T>(
             matched,
         },
     })
+}
+
+/// Sends each count of `counts` on `tx`: a rise at once, a fall once it has lasted `grace` (a fall undone within
+/// it is never sent). Ends when either side closes.
+#[cfg(feature = "zenoh")]
+async fn held_falls(
+    counts: async_channel::Receiver<usize>,
+    tx: tokio::sync::watch::Sender<usize>,
+    grace: std::time::Duration,
+) {
+    let mut shown = *tx.borrow();
+    // a fall not said yet: the count now, and when it is said
+    let mut held: Option<(usize, tokio::time::Instant)> = None;
+    loop {
+        let next = match held {
+            Some((_, due)) => match tokio::time::timeout_at(due, counts.recv()).await {
+                Ok(next) => next.ok(),
+                Err(_) => {
+                    let (n, _) = held.take().expect("held");
+                    shown = n;
+                    if tx.send(n).is_err() {
+                        return;
+                    }
+                    continue;
+                }
+            },
+            None => counts.recv().await.ok(),
+        };
+        let Some(n) = next else { return };
+        if n >= shown {
+            held = None;
+            if n != shown {
+                shown = n;
+                if tx.send(n).is_err() {
+                    return;
+                }
+            }
+        } else {
+            let due = held.map_or_else(|| tokio::time::Instant::now() + grace, |(_, due)| due);
+            held = Some((n, due));
+        }
+    }
 }
 
 /// `inner`, an endpoint over DDS whose GUID is `guid` in `graph`, with its matched count `matched` from the
@@ -278,4 +316,35 @@ pub(crate) fn topic_name(topic: &str) -> Result<Name> {
         name: topic.to_owned(),
         reason: format!("{e}"),
     })
+}
+
+#[cfg(all(test, feature = "zenoh"))]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[tokio::test(start_paused = true)]
+    async fn a_fall_is_said_once_it_has_lasted_the_grace_and_a_rise_at_once() {
+        let grace = Duration::from_secs(3);
+        let (counts_tx, counts) = async_channel::unbounded();
+        let (tx, mut rx) = tokio::sync::watch::channel(1);
+        tokio::spawn(held_falls(counts, tx, grace));
+        // a fall undone within the grace (a router restart) is never said
+        counts_tx.send(0).await.unwrap();
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        counts_tx.send(1).await.unwrap();
+        tokio::time::sleep(Duration::from_secs(5)).await;
+        assert!(!rx.has_changed().unwrap(), "nothing said: {}", *rx.borrow());
+        // a rise at once
+        counts_tx.send(2).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!(*rx.borrow_and_update(), 2);
+        // a fall that lasts: said after the grace, counted from its first step
+        let t0 = tokio::time::Instant::now();
+        counts_tx.send(1).await.unwrap();
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        counts_tx.send(0).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!((*rx.borrow_and_update(), t0.elapsed()), (0, grace));
+    }
 }

@@ -77,6 +77,7 @@ impl ZenohSignals {
                 node,
                 domain_id: domain,
                 malformed: Arc::default(),
+                grace: crate::node::domain::lease_in(&|k| std::env::var(k))?,
             },
             _ctx: ctx,
         })
@@ -187,7 +188,7 @@ pub(crate) fn publisher<M: serde::Serialize + Send + Sync + 'static>(
         .create_publisher::<M>(&t, None)
         .map_err(|e| Error::transport(format!("a publisher on {topic_abs} over Zenoh"), e))?;
     let counts = p.watch_matched(&z.node);
-    over_zenoh(Publisher::Zenoh(p), counts, z.malformed.clone())
+    over_zenoh(Publisher::Zenoh(p), counts, z.malformed.clone(), z.grace)
 }
 
 /// A subscription of `M` to the absolute `topic_abs` of node `z` (see [`publisher`]).
@@ -203,7 +204,7 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
         .create_subscription::<M>(&t, None)
         .map_err(|e| Error::transport(format!("a subscription to {topic_abs} over Zenoh"), e))?;
     let counts = s.watch_matched(&z.node);
-    over_zenoh(Subscription::Zenoh(s), counts, z.malformed.clone())
+    over_zenoh(Subscription::Zenoh(s), counts, z.malformed.clone(), z.grace)
 }
 
 /// The Zenoh topic of type `ty` on the absolute `abs`, its hash given to the backend (what rmw_zenoh peers

@@ -122,7 +122,7 @@ fn zenoh_context(s: &Settings) -> Result<Ctx> {
         domain = s.domain_id,
         "over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp)"
     );
-    Ok(Ctx::Zenoh(ctx, Default::default()))
+    Ok(Ctx::Zenoh(ctx, Default::default(), s.lease))
 }
 
 /// Without the `zenoh` feature, settings never choose Zenoh (`settings::middleware_in` refuses it).
@@ -145,6 +145,9 @@ fn start(s: Settings) -> Result<Radar> {
             "there is no tokio runtime: create the Radar inside #[tokio::main] or Runtime::block_on"
                 .into(),
     })?;
+    if s.middleware == Middleware::Dds {
+        crate::node::domain::warn_if_ephemeral(s.domain_id);
+    }
     let ctx = match s.middleware {
         Middleware::Dds => Ctx::Dds(
             Context::from_domain_participant(dds_participant(&s)?).map_err(|e| {

@@ -29,44 +29,10 @@ pub enum DiscoveryRange {
     Subnet,
 }
 
-/// How long other participants keep a radar_ros participant alive after its last announcement, unless
-/// [`RadarBuilder::lease`](crate::RadarBuilder::lease) or `RADAR_LEASE_SECONDS` says otherwise.
-///
-/// A RADAR program that is killed (`SIGKILL`, a crash, power loss) cannot say goodbye; its peers notice it when
-/// its lease runs out. With 3 s a dead deliberative program's connections are removed, and the events it
-/// listened to stop checking, within about 3.6 s (lease plus one check period of 0.6 s) in radar_ros peers and
-/// about 3 s in Fast DDS (rclpy) peers. The price: each participant announces itself every 0.6 s instead of
-/// every 10 s. Measured (tcpdump, one idle participant): an announcement is one 292-byte SPDP datagram to the
-/// multicast group, about 490 bytes/s per participant on the network (29 bytes/s with a 50 s lease), plus 11
-/// copies to the same-host discovery ports on loopback. RustDDS's own default lease is 50 s; Fast DDS's is
-/// 20 s. Peers keep their own lease; this sets only the one this participant announces. On a lossy network
-/// (Wi-Fi) raise it, so that a few lost announcements in a row do not declare a live program dead.
-pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(3);
-
-pub(crate) fn parse_lease(value: &str) -> Result<std::time::Duration> {
-    let bad = |reason: &str| {
-        Error::Config {
-        setting: "RADAR_LEASE_SECONDS",
-        value: value.to_owned(),
-        reason: format!(
-            "{reason}; give the lease in seconds, from 0.1 up (e.g. 3, or 1.5), or unset it for {}s",
-            DEFAULT_LEASE.as_secs_f64()
-        ),
-    }
-    };
-    let secs: f64 = value
-        .trim()
-        .parse()
-        .map_err(|_| bad("it is not a number"))?;
-    if !secs.is_finite() || secs < 0.1 {
-        return Err(bad("it is below 0.1 s"));
-    }
-    if secs > 86_400.0 {
-        return Err(bad("it is above a day"));
-    }
-    Ok(std::time::Duration::from_secs_f64(secs))
-}
-
+pub(crate) use crate::node::domain::lease_in;
+#[cfg(test)]
+use crate::node::domain::parse_lease;
+pub use crate::node::domain::DEFAULT_LEASE;
 pub(crate) use crate::node::domain::{domain_id_in, parse_domain_id, Env};
 
 /// What the builder says, before the command line and the environment are read.
@@ -285,16 +251,6 @@ pub(crate) fn middleware_in(env: Env<'_>) -> Result<Middleware> {
         value,
         reason,
     })
-}
-
-/// `RADAR_LEASE_SECONDS` (seconds, may have a fraction; unset: [`DEFAULT_LEASE`]).
-pub(crate) fn lease_in(env: Env<'_>) -> Result<Duration> {
-    let value = match env("RADAR_LEASE_SECONDS") {
-        Err(std::env::VarError::NotPresent) => return Ok(DEFAULT_LEASE),
-        Err(std::env::VarError::NotUnicode(v)) => v.to_string_lossy().into_owned(),
-        Ok(v) => v,
-    };
-    parse_lease(&value)
 }
 
 #[cfg(test)]
