@@ -1,7 +1,7 @@
 //! Issue 37 (under way): radar_ros's `zenoh` feature, which builds ros2-client's Zenoh backend beside DDS. The
 //! workspace's own build leaves it off (a DDS-only build stays small), so this builds radar_ros with it in
 //! `target/zenoh-feature` (a few minutes the first time) and checks, in order:
-//! - clippy (`-D warnings`) on radar_ros and radar_tools with the feature, all targets;
+//! - clippy (`-D warnings`) on radar_ros, radar_tools, the bench and the examples with the feature, all targets;
 //! - `radar_ros/library/tests/zenoh.rs` over real Zenoh: radar_ros's types cross to and from a peer written from
 //!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
 //!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
@@ -19,12 +19,16 @@
 //! - `radar_ros/library/tests/zenoh_signals.rs`: `radar_ros::ZenohSignals`, radar_ros's signal publishers and
 //!   subscriptions over Zenoh, waiting, sending and hearing against the design-document peer;
 //! - `radar_ros/library/tests/zenoh_radar.rs`: a `Radar` on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`): Listing 2's
-//!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens;
+//!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens; another
+//!   program's response and manager (services over queryables) used across processes;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
 //! - `radar_ros/library/tests/zenoh_sites.rs`: a router per site, joined to each other, programs peers of their
 //!   own site's router: both ways, the graph across, a site's router killed and back;
+//! - `radar_ros/library/tests/zenoh_listings.rs`: the paper's Listings 2 and 3 (the `deliberative` example built
+//!   with the feature, four processes, `RMW_IMPLEMENTATION=rmw_zenoh_cpp`) across namespaces through a router,
+//!   and again with the router killed and started anew mid-run: Figure 3 both times;
 //! - `radar router` (radar_ros/tools/tests/router.rs): a router as rmw_zenoh's, through which two
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM; a peer an
 //!   hour ahead said once as a warning, not an error per sample;
@@ -62,8 +66,10 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "radar_tools",
             "-p",
             "radar_bench",
+            "-p",
+            "radar_ros_examples",
             "--features",
-            "radar_ros/zenoh,radar_tools/zenoh,radar_bench/zenoh",
+            "radar_ros/zenoh,radar_tools/zenoh,radar_bench/zenoh,radar_ros_examples/zenoh",
             "--all-targets",
             "--",
             "-D",
@@ -74,7 +80,15 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     let test = ["test", "-p", "radar_ros", "--features", "zenoh", "--test"];
     let netns = [
         &test[..],
-        &["zenoh_netns", "--test", "zenoh_sites", "--", "--nocapture"],
+        &[
+            "zenoh_netns",
+            "--test",
+            "zenoh_sites",
+            "--test",
+            "zenoh_listings",
+            "--",
+            "--nocapture",
+        ],
     ]
     .concat();
     let test = [
@@ -99,17 +113,39 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     ]
     .concat();
     let mut no_run = test.to_vec();
-    no_run.extend(["--test", "zenoh_netns", "--test", "zenoh_sites", "--no-run"]);
+    no_run.extend([
+        "--test",
+        "zenoh_netns",
+        "--test",
+        "zenoh_sites",
+        "--test",
+        "zenoh_listings",
+        "--no-run",
+    ]);
     check(&cargo(&no_run), "building radar_ros's Zenoh tests");
+    // zenoh_listings.rs runs the paper's listings as the example programs, over Zenoh
+    check(
+        &cargo(&[
+            "build",
+            "-p",
+            "radar_ros_examples",
+            "--features",
+            "zenoh",
+            "--example",
+            "deliberative",
+        ]),
+        "building the deliberative example with the zenoh feature",
+    );
     let out = check(
         &cargo(&netns),
-        "radar_ros/library/tests/zenoh_netns.rs and zenoh_sites.rs",
+        "radar_ros/library/tests/zenoh_netns.rs, zenoh_sites.rs and zenoh_listings.rs",
     );
     ran_and_passed(
         &out,
         &[
             "signals_cross_namespaces_through_a_router_survive_its_restart_and_a_killed_peer_is_seen_gone",
             "two_sites_each_with_its_router_exchange_signals_and_see_each_others_graph",
+            "listings_2_and_3_run_over_zenoh_across_namespaces_through_a_router_and_its_restart",
         ],
     );
     for l in out
