@@ -133,8 +133,9 @@ fn wrong_ros_domain_id_values_fail_with_a_clear_error() {
     assert_eq!((code, out.trim()), (0, "ok domain=0"));
 }
 
-/// `RMW_IMPLEMENTATION`, as ROS 2 chooses its middleware: a program started in a shell set up for a Zenoh system
-/// (`rmw_zenoh_cpp`) stops at once saying it speaks DDS only and what to set, instead of running on DDS and
+/// `RMW_IMPLEMENTATION`, as ROS 2 chooses its middleware: a program of a build without the `zenoh` feature (the
+/// workspace's) started in a shell set up for a Zenoh system (`rmw_zenoh_cpp`) stops at once saying it speaks
+/// DDS only, to build with the feature, and what to set, instead of running on DDS and
 /// seeing none of its peers; a DDS middleware's name (as a Fast DDS or Cyclone DDS system sets) runs.
 #[test]
 fn a_middleware_this_build_does_not_speak_stops_the_program_saying_what_to_set() {
@@ -154,7 +155,10 @@ fn a_middleware_this_build_does_not_speak_stops_the_program_saying_what_to_set()
         ("ROS_DOMAIN_ID", &domain),
         ("RMW_IMPLEMENTATION", "rmw_zenoh_cpp"),
     ]);
-    assert!(err.contains("DDS only"), "{err}");
+    assert!(
+        err.contains("DDS only") && err.contains("`zenoh` feature"),
+        "{err}"
+    );
     for rmw in ["rmw_fastrtps_cpp", "rmw_cyclonedds_cpp", ""] {
         let (code, out, err) =
             check_env_with(&[("ROS_DOMAIN_ID", &domain), ("RMW_IMPLEMENTATION", rmw)]);

@@ -33,7 +33,8 @@
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM; a peer an
 //!   hour ahead said once as a warning, not an error per sample;
 //! - `radar_bench quick --only zenoh`: one hop over ros2-client's Zenoh backend, peer to peer and through a
-//!   router, beside DDS (the rows are printed);
+//!   router, beside DDS, and radar_ros's own one hop over Zenoh beside radar_ros's over DDS (the rows are
+//!   printed);
 //! - `mypy --strict` on the two Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
@@ -189,7 +190,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "a_peer_an_hour_ahead_is_said_once_as_a_warning_not_an_error_per_sample",
         ],
     );
-    // the bench's `zenoh` scenario, quick: one hop over Zenoh peer to peer and through a router, beside DDS
+    // the bench's `zenoh` scenario, quick: one hop over Zenoh peer to peer and through a router, beside DDS;
+    // radar_ros's own the same
     check(
         &cargo(&["build", "-p", "radar_bench", "--features", "zenoh"]),
         "building radar_bench with the zenoh feature",
@@ -206,6 +208,9 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "Zenoh alone (no ros2-client)",
         "raw ros2-client over Zenoh, 1 hop peer to peer",
         "raw ros2-client over Zenoh, 1 hop through the router",
+        "radar_ros over DDS, 1 hop",
+        "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), peer to peer",
+        "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), through the router",
     ] {
         let line = table
             .lines()

@@ -2,8 +2,11 @@
 //! (rmw_zenoh's default layout: the sessions meet through a router's gossip, then talk directly) and through
 //! the router (both sides its clients: every sample crosses two TCP legs and the router), beside raw
 //! ros2-client over DDS in the same run, and Zenoh's own floor (a plain Zenoh pair, no ros2-client). The same message, QoS, pacing and clock as the DDS baseline.
-//! radar_ros's own rows over Zenoh come when a `Radar` runs on it (docs/zenoh.md, "The order").
+//! Then radar_ros's own one hop (an event's `triggered` to a response's start slot, the manager beside the
+//! response) over Zenoh, peer to peer and through the router (`RMW_IMPLEMENTATION=rmw_zenoh_cpp` in the
+//! children), beside the same over DDS in the same run.
 
+use super::latency::Host;
 use super::*;
 
 impl Bench {
@@ -95,6 +98,68 @@ impl Bench {
             }
             src.quit().await;
             sink.quit().await;
+        }
+        // radar_ros's own hop: over DDS, then over Zenoh (the children choose it as ROS 2 programs do)
+        let (r, children) = self.radar_hop(n, p, Host::Response).await?;
+        self.push_latency(
+            "radar_1hop_beside_zenoh",
+            "radar_ros over DDS, 1 hop (event -> response, manager beside the response), beside the Zenoh rows",
+            &r,
+            "",
+        )?;
+        for c in children {
+            c.quit().await;
+        }
+        for (mode, key, label) in [
+            (
+                "peer",
+                "radar_zenoh_p2p_1hop",
+                "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), peer to peer",
+            ),
+            (
+                "client",
+                "radar_zenoh_router_1hop",
+                "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), through the router",
+            ),
+        ] {
+            let conf = format!("mode=\"{mode}\";connect/endpoints=[\"tcp/127.0.0.1:{port}\"]");
+            let saved = self.child_env.clone();
+            self.child_env.extend([
+                ("RMW_IMPLEMENTATION".to_owned(), "rmw_zenoh_cpp".to_owned()),
+                ("ZENOH_CONFIG_OVERRIDE".to_owned(), conf),
+            ]);
+            let hop = self.radar_hop(n, p, Host::Response).await;
+            self.child_env = saved;
+            let (r, children) = hop?;
+            self.push_latency(key, label, &r, "")?;
+            let p50 = |k: &str| {
+                self.results
+                    .latency
+                    .iter()
+                    .find(|l| l.key == k)
+                    .map(|l| l.summary.p50_us)
+            };
+            if let (Some(z), Some(dds), Some(raw)) = (
+                p50(key),
+                p50("radar_1hop_beside_zenoh"),
+                p50(if mode == "peer" {
+                    "zenoh_p2p_1hop"
+                } else {
+                    "zenoh_router_1hop"
+                }),
+            ) {
+                let note = format!(
+                    "p50 {:.2}x radar_ros over DDS beside it, {:.2}x raw ros2-client over Zenoh",
+                    z / dds,
+                    z / raw
+                );
+                if let Some(row) = self.results.latency.last_mut() {
+                    row.note = note;
+                }
+            }
+            for c in children {
+                c.quit().await;
+            }
         }
         router.quit().await;
         Ok(())

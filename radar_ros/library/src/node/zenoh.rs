@@ -23,8 +23,10 @@ use crate::{
 /// [`SignalSubscription`], [`RawPublisher`] and [`RawSubscription`] a `Radar` makes over DDS,
 /// with the same waits (`wait_for_subscribers` counts matched peers from the liveliness tokens as rmw_zenoh
 /// does) and the same names, types, type hashes and QoS on the wire. What a program that only injects into
-/// slots or listens to signals needs, across a router, where DDS discovery does not reach. Components and
-/// connections over Zenoh come with a `Radar` on Zenoh (step 3's second half).
+/// slots or listens to signals needs, across a router, where DDS discovery does not reach, without a `Radar`
+/// (components and connections over Zenoh: a [`Radar`](crate::Radar) built with `RMW_IMPLEMENTATION=rmw_zenoh_cpp`).
+/// A peer's departure is believed once it has lasted the lease (`RADAR_LEASE_SECONDS`, default 3 s): a router
+/// restart, which makes every peer vanish for a moment, is not one.
 ///
 /// ```no_run
 /// # async fn f() -> radar_ros::Result<()> {
