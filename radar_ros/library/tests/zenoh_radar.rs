@@ -12,7 +12,8 @@
 //!
 //! Then across processes: another program on Zenoh (this binary again, `ZR_ROLE=remote`) runs a response
 //! `/zr/far` and serves a manager node `/zr/manager`. This program finds `/zr/far` on the graph the tokens make
-//! (ros2-client patch 17, `graph/tokens.rs`), and `whenever bumper start far` made here delivers there; through
+//! (ros2-client patch 17, `graph/tokens.rs`) and its nodes with the names they use (`Introspect::nodes`), and
+//! `whenever bumper start far` made here delivers there; through
 //! the other program's manager (its services over Zenoh queryables) `connect` makes the same connection there,
 //! `list` shows it, the peer's next bump starts far through it, `disconnect` removes it. The other program
 //! SIGKILLed, `/zr/far` leaves this program's graph (the time is printed). No settling sleeps: each wait is on
@@ -174,6 +175,19 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     }
     // found through the graph the tokens make
     let far = radar.response("/zr/far").timeout(WAIT).await.unwrap();
+    let nodes = radar.introspect().nodes().timeout(WAIT).await.unwrap();
+    let node = |fq: &str| {
+        nodes
+            .iter()
+            .find(|n| n.fully_qualified() == fq)
+            .unwrap_or_else(|| panic!("node {fq} on the graph: {nodes:#?}"))
+    };
+    assert!(
+        node("/zr/far").publishes.contains("/zr/far/started")
+            && node("/zr/far").subscribes.contains("/zr/far/start")
+            && node("/zr/manager").serves.contains("/zr/manager/connect"),
+        "the other program's nodes with what they use, as `ros2 node info` shows them: {nodes:#?}"
+    );
     let far_started = radar
         .signal_subscription::<PoseStamped>("/zr/far/started")
         .unwrap();

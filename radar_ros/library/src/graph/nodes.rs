@@ -9,16 +9,21 @@ use super::Graph;
 use crate::error::{Error, Result};
 
 /// A reader of `ros_discovery_info`, made before the graph settles: each participant's writer is durable, so
-/// its last sample comes when the reader matches it (see [`DiscoveryInfo::take`]).
+/// its last sample comes when the reader matches it (see [`DiscoveryInfo::take`]). Over Zenoh there is none:
+/// the nodes are the liveliness tokens' (`tokens.rs`).
 pub(crate) struct DiscoveryInfo {
-    reader: ros2_client::dds::rustdds::no_key::DataReaderCdr<ParticipantEntitiesInfo>,
+    reader: Option<ros2_client::dds::rustdds::no_key::DataReaderCdr<ParticipantEntitiesInfo>>,
     me: GUID,
 }
 
 impl DiscoveryInfo {
-    /// Starts reading `ros_discovery_info` on the graph's participant.
+    /// Starts reading `ros_discovery_info` on the graph's participant (over Zenoh, nothing to start).
     pub(crate) fn read(graph: &Graph) -> Result<DiscoveryInfo> {
         use ros2_client::{builtin_topics::ros_discovery, dds::rustdds};
+        #[cfg(feature = "zenoh")]
+        if let Some(me) = graph.own_session() {
+            return Ok(DiscoveryInfo { reader: None, me });
+        }
         let dp = graph
             .domain_participant()
             .ok_or_else(|| Error::Closed("the DDS participant".into()))?;
@@ -43,17 +48,24 @@ impl DiscoveryInfo {
             })
             .map_err(|e| Error::transport(what, e))?;
         Ok(DiscoveryInfo {
-            reader,
+            reader: Some(reader),
             me: rustdds::RTPSEntity::guid(&dp),
         })
     }
 
-    /// The nodes of the other programs the samples received so far describe (see [`Graph::nodes`]).
-    pub(crate) fn take(mut self, graph: &Graph) -> Vec<GraphNode> {
+    /// The nodes of the other programs the samples received so far describe (see [`Graph::nodes`]); over
+    /// Zenoh, those the tokens name now.
+    pub(crate) fn take(self, graph: &Graph) -> Vec<GraphNode> {
+        let Some(mut reader) = self.reader else {
+            #[cfg(feature = "zenoh")]
+            return graph.token_nodes().unwrap_or_default();
+            #[cfg(not(feature = "zenoh"))]
+            return Vec::new();
+        };
         let mut infos: Vec<ParticipantEntitiesInfo> = Vec::new();
         let mut bad = 0;
         while bad < 1000 {
-            match self.reader.take_next_sample() {
+            match reader.take_next_sample() {
                 Ok(Some(s)) => infos.push(s.into_value()),
                 Ok(None) => break,
                 // a sample that does not decode (a peer's bad node name): the others still count
@@ -101,7 +113,7 @@ impl GraphNode {
 
     /// Notes that the node writes (`writer`) or reads the DDS topic `dds`: a topic it publishes or subscribes
     /// to, or a service it serves (reads its requests, writes its replies) or calls.
-    fn uses(&mut self, writer: bool, dds: &str) {
+    pub(super) fn uses(&mut self, writer: bool, dds: &str) {
         use crate::wire::dds_names as w;
         let (name, set) = if let Some(t) = w::ros_topic(dds) {
             (t, [&mut self.subscribes, &mut self.publishes])

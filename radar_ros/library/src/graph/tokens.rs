@@ -124,6 +124,34 @@ impl Graph {
         )
     }
 
+    /// Over Zenoh, the nodes of the other sessions (their `NN` tokens), each with the topics and services its
+    /// endpoints' tokens name; the enclave is `/` (ros2-client's parse of a token drops it). `None` over DDS.
+    pub(crate) fn token_nodes(&self) -> Option<Vec<super::GraphNode>> {
+        let t = self.zenoh.lock().unwrap().clone()?;
+        let mut nodes: std::collections::BTreeMap<(String, u64), super::GraphNode> =
+            Default::default();
+        for (_, e) in t
+            .ctx
+            .graph_entities()
+            .iter()
+            .filter(|(_, e)| e.zid != t.own)
+        {
+            let node =
+                nodes
+                    .entry((e.zid.clone(), e.node_id))
+                    .or_insert_with(|| super::GraphNode {
+                        namespace: e.namespace.clone(),
+                        name: e.node_name.clone(),
+                        enclave: "/".to_owned(),
+                        ..Default::default()
+                    });
+            for (writer, _, dds, _) in as_dds(e) {
+                node.uses(writer, &dds);
+            }
+        }
+        Some(nodes.into_values().collect())
+    }
+
     /// Over Zenoh, the process (its session's participant GUID) of the endpoint whose GID is `gid` (what a
     /// sample's or a request's attachment names), if a token names it; `None` over DDS or for an unknown GID.
     pub(crate) fn session_of_gid(&self, gid: ros2_client::Gid) -> Option<GUID> {
