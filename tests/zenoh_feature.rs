@@ -33,8 +33,8 @@
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM; a peer an
 //!   hour ahead said once as a warning, not an error per sample;
 //! - `radar_bench quick --only zenoh`: one hop over ros2-client's Zenoh backend, peer to peer and through a
-//!   router, beside DDS, and radar_ros's own one hop over Zenoh beside radar_ros's over DDS (the rows are
-//!   printed);
+//!   router, beside DDS, radar_ros's own one hop over Zenoh beside radar_ros's over DDS, and how long a joining
+//!   program takes to list 100 components over each (the rows are printed);
 //! - `mypy --strict` on the two Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
@@ -211,6 +211,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "radar_ros over DDS, 1 hop",
         "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), peer to peer",
         "radar_ros over Zenoh, 1 hop (event -> response, manager beside the response), through the router",
+        "a joining program lists 100 components (one other process), over DDS",
+        "a joining program lists 100 components (one other process), over Zenoh (peer to peer)",
     ] {
         let line = table
             .lines()

@@ -52,6 +52,11 @@ struct Plan {
     interrupt_n: u64,
     setup_n: usize,
     fresh_n: usize,
+    /// Components a joining program discovers (the `zenoh` scenario's discovery rows), and how many joins.
+    #[cfg_attr(not(feature = "zenoh"), allow(dead_code))]
+    discovery_n: usize,
+    #[cfg_attr(not(feature = "zenoh"), allow(dead_code))]
+    discovery_runs: usize,
     rates: Vec<f64>,
     window_ms: u64,
     fanouts: Vec<usize>,
@@ -83,6 +88,8 @@ impl Plan {
                 interrupt_n: 50,
                 setup_n: 20,
                 fresh_n: 5,
+                discovery_n: 100,
+                discovery_runs: 2,
                 rates: vec![500.0, 2000.0],
                 window_ms: 300,
                 fanouts: vec![1, 100],
@@ -104,6 +111,8 @@ impl Plan {
                 interrupt_n: 2000,
                 setup_n: 200,
                 fresh_n: 30,
+                discovery_n: 1000,
+                discovery_runs: 3,
                 rates: vec![
                     1000.0, 2000.0, 5000.0, 10_000.0, 15_000.0, 20_000.0, 30_000.0, 50_000.0,
                     100_000.0,

@@ -161,7 +161,61 @@ impl Bench {
                 c.quit().await;
             }
         }
+        self.discovery(port).await?;
         router.quit().await;
+        Ok(())
+    }
+
+    /// A program joining a graph of many components (half events, half responses, in one other process): how
+    /// long until it lists them all (`Radar::components`), over DDS and over Zenoh (peer to peer, the router
+    /// at `port` up), a fresh joining process per sample.
+    async fn discovery(&mut self, port: u32) -> Result<()> {
+        let (n, runs) = (self.plan.discovery_n, self.plan.discovery_runs);
+        let half = (n / 2).to_string();
+        let peer = format!("mode=\"peer\";connect/endpoints=[\"tcp/127.0.0.1:{port}\"]");
+        for (key, label, env) in [
+            ("discovery_dds", "over DDS", vec![]),
+            (
+                "discovery_zenoh",
+                "over Zenoh (peer to peer)",
+                vec![
+                    ("RMW_IMPLEMENTATION", "rmw_zenoh_cpp"),
+                    ("ZENOH_CONFIG_OVERRIDE", peer.as_str()),
+                ],
+            ),
+        ] {
+            let d = self.domain();
+            let comps = Child::start(
+                &self.exe,
+                &[
+                    "child",
+                    "components",
+                    "--events",
+                    &half,
+                    "--responses",
+                    &half,
+                ],
+                d,
+                &env,
+                Duration::from_secs(600),
+            )
+            .await?;
+            let mut samples = Vec::new();
+            for _ in 0..runs {
+                let mut joiner = self.child_with(d, &["discover"], &env).await?;
+                let a = joiner
+                    .ask_json(&format!("wait {n}"), Duration::from_secs(320))
+                    .await?;
+                samples.push(a["ns"].as_u64().unwrap_or(0));
+                joiner.quit().await;
+            }
+            comps.quit().await;
+            self.push_setup(
+                key,
+                &format!("a joining program lists {n} components (one other process), {label}"),
+                samples,
+            )?;
+        }
         Ok(())
     }
 }

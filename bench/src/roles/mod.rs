@@ -95,6 +95,8 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
             .await
         }
         "view-system" => view::view_system(num("--events")?, num("--responses")?).await,
+        "components" => scale::components(num("--events")?, num("--responses")?).await,
+        "discover" => scale::discover().await,
         #[cfg(feature = "zenoh")]
         "zenoh-sink" => zenoh::zenoh_sink(&req("--topic")?).await,
         #[cfg(feature = "zenoh")]

@@ -268,3 +268,54 @@ pub(super) async fn scale(
     drop((evs, resps));
     Ok(())
 }
+
+/// `events` events and `responses` responses under `/disc/` (the graph a joining program discovers), up before
+/// `ready`; then serves until `quit`.
+pub(super) async fn components(events: usize, responses: usize) -> Result<()> {
+    raise_fd_limit();
+    let radar = radar()?;
+    let _evs = (0..events)
+        .map(|i| radar.spawn_event(&format!("/disc/ev_{i}"), Idle))
+        .collect::<radar_ros::Result<Vec<_>>>()?;
+    let _resps = (0..responses)
+        .map(|i| {
+            radar.spawn_response(
+                &format!("/disc/resp_{i}"),
+                FnResponse::new(|_: Empty| async { Ok::<_, SlotError>(Empty::default()) }),
+            )
+        })
+        .collect::<radar_ros::Result<Vec<_>>>()?;
+    serve(|w| async move { bail!("unknown command {:?}", w.join(" ")) }).await;
+    Ok(())
+}
+
+/// A program joining a graph: `wait N` answers how long after this process made its `Radar` it listed at least
+/// `N` components (`Radar::components`, looked at every 5 ms), as `{"ns": .., "seen": ..}`.
+pub(super) async fn discover() -> Result<()> {
+    let t0 = now_ns();
+    let radar = radar()?;
+    serve(|w| {
+        let radar = radar.clone();
+        async move {
+            match w[0].as_str() {
+                "wait" => {
+                    let n: usize = word(&w, 1)?;
+                    let deadline = tokio::time::Instant::now() + Duration::from_secs(300);
+                    loop {
+                        let seen = radar.components().len();
+                        if seen >= n {
+                            return Ok(json!({ "ns": now_ns() - t0, "seen": seen }).to_string());
+                        }
+                        if tokio::time::Instant::now() > deadline {
+                            bail!("saw {seen} of {n} components in 300 s");
+                        }
+                        tokio::time::sleep(Duration::from_millis(5)).await;
+                    }
+                }
+                other => bail!("unknown command {other:?}"),
+            }
+        }
+    })
+    .await;
+    Ok(())
+}
