@@ -16,7 +16,9 @@
 //! `whenever bumper start far` made here delivers there; through
 //! the other program's manager (its services over Zenoh queryables) `connect` makes the same connection there,
 //! `list` shows it, the peer's next bump starts far through it, `disconnect` removes it. The other program
-//! SIGKILLed, `/zr/far` leaves this program's graph (the time is printed). No settling sleeps: each wait is on
+//! SIGKILLed, `/zr/far` leaves this program's graph (the time is printed), and a connection it owned in this
+//! program's manager (`/zr/home`) is dropped once the lease has passed (a Zenoh caller's GID told back to its
+//! process by the graph; without that, never: mutation run). No settling sleeps: each wait is on
 //! a match count, a sample or the graph. With the transport refused (RMW_IMPLEMENTATION unset) the test fails
 //! at its first check; with the tokens' graph empty, at the lookup of `/zr/far`; with no type hash given to
 //! Zenoh, at the first wait for the peer.
@@ -239,6 +241,32 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     );
 
     // the other program killed: its components leave this program's graph
+    // the other program owns a connection in this program's manager: when it dies, the connection goes
+    let _home = radar.serve_manager("/zr/home").unwrap();
+    let stdin = remote.stdin.as_mut().unwrap();
+    tokio::io::AsyncWriteExt::write_all(stdin, b"connect\n")
+        .await
+        .unwrap();
+    let owned: u64 = loop {
+        let line = tokio::time::timeout(WAIT, out.next_line())
+            .await
+            .expect("the remote program connects")
+            .unwrap()
+            .expect("the remote program ended before it connected");
+        if let Some(id) = line.split("ZR_CONNECTED ").nth(1) {
+            break id.trim().parse().unwrap();
+        }
+    };
+    let home = radar
+        .remote_manager("/zr/home")
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let has_owned = |list: Vec<radar_ros::msg::Connection>| list.iter().any(|c| c.id == owned);
+    assert!(
+        has_owned(home.list().timeout(WAIT).await.unwrap()),
+        "the other program's connection is in this program's manager"
+    );
     let listed = |radar: &Radar| {
         radar
             .components()
@@ -257,6 +285,17 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     }
     println!(
         "zenoh_radar: far gone from the graph {:?} after SIGKILL",
+        killed.elapsed()
+    );
+    while has_owned(home.list().timeout(WAIT).await.unwrap()) {
+        assert!(
+            killed.elapsed() < WAIT,
+            "the killed owner's connection is dropped by the manager"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    println!(
+        "zenoh_radar: the killed owner's connection dropped {:?} after SIGKILL",
         killed.elapsed()
     );
     peer.close();
@@ -279,10 +318,24 @@ async fn remote_program() {
         .unwrap();
     let _manager = radar.serve_manager("/zr/manager").unwrap();
     println!("ZR_UP");
-    let mut line = String::new();
-    let _ = tokio::io::AsyncBufReadExt::read_line(
-        &mut tokio::io::BufReader::new(tokio::io::stdin()),
-        &mut line,
-    )
-    .await;
+    let mut lines =
+        tokio::io::AsyncBufReadExt::lines(tokio::io::BufReader::new(tokio::io::stdin()));
+    let mut owned = Vec::new();
+    while let Ok(Some(line)) = lines.next_line().await {
+        if line == "connect" {
+            // a connection this program owns in the other's manager (not detached)
+            let home = radar
+                .remote_manager("/zr/home")
+                .timeout(WAIT)
+                .await
+                .unwrap();
+            let id = home
+                .connect(RemoteStatement::whenever("/zr/bumper/triggered").to("/zr/dock/start"))
+                .timeout(WAIT)
+                .await
+                .unwrap();
+            println!("ZR_CONNECTED {id}");
+            owned.push(home);
+        }
+    }
 }
