@@ -109,7 +109,11 @@ where
             ),
             Server::Zenoh(s) => futures::future::Either::Right(
                 futures::stream::unfold(s, |s| async move {
-                    Some((s.async_receive_request().await, s))
+                    match s.async_receive_request().await {
+                        // the queryable is closed: the stream ends, as DDS's does
+                        Err(ros2_client::ServiceError::NoReply) => None,
+                        r => Some((r, s)),
+                    }
                 })
                 .map(move |r| r.map_err(|e| text(&e))),
             ),
@@ -270,7 +274,9 @@ impl<M: serde::de::DeserializeOwned + 'static> Subscription<M> {
         #[cfg(feature = "zenoh")]
         match self {
             Subscription::Dds(s) => futures::future::Either::Left(s.async_stream()),
-            Subscription::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
+            Subscription::Zenoh(s) => {
+                futures::future::Either::Right(until_closed(s.async_stream()))
+            }
         }
     }
 }
@@ -291,7 +297,57 @@ impl Subscription<crate::wire::raw::RawMessage> {
             Subscription::Dds(s) => {
                 futures::future::Either::Left(s.async_stream_seed(crate::wire::raw::RawSeed))
             }
-            Subscription::Zenoh(s) => futures::future::Either::Right(s.async_stream()),
+            Subscription::Zenoh(s) => {
+                futures::future::Either::Right(until_closed(s.async_stream()))
+            }
         }
+    }
+}
+
+/// A Zenoh subscription's stream until its subscriber is closed (the session gone): the backend's never ends
+/// on its own, and would say `Closed` for ever.
+#[cfg(feature = "zenoh")]
+fn until_closed<T>(stream: impl Stream<Item = ReadResult<T>>) -> impl Stream<Item = ReadResult<T>> {
+    stream.take_while(|r| std::future::ready(!matches!(r, Err(ros2_client::ReadError::Closed))))
+}
+
+#[cfg(all(test, feature = "zenoh"))]
+mod tests {
+    use super::*;
+    use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_zenoh_subscriptions_stream_ends_when_its_session_closes() {
+        let ctx = ros2_client::zenoh::Context::with_options(
+            ros2_client::zenoh::ContextOptions::new().domain_id(231),
+        )
+        .unwrap();
+        let node = ctx
+            .new_node(
+                NodeName::new("/", "closing").unwrap(),
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .unwrap();
+        let topic = node.create_topic(
+            &Name::new("/", "closing").unwrap(),
+            MessageTypeName::new("std_msgs", "Empty"),
+            &QosProfile::default(),
+        );
+        let sub = Subscription::Zenoh(
+            node.create_subscription::<crate::wire::msg::Empty>(&topic, None)
+                .unwrap(),
+        );
+        ctx.session().close().await.unwrap();
+        let mut stream = Box::pin(sub.async_stream());
+        let next = tokio::time::timeout(std::time::Duration::from_secs(5), stream.next())
+            .await
+            .expect("the stream answers at once");
+        assert!(
+            next.is_none(),
+            "it ends (not `Closed` for ever): {:?}",
+            next.map(|r| r.map(|_| ()))
+        );
     }
 }
