@@ -83,14 +83,7 @@ impl Bench {
             src.ask("wait", START).await?;
             let r = self.paced(&mut src, &run, &mut sink).await?;
             self.push_latency(key, label, &r, "")?;
-            let p50 = |k: &str| {
-                self.results
-                    .latency
-                    .iter()
-                    .find(|l| l.key == k)
-                    .map(|l| l.summary.p50_us)
-            };
-            if let (Some(z), Some(dds)) = (p50(key), p50("raw_1hop_beside_zenoh")) {
+            if let (Some(z), Some(dds)) = (self.p50(key), self.p50("raw_1hop_beside_zenoh")) {
                 let note = format!("p50 {:.2}x DDS's beside it", z / dds);
                 if let Some(row) = self.results.latency.last_mut() {
                     row.note = note;
@@ -132,17 +125,10 @@ impl Bench {
             self.child_env = saved;
             let (r, children) = hop?;
             self.push_latency(key, label, &r, "")?;
-            let p50 = |k: &str| {
-                self.results
-                    .latency
-                    .iter()
-                    .find(|l| l.key == k)
-                    .map(|l| l.summary.p50_us)
-            };
             if let (Some(z), Some(dds), Some(raw)) = (
-                p50(key),
-                p50("radar_1hop_beside_zenoh"),
-                p50(if mode == "peer" {
+                self.p50(key),
+                self.p50("radar_1hop_beside_zenoh"),
+                self.p50(if mode == "peer" {
                     "zenoh_p2p_1hop"
                 } else {
                     "zenoh_router_1hop"
@@ -217,5 +203,14 @@ impl Bench {
             )?;
         }
         Ok(())
+    }
+
+    /// The p50 of the latency row `key` measured so far in this run, if there is one.
+    fn p50(&self, key: &str) -> Option<f64> {
+        self.results
+            .latency
+            .iter()
+            .find(|l| l.key == key)
+            .map(|l| l.summary.p50_us)
     }
 }

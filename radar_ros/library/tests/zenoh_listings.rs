@@ -197,20 +197,7 @@ async fn listings_2_and_3_run_over_zenoh_across_namespaces_through_a_router_and_
         "10.88.22.1/24",
     );
     // the robot's namespace has no route to the program's
-    let unreachable = std::process::Command::new("nsenter")
-        .arg(format!("--net=/proc/{}/ns/net", robot.pid()))
-        .arg(zenoh_util::python())
-        .args([
-            "-c",
-            "import socket; socket.create_connection(('10.88.22.2', 9), timeout=2)",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&unreachable.stderr);
-    assert!(
-        !unreachable.status.success() && err.contains("unreachable"),
-        "no route from the robot's namespace to the program's: {err}"
-    );
+    zenoh_util::assert_unreachable(&robot, "10.88.22.2");
 
     let main = run(&robot, &router_ns, false).await;
     check_figure_3(&main, "through the router");

@@ -21,10 +21,7 @@
 
 mod zenoh_util;
 
-use std::{
-    process::Command,
-    time::{Duration, Instant},
-};
+use std::time::{Duration, Instant};
 
 use zenoh_util::{both_ways, link, start_peer, Netns, Proc, Side};
 
@@ -69,20 +66,7 @@ async fn signals_cross_namespaces_through_a_router_survive_its_restart_and_a_kil
         "10.88.1.1/24",
     );
     // the peer's namespace has no route to this one
-    let unreachable = Command::new("nsenter")
-        .arg(format!("--net=/proc/{}/ns/net", peer_ns.pid()))
-        .arg(zenoh_util::python())
-        .args([
-            "-c",
-            "import socket; socket.create_connection(('10.88.2.2', 9), timeout=2)",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&unreachable.stderr);
-    assert!(
-        !unreachable.status.success() && err.contains("unreachable"),
-        "no route from the peer's namespace to radar_ros's: {err}"
-    );
+    zenoh_util::assert_unreachable(&peer_ns, "10.88.2.2");
 
     let router_at = "tcp/0.0.0.0:7447";
     let mut router = Proc::start_in(Some(router_ns.pid()), "zenoh_router.py", &[router_at]);

@@ -490,3 +490,22 @@ pub fn link(a: Option<&Netns>, a_if: &str, a_addr: &str, b: &Netns, b_if: &str, 
     b.ip(&["addr", "add", b_addr, "dev", b_if]);
     b.ip(&["link", "set", b_if, "up"]);
 }
+
+/// Asserts that nothing in `from`'s namespace reaches `addr` (an address of this one): a TCP connect to it
+/// fails as unreachable. Only the router's namespace links the two.
+pub fn assert_unreachable(from: &Netns, addr: &str) {
+    let out = Command::new("nsenter")
+        .arg(format!("--net=/proc/{}/ns/net", from.pid()))
+        .arg(python())
+        .args([
+            "-c",
+            &format!("import socket; socket.create_connection(('{addr}', 9), timeout=2)"),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("unreachable"),
+        "no route from the other namespace to {addr}: {err}"
+    );
+}
