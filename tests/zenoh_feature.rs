@@ -225,7 +225,14 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     let _ = std::fs::remove_dir_all(&bench_out);
     let scripts = repo().join("tests/python");
     let mypy = Command::new(python())
-        .args(["-m", "mypy", "--strict", "zenoh_peer.py", "zenoh_router.py"])
+        .args([
+            "-m",
+            "mypy",
+            "--strict",
+            "zenoh_peer.py",
+            "zenoh_router.py",
+            "zenoh_service_client.py",
+        ])
         .current_dir(&scripts)
         .output()
         .expect("run mypy");

@@ -67,7 +67,7 @@ fn split(ros_type: &str) -> Result<TypeName<'_>, String> {
 impl Interfaces {
     /// Definitions looked for as ROS 2 tools look: in `share/` of every prefix of `AMENT_PREFIX_PATH`, then in
     /// the interfaces radar_ros ships (std_msgs, builtin_interfaces, geometry_msgs, sensor_msgs, nav_msgs,
-    /// std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs).
+    /// std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs, service_msgs).
     pub fn from_env() -> Interfaces {
         let roots = std::env::var_os("AMENT_PREFIX_PATH")
             .map(|p| {

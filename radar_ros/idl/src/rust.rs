@@ -168,7 +168,8 @@ impl Generator {
             for (kind, name) in self.interfaces.interfaces_of(&pkg)? {
                 let parts: &[&str] = match kind.as_str() {
                     "msg" => &[""],
-                    "srv" => &["_Request", "_Response"],
+                    // the service as a whole: what rmw_zenoh names in a service's key and tokens
+                    "srv" => &["", "_Request", "_Response"],
                     _ => &["_Goal", "_Result", "_Feedback"],
                 };
                 for part in parts {
@@ -271,6 +272,7 @@ impl Generator {
         for part in ["Request", "Response"] {
             out.push_str(&self.message(&format!("{pkg}/srv/{name}_{part}"), uses)?);
         }
+        let hash = self.interfaces.type_hash(&format!("{pkg}/srv/{name}"))?;
         write!(
             out,
             "        #[doc = \"`{pkg}/srv/{name}`: its request is [`{name}_Request`], its response [`{name}_Response`].\"]
@@ -281,6 +283,7 @@ impl Generator {
             const NAME: &'static str = \"{name}\";
             type Request = {name}_Request;
             type Response = {name}_Response;
+            const TYPE_HASH: ::core::option::Option<&'static str> = ::core::option::Option::Some(\"{hash}\");
         }}
 "
         )

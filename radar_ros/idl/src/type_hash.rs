@@ -81,6 +81,22 @@ impl Interfaces {
         ros_type: &str,
         referenced: &mut BTreeMap<String, String>,
     ) -> Result<String, String> {
+        if let Some(made_up) = made_up(ros_type) {
+            let mut fields = Vec::new();
+            for (name, type_id, capacity, nested) in made_up {
+                if !nested.is_empty() && !referenced.contains_key(&nested) {
+                    referenced.insert(nested.clone(), String::new());
+                    let d = self.description(&nested, referenced)?;
+                    referenced.insert(nested.clone(), d);
+                }
+                fields.push(field(name, type_id, capacity, 0, &nested));
+            }
+            return Ok(format!(
+                "{{\"type_name\": {}, \"fields\": [{}]}}",
+                quoted(ros_type),
+                fields.join(", ")
+            ));
+        }
         let spec = self.definition(ros_type)?;
         let mut fields = Vec::new();
         if spec.fields.is_empty() {
@@ -132,6 +148,101 @@ impl Interfaces {
             b.string_upper_bound.unwrap_or(0),
             &nested,
         ))
+    }
+}
+
+/// A field of a type rosidl makes up around a service or an action: its name, type id, capacity and nested type.
+type MadeUpField = (&'static str, u8, u32, String);
+
+/// The fields of a type that no file defines but rosidl makes up (rosidl_generator_type_description), if
+/// `ros_type` is one: a service as a whole (`pkg/srv/Name`: its request, response and event messages), a
+/// service's event (`Name_Event`: `service_msgs/msg/ServiceEventInfo` and at most one request and one response),
+/// an action as a whole (`pkg/action/Name`), its two services (`Name_SendGoal`, `Name_GetResult`) with their
+/// requests, responses and events, and its feedback message (`Name_FeedbackMessage`). Each is as the JSON
+/// rosidl writes beside the definition has it (`share/<pkg>/<srv|action>/<Name>.json`).
+fn made_up(ros_type: &str) -> Option<Vec<MadeUpField>> {
+    const NESTED: u8 = 1;
+    const BOUNDED_SEQUENCE: u8 = 96;
+    const UUID: &str = "unique_identifier_msgs/msg/UUID";
+    let (pkg, kind, name) = {
+        let mut parts = ros_type.split('/');
+        (parts.next()?, parts.next()?, parts.next()?)
+    };
+    let own = |suffix: &str| format!("{pkg}/{kind}/{name}{suffix}");
+    let nested = |field: &'static str, ty: String| (field, NESTED, 0, ty);
+    let service = |base: &str| {
+        vec![
+            nested("request_message", format!("{pkg}/{kind}/{base}_Request")),
+            nested("response_message", format!("{pkg}/{kind}/{base}_Response")),
+            nested("event_message", format!("{pkg}/{kind}/{base}_Event")),
+        ]
+    };
+    let event = |base: &str| {
+        let at_most_one = |field, ty| (field, NESTED + BOUNDED_SEQUENCE, 1, ty);
+        vec![
+            nested("info", "service_msgs/msg/ServiceEventInfo".to_owned()),
+            at_most_one("request", format!("{pkg}/{kind}/{base}_Request")),
+            at_most_one("response", format!("{pkg}/{kind}/{base}_Response")),
+        ]
+    };
+    match kind {
+        "srv" if name.ends_with("_Request") || name.ends_with("_Response") => None,
+        "srv" => Some(match name.strip_suffix("_Event") {
+            Some(base) => event(base),
+            None => service(name),
+        }),
+        "action" => {
+            const PARTS: [&str; 12] = [
+                "_SendGoal_Request",
+                "_SendGoal_Response",
+                "_SendGoal_Event",
+                "_GetResult_Request",
+                "_GetResult_Response",
+                "_GetResult_Event",
+                "_SendGoal",
+                "_GetResult",
+                "_FeedbackMessage",
+                "_Goal",
+                "_Result",
+                "_Feedback",
+            ];
+            let (base, part) = PARTS
+                .iter()
+                .find_map(|p| Some((name.strip_suffix(p)?, *p)))
+                .unwrap_or((name, ""));
+            let of = |suffix: &str| format!("{pkg}/action/{base}{suffix}");
+            Some(match part {
+                "" => vec![
+                    nested("goal", own("_Goal")),
+                    nested("result", own("_Result")),
+                    nested("feedback", own("_Feedback")),
+                    nested("send_goal_service", own("_SendGoal")),
+                    nested("get_result_service", own("_GetResult")),
+                    nested("feedback_message", own("_FeedbackMessage")),
+                ],
+                "_SendGoal" | "_GetResult" => service(name),
+                "_SendGoal_Event" | "_GetResult_Event" => event(name.strip_suffix("_Event")?),
+                "_SendGoal_Request" => {
+                    vec![nested("goal_id", UUID.into()), nested("goal", of("_Goal"))]
+                }
+                "_SendGoal_Response" => vec![
+                    ("accepted", 15, 0, String::new()),
+                    nested("stamp", "builtin_interfaces/msg/Time".into()),
+                ],
+                "_GetResult_Request" => vec![nested("goal_id", UUID.into())],
+                "_GetResult_Response" => vec![
+                    ("status", 2, 0, String::new()),
+                    nested("result", of("_Result")),
+                ],
+                "_FeedbackMessage" => vec![
+                    nested("goal_id", UUID.into()),
+                    nested("feedback", of("_Feedback")),
+                ],
+                // _Goal, _Result, _Feedback: the .action file's parts
+                _ => return None,
+            })
+        }
+        _ => None,
     }
 }
 

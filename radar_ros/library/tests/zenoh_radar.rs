@@ -267,6 +267,37 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
         has_owned(home.list().timeout(WAIT).await.unwrap()),
         "the other program's connection is in this program's manager"
     );
+    // a client written from rmw_zenoh's design document calls the manager, naming the service's hash rosidl
+    // wrote (radar_msgs/srv/List as a whole; a placeholder hash in the server's key is never reached)
+    let mut client = zenoh_util::Proc::start(
+        "zenoh_service_client.py",
+        &[
+            "tcp/127.0.0.1:7447",
+            &DOMAIN.to_string(),
+            "/zr/home/list",
+            "radar_msgs/srv/List",
+            "{}",
+        ],
+    );
+    let server: Value = serde_json::from_str(&client.line().await).unwrap();
+    assert!(server.get("server").is_some(), "{server}");
+    let reply: Value = serde_json::from_str(&client.line().await).unwrap();
+    let ids: Vec<u64> = reply["reply"]["connections"]
+        .as_array()
+        .unwrap_or_else(|| panic!("a List reply: {reply}"))
+        .iter()
+        .map(|c| c["id"].as_u64().unwrap())
+        .collect();
+    assert!(
+        ids.contains(&owned),
+        "the design-document client's reply lists the connection: {reply}"
+    );
+    assert_eq!(
+        reply["seq"], 1,
+        "the reply names the request's sequence number: {reply}"
+    );
+    let done: Value = serde_json::from_str(&client.line().await).unwrap();
+    assert_eq!(done["replies"], 1, "one server answered: {done}");
     let listed = |radar: &Radar| {
         radar
             .components()

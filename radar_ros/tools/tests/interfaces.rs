@@ -530,8 +530,9 @@ async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
 /// RIHS01 hashes computed from the definitions equal rosidl's: every `share/<pkg>/msg|srv|action/<Name>.json`
 /// the ROS 2 wheels in the venv ship (std_msgs, geometry_msgs, test_msgs, builtin_interfaces, ...): a message's
 /// own hash and those of the messages it uses, a service's request and response, an action's goal, result and
-/// feedback (the hashes generated types carry). The types rosidl makes up around a service or action
-/// (`_Event`, `_SendGoal_Request`, ...) and the service or action as a whole are not computed yet.
+/// feedback (the hashes generated types carry), and the types rosidl makes up around them: a service as a whole
+/// (what rmw_zenoh names in a service's key and tokens), its `_Event`, an action as a whole, its `_SendGoal`
+/// and `_GetResult` services with their parts, and its `_FeedbackMessage`.
 #[test]
 fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
     let share = venv().join("share");
@@ -556,17 +557,13 @@ fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
                     pkg.file_name().unwrap().to_string_lossy(),
                     path.file_stem().unwrap().to_string_lossy()
                 );
-                let parts: &[&str] = match kind {
-                    "msg" => &[""],
-                    "srv" => &["_Request", "_Response"],
-                    _ => &["_Goal", "_Result", "_Feedback"],
-                };
                 for hash in doc["type_hashes"].as_array().unwrap() {
                     let ty = hash["type_name"].as_str().unwrap();
-                    let own_part = parts.iter().any(|p| ty == format!("{base}{p}"));
-                    if !own_part && !ty.contains("/msg/") {
-                        continue;
-                    }
+                    assert!(
+                        ty.starts_with(&base) || ty.contains("/msg/"),
+                        "{ty} in {}",
+                        path.display()
+                    );
                     match types.type_hash(ty) {
                         Ok(h) if h == hash["hash_string"] => {
                             checked.insert(ty.to_owned());
@@ -591,6 +588,14 @@ fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
         "test_msgs/action/Fibonacci_Goal",
         "test_msgs/action/NestedMessage_Feedback",
         "radar_demo_msgs/action/Dock_Result",
+        "std_srvs/srv/SetBool",
+        "std_srvs/srv/SetBool_Event",
+        "radar_msgs/srv/Connect",
+        "test_msgs/action/Fibonacci",
+        "test_msgs/action/Fibonacci_SendGoal",
+        "test_msgs/action/Fibonacci_GetResult_Event",
+        "test_msgs/action/Fibonacci_SendGoal_Response",
+        "test_msgs/action/Fibonacci_FeedbackMessage",
     ] {
         assert!(checked.contains(must), "{must} checked: {checked:?}");
     }

@@ -43,7 +43,7 @@ impl std::ops::Deref for Interfaces {
 impl Interfaces {
     /// Definitions looked for as ROS 2 tools look: in `share/` of every prefix of `AMENT_PREFIX_PATH`, then in
     /// the interfaces radar_ros ships (std_msgs, builtin_interfaces, geometry_msgs, sensor_msgs, nav_msgs,
-    /// std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs).
+    /// std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs, service_msgs).
     pub fn from_env() -> Interfaces {
         Interfaces {
             defs: radar_idl::Interfaces::from_env(),

@@ -115,7 +115,18 @@ impl ServiceAt<'_> {
         match node {
             Node::Dds(node) => dds(node, &name, &ty, crate::wire::qos::signal_qos()),
             #[cfg(feature = "zenoh")]
-            Node::Zenoh(node) => zenoh(&node.node, &name, &ty),
+            Node::Zenoh(node) => {
+                // the service's own hash (request, response and event as one, as rosidl hashes it) in its key
+                // and tokens: an rmw_zenoh peer matches only on it (the backend knows rcl_interfaces' and a
+                // few others; radar_ros ships radar_msgs', std_srvs', ...)
+                let as_ros = format!("{}/srv/{}", self.package, self.ty);
+                if let Some(hash) = crate::wire::msg::type_hash_of(&as_ros) {
+                    let dds = format!("{}::srv::dds_::{}_", self.package, self.ty);
+                    ros2_client::zenoh::register_type_hash(&dds, hash)
+                        .map_err(|e| Error::transport(what.clone(), crate::error::Text(e)))?;
+                }
+                zenoh(&node.node, &name, &ty)
+            }
         }
         .map_err(|e| Error::transport(what, crate::error::Text(e.to_string())))
     }

@@ -71,6 +71,10 @@ pub trait RosService: Send + Sync + 'static {
     type Request: RosMessage;
     /// `<Name>_Response`.
     type Response: RosMessage;
+    /// The service's RIHS01 hash (REP 2011) as rosidl computes it for the service as a whole (its request,
+    /// response and event messages), when known: what rmw_zenoh names in the service's key expression and
+    /// liveliness tokens. Generated types carry it.
+    const TYPE_HASH: Option<&'static str> = None;
 
     /// `pkg/srv/Name`, as `ros2 service` shows it.
     fn ros_type_name() -> String {
