@@ -20,7 +20,8 @@
 //!   subscriptions over Zenoh, waiting, sending and hearing against the design-document peer;
 //! - `radar_ros/library/tests/zenoh_radar.rs`: a `Radar` on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`): Listing 2's
 //!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens; another
-//!   program's response and manager (services over queryables) used across processes;
+//!   program's response and manager (services over queryables) used across processes, and the manager called
+//!   by a client written from the design document;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -29,6 +30,8 @@
 //! - `radar_ros/library/tests/zenoh_listings.rs`: the paper's Listings 2 and 3 (the `deliberative` example built
 //!   with the feature, four processes, `RMW_IMPLEMENTATION=rmw_zenoh_cpp`) across namespaces through a router,
 //!   and again with the router killed and started anew mid-run: Figure 3 both times;
+//! - the `radar` verbs over Zenoh (radar_ros/tools/tests/zenoh_verbs.rs): ls, cat (parameters), watch, act,
+//!   inject, con and dis through `radar router` and `radar_manager`; watching activates no event;
 //! - `radar router` (radar_ros/tools/tests/router.rs): a router as rmw_zenoh's, through which two
 //!   design-document peers in rmw_zenoh's default layout meet, stopped cleanly by SIGINT and SIGTERM; a peer an
 //!   hour ahead said once as a warning, not an error per sample;
@@ -181,13 +184,19 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "zenoh",
         "--test",
         "router",
+        "--test",
+        "zenoh_verbs",
     ];
-    let out = check(&cargo(&router), "radar_ros/tools/tests/router.rs");
+    let out = check(
+        &cargo(&router),
+        "radar_ros/tools/tests/router.rs and zenoh_verbs.rs",
+    );
     ran_and_passed(
         &out,
         &[
             "radar_router_joins_design_document_peers_and_stops_cleanly",
             "a_peer_an_hour_ahead_is_said_once_as_a_warning_not_an_error_per_sample",
+            "the_radar_verbs_drive_components_over_zenoh_and_watching_activates_nothing",
         ],
     );
     // the bench's `zenoh` scenario, quick: one hop over Zenoh peer to peer and through a router, beside DDS;

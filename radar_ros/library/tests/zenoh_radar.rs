@@ -17,7 +17,10 @@
 //! the other program's manager (its services over Zenoh queryables) `connect` makes the same connection there,
 //! `list` shows it, the peer's next bump starts far through it, `disconnect` removes it. The other program
 //! SIGKILLed, `/zr/far` leaves this program's graph (the time is printed), and a connection it owned in this
-//! program's manager (`/zr/home`) is dropped once the lease has passed (a Zenoh caller's GID told back to its
+//! program's manager (`/zr/home`) is dropped once the lease has passed; before, a client written from the
+//! design document (tests/python/zenoh_service_client.py) calls `/zr/home/list` under the hash rosidl gives
+//! `radar_msgs/srv/List` and its reply lists that connection (with the placeholder hash: no server, mutation
+//! run). The connection is dropped (a Zenoh caller's GID told back to its
 //! process by the graph; without that, never: mutation run). No settling sleeps: each wait is on
 //! a match count, a sample or the graph. With the transport refused (RMW_IMPLEMENTATION unset) the test fails
 //! at its first check; with the tokens' graph empty, at the lookup of `/zr/far`; with no type hash given to

@@ -105,7 +105,8 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
 }
 
 /// [`subscription`], or with `observer` one that only observes: an event does not count it as a listener
-/// (`graph/observers.rs`; over Zenoh a token cannot say so, and an observer counts as a listener).
+/// (over DDS its USER_DATA says so, `graph/observers.rs`; over Zenoh it declares no liveliness token, so no
+/// publisher counts it).
 pub(crate) fn subscription_as<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
     graph: &Graph,
     node: &mut RosNode,
@@ -117,7 +118,7 @@ pub(crate) fn subscription_as<M: serde::de::DeserializeOwned + Send + Sync + 'st
     let made = match &mut *node {
         RosNode::Dds(dds) => dds_subscription(graph, dds, topic_abs, ty, qos, observer),
         #[cfg(feature = "zenoh")]
-        RosNode::Zenoh(z) => crate::node::zenoh::subscription(z, topic_abs, ty, qos),
+        RosNode::Zenoh(z) => crate::node::zenoh::subscription(z, topic_abs, ty, qos, observer),
     }?;
     crate::node::declared::record_node(node, crate::node::declared::Access::Subscribe, topic_abs);
     Ok(made)

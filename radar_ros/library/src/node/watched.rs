@@ -89,7 +89,8 @@ impl Matching {
     }
 
     /// Who an event's `triggered` (this endpoint, a publisher) has as listeners: over DDS its matched readers
-    /// that do not only observe (`graph/observers.rs`), over Zenoh every matched subscription.
+    /// that do not only observe (`graph/observers.rs`), over Zenoh every matched subscription (an observer there
+    /// declares no token, so it is not matched).
     pub(crate) fn listeners(&self) -> tokio::sync::watch::Receiver<usize> {
         match &self.source {
             Source::Dds { guid, graph } => graph.watch_listeners(*guid),

@@ -162,7 +162,7 @@ impl ZenohSignals {
         qos: &QosProfile,
     ) -> Result<SignalSubscription<M>> {
         let abs = absolute(topic);
-        let s = subscription(&self.node, &abs, &ty, qos)?;
+        let s = subscription(&self.node, &abs, &ty, qos, false)?;
         Ok(SignalSubscription::new(abs, ty.ros, s))
     }
 }
@@ -193,18 +193,24 @@ pub(crate) fn publisher<M: serde::Serialize + Send + Sync + 'static>(
     over_zenoh(Publisher::Zenoh(p), counts, z.malformed.clone(), z.grace)
 }
 
-/// A subscription of `M` to the absolute `topic_abs` of node `z` (see [`publisher`]).
+/// A subscription of `M` to the absolute `topic_abs` of node `z` (see [`publisher`]); with `observer`, one that
+/// only observes: it declares no liveliness token, so no publisher counts it (an event does not take it for a
+/// listener; ros2-client patch 18), and the graph does not show it.
 pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'static>(
     z: &ZenohNode,
     topic_abs: &str,
     ty: &TypeName,
     qos: &QosProfile,
+    observer: bool,
 ) -> Result<Watched<Subscription<M>>> {
     let t = topic(&z.node, topic_abs, ty, qos)?;
-    let s = z
-        .node
-        .create_subscription::<M>(&t, None)
-        .map_err(|e| Error::transport(format!("a subscription to {topic_abs} over Zenoh"), e))?;
+    let made = if observer {
+        z.node.create_unlisted_subscription::<M>(&t, None)
+    } else {
+        z.node.create_subscription::<M>(&t, None)
+    };
+    let s =
+        made.map_err(|e| Error::transport(format!("a subscription to {topic_abs} over Zenoh"), e))?;
     let counts = s.watch_matched(&z.node);
     over_zenoh(Subscription::Zenoh(s), counts, z.malformed.clone(), z.grace)
 }

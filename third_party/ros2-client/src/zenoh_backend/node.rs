@@ -244,6 +244,29 @@ impl Node {
     topic: &Topic,
     qos: Option<QosProfile>,
   ) -> CreateResult<Subscription<M>> {
+    self.subscription_of(topic, qos, true)
+  }
+
+  /// A subscription for `topic` that declares no liveliness token (radar_ros patch 18): it receives what
+  /// any subscription of the topic receives, but the graph does not list it, so no publisher counts it
+  /// among its matched subscriptions (`Publisher::matched_subscription_count`, `watch_matched`) and
+  /// `ros2 topic info` over rmw_zenoh does not show it. For a reader that only observes (a recorder, a
+  /// live view) beside publishers that act only while someone listens. Its own matched count (the
+  /// publishers it hears) is counted as any subscription's.
+  pub fn create_unlisted_subscription<M: DeserializeOwned>(
+    &self,
+    topic: &Topic,
+    qos: Option<QosProfile>,
+  ) -> CreateResult<Subscription<M>> {
+    self.subscription_of(topic, qos, false)
+  }
+
+  fn subscription_of<M: DeserializeOwned>(
+    &self,
+    topic: &Topic,
+    qos: Option<QosProfile>,
+    listed: bool,
+  ) -> CreateResult<Subscription<M>> {
     let qos = qos.unwrap_or_else(|| topic.qos.clone());
     let domain = self.context.domain_id();
     // A subscription of a type whose hash is known listens on that hash only,
@@ -270,7 +293,11 @@ impl Node {
       sub_hash,
       &qos,
     );
-    let token = declare_liveliness(&self.context, liveliness_key);
+    let token = if listed {
+      declare_liveliness(&self.context, liveliness_key)
+    } else {
+      None
+    };
 
     Ok(Subscription::new(
       zenoh_subscriber,

@@ -470,6 +470,59 @@ mod tests {
     });
   }
 
+  // An unlisted subscription (RADAR patch 18) receives what the topic's
+  // publishers send and counts them, but declares no liveliness token: no
+  // publisher counts it; a listed one beside it is counted.
+  #[test]
+  fn an_unlisted_subscription_receives_without_being_counted() {
+    let (a_port, b_port) = (17545, 17546);
+    let a = Context::with_options(ContextOptions::new().zenoh_config(make_config(a_port, None)))
+      .expect("open context a");
+    let b = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(b_port, Some(a_port))),
+    )
+    .expect("open context b");
+    let node = |c: &Context, n| c.new_node(NodeName::new("/", n).unwrap(), NodeOptions::new()).unwrap();
+    let (a_node, b_node) = (node(&a, "unlisted_a"), node(&b, "unlisted_b"));
+    let topic = |n: &Node| {
+      n.create_topic(
+        &Name::new("/", "observed").unwrap(),
+        MessageTypeName::new("std_msgs", "String"),
+        &QosProfile::default(),
+      )
+    };
+    let publisher: Publisher<String> = a_node.create_publisher(&topic(&a_node), None).unwrap();
+    let unlisted: Subscription<String> = b_node
+      .create_unlisted_subscription(&topic(&b_node), None)
+      .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(15);
+    while unlisted.matched_publisher_count(&b_node) == 0 {
+      assert!(Instant::now() < deadline, "the unlisted subscription counts the publisher");
+      std::thread::sleep(Duration::from_millis(5));
+    }
+    let got = loop {
+      assert!(Instant::now() < deadline, "the unlisted subscription receives");
+      publisher.publish("seen".to_string()).unwrap();
+      if let Some((m, _)) = unlisted.try_take().unwrap() {
+        break m;
+      }
+      std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(got, "seen");
+    assert_eq!(
+      publisher.matched_subscription_count(&a_node),
+      0,
+      "the publisher does not count the unlisted subscription"
+    );
+    let listed: Subscription<String> = b_node.create_subscription(&topic(&b_node), None).unwrap();
+    while publisher.matched_subscription_count(&a_node) == 0 {
+      assert!(Instant::now() < deadline, "a listed subscription is counted");
+      std::thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(publisher.matched_subscription_count(&a_node), 1);
+    drop(listed);
+  }
+
   // TRANSIENT_LOCAL (RADAR patch 12): a subscription made after the
   // publisher has published gets the last `depth` samples from the
   // publisher's cache; a volatile one made alongside gets none of them.
