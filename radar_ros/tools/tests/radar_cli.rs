@@ -374,6 +374,11 @@ async fn con_and_dis_connect_through_a_manager() {
     );
     assert_eq!(made["detached"], true);
     let id = made["id"].as_u64().unwrap();
+    // shown once, by the manager node that made it (not again by its process's program node)
+    let cat = json(domain, &["cat", "/con/count"]).await;
+    let shown = cat["connections"].as_array().unwrap();
+    assert_eq!(shown.len(), 1, "{cat}");
+    assert_eq!(shown[0]["program"], "/cli_manager", "{cat}");
     let t = runs_now();
     tokio::time::sleep(Duration::from_secs(1)).await;
     assert!(

@@ -244,6 +244,14 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
     ])
     .await;
     let id = made["id"].as_u64().unwrap();
+    let cat = json(&["cat", "/zv/count"]).await;
+    let shown = cat["connections"].as_array().unwrap();
+    assert_eq!(
+        shown.len(),
+        1,
+        "shown once, by the manager that made it: {cat}"
+    );
+    assert_eq!(shown[0]["program"], "/zv_manager", "{cat}");
     let mut ticking = tick.watch_state();
     tokio::time::timeout(
         Duration::from_secs(10),

@@ -61,6 +61,14 @@ pub(crate) fn ros_base_name(text: &str) -> String {
     }
 }
 
+/// The connections this program's own code made (`once`, `whenever`, ... statements), not those a manager node
+/// of this process made for its callers (that node lists them): each connection is shown once.
+fn made_here(mut list: Vec<crate::wire::msg::Connection>) -> Vec<crate::wire::msg::Connection> {
+    let own = crate::connections::statement::program_owner();
+    list.retain(|c| c.owner == own);
+    list
+}
+
 /// Starts showing the connections of `manager` on the program node `name` (its node is the participant's
 /// client node). The task holds the manager weakly: it ends when the handle does.
 pub(crate) fn serve_program(
@@ -82,7 +90,7 @@ pub(crate) fn serve_program(
     })?;
     let weak: Weak<Manager> = Arc::downgrade(manager);
     let mut changes = manager.changes();
-    let first = manager.list();
+    let first = made_here(manager.list());
     Ok(ComponentTask::spawn(
         participant.components(),
         &name.fully_qualified(),
@@ -97,7 +105,7 @@ pub(crate) fn serve_program(
                     _ = &mut stop => break,
                     Some(r) = lists.next() => match r {
                         Ok((id, _)) => {
-                            let resp = ListResponse { connections: manager.list() };
+                            let resp = ListResponse { connections: made_here(manager.list()) };
                             reply(&list_srv, &graph, &fq, "list", id, resp);
                         }
                         Err(e) => malformed(&graph, &fq, "list", &e),
@@ -107,11 +115,11 @@ pub(crate) fn serve_program(
                             break;
                         }
                         if throttle.changed() {
-                            publish(manager.list());
+                            publish(made_here(manager.list()));
                         }
                     }
                     _ = throttle.due() => {
-                        publish(manager.list());
+                        publish(made_here(manager.list()));
                         throttle.published();
                     }
                 }

@@ -62,6 +62,12 @@ pub struct ConnectionRequest {
     error: Option<Error>,
 }
 
+/// The owner a connection made by this program's own code names (`process <pid>`); one made through a manager
+/// node's services names its caller instead. A program node lists the first kind, a manager node the second.
+pub(crate) fn program_owner() -> String {
+    format!("process {}", std::process::id())
+}
+
 impl Statement {
     fn to(self, target: TargetSpec, response: Option<ResponseRef>) -> ConnectionRequest {
         let starts =
@@ -71,7 +77,7 @@ impl Statement {
             error: None,
             manager: self.manager,
             spec: Spec {
-                owner: format!("process {}", std::process::id()),
+                owner: program_owner(),
                 filter: None,
                 map: None,
                 mapped_type: None,

@@ -8,7 +8,7 @@
 //! | `<name>/connect` (service) | `radar_msgs/srv/Connect` |
 //! | `<name>/disconnect` (service) | `radar_msgs/srv/Disconnect` |
 //! | `<name>/list` (service) | `radar_msgs/srv/List` |
-//! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
+//! | `<name>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList` of the connections made through this node (the program's own statements are on its program node), republished on change (at most every 100 ms) |
 //! | `<name>/owners` (topic, read) | `std_msgs/msg/Empty`: owners saying they are alive |
 //!
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
@@ -254,7 +254,13 @@ impl Serving {
         let mut changes = manager.changes();
         let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
         let publish = |list| publish_connections(&list_pub, &fq, list);
-        publish(manager.list());
+        // the connections made through this node's services (its program node lists the code's own)
+        let made_through = |owned: &HashMap<u64, Owned>| {
+            let mut list = manager.list();
+            list.retain(|c| owned.contains_key(&c.id));
+            list
+        };
+        publish(made_through(&self.owned));
         // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
         // change always
         let mut throttle = Throttle::new(Duration::from_millis(100));
@@ -273,6 +279,8 @@ impl Serving {
                     if let Some((id, resp)) = self.connected(done) {
                         reply(&services.connect, &graph, &fq, "connect", id, resp);
                     }
+                    // a connection made is this node's only now: shown from here on
+                    publish(made_through(&self.owned));
                 }
                 Some(r) = disconnects.next() => match r {
                     Ok((id, req)) => {
@@ -283,7 +291,7 @@ impl Serving {
                 },
                 Some(r) = lists.next() => match r {
                     Ok((id, _)) => {
-                        let resp = ListResponse { connections: manager.list() };
+                        let resp = ListResponse { connections: made_through(&self.owned) };
                         reply(&services.list, &graph, &fq, "list", id, resp);
                     }
                     Err(e) => malformed(&graph, &fq, "list", &e),
@@ -297,11 +305,11 @@ impl Serving {
                 _ = check.tick() => self.owners_silent(),
                 Ok(()) = changes.changed() => {
                     if throttle.changed() {
-                        publish(manager.list());
+                        publish(made_through(&self.owned));
                     }
                 }
                 _ = throttle.due() => {
-                    publish(manager.list());
+                    publish(made_through(&self.owned));
                     throttle.published();
                 }
             }

@@ -132,7 +132,7 @@ fn print_card(out: &Out, k: &Card) {
     }
 }
 
-/// `once /a -> /b/start until /c [armed], 3 delivered, 1 DDS hop(s)`, and its panics if any.
+/// `once /a -> /b/start until /c [armed], 3 delivered, 1 hop(s) on the wire`, and its panics if any.
 fn connection_line(k: &radar_ros::msg::Connection) -> String {
     let until = if k.until.is_empty() {
         String::new()
@@ -145,7 +145,7 @@ fn connection_line(k: &radar_ros::msg::Connection) -> String {
         format!(", {} panic(s), last: {}", k.panics, k.panic)
     };
     format!(
-        "{} {} -> {}{} [{}], {} delivered, {} DDS hop(s){}",
+        "{} {} -> {}{} [{}], {} delivered, {} hop(s) on the wire{}",
         k.kind_label, k.source, k.target, until, k.state_label, k.delivered, k.hops, panics
     )
 }
