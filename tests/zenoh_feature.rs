@@ -38,7 +38,10 @@
 //! - `radar_bench quick --only zenoh`: one hop over ros2-client's Zenoh backend, peer to peer and through a
 //!   router, beside DDS, radar_ros's own one hop over Zenoh beside radar_ros's over DDS, and how long a joining
 //!   program takes to list 100 components over each (the rows are printed);
-//! - `mypy --strict` on the two Python scripts.
+//! - the Python package built with its `zenoh` feature, and a Python program on Zenoh
+//!   (tests/python/zenoh_python_package.py): a Python response started by the design-document peer, a Rust
+//!   response in another process found by name and driven with `once ... until` from Python;
+//! - `mypy --strict` on the Python scripts.
 //!
 //! Everything is built before anything runs. Needs the rclpy venv with the eclipse-zenoh wheel
 //! (tests/python_env.sh); runs inside tests/isolated.sh.
@@ -232,7 +235,38 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         println!("radar_bench: {line}");
     }
     let _ = std::fs::remove_dir_all(&bench_out);
+    // the Python package built with its zenoh feature (in this target directory: Zenoh is built here already)
+    // and installed into the venv, then a Python program on Zenoh (the next run of tests/python_package.rs
+    // installs its own build again)
+    let zenoh_target = repo().join("target/zenoh-feature");
+    check(
+        &Command::new("bash")
+            .arg(repo().join("tests/python_package.sh"))
+            .env("RADAR_PY_FEATURES", "zenoh")
+            .env("RADAR_PY_TARGET", &zenoh_target)
+            .output()
+            .expect("run tests/python_package.sh"),
+        "building the Python package with its zenoh feature",
+    );
     let scripts = repo().join("tests/python");
+    let said = check(
+        &Command::new(python())
+            .arg(scripts.join("zenoh_python_package.py"))
+            .arg("144")
+            .arg(zenoh_target.join("debug/examples/deliberative"))
+            .output()
+            .expect("run tests/python/zenoh_python_package.py"),
+        "tests/python/zenoh_python_package.py: the Python package over Zenoh",
+    );
+    for want in [
+        r#"{"echo": "DOCK"}"#,
+        r#"{"rust_response": ["started", "interrupted", "exited"]}"#,
+    ] {
+        assert!(
+            said.lines().any(|l| l == want),
+            "{want} in the Python program's output:\n{said}"
+        );
+    }
     let mypy = Command::new(python())
         .args([
             "-m",
@@ -241,9 +275,10 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_peer.py",
             "zenoh_router.py",
             "zenoh_service_client.py",
+            "zenoh_python_package.py",
         ])
         .current_dir(&scripts)
         .output()
         .expect("run mypy");
-    check(&mypy, "mypy --strict on the Zenoh peer and router");
+    check(&mypy, "mypy --strict on the Zenoh helpers");
 }
