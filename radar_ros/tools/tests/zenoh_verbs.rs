@@ -1,9 +1,11 @@
 //! The `radar` verbs over Zenoh (issue 37): with `RMW_IMPLEMENTATION=rmw_zenoh_cpp`, as a ROS 2 user switches
 //! middleware, `radar ls`, `cat` (with a component's parameters, read through its parameter services),
-//! `watch`, `act`, `inject`, `con` and `dis` (through the `radar_manager` binary) see and drive this test's
-//! components through `radar router`, as `radar_cli.rs` checks them over DDS; and watching does not make an
-//! unlistened event check (its reader declares no liveliness token: ros2-client patch 18). No verb logs an
-//! error. Domain 143; runs inside tests/isolated.sh, where port 7447 is free (run by tests/zenoh_feature.rs).
+//! `watch`, `record` (read back by the Python MCAP readers), `act`, `inject`, `con`, `graph` and `dis`
+//! (through the `radar_manager` binary) see and drive this test's components through `radar router`, as
+//! `radar_cli.rs` checks them over DDS; a connection made through the manager is shown once, under it; and
+//! watching or recording does not make an unlistened event check (their readers declare no liveliness token:
+//! ros2-client patch 18). No verb logs an error; the manager and the router stop cleanly on SIGTERM. Domain
+//! 143; runs inside tests/isolated.sh, where port 7447 is free (run by tests/zenoh_feature.rs).
 #![cfg(feature = "zenoh")]
 
 use std::{
@@ -196,8 +198,17 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
         "{cat}"
     );
 
-    // watch (in the background) sees what act and inject do, and leaves the unlistened tick inactive
+    // watch and record (in the background) see what act and inject do, and leave the unlistened tick inactive
     let watcher = tokio::spawn(radar(&["watch", "--json", "--duration", "6"]));
+    let file = std::env::temp_dir().join(format!("zenoh_verbs_{}.mcap", std::process::id()));
+    let file_s = file.to_str().unwrap().to_owned();
+    let recorder = {
+        let file_s = file_s.clone();
+        tokio::spawn(async move {
+            let args = ["record", "-o", &file_s, "--duration", "6", "--json"];
+            radar(&args).await
+        })
+    };
     tokio::time::sleep(Duration::from_secs(2)).await;
     let started = json(&["act", "start", "/zv/say", "{data: kitchen}"]).await;
     assert_eq!(started["signal"], "started");
@@ -225,6 +236,34 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
     assert!(saw("/zv/say", "started"), "{timeline:?}");
     assert!(saw("/zv/say", "exited"), "{timeline:?}");
     assert!(saw("/zv/slow", "interrupted"), "{timeline:?}");
+    // the recording, read back by the independent Python readers (tests/python/mcap_read.py)
+    let recorded = recorder.await.unwrap();
+    let summary = ok_json(&["record"], &recorded);
+    let read = std::process::Command::new(radar_test_util::python())
+        .arg(radar_test_util::repo().join("tests/python/mcap_read.py"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        read.status.success(),
+        "{}",
+        String::from_utf8_lossy(&read.stderr)
+    );
+    let messages: Vec<Value> = String::from_utf8_lossy(&read.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(messages.len() as u64, summary["messages"].as_u64().unwrap());
+    let on =
+        |topic: &str| -> Vec<&Value> { messages.iter().filter(|m| m["topic"] == topic).collect() };
+    assert_eq!(
+        on("/zv/say/started")[0]["msg"]["data"],
+        "kitchen",
+        "{messages:?}"
+    );
+    assert_eq!(on("/zv/slow/interrupted").len(), 1, "{messages:?}");
+    assert!(!on("/zv/say/state").is_empty(), "{messages:?}");
+    let _ = std::fs::remove_file(&file);
     assert_eq!(say.state().completed, 1);
     assert_eq!(
         tick.state().activations,
@@ -268,6 +307,24 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+    // graph: the connection drawn once, under the manager that made it
+    let picture = json(&["graph"]).await;
+    let drawn: Vec<&Value> = picture["edges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["source"] == "/zv/tick")
+        .collect();
+    assert_eq!(drawn.len(), 1, "{picture}");
+    assert_eq!(
+        (&drawn[0]["target"], &drawn[0]["slot"], &drawn[0]["program"]),
+        (
+            &Value::from("/zv/count"),
+            &Value::from("start"),
+            &Value::from("/zv_manager")
+        ),
+        "{picture}"
+    );
     let removed = json(&["dis", &id.to_string()]).await;
     assert_eq!(removed["removed"], id);
     tokio::time::timeout(Duration::from_secs(10), ticking.wait_for(|s| !s.active))
