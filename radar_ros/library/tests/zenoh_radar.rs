@@ -26,6 +26,10 @@
 //! at its first check; with the tokens' graph empty, at the lookup of `/zr/far`; with no type hash given to
 //! Zenoh, at the first wait for the peer.
 //!
+//! The program's log lines reach `/rosout` over Zenoh (its tracing subscriber has `radar_ros::rosout::layer()`):
+//! the line dock's start slot logs is heard by a second design-document peer on `/rosout`
+//! (`rcl_interfaces/msg/Log`, rosidl's hash), with the node's rcl logger name and level.
+//!
 //! Domain 140. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
 //! tests/zenoh_feature.rs.
 #![cfg(feature = "zenoh")]
@@ -57,7 +61,34 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     if std::env::var("ZR_ROLE").as_deref() == Ok("remote") {
         return remote_program().await;
     }
+    // this binary's logs on stderr and on /rosout, as a program that adds radar_ros's layer has them
+    {
+        use tracing_subscriber::prelude::*;
+        tracing_subscriber::registry()
+            .with(tracing_subscriber::fmt::layer().with_writer(std::io::stderr))
+            .with(radar_ros::rosout::layer())
+            .with(tracing_subscriber::filter::LevelFilter::INFO)
+            .init();
+    }
     let _router = local_router().await;
+    // a design-document peer on /rosout (rcl_interfaces/msg/Log with rosidl's hash), as `ros2 topic echo
+    // /rosout` over rmw_zenoh would listen
+    let mut rosout = zenoh_util::Proc::start(
+        "zenoh_peer.py",
+        &[
+            "tcp/localhost:7447",
+            &DOMAIN.to_string(),
+            "rcl_interfaces/msg/Log",
+            "/rosout",
+            "/zr/no_logs_from_the_peer",
+        ],
+    );
+    loop {
+        let v: Value = serde_json::from_str(&rosout.line().await).unwrap();
+        if v.get("up").is_some() {
+            break;
+        }
+    }
     let radar = Radar::builder()
         .program("zr_program")
         .handle_signals(false)
@@ -84,6 +115,7 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
             FnResponse::new(move |_: PoseStamped| {
                 let counted = counted.clone();
                 async move {
+                    tracing::info!("dock runs marker-zr");
                     counted.fetch_add(1, Ordering::SeqCst);
                     Ok(Empty::default())
                 }
@@ -132,6 +164,25 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     );
     exited.recv().timeout(WAIT).await.unwrap();
     assert_eq!(runs.load(Ordering::SeqCst), 1, "dock ran once");
+    // the line dock's start slot logged reaches the peer on /rosout, named after dock's node as rcl names it
+    let logged = loop {
+        let v: Value = serde_json::from_str(&rosout.line().await).unwrap();
+        if v["received"]["msg"]
+            .as_str()
+            .is_some_and(|m| m.contains("marker-zr"))
+        {
+            break v;
+        }
+    };
+    assert_eq!(
+        (
+            logged["received"]["name"].as_str(),
+            logged["received"]["level"].as_u64()
+        ),
+        (Some("zr.dock"), Some(20)),
+        "{logged}"
+    );
+    rosout.close();
 
     // the program's graph, as an rmw_zenoh peer reads it from the liveliness tokens
     let hash = PoseStamped::TYPE_HASH.unwrap();
