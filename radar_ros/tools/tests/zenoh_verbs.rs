@@ -1,6 +1,6 @@
 //! The `radar` verbs over Zenoh (issue 37): with `RMW_IMPLEMENTATION=rmw_zenoh_cpp`, as a ROS 2 user switches
 //! middleware, `radar ls`, `cat` (with a component's parameters, read through its parameter services),
-//! `watch`, `record` (read back by the Python MCAP readers), `act`, `inject`, `con`, `graph` and `dis`
+//! `watch`, `record` (read back by the Python MCAP readers) and `replay`, `act`, `inject`, `con`, `graph` and `dis`
 //! (through the `radar_manager` binary) see and drive this test's components through `radar router`, as
 //! `radar_cli.rs` checks them over DDS; a connection made through the manager is shown once, under it; and
 //! watching or recording does not make an unlistened event check (their readers declare no liveliness token:
@@ -263,6 +263,25 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
     );
     assert_eq!(on("/zv/slow/interrupted").len(), 1, "{messages:?}");
     assert!(!on("/zv/say/state").is_empty(), "{messages:?}");
+    // replay: the recorded signals published again over Zenoh; say's started, with its payload, heard here
+    let again = r
+        .signal_subscription::<StringMsg>("/zv/say/started")
+        .unwrap();
+    let replayed = json(&["replay", &file_s, "--rate", "4"]).await;
+    let signals = messages
+        .iter()
+        .filter(|m| !m["topic"].as_str().unwrap().ends_with("/state"))
+        .count();
+    assert_eq!(
+        replayed["published"].as_u64().unwrap() as usize,
+        signals,
+        "{replayed}"
+    );
+    let heard = tokio::time::timeout(Duration::from_secs(10), again.recv())
+        .await
+        .expect("the replayed started")
+        .unwrap();
+    assert_eq!(heard.data, "kitchen");
     let _ = std::fs::remove_file(&file);
     assert_eq!(say.state().completed, 1);
     assert_eq!(
