@@ -22,6 +22,8 @@
 //!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens; another
 //!   program's response and manager (services over queryables) used across processes, and the manager called
 //!   by a client written from the design document;
+//! - `radar_ros/library/tests/zenoh_sim_time.rs`: a timer event of a `Radar` on Zenoh with `use_sim_time`
+//!   follows `/clock` from the design-document peer, its jumps, and stands still when it stops;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -116,6 +118,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_signals",
             "--test",
             "zenoh_radar",
+            "--test",
+            "zenoh_sim_time",
         ],
     ]
     .concat();
@@ -163,7 +167,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs and zenoh_radar.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs and zenoh_sim_time.rs",
     );
     ran_and_passed(
         &out,
@@ -177,6 +181,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "raw_bodies_and_their_source_times_cross_zenoh_to_and_from_a_design_document_peer",
             "radar_ros_signal_endpoints_over_zenoh_wait_send_and_hear_as_over_dds",
             "listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper",
+            "a_timer_event_over_zenoh_follows_a_design_document_peers_clock",
         ],
     );
     let router = [
