@@ -1,11 +1,12 @@
 //! The `radar` verbs over Zenoh (issue 37): with `RMW_IMPLEMENTATION=rmw_zenoh_cpp`, as a ROS 2 user switches
 //! middleware, `radar ls`, `cat` (with a component's parameters, read through its parameter services),
-//! `watch`, `record` (read back by the Python MCAP readers) and `replay`, `act`, `inject`, `con`, `graph` and `dis`
-//! (through the `radar_manager` binary) see and drive this test's components through `radar router`, as
-//! `radar_cli.rs` checks them over DDS; a connection made through the manager is shown once, under it; and
-//! watching or recording does not make an unlistened event check (their readers declare no liveliness token:
-//! ros2-client patch 18). No verb logs an error; the manager and the router stop cleanly on SIGTERM. Domain
-//! 143; runs inside tests/isolated.sh, where port 7447 is free (run by tests/zenoh_feature.rs).
+//! `watch`, `record` (read back by the Python MCAP readers) and `replay`, `view` (its WebSocket), `act`,
+//! `inject`, `con`, `graph` and `dis` (through the `radar_manager` binary) see and drive this test's components
+//! through `radar router`, as `radar_cli.rs` and `view.rs` check them over DDS; a connection made through the
+//! manager is shown once, under it; and watching, recording or viewing does not make an unlistened event check
+//! (their readers declare no liveliness token: ros2-client patch 18). No verb logs an error; the view, the
+//! manager and the router stop cleanly on SIGTERM. Domain 143; runs inside tests/isolated.sh, where port 7447
+//! is free (run by tests/zenoh_feature.rs).
 #![cfg(feature = "zenoh")]
 
 use std::{
@@ -17,6 +18,7 @@ use std::{
     time::Duration,
 };
 
+use futures::StreamExt;
 use radar_ros::{
     msg::{Empty, StringMsg},
     params::ParamDecl,
@@ -87,6 +89,24 @@ fn spawn(bin: &str, args: &[&str]) -> tokio::process::Child {
         .kill_on_drop(true)
         .spawn()
         .unwrap()
+}
+
+/// The next JSON text message on a `radar view` WebSocket (15 s at most).
+async fn ws_json(
+    ws: &mut tokio_tungstenite::WebSocketStream<
+        tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>,
+    >,
+) -> Value {
+    loop {
+        let m = tokio::time::timeout(Duration::from_secs(15), ws.next())
+            .await
+            .expect("the view says more")
+            .expect("the socket is open")
+            .unwrap();
+        if let tokio_tungstenite::tungstenite::Message::Text(t) = m {
+            return serde_json::from_str(&t).unwrap();
+        }
+    }
 }
 
 /// The first line `child` prints.
@@ -290,6 +310,53 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
         "watching (and every other verb) left the unlistened event inactive"
     );
 
+    // view: a page's WebSocket gets a snapshot of every component, then each signal as it happens
+    let mut view = spawn(
+        env!("CARGO_BIN_EXE_radar"),
+        &["view", "--port", "0", "--json"],
+    );
+    let said: Value = serde_json::from_str(&first_line(&mut view).await).unwrap();
+    let url = said["url"]
+        .as_str()
+        .unwrap()
+        .replacen("http://", "ws://", 1);
+    let (mut ws, _) = tokio_tungstenite::connect_async(format!("{url}ws"))
+        .await
+        .unwrap();
+    let snapshot = ws_json(&mut ws).await;
+    assert_eq!(snapshot["type"], "snapshot", "{snapshot}");
+    // every component, as the view discovers them (in the snapshot or the changes after it)
+    let want = ["/zv/count", "/zv/never", "/zv/say", "/zv/slow", "/zv/tick"];
+    let mut shown = std::collections::BTreeSet::new();
+    let mut m = snapshot;
+    loop {
+        for c in m["components"].as_array().unwrap() {
+            shown.insert(c["name"].as_str().unwrap().to_owned());
+        }
+        if want.iter().all(|w| shown.contains(*w)) {
+            break;
+        }
+        m = ws_json(&mut ws).await;
+    }
+    json(&["act", "start", "/zv/say", "{data: viewed}"]).await;
+    loop {
+        let m = ws_json(&mut ws).await;
+        let lines = m["timeline"].as_array().cloned().unwrap_or_default();
+        if lines
+            .iter()
+            .any(|l| l["component"] == "/zv/say" && l["signal"] == "started")
+        {
+            break;
+        }
+    }
+    drop(ws);
+    stop(view, "radar view").await;
+    assert_eq!(
+        tick.state().activations,
+        0,
+        "viewing left the unlistened event inactive"
+    );
+
     // con through the radar_manager binary: a detached whenever runs count until `radar dis`
     let made = json(&[
         "con",
@@ -352,22 +419,26 @@ async fn the_radar_verbs_drive_components_over_zenoh_and_watching_activates_noth
         .unwrap();
 
     // the manager and the router stop cleanly when told
-    for (what, child) in [("radar_manager", manager), ("radar router", router)] {
-        // SAFETY: a plain kill(2) of the child's pid
-        assert_eq!(
-            unsafe { libc::kill(child.id().unwrap() as i32, libc::SIGTERM) },
-            0
-        );
-        let out = tokio::time::timeout(Duration::from_secs(30), child.wait_with_output())
-            .await
-            .unwrap_or_else(|_| panic!("{what} stops when told"))
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{what}: {:?} {stderr}", out.status);
-        assert!(
-            !stderr.contains("ERROR"),
-            "{what} logged an error: {stderr}"
-        );
-    }
+    stop(manager, "radar_manager").await;
+    stop(router, "radar router").await;
     drop(never);
+}
+
+/// SIGTERM to `child`: it must exit 0 with no error line.
+async fn stop(child: tokio::process::Child, what: &str) {
+    // SAFETY: a plain kill(2) of the child's pid
+    assert_eq!(
+        unsafe { libc::kill(child.id().unwrap() as i32, libc::SIGTERM) },
+        0
+    );
+    let out = tokio::time::timeout(Duration::from_secs(30), child.wait_with_output())
+        .await
+        .unwrap_or_else(|_| panic!("{what} stops when told"))
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{what}: {:?} {stderr}", out.status);
+    assert!(
+        !stderr.contains("ERROR"),
+        "{what} logged an error: {stderr}"
+    );
 }
