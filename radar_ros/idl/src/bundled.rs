@@ -1,6 +1,6 @@
 //! The interface definitions radar_ros ships (`radar_ros/idl/interfaces/`: std_msgs, builtin_interfaces,
-//! geometry_msgs, sensor_msgs, nav_msgs, std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs, service_msgs, as the
-//! ROS 2 Jazzy packages install them), for a machine without a ROS installation: looked in after
+//! geometry_msgs, sensor_msgs, nav_msgs, std_srvs, action_msgs, unique_identifier_msgs, diagnostic_msgs,
+//! service_msgs, as the ROS 2 Jazzy packages install them), for a machine without a ROS installation: looked in after
 //! `AMENT_PREFIX_PATH` and the directories given.
 
 include!(concat!(env!("OUT_DIR"), "/bundled_interfaces.rs"));

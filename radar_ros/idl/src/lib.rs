@@ -3,9 +3,10 @@
 //! - [`Interfaces`]: definitions (`.msg`, `.srv`, `.action`) found as every ROS 2 tool finds them
 //!   (`AMENT_PREFIX_PATH`), in directories given, or among the ones shipped here (Jazzy's `std_msgs`,
 //!   `builtin_interfaces`, `geometry_msgs`, `sensor_msgs`, `nav_msgs`, `std_srvs`, `action_msgs`,
-//!   `unique_identifier_msgs`, `diagnostic_msgs`, `service_msgs`; `interfaces/README.md` says where they came from), with their
-//!   nested types across packages, their `ros2msg` schemas as rosbag2 writes them into MCAP, and their RIHS01
-//!   type hashes ([`Interfaces::type_hash`]) as rosidl computes them.
+//!   `unique_identifier_msgs`, `diagnostic_msgs`, `service_msgs`; `interfaces/README.md` says where they came
+//!   from), with their nested types across packages, their `ros2msg` schemas as rosbag2 writes them into
+//!   MCAP, and their RIHS01 type hashes ([`Interfaces::type_hash`]) as rosidl computes them, also of the types
+//!   rosidl makes up around services and actions.
 //! - [`rust::Generator`]: Rust types generated from definitions, in a crate's build script, for radar_ros
 //!   signals (`radar_ros::msg::RosMessage`), services and actions (`radar_ros::action::Action`).
 //!

@@ -56,7 +56,14 @@ fn quoted(s: &str) -> String {
 
 impl Interfaces {
     /// The RIHS01 hash of `ros_type` (`RIHS01_<64 hex digits>`), as rosidl writes it in
-    /// `share/<pkg>/msg/<Name>.json` and ROS 2 Jazzy announces it in discovery.
+    /// `share/<pkg>/msg/<Name>.json` and ROS 2 Jazzy announces it in discovery: a message, a part of a service
+    /// or action, or a type rosidl makes up around them (`pkg/srv/Name` as a whole, `Name_Event`,
+    /// `pkg/action/Name`, `Name_SendGoal`, `Name_FeedbackMessage`, ...).
+    ///
+    /// ```
+    /// let shipped = radar_idl::Interfaces::empty();
+    /// assert!(shipped.type_hash("std_srvs/srv/SetBool").unwrap().starts_with("RIHS01_"));
+    /// ```
     pub fn type_hash(&self, ros_type: &str) -> Result<String, String> {
         let mut referenced = BTreeMap::new();
         let own = self.description(ros_type, &mut referenced)?;
@@ -84,10 +91,8 @@ impl Interfaces {
         if let Some(made_up) = made_up(ros_type) {
             let mut fields = Vec::new();
             for (name, type_id, capacity, nested) in made_up {
-                if !nested.is_empty() && !referenced.contains_key(&nested) {
-                    referenced.insert(nested.clone(), String::new());
-                    let d = self.description(&nested, referenced)?;
-                    referenced.insert(nested.clone(), d);
+                if !nested.is_empty() {
+                    self.reference(&nested, referenced)?;
                 }
                 fields.push(field(name, type_id, capacity, 0, &nested));
             }
@@ -112,6 +117,21 @@ impl Interfaces {
         ))
     }
 
+    /// Adds the description of `nested` (and of what it uses) to `referenced`, once.
+    fn reference(
+        &self,
+        nested: &str,
+        referenced: &mut BTreeMap<String, String>,
+    ) -> Result<(), String> {
+        if !referenced.contains_key(nested) {
+            // placeholder first: a type met again while its own description is made is not made twice
+            referenced.insert(nested.to_owned(), String::new());
+            let d = self.description(nested, referenced)?;
+            referenced.insert(nested.to_owned(), d);
+        }
+        Ok(())
+    }
+
     fn field_description(
         &self,
         f: &Field,
@@ -127,12 +147,7 @@ impl Interfaces {
             )
         } else {
             let nested = self.nested_type(f, &spec.pkg_name);
-            if !referenced.contains_key(&nested) {
-                // placeholder first: a type met again while its own description is made is not made twice
-                referenced.insert(nested.clone(), String::new());
-                let d = self.description(&nested, referenced)?;
-                referenced.insert(nested.clone(), d);
-            }
+            self.reference(&nested, referenced)?;
             (1, nested)
         };
         let (offset, capacity) = match (t.is_array, t.array_size, t.is_upper_bound) {

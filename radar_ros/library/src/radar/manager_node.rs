@@ -218,6 +218,27 @@ fn owner_key(guid: EndpointId) -> OwnerKey {
     k
 }
 
+/// Owners' beats, read in a task of their own (a read is not to be cut by the manager loop's other branches):
+/// the task, and each beat's owner.
+fn read_beats(
+    graph: crate::graph::Graph,
+    owners: crate::node::topics::SignalSubscription<crate::wire::msg::Empty>,
+) -> (
+    tokio::task::JoinHandle<()>,
+    tokio::sync::mpsc::UnboundedReceiver<OwnerKey>,
+) {
+    let (beat_tx, beats) = tokio::sync::mpsc::unbounded_channel::<OwnerKey>();
+    let reader = tokio::spawn(async move {
+        while let Ok((_, gid)) = owners.recv_from().await {
+            // over Zenoh a GID is a hash of its token: the graph tells its process
+            if beat_tx.send(owner_key(graph.process_of_gid(gid))).is_err() {
+                break;
+            }
+        }
+    });
+    (reader, beats)
+}
+
 /// A manager node at work: the connections made through its services, by id.
 struct Serving {
     radar: Radar,
@@ -238,29 +259,12 @@ impl Serving {
         owners: crate::node::topics::SignalSubscription<crate::wire::msg::Empty>,
         mut stop: tokio::sync::oneshot::Receiver<()>,
     ) {
-        // owners' beats, read in a task of their own (a read is not to be cut by the loop's other branches)
-        let (beat_tx, mut beats) = tokio::sync::mpsc::unbounded_channel::<OwnerKey>();
-        let graph = self.radar.graph().clone();
-        let reader = tokio::spawn(async move {
-            while let Ok((_, gid)) = owners.recv_from().await {
-                // over Zenoh a GID is a hash of its token: the graph tells its process
-                if beat_tx.send(owner_key(graph.process_of_gid(gid))).is_err() {
-                    break;
-                }
-            }
-        });
+        let (reader, mut beats) = read_beats(self.radar.graph().clone(), owners);
         let mut check = tokio::time::interval(Duration::from_millis(100));
-        let manager = self.radar.manager().clone();
-        let mut changes = manager.changes();
+        let mut changes = self.radar.manager().changes();
         let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
         let publish = |list| publish_connections(&list_pub, &fq, list);
-        // the connections made through this node's services (its program node lists the code's own)
-        let made_through = |owned: &HashMap<u64, Owned>| {
-            let mut list = manager.list();
-            list.retain(|c| owned.contains_key(&c.id));
-            list
-        };
-        publish(made_through(&self.owned));
+        publish(self.made_through());
         // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
         // change always
         let mut throttle = Throttle::new(Duration::from_millis(100));
@@ -280,7 +284,7 @@ impl Serving {
                         reply(&services.connect, &graph, &fq, "connect", id, resp);
                     }
                     // a connection made is this node's only now: shown from here on
-                    publish(made_through(&self.owned));
+                    publish(self.made_through());
                 }
                 Some(r) = disconnects.next() => match r {
                     Ok((id, req)) => {
@@ -291,7 +295,7 @@ impl Serving {
                 },
                 Some(r) = lists.next() => match r {
                     Ok((id, _)) => {
-                        let resp = ListResponse { connections: made_through(&self.owned) };
+                        let resp = ListResponse { connections: self.made_through() };
                         reply(&services.list, &graph, &fq, "list", id, resp);
                     }
                     Err(e) => malformed(&graph, &fq, "list", &e),
@@ -305,16 +309,23 @@ impl Serving {
                 _ = check.tick() => self.owners_silent(),
                 Ok(()) = changes.changed() => {
                     if throttle.changed() {
-                        publish(made_through(&self.owned));
+                        publish(self.made_through());
                     }
                 }
                 _ = throttle.due() => {
-                    publish(made_through(&self.owned));
+                    publish(self.made_through());
                     throttle.published();
                 }
             }
         }
         reader.abort();
+    }
+
+    /// The connections made through this node's services (its program node lists the code's own).
+    fn made_through(&self) -> Vec<ConnectionMsg> {
+        let mut list = self.radar.manager().list();
+        list.retain(|c| self.owned.contains_key(&c.id));
+        list
     }
 
     /// Arms the requested connection in a task of its own; `done` gets the outcome.
