@@ -83,12 +83,7 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
             "/zr/no_logs_from_the_peer",
         ],
     );
-    loop {
-        let v: Value = serde_json::from_str(&rosout.line().await).unwrap();
-        if v.get("up").is_some() {
-            break;
-        }
-    }
+    rosout.until_up().await;
     let radar = Radar::builder()
         .program("zr_program")
         .handle_signals(false)

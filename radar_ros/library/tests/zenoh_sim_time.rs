@@ -61,12 +61,7 @@ async fn a_timer_event_over_zenoh_follows_a_design_document_peers_clock() {
             "/clock",
         ],
     );
-    loop {
-        let v: Value = serde_json::from_str(&peer.line().await).unwrap();
-        if v.get("up").is_some() {
-            break;
-        }
-    }
+    peer.until_up().await;
     assert!(at.lock().unwrap().is_empty(), "nothing before time runs");
     // 10x real time: 100 s -> 124.9 s in 0.1 s steps, 10 ms apart; then back to 40 s -> 54.9 s
     let steps = (1000..1250).chain(400..550);

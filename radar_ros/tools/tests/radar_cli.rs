@@ -1,32 +1,18 @@
 //! The `radar` command line against real components in another process (this test's), over DDS: every verb's
 //! `--json` output and its effect on the wire, and clear errors with a non-zero exit on bad input. Domain 73.
 
+mod common;
+
 use std::{process::Output, time::Duration};
 
+use common::Never;
 use radar_ros::{
     msg::{Empty, StringMsg},
-    DiscoveryRange, Event, FnResponse, Radar, SlotError, TimerEvent,
+    DiscoveryRange, FnResponse, Radar, TimerEvent,
 };
 use serde_json::Value;
 
 const DOMAIN: &str = "73";
-
-/// An event whose check never ends: it stays armed and never triggers.
-/// Never triggers; has two parameters for `radar cat` to show.
-struct Never;
-impl Event for Never {
-    type Payload = Empty;
-    fn attach(&mut self, node: &mut radar_ros::EventNode<'_>) -> radar_ros::Result<()> {
-        node.declare([
-            radar_ros::params::ParamDecl::new("gain", 1.5),
-            radar_ros::params::ParamDecl::new("mode", "fast"),
-        ])?;
-        Ok(())
-    }
-    async fn check(&mut self) -> Result<Empty, SlotError> {
-        std::future::pending().await
-    }
-}
 
 /// Runs `radar ARGS` in ROS_DOMAIN_ID `domain`.
 async fn radar_in(domain: &str, args: &[&str]) -> Output {

@@ -9,6 +9,8 @@
 //! is free (run by tests/zenoh_feature.rs).
 #![cfg(feature = "zenoh")]
 
+mod common;
+
 use std::{
     process::{Output, Stdio},
     sync::{
@@ -18,29 +20,16 @@ use std::{
     time::Duration,
 };
 
+use common::Never;
 use futures::StreamExt;
 use radar_ros::{
     msg::{Empty, StringMsg},
-    params::ParamDecl,
-    Event, EventNode, FnResponse, Radar, SlotError, TimerEvent,
+    FnResponse, Radar, TimerEvent,
 };
 use serde_json::Value;
 use tokio::io::AsyncBufReadExt;
 
 const DOMAIN: &str = "143";
-
-/// Never triggers; has two parameters for `radar cat` to show.
-struct Never;
-impl Event for Never {
-    type Payload = Empty;
-    fn attach(&mut self, node: &mut EventNode<'_>) -> radar_ros::Result<()> {
-        node.declare([ParamDecl::new("gain", 1.5), ParamDecl::new("mode", "fast")])?;
-        Ok(())
-    }
-    async fn check(&mut self) -> Result<Empty, SlotError> {
-        std::future::pending().await
-    }
-}
 
 /// `radar ARGS` in this test's environment (Zenoh, domain 143).
 async fn radar(args: &[&str]) -> Output {

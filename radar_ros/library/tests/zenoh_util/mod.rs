@@ -119,6 +119,19 @@ impl Proc {
         stdin.flush().await.unwrap();
     }
 
+    /// Reads lines until the peer says it is up (`{"up": ...}`): that line, and those before it (its own tokens
+    /// may come first).
+    pub async fn until_up(&mut self) -> (Value, Vec<Value>) {
+        let mut before = Vec::new();
+        loop {
+            let v: Value = serde_json::from_str(&self.line().await).unwrap();
+            if v.get("up").is_some() {
+                return (v, before);
+            }
+            before.push(v);
+        }
+    }
+
     /// Closes its stdin (the scripts end on it).
     pub fn close(&mut self) {
         drop(self.stdin.take());
@@ -211,15 +224,7 @@ pub async fn start_peer_on(
         ],
         envs,
     );
-    // the peer's own tokens may come before it says it is up
-    let mut tokens = Vec::new();
-    let up = loop {
-        let v: Value = serde_json::from_str(&peer.line().await).unwrap();
-        if v.get("up").is_some() {
-            break v;
-        }
-        tokens.push(v);
-    };
+    let (up, tokens) = peer.until_up().await;
     let hash = up["hash"].as_str().unwrap().to_owned();
     let zid = up["up"].as_str().unwrap().to_owned();
     assert_eq!(
