@@ -172,7 +172,9 @@ impl ResponseModel {
                     }) {
                         self.held = Some(self.kept.remove(i));
                     }
-                    self.kept.retain(|k| k.at > s.at);
+                    // R12: what was sent before this start goes, but another statement's until (R14)
+                    self.kept
+                        .retain(|k| k.at > s.at || (!k.exit && k.by.is_some() && k.by != cause));
                 } else {
                     // R6
                     match self.policy {

@@ -59,7 +59,8 @@ impl KeptSignals {
 
     /// R12: the kept signal a run takes, begun at `began` by a start sent as `s` (caused by `cause`): the
     /// earliest sent after the start (within [`HOLD`]) that is for that run. Kept signals sent before the
-    /// start are of no use any more and go.
+    /// start are of no use any more and go, except an `until`'s interrupt of another statement: its
+    /// statement's start may still be on its way (R14).
     pub(super) fn take_for_run(
         &mut self,
         s: Sent,
@@ -79,7 +80,14 @@ impl KeptSignals {
             k_at > s.at && k_at - s.at <= HOLD && for_run
         });
         let taken = pos.and_then(|i| self.kept.remove(i));
-        self.kept.retain(|k| k.sent().at > s.at);
+        let statement = cause.map(|c| c.statement);
+        self.kept.retain(|k| {
+            let another = matches!(k, Kept::Interrupt(_) | Kept::Bound(_))
+                && k.sent()
+                    .by
+                    .is_some_and(|by| Some(by.statement) != statement);
+            k.sent().at > s.at || another
+        });
         taken
     }
 

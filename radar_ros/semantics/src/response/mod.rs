@@ -45,7 +45,9 @@
 //!   [`HOLD`]): a `start` emitted before it (at most [`HOLD`] before) that arrives afterwards begins its run,
 //!   which then takes the kept signal as soon as it has run up to its first await (R1;
 //!   [`ResponseMachine::resume`]), as if the two had arrived in the order they were sent. A kept signal that is
-//!   used this way is no longer counted as ignored.
+//!   used this way is no longer counted as ignored. When a run begins, the kept signals sent before its start
+//!   go (they are for no later run), except an `until`'s interrupt naming another statement (R14: its
+//!   statement's start may still be on its way).
 //! - **R13.** A run started by a statement carries that statement's [`Cause`], and so do its `started`,
 //!   `interrupted` and `exited`. An `interrupt` sent by an `until` names its statement ([`Sent::by`]): it
 //!   interrupts only a run begun by a start of that statement (and only if it was emitted after that start
@@ -487,7 +489,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     }
 
     /// R12: the run begun by a start sent as `s` takes the earliest kept signal that was sent after it (within
-    /// [`HOLD`]) and is for it; kept signals sent before the start are of no use any more.
+    /// [`HOLD`]) and is for it; kept signals sent before the start are of no use any more, but another
+    /// statement's `until` interrupt stays for its own run (R14).
     fn take_kept(&mut self, s: Sent) {
         self.held = self.kept.take_for_run(s, self.cause, self.began);
     }
@@ -1201,6 +1204,39 @@ mod tests {
         m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
         m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
         assert!(!m.resume_due());
+    }
+
+    #[test]
+    fn r14_a_kept_until_interrupt_outlives_another_run_until_its_statements_start_comes() {
+        // K's until interrupt (sent at 30, after K's start sent at 20) overtakes that start and is kept
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(Sent::by(30, K)), 40);
+        // a plain start sent at 70 arrives first: its run is not K's, the interrupt is not for it
+        assert_eq!(
+            m.handle_at(Input::Start(1, Sent::at(70)), 80),
+            vec![EmitStarted(1, None), RunStart(1)]
+        );
+        assert!(!m.resume_due() && m.resume().is_empty());
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 90);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 100);
+        // K's start arrives: its run takes the interrupt that was sent after it
+        assert_eq!(
+            m.handle_at(Input::Start(2, Sent::by(20, K)), 110),
+            vec![EmitStarted(2, Some(K)), RunStart(2)]
+        );
+        assert!(m.resume_due());
+        assert_eq!(
+            m.resume(),
+            vec![CancelStart, EmitInterrupted(Some(K)), RunInterrupt]
+        );
+        // a run of K itself drops its statement's older interrupt: sent before this start, for no later run
+        let mut m = M::new(StartPolicy::Ignore);
+        m.handle_at(Input::Interrupt(Sent::by(30, K)), 40);
+        m.handle_at(Input::Start(1, Sent::by(70, K)), 80);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 90);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 100);
+        m.handle_at(Input::Start(2, Sent::by(20, K)), 110);
+        assert!(!m.resume_due() && m.resume().is_empty());
     }
 
     const HOUR: i64 = 3_600_000_000_000;
