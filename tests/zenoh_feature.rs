@@ -24,6 +24,9 @@
 //!   by a client written from the design document;
 //! - `radar_ros/library/tests/zenoh_sim_time.rs`: a timer event of a `Radar` on Zenoh with `use_sim_time`
 //!   follows `/clock` from the design-document peer, its jumps, and stands still when it stops;
+//! - `radar_ros/library/tests/zenoh_causes.rs`: a signal's cause crosses processes over Zenoh (ros2-client
+//!   patch 19): an `until`'s interrupt ends only its statement's run in another process; the design-document
+//!   peer, reading as rmw_zenoh reads, still reads a caused sample;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -120,6 +123,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_radar",
             "--test",
             "zenoh_sim_time",
+            "--test",
+            "zenoh_causes",
         ],
     ]
     .concat();
@@ -167,7 +172,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs and zenoh_sim_time.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs and zenoh_causes.rs",
     );
     ran_and_passed(
         &out,
@@ -182,6 +187,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "radar_ros_signal_endpoints_over_zenoh_wait_send_and_hear_as_over_dds",
             "listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper",
             "a_timer_event_over_zenoh_follows_a_design_document_peers_clock",
+            "an_until_across_processes_over_zenoh_interrupts_only_its_statements_run",
         ],
     );
     let router = [

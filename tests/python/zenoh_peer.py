@@ -19,9 +19,10 @@ from radar_ros or ros2-client.
 - A subscription on TOPIC_IN declared as rmw_zenoh declares one: on the exact key
   `<domain>/<topic>/<type>/<hash>` (so a publisher naming another hash is never heard), with its `MS` token.
   Each sample is printed as {"received": <the message as rclpy reads it, as a dict>, "seq", "stamp_ns",
-  "gid"} from its attachment (8 bytes little-endian sequence number, 8 bytes little-endian nanoseconds since
-  the epoch, 1 byte GID length, the GID); a sample without a well-formed attachment is printed as
-  {"bad_attachment": hex}.
+  "gid", "extra"} from its attachment (8 bytes little-endian sequence number, 8 bytes little-endian
+  nanoseconds since the epoch, 1 byte GID length, the GID), read as rmw_zenoh's attachment_helpers.cpp reads
+  it: those fields in order, nothing after them looked at ("extra": what follows, in hex); a sample whose
+  attachment is shorter than those fields is printed as {"bad_attachment": hex}.
 - A publisher on TOPIC_OUT (its `MP` token): each line the test writes on stdin (the message's fields as JSON)
   is put on the exact key with an attachment as above (sequence numbers from 1, the peer's own random GID),
   then {"sent": <sequence number>} is printed.
@@ -143,16 +144,20 @@ def serve(
 
     def on_sample(sample: zenoh.Sample) -> None:
         att = sample.attachment.to_bytes() if sample.attachment is not None else b""
-        if len(att) < 17 or len(att) != 17 + att[16]:
+        # read as rmw_zenoh reads it (attachment_helpers.cpp): the three fields in order, and nothing after
+        # them looked at; what follows is printed as "extra"
+        if len(att) < 17 or len(att) < 17 + att[16]:
             out({"bad_attachment": att.hex()})
             return
+        gid_end = 17 + att[16]
         msg = deserialize_message(sample.payload.to_bytes(), msg_class)
         out(
             {
                 "received": to_dict(msg),
                 "seq": int.from_bytes(att[0:8], "little", signed=True),
                 "stamp_ns": int.from_bytes(att[8:16], "little", signed=True),
-                "gid": att[17:].hex(),
+                "gid": att[17:gid_end].hex(),
+                "extra": att[gid_end:].hex(),
             }
         )
 

@@ -81,8 +81,7 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
     }
 
     /// Sends one message as `sent` says: with that source time, and carrying that cause (see
-    /// [`crate::wire::cause`]).
-    /// Over Zenoh the source time goes into rmw_zenoh's attachment and the cause is not carried (docs/zenoh.md).
+    /// [`crate::wire::cause`]; over Zenoh both in the attachment, docs/zenoh.md).
     pub(crate) fn publish_sent(&self, m: M, sent: radar_semantics::response::Sent) -> Result<()> {
         self.publisher
             .publish_sent(m, sent)

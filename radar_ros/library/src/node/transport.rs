@@ -200,9 +200,9 @@ impl<M: serde::Serialize> Publisher<M> {
         }
     }
 
-    /// Sends `m` as `sent` says: with that source time and, over DDS, carrying that cause (see
-    /// [`crate::wire::cause`]). Over Zenoh the source time goes into rmw_zenoh's attachment, which has no field
-    /// for the cause (docs/zenoh.md).
+    /// Sends `m` as `sent` says: with that source time and carrying that cause (see [`crate::wire::cause`]).
+    /// Over Zenoh both go into the attachment: the time in rmw_zenoh's field, the cause after its three fields
+    /// (ros2-client patch 19; rmw_zenoh's readers stop before it, docs/zenoh.md).
     pub(crate) fn publish_sent(
         &self,
         m: M,
@@ -213,7 +213,11 @@ impl<M: serde::Serialize> Publisher<M> {
                 .publish_with_options(m, crate::wire::cause::write_options(sent))
                 .map(|_| ()),
             #[cfg(feature = "zenoh")]
-            Publisher::Zenoh(p) => p.publish_stamped(m, ros2_client::ROSTime::from_nanos(sent.at)),
+            Publisher::Zenoh(p) => p.publish_related(
+                m,
+                ros2_client::ROSTime::from_nanos(sent.at),
+                sent.by.map(|c| crate::wire::cause::identity(c).into()),
+            ),
         }
     }
 

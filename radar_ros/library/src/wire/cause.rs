@@ -5,7 +5,9 @@
 //! standard fields every vendor passes along: the time is the sample's **source timestamp** (a relay writes
 //! the original signal's time, not its own), and the statement is the sample's **related sample identity**
 //! (inline QoS, as ROS 2 services use it; topic subscribers that do not look at it, rclpy's among them, are not
-//! affected). In this process the same two travel beside the message ([`crate::wire::local`]).
+//! affected). Over Zenoh both ride in the sample's attachment: the time in rmw_zenoh's source-timestamp field, the
+//! statement's identity after its three fields (ros2-client patch 19; rmw_zenoh's readers do not look past them).
+//! In this process the same two travel beside the message ([`crate::wire::local`]).
 //!
 //! A statement's identity is 16 bytes: 8 from its manager's participant ([`statement_base`]), 7 from the
 //! connection's number (statements are numbered below 2^56), and a last byte that marks it as a RADAR

@@ -384,7 +384,7 @@ pub fn pose(frame: &str, x: f64) -> PoseStamped {
 }
 
 /// Checks what the peer printed of samples it heard: the message, and the attachment as the design says
-/// (sequence numbers counting the publisher's samples, one GID, a source time of now).
+/// (sequence numbers counting the publisher's samples, one GID, a source time of now, nothing after them).
 pub fn check_heard(heard: &[Value]) {
     let now_ns = SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -415,6 +415,10 @@ pub fn check_heard(heard: &[Value]) {
             "source time is now-ish: {v}"
         );
         assert_eq!(v["gid"].as_str().unwrap().len(), 32, "a 16-byte GID: {v}");
+        assert_eq!(
+            v["extra"], "",
+            "a sample with no cause is rmw_zenoh's attachment exactly: {v}"
+        );
     }
 }
 

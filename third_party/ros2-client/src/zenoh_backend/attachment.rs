@@ -24,6 +24,8 @@
 use zenoh::bytes::ZBytes;
 use zenoh_ext::{ZDeserializer, ZSerializer};
 
+use crate::{gid::Gid, request_id::RmwRequestId};
+
 /// The three attachment fields carried alongside every message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AttachmentData {
@@ -55,6 +57,47 @@ impl AttachmentData {
     s.serialize(self.source_timestamp);
     s.serialize(self.source_gid);
     s.finish()
+  }
+
+  /// Serialize as [`Self::to_zbytes`] does, followed, when `related` is given, by a related sample
+  /// identity (radar_ros patch 19): the identity's 16-byte GID (varint length `0x10`, then the bytes) and
+  /// its sequence number (`i64` LE), 25 bytes after the GID:
+  ///
+  /// ```text
+  /// | seq: 8B | source_ts: 8B | 0x10 | gid: 16B | 0x10 | related gid: 16B | related seq: 8B LE |
+  /// ```
+  ///
+  /// rmw_zenoh reads its three fields in order and does not look at what follows them (its
+  /// `attachment_helpers.cpp`), so its subscribers read such a sample as any other. This is how a sample
+  /// says what caused it, as the DDS backend's `related_sample_identity` write option does.
+  pub fn to_zbytes_related(self, related: Option<RmwRequestId>) -> ZBytes {
+    let mut s = ZSerializer::new();
+    s.serialize(self.sequence_number);
+    s.serialize(self.source_timestamp);
+    s.serialize(self.source_gid);
+    if let Some(r) = related {
+      s.serialize(r.writer_gid.to_bytes16());
+      s.serialize(r.sequence_number);
+    }
+    s.finish()
+  }
+
+  /// The related sample identity an attachment carries after its three fields ([`Self::to_zbytes_related`]),
+  /// if it carries exactly one; `None` for rmw_zenoh's own attachments and for anything else that follows.
+  pub fn related_from_zbytes(zbytes: &ZBytes) -> Option<RmwRequestId> {
+    let mut d = ZDeserializer::new(zbytes);
+    d.deserialize::<i64>().ok()?;
+    d.deserialize::<i64>().ok()?;
+    d.deserialize::<[u8; 16]>().ok()?;
+    if d.done() {
+      return None;
+    }
+    let gid = d.deserialize::<[u8; 16]>().ok()?;
+    let sequence_number = d.deserialize::<i64>().ok()?;
+    d.done().then_some(RmwRequestId {
+      writer_gid: Gid::from(gid),
+      sequence_number,
+    })
   }
 
   /// Decode from a received Zenoh attachment.
@@ -106,6 +149,38 @@ mod tests {
     };
     let decoded = AttachmentData::from_zbytes(&a.to_zbytes()).unwrap();
     assert_eq!(a, decoded);
+  }
+
+  #[test]
+  fn a_related_identity_follows_the_three_fields_and_reads_back() {
+    let a = AttachmentData {
+      sequence_number: 3,
+      source_timestamp: 99,
+      source_gid: [0xCD; 16],
+    };
+    let related = RmwRequestId {
+      writer_gid: Gid::from([7u8; 16]),
+      sequence_number: 41,
+    };
+    let z = a.to_zbytes_related(Some(related));
+    let bytes = z.to_bytes();
+    // rmw_zenoh's 33 bytes first, unchanged: its reader takes them and stops
+    assert_eq!(&bytes[..33], a.to_zbytes().to_bytes().as_ref());
+    assert_eq!(bytes.len(), 33 + 1 + 16 + 8);
+    assert_eq!(AttachmentData::from_zbytes(&z), Ok(a));
+    assert_eq!(AttachmentData::related_from_zbytes(&z), Some(related));
+    // none: rmw_zenoh's own attachment, or something else after the GID
+    assert_eq!(AttachmentData::related_from_zbytes(&a.to_zbytes()), None);
+    assert_eq!(
+      AttachmentData::related_from_zbytes(&a.to_zbytes_related(None)),
+      None
+    );
+    let mut other = bytes.to_vec();
+    other.push(0);
+    assert_eq!(
+      AttachmentData::related_from_zbytes(&ZBytes::from(other)),
+      None
+    );
   }
 
   #[test]
