@@ -27,6 +27,8 @@
 //! - `radar_ros/library/tests/zenoh_causes.rs`: a signal's cause crosses processes over Zenoh (ros2-client
 //!   patch 19): an `until`'s interrupt ends only its statement's run in another process; the design-document
 //!   peer, reading as rmw_zenoh reads, still reads a caused sample;
+//! - `radar_ros/library/tests/zenoh_respawn.rs`: a target killed and started again at once over Zenoh: seen
+//!   replaced, a plain connection lost, a re-arming one delivering to the new process;
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -125,6 +127,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_sim_time",
             "--test",
             "zenoh_causes",
+            "--test",
+            "zenoh_respawn",
         ],
     ]
     .concat();
@@ -172,7 +176,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs and zenoh_causes.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs, zenoh_causes.rs and zenoh_respawn.rs",
     );
     ran_and_passed(
         &out,
@@ -188,6 +192,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper",
             "a_timer_event_over_zenoh_follows_a_design_document_peers_clock",
             "an_until_across_processes_over_zenoh_interrupts_only_its_statements_run",
+            "a_target_respawned_over_zenoh_is_seen_gone_and_a_rearming_connection_follows_it",
         ],
     );
     let router = [

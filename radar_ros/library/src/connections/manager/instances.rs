@@ -38,19 +38,26 @@ struct Seen {
 
 impl Seen {
     /// Looks at `hosts`, the processes running the component now: whether one appeared beside (or after) the
-    /// one its connections were made with, which it then takes as current.
-    fn replaced(&mut self, hosts: BTreeSet<GUID>) -> bool {
+    /// one its connections were made with, which it then takes as current. `vanished` says whether a process
+    /// is off the graph but not yet taken as gone ([`crate::graph::Graph::vanished_within_lease`]: over Zenoh
+    /// a killed process's tokens vanish at once, and the new process's may come after that): one that has
+    /// is replaced by a new one as if it were still there.
+    fn replaced(&mut self, hosts: BTreeSet<GUID>, vanished: impl Fn(GUID) -> bool) -> bool {
         let fresh = hosts.difference(&self.known).next().copied();
         self.known = hosts;
         match (self.current, fresh) {
-            (Some(c), Some(new)) if new != c => {
+            (Some(c), Some(new)) if new != c && (self.known.contains(&c) || vanished(c)) => {
                 self.current = Some(new);
                 true
             }
             _ => {
-                // not seen yet, or gone (the counts tell that): take whichever runs it now
+                // not seen yet, or gone (the counts tell that): take whichever runs it now; one that went away
+                // is kept until another comes (then judged above), so that a look between the tokens of one
+                // death does not forget which process it was
                 if self.current.is_none_or(|c| !self.known.contains(&c)) {
-                    self.current = self.known.iter().next().copied();
+                    if let Some(now) = self.known.iter().next().copied() {
+                        self.current = Some(now);
+                    }
                 }
                 false
             }
@@ -70,14 +77,21 @@ impl Manager {
         }
         let me = Arc::downgrade(self);
         let mut changes = self.graph().changes();
+        // and when the table changes: a connection made while the graph is still is looked at then, not at
+        // the next change of the graph (which may be its target's death: too late to know which process ran it)
+        let mut table = self.changes();
         tokio::spawn(async move {
             let mut seen: HashMap<String, Seen> = HashMap::new();
             // a first look now: the processes the first connections were made with
             if !Manager::look_at_instances(&me, &mut seen) {
                 return;
             }
-            while changes.changed().await.is_ok() {
-                if !Manager::look_at_instances(&me, &mut seen) {
+            loop {
+                let changed = tokio::select! {
+                    r = changes.changed() => r.is_ok(),
+                    r = table.changed() => r.is_ok(),
+                };
+                if !changed || !Manager::look_at_instances(&me, &mut seen) {
                     break;
                 }
                 tokio::time::sleep(EVERY).await;
@@ -113,7 +127,12 @@ impl Manager {
         seen.retain(|c, _| ends.contains_key(c));
         for (component, ends) in ends {
             let hosts = m.graph().writer_participants(&format!("{component}/state"));
-            if !seen.entry(component.clone()).or_default().replaced(hosts) {
+            let vanished = |p| m.graph().vanished_within_lease(p);
+            if !seen
+                .entry(component.clone())
+                .or_default()
+                .replaced(hosts, vanished)
+            {
                 continue;
             }
             tracing::warn!(
@@ -149,17 +168,43 @@ mod tests {
 
     #[test]
     fn a_new_process_beside_the_one_in_use_replaces_it_and_others_do_not() {
+        let on_graph = |_| false;
         let mut s = Seen::default();
-        assert!(!s.replaced(BTreeSet::new()), "not running yet");
-        assert!(!s.replaced(BTreeSet::from([p(1)])), "first seen");
-        assert!(!s.replaced(BTreeSet::from([p(1)])), "no change");
+        assert!(!s.replaced(BTreeSet::new(), on_graph), "not running yet");
+        assert!(!s.replaced(BTreeSet::from([p(1)]), on_graph), "first seen");
+        assert!(!s.replaced(BTreeSet::from([p(1)]), on_graph), "no change");
         // respawned within the lease: the old one still shows
-        assert!(s.replaced(BTreeSet::from([p(1), p(2)])));
+        assert!(s.replaced(BTreeSet::from([p(1), p(2)]), on_graph));
         // the old one's lease runs out: nothing more to tell
-        assert!(!s.replaced(BTreeSet::from([p(2)])));
+        assert!(!s.replaced(BTreeSet::from([p(2)]), on_graph));
         // it exits (counts tell that), then starts again: a return, not a replacement
-        assert!(!s.replaced(BTreeSet::new()));
-        assert!(!s.replaced(BTreeSet::from([p(3)])));
+        assert!(!s.replaced(BTreeSet::new(), on_graph));
+        assert!(!s.replaced(BTreeSet::from([p(3)]), on_graph));
         assert_eq!(s.current, Some(p(3)));
+    }
+
+    #[test]
+    fn a_process_that_vanished_within_its_lease_is_replaced_by_the_next() {
+        // over Zenoh: p(1) is killed, its tokens vanish at once, p(2) comes after that
+        let vanished = |g| g == p(1);
+        let mut s = Seen::default();
+        assert!(!s.replaced(BTreeSet::from([p(1)]), vanished));
+        assert!(
+            !s.replaced(BTreeSet::new(), vanished),
+            "gone from the graph"
+        );
+        assert!(s.replaced(BTreeSet::from([p(2)]), vanished), "replaced");
+        assert_eq!(s.current, Some(p(2)));
+        // a look between the tokens of one death (its session not yet vanished as a whole) forgets nothing
+        let later = |g| g == p(2);
+        assert!(!s.replaced(BTreeSet::new(), |_| false));
+        assert!(
+            s.replaced(BTreeSet::from([p(3)]), later),
+            "judged when p(3) comes"
+        );
+        // one that left for good (or still runs elsewhere on the graph) is not replaced: a return
+        assert!(!s.replaced(BTreeSet::new(), |_| false));
+        assert!(!s.replaced(BTreeSet::from([p(4)]), |_| false));
+        assert_eq!(s.current, Some(p(4)));
     }
 }
