@@ -133,6 +133,19 @@ impl Graph {
         })
     }
 
+    /// Whether the process `p` (a participant GUID) is off the graph but not yet taken as gone: over Zenoh, a
+    /// session whose tokens all vanished less than the grace ago (a process killed: the router deletes its
+    /// tokens at once; it has left once they stay gone for the grace, `run_tokens`). Always false over DDS,
+    /// where a process stays on the graph until its lease runs out.
+    pub(crate) fn vanished_within_lease(&self, p: GUID) -> bool {
+        #[cfg(feature = "zenoh")]
+        if let Some(present) = self.token_sessions() {
+            return !present.contains(&p) && !self.has_left(p);
+        }
+        let _ = p;
+        false
+    }
+
     /// `f` on the topic index, rebuilt from the discovery data first when older than [`RESYNC`].
     fn indexed<R>(&self, f: impl FnOnce(&TopicIndex) -> R) -> R {
         let stale = self
