@@ -297,6 +297,15 @@ impl Generator {
         for part in ["Goal", "Result", "Feedback"] {
             out.push_str(&self.message(&format!("{pkg}/action/{name}_{part}"), uses)?);
         }
+        let hash = |made_up: &str| {
+            self.interfaces
+                .type_hash(&format!("{pkg}/action/{name}_{made_up}"))
+        };
+        let (send_goal, get_result, feedback_message) = (
+            hash("SendGoal")?,
+            hash("GetResult")?,
+            hash("FeedbackMessage")?,
+        );
         write!(
             out,
             "        #[doc = \"`{pkg}/action/{name}`: its goal is [`{name}_Goal`], its result [`{name}_Result`], its feedback [`{name}_Feedback`].\"]
@@ -308,6 +317,12 @@ impl Generator {
             type Goal = {name}_Goal;
             type Result = {name}_Result;
             type Feedback = {name}_Feedback;
+            const TYPE_HASHES: ::core::option::Option<{rt}::action::ActionTypeHashes> =
+                ::core::option::Option::Some({rt}::action::ActionTypeHashes {{
+                    send_goal: \"{send_goal}\",
+                    get_result: \"{get_result}\",
+                    feedback_message: \"{feedback_message}\",
+                }});
         }}
 "
         )
@@ -631,8 +646,11 @@ fn field_name(name: &str) -> String {
 mod tests {
     use super::*;
 
+    /// A directory of its own (tests run in parallel threads of one process) holding `files`.
     fn package(files: &[(&str, &str)]) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("radar_idl_gen_{}", std::process::id()));
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        let dir = std::env::temp_dir().join(format!("radar_idl_gen_{}_{n}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         for (path, text) in files {
             let p = dir.join(path);
@@ -672,6 +690,33 @@ mod tests {
         }
         // shipped packages come from radar_ros, not generated again
         assert!(!code.contains("pub mod std_msgs"), "{code}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_generated_action_carries_the_hashes_of_the_types_rosidl_makes_up_around_it() {
+        let dir = package(&[(
+            "my_pkg/action/Dock.action",
+            "string station\n---\nbool docked\n---\nfloat32 distance\n",
+        )]);
+        let types = Interfaces::empty().with_dir(&dir);
+        let code = Generator::with_interfaces(Interfaces::empty())
+            .dir(&dir)
+            .generate()
+            .unwrap();
+        for (field, made_up) in [
+            ("send_goal", "SendGoal"),
+            ("get_result", "GetResult"),
+            ("feedback_message", "FeedbackMessage"),
+        ] {
+            let hash = types
+                .type_hash(&format!("my_pkg/action/Dock_{made_up}"))
+                .unwrap();
+            assert!(
+                code.contains(&format!("{field}: \"{hash}\"")),
+                "{field} {hash} in:\n{code}"
+            );
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 

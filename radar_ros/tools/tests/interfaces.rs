@@ -602,6 +602,47 @@ fn type_hashes_equal_those_rosidl_wrote_for_every_message_in_the_venv() {
     assert!(checked.len() > 130, "{} checked", checked.len());
 }
 
+/// radar_ros's hand-written `test_msgs/action/Fibonacci` carries the hashes rosidl wrote for it: its parts'
+/// and those of the types made up around it (what its endpoints name over Zenoh).
+#[test]
+fn fibonaccis_hashes_are_those_rosidl_wrote() {
+    use radar_ros::action::{Action, Fibonacci};
+    use radar_ros::msg::RosMessage;
+    let path = venv().join("share/test_msgs/action/Fibonacci.json");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let rosidl = |ty: &str| {
+        doc["type_hashes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|h| h["type_name"] == ty)
+            .unwrap_or_else(|| panic!("{ty} in {}", path.display()))["hash_string"]
+            .as_str()
+            .unwrap()
+            .to_owned()
+    };
+    let h = Fibonacci::TYPE_HASHES.expect("Fibonacci's hashes");
+    for (ty, ours) in [
+        ("Fibonacci_SendGoal", h.send_goal),
+        ("Fibonacci_GetResult", h.get_result),
+        ("Fibonacci_FeedbackMessage", h.feedback_message),
+        (
+            "Fibonacci_Goal",
+            <Fibonacci as Action>::Goal::TYPE_HASH.unwrap(),
+        ),
+        (
+            "Fibonacci_Result",
+            <Fibonacci as Action>::Result::TYPE_HASH.unwrap(),
+        ),
+        (
+            "Fibonacci_Feedback",
+            <Fibonacci as Action>::Feedback::TYPE_HASH.unwrap(),
+        ),
+    ] {
+        assert_eq!(ours, rosidl(&format!("test_msgs/action/{ty}")), "{ty}");
+    }
+}
+
 /// The interfaces radar_ros ships (`radar_ros/idl/interfaces/`) are the Jazzy packages' own files, byte for
 /// byte (as the venv's wheels install them), and work with no installation: encoded, decoded and hashed as
 /// rosidl hashes them.

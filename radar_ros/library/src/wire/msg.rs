@@ -142,7 +142,8 @@ pub(crate) fn type_hash_of(ros_type: &str) -> Option<&'static str> {
 
 /// Implements [`RosMessage`] for a type: `ros_message!(MyType, "my_pkg", "MyType");`, with its RIHS01 hash:
 /// `ros_message!(MyType, "my_pkg", "MyType", hash Some("RIHS01_..."))`, or for a part of an action:
-/// `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");`. (Generated types implement it themselves.)
+/// `ros_message!(MyGoal, "my_pkg", action "Dock_Goal");` (with its hash: `..., action "Dock_Goal", hash
+/// Some("RIHS01_..."))`). (Generated types implement it themselves.)
 #[macro_export]
 macro_rules! ros_message {
     ($ty:ty, $pkg:literal, $name:literal) => {
@@ -163,6 +164,14 @@ macro_rules! ros_message {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = $name;
             const INTERFACE: &'static str = "action";
+        }
+    };
+    ($ty:ty, $pkg:literal, action $name:literal, hash $hash:expr) => {
+        impl $crate::msg::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const NAME: &'static str = $name;
+            const INTERFACE: &'static str = "action";
+            const TYPE_HASH: Option<&'static str> = $hash;
         }
     };
 }

@@ -59,6 +59,25 @@ pub use server::ActionServerHandle;
 
 use crate::wire::msg::RosMessage;
 
+/// The RIHS01 hashes of the types rosidl makes up around an action (no `.action` file defines them), as its
+/// `share/<pkg>/action/<Name>.json` lists them: what rmw_zenoh names in the key expressions and tokens of the
+/// action's `send_goal` and `get_result` services and its `feedback` topic.
+///
+/// ```
+/// use radar_ros::action::{Action, Fibonacci};
+/// let h = Fibonacci::TYPE_HASHES.unwrap();
+/// assert!(h.send_goal.starts_with("RIHS01_"));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ActionTypeHashes {
+    /// `pkg/action/Name_SendGoal`: the `send_goal` service.
+    pub send_goal: &'static str,
+    /// `pkg/action/Name_GetResult`: the `get_result` service.
+    pub get_result: &'static str,
+    /// `pkg/action/Name_FeedbackMessage`: the `feedback` topic's type (the goal id and the feedback).
+    pub feedback_message: &'static str,
+}
+
 /// A ROS 2 action type: its name and the messages of its three parts.
 ///
 /// ```
@@ -100,6 +119,9 @@ pub trait Action: Send + Sync + 'static {
     type Result: RosMessage;
     /// `<Name>_Feedback`: what the `feedback` signal carries.
     type Feedback: RosMessage;
+    /// The RIHS01 hashes of the types rosidl makes up around the action, which rmw_zenoh names in its key
+    /// expressions and liveliness tokens (`None`: not known; generated actions carry them).
+    const TYPE_HASHES: Option<ActionTypeHashes> = None;
 
     /// `pkg/action/Name`, as `ros2 action` shows it.
     fn ros_type_name() -> String {
