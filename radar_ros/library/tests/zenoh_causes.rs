@@ -73,30 +73,12 @@ async fn an_until_across_processes_over_zenoh_interrupts_only_its_statements_run
         ],
     );
     peer.until_up().await;
-    let mut remote = tokio::process::Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--exact",
-            "an_until_across_processes_over_zenoh_interrupts_only_its_statements_run",
-            "--nocapture",
-        ])
-        .env("ZC_ROLE", "remote")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut out =
-        tokio::io::AsyncBufReadExt::lines(tokio::io::BufReader::new(remote.stdout.take().unwrap()));
-    loop {
-        let line = tokio::time::timeout(WAIT, out.next_line())
-            .await
-            .expect("the remote program says it is up")
-            .unwrap()
-            .expect("the remote program ended before it was up");
-        if line == "ZC_UP" {
-            break;
-        }
-    }
+    let (mut remote, _out) = zenoh_util::start_role(
+        "an_until_across_processes_over_zenoh_interrupts_only_its_statements_run",
+        "ZC_ROLE",
+        "ZC_UP",
+    )
+    .await;
 
     let radar = Radar::builder()
         .program("zc_program")

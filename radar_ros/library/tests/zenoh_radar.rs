@@ -204,26 +204,7 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     );
 
     // another program over Zenoh: a response `/zr/far` and a manager node `/zr/manager`
-    let mut remote = tokio::process::Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", NAME, "--nocapture", "--test-threads=1"])
-        .env("ZR_ROLE", "remote")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut out =
-        tokio::io::AsyncBufReadExt::lines(tokio::io::BufReader::new(remote.stdout.take().unwrap()));
-    loop {
-        let line = tokio::time::timeout(WAIT, out.next_line())
-            .await
-            .expect("the remote program says it is up")
-            .unwrap()
-            .expect("the remote program ended before it was up");
-        if line.ends_with("ZR_UP") {
-            break;
-        }
-    }
+    let (mut remote, mut out) = zenoh_util::start_role(NAME, "ZR_ROLE", "ZR_UP").await;
     // found through the graph the tokens make
     let far = radar.response("/zr/far").timeout(WAIT).await.unwrap();
     let nodes = radar.introspect().nodes().timeout(WAIT).await.unwrap();

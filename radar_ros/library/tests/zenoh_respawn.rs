@@ -18,43 +18,16 @@ mod zenoh_util;
 use std::time::{Duration, Instant};
 
 use radar_ros::{msg::Empty, FnResponse, Link, LossCause, Radar, Signal};
-use tokio::io::{AsyncBufReadExt, BufReader, Lines};
-use zenoh_util::{local_router, WAIT};
+use tokio::io::{AsyncBufReadExt, BufReader};
+use zenoh_util::{local_router, start_role, until_line, RoleLines, WAIT};
 
 const DOMAIN: u16 = 147;
 const NAME: &str =
     "a_target_respawned_over_zenoh_is_seen_gone_and_a_rearming_connection_follows_it";
 
 /// The other program, started: its stdout's lines (`ZS_UP` read).
-async fn target() -> (
-    tokio::process::Child,
-    Lines<BufReader<tokio::process::ChildStdout>>,
-) {
-    let mut child = tokio::process::Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", NAME, "--nocapture"])
-        .env("ZS_ROLE", "remote")
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .kill_on_drop(true)
-        .spawn()
-        .unwrap();
-    let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
-    until_line(&mut out, "ZS_UP").await;
-    (child, out)
-}
-
-/// Reads `out` until a line `want` comes (at most [`WAIT`]).
-async fn until_line(out: &mut Lines<BufReader<tokio::process::ChildStdout>>, want: &str) {
-    loop {
-        let line = tokio::time::timeout(WAIT, out.next_line())
-            .await
-            .unwrap_or_else(|_| panic!("the target program says {want} within {WAIT:?}"))
-            .unwrap()
-            .unwrap_or_else(|| panic!("the target program ended before it said {want}"));
-        if line == want {
-            return;
-        }
-    }
+async fn target() -> (tokio::process::Child, RoleLines) {
+    start_role(NAME, "ZS_ROLE", "ZS_UP").await
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

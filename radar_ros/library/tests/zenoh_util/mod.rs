@@ -143,6 +143,43 @@ impl Proc {
     }
 }
 
+/// The lines a program started by [`start_role`] prints.
+pub type RoleLines = Lines<BufReader<tokio::process::ChildStdout>>;
+
+/// This test binary run again as another program (`role_var=remote`, only test `name`), once it has printed a
+/// line ending in `up`: the process (killed when dropped; its stdin piped) and its stdout's lines.
+pub async fn start_role(
+    name: &str,
+    role_var: &str,
+    up: &str,
+) -> (tokio::process::Child, RoleLines) {
+    let mut child = tokio::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", name, "--nocapture", "--test-threads=1"])
+        .env(role_var, "remote")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
+    until_line(&mut out, up).await;
+    (child, out)
+}
+
+/// Reads `out` until a line ending in `want` comes (at most [`WAIT`]).
+pub async fn until_line(out: &mut RoleLines, want: &str) {
+    loop {
+        let line = tokio::time::timeout(WAIT, out.next_line())
+            .await
+            .unwrap_or_else(|_| panic!("the other program says {want} within {WAIT:?}"))
+            .unwrap()
+            .unwrap_or_else(|| panic!("the other program ended before it said {want}"));
+        if line.ends_with(want) {
+            return;
+        }
+    }
+}
+
 /// The router of rmw_zenoh's default layout on `tcp/127.0.0.1:7447`, up. Only inside tests/isolated.sh, where
 /// that port is the tests' own namespace's (on the host it is the host's router's).
 pub async fn local_router() -> Proc {
