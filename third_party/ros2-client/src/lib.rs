@@ -245,7 +245,9 @@ pub mod zenoh {
   #[doc(inline)]
   pub use crate::zenoh_backend::service::{Client, Server};
   #[doc(inline)]
-  pub use crate::zenoh_backend::action::{ActionClient, ActionServer, GoalId, goal_status};
+  pub use crate::zenoh_backend::action::{
+    ActionClient, ActionServer, FeedbackMessage, GoalId, SendGoalResponse, goal_status,
+  };
   #[doc(inline)]
   pub use crate::zenoh_backend::parameters::{ParameterClient, ParameterEvent, ParameterServer};
   #[doc(inline)]

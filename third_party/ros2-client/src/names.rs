@@ -311,7 +311,10 @@ impl MessageTypeName {
     }
   }
 
-  pub(crate) fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
+  /// A message type of another interface kind than `msg`: `prefix` `"action"` for an action's parts
+  /// (`Fibonacci_Feedback`: `pkg::action::dds_::Fibonacci_Feedback_`), as rosidl names them (radar_ros patch
+  /// 20: a topic of an action's feedback type over Zenoh).
+  pub fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
     MessageTypeName {
       prefix,
       ros2_package_name: package_name.to_owned(),

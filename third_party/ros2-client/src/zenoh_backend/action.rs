@@ -36,16 +36,24 @@ use crate::{
 /// Application-level goal identifier.
 pub type GoalId = UUID;
 
-/// `action_msgs/GoalStatus` status codes.
+/// `action_msgs/GoalStatus` status codes, as `action_msgs/msg/GoalStatus.msg` numbers them (radar_ros patch
+/// 20: `CANCELED` is 5 and `ABORTED` 6; they were the other way round, so a canceled goal read as aborted by
+/// every other ROS 2 client).
 pub mod goal_status {
+  /// The goal's status is not known.
+  pub const UNKNOWN: i8 = 0;
+  /// The goal was accepted and awaits execution.
+  pub const ACCEPTED: i8 = 1;
   /// The goal is currently being executed.
   pub const EXECUTING: i8 = 2;
+  /// The client asked to cancel the goal, and the server accepted.
+  pub const CANCELING: i8 = 3;
   /// The goal completed successfully.
   pub const SUCCEEDED: i8 = 4;
-  /// The goal was aborted.
-  pub const ABORTED: i8 = 5;
   /// The goal was canceled.
-  pub const CANCELED: i8 = 6;
+  pub const CANCELED: i8 = 5;
+  /// The goal was aborted.
+  pub const ABORTED: i8 = 6;
 }
 
 /// `<Action>_SendGoal_Request` — a goal plus its id.
@@ -162,6 +170,45 @@ impl<G: Serialize, R: DeserializeOwned, F: DeserializeOwned> ActionClient<G, R, 
     })
   }
 
+  /// Sends goal `goal_id` and awaits the server's answer, without blocking a thread (radar_ros patch 20:
+  /// an async program keeps the call as a future, and may await its answer from two places).
+  pub async fn async_send_goal(
+    &self,
+    goal_id: GoalId,
+    goal: G,
+  ) -> Result<SendGoalResponse, ServiceError> {
+    self
+      .send_goal
+      .async_call(SendGoalRequest { goal_id, goal })
+      .await
+  }
+
+  /// Asks for goal `goal_id`'s result and awaits it (the query's timeout is `get_result`'s long one), without
+  /// blocking a thread (radar_ros patch 20).
+  pub async fn async_get_result(&self, goal_id: GoalId) -> Result<(i8, R), ServiceError> {
+    let resp = self.get_result.async_call(GetResultRequest { goal_id }).await?;
+    Ok((resp.status, resp.result))
+  }
+
+  /// Asks the server to cancel goal `goal_id` and awaits its answer, without blocking a thread (radar_ros
+  /// patch 20).
+  pub async fn async_cancel_goal(&self, goal_id: GoalId) -> Result<CancelGoalResponse, ServiceError> {
+    self
+      .cancel_goal
+      .async_call(CancelGoalRequest {
+        goal_info: GoalInfo {
+          goal_id,
+          stamp: Time::ZERO,
+        },
+      })
+      .await
+  }
+
+  /// The feedback subscription, to await feedback as it comes (radar_ros patch 20).
+  pub fn feedback_subscription(&self) -> &Subscription<FeedbackMessage<F>> {
+    &self.feedback
+  }
+
   /// Take the latest goal-status array if one is immediately available.
   pub fn take_status(&self) -> Option<GoalStatusArray> {
     match self.status.try_take() {
@@ -198,6 +245,25 @@ impl<G: DeserializeOwned, R: Serialize, F: Serialize> ActionServer<G, R, F> {
       cancel_goal,
       status,
     }
+  }
+
+  /// Awaits the next goal request: `(request id, goal id, goal)` (radar_ros patch 20).
+  pub async fn async_receive_goal(&self) -> Result<(RmwRequestId, GoalId, G), ServiceError> {
+    let (id, req) = self.send_goal.async_receive_request().await?;
+    Ok((id, req.goal_id, req.goal))
+  }
+
+  /// Awaits the next result request: `(request id, goal id)` (radar_ros patch 20).
+  pub async fn async_receive_result_request(&self) -> Result<(RmwRequestId, GoalId), ServiceError> {
+    let (id, req) = self.get_result.async_receive_request().await?;
+    Ok((id, req.goal_id))
+  }
+
+  /// Awaits the next cancel request: `(request id, the goal info it names)`; a zero goal id with a zero
+  /// stamp means all goals, a zero id with a stamp the goals accepted at or before it (radar_ros patch 20).
+  pub async fn async_receive_cancel(&self) -> Result<(RmwRequestId, GoalInfo), ServiceError> {
+    let (id, req) = self.cancel_goal.async_receive_request().await?;
+    Ok((id, req.goal_info))
   }
 
   /// Take a pending goal request if available: `(request id, goal id, goal)`.
@@ -578,5 +644,127 @@ mod tests {
 
     stop.store(true, Ordering::Relaxed);
     let _ = server_thread.join();
+  }
+
+  /// radar_ros patch 20: the status codes are `action_msgs/msg/GoalStatus`'s, as the DDS backend's
+  /// `GoalStatusEnum` has them (radar_ros's `tests/actions.rs` reads those from rclpy's servers).
+  #[test]
+  fn goal_status_codes_are_action_msgs() {
+    use crate::action_msgs::GoalStatusEnum as E;
+    let codes = [
+      (goal_status::UNKNOWN, E::Unknown),
+      (goal_status::ACCEPTED, E::Accepted),
+      (goal_status::EXECUTING, E::Executing),
+      (goal_status::CANCELING, E::Canceling),
+      (goal_status::SUCCEEDED, E::Succeeded),
+      (goal_status::CANCELED, E::Canceled),
+      (goal_status::ABORTED, E::Aborted),
+    ];
+    for (code, named) in codes {
+      assert_eq!(code, named as i8, "{named:?}");
+    }
+  }
+
+  /// radar_ros patch 20: the async calls of a client and the async reads of a server, each side in one
+  /// future, goal, feedback, cancel and result, with no thread blocked on a call.
+  #[test]
+  fn async_goal_feedback_cancel_and_result() {
+    use futures::StreamExt;
+
+    use crate::{
+      ActionTypeName,
+      action_msgs::{CancelGoalResponseEnum, GoalInfo},
+      builtin_interfaces::Time,
+    };
+
+    let srv_port = 17547;
+    let cli_port = 17548;
+    let srv_ctx =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(srv_port, None)))
+        .unwrap();
+    let cli_ctx = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(cli_port, Some(srv_port))),
+    )
+    .unwrap();
+    let srv_node = srv_ctx
+      .new_node(NodeName::new("/", "async_server").unwrap(), NodeOptions::new())
+      .unwrap();
+    let cli_node = cli_ctx
+      .new_node(NodeName::new("/", "async_client").unwrap(), NodeOptions::new())
+      .unwrap();
+    let atype = ActionTypeName::new("action_tutorials_interfaces", "Fibonacci");
+    let name = Name::new("/", "async_fibonacci").unwrap();
+    let server: ActionServer<FibGoal, FibResult, FibFeedback> =
+      srv_node.create_action_server(&name, &atype).unwrap();
+    let client: ActionClient<FibGoal, FibResult, FibFeedback> =
+      cli_node.create_action_client(&name, &atype).unwrap();
+
+    // the server: accepts the goal, sends feedback until a cancel comes, then answers the result request
+    // with CANCELED and the feedback so far
+    let served = std::thread::spawn(move || {
+      futures::executor::block_on(async {
+        let (req, goal_id, goal) = server.async_receive_goal().await.unwrap();
+        server.respond_goal(req, true).unwrap();
+        let seq = fibonacci(goal.order);
+        let mut cancel = Box::pin(server.async_receive_cancel());
+        let canceled = loop {
+          let _ = server.publish_feedback(goal_id, FibFeedback { sequence: seq.clone() });
+          let tick = futures::FutureExt::fuse(futures_timer(Duration::from_millis(50)));
+          futures::pin_mut!(tick);
+          futures::select! {
+            c = futures::FutureExt::fuse(&mut cancel) => break c.unwrap(),
+            () = tick => {}
+          }
+        };
+        let (cancel_req, info) = canceled;
+        assert_eq!(info.goal_id, goal_id, "the cancel names the goal");
+        server
+          .respond_cancel(
+            cancel_req,
+            CancelGoalResponseEnum::None,
+            vec![GoalInfo { goal_id, stamp: Time::ZERO }],
+          )
+          .unwrap();
+        let (result_req, asked) = server.async_receive_result_request().await.unwrap();
+        assert_eq!(asked, goal_id);
+        server
+          .respond_result(result_req, goal_status::CANCELED, FibResult { sequence: seq })
+          .unwrap();
+      })
+    });
+
+    let outcome = futures::executor::block_on(async {
+      let deadline = Instant::now() + Duration::from_secs(30);
+      let goal_id = loop {
+        assert!(Instant::now() < deadline, "goal never accepted");
+        let id = GoalId::new_random();
+        match client.async_send_goal(id, FibGoal { order: 6 }).await {
+          Ok(r) if r.accepted => break id,
+          _ => futures_timer(Duration::from_millis(200)).await,
+        }
+      };
+      let mut feedback = Box::pin(client.feedback_subscription().async_stream());
+      let (feedback, _) = feedback.next().await.unwrap().unwrap();
+      assert_eq!(feedback.goal_id, goal_id);
+      let answer = client.async_cancel_goal(goal_id).await.unwrap();
+      assert_eq!(answer.return_code, CancelGoalResponseEnum::None);
+      assert!(answer.goals_canceling.iter().any(|g| g.goal_id == goal_id));
+      (feedback.feedback.sequence, client.async_get_result(goal_id).await.unwrap())
+    });
+    served.join().unwrap();
+    let (feedback, (status, result)) = outcome;
+    assert_eq!(feedback, vec![0, 1, 1, 2, 3, 5]);
+    assert_eq!(status, goal_status::CANCELED);
+    assert_eq!(result.sequence, feedback);
+  }
+
+  /// A timer for the executor-agnostic tests above: a thread that sleeps.
+  async fn futures_timer(d: Duration) {
+    let (tx, rx) = futures::channel::oneshot::channel();
+    std::thread::spawn(move || {
+      std::thread::sleep(d);
+      let _ = tx.send(());
+    });
+    let _ = rx.await;
   }
 }
