@@ -29,6 +29,9 @@
 //!   peer, reading as rmw_zenoh reads, still reads a caused sample;
 //! - `radar_ros/library/tests/zenoh_respawn.rs`: a target killed and started again at once over Zenoh: seen
 //!   replaced, a plain connection lost, a re-arming one delivering to the new process;
+//! - `radar_ros/library/tests/zenoh_actions.rs`: actions over Zenoh: an action server written from the design
+//!   document driven as a RADAR response (goal, feedback, result, cancel, rejection), and a response served as
+//!   an action to an action client written from the design document (a fresh process per goal);
 //! - `radar_ros/library/tests/zenoh_netns.rs`: the same across network namespaces with no path between them
 //!   but a router in a third, through a router restart, and a killed or cut-off peer seen gone (as root; its
 //!   times are printed);
@@ -129,6 +132,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_causes",
             "--test",
             "zenoh_respawn",
+            "--test",
+            "zenoh_actions",
         ],
     ]
     .concat();
@@ -176,7 +181,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     }
     let out = check(
         &cargo(&test),
-        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs, zenoh_causes.rs and zenoh_respawn.rs",
+        "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs, zenoh_causes.rs, zenoh_respawn.rs and zenoh_actions.rs",
     );
     ran_and_passed(
         &out,
@@ -193,6 +198,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "a_timer_event_over_zenoh_follows_a_design_document_peers_clock",
             "an_until_across_processes_over_zenoh_interrupts_only_its_statements_run",
             "a_target_respawned_over_zenoh_is_seen_gone_and_a_rearming_connection_follows_it",
+            "an_action_server_over_zenoh_is_a_radar_response",
         ],
     );
     let router = [
@@ -291,6 +297,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh_peer.py",
             "zenoh_router.py",
             "zenoh_service_client.py",
+            "zenoh_action_server.py",
+            "zenoh_action_client.py",
             "zenoh_python_package.py",
         ])
         .current_dir(&scripts)

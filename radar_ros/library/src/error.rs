@@ -153,7 +153,7 @@ pub enum Error {
 }
 
 /// A message as an error, for sources that only give text.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct Text(pub(crate) String);
 
 impl std::fmt::Display for Text {

@@ -1,6 +1,8 @@
 //! What every ROS 2 node has, for components and programs: `--ros-args`, parameters, `/rosout`, the clock
 //! (wall or simulated) and how a program told to stop stops.
 
+pub(crate) mod action_server;
+pub(crate) mod actions;
 pub mod clock;
 pub(crate) mod declared;
 pub(crate) mod domain;
@@ -18,3 +20,5 @@ pub(crate) mod transport;
 pub(crate) mod watched;
 #[cfg(feature = "zenoh")]
 pub(crate) mod zenoh;
+#[cfg(feature = "zenoh")]
+pub(crate) mod zenoh_goals;

@@ -5,7 +5,8 @@
 //!
 //! Nodes ([`RosNode`]), topic endpoints ([`Publisher`], [`Subscription`]) and services ([`Server`], [`Client`])
 //! are over DDS or, with the `zenoh` feature, over Zenoh: an enum each (not a trait object: each sample takes
-//! one match, and the hot path stays monomorphic). Actions are DDS's only today.
+//! one match, and the hot path stays monomorphic). Actions are in `node/actions.rs` (clients) and
+//! `node/action_server.rs` (servers).
 
 use futures::{Stream, StreamExt};
 use ros2_client::{MessageInfo, ReadResult, RmwRequestId};
@@ -53,24 +54,6 @@ impl RosNode {
             RosNode::Dds(n) => n.fully_qualified_name(),
             #[cfg(feature = "zenoh")]
             RosNode::Zenoh(n) => n.node.fully_qualified_name(),
-        }
-    }
-
-    /// The DDS node, for what only DDS has (`what` names it in the error over Zenoh).
-    #[cfg_attr(not(feature = "zenoh"), allow(unused_variables))] // `what` names Zenoh's refusal
-    pub(crate) fn dds(&mut self, what: &str) -> Result<&mut ros2_client::dds::Node> {
-        match self {
-            RosNode::Dds(n) => Ok(n),
-            #[cfg(feature = "zenoh")]
-            RosNode::Zenoh(n) => Err(crate::error::Error::Config {
-                setting: "RMW_IMPLEMENTATION",
-                value: "rmw_zenoh_cpp".into(),
-                reason: format!(
-                    "{what} on node {}: not over Zenoh yet in radar_ros (docs/zenoh.md, step 6); run this \
-                     program over DDS (unset RMW_IMPLEMENTATION)",
-                    n.node.fully_qualified_name()
-                ),
-            }),
         }
     }
 }
@@ -174,7 +157,7 @@ where
 pub(crate) type EndpointId = ros2_client::dds::rustdds::GUID;
 /// Actions: clients, servers, goal and cancel handles.
 pub(crate) use ros2_client::action;
-pub(crate) use ros2_client::dds::{ActionClient, ActionServer, ServiceMapping};
+pub(crate) use ros2_client::dds::ServiceMapping;
 
 /// What a failed write gives back (the message, and why), whichever transport it was on.
 pub(crate) type WriteError<M> = ros2_client::WriteError<M>;

@@ -220,13 +220,14 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
 fn topic(node: &Node, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topic> {
     let name = topic_name(abs)?;
     let (package, rest) = ty.ros.split_once('/').unwrap_or(("", &ty.ros));
-    let base = rest.rsplit('/').next().unwrap_or(rest);
-    if rest.starts_with("action/") {
+    let (kind, base) = rest.split_once('/').unwrap_or(("msg", rest));
+    if !matches!(kind, "msg" | "action") {
         return Err(Error::InvalidName {
             name: ty.ros.clone(),
-            reason: "a topic over Zenoh carries a message type (package/msg/Name), not an action's part (actions \
-                     are not over Zenoh yet in radar_ros)"
-                .into(),
+            reason:
+                "a topic over Zenoh carries a message type (package/msg/Name) or an action's part \
+                     (package/action/Name_Feedback)"
+                    .into(),
         });
     }
     if let Some(hash) = ty.hash {
@@ -235,5 +236,6 @@ fn topic(node: &Node, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topi
             reason,
         })?;
     }
-    Ok(node.create_topic(&name, MessageTypeName::new(package, base), qos))
+    let ty = MessageTypeName::new_prefix(package, base, kind.to_owned());
+    Ok(node.create_topic(&name, ty, qos))
 }

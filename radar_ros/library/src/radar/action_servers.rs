@@ -3,7 +3,6 @@
 
 use crate::components::action::server::{serve, ActionServerHandle, ServerIo};
 use crate::components::action::{wire::action_server, Action};
-use crate::node::transport::action::AsyncActionServer;
 use crate::{
     error::{Error, Result},
     radar::Radar,
@@ -62,7 +61,7 @@ impl Radar {
         )?;
         let mut claimed = self.participant().claim_node(&node_name)?;
         let server = action_server::<A>(&mut claimed.node, &action_fq)?;
-        let server = Arc::new(AsyncActionServer::new(server));
+        let server = Arc::new(server);
         let name = r.name().clone();
         let io = ServerIo::<A> {
             start: self.signal_publisher::<A::Goal>(start_slot.topic())?,

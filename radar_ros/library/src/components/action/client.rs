@@ -6,11 +6,8 @@ use std::{
     time::Duration,
 };
 
+use crate::node::transport::action::{GoalId, GoalStatusEnum};
 use futures::{FutureExt, StreamExt};
-use ros2_client::{
-    action::{GoalId, GoalStatusEnum},
-    RmwRequestId,
-};
 
 use radar_semantics::goal::{Answer, Cancel, GoalMachine, GoalStatus, RunEnd};
 
@@ -22,6 +19,7 @@ use crate::{
     components::response::{accepted, hand_over, Response, ResponseHandle},
     error::SlotError,
     graph::Graph,
+    node::actions::{Call, Outcome},
     node::endpoints::{emit, Watched},
     wire::refs::{AsResponse, ResponseRef, Signal},
     StartPolicy,
@@ -137,17 +135,26 @@ impl std::fmt::Debug for ActionResponseHandle {
     }
 }
 
-/// The goal of the current run: what the rules know of it ([`GoalMachine`], rules A1-A7) and the requests
+/// The goal of the current run: what the rules know of it ([`GoalMachine`], rules A1-A7) and the calls
 /// that carry it on the wire.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct GoalTrack {
+pub(crate) struct GoalTrack<R: Clone> {
     /// What the rules know of the goal, and decide.
     pub(crate) rules: GoalMachine,
-    /// The goal request sent and its goal id.
-    pub(crate) sent: Option<(RmwRequestId, GoalId)>,
-    /// The result request sent for it: a server may answer only one per goal (ros2-client's does), so a
+    /// The goal call sent and its goal id.
+    pub(crate) sent: Option<(Call<bool>, GoalId)>,
+    /// The result call sent for it: a server may answer only one per goal (ros2-client's does), so a
     /// cancel waits for the answer to this one rather than asking again.
-    pub(crate) result_req: Option<RmwRequestId>,
+    pub(crate) result_req: Option<Call<Outcome<Wire<R>>>>,
+}
+
+impl<R: Clone> Default for GoalTrack<R> {
+    fn default() -> Self {
+        GoalTrack {
+            rules: GoalMachine::default(),
+            sent: None,
+            result_req: None,
+        }
+    }
 }
 
 /// The response behaviour that drives an action server.
@@ -156,7 +163,7 @@ pub(crate) struct ActionProxy<A: Action> {
     pub(crate) graph: Graph,
     pub(crate) action: String,
     pub(crate) feedback: Arc<Watched<crate::node::transport::Publisher<A::Feedback>>>,
-    pub(crate) goal: Arc<Mutex<GoalTrack>>,
+    pub(crate) goal: Arc<Mutex<GoalTrack<A::Result>>>,
     pub(crate) options: ActionResponseOptions,
     /// Whether this process serves the action itself (its endpoints are matched locally, unseen by
     /// discovery).
@@ -249,7 +256,7 @@ impl<A: Action> ActionProxy<A> {
     /// Carries out a slot's decision about the goal (rules A4-A6): cancels it (at once, or once the answer
     /// still to come accepts it) and hands the result the server reports over to `exited`.
     async fn cancel(&self, decision: Cancel) {
-        let Some((req, goal_id)) = self.goal.lock().unwrap().sent else {
+        let Some((req, goal_id)) = self.goal.lock().unwrap().sent.clone() else {
             return;
         };
         let client = &self.client;
@@ -260,8 +267,8 @@ impl<A: Action> ActionProxy<A> {
                 Cancel::Now => Cancel::Now,
                 // rule A5: the answer is still to come; a canceled goal must not start running afterwards
                 Cancel::OnceAccepted => {
-                    let accepted = match client.goal_client().async_receive_response(req).await {
-                        Ok(r) => r.accepted,
+                    let accepted = match client.goal_answer(&req).await {
+                        Ok(accepted) => accepted,
                         Err(e) => {
                             tracing::warn!(action = %self.action, error = ?e, "no answer to the goal");
                             false
@@ -273,27 +280,20 @@ impl<A: Action> ActionProxy<A> {
             if decision != Cancel::Now {
                 return;
             }
-            match client
-                .async_cancel_goal(goal_id, ros2_client::builtin_interfaces::Time::ZERO)
-                .await
-            {
-                Ok(r) => {
-                    tracing::debug!(action = %self.action, code = ?r.return_code, "cancel answered")
+            match client.cancel(goal_id).await {
+                Ok(code) => {
+                    tracing::debug!(action = %self.action, %code, "cancel answered")
                 }
                 Err(e) => {
                     tracing::warn!(action = %self.action, error = ?e, "cancel request failed")
                 }
             }
-            let result_req = match self.goal.lock().unwrap().result_req {
+            let result_req = match self.goal.lock().unwrap().result_req.clone() {
                 Some(r) => Ok(r),
                 None => client.request_result(goal_id),
             };
             let result = match result_req {
-                Ok(r) => client
-                    .result_client()
-                    .async_receive_response(r)
-                    .await
-                    .map(|r| (r.status, r.result)),
+                Ok(r) => client.result(&r).await,
                 Err(e) => {
                     tracing::warn!(action = %self.action, error = ?e, "could not ask for the result");
                     return;
@@ -329,43 +329,40 @@ impl<A: Action> Response for ActionProxy<A> {
         let client = self.client.clone();
         let (req, goal_id) = client
             .send_goal(Wire(goal))
-            .map_err(|e| self.failed(format_args!("could not send the goal: {e:?}")))?;
+            .map_err(|e| self.failed(format_args!("could not send the goal: {e}")))?;
         {
             let mut g = self.goal.lock().unwrap();
-            g.sent = Some((req, goal_id));
+            g.sent = Some((req.clone(), goal_id));
             g.rules.sent(); // rule A1
         }
         let answer = futures::select_biased! {
-            r = client.goal_client().async_receive_response(req).fuse() =>
-                r.map_err(|e| self.failed(format_args!("the goal's answer did not decode: {e:?}")))?,
+            r = client.goal_answer(&req).fuse() =>
+                r.map_err(|e| self.failed(format_args!("the goal's answer did not come: {e}")))?,
             gone = self.server_gone(server).fuse() => {
                 let _ = self.goal.lock().unwrap().rules.server_left(); // rule A7
                 return Err(gone);
             }
         };
-        match self.goal.lock().unwrap().rules.answered(answer.accepted) {
+        match self.goal.lock().unwrap().rules.answered(answer) {
             Answer::Rejected => return Err(self.failed("goal rejected by the action server")), // rule A3
             Answer::Started => accepted(), // rule A2
         }
         let feedback = self.feedback.clone();
         // feedback is forwarded while the goal runs; if its stream ended the result is still awaited (B10)
         let forward = client
-            .feedback_stream(goal_id)
-            .for_each(|f| {
-                if let Ok(Wire(f)) = f {
-                    emit(&feedback, "feedback", f);
-                }
+            .feedback(goal_id)
+            .for_each(|Wire(f)| {
+                emit(&feedback, "feedback", f);
                 async {}
             })
             .then(|()| std::future::pending::<()>());
         let result_req = client
             .request_result(goal_id)
-            .map_err(|e| self.failed(format_args!("could not ask for the result: {e:?}")))?;
-        self.goal.lock().unwrap().result_req = Some(result_req);
+            .map_err(|e| self.failed(format_args!("could not ask for the result: {e}")))?;
+        self.goal.lock().unwrap().result_req = Some(result_req.clone());
         let (status, Wire(result)) = futures::select_biased! {
-            r = client.result_client().async_receive_response(result_req).fuse() =>
-                r.map(|r| (r.status, r.result))
-                    .map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e:?}")))?,
+            r = client.result(&result_req).fuse() =>
+                r.map_err(|e| self.failed(format_args!("the goal's result did not arrive: {e}")))?,
             gone = self.server_gone(server).fuse() => {
                 let _ = self.goal.lock().unwrap().rules.server_left(); // rule A7
                 return Err(gone);

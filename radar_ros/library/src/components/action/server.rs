@@ -3,7 +3,8 @@
 
 use std::{sync::Arc, time::Duration};
 
-use crate::node::transport::action::{AsyncActionServer, GoalEndStatus, GoalId};
+use crate::node::action_server::{CancelRequest, Goal, NewGoal};
+use crate::node::transport::action::{GoalEndStatus, GoalId};
 
 use radar_semantics::{
     response::ExitReason,
@@ -67,19 +68,16 @@ pub(crate) struct ServerIo<A: Action> {
     pub(crate) state: crate::SignalSubscription<ResponseState>,
 }
 
-type Server<A> = AsyncActionServer<
-    Wire<<A as Action>::Goal>,
-    Wire<<A as Action>::Result>,
-    Wire<<A as Action>::Feedback>,
->;
+use super::wire::Server;
 
 /// Numbers the statements of served actions (R13): far above any connection's number, so that a manager of
 /// the same participant never takes one for its own.
 static SERVER_STATEMENTS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1 << 48);
 
 enum Incoming<G> {
-    Goal(crate::node::transport::action::NewGoalHandle<Wire<G>>),
-    Cancel(crate::node::transport::action::CancelHandle),
+    /// A goal request, and its goal (`None`: it did not decode).
+    Goal(NewGoal<Wire<G>>, Option<Wire<G>>),
+    Cancel(CancelRequest),
 }
 
 /// Waits (at most [`REPLY_WAIT`] each) until every participant that has a request writer on the action's
@@ -104,14 +102,14 @@ async fn wait_callers(graph: &Graph, action: &str, service: ActionService) {
     }
 }
 
-/// The goal the server runs: the handle ros2-client gave for it, by how far it got.
+/// The goal the server runs, by how far it got.
 enum Handle<G> {
-    Accepted(crate::node::transport::action::AcceptedGoalHandle<Wire<G>>),
-    Executing(crate::node::transport::action::ExecutingGoalHandle<Wire<G>>),
+    Accepted(Goal<Wire<G>>),
+    Executing(Goal<Wire<G>>),
 }
 
-/// A goal just read: its handle and its payload.
-type NewGoal<G> = (crate::node::transport::action::NewGoalHandle<Wire<G>>, G);
+/// A goal just read: its request and its payload.
+type Fresh<G> = (NewGoal<Wire<G>>, G);
 
 /// What the rules look at: the response's last state and whether its start slot is matched.
 fn view(state: &Option<ResponseState>, on_graph: bool) -> ResponseView {
@@ -139,9 +137,9 @@ struct Serving<A: Action> {
     action: String,
     rules: ServedAction<GoalId, A::Result>,
     /// A goal just read, until the rules accept or reject it.
-    new: Option<NewGoal<A::Goal>>,
+    new: Option<Fresh<A::Goal>>,
     /// The cancel request just read, until the rules answer it.
-    cancel: Option<crate::node::transport::action::CancelHandle>,
+    cancel: Option<CancelRequest>,
     /// The current goal's handle.
     goal: Option<(GoalId, Handle<A::Goal>)>,
 }
@@ -238,7 +236,7 @@ impl<A: Action> Serving<A> {
     /// S5: feedback goes to the executing goal.
     async fn feedback(&self, f: A::Feedback) {
         if let Some((_, Handle::Executing(h))) = &self.goal {
-            if let Err(e) = self.server.publish_feedback(h.clone(), Wire(f)).await {
+            if let Err(e) = self.server.publish_feedback(h, Wire(f)).await {
                 tracing::debug!(action = %self.action, error = ?e, "feedback not sent");
             }
         }
@@ -253,14 +251,14 @@ fn read_requests<A: Action>(
     action: &str,
 ) -> (
     tokio::sync::mpsc::UnboundedReceiver<Incoming<A::Goal>>,
-    [tokio::task::JoinHandle<()>; 2],
+    [tokio::task::JoinHandle<()>; 3],
 ) {
     let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
     let (s, tx2, g, a) = (server.clone(), tx.clone(), graph.clone(), action.to_owned());
     let goals = tokio::spawn(async move {
-        while let Ok(h) = s.receive_new_goal().await {
+        while let Ok((h, goal)) = s.receive_new_goal().await {
             wait_callers(&g, &a, ActionService::SendGoal).await;
-            if tx2.send(Incoming::Goal(h)).is_err() {
+            if tx2.send(Incoming::Goal(h, goal)).is_err() {
                 break;
             }
         }
@@ -274,7 +272,9 @@ fn read_requests<A: Action>(
             }
         }
     });
-    (rx, [goals, cancels])
+    let s = server.clone();
+    let results = tokio::spawn(async move { s.answer_results().await });
+    (rx, [goals, cancels, results])
 }
 
 /// Resolves at `deadline` (ns since the epoch), never if there is none.
@@ -318,7 +318,7 @@ pub(crate) async fn serve<A: Action>(
         let effects = tokio::select! {
             _ = &mut stop => break,
             Some(inc) = incoming.recv() => match inc {
-                Incoming::Goal(h) => match s.server.get_new_goal(h.clone()) {
+                Incoming::Goal(h, goal) => match goal {
                     Some(Wire(goal)) => {
                         let id = h.goal_id();
                         s.new = Some((h, goal));
@@ -373,13 +373,7 @@ fn finish<A: Action>(
 ) {
     let (server, action) = (server.clone(), action.to_owned());
     tokio::spawn(async move {
-        let executing = match h {
-            Handle::Executing(e) => Some(e),
-            Handle::Accepted(h) => server.start_executing_goal(h).await.ok(),
-        };
-        let Some(h) = executing else {
-            return;
-        };
+        let (Handle::Executing(h) | Handle::Accepted(h)) = h;
         let send = server.send_result_response(h, status, Wire(result));
         match tokio::time::timeout(Duration::from_secs(60), send).await {
             Ok(Ok(())) => tracing::debug!(%action, ?status, "goal result sent"),

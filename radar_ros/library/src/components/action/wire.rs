@@ -77,35 +77,81 @@ fn ros_name(fq: &str) -> Result<Name> {
     })
 }
 
-/// ros2-client's action client of `A`.
-pub(crate) type Client<A> = crate::node::transport::ActionClient<
+/// The action client of `A`, on the transport of its node.
+pub(crate) type Client<A> = crate::node::actions::ActionClient<
     Wire<<A as Action>::Goal>,
     Wire<<A as Action>::Result>,
     Wire<<A as Action>::Feedback>,
 >;
 
-/// ros2-client's action server of `A` (before it is made async).
-pub(super) type SyncServer<A> = crate::node::transport::ActionServer<
+/// The action server of `A`, on the transport of its node.
+pub(crate) type Server<A> = crate::node::action_server::ActionServer<
     Wire<<A as Action>::Goal>,
     Wire<<A as Action>::Result>,
     Wire<<A as Action>::Feedback>,
 >;
 
-/// The action client of `A` at the fully qualified `action` on `node`: the one way radar_ros makes one
-/// (enhanced mapping, signal QoS for the services and feedback, state QoS for the status).
+/// The action client of `A` at the fully qualified `action` on `node`: the one way radar_ros makes one (over DDS
+/// the enhanced mapping, signal QoS for the services and feedback, state QoS for the status; over Zenoh as
+/// rmw_zenoh's, the action's type hashes in its keys and tokens).
 pub(crate) fn action_client<A: Action>(
     node: &mut crate::node::transport::RosNode,
     action: &str,
 ) -> Result<Client<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Call, action);
-    node.dds("an action client")?
-        .create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-            crate::node::transport::ServiceMapping::Enhanced,
-            &ros_name(action)?,
-            &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
-            client_qos(),
-        )
-        .map_err(|e| Error::transport(format!("an action client for {action}"), e))
+    let name = ros_name(action)?;
+    let ty = ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME);
+    let what = || format!("an action client for {action}");
+    match node {
+        crate::node::transport::RosNode::Dds(node) => node
+            .create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+                crate::node::transport::ServiceMapping::Enhanced,
+                &name,
+                &ty,
+                client_qos(),
+            )
+            .map(crate::node::actions::ActionClient::Dds)
+            .map_err(|e| Error::transport(what(), e)),
+        #[cfg(feature = "zenoh")]
+        crate::node::transport::RosNode::Zenoh(z) => {
+            register_hashes::<A>()?;
+            z.node
+                .create_action_client::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+                    &name, &ty,
+                )
+                .map(|c| crate::node::actions::ActionClient::Zenoh(std::sync::Arc::new(c)))
+                .map_err(|e| Error::transport(what(), e))
+        }
+    }
+}
+
+/// Gives the Zenoh backend the hashes of `A`'s made-up types, which rmw_zenoh peers match on; an action
+/// without them is refused (its endpoints would be announced with a hash no rmw_zenoh peer matches).
+#[cfg(feature = "zenoh")]
+fn register_hashes<A: Action>() -> Result<()> {
+    let Some(h) = A::TYPE_HASHES else {
+        return Err(Error::InvalidName {
+            name: A::ros_type_name(),
+            reason: "an action over Zenoh needs its RIHS01 type hashes (Action::TYPE_HASHES), which rmw_zenoh \
+                     names in its keys: generate the action's Rust types with radar_idl (they carry them), or \
+                     copy them from rosidl's share/<pkg>/action/<Name>.json"
+                .into(),
+        });
+    };
+    let dds = |part: &str| format!("{}::action::dds_::{}_{part}_", A::PACKAGE, A::NAME);
+    for (part, hash) in [
+        ("SendGoal", h.send_goal),
+        ("GetResult", h.get_result),
+        ("FeedbackMessage", h.feedback_message),
+    ] {
+        ros2_client::zenoh::register_type_hash(&dds(part), hash).map_err(|reason| {
+            Error::InvalidName {
+                name: A::ros_type_name(),
+                reason,
+            }
+        })?;
+    }
+    Ok(())
 }
 
 /// The action server of `A` at the fully qualified `action` on `node`, made as [`action_client`] makes the
@@ -113,14 +159,38 @@ pub(crate) fn action_client<A: Action>(
 pub(crate) fn action_server<A: Action>(
     node: &mut crate::node::transport::RosNode,
     action: &str,
-) -> Result<SyncServer<A>> {
+) -> Result<Server<A>> {
     crate::node::declared::record_node(node, crate::node::declared::Access::Execute, action);
-    node.dds("an action server")?
-        .create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
-            crate::node::transport::ServiceMapping::Enhanced,
-            &ros_name(action)?,
-            &ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME),
-            server_qos(),
-        )
-        .map_err(|e| Error::transport(format!("an action server for {action}"), e))
+    let name = ros_name(action)?;
+    let ty = ros2_client::ActionTypeName::new(A::PACKAGE, A::NAME);
+    let what = || format!("an action server for {action}");
+    match node {
+        crate::node::transport::RosNode::Dds(node) => node
+            .create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+                crate::node::transport::ServiceMapping::Enhanced,
+                &name,
+                &ty,
+                server_qos(),
+            )
+            .map(|s| {
+                crate::node::action_server::ActionServer::Dds(
+                    crate::node::transport::action::AsyncActionServer::new(s),
+                )
+            })
+            .map_err(|e| Error::transport(what(), e)),
+        #[cfg(feature = "zenoh")]
+        crate::node::transport::RosNode::Zenoh(z) => {
+            register_hashes::<A>()?;
+            z.node
+                .create_action_server::<Wire<A::Goal>, Wire<A::Result>, Wire<A::Feedback>>(
+                    &name, &ty,
+                )
+                .map(|s| {
+                    crate::node::action_server::ActionServer::Zenoh(
+                        crate::node::action_server::ZenohGoals::new(s),
+                    )
+                })
+                .map_err(|e| Error::transport(what(), e))
+        }
+    }
 }

@@ -1,0 +1,221 @@
+//! Action clients on the transport of their node: over DDS ros2-client's `ActionClient` (requests and replies
+//! matched by request id), over Zenoh ros2-client's Zenoh `ActionClient` (each call one query, its answer one
+//! future). What `components/action/client.rs` needs of either: send a goal and await its answer (from the
+//! start slot and, rule A5, from a cancel), ask for the result once per goal and await it, cancel, read a goal's
+//! feedback.
+
+#[cfg(feature = "zenoh")]
+use futures::FutureExt;
+use futures::{Stream, StreamExt};
+use ros2_client::{action::GoalId, action_msgs::GoalStatusEnum, RmwRequestId};
+
+use crate::error::Text;
+
+/// An action client, on the transport of its node (made once: the variants' sizes differ).
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum ActionClient<G, R, F>
+where
+    G: ros2_client::Message + Clone,
+    R: ros2_client::Message + Clone,
+    F: ros2_client::Message,
+{
+    /// Over DDS.
+    Dds(ros2_client::dds::ActionClient<G, R, F>),
+    /// Over Zenoh, as rmw_zenoh's: queries on the `send_goal`, `get_result` and `cancel_goal` services.
+    #[cfg(feature = "zenoh")]
+    Zenoh(std::sync::Arc<ros2_client::zenoh::ActionClient<G, R, F>>),
+}
+
+/// A call sent, whose answer may be awaited more than once (the start slot, then a cancel: rule A5).
+#[derive(Clone)]
+pub(crate) enum Call<T: Clone> {
+    /// Over DDS: the request's id; the reply is read by it.
+    Dds(RmwRequestId),
+    /// Over Zenoh: the query, sent at once by a task of its own, and its answer.
+    #[cfg(feature = "zenoh")]
+    Zenoh(futures::future::Shared<futures::future::BoxFuture<'static, Result<T, Text>>>),
+    #[cfg(not(feature = "zenoh"))]
+    #[allow(dead_code)] // `T` is Zenoh's only
+    Never(std::marker::PhantomData<T>),
+}
+
+/// A goal's end as the result call says it: its status and result.
+pub(crate) type Outcome<R> = (GoalStatusEnum, R);
+
+/// The wire's status code as `action_msgs/msg/GoalStatus` numbers it (anything else: unknown).
+#[cfg(feature = "zenoh")]
+fn status_of(code: i8) -> GoalStatusEnum {
+    use GoalStatusEnum as E;
+    [
+        E::Unknown,
+        E::Accepted,
+        E::Executing,
+        E::Canceling,
+        E::Succeeded,
+        E::Canceled,
+        E::Aborted,
+    ]
+    .into_iter()
+    .find(|s| *s as i8 == code)
+    .unwrap_or(E::Unknown)
+}
+
+/// `work` run now in a task of its own, its answer awaitable by any number of clones (a query goes out when
+/// its future is first polled: a task polls it at once, as DDS writes a request at once).
+#[cfg(feature = "zenoh")]
+fn sent<T: Clone + Send + Sync + 'static>(
+    work: impl std::future::Future<Output = Result<T, Text>> + Send + 'static,
+) -> Call<T> {
+    let task = tokio::spawn(work);
+    Call::Zenoh(
+        task.map(|r| r.unwrap_or_else(|e| Err(Text(format!("the call's task ended: {e}")))))
+            .boxed()
+            .shared(),
+    )
+}
+
+impl<G, R, F> ActionClient<G, R, F>
+where
+    G: ros2_client::Message + Clone + Send + Sync + 'static,
+    R: ros2_client::Message + Clone + Send + Sync + 'static,
+    F: ros2_client::Message + Send + Sync + 'static,
+{
+    /// Sends `goal` with a new goal id.
+    pub(crate) fn send_goal(&self, goal: G) -> Result<(Call<bool>, GoalId), Text> {
+        match self {
+            ActionClient::Dds(c) => c
+                .send_goal(goal)
+                .map(|(req, id)| (Call::Dds(req), id))
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            ActionClient::Zenoh(c) => {
+                let (c, id) = (c.clone(), GoalId::new_random());
+                let call = sent(async move {
+                    c.async_send_goal(id, goal)
+                        .await
+                        .map(|r| r.accepted)
+                        .map_err(|e| Text(e.to_string()))
+                });
+                Ok((call, id))
+            }
+        }
+    }
+
+    /// Whether the server accepted the goal `call` sent.
+    pub(crate) async fn goal_answer(&self, call: &Call<bool>) -> Result<bool, Text> {
+        match (self, call) {
+            (ActionClient::Dds(c), Call::Dds(req)) => c
+                .goal_client()
+                .async_receive_response(*req)
+                .await
+                .map(|r| r.accepted)
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            (_, Call::Zenoh(answer)) => answer.clone().await,
+            _ => Err(Text("a call of another transport".into())),
+        }
+    }
+
+    /// Asks for goal `goal`'s result (once per goal: a server may answer only one request for it).
+    pub(crate) fn request_result(&self, goal: GoalId) -> Result<Call<Outcome<R>>, Text> {
+        match self {
+            ActionClient::Dds(c) => c
+                .request_result(goal)
+                .map(Call::Dds)
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            ActionClient::Zenoh(c) => {
+                let c = c.clone();
+                Ok(sent(async move { zenoh_result(&c, goal).await }))
+            }
+        }
+    }
+
+    /// The goal's status and result, as `call` asked for them.
+    pub(crate) async fn result(&self, call: &Call<Outcome<R>>) -> Result<Outcome<R>, Text> {
+        match (self, call) {
+            (ActionClient::Dds(c), Call::Dds(req)) => c
+                .result_client()
+                .async_receive_response(*req)
+                .await
+                .map(|r| (r.status, r.result))
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            (_, Call::Zenoh(answer)) => answer.clone().await,
+            _ => Err(Text("a call of another transport".into())),
+        }
+    }
+
+    /// Asks the server to cancel goal `goal`; its answer's return code.
+    pub(crate) async fn cancel(&self, goal: GoalId) -> Result<String, Text> {
+        match self {
+            ActionClient::Dds(c) => c
+                .async_cancel_goal(goal, ros2_client::builtin_interfaces::Time::ZERO)
+                .await
+                .map(|r| format!("{:?}", r.return_code))
+                .map_err(|e| Text(format!("{e:?}"))),
+            #[cfg(feature = "zenoh")]
+            ActionClient::Zenoh(c) => c
+                .async_cancel_goal(goal)
+                .await
+                .map(|r| format!("{:?}", r.return_code))
+                .map_err(|e| Text(e.to_string())),
+        }
+    }
+
+    /// Goal `goal`'s feedback as it comes (others' goals left out; a message that does not decode skipped).
+    pub(crate) fn feedback(&self, goal: GoalId) -> impl Stream<Item = F> + '_ {
+        #[cfg(not(feature = "zenoh"))]
+        {
+            let ActionClient::Dds(c) = self;
+            c.feedback_stream(goal)
+                .filter_map(|f| std::future::ready(f.ok()))
+        }
+        #[cfg(feature = "zenoh")]
+        match self {
+            ActionClient::Dds(c) => futures::future::Either::Left(
+                c.feedback_stream(goal)
+                    .filter_map(|f| std::future::ready(f.ok())),
+            ),
+            ActionClient::Zenoh(c) => futures::future::Either::Right(
+                c.feedback_subscription()
+                    .async_stream()
+                    .take_while(|r| {
+                        std::future::ready(!matches!(r, Err(ros2_client::ReadError::Closed)))
+                    })
+                    .filter_map(move |r| {
+                        std::future::ready(match r {
+                            Ok((m, _)) if m.goal_id == goal => Some(m.feedback),
+                            _ => None,
+                        })
+                    }),
+            ),
+        }
+    }
+}
+
+/// Over Zenoh, the goal's result: asked again when the query timed out while the goal ran (a query lives a
+/// minute, a goal may run longer), not when no server answered at all.
+#[cfg(feature = "zenoh")]
+async fn zenoh_result<G, R, F>(
+    c: &ros2_client::zenoh::ActionClient<G, R, F>,
+    goal: GoalId,
+) -> Result<Outcome<R>, Text>
+where
+    G: serde::Serialize,
+    R: serde::de::DeserializeOwned,
+    F: serde::de::DeserializeOwned,
+{
+    loop {
+        let asked = std::time::Instant::now();
+        match c.async_get_result(goal).await {
+            Ok((code, r)) => return Ok((status_of(code), r)),
+            Err(ros2_client::ServiceError::NoReply)
+                if asked.elapsed() >= std::time::Duration::from_secs(30) =>
+            {
+                tracing::debug!("no result within the query's timeout; asking again")
+            }
+            Err(e) => return Err(Text(e.to_string())),
+        }
+    }
+}
