@@ -148,7 +148,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         "--no-run",
     ]);
     check(&cargo(&no_run), "building radar_ros's Zenoh tests");
-    // zenoh_listings.rs runs the paper's listings as the example programs, over Zenoh
+    // zenoh_listings.rs runs the paper's listings as the example programs, over Zenoh; zenoh_actions.rs the
+    // action examples
     check(
         &cargo(&[
             "build",
@@ -158,8 +159,12 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "zenoh",
             "--example",
             "deliberative",
+            "--example",
+            "fibonacci_action",
+            "--example",
+            "goal_until",
         ]),
-        "building the deliberative example with the zenoh feature",
+        "building the deliberative and action examples with the zenoh feature",
     );
     let out = check(
         &cargo(&netns),

@@ -17,7 +17,10 @@
 //! - a response served as an action (`Radar::serve_as_action`, rules S1-S7) over Zenoh, driven by an action
 //!   client written from the design document (tests/python/zenoh_action_client.py), a fresh process per goal:
 //!   a goal runs to SUCCEEDED with feedback and the status EXECUTING, a goal canceled mid-run ends CANCELED
-//!   and interrupts the response, a goal while another runs is rejected.
+//!   and interrupts the response, a goal while another runs is rejected;
+//! - two radar_ros programs, as a user runs the action examples: `fibonacci_action` serves a response as an
+//!   action, `goal_until`'s `once go start fibonacci until bumper` cancels its goal mid-way, after the
+//!   goal's feedback reached it; the server ends cleanly on SIGINT, its goal ended interrupted.
 //!
 //! No settling sleeps: each wait is on a signal, a state or the peer's line. Domain 148. Needs the venv
 //! (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by tests/zenoh_feature.rs.
@@ -210,6 +213,7 @@ async fn an_action_server_over_zenoh_is_a_radar_response() {
     server.close();
 
     served_to_a_design_document_client(&radar).await;
+    the_action_examples_drive_each_other().await;
 }
 
 /// A response that computes the sequence of a goal's order, one number every 50 ms, publishing the sequence
@@ -322,4 +326,84 @@ async fn served_to_a_design_document_client(radar: &Radar) {
     assert_eq!(done["status"], 5, "CANCELED: {done}");
     let s = fib.state();
     assert_eq!((s.interrupts, s.completed), (1, 1), "{s:?}");
+}
+
+/// An example of this target directory (built with `--features zenoh`: tests/zenoh_feature.rs builds it).
+fn example(name: &str) -> std::path::PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let bin = exe
+        .parent()
+        .and_then(|deps| deps.parent())
+        .unwrap()
+        .join("examples")
+        .join(name);
+    assert!(
+        bin.exists(),
+        "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --example {name}` \
+         in this target directory (tests/zenoh_feature.rs does)",
+        bin.display()
+    );
+    bin
+}
+
+/// The example `name` over Zenoh (a peer of the router at rmw_zenoh's default endpoint), on this domain.
+fn run_example(name: &str) -> tokio::process::Command {
+    let mut cmd = tokio::process::Command::new(example(name));
+    cmd.env("RMW_IMPLEMENTATION", "rmw_zenoh_cpp")
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .kill_on_drop(true);
+    cmd
+}
+
+/// The stdout of an example that ended; fails unless it ended with success and wrote no error line.
+fn ended_cleanly(out: std::process::Output, what: &str) -> String {
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    println!("{what}:\n{stdout}{stderr}");
+    assert!(out.status.success(), "{what}: {stderr}");
+    assert!(
+        !stderr.lines().any(|l| l.contains("ERROR")),
+        "{what} logged an error: {stderr}"
+    );
+    stdout
+}
+
+/// Two radar_ros programs over Zenoh, as a user runs the action examples (README, "ROS 2 actions"):
+/// `fibonacci_action` serves a response as `/fibonacci`; `goal_until` runs `once go start fibonacci until
+/// bumper` against it, and the bumper cancels the goal mid-way: feedback, `interrupted`, then `exited`; the
+/// server, told to stop (SIGINT), ends cleanly having seen its goal end interrupted.
+async fn the_action_examples_drive_each_other() {
+    let server = run_example("fibonacci_action").spawn().unwrap();
+    let client = tokio::time::timeout(WAIT, run_example("goal_until").output())
+        .await
+        .expect("goal_until ends")
+        .unwrap();
+    let stdout = ended_cleanly(client, "goal_until");
+    assert!(stdout.contains("started: goal order 10"), "{stdout}");
+    assert!(
+        stdout.contains("interrupted: the bumper cancels the goal"),
+        "{stdout}"
+    );
+    let exited = stdout
+        .lines()
+        .find(|l| l.contains("exited: "))
+        .unwrap_or_else(|| panic!("no exited line: {stdout}"));
+    // the canceled goal's result is what the served response's `exited` carried (S3): an interrupted
+    // `FnResponse` exits with the default result
+    assert!(exited.ends_with("exited: [] (interrupted)"), "{exited}");
+    assert!(
+        stdout.contains("feedback [0, 1, 1, 2]"),
+        "the server's feedback reached the client's `feedback` signal: {stdout}"
+    );
+    unsafe { libc::kill(server.id().unwrap() as i32, libc::SIGINT) };
+    let out = tokio::time::timeout(WAIT, server.wait_with_output())
+        .await
+        .expect("fibonacci_action ends on SIGINT")
+        .unwrap();
+    let stdout = ended_cleanly(out, "fibonacci_action");
+    assert!(stdout.contains("goal 1 ended: interrupted"), "{stdout}");
 }
