@@ -8,16 +8,20 @@
 #   tests/isolated.sh cargo test --workspace
 #
 # Nothing inside the namespace reaches the internet, so first, outside it, this fetches the crates
-# (`cargo fetch`, also for the vendored RustDDS, whose unit tests tests/vendored_rustdds.rs runs, and the
-# crates.io RustDDS that tests/user_crate.rs builds radar_ros's guard against) and builds
+# (`cargo fetch`, also for the vendored RustDDS and ros2-client, whose unit tests tests/vendored_rustdds.rs and
+# tests/vendored_ros2_client_zenoh.rs run, and the crates.io RustDDS that tests/user_crate.rs builds radar_ros's
+# guard against) and builds
 # the rclpy venv of the interop tests (tests/python_env.sh, cached; exported as RADAR_VENV). If the venv
 # cannot be built the other tests still run and the interop tests fail, saying why.
 set -euo pipefail
 if [ "${RADAR_ISOLATED:-}" = 1 ]; then exec "$@"; fi
 here=$(cd "$(dirname "$0")" && pwd)
 if [ "${1:-}" = cargo ]; then
+  # the vendored ros2-client's lock starts from the workspace's (its Zenoh crates pinned as the workspace's)
   (cd "$here/.." && cargo fetch --quiet && cargo fetch --quiet --manifest-path third_party/rustdds/Cargo.toml \
-    && cargo fetch --quiet --manifest-path tests/fixtures/crates_io_rustdds/Cargo.toml)
+    && cargo fetch --quiet --manifest-path tests/fixtures/crates_io_rustdds/Cargo.toml \
+    && { [ -f third_party/ros2-client/Cargo.lock ] || cp Cargo.lock third_party/ros2-client/Cargo.lock; } \
+    && cargo fetch --quiet --manifest-path third_party/ros2-client/Cargo.toml)
 fi
 if venv=$("$here/python_env.sh"); then
   export RADAR_VENV="$venv"
