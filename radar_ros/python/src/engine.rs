@@ -158,9 +158,12 @@ impl PyEngine {
     ) -> PyResult<Self> {
         init_logs();
         let st = timeout(shutdown_timeout)?;
+        // the threads made from here on (the runtime's, the transport's) never take Ctrl-C or SIGTERM
+        let _blocked = SignalsBlocked::here();
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
             .thread_name("radar-engine")
+            .on_thread_start(|| std::mem::forget(SignalsBlocked::here()))
             .enable_all()
             .build()
             .map_err(|e| {
@@ -483,4 +486,36 @@ fn forward_states<M: radar_ros::msg::RosMessage>(
             }
         }
     }))
+}
+
+/// SIGINT and SIGTERM blocked in the calling thread until this is dropped (the thread's mask before is put
+/// back). A thread inherits its maker's mask, so threads made meanwhile never take these signals: the kernel
+/// hands them to a thread that does not block them, and Python acts on them only in its main thread. Taken
+/// by another thread (the engine's, the transport's), Python notes the signal but a main thread asleep in
+/// `time.sleep` is not woken, and Ctrl-C seems to do nothing until the sleep ends.
+struct SignalsBlocked(libc::sigset_t);
+
+impl SignalsBlocked {
+    fn here() -> SignalsBlocked {
+        // SAFETY: sigset_t is plain data, initialised by sigemptyset; pthread_sigmask changes only this
+        // thread's mask
+        unsafe {
+            let mut set: libc::sigset_t = std::mem::zeroed();
+            libc::sigemptyset(&mut set);
+            libc::sigaddset(&mut set, libc::SIGINT);
+            libc::sigaddset(&mut set, libc::SIGTERM);
+            let mut before: libc::sigset_t = std::mem::zeroed();
+            libc::pthread_sigmask(libc::SIG_BLOCK, &set, &mut before);
+            SignalsBlocked(before)
+        }
+    }
+}
+
+impl Drop for SignalsBlocked {
+    fn drop(&mut self) {
+        // SAFETY: puts back the mask pthread_sigmask gave, in the thread that took it
+        unsafe {
+            libc::pthread_sigmask(libc::SIG_SETMASK, &self.0, std::ptr::null_mut());
+        }
+    }
 }

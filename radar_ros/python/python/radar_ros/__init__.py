@@ -287,6 +287,14 @@ def _begun_after_first_step(coro: Any, begun: Callable[[], None]) -> Generator[A
                 return done.value
 
 
+def _main_thread_signals_only() -> None:
+    """Blocks SIGINT and SIGTERM in the calling thread (one of this package's), so that the kernel hands them
+    to the main thread: Python acts on a signal only there, and a main thread asleep in ``time.sleep`` is woken
+    only by a signal it takes itself (taken by another thread, Ctrl-C would wait for the sleep to end)."""
+    if hasattr(_signal_module, "pthread_sigmask"):
+        _signal_module.pthread_sigmask(_signal_module.SIG_BLOCK, {_signal_module.SIGINT, _signal_module.SIGTERM})
+
+
 async def _in_thread(
     fn: Callable[..., Any], args: Tuple[Any, ...], name: str, begun: Optional[Callable[[], None]] = None
 ) -> Any:
@@ -303,6 +311,7 @@ async def _in_thread(
                 fut.set_result(value)
 
     def work() -> None:
+        _main_thread_signals_only()
         try:
             try:
                 if begun is not None:
@@ -791,6 +800,7 @@ class Radar:
             _signal_module.signal(_signal_module.SIGTERM, _on_sigterm)
 
     def _run_loop(self) -> None:
+        _main_thread_signals_only()
         asyncio.set_event_loop(self._loop)
         self._loop.run_forever()
 
