@@ -21,7 +21,6 @@ venv's `share/` JSON files.
 """
 
 import importlib
-import json
 import os
 import sys
 import threading
@@ -31,7 +30,7 @@ import zenoh
 from rclpy.serialization import deserialize_message, serialize_message
 
 from zenoh_action_server import attachment, rosidl_hash
-from zenoh_peer import mangle, out
+from zenoh_peer import mangle, out, session_config
 
 # rosidl's generated classes have no type stubs: taken as `Any`
 GoalStatusArray: Any = importlib.import_module("action_msgs.msg").GoalStatusArray
@@ -183,13 +182,7 @@ def run(session: zenoh.Session, domain: str, action: str, order: int, cancel_on_
 def main() -> None:
     router, domain, action, order = sys.argv[1:5]
     cancel_on_stdin = sys.argv[5:6] == ["cancel"]
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", json.dumps([router]))
-    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
-    with zenoh.open(conf) as session:
+    with zenoh.open(session_config(router)) as session:
         run(session, domain, action, int(order), cancel_on_stdin)
 
 

@@ -42,7 +42,7 @@ from typing import Any, Optional
 import zenoh
 from rclpy.serialization import deserialize_message, serialize_message
 
-from zenoh_peer import mangle, out
+from zenoh_peer import mangle, out, session_config
 
 # rosidl's generated classes have no type stubs: taken as `Any`
 _msgs: Any = importlib.import_module("action_msgs.msg")
@@ -265,13 +265,7 @@ class Server:
 
 def main() -> None:
     router, domain, action = sys.argv[1:4]
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", json.dumps([router]))
-    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
-    with zenoh.open(conf) as session:
+    with zenoh.open(session_config(router)) as session:
         server = Server(session, domain, action)
         out({"up": server.zid})
         for _ in sys.stdin:

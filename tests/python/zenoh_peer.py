@@ -82,6 +82,19 @@ def mangle(name: str) -> str:
     return name.replace("/", "%") if name not in ("", "/") else "%"
 
 
+def session_config(router: str, mode: str = "peer") -> zenoh.Config:
+    """A session as rmw_zenoh's default one: `mode` (peer, or client of the router), connected to the router,
+    a peer listening on loopback, gossip scouting on, multicast scouting off."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", json.dumps(mode))
+    conf.insert_json5("connect/endpoints", json.dumps([router]))
+    if mode == "peer":
+        conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("scouting/gossip/enabled", "true")
+    return conf
+
+
 def rosidl_hash(ros_type: str) -> str:
     pkg, kind, name = ros_type.split("/")
     share = Path(sys.prefix) / "share" / pkg / kind / f"{name}.json"
@@ -100,13 +113,7 @@ def main() -> None:
     dds_type = f"{pkg}::{kind}::dds_::{name}_"
     type_hash = rosidl_hash(ros_type)
 
-    conf = zenoh.Config()
-    conf.insert_json5("mode", json.dumps(mode))
-    conf.insert_json5("connect/endpoints", json.dumps([router]))
-    if mode == "peer":
-        conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
+    conf = session_config(router, mode)
     # rmw_zenoh's session stamps samples; an advanced publisher's cache needs it
     conf.insert_json5("timestamping/enabled", "true")
     with zenoh.open(conf) as session:

@@ -27,7 +27,7 @@ from typing import Any
 import zenoh
 from rclpy.serialization import deserialize_message, serialize_message
 
-from zenoh_peer import mangle, out, set_fields, to_dict
+from zenoh_peer import mangle, out, session_config, set_fields, to_dict
 
 NODE = "zenoh_service_client"
 # the design document's default service QoS: reliable, volatile, keep last 10
@@ -46,13 +46,7 @@ def main() -> None:
     type_hash = str(doc["type_hashes"][0]["hash_string"])
     assert doc["type_hashes"][0]["type_name"] == srv_type, doc["type_hashes"][0]
 
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", json.dumps([router]))
-    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("scouting/gossip/enabled", "true")
-    with zenoh.open(conf) as session:
+    with zenoh.open(session_config(router)) as session:
         zid = str(session.info.zid())
         server = threading.Event()
         wanted = "/SS/%/"
