@@ -386,6 +386,9 @@ mod tests {
     c.insert_json5("mode", "\"peer\"").unwrap();
     c.insert_json5("scouting/multicast/enabled", "false")
       .unwrap();
+    // the status topic is transient local (an advanced publisher), which needs timestamps, as in rmw_zenoh's
+    // session
+    c.insert_json5("timestamping/enabled", "true").unwrap();
     c.insert_json5(
       "listen/endpoints",
       &format!("[\"tcp/127.0.0.1:{listen_port}\"]"),
@@ -663,6 +666,59 @@ mod tests {
     for (code, named) in codes {
       assert_eq!(code, named as i8, "{named:?}");
     }
+  }
+
+  /// radar_ros patch 21: the `status` topic is transient local, keep last 1, as rcl_action makes it: a
+  /// client that comes after the goal ended reads the last status array the server published (and only
+  /// that one), as a late `ros2 action info`-style observer over rmw_zenoh would.
+  #[test]
+  fn a_late_action_client_reads_the_last_status_array() {
+    use crate::{
+      ActionTypeName,
+      action_msgs::{GoalInfo, GoalStatus, GoalStatusEnum},
+      builtin_interfaces::Time,
+    };
+
+    let srv_ctx =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(17549, None))).unwrap();
+    let srv_node = srv_ctx
+      .new_node(NodeName::new("/", "late_status_server").unwrap(), NodeOptions::new())
+      .unwrap();
+    let atype = ActionTypeName::new("action_tutorials_interfaces", "Fibonacci");
+    let name = Name::new("/", "late_status").unwrap();
+    let server: ActionServer<FibGoal, FibResult, FibFeedback> =
+      srv_node.create_action_server(&name, &atype).unwrap();
+    let goal_id = GoalId::new_random();
+    let array = |status| {
+      vec![GoalStatus {
+        goal_info: GoalInfo { goal_id, stamp: Time::ZERO },
+        status,
+      }]
+    };
+    server.publish_status(array(GoalStatusEnum::Executing)).unwrap();
+    server.publish_status(array(GoalStatusEnum::Succeeded)).unwrap();
+
+    // the client's session and node come after both publications
+    let cli_ctx =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(17550, Some(17549))))
+        .unwrap();
+    let cli_node = cli_ctx
+      .new_node(NodeName::new("/", "late_status_client").unwrap(), NodeOptions::new())
+      .unwrap();
+    let client: ActionClient<FibGoal, FibResult, FibFeedback> =
+      cli_node.create_action_client(&name, &atype).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let read = loop {
+      if let Some(read) = client.take_status() {
+        break read;
+      }
+      assert!(Instant::now() < deadline, "a late client read no status array in 10 s");
+      std::thread::sleep(Duration::from_millis(10));
+    };
+    let read: Vec<_> = read.status_list.iter().map(|s| (s.goal_info.goal_id, s.status)).collect();
+    assert_eq!(read, vec![(goal_id, GoalStatusEnum::Succeeded)], "the last array, not the first");
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(client.take_status().is_none(), "keep last 1: the earlier array is not replayed");
   }
 
   /// radar_ros patch 20: the async calls of a client and the async reads of a server, each side in one

@@ -47,6 +47,19 @@ use crate::{
 /// time to finish). Bounded to avoid indefinite hangs; production may raise it.
 const GET_RESULT_TIMEOUT: Duration = Duration::from_secs(60);
 
+/// The QoS of an action's `status` topic, both ends, as rcl_action's
+/// `rcl_action_qos_profile_status_default`: reliable, transient local, keep
+/// last 1 (radar_ros patch 21). A client that comes after a goal changed
+/// state still reads the last status array (over Zenoh: an advanced publisher
+/// whose cache an advanced subscriber asks, as rmw_zenoh makes them).
+fn action_status_qos() -> QosProfile {
+  QosProfile {
+    durability: Durability::TransientLocal,
+    history: crate::qos::History::KeepLast { depth: 1 },
+    ..QosProfile::publisher_default()
+  }
+}
+
 /// A handle to a ROS 2 topic: its fully-qualified name, DDS-form type name, and
 /// QoS. Produced by [`Node::create_topic`].
 #[derive(Clone, Debug)]
@@ -470,7 +483,7 @@ impl Node {
     let status_topic = self.create_topic(
       &action_sub_name(&fqn, "status")?,
       MessageTypeName::new("action_msgs", "GoalStatusArray"),
-      &QosProfile::default(),
+      &action_status_qos(),
     );
     let status = self.create_subscription::<GoalStatusArray>(&status_topic, None)?;
     Ok(ActionClient::new(
@@ -515,7 +528,7 @@ impl Node {
     let status_topic = self.create_topic(
       &action_sub_name(&fqn, "status")?,
       MessageTypeName::new("action_msgs", "GoalStatusArray"),
-      &QosProfile::default(),
+      &action_status_qos(),
     );
     let status = self.create_publisher::<GoalStatusArray>(&status_topic, None)?;
     Ok(ActionServer::new(
