@@ -3,30 +3,39 @@ with the eclipse-zenoh wheel and rclpy's CDR, as `zenoh_action_server.py` is the
 radar_ros or ros2-client.
 
     python zenoh_action_client.py ROUTER_ENDPOINT DOMAIN ACTION ORDER [cancel]
+    python zenoh_action_client.py ROUTER_ENDPOINT DOMAIN ACTION watch
 
 Sends one `test_msgs/action/Fibonacci` goal of ORDER to the server at ACTION as an rclpy action client over
 rmw_zenoh would: under `<ACTION>/_action/`, clients of `send_goal`, `get_result` and `cancel_goal` (queries on
 `<domain>/<name>/<type>/<hash>` with the attachment: sequence number, time, the client's GID; `SC` tokens) and
 subscriptions to `feedback` and `status` (`MS` tokens), each named with the RIHS01 hash rosidl wrote into this
-venv's `share/` JSON files.
+venv's `share/` JSON files. The `status` subscription is rcl_action's: reliable, transient local, keep last 1,
+so as rmw_zenoh makes such a subscription since its 0.2.2, a zenoh-ext advanced subscriber that asks the
+publishers' caches (late ones too) for the last sample, its token's QoS saying transient local.
 
 - Waits (10 s at most) for the server's `SS` token of `send_goal` with that type and hash: {"server": key}.
-- Sends the goal with a random goal id: {"accepted": bool}. Rejected: ends.
+- Sends the goal with a random goal id: {"goal_id": hex}, then {"accepted": bool}. Rejected: ends.
 - Accepted: asks for the result at once (as rclpy's client does) and prints {"result": sequence,
   "status": code} when it comes; each feedback message of its goal: {"feedback": length of the sequence};
   each status array naming its goal: {"status": code}.
 - With `cancel`, when a line comes on stdin it asks to cancel the goal: {"cancel_answer": return code,
   "canceling": how many goals}.
 - {"error": text} when something does not come; ends after the result.
+
+With `watch` instead of an order it sends nothing: it subscribes to `status` only, as a late observer
+(`ros2 action info`'s peer, a monitoring node) would, prints the first status array it reads as
+{"statuses": [[goal id hex, code], ...]} and ends ({"error": ...} when none comes in 10 s).
 """
 
 import importlib
 import os
+import queue
 import sys
 import threading
 from typing import Any, Optional
 
 import zenoh
+import zenoh.ext
 from rclpy.serialization import deserialize_message, serialize_message
 
 from zenoh_action_server import attachment, rosidl_hash
@@ -38,6 +47,9 @@ CancelGoal: Any = importlib.import_module("action_msgs.srv").CancelGoal
 Fibonacci: Any = importlib.import_module("test_msgs.action").Fibonacci
 NODE = "zenoh_action_client"
 QOS = "::,10:,:,:,,"
+# rcl_action's status QoS (rcl_action_qos_profile_status_default): reliable, transient local (durability code
+# 1), keep last 1
+STATUS_QOS = ":1:,1:,:,:,,"
 
 
 class Client:
@@ -73,19 +85,30 @@ class Client:
         self.status_key = self.entity(
             "MS", "status", "action_msgs::msg::dds_::GoalStatusArray_",
             rosidl_hash("action_msgs", "msg", "GoalStatusArray", "action_msgs/msg/GoalStatusArray"),
+            STATUS_QOS,
         )
 
-    def entity(self, kind: str, part: str, dds_type: str, type_hash: str) -> str:
+    def entity(self, kind: str, part: str, dds_type: str, type_hash: str, qos: str = QOS) -> str:
         """Declares the token of entity `kind` on `<action>/_action/<part>`; its key expression."""
         self.entities += 1
         name = f"{self.action}/_action/{part}"
-        tail = f"/{mangle(name)}/{dds_type}/{type_hash}/{QOS}"
+        tail = f"/{mangle(name)}/{dds_type}/{type_hash}/{qos}"
         self.live.append(
             self.session.liveliness().declare_token(
                 f"@ros2_lv/{self.domain}/{self.zid}/0/{self.entities}/{kind}/%/%/{NODE}{tail}"
             )
         )
         return f"{self.domain}/{name.strip('/')}/{dds_type}/{type_hash}"
+
+    def status_subscriber(self, on_status: Any) -> Any:
+        """The `status` subscription as rmw_zenoh makes a transient-local, keep-last-1 one."""
+        return zenoh.ext.declare_advanced_subscriber(
+            self.session,
+            self.status_key,
+            on_status,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+            subscriber_detection=True,
+        )
 
     def call(self, key: str, request: Any, response_class: Any, timeout: float) -> Optional[Any]:
         """A query as rmw_zenoh's client sends one; the first reply, read as rclpy reads it."""
@@ -155,10 +178,11 @@ def run(session: zenoh.Session, domain: str, action: str, order: int, cancel_on_
 
     subs = [
         session.declare_subscriber(c.feedback_key, on_feedback),
-        session.declare_subscriber(c.status_key, on_status),
+        c.status_subscriber(on_status),
     ]
     req = Fibonacci.Impl.SendGoalService.Request()
     req.goal_id.uuid = goal_id
+    out({"goal_id": bytes(goal_id).hex()})
     req.goal.order = order
     answer = c.call(c.goal_key, req, Fibonacci.Impl.SendGoalService.Response, 10.0)
     if answer is None:
@@ -179,11 +203,31 @@ def run(session: zenoh.Session, domain: str, action: str, order: int, cancel_on_
     del subs
 
 
+def watch(session: zenoh.Session, domain: str, action: str) -> None:
+    c = Client(session, domain, action)
+    arrays: "queue.Queue[list[list[Any]]]" = queue.Queue()
+
+    def on_status(sample: zenoh.Sample) -> None:
+        msg = deserialize_message(sample.payload.to_bytes(), GoalStatusArray)
+        arrays.put([[bytes(s.goal_info.goal_id.uuid).hex(), int(s.status)] for s in msg.status_list])
+
+    sub = c.status_subscriber(on_status)
+    try:
+        out({"statuses": arrays.get(timeout=10.0)})
+    except queue.Empty:
+        out({"error": f"no status array of {action} in 10 s"})
+        sys.exit(1)
+    del sub
+
+
 def main() -> None:
     router, domain, action, order = sys.argv[1:5]
     cancel_on_stdin = sys.argv[5:6] == ["cancel"]
     with zenoh.open(session_config(router)) as session:
-        run(session, domain, action, int(order), cancel_on_stdin)
+        if order == "watch":
+            watch(session, domain, action)
+        else:
+            run(session, domain, action, int(order), cancel_on_stdin)
 
 
 if __name__ == "__main__":

@@ -251,7 +251,8 @@ fn fibonacci_response(radar: &Radar, name: &str) -> radar_ros::ResponseHandle {
 /// process as `ros2 action send_goal` sends one: a goal runs to its result (SUCCEEDED, 4) with feedback and
 /// the status array saying EXECUTING; a second goal is canceled mid-run (the cancel
 /// answered with the goal canceling; the result CANCELED, 5; the response interrupted); a goal while another
-/// runs is rejected (S2).
+/// runs is rejected (S2). Then a late observer (a fresh process subscribing to `status` only, transient local
+/// as rcl_action makes it) reads the last status array: both goals, SUCCEEDED and CANCELED.
 async fn served_to_a_design_document_client(radar: &Radar) {
     let fib = fibonacci_response(radar, "/za/fib_impl");
     let _served = radar
@@ -272,6 +273,7 @@ async fn served_to_a_design_document_client(radar: &Radar) {
     }
     let has = |key: &str, value: Value| said.iter().any(|v| v.get(key) == Some(&value));
     assert!(has("accepted", Value::from(true)), "{said:?}");
+    let first_goal = said.iter().find_map(|v| v.get("goal_id")).unwrap().clone();
     // EXECUTING (2) once the response said started (ACCEPTED before it, if the client's subscription was
     // routed by then: a volatile topic)
     assert!(has("status", Value::from(2)), "EXECUTING: {said:?}");
@@ -290,6 +292,7 @@ async fn served_to_a_design_document_client(radar: &Radar) {
 
     // a long goal (10 s), canceled mid-run; a second client's goal meanwhile is rejected
     let mut long = client("200", Some("cancel"));
+    let long_goal = peer_said(&mut long, "goal_id").await["goal_id"].clone();
     assert_eq!(peer_said(&mut long, "accepted").await["accepted"], true);
     peer_said(&mut long, "feedback").await;
     let mut second = client("3", None);
@@ -326,6 +329,25 @@ async fn served_to_a_design_document_client(radar: &Radar) {
     assert_eq!(done["status"], 5, "CANCELED: {done}");
     let s = fib.state();
     assert_eq!((s.interrupts, s.completed), (1, 1), "{s:?}");
+
+    // the rejected goal never entered the table (S2); the canceled one's end was the last change
+    let mut late = Proc::start(
+        "zenoh_action_client.py",
+        &["tcp/localhost:7447", "148", "/za/served", "watch"],
+    );
+    let seen = peer_said(&mut late, "statuses").await;
+    // in the table's order (by goal id)
+    let mut statuses: Vec<Value> = seen["statuses"].as_array().unwrap().clone();
+    statuses.sort_by_key(|s| s[0].as_str().map(str::to_owned));
+    let mut expected = vec![
+        serde_json::json!([first_goal, 4]),
+        serde_json::json!([long_goal, 5]),
+    ];
+    expected.sort_by_key(|s| s[0].as_str().map(str::to_owned));
+    assert_eq!(
+        statuses, expected,
+        "the last status array, read by a late subscriber"
+    );
 }
 
 /// An example of this target directory (built with `--features zenoh`: tests/zenoh_feature.rs builds it).
