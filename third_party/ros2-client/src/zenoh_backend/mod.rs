@@ -43,6 +43,12 @@ pub(crate) mod pubsub;
 // Services over queryable/get (need the `zenoh` crate).
 #[cfg(feature = "zenoh")]
 pub(crate) mod service;
+// A FIFO for Zenoh callbacks, quiet once its reader has gone (radar_ros patch 22).
+#[cfg(feature = "zenoh")]
+pub(crate) mod quiet_fifo;
+// Tests only: the ERROR events logged (radar_ros patch 22).
+#[cfg(all(test, feature = "zenoh"))]
+pub(crate) mod logged_errors;
 
 // Actions (services + topics; need the `zenoh` crate).
 #[cfg(feature = "zenoh")]

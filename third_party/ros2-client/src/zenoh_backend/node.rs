@@ -431,6 +431,7 @@ impl Node {
       .session()
       .declare_queryable(key)
       .complete(true)
+      .with(super::quiet_fifo::QuietFifo)
       .wait()?;
 
     let entity_id = self.next_entity_id.fetch_add(1, Ordering::Relaxed);
@@ -815,7 +816,7 @@ fn declare_receiver(
   qos: &QosProfile,
 ) -> CreateResult<super::pubsub::Receiver> {
   use zenoh_ext::{AdvancedSubscriberBuilderExt, HistoryConfig};
-  let builder = context.session().declare_subscriber(key);
+  let builder = context.session().declare_subscriber(key).with(super::quiet_fifo::QuietFifo);
   Ok(match qos.durability {
     Durability::Volatile => super::pubsub::Receiver::Plain(builder.wait()?),
     Durability::TransientLocal => super::pubsub::Receiver::History(

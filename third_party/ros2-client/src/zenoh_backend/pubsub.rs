@@ -26,7 +26,6 @@ use futures::stream::{self, FusedStream, StreamExt};
 use serde::{Serialize, de::DeserializeOwned};
 use zenoh::{
   Wait,
-  handlers::FifoChannelHandler,
   liveliness::LivelinessToken,
   pubsub::{Publisher as ZenohPublisher, Subscriber},
   sample::Sample,
@@ -64,19 +63,24 @@ impl From<ZenohPublisher<'static>> for Sender {
 
 /// What a [`Subscription`] takes from: a plain Zenoh subscriber (volatile), or
 /// an advanced one that first asks matching publishers' caches (transient local).
+/// Both deliver into a [`QuietFifo`](super::quiet_fifo::QuietFifo) (patch 22): samples that come after the
+/// subscription is dropped are dropped without an error line.
 pub(crate) enum Receiver {
-  Plain(Subscriber<FifoChannelHandler<Sample>>),
-  History(AdvancedSubscriber<FifoChannelHandler<Sample>>),
+  Plain(Subscriber<Samples>),
+  History(AdvancedSubscriber<Samples>),
 }
 
-impl From<Subscriber<FifoChannelHandler<Sample>>> for Receiver {
-  fn from(s: Subscriber<FifoChannelHandler<Sample>>) -> Receiver {
+/// The channel a subscription reads its samples from.
+pub(crate) type Samples = async_channel::Receiver<Sample>;
+
+impl From<Subscriber<Samples>> for Receiver {
+  fn from(s: Subscriber<Samples>) -> Receiver {
     Receiver::Plain(s)
   }
 }
 
 impl Receiver {
-  fn samples(&self) -> &FifoChannelHandler<Sample> {
+  fn samples(&self) -> &Samples {
     match self {
       Receiver::Plain(s) => s,
       Receiver::History(s) => s,
@@ -278,7 +282,7 @@ impl<M: DeserializeOwned> Subscription<M> {
     let sample = self
       .zenoh_subscriber
       .samples()
-      .recv_async()
+      .recv()
       .await
       .map_err(|_| ReadError::Closed)?;
     Self::decode(&sample)
@@ -287,9 +291,9 @@ impl<M: DeserializeOwned> Subscription<M> {
   /// Take a message if one is immediately available (non-blocking).
   pub fn try_take(&self) -> ReadResult<Option<(M, MessageInfo)>> {
     match self.zenoh_subscriber.samples().try_recv() {
-      Ok(Some(sample)) => Self::decode(&sample).map(Some),
-      Ok(None) => Ok(None),
-      Err(_) => Err(ReadError::Closed),
+      Ok(sample) => Self::decode(&sample).map(Some),
+      Err(async_channel::TryRecvError::Empty) => Ok(None),
+      Err(async_channel::TryRecvError::Closed) => Err(ReadError::Closed),
     }
   }
 
@@ -536,6 +540,69 @@ mod tests {
     }
     assert_eq!(publisher.matched_subscription_count(&a_node), 1);
     drop(listed);
+  }
+
+  // radar_ros patch 22: a subscription dropped while samples still come (a slow reader whose channel is
+  // full, a reader dropped at a program's stop) logs no error; Zenoh's FIFO handler logged `sending on a
+  // closed channel` at ERROR for each sample it was handed after the drop. Volatile and transient local.
+  #[test]
+  fn a_subscription_dropped_while_samples_arrive_logs_no_error() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    use crate::qos::Durability;
+
+    crate::zenoh_backend::logged_errors::install();
+    let (a_port, b_port) = (17555, 17556);
+    let a = Context::with_options(ContextOptions::new().zenoh_config(make_config(a_port, None)))
+      .expect("open context a");
+    let b = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(b_port, Some(a_port))),
+    )
+    .expect("open context b");
+    let node = |c: &Context, n| c.new_node(NodeName::new("/", n).unwrap(), NodeOptions::new()).unwrap();
+    let (a_node, b_node) = (node(&a, "flood_a"), node(&b, "flood_b"));
+    let before = crate::zenoh_backend::logged_errors::handler_errors();
+    for durability in [Durability::Volatile, Durability::TransientLocal] {
+      let qos = QosProfile {
+        durability,
+        ..QosProfile::publisher_default()
+      };
+      for n in 0..20 {
+        // a topic of its own each time, and the flood starts once the subscription exists: zenoh-ext's
+        // advanced subscriber calls its handler with its state locked, and deadlocks when more samples than
+        // the channel holds come while it is being made (with Zenoh's own FIFO as with this one; not patched,
+        // RADAR_PATCHES.md, patch 22), as the last flood's samples still in flight would
+        let topic = |node: &Node| {
+          node.create_topic(
+            &Name::new("/", &format!("flooded_{n}")).unwrap(),
+            MessageTypeName::new("std_msgs", "String"),
+            &qos,
+          )
+        };
+        let publisher: Publisher<String> = a_node.create_publisher(&topic(&a_node), None).unwrap();
+        let sub: Subscription<String> = b_node.create_subscription(&topic(&b_node), None).unwrap();
+        let stop = AtomicBool::new(false);
+        std::thread::scope(|s| {
+          s.spawn(|| {
+            while !stop.load(Ordering::Relaxed) {
+              let _ = publisher.publish("flood".to_string());
+            }
+          });
+          let deadline = Instant::now() + Duration::from_secs(10);
+          while sub.try_take().unwrap().is_none() {
+            assert!(Instant::now() < deadline, "no sample in 10 s");
+            std::thread::sleep(Duration::from_millis(1));
+          }
+          // unread: its channel fills
+          std::thread::sleep(Duration::from_millis(20));
+          drop(sub);
+          stop.store(true, Ordering::Relaxed);
+        });
+      }
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    let after = crate::zenoh_backend::logged_errors::handler_errors();
+    assert_eq!(after, before, "ERROR lines from subscriptions dropped while samples arrived");
   }
 
   // TRANSIENT_LOCAL (RADAR patch 12): a subscription made after the

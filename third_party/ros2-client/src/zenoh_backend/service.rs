@@ -25,12 +25,11 @@ use std::{
 use serde::{Serialize, de::DeserializeOwned};
 use zenoh::{
   Session, Wait,
-  handlers::FifoChannelHandler,
   liveliness::LivelinessToken,
   query::{ConsolidationMode, Query, QueryTarget, Queryable},
 };
 
-use super::{attachment::AttachmentData, cdr};
+use super::{attachment::AttachmentData, cdr, quiet_fifo::QuietFifo};
 use crate::{
   error::{ServiceError, ServiceResult},
   gid::Gid,
@@ -111,8 +110,8 @@ impl<Req: Serialize, Resp: DeserializeOwned> Client<Req, Resp> {
     if let Some(t) = self.timeout {
       builder = builder.timeout(t);
     }
-    let replies = builder.wait()?;
-    while let Ok(reply) = replies.recv() {
+    let replies = builder.with(QuietFifo).wait()?;
+    while let Ok(reply) = replies.recv_blocking() {
       if let Some(res) = Self::decode_reply(&reply) {
         return res;
       }
@@ -133,8 +132,10 @@ impl<Req: Serialize, Resp: DeserializeOwned> Client<Req, Resp> {
     if let Some(t) = self.timeout {
       builder = builder.timeout(t);
     }
-    let replies = builder.await?;
-    while let Ok(reply) = replies.recv_async().await {
+    // returns at the first answer; what comes after it (another server's answer, the query's timeout) is
+    // dropped quietly (patch 22)
+    let replies = builder.with(QuietFifo).await?;
+    while let Ok(reply) = replies.recv().await {
       if let Some(res) = Self::decode_reply(&reply) {
         return res;
       }
@@ -145,7 +146,9 @@ impl<Req: Serialize, Resp: DeserializeOwned> Client<Req, Resp> {
 
 /// A ROS 2 service server over Zenoh.
 pub struct Server<Req, Resp> {
-  queryable: Queryable<FifoChannelHandler<Query>>,
+  /// Its queries, through a [`QuietFifo`] (patch 22): those that come after the server is dropped are
+  /// dropped without an error line.
+  queryable: Queryable<async_channel::Receiver<Query>>,
   pending: Mutex<HashMap<(u128, i64), Query>>,
   _liveliness_token: Option<LivelinessToken>,
   phantom: PhantomData<fn(Req) -> Resp>,
@@ -153,7 +156,7 @@ pub struct Server<Req, Resp> {
 
 impl<Req: DeserializeOwned, Resp: Serialize> Server<Req, Resp> {
   pub(crate) fn new(
-    queryable: Queryable<FifoChannelHandler<Query>>,
+    queryable: Queryable<async_channel::Receiver<Query>>,
     liveliness_token: Option<LivelinessToken>,
   ) -> Self {
     Self {
@@ -184,8 +187,7 @@ impl<Req: DeserializeOwned, Resp: Serialize> Server<Req, Resp> {
   /// Take the next pending request if one is immediately available.
   pub fn try_receive_request(&self) -> ServiceResult<Option<(RmwRequestId, Req)>> {
     match self.queryable.try_recv() {
-      Ok(Some(query)) => self.accept(query).map(Some),
-      Ok(None) => Ok(None),
+      Ok(query) => self.accept(query).map(Some),
       Err(_) => Ok(None),
     }
   }
@@ -194,7 +196,7 @@ impl<Req: DeserializeOwned, Resp: Serialize> Server<Req, Resp> {
   pub async fn async_receive_request(&self) -> ServiceResult<(RmwRequestId, Req)> {
     let query = self
       .queryable
-      .recv_async()
+      .recv()
       .await
       .map_err(|_| ServiceError::NoReply)?;
     self.accept(query)
@@ -332,5 +334,175 @@ mod tests {
     let _ = server_thread.join();
 
     assert_eq!(sum, Some(42));
+  }
+
+  /// A server that answers only the probe (`a == 0`, to know the peers met) and holds every other request
+  /// unanswered until the test ends.
+  fn answer_probes_only(server: Server<AddTwoIntsRequest, AddTwoIntsResponse>) {
+    std::thread::spawn(move || {
+      futures::executor::block_on(async {
+        let mut held = Vec::new();
+        while let Ok((id, req)) = server.async_receive_request().await {
+          if req.a == 0 {
+            let _ = server.send_response(id, AddTwoIntsResponse { sum: req.b });
+          } else {
+            held.push(id);
+          }
+        }
+      })
+    });
+  }
+
+  /// Calls the probe until a server answers it.
+  fn until_answered(client: &Client<AddTwoIntsRequest, AddTwoIntsResponse>) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while client.call(AddTwoIntsRequest { a: 0, b: 1 }).is_err() {
+      assert!(Instant::now() < deadline, "no server answered in 20 s");
+      std::thread::sleep(Duration::from_millis(50));
+    }
+  }
+
+  fn nodes(
+    srv_port: u16,
+    cli_port: u16,
+    name: &str,
+  ) -> (Context, Context, crate::zenoh_backend::node::Node, crate::zenoh_backend::node::Node) {
+    let srv_ctx =
+      Context::with_options(ContextOptions::new().zenoh_config(make_config(srv_port, None))).unwrap();
+    let mut cli_config = make_config(cli_port, Some(srv_port));
+    // a query unanswered is given up by Zenoh after this long (its default is 10 s)
+    cli_config.insert_json5("queries_default_timeout", "300").unwrap();
+    let cli_ctx = Context::with_options(ContextOptions::new().zenoh_config(cli_config)).unwrap();
+    let srv_node = srv_ctx
+      .new_node(NodeName::new("/", &format!("{name}_server")).unwrap(), NodeOptions::new())
+      .unwrap();
+    let cli_node = cli_ctx
+      .new_node(NodeName::new("/", &format!("{name}_client")).unwrap(), NodeOptions::new())
+      .unwrap();
+    (srv_ctx, cli_ctx, srv_node, cli_node)
+  }
+
+  /// radar_ros patch 22: a caller that stops waiting for an answer (its future dropped: a timeout of its
+  /// own, a cancel, a program stopping) logs no error when Zenoh later gives the query up. Zenoh's FIFO
+  /// handler logged `sending on a closed channel` at ERROR when its timeout reply found the receiver gone.
+  #[test]
+  fn a_call_given_up_logs_no_error_when_its_query_times_out() {
+    crate::zenoh_backend::logged_errors::install();
+    let (_s, _c, srv_node, cli_node) = nodes(17551, 17552, "given_up");
+    let stype = ServiceTypeName::new("example_interfaces", "AddTwoInts");
+    let name = Name::new("/", "given_up").unwrap();
+    answer_probes_only(srv_node.create_server(&name, &stype).unwrap());
+    let client: Client<AddTwoIntsRequest, AddTwoIntsResponse> =
+      cli_node.create_client(&name, &stype).unwrap();
+    until_answered(&client);
+
+    let before = crate::zenoh_backend::logged_errors::handler_errors();
+    futures::executor::block_on(async {
+      let call = futures::FutureExt::fuse(Box::pin(client.async_call(AddTwoIntsRequest { a: 1, b: 1 })));
+      let (tx, rx) = futures::channel::oneshot::channel::<()>();
+      std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(50));
+        let _ = tx.send(());
+      });
+      let mut gave_up = futures::FutureExt::fuse(rx);
+      futures::pin_mut!(call);
+      futures::select! {
+        r = call => panic!("the held request was answered: {:?}", r.is_ok()),
+        _ = gave_up => {}
+      }
+    });
+    // past the query's timeout (300 ms)
+    std::thread::sleep(Duration::from_millis(800));
+    let after = crate::zenoh_backend::logged_errors::handler_errors();
+    assert_eq!(after, before, "an ERROR line after the caller gave up");
+  }
+
+  /// radar_ros patch 22: two servers of one service (ROS 2 allows it; a respawned server beside the old
+  /// one's last moments); the call returns the first answer, and the second, coming later, is dropped
+  /// quietly. Zenoh's FIFO handler logged it at ERROR (`sending on a closed channel`).
+  #[test]
+  fn a_second_answer_after_the_first_logs_no_error() {
+    crate::zenoh_backend::logged_errors::install();
+    let (_s, _c, srv_node, cli_node) = nodes(17553, 17554, "two_servers");
+    let stype = ServiceTypeName::new("example_interfaces", "AddTwoInts");
+    let name = Name::new("/", "two_servers").unwrap();
+    let quick: Server<AddTwoIntsRequest, AddTwoIntsResponse> =
+      srv_node.create_server(&name, &stype).unwrap();
+    let slow: Server<AddTwoIntsRequest, AddTwoIntsResponse> =
+      srv_node.create_server(&name, &stype).unwrap();
+    let answer = |server: Server<AddTwoIntsRequest, AddTwoIntsResponse>, after: Duration| {
+      std::thread::spawn(move || {
+        futures::executor::block_on(async {
+          while let Ok((id, req)) = server.async_receive_request().await {
+            if req.a != 0 {
+              std::thread::sleep(after);
+            }
+            let _ = server.send_response(id, AddTwoIntsResponse { sum: req.a + req.b });
+          }
+        })
+      })
+    };
+    answer(quick, Duration::ZERO);
+    answer(slow, Duration::from_millis(100));
+    let client: Client<AddTwoIntsRequest, AddTwoIntsResponse> =
+      cli_node.create_client(&name, &stype).unwrap();
+    until_answered(&client);
+
+    let before = crate::zenoh_backend::logged_errors::handler_errors();
+    let sum = futures::executor::block_on(client.async_call(AddTwoIntsRequest { a: 2, b: 40 }));
+    assert_eq!(sum.unwrap().sum, 42);
+    let sum = client.call(AddTwoIntsRequest { a: 1, b: 2 });
+    assert_eq!(sum.unwrap().sum, 3);
+    // past the slow server's answers
+    std::thread::sleep(Duration::from_millis(400));
+    let after = crate::zenoh_backend::logged_errors::handler_errors();
+    assert_eq!(after, before, "an ERROR line for an answer after the first");
+  }
+
+  /// radar_ros patch 22: a server dropped with queries still coming (its channel full: a server that fell
+  /// behind, or stopped reading at a program's stop) logs no error; Zenoh's FIFO handler logged `sending on
+  /// a closed channel` at ERROR for each query it was handed after the drop.
+  #[test]
+  fn a_server_dropped_while_queries_arrive_logs_no_error() {
+    crate::zenoh_backend::logged_errors::install();
+    let (_s, _c, srv_node, cli_node) = nodes(17557, 17558, "flooded");
+    let stype = ServiceTypeName::new("example_interfaces", "AddTwoInts");
+    let name = Name::new("/", "flooded").unwrap();
+    let server: Server<AddTwoIntsRequest, AddTwoIntsResponse> =
+      srv_node.create_server(&name, &stype).unwrap();
+    let client: Client<AddTwoIntsRequest, AddTwoIntsResponse> =
+      cli_node.create_client(&name, &stype).unwrap();
+    // the probe, answered by hand
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let answered = std::thread::scope(|s| {
+      let probe = s.spawn(|| loop {
+        if client.call(AddTwoIntsRequest { a: 0, b: 1 }).is_ok() || Instant::now() > deadline {
+          return Instant::now() <= deadline;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+      });
+      while !probe.is_finished() {
+        if let Ok(Some((id, _))) = server.try_receive_request() {
+          let _ = server.send_response(id, AddTwoIntsResponse { sum: 1 });
+        }
+        std::thread::sleep(Duration::from_millis(5));
+      }
+      probe.join().unwrap()
+    });
+    assert!(answered, "no answer to the probe in 20 s");
+
+    let before = crate::zenoh_backend::logged_errors::handler_errors();
+    std::thread::scope(|s| {
+      // more queries than the server's channel holds, none read
+      s.spawn(|| {
+        let calls = (0..400).map(|a| client.async_call(AddTwoIntsRequest { a: a + 1, b: 0 }));
+        futures::executor::block_on(futures::future::join_all(calls));
+      });
+      std::thread::sleep(Duration::from_millis(150));
+      drop(server);
+    });
+    std::thread::sleep(Duration::from_millis(200));
+    let after = crate::zenoh_backend::logged_errors::handler_errors();
+    assert_eq!(after, before, "ERROR lines from a server dropped while queries arrived");
   }
 }
