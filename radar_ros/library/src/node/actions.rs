@@ -31,9 +31,15 @@ where
 pub(crate) enum Call<T: Clone> {
     /// Over DDS: the request's id; the reply is read by it.
     Dds(RmwRequestId),
-    /// Over Zenoh: the query, sent at once by a task of its own, and its answer.
+    /// Over Zenoh: the query, sent at once by a task of its own, and its answer; the task is aborted when the
+    /// last copy of the call is dropped (a response dropped mid-goal leaves no query asked again and again).
     #[cfg(feature = "zenoh")]
-    Zenoh(futures::future::Shared<futures::future::BoxFuture<'static, Result<T, Text>>>),
+    Zenoh {
+        /// The answer, awaited by each who asks.
+        answer: futures::future::Shared<futures::future::BoxFuture<'static, Result<T, Text>>>,
+        /// Aborts the task when the last copy goes.
+        _task: std::sync::Arc<AbortOnDrop>,
+    },
     #[cfg(not(feature = "zenoh"))]
     #[allow(dead_code)] // `T` is Zenoh's only
     Never(std::marker::PhantomData<T>),
@@ -67,11 +73,25 @@ fn sent<T: Clone + Send + Sync + 'static>(
     work: impl std::future::Future<Output = Result<T, Text>> + Send + 'static,
 ) -> Call<T> {
     let task = tokio::spawn(work);
-    Call::Zenoh(
-        task.map(|r| r.unwrap_or_else(|e| Err(Text(format!("the call's task ended: {e}")))))
+    let abort = std::sync::Arc::new(AbortOnDrop(task.abort_handle()));
+    Call::Zenoh {
+        answer: task
+            .map(|r| r.unwrap_or_else(|e| Err(Text(format!("the call's task ended: {e}")))))
             .boxed()
             .shared(),
-    )
+        _task: abort,
+    }
+}
+
+/// Aborts a call's task when dropped.
+#[cfg(feature = "zenoh")]
+pub(crate) struct AbortOnDrop(tokio::task::AbortHandle);
+
+#[cfg(feature = "zenoh")]
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
 }
 
 impl<G, R, F> ActionClient<G, R, F>
@@ -111,7 +131,7 @@ where
                 .map(|r| r.accepted)
                 .map_err(|e| Text(format!("{e:?}"))),
             #[cfg(feature = "zenoh")]
-            (_, Call::Zenoh(answer)) => answer.clone().await,
+            (_, Call::Zenoh { answer, .. }) => answer.clone().await,
             _ => Err(Text("a call of another transport".into())),
         }
     }
@@ -141,7 +161,7 @@ where
                 .map(|r| (r.status, r.result))
                 .map_err(|e| Text(format!("{e:?}"))),
             #[cfg(feature = "zenoh")]
-            (_, Call::Zenoh(answer)) => answer.clone().await,
+            (_, Call::Zenoh { answer, .. }) => answer.clone().await,
             _ => Err(Text("a call of another transport".into())),
         }
     }
@@ -216,6 +236,48 @@ where
                 tracing::debug!("no result within the query's timeout; asking again")
             }
             Err(e) => return Err(Text(e.to_string())),
+        }
+    }
+}
+
+#[cfg(all(test, feature = "zenoh"))]
+mod tests {
+    use super::*;
+
+    /// Sets its flag when dropped: tells that a task's future was dropped (the task aborted).
+    struct Dropped(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+    impl Drop for Dropped {
+        fn drop(&mut self) {
+            self.0.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
+
+    /// A call whose answer never comes (a result asked of a server that ignores the cancel) does not outlive
+    /// its last copy: its task is aborted; while a copy remains, the task runs.
+    #[tokio::test]
+    async fn a_call_dropped_aborts_its_task() {
+        let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let guard = Dropped(flag.clone());
+        let call: Call<bool> = sent(async move {
+            let _guard = guard;
+            std::future::pending::<Result<bool, Text>>().await
+        });
+        let copy = call.clone();
+        drop(call);
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        assert!(
+            !flag.load(std::sync::atomic::Ordering::SeqCst),
+            "a copy remains: the task runs"
+        );
+        drop(copy);
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+        while !flag.load(std::sync::atomic::Ordering::SeqCst) {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "the task still runs 5 s after the call was dropped"
+            );
+            tokio::task::yield_now().await;
         }
     }
 }
