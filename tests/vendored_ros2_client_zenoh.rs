@@ -76,6 +76,8 @@ fn vendored_ros2_client_passes_its_zenoh_unit_tests() {
         "service::tests::a_second_answer_after_the_first_logs_no_error",
         "service::tests::a_server_dropped_while_queries_arrive_logs_no_error",
         "pubsub::tests::a_subscription_dropped_while_samples_arrive_logs_no_error",
+        // patch 23: a node's enclave in its tokens
+        "keyexpr::tests::a_token_names_its_enclave",
     ] {
         assert!(
             stdout.contains(&format!("test zenoh_backend::{name} ... ok")),

@@ -49,7 +49,7 @@ def main() -> None:
     with zenoh.open(session_config(router)) as session:
         zid = str(session.info.zid())
         server = threading.Event()
-        wanted = "/SS/%/"
+        wanted = "/SS/"  # a server in any enclave
         tail = f"/{mangle(service)}/{dds_type}/{type_hash}/"
 
         def on_token(sample: zenoh.Sample) -> None:

@@ -84,9 +84,14 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
         ],
     );
     rosout.until_up().await;
+    // in an enclave, as `--ros-args --enclave` puts a ROS 2 program in one: its tokens name it
     let radar = Radar::builder()
         .program("zr_program")
         .handle_signals(false)
+        .ros_args(
+            radar_ros::ros_args::RosArgs::parse(["zr", "--ros-args", "--enclave", "/zr/main"])
+                .unwrap(),
+        )
         .build()
         .unwrap();
     assert!(
@@ -192,7 +197,9 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
             .any(|t| t.contains(&format!("/{kind}/")) && t.contains(tail))
     };
     assert!(
-        has("NN", "/%zr/dock") && has("NN", "/%zr/bumper") && has("NN", "/zr_program"),
+        has("NN", "/NN/%zr%main/%zr/dock")
+            && has("NN", "/NN/%zr%main/%zr/bumper")
+            && has("NN", "/NN/%zr%main/%/zr_program"),
         "nodes dock, bumper and the program node are on the graph: {tokens:#?}"
     );
     assert!(
@@ -219,6 +226,14 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
             && node("/zr/far").subscribes.contains("/zr/far/start")
             && node("/zr/manager").serves.contains("/zr/manager/connect"),
         "the other program's nodes with what they use, as `ros2 node info` shows them: {nodes:#?}"
+    );
+    assert_eq!(
+        (
+            node("/zr/far").enclave.as_str(),
+            node("/zr/manager").enclave.as_str()
+        ),
+        ("/zr/side", "/zr/side"),
+        "the enclave the other program's tokens name"
     );
     let far_started = radar
         .signal_subscription::<PoseStamped>("/zr/far/started")
@@ -368,6 +383,10 @@ async fn remote_program() {
     let radar = Radar::builder()
         .program("zr_remote")
         .handle_signals(false)
+        .ros_args(
+            radar_ros::ros_args::RosArgs::parse(["zr", "--ros-args", "--enclave", "/zr/side"])
+                .unwrap(),
+        )
         .build()
         .unwrap();
     assert!(radar.over_zenoh());

@@ -125,7 +125,7 @@ impl Graph {
     }
 
     /// Over Zenoh, the nodes of the other sessions (their `NN` tokens), each with the topics and services its
-    /// endpoints' tokens name; the enclave is `/` (ros2-client's parse of a token drops it). `None` over DDS.
+    /// endpoints' tokens name, and the enclave its token names. `None` over DDS.
     pub(crate) fn token_nodes(&self) -> Option<Vec<super::GraphNode>> {
         let t = self.zenoh.lock().unwrap().clone()?;
         let mut nodes: std::collections::BTreeMap<(String, u64), super::GraphNode> =
@@ -142,7 +142,7 @@ impl Graph {
                     .or_insert_with(|| super::GraphNode {
                         namespace: e.namespace.clone(),
                         name: e.node_name.clone(),
-                        enclave: "/".to_owned(),
+                        enclave: e.enclave.clone(),
                         ..Default::default()
                     });
             for (writer, _, dds, _) in as_dds(e) {

@@ -105,8 +105,11 @@ fn zenoh_context(s: &Settings) -> Result<Ctx> {
                 .into(),
         });
     }
+    // the enclave in every token, where rmw_zenoh writes its context's: graph tools show each node's
     let ctx = ros2_client::zenoh::Context::with_options(
-        ros2_client::zenoh::ContextOptions::new().domain_id(s.domain_id),
+        ros2_client::zenoh::ContextOptions::new()
+            .domain_id(s.domain_id)
+            .enclave(&s.policy_enclave),
     )
     .map_err(|e| {
         Error::transport(

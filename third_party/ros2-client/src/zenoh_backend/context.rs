@@ -25,6 +25,7 @@ use crate::{NodeOptions, error::CreateResult, graph::GraphEvent, names::NodeName
 pub struct ContextOptions {
   domain_id: u16,
   config: Option<Config>,
+  enclave: String,
 }
 
 impl ContextOptions {
@@ -33,6 +34,7 @@ impl ContextOptions {
     Self {
       domain_id: 0,
       config: None,
+      enclave: String::new(),
     }
   }
 
@@ -42,6 +44,15 @@ impl ContextOptions {
   /// §2).
   pub fn domain_id(mut self, domain_id: u16) -> Self {
     self.domain_id = domain_id;
+    self
+  }
+
+  /// The SROS 2 enclave this context's nodes are in (e.g. `/robot/planner`; default: none, written `%` as
+  /// rmw_zenoh writes the root enclave `/`). Written into every liveliness token of its nodes and their
+  /// entities, where rmw_zenoh writes its context's enclave, so graph tools on the other side show each
+  /// node's enclave (radar_ros patch 23).
+  pub fn enclave(mut self, enclave: &str) -> Self {
+    self.enclave = enclave.to_owned();
     self
   }
 
@@ -70,6 +81,7 @@ pub struct Context {
 struct ContextInner {
   session: Session,
   domain_id: u16,
+  enclave: String,
   next_node_id: AtomicU64,
   graph_cache: Arc<GraphCache>,
   // Kept alive to keep the graph cache updating; dropped => subscriber
@@ -120,6 +132,7 @@ impl Context {
       inner: Arc::new(ContextInner {
         session,
         domain_id: opt.domain_id,
+        enclave: opt.enclave,
         next_node_id: AtomicU64::new(0),
         graph_cache,
         _liveliness_subscriber: liveliness_subscriber,
@@ -213,6 +226,11 @@ impl Context {
   /// The ROS domain id (key-expression prefix) for this context.
   pub fn domain_id(&self) -> u16 {
     self.inner.domain_id
+  }
+
+  /// The enclave this context's nodes are in, as [`ContextOptions::enclave`] set it (empty: none).
+  pub fn enclave(&self) -> &str {
+    &self.inner.enclave
   }
 
   /// The underlying Zenoh session, shared by all entities in this context.
@@ -402,8 +420,11 @@ mod tests {
   #[test]
   fn graph_entities_name_the_session_node_and_endpoint_of_each_token() {
     let (a_port, b_port) = (17543, 17544);
-    let ctx_a =
-      Context::with_options(ContextOptions::new().zenoh_config(make_config(a_port, None))).unwrap();
+    // a's nodes are in an enclave (patch 23): its tokens name it
+    let ctx_a = Context::with_options(
+      ContextOptions::new().zenoh_config(make_config(a_port, None)).enclave("/radar/side"),
+    )
+    .unwrap();
     let ctx_b =
       Context::with_options(ContextOptions::new().zenoh_config(make_config(b_port, Some(a_port))))
         .unwrap();
@@ -437,6 +458,14 @@ mod tests {
       (EntityKind::Publisher, "/robot", "talker")
     );
     assert_eq!(e.type_name.as_deref(), Some("std_msgs::msg::dds_::String_"));
+    assert_eq!(e.enclave, "/radar/side", "the enclave of its context (patch 23)");
+    let node_enclaves: Vec<String> = ctx_b
+      .graph_entities()
+      .into_iter()
+      .filter(|(_, e)| e.zid == a_zid && e.kind == EntityKind::Node)
+      .map(|(_, e)| e.enclave)
+      .collect();
+    assert_eq!(node_enclaves, ["/radar/side"], "the node's token names the enclave too");
     assert_eq!(of_a(&ctx_a).len(), 1, "a session sees its own tokens too");
     drop(publisher);
     let deadline = Instant::now() + Duration::from_secs(15);

@@ -148,6 +148,9 @@ pub struct ParsedEntity {
   pub entity_id: u64,
   /// Entity kind.
   pub kind: EntityKind,
+  /// The SROS 2 enclave of its node's context (demangled; `/` when none, as rmw_zenoh writes the root
+  /// enclave `%`) (radar_ros patch 23).
+  pub enclave: String,
   /// Node namespace (demangled), e.g. `/` or `/robot1`.
   pub namespace: String,
   /// Node base name.
@@ -185,7 +188,8 @@ pub fn parse_liveliness_key(key: &str) -> Option<ParsedEntity> {
   let node_id = p[3].parse().ok()?;
   let entity_id = p[4].parse().ok()?;
   let kind = parse_kind(p[5])?;
-  let namespace = demangle(p[7]); // p[6] is the enclave (unused here)
+  let enclave = demangle(p[6]);
+  let namespace = demangle(p[7]);
   let node_name = demangle(p[8]);
 
   let (topic_name, type_name, type_hash, qos) = if kind == EntityKind::Node {
@@ -208,6 +212,7 @@ pub fn parse_liveliness_key(key: &str) -> Option<ParsedEntity> {
     node_id,
     entity_id,
     kind,
+    enclave,
     namespace,
     node_name,
     topic_name,
@@ -327,6 +332,37 @@ mod tests {
   fn graph_cache_key() {
     assert_eq!(graph_cache_keyexpr(0), "@ros2_lv/0/**");
     assert_eq!(graph_cache_keyexpr(42), "@ros2_lv/42/**");
+  }
+
+  /// radar_ros patch 23: the enclave a token names (as rmw_zenoh writes its context's: mangled, `%` for the
+  /// root) is read back; a design-document token's `%` reads as `/`.
+  #[test]
+  fn a_token_names_its_enclave() {
+    let ids = |enclave| EntityIds {
+      session_id: "aac3178e146ba6f1fc6e6a4085e77f21",
+      node_id: 1,
+      entity_id: 4,
+      enclave,
+      namespace: "/robot1",
+      node_name: "planner",
+    };
+    let node = node_liveliness_keyexpr(0, &ids("/radar/side"));
+    assert!(node.contains("/NN/%radar%side/%robot1/planner"), "{node}");
+    assert_eq!(parse_liveliness_key(&node).unwrap().enclave, "/radar/side");
+    let entity = entity_liveliness_keyexpr(
+      0,
+      &ids("/radar/side"),
+      EntityKind::Publisher,
+      "/chatter",
+      "std_msgs::msg::dds_::String_",
+      STRING_HASH,
+      "::,10:,:,:,,",
+    );
+    let e = parse_liveliness_key(&entity).unwrap();
+    assert_eq!((e.enclave.as_str(), e.topic_name.as_deref()), ("/radar/side", Some("/chatter")));
+    let root = "@ros2_lv/0/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/zenoh_peer";
+    assert_eq!(parse_liveliness_key(root).unwrap().enclave, "/");
+    assert_eq!(parse_liveliness_key(&node_liveliness_keyexpr(0, &ids(""))).unwrap().enclave, "/");
   }
 
   #[test]

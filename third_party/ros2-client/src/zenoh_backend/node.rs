@@ -133,7 +133,7 @@ impl Node {
       session_id: &zid,
       node_id,
       entity_id: node_id,
-      enclave: "",
+      enclave: context.enclave(),
       namespace: node_name.namespace(),
       node_name: node_name.base_name(),
     };
@@ -353,7 +353,7 @@ impl Node {
       session_id: &self.zid,
       node_id: self.node_id,
       entity_id,
-      enclave: "",
+      enclave: self.context.enclave(),
       namespace: self.node_name.namespace(),
       node_name: self.node_name.base_name(),
     };
