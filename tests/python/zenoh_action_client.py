@@ -35,21 +35,20 @@ import threading
 from typing import Any, Optional
 
 import zenoh
-import zenoh.ext
 from rclpy.serialization import deserialize_message, serialize_message
 
 from zenoh_action_server import attachment, rosidl_hash
-from zenoh_peer import mangle, out, session_config
+from zenoh_peer import QOS as QOS_OF
+from zenoh_peer import latched_subscriber, mangle, out, session_config
 
 # rosidl's generated classes have no type stubs: taken as `Any`
 GoalStatusArray: Any = importlib.import_module("action_msgs.msg").GoalStatusArray
 CancelGoal: Any = importlib.import_module("action_msgs.srv").CancelGoal
 Fibonacci: Any = importlib.import_module("test_msgs.action").Fibonacci
 NODE = "zenoh_action_client"
-QOS = "::,10:,:,:,,"
-# rcl_action's status QoS (rcl_action_qos_profile_status_default): reliable, transient local (durability code
-# 1), keep last 1
-STATUS_QOS = ":1:,1:,:,:,,"
+QOS = QOS_OF["volatile"]
+# rcl_action's status QoS (rcl_action_qos_profile_status_default): reliable, transient local, keep last 1
+STATUS_QOS = QOS_OF["transient_local"]
 
 
 class Client:
@@ -102,13 +101,7 @@ class Client:
 
     def status_subscriber(self, on_status: Any) -> Any:
         """The `status` subscription as rmw_zenoh makes a transient-local, keep-last-1 one."""
-        return zenoh.ext.declare_advanced_subscriber(
-            self.session,
-            self.status_key,
-            on_status,
-            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
-            subscriber_detection=True,
-        )
+        return latched_subscriber(self.session, self.status_key, on_status)
 
     def call(self, key: str, request: Any, response_class: Any, timeout: float) -> Optional[Any]:
         """A query as rmw_zenoh's client sends one; the first reply, read as rclpy reads it."""

@@ -95,6 +95,18 @@ def session_config(router: str, mode: str = "peer") -> zenoh.Config:
     return conf
 
 
+def latched_subscriber(session: zenoh.Session, key: str, on_sample: Any) -> Any:
+    """A transient-local, keep-last-1 subscription as rmw_zenoh makes one: a zenoh-ext advanced subscriber
+    (subscriber detection on) that asks matching publishers' caches, late ones too, for their last sample."""
+    return zenoh.ext.declare_advanced_subscriber(
+        session,
+        key,
+        on_sample,
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+        subscriber_detection=True,
+    )
+
+
 def rosidl_hash(ros_type: str) -> str:
     pkg, kind, name = ros_type.split("/")
     share = Path(sys.prefix) / "share" / pkg / kind / f"{name}.json"
@@ -172,13 +184,7 @@ def serve(
     sub: Any
     pub: Any
     if durability == "transient_local":
-        sub = zenoh.ext.declare_advanced_subscriber(
-            session,
-            key(topic_in),
-            on_sample,
-            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
-            subscriber_detection=True,
-        )
+        sub = latched_subscriber(session, key(topic_in), on_sample)
     else:
         sub = session.declare_subscriber(key(topic_in), on_sample)
     live.append(session.liveliness().declare_token(token(10, "MS", topic_in)))

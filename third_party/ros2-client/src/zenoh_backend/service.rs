@@ -472,24 +472,16 @@ mod tests {
       srv_node.create_server(&name, &stype).unwrap();
     let client: Client<AddTwoIntsRequest, AddTwoIntsResponse> =
       cli_node.create_client(&name, &stype).unwrap();
-    // the probe, answered by hand
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let answered = std::thread::scope(|s| {
-      let probe = s.spawn(|| loop {
-        if client.call(AddTwoIntsRequest { a: 0, b: 1 }).is_ok() || Instant::now() > deadline {
-          return Instant::now() <= deadline;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-      });
+    // the probe, answered by hand (the server is dropped below, so it is read here, not by a thread)
+    std::thread::scope(|s| {
+      let probe = s.spawn(|| until_answered(&client));
       while !probe.is_finished() {
         if let Ok(Some((id, _))) = server.try_receive_request() {
           let _ = server.send_response(id, AddTwoIntsResponse { sum: 1 });
         }
         std::thread::sleep(Duration::from_millis(5));
       }
-      probe.join().unwrap()
     });
-    assert!(answered, "no answer to the probe in 20 s");
 
     let before = crate::zenoh_backend::logged_errors::handler_errors();
     std::thread::scope(|s| {
