@@ -1512,11 +1512,14 @@ impl Writer {
     let mut ts_active = false;
     let mut pending_gap_sent = false;
     let mut round_bytes = 0;
+    // RADAR patch 59: the highest sequence number this round answered
+    let mut highest_answered = None;
 
     while round_bytes < REPAIR_BATCH_MAX_BYTES {
       let Some(unsent_sn) = reader_proxy.first_unsent_change() else {
         break;
       };
+      highest_answered = Some(unsent_sn);
       let first_available = self.send_buffer.first_change_sequence_number();
       let pending_gaps = reader_proxy.get_pending_gap().clone();
 
@@ -1616,10 +1619,30 @@ impl Writer {
       reader_proxy.mark_change_sent(unsent_sn);
     }
 
-    self.flush_repair_datagram(&mut datagram, reader_proxy);
     if reader_proxy.first_unsent_change().is_none() {
       reader_proxy.repair_mode = false;
+      // RADAR patch 59: an ACKNACK asks for at most 256 sequence numbers, so a reader that joined late (or
+      // lost much) is sent a writer's history one window at a time, and asks for the next window when it
+      // hears a HEARTBEAT. When this round answered the last of what the reader asked for and the writer
+      // holds later samples, a HEARTBEAT goes with it, so that the reader asks for the next window now
+      // instead of at the writer's next periodic HEARTBEAT (up to a second later: a new participant waited
+      // about that long per window for the SEDP data of a big one).
+      let last = self.send_buffer.last_change_sequence_number();
+      if highest_answered.is_some_and(|sn| sn < last) && reader_proxy.all_acked_before <= last {
+        let heartbeat = MessageBuilder::new().heartbeat_msg(
+          self.entity_id(),
+          self.send_buffer.first_change_sequence_number(),
+          last,
+          self.next_heartbeat_count(),
+          self.endianness,
+          reader_proxy.remote_reader_guid.entity_id,
+          false, // final_flag: the reader answers with an ACKNACK
+          false,
+        );
+        self.add_to_repair_datagram(&mut datagram, heartbeat, 0, reader_proxy);
+      }
     }
+    self.flush_repair_datagram(&mut datagram, reader_proxy);
   } // fn
 
   // Append `part` to the repair datagram being built for `reader_proxy`, first
@@ -3327,6 +3350,85 @@ mod tests {
       // an ACKNACK that answers a HEARTBEAT (base 1: nothing missing) needs no answer
       writer.handle_ack_nack(GuidPrefix::new(&[2; 12]), &answer);
       assert_eq!(heartbeats(&mut buf), vec![]);
+    }
+
+    /// RADAR patch 59: a reader that joined late asks for a writer's history at most 256 samples at a time;
+    /// the repair round that answers the last of a window holds a HEARTBEAT, so the reader asks for the next
+    /// window at once. A window that reaches the writer's last sample needs none.
+    #[test]
+    fn a_repair_window_short_of_the_history_ends_with_a_heartbeat() {
+      use crate::{
+        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
+      };
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(100)))
+        .unwrap();
+      let (mut writer, send_buffer) = matched_writer(&reader);
+      let mut buf = vec![0u8; 65536];
+      while reader.recv(&mut buf).is_ok() {} // what the match sent
+      let held = 300;
+      for _ in 0..held {
+        admit(&send_buffer);
+      }
+      let reader_guid = GUID::new(
+        GuidPrefix::new(&[2; 12]),
+        EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      // asks for `first..=last` (as a reader that has nothing before `first` would), then the writer's repair
+      // rounds run until it has answered; the submessages on the wire, in order
+      let mut ask_and_repair = |first: i64, last: i64, count: i32| -> Vec<String> {
+        let wanted: BTreeSet<SequenceNumber> = (first..=last).map(SequenceNumber::new).collect();
+        writer.handle_ack_nack(
+          reader_guid.prefix,
+          &AckSubmessage::AckNack(AckNack {
+            reader_id: reader_guid.entity_id,
+            writer_id: writer.my_guid.entity_id,
+            reader_sn_state: SequenceNumberSet::from_base_and_set(SequenceNumber::new(first), &wanted),
+            count,
+          }),
+        );
+        for _ in 0..1000 {
+          if !writer.readers[&reader_guid].repair_mode {
+            break;
+          }
+          writer.handle_timed_event(TimedEvent::SendRepairData {
+            to_reader: reader_guid,
+          });
+        }
+        assert!(!writer.readers[&reader_guid].repair_mode, "repair did not end");
+        let mut seen = Vec::new();
+        while let Ok(n) = reader.recv(&mut buf) {
+          let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+          for sub in msg.submessages {
+            match sub.body {
+              SubmessageBody::Writer(WriterSubmessage::Data(d, _)) => {
+                seen.push(format!("DATA {}", i64::from(d.writer_sn)))
+              }
+              SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) => seen.push(format!(
+                "HEARTBEAT {}..{} to {:?}",
+                i64::from(h.first_sn),
+                i64::from(h.last_sn),
+                h.reader_id
+              )),
+              _ => {}
+            }
+          }
+        }
+        seen
+      };
+      let data = |first: i64, last: i64| (first..=last).map(|sn| format!("DATA {sn}"));
+
+      // the first window (an ACKNACK's largest): every sample asked for, then a HEARTBEAT for this reader
+      let mut expected: Vec<String> = data(1, 256).collect();
+      expected.push(format!("HEARTBEAT 1..{held} to {:?}", reader_guid.entity_id));
+      assert_eq!(ask_and_repair(1, 256, 1), expected);
+      // the last window reaches the writer's last sample: no HEARTBEAT
+      assert_eq!(ask_and_repair(257, held, 2), data(257, held).collect::<Vec<_>>());
+      // one lost sample short of the end repaired: a HEARTBEAT (the reader may miss more after it)
+      let mut expected: Vec<String> = data(100, 100).collect();
+      expected.push(format!("HEARTBEAT 1..{held} to {:?}", reader_guid.entity_id));
+      assert_eq!(ask_and_repair(100, 100, 3), expected);
     }
 
     #[test]
