@@ -48,6 +48,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
         "data_that_arrives_before_its_writer_is_matched_is_delivered_on_the_match",
         // patch 59: a late reader is sent a writer's history window after window, without waiting
         "a_repair_window_short_of_the_history_ends_with_a_heartbeat",
+        // patch 60: repair to a reader on this host goes in larger rounds
+        "a_repair_round_to_a_reader_on_this_host_carries_more",
         "durable_keep_last_writer_keeps_only_its_depth",
         "the_lease_sets_how_often_a_participant_announces_itself_and_checks_its_peers",
         "poll_channels_nobody_registers_hold_no_descriptors",

@@ -31,6 +31,7 @@ use crate::{
       DEFAULT_WRITER_MAX_SAMPLES, FALLBACK_MAX_AGGREGATED_DATAGRAM_SIZE, FRAGMENT_SIZE,
       HEARTBEAT_PERIOD_FAST, HEARTBEAT_PERIOD_SLOW, HEARTBEAT_SUBMESSAGE_SERIALIZED_SIZE,
       NACK_RESPONSE_DELAY, NACK_SUPPRESSION_DURATION, REPAIR_BATCH_MAX_BYTES,
+      REPAIR_BATCH_MAX_BYTES_SAME_HOST,
       REPAIR_INTERVAL_DEFAULT, REPAIR_INTERVAL_MAX, REPAIR_INTERVAL_MIN,
     },
     outbound::{SocketId, TrafficClass},
@@ -1491,7 +1492,7 @@ impl Writer {
   }
 
   // One repair round for a reader: send its unsent changes, lowest first, until
-  // REPAIR_BATCH_MAX_BYTES have gone out (at least one change) or nothing is
+  // `repair_batch_limit` bytes have gone out (at least one change) or nothing is
   // left, which ends repair mode. GAPs and unfragmented DATA are packed into
   // datagrams of the reader's path-MTU budget; a fragmented sample goes out on
   // its own.
@@ -1514,8 +1515,9 @@ impl Writer {
     let mut round_bytes = 0;
     // RADAR patch 59: the highest sequence number this round answered
     let mut highest_answered = None;
+    let round_limit = Self::repair_batch_limit(reader_proxy);
 
-    while round_bytes < REPAIR_BATCH_MAX_BYTES {
+    while round_bytes < round_limit {
       let Some(unsent_sn) = reader_proxy.first_unsent_change() else {
         break;
       };
@@ -1644,6 +1646,17 @@ impl Writer {
     }
     self.flush_repair_datagram(&mut datagram, reader_proxy);
   } // fn
+
+  /// How many bytes one repair round may send to `reader_proxy`: more to a reader on this host, reached over
+  /// loopback (RADAR patch 60), than over a network.
+  fn repair_batch_limit(reader_proxy: &RtpsReaderProxy) -> usize {
+    let route = reader_proxy.send_route();
+    if !route.fallback && route.unicast.is_some_and(|l| l.is_loopback()) {
+      REPAIR_BATCH_MAX_BYTES_SAME_HOST
+    } else {
+      REPAIR_BATCH_MAX_BYTES
+    }
+  }
 
   // Append `part` to the repair datagram being built for `reader_proxy`, first
   // sending the datagram if `part` (plus `invalidate_len` bytes for an INFO_TS
@@ -3429,6 +3442,69 @@ mod tests {
       let mut expected: Vec<String> = data(100, 100).collect();
       expected.push(format!("HEARTBEAT 1..{held} to {:?}", reader_guid.entity_id));
       assert_eq!(ask_and_repair(100, 100, 3), expected);
+    }
+
+    /// RADAR patch 60: a repair round to a reader on this host (reached over loopback) carries up to 32 KiB,
+    /// to a reader over a network up to 8 KiB (`repair_round_is_byte_limited_and_continues`).
+    #[test]
+    fn a_repair_round_to_a_reader_on_this_host_carries_more() {
+      use crate::{
+        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
+      };
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(100)))
+        .unwrap();
+      let (mut writer, send_buffer) = matched_writer(&reader);
+      let mut buf = vec![0u8; 65536];
+      while reader.recv(&mut buf).is_ok() {} // what the match sent
+      for _ in 0..200 {
+        let data = DDSData::new(SerializedPayload::new(
+          RepresentationIdentifier::CDR_LE,
+          vec![7; 1000],
+        ));
+        assert!(matches!(
+          send_buffer.admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)),
+          Admission::Admitted(_)
+        ));
+      }
+      let reader_guid = GUID::new(
+        GuidPrefix::new(&[2; 12]),
+        EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      assert_eq!(
+        Writer::repair_batch_limit(&writer.readers[&reader_guid]),
+        REPAIR_BATCH_MAX_BYTES_SAME_HOST,
+        "the reader is reached over loopback"
+      );
+      let wanted: BTreeSet<SequenceNumber> = (1..=200).map(SequenceNumber::new).collect();
+      writer.handle_ack_nack(
+        reader_guid.prefix,
+        &AckSubmessage::AckNack(AckNack {
+          reader_id: reader_guid.entity_id,
+          writer_id: writer.my_guid.entity_id,
+          reader_sn_state: SequenceNumberSet::from_base_and_set(SequenceNumber::new(1), &wanted),
+          count: 1,
+        }),
+      );
+      let mut rounds = Vec::new();
+      while writer.readers[&reader_guid].repair_mode && rounds.len() < 100 {
+        writer.handle_timed_event(TimedEvent::SendRepairData {
+          to_reader: reader_guid,
+        });
+        let mut sent = 0;
+        while let Ok(n) = reader.recv(&mut buf) {
+          let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+          sent += msg
+            .submessages
+            .iter()
+            .filter(|sub| matches!(sub.body, SubmessageBody::Writer(WriterSubmessage::Data(..))))
+            .count();
+        }
+        rounds.push(sent);
+      }
+      // 1,000-byte samples: the 32nd crosses 32 KiB (at 8 KiB a round it was the 8th: 25 rounds)
+      assert_eq!(rounds, vec![32, 32, 32, 32, 32, 32, 8], "samples per round");
     }
 
     #[test]
