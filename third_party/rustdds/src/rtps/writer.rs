@@ -3416,7 +3416,7 @@ mod tests {
           for sub in msg.submessages {
             match sub.body {
               SubmessageBody::Writer(WriterSubmessage::Data(d, _)) => {
-                seen.push(format!("DATA {}", i64::from(d.writer_sn)))
+                seen.push(format!("DATA {}", i64::from(d.writer_sn)));
               }
               SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) => seen.push(format!(
                 "HEARTBEAT {}..{} to {:?}",
