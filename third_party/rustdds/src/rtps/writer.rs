@@ -1364,17 +1364,11 @@ impl Writer {
           if an.reader_sn_state.iter().next().is_none()
             && (preemptive || reader_proxy.all_acked_before <= last_seq)
           {
-            let hb_message = MessageBuilder::new()
-              .ts_msg(self.endianness, Some(Timestamp::now()))
-              .heartbeat_msg(
-                self.entity_id(),
-                self.send_buffer.first_change_sequence_number(),
+            let hb_message = self
+              .heartbeat_asking_acknack(
+                MessageBuilder::new().ts_msg(self.endianness, Some(Timestamp::now())),
                 last_seq,
-                self.next_heartbeat_count(),
-                self.endianness,
                 reader_guid.entity_id,
-                false, // final_flag: request ACKNACK
-                false, // liveliness_flag
               )
               .add_header_and_build(self.my_guid.prefix);
             self.send_control_to_readers(
@@ -1631,15 +1625,10 @@ impl Writer {
       // about that long per window for the SEDP data of a big one).
       let last = self.send_buffer.last_change_sequence_number();
       if highest_answered.is_some_and(|sn| sn < last) && reader_proxy.all_acked_before <= last {
-        let heartbeat = MessageBuilder::new().heartbeat_msg(
-          self.entity_id(),
-          self.send_buffer.first_change_sequence_number(),
+        let heartbeat = self.heartbeat_asking_acknack(
+          MessageBuilder::new(),
           last,
-          self.next_heartbeat_count(),
-          self.endianness,
           reader_proxy.remote_reader_guid.entity_id,
-          false, // final_flag: the reader answers with an ACKNACK
-          false,
         );
         self.add_to_repair_datagram(&mut datagram, heartbeat, 0, reader_proxy);
       }
@@ -1656,6 +1645,27 @@ impl Writer {
     } else {
       REPAIR_BATCH_MAX_BYTES
     }
+  }
+
+  /// `builder` with a HEARTBEAT of what this writer holds up to `last`, to `reader` (`EntityId::UNKNOWN`:
+  /// every reader the message reaches), its final flag clear: the reader answers with an ACKNACK. Sent on a
+  /// match, to a preemptive ACKNACK (RADAR patch 34) and after a repair window (RADAR patch 59).
+  fn heartbeat_asking_acknack(
+    &self,
+    builder: MessageBuilder,
+    last: SequenceNumber,
+    reader: EntityId,
+  ) -> MessageBuilder {
+    builder.heartbeat_msg(
+      self.entity_id(),
+      self.send_buffer.first_change_sequence_number(),
+      last,
+      self.next_heartbeat_count(),
+      self.endianness,
+      reader,
+      false, // final_flag
+      false, // liveliness_flag
+    )
   }
 
   // Append `part` to the repair datagram being built for `reader_proxy`, first
@@ -2175,19 +2185,11 @@ impl Writer {
           // and the endpoints stay unmatched. Unicast to just the new reader.
           if self.is_reliable() && !self.like_stateless {
             let new_reader_guid = reader_proxy.remote_reader_guid;
-            let first = self.send_buffer.first_change_sequence_number();
-            let last = self.send_buffer.last_change_sequence_number();
-            let hb_message = MessageBuilder::new()
-              .ts_msg(self.endianness, Some(Timestamp::now()))
-              .heartbeat_msg(
-                self.entity_id(),
-                first,
-                last,
-                self.next_heartbeat_count(),
-                self.endianness,
+            let hb_message = self
+              .heartbeat_asking_acknack(
+                MessageBuilder::new().ts_msg(self.endianness, Some(Timestamp::now())),
+                self.send_buffer.last_change_sequence_number(),
                 EntityId::UNKNOWN,
-                false, // final_flag: require the reader to respond with ACKNACK
-                false, // liveliness_flag
               )
               .add_header_and_build(self.my_guid.prefix);
             if let Some(rp) = self.readers.get(&new_reader_guid) {
@@ -3267,14 +3269,69 @@ mod tests {
     }
 
     fn admit(send_buffer: &WriterSendBuffer) -> SequenceNumber {
+      admit_of(send_buffer, 16)
+    }
+
+    /// Admits a sample of `len` bytes.
+    fn admit_of(send_buffer: &WriterSendBuffer, len: usize) -> SequenceNumber {
       let data = DDSData::new(SerializedPayload::new(
         RepresentationIdentifier::CDR_LE,
-        vec![7; 16],
+        vec![7; len],
       ));
       match send_buffer.admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)) {
         Admission::Admitted(sn) => sn,
         Admission::WouldBlock => panic!("no room"),
       }
+    }
+
+    /// The reader `matched_writer` matched.
+    fn matched_reader() -> GUID {
+      GUID::new(
+        GuidPrefix::new(&[2; 12]),
+        EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED),
+      )
+    }
+
+    /// `matched_reader` asks `writer` for `first..=last`, as a reader that has nothing before `first` would.
+    fn ask_for(writer: &mut Writer, first: i64, last: i64, count: i32) {
+      use crate::{
+        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
+      };
+      let reader = matched_reader();
+      let wanted: BTreeSet<SequenceNumber> = (first..=last).map(SequenceNumber::new).collect();
+      writer.handle_ack_nack(
+        reader.prefix,
+        &AckSubmessage::AckNack(AckNack {
+          reader_id: reader.entity_id,
+          writer_id: writer.my_guid.entity_id,
+          reader_sn_state: SequenceNumberSet::from_base_and_set(SequenceNumber::new(first), &wanted),
+          count,
+        }),
+      );
+    }
+
+    /// The DATA and HEARTBEAT submessages waiting on `reader`'s socket, in order.
+    fn data_and_heartbeats(reader: &UdpSocket) -> Vec<String> {
+      let mut buf = vec![0u8; 65536];
+      let mut seen = Vec::new();
+      while let Ok(n) = reader.recv(&mut buf) {
+        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
+        for sub in msg.submessages {
+          match sub.body {
+            SubmessageBody::Writer(WriterSubmessage::Data(d, _)) => {
+              seen.push(format!("DATA {}", i64::from(d.writer_sn)));
+            }
+            SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) => seen.push(format!(
+              "HEARTBEAT {}..{} to {:?}",
+              i64::from(h.first_sn),
+              i64::from(h.last_sn),
+              h.reader_id
+            )),
+            _ => {}
+          }
+        }
+      }
+      seen
     }
 
     #[test]
@@ -3370,37 +3427,21 @@ mod tests {
     /// window at once. A window that reaches the writer's last sample needs none.
     #[test]
     fn a_repair_window_short_of_the_history_ends_with_a_heartbeat() {
-      use crate::{
-        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
-      };
       let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
       reader
         .set_read_timeout(Some(StdDuration::from_millis(100)))
         .unwrap();
       let (mut writer, send_buffer) = matched_writer(&reader);
-      let mut buf = vec![0u8; 65536];
-      while reader.recv(&mut buf).is_ok() {} // what the match sent
+      data_and_heartbeats(&reader); // what the match sent
       let held = 300;
       for _ in 0..held {
         admit(&send_buffer);
       }
-      let reader_guid = GUID::new(
-        GuidPrefix::new(&[2; 12]),
-        EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED),
-      );
-      // asks for `first..=last` (as a reader that has nothing before `first` would), then the writer's repair
-      // rounds run until it has answered; the submessages on the wire, in order
+      let reader_guid = matched_reader();
+      // asks for `first..=last`, then the writer's repair rounds run until it has answered; the submessages on
+      // the wire, in order
       let mut ask_and_repair = |first: i64, last: i64, count: i32| -> Vec<String> {
-        let wanted: BTreeSet<SequenceNumber> = (first..=last).map(SequenceNumber::new).collect();
-        writer.handle_ack_nack(
-          reader_guid.prefix,
-          &AckSubmessage::AckNack(AckNack {
-            reader_id: reader_guid.entity_id,
-            writer_id: writer.my_guid.entity_id,
-            reader_sn_state: SequenceNumberSet::from_base_and_set(SequenceNumber::new(first), &wanted),
-            count,
-          }),
-        );
+        ask_for(&mut writer, first, last, count);
         for _ in 0..1000 {
           if !writer.readers[&reader_guid].repair_mode {
             break;
@@ -3410,25 +3451,7 @@ mod tests {
           });
         }
         assert!(!writer.readers[&reader_guid].repair_mode, "repair did not end");
-        let mut seen = Vec::new();
-        while let Ok(n) = reader.recv(&mut buf) {
-          let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
-          for sub in msg.submessages {
-            match sub.body {
-              SubmessageBody::Writer(WriterSubmessage::Data(d, _)) => {
-                seen.push(format!("DATA {}", i64::from(d.writer_sn)));
-              }
-              SubmessageBody::Writer(WriterSubmessage::Heartbeat(h, _)) => seen.push(format!(
-                "HEARTBEAT {}..{} to {:?}",
-                i64::from(h.first_sn),
-                i64::from(h.last_sn),
-                h.reader_id
-              )),
-              _ => {}
-            }
-          }
-        }
-        seen
+        data_and_heartbeats(&reader)
       };
       let data = |first: i64, last: i64| (first..=last).map(|sn| format!("DATA {sn}"));
 
@@ -3448,60 +3471,29 @@ mod tests {
     /// to a reader over a network up to 8 KiB (`repair_round_is_byte_limited_and_continues`).
     #[test]
     fn a_repair_round_to_a_reader_on_this_host_carries_more() {
-      use crate::{
-        messages::submessages::ack_nack::AckNack, structure::sequence_number::SequenceNumberSet,
-      };
       let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
       reader
         .set_read_timeout(Some(StdDuration::from_millis(100)))
         .unwrap();
       let (mut writer, send_buffer) = matched_writer(&reader);
-      let mut buf = vec![0u8; 65536];
-      while reader.recv(&mut buf).is_ok() {} // what the match sent
+      data_and_heartbeats(&reader); // what the match sent
       for _ in 0..200 {
-        let data = DDSData::new(SerializedPayload::new(
-          RepresentationIdentifier::CDR_LE,
-          vec![7; 1000],
-        ));
-        assert!(matches!(
-          send_buffer.admit_blocking(WriteOptions::default(), data, Some(StdDuration::ZERO)),
-          Admission::Admitted(_)
-        ));
+        admit_of(&send_buffer, 1000);
       }
-      let reader_guid = GUID::new(
-        GuidPrefix::new(&[2; 12]),
-        EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED),
-      );
+      let reader_guid = matched_reader();
       assert_eq!(
         Writer::repair_batch_limit(&writer.readers[&reader_guid]),
         REPAIR_BATCH_MAX_BYTES_SAME_HOST,
         "the reader is reached over loopback"
       );
-      let wanted: BTreeSet<SequenceNumber> = (1..=200).map(SequenceNumber::new).collect();
-      writer.handle_ack_nack(
-        reader_guid.prefix,
-        &AckSubmessage::AckNack(AckNack {
-          reader_id: reader_guid.entity_id,
-          writer_id: writer.my_guid.entity_id,
-          reader_sn_state: SequenceNumberSet::from_base_and_set(SequenceNumber::new(1), &wanted),
-          count: 1,
-        }),
-      );
+      ask_for(&mut writer, 1, 200, 1);
       let mut rounds = Vec::new();
       while writer.readers[&reader_guid].repair_mode && rounds.len() < 100 {
         writer.handle_timed_event(TimedEvent::SendRepairData {
           to_reader: reader_guid,
         });
-        let mut sent = 0;
-        while let Ok(n) = reader.recv(&mut buf) {
-          let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..n])).unwrap();
-          sent += msg
-            .submessages
-            .iter()
-            .filter(|sub| matches!(sub.body, SubmessageBody::Writer(WriterSubmessage::Data(..))))
-            .count();
-        }
-        rounds.push(sent);
+        let sent = data_and_heartbeats(&reader);
+        rounds.push(sent.iter().filter(|s| s.starts_with("DATA")).count());
       }
       // 1,000-byte samples: the 32nd crosses 32 KiB (at 8 KiB a round it was the 8th: 25 rounds)
       assert_eq!(rounds, vec![32, 32, 32, 32, 32, 32, 8], "samples per round");
