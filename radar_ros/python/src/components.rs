@@ -22,6 +22,31 @@ pub(crate) struct PyResponse {
     pub(crate) output_type: String,
     pub(crate) output_default: DynMessage,
     pub(crate) policy: StartPolicy,
+    /// `Response.inline`: the slots are the runner's plain `start_inline`, `interrupt_inline` and
+    /// `exit_inline`, called here, in the engine's task (as rclpy calls a callback on the thread that took the
+    /// message), instead of coroutines handed to the slot loop.
+    pub(crate) inline: bool,
+}
+
+impl PyResponse {
+    /// Calls the runner's plain method `method` with `args` in this thread, holding the GIL; its value read by
+    /// `value`.
+    fn call_inline<T>(
+        &self,
+        method: &str,
+        args: impl for<'py> FnOnce(Python<'py>) -> PyResult<Bound<'py, PyTuple>>,
+        value: impl FnOnce(&Bound<'_, PyAny>) -> Result<T, String>,
+    ) -> Ended<T> {
+        Python::attach(|py| {
+            match args(py).and_then(|a| self.runner.bind(py).call_method1(method, a)) {
+                Ok(v) => match value(&v) {
+                    Ok(v) => Ended::Value(v),
+                    Err(m) => Ended::Failed(m),
+                },
+                Err(e) => ended_by(py, &e),
+            }
+        })
+    }
 }
 
 impl Response for PyResponse {
@@ -29,6 +54,20 @@ impl Response for PyResponse {
     type Output = DynMessage;
 
     async fn start(&mut self, payload: DynMessage) -> Result<DynMessage, SlotError> {
+        if self.inline {
+            // run to its end in this first poll: `started` is on the wire already (R1), and nothing can
+            // interrupt it before it returns (an rclpy callback's contract)
+            let ended = self.call_inline(
+                "start_inline",
+                |py| PyTuple::new(py, [PyBytes::new(py, payload.0.as_bytes())]),
+                |v| body(v, "start"),
+            );
+            return match ended {
+                Ended::Value(v) => Ok(v),
+                Ended::Failed(m) => Err(SlotError::msg(m)),
+                Ended::Panicked(m) => panic_with(m),
+            };
+        }
         // R12 and "started never announces a behaviour that did not run": this first poll ends only once the
         // Python behaviour has begun (run up to its first await, or its thread started), as a Rust slot's
         // first poll runs it up to its first await; an interrupt right after cannot cancel it unrun
@@ -66,28 +105,37 @@ impl Response for PyResponse {
     }
 
     async fn interrupt(&mut self) {
-        let runner = self.runner.clone();
-        if let Ended::Failed(m) | Ended::Panicked(m) = run_slot(
-            &self.slots,
-            move |py| runner.bind(py).call_method0("interrupt"),
-            |_| Ok(()),
-        )
-        .await
-        {
+        let ended = if self.inline {
+            self.call_inline("interrupt_inline", |py| Ok(PyTuple::empty(py)), |_| Ok(()))
+        } else {
+            let runner = self.runner.clone();
+            run_slot(
+                &self.slots,
+                move |py| runner.bind(py).call_method0("interrupt"),
+                |_| Ok(()),
+            )
+            .await
+        };
+        if let Ended::Failed(m) | Ended::Panicked(m) = ended {
             panic_with(m)
         }
     }
 
     async fn exit(&mut self, reason: ExitReason) -> ExitAction {
-        let runner = self.runner.clone();
         let why = reason.describe();
-        match run_slot(
-            &self.slots,
-            move |py| runner.bind(py).call_method1("exit", (why,)),
-            |v| Ok(v.is_truthy().unwrap_or(false)),
-        )
-        .await
-        {
+        let restart = |v: &Bound<'_, PyAny>| Ok(v.is_truthy().unwrap_or(false));
+        let ended = if self.inline {
+            self.call_inline("exit_inline", |py| PyTuple::new(py, [why]), restart)
+        } else {
+            let runner = self.runner.clone();
+            run_slot(
+                &self.slots,
+                move |py| runner.bind(py).call_method1("exit", (why,)),
+                restart,
+            )
+            .await
+        };
+        match ended {
             Ended::Value(true) => ExitAction::Restart,
             Ended::Value(false) => ExitAction::Done,
             Ended::Failed(m) | Ended::Panicked(m) => panic_with(m),

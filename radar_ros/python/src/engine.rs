@@ -51,7 +51,11 @@ pub(crate) fn to_py(e: radar_ros::Error) -> PyErr {
         E::ComponentLost { .. } | E::Closed(_) => "ComponentLost",
         _ => "RadarError",
     };
-    let msg = e.to_string();
+    package_error(class, e.to_string())
+}
+
+/// The package's exception `class` (of `radar_ros._errors`) with `msg`.
+pub(crate) fn package_error(class: &str, msg: String) -> PyErr {
     Python::attach(|py| {
         match py
             .import("radar_ros._errors")
@@ -72,12 +76,22 @@ impl Engine {
     }
 
     /// Runs `fut` to its end on the runtime with the GIL released, letting Python raise (Ctrl-C) every
-    /// 100 ms; a raise drops `fut`.
+    /// 100 ms; a raise drops `fut`. Refused on one of the engine's own threads (an inline slot's): it would
+    /// wait there for work that thread has to do.
     pub(crate) fn wait<T: Send>(
         &self,
         py: Python<'_>,
         fut: impl Future<Output = radar_ros::Result<T>> + Send,
     ) -> PyResult<T> {
+        if tokio::runtime::Handle::try_current().is_ok() {
+            return Err(package_error(
+                "InvalidArgument",
+                "a blocking call (lookup, connection, waitfor, inject, recv) in an inline slot, on the \
+                 engine's own thread, would stall the engine: make it from a plain or async def slot \
+                 (Response.inline False), or from the program's own threads"
+                    .into(),
+            ));
+        }
         let mut fut = Box::pin(fut);
         loop {
             let step = py.detach(|| {
@@ -241,8 +255,9 @@ impl PyEngine {
         })
     }
 
-    /// Spawns the response `name` whose slots are `runner`'s coroutine methods; `output_default` is what
-    /// `exited` carries after a run that did not complete (the output type's default message).
+    /// Spawns the response `name` whose slots are `runner`'s coroutine methods (its plain `*_inline` methods,
+    /// called in the engine's task, if `inline`); `output_default` is what `exited` carries after a run that
+    /// did not complete (the output type's default message).
     #[allow(clippy::too_many_arguments)]
     fn spawn_response(
         &self,
@@ -253,9 +268,11 @@ impl PyEngine {
         output_type: String,
         output_default: Vec<u8>,
         start_policy: &str,
+        inline: bool,
     ) -> PyResult<Component> {
         let e = self.engine()?;
         let r = PyResponse {
+            inline,
             runner: Arc::new(runner),
             slots: e.slots.clone(),
             start_type,

@@ -629,3 +629,132 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
         loop.call_soon_threadsafe(loop.stop)
         thread.join(WAIT)
         loop.close()
+
+
+def os_thread_name() -> str:
+    """The calling thread's name as the OS knows it (a thread the engine made is no Python thread: Python calls
+    it "Dummy-N")."""
+    with open(f"/proc/self/task/{threading.get_native_id()}/comm") as f:
+        return f.read().strip()
+
+
+class InlineRecorder(Recorder):
+    """A Recorder whose slots are called inline (``Response.inline``): on the engine's thread, as rclpy calls
+    a callback. Records the thread each slot ran on."""
+
+    inline = True
+
+    def __init__(self, work: float = 0.0, restarts: int = 0):
+        super().__init__(work, restarts)
+        self.threads: List[str] = []
+
+    def start(self, payload: Any) -> String:
+        self.threads.append(os_thread_name())
+        data = getattr(payload, "data", "")
+        self.add(f"start:{data}")
+        time.sleep(self.work)  # a callback that overstays: nothing can cut it short
+        self.add("done")
+        return String(data=f"out:{data}")
+
+    def exit(self, reason: radar_ros.ExitReason) -> Any:
+        self.threads.append(os_thread_name())
+        return super().exit(reason)
+
+
+def test_an_inline_response_runs_its_slots_on_the_engines_thread_in_order() -> None:
+    with radar() as r:
+        rec = InlineRecorder(restarts=1)
+        c = r.spawn_response("rules_inline", rec)
+        started = r.waiter(c.started, timeout=WAIT)
+        exited = r.waiter(c.exited, timeout=WAIT)
+        r.inject(c.start_slot, String(data="a"), timeout=WAIT)
+        assert started.recv(timeout=WAIT).data == "a"
+        assert exited.recv(timeout=WAIT).data == "out:a"
+        # exit returned Restart once: the run started again with the same payload, then ended
+        eventually(lambda: c.state()["exits"] == 2, "the state to count both runs")
+        assert rec.log == ["start:a", "done", "exit:completed"] * 2, rec.log
+        # called where the signal was taken: neither a thread of their own nor the package's event loop
+        assert len(rec.threads) == 4 and all(t.startswith("radar-engine") for t in rec.threads), rec.threads
+        st = c.state()
+        assert (st["starts"], st["completed"], st["restarts"]) == (2, 2, 1)
+
+
+def test_an_interrupt_that_reaches_a_running_inline_start_finds_the_run_ended() -> None:
+    """An inline start runs to its end as a callback does: an interrupt sent while it runs is taken after it
+    returned (the run completed; its exit slot ran once, as completed), and the response takes the next start."""
+    with radar() as r:
+        rec = InlineRecorder(work=0.4)
+        c = r.spawn_response("rules_inline_busy", rec)
+        for i in range(3):
+            began = len(rec.log)
+            r.inject(c.start_slot, String(data=str(i)), timeout=WAIT)
+            eventually(lambda: len(rec.log) > began, "the inline start to begin")
+            r.inject(c.interrupt_slot, None, timeout=WAIT)
+            eventually(lambda: c.state()["exits"] == i + 1, "the run to end")
+            assert rec.log[began:] == [f"start:{i}", "done", "exit:completed"], rec.log
+        st = c.state()
+        assert (st["completed"], st["interrupts"]) == (3, 0), st
+
+
+def test_inline_slot_errors_fail_or_crash_the_run_and_exit_still_runs() -> None:
+    class Failing(radar_ros.Response):
+        inline = True
+
+        def __init__(self) -> None:
+            self.exits: List[str] = []
+
+        def start(self, payload: Any) -> None:
+            if not self.exits:
+                raise radar_ros.SlotError("no path to the dock")
+            raise ValueError("dock sensor unreadable")
+
+        def exit(self, reason: radar_ros.ExitReason) -> None:
+            self.exits.append(str(reason))
+
+    with radar() as r:
+        f = Failing()
+        c = r.spawn_response("rules_inline_fail", f)
+        r.inject(c.start_slot, None, timeout=WAIT)
+        eventually(lambda: c.state()["exits"] == 1, "the failed run to end")
+        assert c.state()["last_exit_reason"] == "failed: no path to the dock"
+        r.inject(c.start_slot, None, timeout=WAIT)
+        eventually(lambda: c.state()["exits"] == 2, "the crashed run to end")
+        reason = c.state()["last_exit_reason"]
+        assert reason.startswith("panicked: ") and "ValueError('dock sensor unreadable')" in reason, reason
+        assert "test_rules.py" in reason, reason
+        assert [e.split(":")[0] for e in f.exits] == ["failed", "panicked"]
+        # and a start that returns what is not its output fails the run, saying so
+        c2 = r.spawn_response("rules_inline_bad_output", lambda p: 42, inline=True, output_type=String)
+        r.inject(c2.start_slot, None, timeout=WAIT)
+        eventually(lambda: c2.state()["exits"] == 1, "the run to end")
+        reason = c2.state()["last_exit_reason"]
+        assert reason.startswith("failed: start returned 42, not its output (std_msgs/msg/String)"), reason
+        # a blocking call on the engine's own thread is refused (it would wait for that thread), saying why
+        c3 = r.spawn_response("rules_inline_blocks", lambda p: r.inject(c2.start_slot, None), inline=True)
+        r.inject(c3.start_slot, None, timeout=WAIT)
+        eventually(lambda: c3.state()["exits"] == 1, "the run to end")
+        reason = c3.state()["last_exit_reason"]
+        assert "InvalidArgument" in reason and "would stall the engine" in reason, reason
+        assert c2.state()["starts"] == 1
+
+
+def test_an_inline_response_with_async_slots_is_refused_saying_what_to_do() -> None:
+    class AsyncStart(radar_ros.Response):
+        async def start(self, payload: Any) -> None:
+            pass
+
+    class AsyncExit(radar_ros.Response):
+        def start(self, payload: Any) -> None:
+            pass
+
+        async def exit(self, reason: radar_ros.ExitReason) -> None:
+            pass
+
+    with radar() as r:
+        for name, resp, slot in [("rules_inline_a", AsyncStart(), "start"), ("rules_inline_b", AsyncExit(), "exit")]:
+            with pytest.raises(radar_ros.InvalidArgument) as e:
+                r.spawn_response(name, resp, inline=True)
+            assert f"its {slot} is an async def: make it a plain def" in str(e.value), e.value
+        # the same classes are fine on the event loop; the base's interrupt and exit (do nothing) fine inline
+        r.spawn_response("rules_inline_c", AsyncExit())
+        r.spawn_response("rules_inline_d", lambda p: None, inline=True)

@@ -146,12 +146,20 @@ class Response:
       default ``std_msgs/msg/Empty``);
     - ``output_type``: what ``start`` returns and ``exited`` carries (default ``std_msgs/msg/Empty``);
     - ``start_policy``: what a ``start`` during a run does: ``"ignore"`` (default), ``"restart"``,
-      ``"queue_one"``.
+      ``"queue_one"``;
+    - ``inline``: ``True`` calls the slots as rclpy calls a subscription's callback: plain functions, called
+      on the engine's thread that received the signal, with no hand-off to a thread or to the event loop (the
+      shortest path from a signal to the behaviour; ``started`` is still on the wire before ``start`` is
+      called). They must return quickly, as a callback must: a running inline ``start`` cannot be interrupted
+      (an ``interrupt`` or ``exit`` that arrives meanwhile is taken once it has returned, and finds the run
+      ended), and while it runs it holds one of the engine's two threads. ``async def`` slots are refused
+      (leave ``interrupt`` and ``exit`` as they are, or make them plain functions).
     """
 
     start_type: MsgType = EMPTY
     output_type: MsgType = EMPTY
     start_policy: str = "ignore"
+    inline: bool = False
 
     def start(self, payload: Any) -> Any:
         """The main behaviour; its return value is the output (None: the output type's default). Raise
@@ -387,7 +395,47 @@ class _ResponseRunner(_Runner):
     async def exit(self, reason: str) -> bool:
         async with self._lock():
             res = await self._call(self._r.exit, ExitReason(reason))
-            return res is Restart or isinstance(res, Restart)
+            return _restarts(res)
+
+    # an inline response's slots (``Response.inline``): called by the engine on its own thread, holding the GIL
+
+    def start_inline(self, body: bytes) -> bytes:
+        out = self._r.start(decode(body, self._start_type))
+        try:
+            return encode(out, self._output_type)
+        except PayloadTypeError as e:
+            raise SlotError(f"start returned {out!r}, not its output ({self._output_type}): {e}") from None
+
+    def interrupt_inline(self) -> None:
+        if _overrides(self._r, "interrupt"):
+            interrupt: Callable[[], Any] = self._r.interrupt  # a plain def (checked at spawn)
+            interrupt()
+
+    def exit_inline(self, reason: str) -> bool:
+        if not _overrides(self._r, "exit"):
+            return False
+        return _restarts(self._r.exit(ExitReason(reason)))
+
+
+def _restarts(exit_result: Any) -> bool:
+    return exit_result is Restart or isinstance(exit_result, Restart)
+
+
+def _overrides(r: Response, slot: str) -> bool:
+    """Whether the response ``r`` has a ``slot`` of its own (not :class:`Response`'s, which does nothing)."""
+    return slot in getattr(r, "__dict__", {}) or getattr(type(r), slot) is not getattr(Response, slot)
+
+
+def _inline_slots_checked(name: str, r: Response) -> None:
+    """Refuses an inline response whose slots cannot be called inline (``async def``), saying what to do."""
+    for slot in ("start", "interrupt", "exit"):
+        fn = getattr(r, slot)
+        if (slot == "start" or _overrides(r, slot)) and _is_async(fn):
+            raise InvalidArgument(
+                f"{name}: an inline response's slots are plain functions, called on the engine's thread as "
+                f"rclpy calls a callback; its {slot} is an async def: make it a plain def, or leave inline "
+                "False to run async slots on the package's event loop"
+            )
 
 
 class _EventRunner(_Runner):
@@ -843,13 +891,18 @@ class Radar:
         start_type: Optional[MsgType] = None,
         output_type: Optional[MsgType] = None,
         start_policy: Optional[str] = None,
+        inline: Optional[bool] = None,
     ) -> Component:
         """Starts ``response`` (a :class:`Response`, or a function that is its start behaviour) as the ROS 2
-        node ``name`` (relative to the namespace, or absolute)."""
+        node ``name`` (relative to the namespace, or absolute). The keyword arguments override the
+        response's class attributes of the same names (see :class:`Response`)."""
         r = response if isinstance(response, Response) else _FnResponse(response)
         st = type_name(start_type if start_type is not None else r.start_type)
         ot = type_name(output_type if output_type is not None else r.output_type)
         policy = start_policy if start_policy is not None else r.start_policy
+        run_inline = bool(inline if inline is not None else r.inline)
+        if run_inline:
+            _inline_slots_checked(name, r)
         runner = _ResponseRunner(name, r, st, ot)
         _warm(st, ot)
         try:
@@ -859,7 +912,7 @@ class Radar:
                 f"{name}: output type {ot}: its default message (sent on exited after a run that did not "
                 f"complete) cannot be made here: {e}"
             ) from None
-        native = self._engine_().spawn_response(name, runner, st, ot, output_default, policy)
+        native = self._engine_().spawn_response(name, runner, st, ot, output_default, policy, run_inline)
         self._components.append(native)
         return Component(native, native.response_ref())
 

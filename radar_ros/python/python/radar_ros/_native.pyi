@@ -99,6 +99,7 @@ class Engine:
         output_type: str,
         output_default: bytes,
         start_policy: str,
+        inline: bool,
     ) -> Component: ...
     def spawn_event(self, name: str, runner: Any, payload_type: str) -> Component: ...
     def connect(
