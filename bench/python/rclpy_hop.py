@@ -15,7 +15,9 @@
                                      the radar_ros Python package (issue 24): a Python response (async def
                                      start, queue_one) whose start slot records each Header's age, started by
                                      `whenever T start` through the package's own manager (1 hop); rclpy's
-                                     node sits in the same process, unused
+                                     node sits in the same process, unused. `--inline`: the start slot is a
+                                     plain function the engine calls on its own thread (`Response.inline`,
+                                     as rclpy calls a callback) instead of an async def on the slot loop
     rclpy_hop.py radar-source --topic NAME
                                      a Python event NAME through the package whose (async) check resolves
                                      when `run` feeds it a sequence number, stamped then, as the Rust
@@ -128,27 +130,39 @@ def action_server(node, action, lock, record):
                         callback_group=ReentrantCallbackGroup())
 
 
-def radar_sink(topic, lock, record):
-    """A Python response through the radar_ros package, started by `whenever topic start` (1 hop)."""
+def radar_sink(topic, lock, record, inline=False):
+    """A Python response through the radar_ros package, started by `whenever topic start` (1 hop); `inline`:
+    its start a plain function called on the engine's thread."""
     import radar_ros
 
     stages = staged_runner(radar_ros) if os.environ.get("RADAR_BENCH_STAGES") == "1" else None
+
+    def behaviour(h):
+        t = now_ns()
+        age = t - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
+        with lock:
+            record.append((int(h.frame_id), age))
+            if stages is not None and stages["pending"]:
+                stages["runs"][int(h.frame_id)] = stages["pending"] + [t]
+                stages["pending"] = None
 
     class Sink(radar_ros.Response):
         start_type = Header
         start_policy = "queue_one"
 
         async def start(self, h):
-            t = now_ns()
-            age = t - (h.stamp.sec * 1_000_000_000 + h.stamp.nanosec)
-            with lock:
-                record.append((int(h.frame_id), age))
-                if stages is not None and stages["pending"]:
-                    stages["runs"][int(h.frame_id)] = stages["pending"] + [t]
-                    stages["pending"] = None
+            behaviour(h)
+
+    class InlineSink(radar_ros.Response):
+        start_type = Header
+        start_policy = "queue_one"
+        inline = True
+
+        def start(self, h):
+            behaviour(h)
 
     radar = radar_ros.Radar(args=[])
-    resp = radar.spawn_response("/bench/py_sink", Sink())
+    resp = radar.spawn_response("/bench/py_sink", InlineSink() if inline else Sink())
     # the connection arms once the source's publisher is there (it starts after this process)
     statement = radar.whenever(radar_ros.Signal(topic, "std_msgs/msg/Header")).start(resp).timeout(60)
     connections = []
@@ -164,7 +178,7 @@ def staged_runner(radar_ros):
     first step on the loop's thread, the payload decoded; the slot itself stamps when it begins."""
     stages = {"pending": None, "runs": {}}
     runner = radar_ros._ResponseRunner
-    orig_start, orig_decode = runner.start, radar_ros.decode
+    orig_start, orig_start_inline, orig_decode = runner.start, runner.start_inline, radar_ros.decode
 
     def start(self, body, begun):
         called = now_ns()
@@ -174,13 +188,19 @@ def staged_runner(radar_ros):
             return await orig_start(self, body, begun)
         return staged()
 
+    def start_inline(self, body):
+        # no hand-off: the engine's call and the first step are one moment
+        stages["pending"] = [now_ns()]
+        return orig_start_inline(self, body)
+
     def decode(*a, **k):
         out = orig_decode(*a, **k)
-        if stages["pending"] is not None and len(stages["pending"]) == 2:
+        if stages["pending"] is not None and len(stages["pending"]) in (1, 2):
             stages["pending"].append(now_ns())
         return out
 
     runner.start = start
+    runner.start_inline = start_inline
     radar_ros.decode = decode
     return stages
 
@@ -190,14 +210,16 @@ def stage_p50s(stages, got):
     the (seq, age) pairs of the runs counted)."""
     names = ["publish -> engine calls the slot", "-> coroutine's first step on the loop",
              "-> payload decoded", "-> user's start begins"]
+    if any(len(run) == 3 for run in stages["runs"].values()):
+        del names[1]  # an inline start: called where the engine took the signal, no loop
     cols = [[] for _ in names]
     for seq, age in got:
         run = stages["runs"].get(seq, [])
-        if len(run) != 4:
+        if len(run) != len(names):
             continue
-        begin = run[3]
+        begin = run[-1]
         published = begin - age
-        for i, (a, b) in enumerate(zip([published] + run[:3], run)):
+        for i, (a, b) in enumerate(zip([published] + run[:-1], run)):
             cols[i].append((b - a) / 1000)
     return [[n, round(statistics.median(c), 1)] for n, c in zip(names, cols) if c]
 
@@ -288,6 +310,7 @@ def main():
                                          "radar-source"])
     ap.add_argument("--topic", required=True)
     ap.add_argument("--seq", type=int, default=0)
+    ap.add_argument("--inline", action="store_true")
     a = ap.parse_args()
     rclpy.init()
     node = Node(f"rclpy_{a.role.replace('-', '_')}", namespace="/bench")
@@ -304,7 +327,7 @@ def main():
     elif a.role == "action-client":
         driver = Driver(node, a.topic)
     elif a.role == "radar-sink":
-        radar, resp, radar_stages = radar_sink(a.topic, lock, record)
+        radar, resp, radar_stages = radar_sink(a.topic, lock, record, a.inline)
     elif a.role == "radar-source":
         radar, ev, ev_ready, feed = radar_source(a.topic)
     elif a.role == "sink":

@@ -116,28 +116,20 @@ impl Bench {
         Ok(r)
     }
 
-    /// The Python package (issue 24): rclpy's publisher -> a Python response's start slot through the package,
-    /// next to rclpy's own one hop, in the same run. Needs the package in the venv (`tests/python_package.sh`,
-    /// or `pip install ./radar_ros/python` for a release build).
-    pub(super) async fn python_package(&mut self) -> Result<()> {
-        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
-        let run = format!("run {n} {p}");
-        let r = self.rclpy_1hop(&run, "/bench/lat_rclpy").await?;
-        self.push_latency(
-            "rclpy_1hop_same_run",
-            "rclpy, 1 hop (publisher -> subscriber), beside the Python package row",
-            &r,
-            "",
-        )?;
+    /// rclpy's publisher -> a Python response's start slot through the package (`inline`: a plain function the
+    /// engine calls on its thread), its manager in the response's process; the row and its note.
+    async fn python_response_hop(&mut self, run: &str, inline: bool) -> Result<(Value, String)> {
         let d = self.domain();
-        let mut sink = self
-            .python(d, &["radar-sink", "--topic", "/bench/lat_package"])
-            .await?;
+        let mut args = vec!["radar-sink", "--topic", "/bench/lat_package"];
+        if inline {
+            args.push("--inline");
+        }
+        let mut sink = self.python(d, &args).await?;
         let mut src = self
             .python(d, &["source", "--topic", "/bench/lat_package"])
             .await?;
         src.ask("wait", START).await?;
-        let r = self.paced(&mut src, &run, &mut sink).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
         src.quit().await;
         sink.quit().await;
         let mut note = format!(
@@ -153,9 +145,33 @@ impl Bench {
                 .collect();
             note.push_str(&format!("; stages (p50): {}", parts.join(", ")));
         }
+        Ok((r, note))
+    }
+
+    /// The Python package (issue 24): rclpy's publisher -> a Python response's start slot through the package,
+    /// next to rclpy's own one hop, in the same run. Needs the package in the venv (`tests/python_package.sh`,
+    /// or `pip install ./radar_ros/python` for a release build).
+    pub(super) async fn python_package(&mut self) -> Result<()> {
+        let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
+        let run = format!("run {n} {p}");
+        let r = self.rclpy_1hop(&run, "/bench/lat_rclpy").await?;
+        self.push_latency(
+            "rclpy_1hop_same_run",
+            "rclpy, 1 hop (publisher -> subscriber), beside the Python package row",
+            &r,
+            "",
+        )?;
+        let (r, note) = self.python_response_hop(&run, false).await?;
         self.push_latency(
             "radar_python_1hop",
             "radar_ros Python package: rclpy publisher -> Python response's start slot (async def; manager in the response's process, 1 hop)",
+            &r,
+            &note,
+        )?;
+        let (r, note) = self.python_response_hop(&run, true).await?;
+        self.push_latency(
+            "radar_python_inline_1hop",
+            "radar_ros Python package: rclpy publisher -> Python response's start slot (inline: a plain def called on the engine's thread, as rclpy calls a callback; 1 hop)",
             &r,
             &note,
         )?;
