@@ -141,7 +141,10 @@ def test_start_policies(policy: str, expect_starts: List[str], expect_ignored: i
             assert rec.log.index("exit:completed") < rec.log.index("start:2"), rec.log
 
 
-def test_a_slot_error_fails_the_run_and_an_exception_is_reported_as_a_panic() -> None:
+@pytest.mark.parametrize("inline", [False, True])
+def test_a_slot_error_fails_the_run_and_an_exception_is_reported_as_a_panic(inline: bool) -> None:
+    """Plain slots in a thread of their own, and inline (called on the engine's thread): the same ends."""
+
     class Failing(radar_ros.Response):
         def __init__(self) -> None:
             self.exits: List[str] = []
@@ -156,7 +159,7 @@ def test_a_slot_error_fails_the_run_and_an_exception_is_reported_as_a_panic() ->
 
     with radar() as r:
         f = Failing()
-        c = r.spawn_response("rules_fail", f)
+        c = r.spawn_response(f"rules_fail_{'inline' if inline else 'thread'}", f, inline=inline)
         r.inject(c.start_slot, None, timeout=WAIT)
         eventually(lambda: c.state()["exits"] == 1, "the failed run to end")
         assert c.state()["failures"] == 1
@@ -696,34 +699,9 @@ def test_an_interrupt_that_reaches_a_running_inline_start_finds_the_run_ended() 
         assert (st["completed"], st["interrupts"]) == (3, 0), st
 
 
-def test_inline_slot_errors_fail_or_crash_the_run_and_exit_still_runs() -> None:
-    class Failing(radar_ros.Response):
-        inline = True
-
-        def __init__(self) -> None:
-            self.exits: List[str] = []
-
-        def start(self, payload: Any) -> None:
-            if not self.exits:
-                raise radar_ros.SlotError("no path to the dock")
-            raise ValueError("dock sensor unreadable")
-
-        def exit(self, reason: radar_ros.ExitReason) -> None:
-            self.exits.append(str(reason))
-
+def test_an_inline_start_with_a_wrong_output_or_a_blocking_call_fails_saying_why() -> None:
     with radar() as r:
-        f = Failing()
-        c = r.spawn_response("rules_inline_fail", f)
-        r.inject(c.start_slot, None, timeout=WAIT)
-        eventually(lambda: c.state()["exits"] == 1, "the failed run to end")
-        assert c.state()["last_exit_reason"] == "failed: no path to the dock"
-        r.inject(c.start_slot, None, timeout=WAIT)
-        eventually(lambda: c.state()["exits"] == 2, "the crashed run to end")
-        reason = c.state()["last_exit_reason"]
-        assert reason.startswith("panicked: ") and "ValueError('dock sensor unreadable')" in reason, reason
-        assert "test_rules.py" in reason, reason
-        assert [e.split(":")[0] for e in f.exits] == ["failed", "panicked"]
-        # and a start that returns what is not its output fails the run, saying so
+        # a start that returns what is not its output fails the run, saying so
         c2 = r.spawn_response("rules_inline_bad_output", lambda p: 42, inline=True, output_type=String)
         r.inject(c2.start_slot, None, timeout=WAIT)
         eventually(lambda: c2.state()["exits"] == 1, "the run to end")
