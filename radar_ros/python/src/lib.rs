@@ -15,6 +15,7 @@
 mod components;
 mod engine;
 mod handles;
+mod rosidl;
 mod slot_loop;
 
 use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
@@ -47,16 +48,19 @@ fn dict_types() -> Vec<String> {
 /// A message of `ros_type` from its fields as JSON (missing fields: their defaults), as CDR bytes.
 #[pyfunction]
 fn encode_json<'py>(py: Python<'py>, ros_type: &str, json: &str) -> PyResult<Bound<'py, PyBytes>> {
-    let raw = radar_ros::codec::encode(ros_type, json).map_err(|e| {
-        Python::attach(|py| {
-            py.import("radar_ros._errors")
-                .and_then(|m| m.getattr("PayloadTypeError"))
-                .and_then(|cls| cls.call1((e.clone(),)))
-                .map(PyErr::from_value)
-                .unwrap_or_else(|_| PyRuntimeError::new_err(e))
-        })
-    })?;
+    let raw = radar_ros::codec::encode(ros_type, json).map_err(payload_error)?;
     Ok(PyBytes::new(py, raw.as_bytes()))
+}
+
+/// The package's `PayloadTypeError` saying `e`.
+pub(crate) fn payload_error(e: String) -> PyErr {
+    Python::attach(|py| {
+        py.import("radar_ros._errors")
+            .and_then(|m| m.getattr("PayloadTypeError"))
+            .and_then(|cls| cls.call1((e.clone(),)))
+            .map(PyErr::from_value)
+            .unwrap_or_else(|_| PyRuntimeError::new_err(e))
+    })
 }
 
 /// A message of `ros_type` (CDR bytes) as JSON; None for a type without a dict form here.
@@ -90,6 +94,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(decode_json, m)?)?;
     m.add_function(wrap_pyfunction!(has_dict_form, m)?)?;
     m.add_function(wrap_pyfunction!(add_interfaces_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(rosidl::rosidl_encoder, m)?)?;
+    m.add_class::<rosidl::RosidlEncoder>()?;
     m.add(
         "BUILD",
         if cfg!(debug_assertions) {

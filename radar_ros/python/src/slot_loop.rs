@@ -14,7 +14,7 @@ use pyo3::{
 use radar_ros::{DynMessage, RawMessage};
 
 /// The asyncio loop Python slots run on, and the package's `_SlotCall(coro, loop, done)`, which runs `coro` in
-/// a task of the loop with `done(task)` called as it ends, and has `cancel()`.
+/// a task of the loop with `done(outcome)` called as it ends (`outcome.result()`: its value, or what it raised), and has `cancel()`.
 #[derive(Clone)]
 pub(crate) struct SlotLoop {
     pub(crate) event_loop: Arc<Py<PyAny>>,
@@ -51,8 +51,8 @@ impl SlotLoop {
             None,
             None,
             move |args: &Bound<'_, PyTuple>, _kw: Option<&Bound<'_, PyDict>>| -> PyResult<()> {
-                let fut = args.get_item(0)?;
-                let ended = match fut.call_method0("result") {
+                let outcome = args.get_item(0)?;
+                let ended = match outcome.call_method0("result") {
                     Ok(v) => match value(&v) {
                         Ok(v) => Ended::Value(v),
                         Err(m) => Ended::Failed(m),

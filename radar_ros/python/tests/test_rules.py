@@ -565,8 +565,9 @@ def test_a_slot_call_to_a_closed_loop_raises_and_closes_its_coroutine() -> None:
 
 def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_from_another_thread() -> None:
     """How the engine hands a slot's coroutine to the slot loop (`_SlotCall`): it runs in a task of the loop,
-    `done(task)` is called in the loop's thread with its outcome, and `cancel()` from another thread cancels it
-    at its `await`, or, called before the loop took it, keeps it from running at all (closed, no warning)."""
+    `done(outcome)` is called in the loop's thread with how it ended, inside the task's last step (not by a done
+    callback a loop iteration later), and `cancel()` from another thread cancels it at its `await`, or, called
+    before the loop took it, keeps it from running at all (closed, no warning)."""
     import gc
     import warnings
 
@@ -579,8 +580,13 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
         ended: "List[Any]" = []
         got = threading.Event()
 
-        def done(task: "asyncio.Task[Any]") -> None:
-            ended.append((threading.current_thread() is thread, task.cancelled() or task.result()))
+        def done(outcome: Any) -> None:
+            try:
+                value = outcome.result()
+            except asyncio.CancelledError:
+                value = "cancelled"
+            in_task = asyncio.current_task(loop) is not None
+            ended.append((threading.current_thread() is thread, in_task, value))
             got.set()
 
         async def answer() -> int:
@@ -589,7 +595,7 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
 
         _SlotCall(answer(), loop, done)
         assert got.wait(WAIT)
-        assert ended == [(True, 42)]
+        assert ended == [(True, True, 42)]
 
         log: List[str] = []
         running = threading.Event()
@@ -607,7 +613,7 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
         assert running.wait(WAIT)
         call.cancel()
         assert got.wait(WAIT)
-        assert ended[-1] == (True, True) and log == ["cancelled at its await"]
+        assert ended[-1] == (True, True, "cancelled") and log == ["cancelled at its await"]
 
         # cancelled before its first step (the loop held busy, so cancel() comes before the loop takes it): its
         # body never runs, it is not left unawaited, and done() says it was cancelled
@@ -626,7 +632,7 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
             gate.set()
             assert got.wait(WAIT)
             gc.collect()
-        assert ran == [] and ended[-1] == (True, True)
+        assert ran == [] and ended[-1] == (True, False, "cancelled")  # told by the task's done callback
         assert not [w for w in caught if "never awaited" in str(w.message)]
     finally:
         loop.call_soon_threadsafe(loop.stop)

@@ -4,9 +4,12 @@
 //! (rosidl_typesupport_fastrtps widens a `u16string` to a `wstring`); a sequence as its length, then the
 //! elements.
 
-/// Writes a CDR body.
+/// Writes a CDR body (the encoding above), one primitive at a time: what [`Interfaces::encode`] writes a
+/// payload with, public for encoders of other value shapes (the Python package's rosidl objects).
+///
+/// [`Interfaces::encode`]: super::Interfaces::encode
 #[derive(Default)]
-pub(crate) struct Writer {
+pub struct Writer {
     buf: Vec<u8>,
 }
 
@@ -17,32 +20,38 @@ impl Writer {
         }
     }
 
-    pub(crate) fn u8(&mut self, v: u8) {
+    /// A `byte`, `char`, `uint8`, `int8` (as its bits) or `bool` (0 or 1).
+    pub fn u8(&mut self, v: u8) {
         self.buf.push(v);
     }
 
-    pub(crate) fn u16(&mut self, v: u16) {
+    /// A 16-bit value, aligned to 2.
+    pub fn u16(&mut self, v: u16) {
         self.align(2);
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
-    pub(crate) fn u32(&mut self, v: u32) {
+    /// A 32-bit value (a `float32` as its bits, a sequence's length), aligned to 4.
+    pub fn u32(&mut self, v: u32) {
         self.align(4);
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
-    pub(crate) fn u64(&mut self, v: u64) {
+    /// A 64-bit value (a `float64` as its bits), aligned to 8.
+    pub fn u64(&mut self, v: u64) {
         self.align(8);
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
-    pub(crate) fn string(&mut self, s: &str) {
+    /// A `string`: its length with the NUL, its bytes, the NUL.
+    pub fn string(&mut self, s: &str) {
         self.u32(s.len() as u32 + 1);
         self.buf.extend_from_slice(s.as_bytes());
         self.buf.push(0);
     }
 
-    pub(crate) fn wstring(&mut self, s: &str) {
+    /// A `wstring`: its length in UTF-16 code units, each unit in 4 bytes.
+    pub fn wstring(&mut self, s: &str) {
         let units: Vec<u16> = s.encode_utf16().collect();
         self.u32(units.len() as u32);
         for u in units {
@@ -50,7 +59,17 @@ impl Writer {
         }
     }
 
-    pub(crate) fn finish(self) -> Vec<u8> {
+    /// Elements already in their little-endian bytes (`b`), the first aligned to `align`: a numeric array
+    /// copied whole. Nothing at all, no padding either, when `b` is empty.
+    pub fn elements(&mut self, align: usize, b: &[u8]) {
+        if !b.is_empty() {
+            self.align(align);
+            self.buf.extend_from_slice(b);
+        }
+    }
+
+    /// The body written.
+    pub fn finish(self) -> Vec<u8> {
         self.buf
     }
 }

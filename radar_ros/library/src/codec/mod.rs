@@ -7,6 +7,7 @@ mod cdr;
 mod interfaces;
 mod primitives;
 
+pub use cdr::Writer as CdrWriter;
 pub use interfaces::Interfaces;
 
 use crate::{
@@ -98,8 +99,10 @@ pub fn schema(ros_type: &str) -> Result<String, String> {
     run_time_types().schema(ros_type)
 }
 
-/// The types found at run time, from `AMENT_PREFIX_PATH` as it was when first asked.
-fn run_time_types() -> &'static Interfaces {
+/// The types found at run time ([`Interfaces`]: known, shipped, or on `AMENT_PREFIX_PATH` as it was when first
+/// asked, plus the directories given to [`add_interfaces_dir`]): what [`encode`] and [`decode`] use for any
+/// type they do not know, read once per type.
+pub fn run_time_types() -> &'static Interfaces {
     static TYPES: std::sync::OnceLock<Interfaces> = std::sync::OnceLock::new();
     TYPES.get_or_init(Interfaces::from_env)
 }

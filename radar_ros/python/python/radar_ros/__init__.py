@@ -223,18 +223,20 @@ def _is_async(fn: Any) -> bool:
 
 class _SlotCall:
     """A coroutine the engine runs on the slot loop, from the engine's thread: the coroutine runs in a task of
-    the loop, ``done(task)`` is called in the loop's thread as it ends, and :meth:`cancel` (any thread) cancels
-    it. What ``asyncio.run_coroutine_threadsafe`` does without its thread-safe future and the callbacks that
-    chain the two, which the loop's thread ran before the coroutine's first step; the engine reads the outcome
-    in the loop's thread anyway."""
+    the loop, ``done(outcome)`` is called in the loop's thread as it ends (``outcome.result()`` returns its value
+    or raises what it raised), and :meth:`cancel` (any thread) cancels it. What ``asyncio.run_coroutine_threadsafe``
+    does without its thread-safe future and the callbacks that chain the two, which the loop's thread ran before
+    the coroutine's first step; ``done`` is called inside the task's last step, not by a done callback a loop
+    iteration later, unless the task was cancelled before its first step."""
 
-    __slots__ = ("_loop", "_coro", "_done", "_task")
+    __slots__ = ("_loop", "_coro", "_done", "_task", "_ended")
 
     def __init__(self, coro: Any, loop: asyncio.AbstractEventLoop, done: Callable[[Any], None]):
         self._loop = loop
         self._coro: Any = coro
         self._done = done
-        self._task: Optional["asyncio.Task[Any]"] = None
+        self._task: Optional["asyncio.Task[None]"] = None
+        self._ended = False
         try:
             loop.call_soon_threadsafe(self._begin)
         except BaseException:
@@ -244,9 +246,30 @@ class _SlotCall:
             raise
 
     def _begin(self) -> None:
-        coro, self._coro = self._coro, None  # the task holds it from here on
-        self._task = self._loop.create_task(coro)
-        self._task.add_done_callback(self._done)
+        self._task = self._loop.create_task(self._run())
+        self._task.add_done_callback(self._after)
+
+    async def _run(self) -> None:
+        coro, self._coro = self._coro, None  # awaited from here on
+        try:
+            value = await coro
+        except BaseException as e:  # noqa: BLE001 - the outcome is the engine's to read, cancellation too
+            self._end(_Outcome(None, e))
+        else:
+            self._end(_Outcome(value, None))
+
+    def _end(self, outcome: "_Outcome") -> None:
+        self._ended = True
+        self._done(outcome)
+
+    def _after(self, task: "asyncio.Task[None]") -> None:
+        if self._ended:
+            return
+        # cancelled before its first step: the coroutine never ran
+        coro, self._coro = self._coro, None
+        if coro is not None:
+            coro.close()
+        self._end(_Outcome(None, asyncio.CancelledError()))
 
     def cancel(self) -> None:
         """Cancels the coroutine at its current ``await`` (before its first step if it has not taken it: its
@@ -260,6 +283,22 @@ class _SlotCall:
         # on the loop, after _begin: call_soon_threadsafe keeps the order of its calls
         if self._task is not None:
             self._task.cancel()
+
+
+class _Outcome:
+    """How a slot's coroutine ended, as the engine reads it: :meth:`result` returns its value or raises what it
+    raised."""
+
+    __slots__ = ("_value", "_error")
+
+    def __init__(self, value: Any, error: Optional[BaseException]):
+        self._value = value
+        self._error = error
+
+    def result(self) -> Any:
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 @types.coroutine
