@@ -94,8 +94,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(decode_json, m)?)?;
     m.add_function(wrap_pyfunction!(has_dict_form, m)?)?;
     m.add_function(wrap_pyfunction!(add_interfaces_dir, m)?)?;
-    m.add_function(wrap_pyfunction!(rosidl::rosidl_encoder, m)?)?;
-    m.add_class::<rosidl::RosidlEncoder>()?;
+    m.add_function(wrap_pyfunction!(rosidl::rosidl_codec, m)?)?;
+    m.add_class::<rosidl::RosidlCodec>()?;
     m.add(
         "BUILD",
         if cfg!(debug_assertions) {

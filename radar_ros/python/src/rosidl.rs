@@ -1,32 +1,37 @@
-//! rosidl message objects (`std_msgs.msg.Header()`, any generated class) written as CDR without rclpy.
+//! rosidl message objects (`std_msgs.msg.Header()`, any generated class) written as CDR and read from it
+//! without rclpy.
 //!
-//! rclpy's `serialize_message` converts the object to a C struct and serializes that: 40-50 us for a `Header`
-//! between signals on this machine (`docs/benchmarks.md`), most of a Python event's extra cost over a Rust
-//! one. A [`RosidlEncoder`] reads the fields straight from the object, in the order the type's definition lists
-//! them, and writes them as [`radar_ros::codec`] writes a payload (`CdrWriter`); numeric arrays (numpy's, or
-//! `array.array`, as rosidl stores them) are copied whole.
+//! rclpy's `serialize_message` converts the object to a C struct and serializes that, `deserialize_message` the
+//! reverse: 40-60 us each for a `Header` between signals on this machine (`docs/benchmarks.md`), most of a
+//! Python event's extra cost over a Rust one and a stage of a Python response's start. A [`RosidlCodec`] reads
+//! the fields straight from the object (its rosidl slots), in the order the type's definition lists them, and
+//! writes them as [`radar_ros::codec`] writes a payload (`CdrWriter`); it reads a body into a new object of the
+//! class as rclpy would make it (numpy arrays for fixed numeric arrays, `array.array` for numeric sequences,
+//! lists otherwise, a one-byte `bytes` for a `byte`). Numeric arrays are copied whole either way.
 //!
-//! An encoder is made only for a class whose fields, in rosidl's words (`get_fields_and_field_types()`), are
-//! exactly those of the definition found here (known, shipped, or on `AMENT_PREFIX_PATH`), nested types too:
-//! any other class (another version of the package, no definition) is left to rclpy.
+//! A codec is made only for a class whose fields, in rosidl's words (`get_fields_and_field_types()`), are
+//! exactly those of the definition found here (known, shipped, or on `AMENT_PREFIX_PATH`), nested types too,
+//! each kept in a slot of its own: any other class (another version of the package, no definition) is left to
+//! rclpy.
 
 use std::{collections::HashMap, sync::Arc};
 
 use pyo3::{
     prelude::*,
-    types::{PyBytes, PyDict, PyString},
+    types::{PyBool, PyByteArray, PyBytes, PyDict, PyList, PyString},
 };
 use radar_idl::{is_primitive, ros2msg::Field};
-use radar_ros::codec::{run_time_types, CdrWriter};
+use radar_ros::codec::{run_time_types, CdrReader, CdrWriter};
 
-/// Writes objects of one rosidl class as the CDR body of their message (`_native.rosidl_encoder`).
+/// Writes objects of one rosidl class as the CDR body of their message, and reads them back
+/// (`_native.rosidl_codec`).
 #[pyclass(frozen, module = "radar_ros._native")]
-pub(crate) struct RosidlEncoder {
+pub(crate) struct RosidlCodec {
     plan: Arc<Plan>,
 }
 
 #[pymethods]
-impl RosidlEncoder {
+impl RosidlCodec {
     /// `obj` (of the class this encoder was made for) as the CDR body of its message, without the 4-byte
     /// encapsulation header; `PayloadTypeError` naming the field when a value is not what its type says.
     fn encode<'py>(
@@ -39,28 +44,46 @@ impl RosidlEncoder {
             .map_err(crate::payload_error)?;
         Ok(PyBytes::new(py, &w.finish()))
     }
+
+    /// The CDR body `body` (without the encapsulation header) as a new object of the class;
+    /// `PayloadTypeError` saying where a malformed body ends short or what it holds that is not its type's.
+    fn decode<'py>(&self, py: Python<'py>, body: &[u8]) -> PyResult<Bound<'py, PyAny>> {
+        let mut r = CdrReader::new(body);
+        read_message(py, &self.plan, &mut r, &At::Root(&self.plan.ros_type)).map_err(|e| match e {
+            Failed::Python(e) => e,
+            Failed::Payload(m) => crate::payload_error(m),
+        })
+    }
 }
 
-/// An encoder for the rosidl class `cls` of `ros_type`, or None when the definition found here is not the
-/// class's (or there is none, or a nested type's class cannot be imported): rclpy serializes those.
+/// A codec for the rosidl class `cls` of `ros_type`, or None when the definition found here is not the
+/// class's (or there is none, or a nested type's class cannot be imported, or the class keeps a field in no
+/// slot of its own): rclpy serializes and deserializes those.
 #[pyfunction]
-pub(crate) fn rosidl_encoder(
+pub(crate) fn rosidl_codec(
     py: Python<'_>,
     ros_type: &str,
     cls: &Bound<'_, PyAny>,
-) -> Option<RosidlEncoder> {
-    plan(py, ros_type, cls, &mut HashMap::new()).map(|plan| RosidlEncoder { plan })
+) -> Option<RosidlCodec> {
+    plan(py, ros_type, cls, &mut HashMap::new()).map(|plan| RosidlCodec { plan })
 }
 
-/// How to write one message type: its fields in order.
+/// How to write and read one message type: its fields in order, and how to make an object of its class.
 struct Plan {
     ros_type: String,
     fields: Vec<FieldPlan>,
+    cls: Py<PyAny>,
+    /// The class's slots that hold no field (`_check_fields`), as a new object of the class has them.
+    extras: Vec<(Py<PyString>, Py<PyAny>)>,
+    /// numpy's `frombuffer` (imported only for a type with a fixed numeric array) and `array.array`, for the
+    /// numeric arrays a read object holds.
+    frombuffer: Option<Py<PyAny>>,
+    array: Py<PyAny>,
 }
 
 struct FieldPlan {
     name: String,
-    /// The attribute read: rosidl's slot (`_stamp`) when the class has it, else the field's property.
+    /// The field's slot (`_stamp`): read, and set on an object read, without the property's checks.
     attr: Py<PyString>,
     kind: Kind,
     shape: Shape,
@@ -128,21 +151,51 @@ fn plan(
             return None;
         }
         let slot = format!("_{name}");
-        let attr = if slots.contains(&slot) {
-            slot
-        } else {
-            name.clone()
-        };
+        if !slots.contains(&slot) {
+            return None;
+        }
         fields.push(FieldPlan {
             name: name.clone(),
-            attr: PyString::intern(py, &attr).unbind(),
+            attr: PyString::intern(py, &slot).unbind(),
             kind,
             shape,
         });
     }
+    let needs_numpy = fields
+        .iter()
+        .any(|f| matches!(f.shape, Shape::Fixed(_)) && numeric_names(&f.kind).is_some());
+    let template = cls.call0().ok()?;
+    let mut extras = Vec::new();
+    for slot in &slots {
+        if fields
+            .iter()
+            .any(|f| f.attr.bind(py).to_cow().is_ok_and(|a| a == *slot))
+        {
+            continue;
+        }
+        if let Ok(v) = template.getattr(slot.as_str()) {
+            extras.push((PyString::intern(py, slot).unbind(), v.unbind()));
+        }
+    }
     let p = Arc::new(Plan {
         ros_type: ros_type.to_owned(),
         fields,
+        cls: cls.clone().unbind(),
+        extras,
+        frombuffer: match needs_numpy {
+            true => Some(
+                py.import("numpy")
+                    .and_then(|m| m.getattr("frombuffer"))
+                    .ok()?
+                    .unbind(),
+            ),
+            false => None,
+        },
+        array: py
+            .import("array")
+            .and_then(|m| m.getattr("array"))
+            .ok()?
+            .unbind(),
     });
     made.insert(ros_type.to_owned(), p.clone());
     Some(p)
@@ -313,6 +366,180 @@ fn write_one(
         Kind::Msg(p) => write_message(p, v, w, at)?,
     }
     Ok(())
+}
+
+/// Why a body was not read: Python refused something (an object not made), or the bytes are not the type's.
+enum Failed {
+    Python(PyErr),
+    Payload(String),
+}
+
+impl From<PyErr> for Failed {
+    fn from(e: PyErr) -> Failed {
+        Failed::Python(e)
+    }
+}
+
+impl From<std::convert::Infallible> for Failed {
+    fn from(e: std::convert::Infallible) -> Failed {
+        match e {}
+    }
+}
+
+impl From<String> for Failed {
+    fn from(m: String) -> Failed {
+        Failed::Payload(m)
+    }
+}
+
+fn read_message<'py>(
+    py: Python<'py>,
+    plan: &Plan,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    let cls = plan.cls.bind(py);
+    let obj = cls.call_method1("__new__", (cls,))?;
+    for (slot, v) in &plan.extras {
+        obj.setattr(slot.bind(py), v.bind(py))?;
+    }
+    if plan.fields.is_empty() {
+        r.u8().map_err(|e| format!("{at}: {e}"))?;
+    }
+    for f in &plan.fields {
+        let here = At::Field(at, &f.name);
+        let v = match f.shape {
+            Shape::One => read_one(py, &f.kind, r, &here)?,
+            shape => {
+                let n = match shape {
+                    Shape::Fixed(k) => k,
+                    _ => r.u32().map_err(|e| format!("{here}: {e}"))? as usize,
+                };
+                if let Shape::Bounded(b) = shape {
+                    if n > b {
+                        return Err(format!("{here}: {n} elements, at most {b}").into());
+                    }
+                }
+                read_array(py, plan, f, n, r, &here)?
+            }
+        };
+        obj.setattr(f.attr.bind(py), v)?;
+    }
+    Ok(obj)
+}
+
+/// `n` elements of the field `f`: numeric ones as rosidl holds them (a numpy array for a fixed array, an
+/// `array.array` for a sequence), others as a list.
+fn read_array<'py>(
+    py: Python<'py>,
+    plan: &Plan,
+    f: &FieldPlan,
+    n: usize,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    if let Some((dtype, code)) = numeric_names(&f.kind) {
+        let size = element_size(&f.kind);
+        let bytes = r.elements(size, n).map_err(|e| format!("{at}: {e}"))?;
+        return Ok(if matches!(f.shape, Shape::Fixed(_)) {
+            // over a bytearray of its own: writable, as rclpy's arrays are
+            let frombuffer = plan
+                .frombuffer
+                .as_ref()
+                .expect("imported for a fixed numeric array");
+            frombuffer
+                .bind(py)
+                .call1((PyByteArray::new(py, bytes), dtype))?
+        } else {
+            plan.array.bind(py).call1((code, PyBytes::new(py, bytes)))?
+        });
+    }
+    // every element takes a byte at least: a length beyond the body is an error, not an allocation
+    if n > r.remaining() {
+        return Err(format!("{at}: {n} elements in {} bytes", r.remaining()).into());
+    }
+    let list = PyList::empty(py);
+    for i in 0..n {
+        list.append(read_one(py, &f.kind, r, &At::Index(at, i))?)?;
+    }
+    Ok(list.into_any())
+}
+
+fn read_one<'py>(
+    py: Python<'py>,
+    kind: &Kind,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    let short = |e: String| format!("{at}: {e}");
+    Ok(match kind {
+        Kind::Bool => PyBool::new(py, r.u8().map_err(short)? != 0)
+            .to_owned()
+            .into_any(),
+        Kind::Octet => PyBytes::new(py, &[r.u8().map_err(short)?]).into_any(),
+        Kind::Int { bytes, signed } => {
+            let bits = match bytes {
+                1 => u64::from(r.u8().map_err(short)?),
+                2 => u64::from(r.u16().map_err(short)?),
+                4 => u64::from(r.u32().map_err(short)?),
+                _ => r.u64().map_err(short)?,
+            };
+            if *signed {
+                let shift = 64 - 8 * *bytes as u32;
+                (((bits << shift) as i64) >> shift)
+                    .into_pyobject(py)?
+                    .into_any()
+            } else {
+                bits.into_pyobject(py)?.into_any()
+            }
+        }
+        Kind::F32 => f64::from(f32::from_bits(r.u32().map_err(short)?))
+            .into_pyobject(py)?
+            .into_any(),
+        Kind::F64 => f64::from_bits(r.u64().map_err(short)?)
+            .into_pyobject(py)?
+            .into_any(),
+        Kind::Str { wide, .. } => {
+            let s = if *wide { r.wstring() } else { r.string() }.map_err(short)?;
+            PyString::new(py, &s).into_any()
+        }
+        Kind::Msg(p) => read_message(py, p, r, at)?,
+    })
+}
+
+/// A numeric kind's numpy dtype and `array.array` type code.
+fn numeric_names(kind: &Kind) -> Option<(&'static str, &'static str)> {
+    Some(match kind {
+        Kind::Int {
+            bytes: 1,
+            signed: true,
+        } => ("int8", "b"),
+        Kind::Int {
+            bytes: 1,
+            signed: false,
+        } => ("uint8", "B"),
+        Kind::Int {
+            bytes: 2,
+            signed: true,
+        } => ("int16", "h"),
+        Kind::Int {
+            bytes: 2,
+            signed: false,
+        } => ("uint16", "H"),
+        Kind::Int {
+            bytes: 4,
+            signed: true,
+        } => ("int32", "i"),
+        Kind::Int {
+            bytes: 4,
+            signed: false,
+        } => ("uint32", "I"),
+        Kind::Int { signed: true, .. } => ("int64", "q"),
+        Kind::Int { signed: false, .. } => ("uint64", "Q"),
+        Kind::F32 => ("float32", "f"),
+        Kind::F64 => ("float64", "d"),
+        _ => return None,
+    })
 }
 
 fn int_name(bytes: usize, signed: bool) -> String {

@@ -1,7 +1,9 @@
-"""rosidl objects written as CDR by the package itself rather than by rclpy's `serialize_message` (the shorter
-path of a Python event's payload), judged by rclpy: every test_msgs fixture read back as written, values
-rclpy's setters would not make written or refused by field, and a class whose definition here differs from
-its own left to rclpy. No DDS: each case runs `rosidl_encoding.py` in a process of its own."""
+"""rosidl objects written as CDR and read from it by the package itself rather than by rclpy's
+`serialize_message` and `deserialize_message` (the shorter path of a Python event's payload and of a Python
+response's start), judged by rclpy: every test_msgs fixture written as rclpy reads it and read as rclpy reads
+it (field types too), values rclpy's setters would not make written or refused by field, malformed bodies
+refused by field, and a class whose definition here differs from its own left to rclpy. No DDS: each case runs
+`rosidl_codec.py` in a process of its own."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-HELPER = Path(__file__).with_name("rosidl_encoding.py")
+HELPER = Path(__file__).with_name("rosidl_codec.py")
 
 
 def run(mode: str) -> dict:
@@ -20,10 +22,11 @@ def run(mode: str) -> dict:
     return counts
 
 
-def test_every_test_msgs_fixture_is_written_natively_as_rclpy_reads_it() -> None:
+def test_every_test_msgs_fixture_is_written_and_read_natively_as_rclpy_does() -> None:
     counts = run("fixtures")
     assert counts["fixtures"] == 31  # every fixture of the 13 types test_msgs has
     assert counts["beyond_setters"] == ["converted arrays", "large and non-finite arrays", "refusals"]
+    assert counts["malformed"] == ["cut short", "lengths beyond the body", "not UTF-8"]
 
 
 def test_a_class_unlike_the_definition_found_is_left_to_rclpy() -> None:

@@ -74,20 +74,35 @@ impl Writer {
     }
 }
 
-/// Reads a CDR body; every read checks that the bytes are there.
-pub(crate) struct Reader<'a> {
+/// Reads a CDR body (the encoding above); every read checks that the bytes are there, and an error says where
+/// the message ended short. Public for decoders of other value shapes (the Python package's rosidl objects).
+pub struct Reader<'a> {
     buf: &'a [u8],
     at: usize,
 }
 
 impl<'a> Reader<'a> {
-    pub(crate) fn new(buf: &'a [u8]) -> Reader<'a> {
+    /// A reader at the start of the body `buf`.
+    pub fn new(buf: &'a [u8]) -> Reader<'a> {
         Reader { buf, at: 0 }
     }
 
     /// Bytes left after the current position.
-    pub(crate) fn remaining(&self) -> usize {
+    pub fn remaining(&self) -> usize {
         self.buf.len().saturating_sub(self.at)
+    }
+
+    /// `n` elements of `size` bytes each, as their bytes, the first aligned to `size`; nothing at all, no padding
+    /// either, when `n` is 0: a numeric array read whole.
+    pub fn elements(&mut self, size: usize, n: usize) -> Result<&'a [u8], String> {
+        if n == 0 {
+            return Ok(&[]);
+        }
+        let bytes = n
+            .checked_mul(size)
+            .filter(|b| *b <= self.remaining())
+            .ok_or_else(|| format!("{n} elements of {size} bytes in {} bytes", self.remaining()))?;
+        self.take(size, bytes)
     }
 
     fn take(&mut self, align: usize, n: usize) -> Result<&'a [u8], String> {
@@ -103,23 +118,28 @@ impl<'a> Reader<'a> {
         Ok(&self.buf[start..end])
     }
 
-    pub(crate) fn u8(&mut self) -> Result<u8, String> {
+    /// A `byte`, `char`, `uint8`, `int8` (its bits) or `bool`.
+    pub fn u8(&mut self) -> Result<u8, String> {
         Ok(self.take(1, 1)?[0])
     }
 
-    pub(crate) fn u16(&mut self) -> Result<u16, String> {
+    /// A 16-bit value, aligned to 2.
+    pub fn u16(&mut self) -> Result<u16, String> {
         Ok(u16::from_le_bytes(self.take(2, 2)?.try_into().unwrap()))
     }
 
-    pub(crate) fn u32(&mut self) -> Result<u32, String> {
+    /// A 32-bit value, aligned to 4.
+    pub fn u32(&mut self) -> Result<u32, String> {
         Ok(u32::from_le_bytes(self.take(4, 4)?.try_into().unwrap()))
     }
 
-    pub(crate) fn u64(&mut self) -> Result<u64, String> {
+    /// A 64-bit value, aligned to 8.
+    pub fn u64(&mut self) -> Result<u64, String> {
         Ok(u64::from_le_bytes(self.take(8, 8)?.try_into().unwrap()))
     }
 
-    pub(crate) fn string(&mut self) -> Result<String, String> {
+    /// A `string` (UTF-8; an error otherwise).
+    pub fn string(&mut self) -> Result<String, String> {
         let n = self.u32()? as usize;
         if n == 0 {
             return Ok(String::new()); // some writers send an empty string without its NUL
@@ -129,7 +149,8 @@ impl<'a> Reader<'a> {
         String::from_utf8(text.to_vec()).map_err(|e| format!("a string that is not UTF-8: {e}"))
     }
 
-    pub(crate) fn wstring(&mut self) -> Result<String, String> {
+    /// A `wstring`.
+    pub fn wstring(&mut self) -> Result<String, String> {
         let n = self.u32()? as usize;
         if n.saturating_mul(4) > self.remaining() {
             return Err(format!(

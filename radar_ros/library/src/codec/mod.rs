@@ -7,7 +7,7 @@ mod cdr;
 mod interfaces;
 mod primitives;
 
-pub use cdr::Writer as CdrWriter;
+pub use cdr::{Reader as CdrReader, Writer as CdrWriter};
 pub use interfaces::Interfaces;
 
 use crate::{

@@ -57,6 +57,7 @@ from ._payload import (
     encode,
     has_dict_form,
     message_class,
+    native_codec,
     type_name,
 )
 
@@ -560,6 +561,8 @@ def _warm(*ros_types: str) -> None:
     wait for."""
     for t in ros_types:
         cls = message_class(t)
+        if cls is not None:
+            native_codec(cls, t)  # the package's own codec of the class, made once
         load = getattr(type(cls), "__import_type_support__", None) if cls is not None else None
         if load is not None:
             try:

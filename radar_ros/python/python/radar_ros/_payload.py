@@ -91,19 +91,19 @@ def _serialize(msg: Any) -> bytes:
     return data[4:]
 
 
-#: Per rosidl class: its type's name and the package's own encoder of its objects, or None
-#: (:func:`native_encoder`).
-_NATIVE: Dict[type, Tuple[str, Optional[_native.RosidlEncoder]]] = {}
+#: Per rosidl class: its type's name and the package's own codec of its objects, or None (:func:`native_codec`).
+_NATIVE: Dict[type, Tuple[str, Optional[_native.RosidlCodec]]] = {}
 
 
-def native_encoder(cls: type, ros_type: str) -> Optional[_native.RosidlEncoder]:
-    """The package's own encoder of objects of the rosidl class ``cls`` (of ``ros_type``), which reads their
-    fields (a few microseconds) where rclpy's ``serialize_message`` converts them to C first (tens between
-    signals); None, and rclpy serializes them, unless the definition found here (:func:`has_dict_form`) has
-    exactly the class's fields and types, nested types too. Decided once per class."""
+def native_codec(cls: type, ros_type: str) -> Optional[_native.RosidlCodec]:
+    """The package's own codec of objects of the rosidl class ``cls`` (of ``ros_type``), which reads and sets
+    their fields (a few microseconds) where rclpy's ``serialize_message`` and ``deserialize_message`` convert
+    them to and from C (tens between signals); None, and rclpy does it, unless the definition found here
+    (:func:`has_dict_form`) has exactly the class's fields and types, nested types too. Decided once per
+    class."""
     known = _NATIVE.get(cls)
     if known is None:
-        known = _NATIVE[cls] = (ros_type, _native.rosidl_encoder(ros_type, cls))
+        known = _NATIVE[cls] = (ros_type, _native.rosidl_codec(ros_type, cls))
     return known[1] if known[0] == ros_type else None
 
 
@@ -145,9 +145,9 @@ def encode(payload: Any, ros_type: str) -> bytes:
         ) from None
     if name != ros_type:
         raise PayloadTypeError(f"a {name} payload where {ros_type} is expected")
-    enc = native_encoder(given, ros_type)
-    if enc is not None:
-        return enc.encode(payload)
+    codec = native_codec(given, ros_type)
+    if codec is not None:
+        return codec.encode(payload)
     return _serialize(payload)
 
 
@@ -165,6 +165,9 @@ def decode(body: bytes, ros_type: str, want: Optional[type] = None) -> Any:
     else:
         cls = message_class(ros_type)
     if cls is not None:
+        codec = native_codec(cls, ros_type)
+        if codec is not None:
+            return codec.decode(body)
         from rclpy.serialization import deserialize_message
 
         return deserialize_message(_HEADER + body, cls)

@@ -1,11 +1,14 @@
 """Run by test_payload.py in a process of its own (definitions are read once per process): rosidl objects
-written as CDR by the package (`radar_ros._payload.encode`, its native encoder when the class matches the
-definition found), judged by rclpy alone: `deserialize_message` must read each body back as the object written.
+written as CDR and read from it by the package (`radar_ros._payload.encode` and `decode`, its native codec when
+the class matches the definition found), judged by rclpy alone: `deserialize_message` must read each body the
+package wrote as the object written, and each body rclpy wrote must be read by the package as rclpy reads it,
+field types (numpy arrays, `array.array` type codes, lists, bytes) included.
 
-    rosidl_encoding.py fixtures     every fixture of every test_msgs type (ROS 2's own `message_fixtures`), and
-                                    values rclpy's setters would not make (wrong array types, out of range)
-    rosidl_encoding.py mismatched   with another definition of test_msgs/msg/BasicTypes found first: that
-                                    class and those nesting it are left to rclpy, the others are not
+    rosidl_codec.py fixtures     every fixture of every test_msgs type (ROS 2's own `message_fixtures`), values
+                                 rclpy's setters would not make (wrong array types, out of range), and
+                                 malformed bodies
+    rosidl_codec.py mismatched   with another definition of test_msgs/msg/BasicTypes found first: that class
+                                 and those nesting it are left to rclpy, the others are not
 
 Prints one JSON line of counts; any disagreement is an AssertionError (exit status 1).
 """
@@ -21,6 +24,8 @@ import tempfile
 from typing import Any, Dict, List
 
 os.environ.pop("AMENT_PREFIX_PATH", None)  # the definitions come from the directories given below only
+# rosidl's setters check what they are given (off by default): an object the package reads must check alike
+os.environ["ROS_PYTHON_CHECK_FIELDS"] = "1"
 
 import numpy
 import test_msgs.msg
@@ -42,18 +47,87 @@ def read_back(cls: type, body: bytes) -> Any:
     return deserialize_message(HEADER + body, cls)
 
 
+def shape(v: Any) -> Any:
+    """What a value is made of, beyond equality: its type, a numpy array's dtype, an array's type code, and the
+    same of every field and element."""
+    if hasattr(v, "get_fields_and_field_types"):
+        return (type(v), [(f, shape(getattr(v, f))) for f in v.get_fields_and_field_types()])
+    if isinstance(v, numpy.ndarray):
+        return ("ndarray", str(v.dtype), v.shape, v.flags.writeable)
+    if isinstance(v, array.array):
+        return ("array", v.typecode)
+    if isinstance(v, list):
+        return ("list", [shape(x) for x in v])
+    return type(v)
+
+
 def check_all_fixtures(expect_native: Dict[str, bool]) -> int:
     checked = 0
     for name in TYPES:
         cls = getattr(test_msgs.msg, name)
         ros_type = f"test_msgs/msg/{name}"
-        native = _payload.native_encoder(cls, ros_type) is not None
-        assert native == expect_native.get(name, True), f"{ros_type}: native encoder {native}"
+        native = _payload.native_codec(cls, ros_type) is not None
+        assert native == expect_native.get(name, True), f"{ros_type}: native codec {native}"
         for i, msg in enumerate(get_test_msg(name)):
             body = _payload.encode(msg, ros_type)
             assert read_back(cls, body) == msg, f"{ros_type} fixture {i}: rclpy reads {body.hex()} otherwise"
+            theirs = serialize_message(msg)[4:]
+            ours, rclpys = _payload.decode(theirs, ros_type), read_back(cls, theirs)
+            assert ours == rclpys == msg, f"{ros_type} fixture {i}: read as {ours}"
+            assert shape(ours) == shape(rclpys), f"{ros_type} fixture {i}: {shape(ours)} != {shape(rclpys)}"
             checked += 1
     return checked
+
+
+def malformed() -> List[str]:
+    """Bodies that are not their type's: an error naming the type and where, never a crash or a huge allocation."""
+    done = []
+    body = _payload.encode(get_test_msg("Strings")[1], "test_msgs/msg/Strings")
+    for cut in (0, 3, len(body) // 2, len(body) - 1):
+        try:
+            _payload.decode(body[:cut], "test_msgs/msg/Strings")
+        except PayloadTypeError as e:
+            assert str(e).startswith("test_msgs/msg/Strings."), e
+        else:
+            raise AssertionError(f"a Strings body cut at {cut} was read")
+    done.append("cut short")
+    huge = b"\xff\xff\xff\x7f" + bytes(64)  # a sequence of 2**31 - 1 elements in 68 bytes
+    for name in ("UnboundedSequences", "WStrings"):
+        try:
+            _payload.decode(huge, f"test_msgs/msg/{name}")
+        except PayloadTypeError as e:
+            assert f"test_msgs/msg/{name}." in str(e), e
+        else:
+            raise AssertionError(f"{name}: a length beyond the body was read")
+    done.append("lengths beyond the body")
+    strings = test_msgs.msg.Strings(string_value="ok")
+    bad = bytearray(_payload.encode(strings, "test_msgs/msg/Strings"))
+    bad[4] = 0xFF  # not UTF-8
+    try:
+        _payload.decode(bytes(bad), "test_msgs/msg/Strings")
+    except PayloadTypeError as e:
+        assert "test_msgs/msg/Strings.string_value" in str(e) and "UTF-8" in str(e), e
+    else:
+        raise AssertionError("a string that is not UTF-8 was read")
+    done.append("not UTF-8")
+    return done
+
+
+def read_objects_behave_as_rclpys() -> None:
+    """An object the package read is one a program can change and send again, with the class's checks."""
+    theirs = serialize_message(get_test_msg("Nested")[1])[4:]
+    msg = _payload.decode(theirs, "test_msgs/msg/Nested")
+    msg.basic_types_value.int32_value = 7
+    try:
+        msg.basic_types_value.int32_value = "seven"
+    except AssertionError:
+        pass
+    else:
+        raise AssertionError("a read object's setter let a str into an int32")
+    assert read_back(test_msgs.msg.Nested, _payload.encode(msg, "test_msgs/msg/Nested")) == msg
+    arrays = _payload.decode(serialize_message(get_test_msg("Arrays")[0])[4:], "test_msgs/msg/Arrays")
+    arrays.float64_values[0] = 2.5  # writable, as rclpy's are
+    assert read_back(test_msgs.msg.Arrays, _payload.encode(arrays, "test_msgs/msg/Arrays")).float64_values[0] == 2.5
 
 
 def refused(msg: Any, ros_type: str, says: str) -> None:
@@ -119,12 +193,18 @@ def main() -> None:
     mode = sys.argv[1]
     radar_ros.add_interfaces_dir(os.path.join(sys.prefix, "share"))  # the venv's share/<pkg>/msg
     # without any definition directory: the interfaces radar_ros ships (std_msgs) are written natively
-    assert _payload.native_encoder(Header, "std_msgs/msg/Header") is not None
+    assert _payload.native_codec(Header, "std_msgs/msg/Header") is not None
     header = Header(frame_id="base_link")
     header.stamp.sec, header.stamp.nanosec = -5, 999_999_999
     assert read_back(Header, _payload.encode(header, "std_msgs/msg/Header")) == header
+    assert _payload.decode(serialize_message(header)[4:], "std_msgs/msg/Header") == header
     if mode == "fixtures":
-        counts: Dict[str, Any] = {"fixtures": check_all_fixtures({}), "beyond_setters": beyond_setters()}
+        read_objects_behave_as_rclpys()
+        counts: Dict[str, Any] = {
+            "fixtures": check_all_fixtures({}),
+            "beyond_setters": beyond_setters(),
+            "malformed": malformed(),
+        }
     elif mode == "mismatched":
         own = tempfile.mkdtemp()
         os.makedirs(os.path.join(own, "test_msgs", "msg"))
