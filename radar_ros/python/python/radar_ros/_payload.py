@@ -3,7 +3,9 @@
 A payload may be:
 
 - an instance of a rosidl message class (``std_msgs.msg.String``, any generated type of the environment),
-  serialized with rclpy's own CDR (``rclpy.serialization``; rclpy need not be initialised);
+  written by the package itself when the type's definition found here has exactly the class's fields
+  (:func:`native_codec`), else serialized with rclpy's own CDR (``rclpy.serialization``; rclpy need not be
+  initialised);
 - a ``dict`` of fields (left out: their defaults), for the types radar_ros knows (:func:`dict_types`: std_msgs
   basics, geometry poses, radar_msgs, ...) and for any type whose definition is found (``AMENT_PREFIX_PATH``, or
   a directory given to :func:`add_interfaces_dir`), where no Python message package is installed;
