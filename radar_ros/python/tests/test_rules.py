@@ -640,6 +640,35 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
         loop.close()
 
 
+def test_a_slot_call_pending_when_its_loop_is_closed_is_destroyed_untold() -> None:
+    """A slot's coroutine still pending when its loop stops and closes (the program's end): its task is destroyed
+    with the loop, and `done` is not told an outcome (the engine sees the loop stopped), not a `GeneratorExit`."""
+    import gc
+
+    from radar_ros import _SlotCall
+
+    told: List[Any] = []
+    started = threading.Event()
+
+    async def forever() -> None:
+        started.set()
+        await asyncio.sleep(3600)
+
+    def run_and_close() -> None:
+        loop = asyncio.new_event_loop()
+        thread = threading.Thread(target=loop.run_forever, daemon=True)
+        thread.start()
+        _SlotCall(forever(), loop, told.append)
+        assert started.wait(WAIT)
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(WAIT)
+        loop.close()
+
+    run_and_close()
+    gc.collect()
+    assert told == []
+
+
 def os_thread_name() -> str:
     """The calling thread's name as the OS knows it (a thread the engine made is no Python thread: Python calls
     it "Dummy-N")."""

@@ -254,6 +254,8 @@ class _SlotCall:
         coro, self._coro = self._coro, None  # awaited from here on
         try:
             value = await coro
+        except GeneratorExit:
+            raise  # the task is being destroyed with its loop: no outcome (the engine sees the loop stopped)
         except BaseException as e:  # noqa: BLE001 - the outcome is the engine's to read, cancellation too
             self._end(_Outcome(None, e))
         else:
