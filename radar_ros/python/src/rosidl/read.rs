@@ -1,0 +1,183 @@
+//! A CDR body read into a new object of the rosidl class, as rclpy makes it.
+
+use pyo3::{
+    prelude::*,
+    types::{PyBool, PyByteArray, PyBytes, PyList, PyString},
+};
+use radar_ros::codec::CdrReader;
+
+use super::{write::element_size, At, FieldPlan, Kind, Plan, Shape};
+
+/// Why a body was not read: Python refused something (an object not made), or the bytes are not the type's.
+pub(super) enum Failed {
+    Python(PyErr),
+    Payload(String),
+}
+
+impl From<PyErr> for Failed {
+    fn from(e: PyErr) -> Failed {
+        Failed::Python(e)
+    }
+}
+
+impl From<std::convert::Infallible> for Failed {
+    fn from(e: std::convert::Infallible) -> Failed {
+        match e {}
+    }
+}
+
+impl From<String> for Failed {
+    fn from(m: String) -> Failed {
+        Failed::Payload(m)
+    }
+}
+
+pub(super) fn read_message<'py>(
+    py: Python<'py>,
+    plan: &Plan,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    let cls = plan.cls.bind(py);
+    let obj = cls.call_method1("__new__", (cls,))?;
+    for (slot, v) in &plan.extras {
+        obj.setattr(slot.bind(py), v.bind(py))?;
+    }
+    if plan.fields.is_empty() {
+        r.u8().map_err(|e| format!("{at}: {e}"))?;
+    }
+    for f in &plan.fields {
+        let here = At::Field(at, &f.name);
+        let v = match f.shape {
+            Shape::One => read_one(py, &f.kind, r, &here)?,
+            shape => {
+                let n = match shape {
+                    Shape::Fixed(k) => k,
+                    _ => r.u32().map_err(|e| format!("{here}: {e}"))? as usize,
+                };
+                if let Shape::Bounded(b) = shape {
+                    if n > b {
+                        return Err(format!("{here}: {n} elements, at most {b}").into());
+                    }
+                }
+                read_array(py, plan, f, n, r, &here)?
+            }
+        };
+        obj.setattr(f.attr.bind(py), v)?;
+    }
+    Ok(obj)
+}
+
+/// `n` elements of the field `f`: numeric ones as rosidl holds them (a numpy array for a fixed array, an
+/// `array.array` for a sequence), others as a list.
+fn read_array<'py>(
+    py: Python<'py>,
+    plan: &Plan,
+    f: &FieldPlan,
+    n: usize,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    if let Some((dtype, code)) = numeric_names(&f.kind) {
+        let size = element_size(&f.kind);
+        let bytes = r.elements(size, n).map_err(|e| format!("{at}: {e}"))?;
+        return Ok(if matches!(f.shape, Shape::Fixed(_)) {
+            // over a bytearray of its own: writable, as rclpy's arrays are
+            let frombuffer = plan
+                .frombuffer
+                .as_ref()
+                .expect("imported for a fixed numeric array");
+            frombuffer
+                .bind(py)
+                .call1((PyByteArray::new(py, bytes), dtype))?
+        } else {
+            plan.array.bind(py).call1((code, PyBytes::new(py, bytes)))?
+        });
+    }
+    // every element takes a byte at least: a length beyond the body is an error, not an allocation
+    if n > r.remaining() {
+        return Err(format!("{at}: {n} elements in {} bytes", r.remaining()).into());
+    }
+    let list = PyList::empty(py);
+    for i in 0..n {
+        list.append(read_one(py, &f.kind, r, &At::Index(at, i))?)?;
+    }
+    Ok(list.into_any())
+}
+
+fn read_one<'py>(
+    py: Python<'py>,
+    kind: &Kind,
+    r: &mut CdrReader<'_>,
+    at: &At<'_>,
+) -> Result<Bound<'py, PyAny>, Failed> {
+    let short = |e: String| format!("{at}: {e}");
+    Ok(match kind {
+        Kind::Bool => PyBool::new(py, r.u8().map_err(short)? != 0)
+            .to_owned()
+            .into_any(),
+        Kind::Octet => PyBytes::new(py, &[r.u8().map_err(short)?]).into_any(),
+        Kind::Int { bytes, signed } => {
+            let bits = match bytes {
+                1 => u64::from(r.u8().map_err(short)?),
+                2 => u64::from(r.u16().map_err(short)?),
+                4 => u64::from(r.u32().map_err(short)?),
+                _ => r.u64().map_err(short)?,
+            };
+            if *signed {
+                let shift = 64 - 8 * *bytes as u32;
+                (((bits << shift) as i64) >> shift)
+                    .into_pyobject(py)?
+                    .into_any()
+            } else {
+                bits.into_pyobject(py)?.into_any()
+            }
+        }
+        Kind::F32 => f64::from(f32::from_bits(r.u32().map_err(short)?))
+            .into_pyobject(py)?
+            .into_any(),
+        Kind::F64 => f64::from_bits(r.u64().map_err(short)?)
+            .into_pyobject(py)?
+            .into_any(),
+        Kind::Str { wide, .. } => {
+            let s = if *wide { r.wstring() } else { r.string() }.map_err(short)?;
+            PyString::new(py, &s).into_any()
+        }
+        Kind::Msg(p) => read_message(py, p, r, at)?,
+    })
+}
+
+/// A numeric kind's numpy dtype and `array.array` type code.
+pub(super) fn numeric_names(kind: &Kind) -> Option<(&'static str, &'static str)> {
+    Some(match kind {
+        Kind::Int {
+            bytes: 1,
+            signed: true,
+        } => ("int8", "b"),
+        Kind::Int {
+            bytes: 1,
+            signed: false,
+        } => ("uint8", "B"),
+        Kind::Int {
+            bytes: 2,
+            signed: true,
+        } => ("int16", "h"),
+        Kind::Int {
+            bytes: 2,
+            signed: false,
+        } => ("uint16", "H"),
+        Kind::Int {
+            bytes: 4,
+            signed: true,
+        } => ("int32", "i"),
+        Kind::Int {
+            bytes: 4,
+            signed: false,
+        } => ("uint32", "I"),
+        Kind::Int { signed: true, .. } => ("int64", "q"),
+        Kind::Int { signed: false, .. } => ("uint64", "Q"),
+        Kind::F32 => ("float32", "f"),
+        Kind::F64 => ("float64", "d"),
+        _ => return None,
+    })
+}
