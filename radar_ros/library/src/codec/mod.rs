@@ -9,6 +9,7 @@ mod primitives;
 
 pub use cdr::{Reader as CdrReader, Writer as CdrWriter};
 pub use interfaces::Interfaces;
+pub use primitives::At;
 
 use crate::{
     action::{FibonacciFeedback, FibonacciGoal, FibonacciResult},

@@ -8,9 +8,9 @@ use serde_yaml::Value as Yaml;
 use super::cdr::{Reader, Writer};
 
 /// Where in a payload a value is (`geometry_msgs/msg/Pose.position.x`, `...ranges[3]`), for error messages;
-/// written out only when one is made.
+/// written out only when one is made. Public for encoders of other value shapes (the Python package's).
 #[derive(Clone, Copy, Debug)]
-pub(super) enum At<'a> {
+pub enum At<'a> {
     /// The message's type.
     Root(&'a str),
     /// A field of the value at the first.

@@ -24,7 +24,7 @@ use pyo3::{
     types::{PyBytes, PyDict, PyString},
 };
 use radar_idl::{is_primitive, ros2msg::Field};
-use radar_ros::codec::{run_time_types, CdrReader, CdrWriter};
+use radar_ros::codec::{run_time_types, At, CdrReader, CdrWriter};
 
 use read::{numeric_names, read_message, Failed};
 use write::write_message;
@@ -282,24 +282,6 @@ fn slot_names(cls: &Bound<'_, PyAny>) -> Vec<String> {
         }
     }
     names
-}
-
-/// Where in the payload a value is (`std_msgs/msg/Header.stamp.sec`, `...data[3]`), for errors; written out
-/// only when one is made.
-enum At<'a> {
-    Root(&'a str),
-    Field(&'a At<'a>, &'a str),
-    Index(&'a At<'a>, usize),
-}
-
-impl std::fmt::Display for At<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            At::Root(t) => f.write_str(t),
-            At::Field(up, name) => write!(f, "{up}.{name}"),
-            At::Index(up, i) => write!(f, "{up}[{i}]"),
-        }
-    }
 }
 
 fn repr(v: &Bound<'_, PyAny>) -> String {

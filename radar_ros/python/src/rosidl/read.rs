@@ -149,35 +149,19 @@ fn read_one<'py>(
 
 /// A numeric kind's numpy dtype and `array.array` type code.
 pub(super) fn numeric_names(kind: &Kind) -> Option<(&'static str, &'static str)> {
-    Some(match kind {
-        Kind::Int {
-            bytes: 1,
-            signed: true,
-        } => ("int8", "b"),
-        Kind::Int {
-            bytes: 1,
-            signed: false,
-        } => ("uint8", "B"),
-        Kind::Int {
-            bytes: 2,
-            signed: true,
-        } => ("int16", "h"),
-        Kind::Int {
-            bytes: 2,
-            signed: false,
-        } => ("uint16", "H"),
-        Kind::Int {
-            bytes: 4,
-            signed: true,
-        } => ("int32", "i"),
-        Kind::Int {
-            bytes: 4,
-            signed: false,
-        } => ("uint32", "I"),
-        Kind::Int { signed: true, .. } => ("int64", "q"),
-        Kind::Int { signed: false, .. } => ("uint64", "Q"),
-        Kind::F32 => ("float32", "f"),
-        Kind::F64 => ("float64", "d"),
-        _ => return None,
-    })
+    /// By size (1, 2, 4, 8 bytes): unsigned, then signed.
+    const INTS: [[(&str, &str); 2]; 4] = [
+        [("uint8", "B"), ("int8", "b")],
+        [("uint16", "H"), ("int16", "h")],
+        [("uint32", "I"), ("int32", "i")],
+        [("uint64", "Q"), ("int64", "q")],
+    ];
+    match kind {
+        Kind::Int { bytes, signed } => INTS
+            .get(bytes.trailing_zeros() as usize)
+            .map(|pair| pair[usize::from(*signed)]),
+        Kind::F32 => Some(("float32", "f")),
+        Kind::F64 => Some(("float64", "d")),
+        _ => None,
+    }
 }
