@@ -41,7 +41,7 @@ pub(super) fn write_message(
             _ => w.u32(n as u32),
         }
         if let Some(bytes) = numeric_bytes(&f.kind, &v, n) {
-            w.elements(element_size(&f.kind), &bytes);
+            w.elements(element_size(&f.kind), bytes.as_bytes());
             continue;
         }
         let items = v
@@ -126,10 +126,10 @@ pub(super) fn element_size(kind: &Kind) -> usize {
     }
 }
 
-/// The `n` elements of a numeric array as their bytes in one copy, when `v` is a one-dimensional numpy array
+/// The `n` elements of a numeric array as their bytes (`tobytes()`, the one copy made), when `v` is a one-dimensional numpy array
 /// or an `array.array` whose elements are exactly the field's type (what rosidl stores), on a little-endian
 /// host; None for anything else (each element is then written one by one).
-fn numeric_bytes(kind: &Kind, v: &Bound<'_, PyAny>, n: usize) -> Option<Vec<u8>> {
+fn numeric_bytes<'py>(kind: &Kind, v: &Bound<'py, PyAny>, n: usize) -> Option<Bound<'py, PyBytes>> {
     if !cfg!(target_endian = "little") || n == 0 {
         return None;
     }
@@ -169,6 +169,10 @@ fn numeric_bytes(kind: &Kind, v: &Bound<'_, PyAny>, n: usize) -> Option<Vec<u8>>
     if !same {
         return None;
     }
-    let b: Vec<u8> = v.call_method0("tobytes").ok()?.extract().ok()?;
-    (b.len() == n * size).then_some(b)
+    let b = v
+        .call_method0("tobytes")
+        .ok()?
+        .cast_into::<PyBytes>()
+        .ok()?;
+    (b.as_bytes().len() == n * size).then_some(b)
 }
