@@ -1,6 +1,6 @@
 //! An event checks only while someone listens on `triggered`: activation and deactivation follow the DDS
 //! match count, for subscribers in the same participant, in another participant, and in a child process that
-//! exits cleanly or is killed. Domains 40-46.
+//! exits cleanly or is killed; a check emitting through its own trigger from another thread. Domains 40-46, 227.
 
 use std::{
     process::Stdio,
@@ -13,7 +13,7 @@ use std::{
 
 use radar_ros::{
     msg::{Empty, EventState, Int32, StringMsg},
-    Event, EventHandle, SlotError, TimerEvent, TopicEvent,
+    Event, EventHandle, SlotError, TimerEvent, TopicEvent, Trigger,
 };
 use radar_test_util::{radar, DISCOVERY};
 use tokio::io::{AsyncBufReadExt, BufReader};
@@ -340,4 +340,138 @@ async fn check_errors_are_counted_on_state_and_the_check_is_retried() {
     .await
     .unwrap();
     assert_eq!(wire.name, "/flaky");
+}
+
+/// Hands each check's trigger to the test; its check ends only when told (with a value that must not be
+/// emitted again when the trigger was used).
+struct Relayed {
+    triggers: tokio::sync::mpsc::UnboundedSender<Trigger<Int32>>,
+    resolve: Arc<tokio::sync::Notify>,
+}
+
+impl Event for Relayed {
+    type Payload = Int32;
+    fn before_check(&mut self, trigger: Trigger<Int32>) {
+        let _ = self.triggers.send(trigger);
+    }
+    async fn check(&mut self) -> Result<Int32, SlotError> {
+        self.resolve.notified().await;
+        Ok(Int32 { data: -1 })
+    }
+}
+
+/// The `Int32` values an observer (which never activates the event) has seen so far.
+async fn observed(obs: &radar_ros::RawSubscription, within: Duration) -> Vec<i32> {
+    let mut seen = Vec::new();
+    while let Ok((m, _)) = obs.recv_stamped().timeout(within).await {
+        let b = m.as_bytes();
+        seen.push(i32::from_le_bytes(b[0..4].try_into().unwrap()));
+    }
+    seen
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_after_it_ended() {
+    let host = radar(227);
+    let (tx, mut triggers) = tokio::sync::mpsc::unbounded_channel();
+    let resolve = Arc::new(tokio::sync::Notify::new());
+    let h = host
+        .spawn_event(
+            "relayed",
+            Relayed {
+                triggers: tx,
+                resolve: resolve.clone(),
+            },
+        )
+        .unwrap();
+    // the wire's own count: a reader in another participant that only observes (it activates nothing)
+    let watcher = radar(227);
+    let obs = watcher
+        .observe_raw("/relayed/triggered", "std_msgs/msg/Int32")
+        .unwrap();
+    obs.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
+    assert!(triggers.try_recv().is_err(), "no check runs unlistened");
+
+    let sub = host
+        .signal_subscription::<Int32>("/relayed/triggered")
+        .unwrap();
+    let t1 = tokio::time::timeout(DISCOVERY, triggers.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    // emitted from a thread that is not the runtime's: once per check
+    let t = t1.clone();
+    let (first, second) =
+        std::thread::spawn(move || (t.emit(Int32 { data: 7 }), t.emit(Int32 { data: 8 })))
+            .join()
+            .unwrap();
+    assert!(first.is_ok());
+    assert_eq!(
+        second.unwrap_err().data,
+        8,
+        "a second trigger of one check is handed back"
+    );
+    assert_eq!(
+        sub.recv()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap()
+            .data,
+        7
+    );
+    // the check's own value, after it emitted, is not emitted again; the trigger is counted once
+    resolve.notify_one();
+    let t2 = tokio::time::timeout(DISCOVERY, triggers.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    let st = until_state(&h, DISCOVERY, |s| s.triggers == 1).await;
+    assert!(st.active, "{st:?}");
+    assert!(!t1.is_open() && t2.is_open());
+    assert_eq!(observed(&obs, Duration::from_millis(300)).await, vec![7]);
+    assert!(sub.try_recv().is_none());
+
+    // the listener leaves: the running check's trigger is refused from then on
+    drop(sub);
+    until_state(&h, DISCOVERY, |s| !s.active).await;
+    assert_eq!(t2.emit(Int32 { data: 9 }).unwrap_err().data, 9);
+
+    // a trigger emitted on another thread while its check is being dropped (the listener leaving at the same
+    // time), 30 times with nothing to let it settle: every trigger on the wire is counted once, and none goes
+    // out once the event said it is inactive
+    let mut accepted = 1;
+    for round in 0..30 {
+        let sub = host
+            .signal_subscription::<Int32>("/relayed/triggered")
+            .unwrap();
+        let t = tokio::time::timeout(DISCOVERY, triggers.recv())
+            .await
+            .unwrap()
+            .unwrap();
+        let racer = std::thread::spawn(move || {
+            let sent = t.emit(Int32 { data: 100 + round }).is_ok();
+            (t, sent)
+        });
+        drop(sub);
+        let st = until_state(&h, DISCOVERY, |s| {
+            !s.active && s.activations == round as u64 + 2
+        })
+        .await;
+        let (t, sent) = racer.join().unwrap();
+        accepted += u64::from(sent);
+        assert_eq!(st.triggers, accepted, "round {round}: {st:?}");
+        assert!(
+            t.emit(Int32 { data: -2 }).is_err(),
+            "round {round}: out after inactive"
+        );
+    }
+    let seen = observed(&obs, Duration::from_millis(500)).await;
+    // (the first trigger, 7, was read above)
+    assert_eq!(seen.len() as u64 + 1, accepted, "on the wire: {seen:?}");
+    assert!(seen.iter().all(|&d| d >= 100), "{seen:?}");
+    assert_eq!(h.state().triggers, accepted);
+    println!(
+        "{} of 30 raced triggers went out before their check was dropped",
+        accepted - 1
+    );
 }

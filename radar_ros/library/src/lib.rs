@@ -219,6 +219,7 @@ pub use wire::{msg, qos};
 pub use components::event::{Event, EventHandle, EventNode, TimerEvent, TopicEvent};
 pub use components::own_node::{ComponentNode, EventSubscription};
 pub use components::response::{FnResponse, Response, ResponseHandle, ResponseNode};
+pub use components::trigger::Trigger;
 pub use departure::{Departure, LossCause};
 pub use wire::refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 

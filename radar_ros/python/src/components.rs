@@ -7,7 +7,9 @@ use pyo3::{
     prelude::*,
     types::{PyBytes, PyCFunction, PyDict, PyTuple},
 };
-use radar_ros::{DynMessage, Event, ExitAction, ExitReason, Response, SlotError, StartPolicy};
+use radar_ros::{
+    DynMessage, Event, ExitAction, ExitReason, Response, SlotError, StartPolicy, Trigger,
+};
 
 use crate::slot_loop::{
     body, describe, ended_by, panic_with, run_slot, wait_begun, Ended, SlotLoop,
@@ -165,6 +167,9 @@ pub(crate) struct PyEvent {
     pub(crate) runner: Arc<Py<PyAny>>,
     pub(crate) slots: SlotLoop,
     pub(crate) payload_type: String,
+    /// The running check's writer of `triggered`: its value is emitted from the loop's thread as the coroutine
+    /// ends, not after a wake-up of the engine's task.
+    pub(crate) trigger: Option<Trigger<DynMessage>>,
 }
 
 impl PyEvent {
@@ -188,12 +193,25 @@ impl PyEvent {
 impl Event for PyEvent {
     type Payload = DynMessage;
 
+    fn before_check(&mut self, trigger: Trigger<DynMessage>) {
+        self.trigger = Some(trigger);
+    }
+
     async fn check(&mut self) -> Result<DynMessage, SlotError> {
         let runner = self.runner.clone();
+        let trigger = self.trigger.take();
         match run_slot(
             &self.slots,
             move |py| runner.bind(py).call_method0("check"),
-            |v| body(v, "check"),
+            move |v| {
+                let payload = body(v, "check")?;
+                // out now, in the loop's thread; the engine's task only counts it. Refused only once the
+                // check was dropped (the event deactivated or stopped): then nothing reads the value
+                match &trigger {
+                    Some(t) => Ok(t.emit(payload).err().unwrap_or_default()),
+                    None => Ok(payload),
+                }
+            },
         )
         .await
         {

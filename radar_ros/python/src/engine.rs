@@ -306,6 +306,7 @@ impl PyEngine {
             runner: Arc::new(runner),
             slots: e.slots.clone(),
             payload_type,
+            trigger: None,
         };
         let h = py
             .detach(|| {

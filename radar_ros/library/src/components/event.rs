@@ -19,6 +19,7 @@ use radar_semantics::event::{Activation, Transition};
 
 use crate::{
     components::own_node::{ComponentNode, EventSubscription},
+    components::trigger::{CheckTrigger, Trigger},
     error::{Result, SlotError},
     node::endpoints::{emit, panic_message, SignalWriter, Throttle, Watched},
     node::shutdown::ComponentTask,
@@ -49,6 +50,14 @@ pub trait Event: Send + 'static {
     /// the event is active. An error is counted and reported on `state`, and the check is retried after
     /// [`Event::retry_after`].
     fn check(&mut self) -> impl Future<Output = Result<Self::Payload, SlotError>> + Send;
+
+    /// Called before each check with that check's own writer of `triggered`: an event whose condition is seen
+    /// on a thread of its own can emit from there ([`Trigger::emit`]) instead of resolving the check and waiting
+    /// for the event's task to emit. A check that emitted this way still resolves (soon after: the trigger is
+    /// counted in `state` then), and the value it resolves with is not emitted again. Default: unused.
+    fn before_check(&mut self, trigger: Trigger<Self::Payload>) {
+        let _ = trigger;
+    }
 
     /// Called when the event becomes active, before the first check.
     fn on_activate(&mut self) {}
@@ -337,45 +346,70 @@ impl std::fmt::Debug for EventHandle {
 /// published at once). A high-rate event does not double its traffic with state updates.
 const STATE_TRIGGER_THROTTLE: Duration = Duration::from_millis(100);
 
-type Check<P> = Pin<Box<dyn Future<Output = Result<P, SlotError>> + Send>>;
+/// A running check, and its trigger's event side.
+struct Check<P> {
+    run: Pin<Box<dyn Future<Output = Result<P, SlotError>> + Send>>,
+    trigger: CheckTrigger,
+}
 
-fn new_check<E: Event>(event: &Arc<Mutex<E>>, delay: Option<Duration>) -> Check<E::Payload> {
+impl<P> Check<P> {
+    /// Ends the check's trigger (see [`CheckTrigger::close`]); the future is dropped with `self`.
+    fn end(self) -> Option<i64> {
+        self.trigger.close()
+    }
+}
+
+fn new_check<E: Event>(
+    event: &Arc<Mutex<E>>,
+    writer: &Arc<SignalWriter<E::Payload>>,
+    delay: Option<Duration>,
+) -> Check<E::Payload> {
     let e = Arc::clone(event);
-    Box::pin(async move {
+    let (trigger, side) = CheckTrigger::open(writer);
+    let run = Box::pin(async move {
         if let Some(d) = delay {
             tokio::time::sleep(d).await;
         }
         let mut guard = e.lock_owned().await;
-        match AssertUnwindSafe(guard.check()).catch_unwind().await {
+        let checked = AssertUnwindSafe(async {
+            guard.before_check(trigger);
+            guard.check().await
+        });
+        match checked.catch_unwind().await {
             Ok(r) => r,
             Err(p) => Err(SlotError::msg(format!(
                 "check panicked: {}",
                 panic_message(p)
             ))),
         }
-    })
+    });
+    Check { run, trigger: side }
 }
 
-/// A new count of listeners: the event activates (its check starts) or deactivates (its check stops).
+/// A new count of listeners: the event activates (its check starts) or deactivates (its check stops). The
+/// source time of a trigger the stopped check had emitted itself and not yet been counted.
 async fn on_listeners<E: Event>(
     n: usize,
     activation: &mut Activation,
     event: &Arc<Mutex<E>>,
+    writer: &Arc<SignalWriter<E::Payload>>,
     check: &mut Option<Check<E::Payload>>,
     name: &str,
-) {
+) -> Option<i64> {
     match activation.set_listeners(n) {
         Some(Transition::Activate) => {
             event.lock().await.on_activate();
-            *check = Some(new_check(event, None));
+            *check = Some(new_check(event, writer, None));
             tracing::debug!(event = %name, listeners = n, "activated");
+            None
         }
         Some(Transition::Deactivate) => {
-            *check = None;
+            let emitted = check.take().and_then(Check::end);
             event.lock().await.on_deactivate();
             tracing::debug!(event = %name, "deactivated");
+            emitted
         }
-        None => {}
+        None => None,
     }
 }
 
@@ -389,6 +423,7 @@ pub(crate) async fn drive_event<E: Event>(
     mut stop: tokio::sync::oneshot::Receiver<()>,
 ) {
     let event = Arc::new(Mutex::new(event));
+    let triggered = Arc::new(triggered);
     let mut activation = Activation::new();
     let mut check: Option<Check<E::Payload>> = None;
     let mut throttle = Throttle::new(STATE_TRIGGER_THROTTLE);
@@ -401,12 +436,20 @@ pub(crate) async fn drive_event<E: Event>(
         emit(&state_pub, "state", st.clone());
         state_tx.send_replace(st.clone());
     };
+    let count = |st: &mut EventState, entered: &mut Option<i64>, at: i64| {
+        entered.get_or_insert(at);
+        st.triggers += 1;
+    };
     // the count may already be non-zero
     let mut pending_count = Some(*listeners.borrow_and_update());
     loop {
         if let Some(n) = pending_count.take() {
             st.listeners = n as u32;
-            on_listeners(n, &mut activation, &event, &mut check, &name).await;
+            let emitted =
+                on_listeners(n, &mut activation, &event, &triggered, &mut check, &name).await;
+            if let Some(at) = emitted {
+                count(&mut st, &mut entered, at);
+            }
             st.active = activation.is_active();
             st.activations = activation.activations();
             publish(&mut st, &mut entered);
@@ -420,16 +463,22 @@ pub(crate) async fn drive_event<E: Event>(
             },
             res = async {
                 match check.as_mut() {
-                    Some(c) => c.await,
+                    Some(c) => c.run.as_mut().await,
                     None => std::future::pending().await,
                 }
             } => {
+                // the check ended: what it emitted itself is counted, and nothing more goes out through it
+                let emitted = check.take().and_then(Check::end);
+                if let Some(at) = emitted {
+                    count(&mut st, &mut entered, at);
+                }
                 match res {
                     Ok(payload) => {
-                        let at = triggered.emit("triggered", payload, None);
-                        entered.get_or_insert(at);
-                        st.triggers += 1;
-                        check = Some(new_check(&event, None));
+                        if emitted.is_none() {
+                            let at = triggered.emit("triggered", payload, None);
+                            count(&mut st, &mut entered, at);
+                        }
+                        check = Some(new_check(&event, &triggered, None));
                         if throttle.changed() {
                             publish(&mut st, &mut entered);
                         }
@@ -439,7 +488,7 @@ pub(crate) async fn drive_event<E: Event>(
                         st.check_errors += 1;
                         st.last_error = e.into_message();
                         let delay = event.lock().await.retry_after();
-                        check = Some(new_check(&event, Some(delay)));
+                        check = Some(new_check(&event, &triggered, Some(delay)));
                         publish(&mut st, &mut entered);
                         throttle.published();
                     }
@@ -451,6 +500,8 @@ pub(crate) async fn drive_event<E: Event>(
             }
         }
     }
-    drop(check);
+    if let Some(c) = check.take() {
+        c.end();
+    }
     tracing::info!(event = %name, "event stopped");
 }

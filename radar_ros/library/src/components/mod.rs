@@ -6,3 +6,4 @@ pub mod action;
 pub(crate) mod event;
 pub(crate) mod own_node;
 pub(crate) mod response;
+pub(crate) mod trigger;
