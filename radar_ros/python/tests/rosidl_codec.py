@@ -19,13 +19,16 @@ import array
 import json
 import math
 import os
+import struct
 import sys
 import tempfile
 from typing import Any, Dict, List
 
 os.environ.pop("AMENT_PREFIX_PATH", None)  # the definitions come from the directories given below only
 # rosidl's setters check what they are given (off by default): an object the package reads must check alike
-os.environ["ROS_PYTHON_CHECK_FIELDS"] = "1"
+# (mode `unchecked`: off, as by default)
+CHECKED = sys.argv[1:2] != ["unchecked"]
+os.environ["ROS_PYTHON_CHECK_FIELDS"] = "1" if CHECKED else "0"
 
 import numpy
 import test_msgs.msg
@@ -110,6 +113,45 @@ def malformed() -> List[str]:
     else:
         raise AssertionError("a string that is not UTF-8 was read")
     done.append("not UTF-8")
+    return done
+
+
+def beyond_bounds() -> List[str]:
+    """A bounded string or sequence longer than its bound (a faulty writer's; rclpy never writes one) is read as
+    rclpy reads it: a sequence whole; a string whole when the classes do not check their fields, refused by field
+    when they do (rclpy's reading fails in the string's setter then). The package never writes either back."""
+    done = []
+    strings = test_msgs.msg.Strings(bounded_string_value="x" * 22)
+    sequences = test_msgs.msg.BoundedPlainSequences(int32_values=[11, 22, 33])
+    for msg, old, new, what, unit in (
+        (strings, struct.pack("<I", 23) + b"x" * 22 + b"\0", struct.pack("<I", 31) + b"x" * 30 + b"\0",
+         "bounded_string_value", "30 characters, at most 22"),
+        (sequences, struct.pack("<4i", 3, 11, 22, 33), struct.pack("<6i", 5, 11, 22, 33, 44, 55), "int32_values",
+         None),
+    ):
+        theirs = serialize_message(msg)[4:]
+        assert theirs.count(old) == 1, theirs.hex()
+        body = theirs.replace(old, new)  # 8 bytes longer: every later field keeps its alignment
+        ros_type = f"test_msgs/msg/{type(msg).__name__}"
+        if CHECKED and unit is not None:
+            try:
+                read_back(type(msg), body)
+            except Exception:
+                pass
+            else:
+                raise AssertionError(f"{what}: rclpy read it with its fields checked")
+            try:
+                _payload.decode(body, ros_type)
+            except PayloadTypeError as e:
+                assert f"{ros_type}.{what}: {unit}" in str(e), e
+            else:
+                raise AssertionError(f"{what}: read with its fields checked")
+        else:
+            ours, rclpys = _payload.decode(body, ros_type), read_back(type(msg), body)
+            assert ours == rclpys and getattr(ours, what) != getattr(msg, what), f"{what}: read as {ours}"
+            assert shape(ours) == shape(rclpys), f"{what}: {shape(ours)} != {shape(rclpys)}"
+            refused(ours, ros_type, f"{ros_type}.{what}: at most")
+        done.append(what)
     return done
 
 
@@ -198,12 +240,15 @@ def main() -> None:
     header.stamp.sec, header.stamp.nanosec = -5, 999_999_999
     assert read_back(Header, _payload.encode(header, "std_msgs/msg/Header")) == header
     assert _payload.decode(serialize_message(header)[4:], "std_msgs/msg/Header") == header
-    if mode == "fixtures":
+    if mode == "unchecked":
+        counts = {"beyond_bounds": beyond_bounds()}
+    elif mode == "fixtures":
         read_objects_behave_as_rclpys()
         counts: Dict[str, Any] = {
             "fixtures": check_all_fixtures({}),
             "beyond_setters": beyond_setters(),
             "malformed": malformed(),
+            "beyond_bounds": beyond_bounds(),
         }
     elif mode == "mismatched":
         own = tempfile.mkdtemp()

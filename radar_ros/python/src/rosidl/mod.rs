@@ -81,6 +81,10 @@ struct Plan {
     cls: Py<PyAny>,
     /// The class's slots that hold no field (`_check_fields`), as a new object of the class has them.
     extras: Vec<(Py<PyString>, Py<PyAny>)>,
+    /// Whether a new object of the class checks what its setters are given (`_check_fields`, on with
+    /// `ROS_PYTHON_CHECK_FIELDS=1`): then a bounded string read longer than its bound is refused, as rclpy's
+    /// reading refuses it through the setter; read whole otherwise, as rclpy reads it.
+    checks: bool,
     /// numpy's `frombuffer` (imported only for a type with a fixed numeric array) and `array.array`, for the
     /// numeric arrays a read object holds.
     frombuffer: Option<Py<PyAny>>,
@@ -164,11 +168,16 @@ fn plan(
         .iter()
         .any(|f| matches!(f.shape, Shape::Fixed(_)) && numeric_names(&f.kind).is_some());
     let extras = extras(py, cls, &slots, &fields)?;
+    let checks = extras.iter().any(|(slot, v)| {
+        slot.bind(py).to_cow().is_ok_and(|s| s == "_check_fields")
+            && v.bind(py).is_truthy().unwrap_or(false)
+    });
     let p = Arc::new(Plan {
         ros_type: ros_type.to_owned(),
         fields,
         cls: cls.clone().unbind(),
         extras,
+        checks,
         frombuffer: match needs_numpy {
             true => Some(
                 py.import("numpy")

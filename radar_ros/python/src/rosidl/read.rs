@@ -49,17 +49,14 @@ pub(super) fn read_message<'py>(
     for f in &plan.fields {
         let here = At::Field(at, &f.name);
         let v = match f.shape {
-            Shape::One => read_one(py, &f.kind, r, &here)?,
+            Shape::One => read_one(py, plan, &f.kind, r, &here)?,
             shape => {
                 let n = match shape {
                     Shape::Fixed(k) => k,
                     _ => r.u32().map_err(|e| format!("{here}: {e}"))? as usize,
                 };
-                if let Shape::Bounded(b) = shape {
-                    if n > b {
-                        return Err(format!("{here}: {n} elements, at most {b}").into());
-                    }
-                }
+                // a bounded sequence longer than its bound is read whole, as rclpy reads it (checked fields or
+                // not): a faulty writer's message is not lost here; the package never writes one
                 read_array(py, plan, f, n, r, &here)?
             }
         };
@@ -100,13 +97,27 @@ fn read_array<'py>(
     }
     let list = PyList::empty(py);
     for i in 0..n {
-        list.append(read_one(py, &f.kind, r, &At::Index(at, i))?)?;
+        list.append(read_one(py, plan, &f.kind, r, &At::Index(at, i))?)?;
     }
     Ok(list.into_any())
 }
 
+/// A bounded string of `n` characters, over its bound `b`: read whole as rclpy reads it (a faulty writer's
+/// message is not lost here), or refused when the class checks its fields, as rclpy's reading then fails in the
+/// setter. The package never writes one.
+fn beyond_bound(plan: &Plan, n: usize, b: usize, at: &At<'_>) -> Result<(), Failed> {
+    if n > b && plan.checks {
+        return Err(format!(
+            "{at}: {n} characters, at most {b} (ROS_PYTHON_CHECK_FIELDS=1: the class refuses it; unset, it is read whole, as rclpy reads it)"
+        )
+        .into());
+    }
+    Ok(())
+}
+
 fn read_one<'py>(
     py: Python<'py>,
+    plan: &Plan,
     kind: &Kind,
     r: &mut CdrReader<'_>,
     at: &At<'_>,
@@ -139,8 +150,12 @@ fn read_one<'py>(
         Kind::F64 => f64::from_bits(r.u64().map_err(short)?)
             .into_pyobject(py)?
             .into_any(),
-        Kind::Str { wide, .. } => {
+        Kind::Str { wide, bound } => {
             let s = if *wide { r.wstring() } else { r.string() }.map_err(short)?;
+            if let Some(b) = bound {
+                // in characters, as the setter's `len(value)` counts them
+                beyond_bound(plan, s.chars().count(), *b, at)?;
+            }
             PyString::new(py, &s).into_any()
         }
         Kind::Msg(p) => read_message(py, p, r, at)?,
