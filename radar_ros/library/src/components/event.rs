@@ -386,30 +386,92 @@ fn new_check<E: Event>(
     Check { run, trigger: side }
 }
 
-/// A new count of listeners: the event activates (its check starts) or deactivates (its check stops). The
-/// source time of a trigger the stopped check had emitted itself and not yet been counted.
-async fn on_listeners<E: Event>(
-    n: usize,
-    activation: &mut Activation,
-    event: &Arc<Mutex<E>>,
-    writer: &Arc<SignalWriter<E::Payload>>,
-    check: &mut Option<Check<E::Payload>>,
-    name: &str,
-) -> Option<i64> {
-    match activation.set_listeners(n) {
-        Some(Transition::Activate) => {
-            event.lock().await.on_activate();
-            *check = Some(new_check(event, writer, None));
-            tracing::debug!(event = %name, listeners = n, "activated");
-            None
+/// A running event's task state: the event, its writers, and what its `state` says.
+struct Driver<E: Event> {
+    event: Arc<Mutex<E>>,
+    triggered: Arc<SignalWriter<E::Payload>>,
+    state_pub: Watched<crate::node::transport::Publisher<EventState>>,
+    state_tx: watch::Sender<EventState>,
+    st: EventState,
+    activation: Activation,
+    check: Option<Check<E::Payload>>,
+    throttle: Throttle,
+    /// A state is stamped when it was entered: a trigger's, when `triggered` was emitted (so that a reader can
+    /// put it in order with the signals it caused).
+    entered: Option<i64>,
+}
+
+impl<E: Event> Driver<E> {
+    fn publish(&mut self) {
+        self.st.stamp = self.entered.take().map_or_else(Time::now, Time::from_nanos);
+        emit(&self.state_pub, "state", self.st.clone());
+        self.state_tx.send_replace(self.st.clone());
+        self.throttle.published();
+    }
+
+    /// A trigger emitted at `at` (ns), by the event's task or by the check itself.
+    fn count(&mut self, at: i64) {
+        self.entered.get_or_insert(at);
+        self.st.triggers += 1;
+    }
+
+    /// Ends the running check, if any: nothing more goes out through its trigger, and what it emitted itself
+    /// is counted. Whether it had emitted.
+    fn end_check(&mut self) -> bool {
+        match self.check.take().and_then(Check::end) {
+            Some(at) => {
+                self.count(at);
+                true
+            }
+            None => false,
         }
-        Some(Transition::Deactivate) => {
-            let emitted = check.take().and_then(Check::end);
-            event.lock().await.on_deactivate();
-            tracing::debug!(event = %name, "deactivated");
-            emitted
+    }
+
+    /// A new count of listeners: the event activates (its check starts) or deactivates (its check stops).
+    async fn on_listeners(&mut self, n: usize) {
+        self.st.listeners = n as u32;
+        match self.activation.set_listeners(n) {
+            Some(Transition::Activate) => {
+                self.event.lock().await.on_activate();
+                self.check = Some(new_check(&self.event, &self.triggered, None));
+                tracing::debug!(event = %self.st.name, listeners = n, "activated");
+            }
+            Some(Transition::Deactivate) => {
+                self.end_check();
+                self.event.lock().await.on_deactivate();
+                tracing::debug!(event = %self.st.name, "deactivated");
+            }
+            None => {}
         }
-        None => None,
+        self.st.active = self.activation.is_active();
+        self.st.activations = self.activation.activations();
+        self.publish();
+    }
+
+    /// The running check ended with `res`: its value emitted (unless it emitted itself), or its error counted,
+    /// and the next check begun.
+    async fn on_checked(&mut self, res: Result<E::Payload, SlotError>) {
+        let emitted = self.end_check();
+        match res {
+            Ok(payload) => {
+                if !emitted {
+                    let at = self.triggered.emit("triggered", payload, None);
+                    self.count(at);
+                }
+                self.check = Some(new_check(&self.event, &self.triggered, None));
+                if self.throttle.changed() {
+                    self.publish();
+                }
+            }
+            Err(e) => {
+                tracing::warn!(event = %self.st.name, error = %e, "event check failed; retrying");
+                self.st.check_errors += 1;
+                self.st.last_error = e.into_message();
+                let delay = self.event.lock().await.retry_after();
+                self.check = Some(new_check(&self.event, &self.triggered, Some(delay)));
+                self.publish();
+            }
+        }
     }
 }
 
@@ -418,42 +480,26 @@ pub(crate) async fn drive_event<E: Event>(
     triggered: SignalWriter<E::Payload>,
     state_pub: Watched<crate::node::transport::Publisher<EventState>>,
     state_tx: watch::Sender<EventState>,
-    mut st: EventState,
+    st: EventState,
     mut listeners: watch::Receiver<usize>,
     mut stop: tokio::sync::oneshot::Receiver<()>,
 ) {
-    let event = Arc::new(Mutex::new(event));
-    let triggered = Arc::new(triggered);
-    let mut activation = Activation::new();
-    let mut check: Option<Check<E::Payload>> = None;
-    let mut throttle = Throttle::new(STATE_TRIGGER_THROTTLE);
-    let name = st.name.clone();
-    // a state is stamped when it was entered: a trigger's, when `triggered` was emitted (so that a reader
-    // can put it in order with the signals it caused)
-    let mut entered: Option<i64> = None;
-    let publish = |st: &mut EventState, entered: &mut Option<i64>| {
-        st.stamp = entered.take().map_or_else(Time::now, Time::from_nanos);
-        emit(&state_pub, "state", st.clone());
-        state_tx.send_replace(st.clone());
-    };
-    let count = |st: &mut EventState, entered: &mut Option<i64>, at: i64| {
-        entered.get_or_insert(at);
-        st.triggers += 1;
+    let mut d = Driver {
+        event: Arc::new(Mutex::new(event)),
+        triggered: Arc::new(triggered),
+        state_pub,
+        state_tx,
+        st,
+        activation: Activation::new(),
+        check: None,
+        throttle: Throttle::new(STATE_TRIGGER_THROTTLE),
+        entered: None,
     };
     // the count may already be non-zero
     let mut pending_count = Some(*listeners.borrow_and_update());
     loop {
         if let Some(n) = pending_count.take() {
-            st.listeners = n as u32;
-            let emitted =
-                on_listeners(n, &mut activation, &event, &triggered, &mut check, &name).await;
-            if let Some(at) = emitted {
-                count(&mut st, &mut entered, at);
-            }
-            st.active = activation.is_active();
-            st.activations = activation.activations();
-            publish(&mut st, &mut entered);
-            throttle.published();
+            d.on_listeners(n).await;
         }
         tokio::select! {
             _ = &mut stop => break,
@@ -462,46 +508,16 @@ pub(crate) async fn drive_event<E: Event>(
                 Err(_) => break,
             },
             res = async {
-                match check.as_mut() {
+                match d.check.as_mut() {
                     Some(c) => c.run.as_mut().await,
                     None => std::future::pending().await,
                 }
-            } => {
-                // the check ended: what it emitted itself is counted, and nothing more goes out through it
-                let emitted = check.take().and_then(Check::end);
-                if let Some(at) = emitted {
-                    count(&mut st, &mut entered, at);
-                }
-                match res {
-                    Ok(payload) => {
-                        if emitted.is_none() {
-                            let at = triggered.emit("triggered", payload, None);
-                            count(&mut st, &mut entered, at);
-                        }
-                        check = Some(new_check(&event, &triggered, None));
-                        if throttle.changed() {
-                            publish(&mut st, &mut entered);
-                        }
-                    }
-                    Err(e) => {
-                        tracing::warn!(event = %name, error = %e, "event check failed; retrying");
-                        st.check_errors += 1;
-                        st.last_error = e.into_message();
-                        let delay = event.lock().await.retry_after();
-                        check = Some(new_check(&event, &triggered, Some(delay)));
-                        publish(&mut st, &mut entered);
-                        throttle.published();
-                    }
-                }
-            }
-            _ = throttle.due() => {
-                publish(&mut st, &mut entered);
-                throttle.published();
-            }
+            } => d.on_checked(res).await,
+            _ = d.throttle.due() => d.publish(),
         }
     }
-    if let Some(c) = check.take() {
+    if let Some(c) = d.check.take() {
         c.end();
     }
-    tracing::info!(event = %name, "event stopped");
+    tracing::info!(event = %d.st.name, "event stopped");
 }
