@@ -76,7 +76,7 @@ impl Response for PyResponse {
         let (begun_tx, begun) = std::sync::mpsc::sync_channel::<()>(2);
         let runner = self.runner.clone();
         let slots = self.slots.clone();
-        let mut call = Python::attach(|py| {
+        let call = Python::attach(|py| {
             let tx = begun_tx.clone();
             let ack = PyCFunction::new_closure(
                 py,
@@ -92,8 +92,7 @@ impl Response for PyResponse {
                 .call_method1("start", (PyBytes::new(py, payload.0.as_bytes()), ack))?;
             slots.schedule_acked(py, coro, Some(begun_tx), |v| body(v, "start"))
         });
-        if let Ok(call) = &mut call {
-            call.wake();
+        if call.is_ok() {
             wait_begun(&begun);
         }
         let ended = match call {

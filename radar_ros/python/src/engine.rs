@@ -156,10 +156,9 @@ pub(crate) fn policy(p: &str) -> PyResult<StartPolicy> {
 #[pymethods]
 impl PyEngine {
     /// Makes the participant. `event_loop` is the asyncio loop Python slots run on (running in a thread of
-    /// its own); `args` the command line (`--ros-args` read from it); `wake_fd` a descriptor that wakes the loop
-    /// when written (the package's `_wake_fd`; this engine owns it from here on), or -1.
+    /// its own); `args` the command line (`--ros-args` read from it).
     #[new]
-    #[pyo3(signature = (event_loop, submit, args, domain_id=None, namespace=None, program=None, shutdown_timeout=None, wake_fd=-1))]
+    #[pyo3(signature = (event_loop, submit, args, domain_id=None, namespace=None, program=None, shutdown_timeout=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -170,9 +169,7 @@ impl PyEngine {
         namespace: Option<String>,
         program: Option<String>,
         shutdown_timeout: Option<f64>,
-        wake_fd: i32,
     ) -> PyResult<Self> {
-        let wake = crate::slot_loop::Wake::own(wake_fd);
         init_logs();
         let st = timeout(shutdown_timeout)?;
         // the threads made from here on (the runtime's, the transport's) never take Ctrl-C or SIGTERM
@@ -215,7 +212,6 @@ impl PyEngine {
                 slots: SlotLoop {
                     event_loop: Arc::new(event_loop),
                     submit: Arc::new(submit),
-                    wake,
                 },
             })),
         })

@@ -19,38 +19,6 @@ use radar_ros::{DynMessage, RawMessage};
 pub(crate) struct SlotLoop {
     pub(crate) event_loop: Arc<Py<PyAny>>,
     pub(crate) submit: Arc<Py<PyAny>>,
-    /// Wakes the loop without the GIL, if the loop gave a way to (else `_SlotCall` wakes it, holding the GIL).
-    pub(crate) wake: Option<Wake>,
-}
-
-/// The write end of the slot loop's self-pipe, a copy of its own (`radar_ros._wake_fd`): one byte written wakes
-/// the loop, as `call_soon_threadsafe` does, without taking the GIL. Written after the engine's thread let go of
-/// the GIL, so the loop's thread, woken, takes it at once instead of waiting for it.
-#[derive(Clone)]
-pub(crate) struct Wake(Arc<std::os::fd::OwnedFd>);
-
-impl Wake {
-    /// Owns `fd` (closed when the engine goes); None for -1.
-    pub(crate) fn own(fd: i32) -> Option<Wake> {
-        use std::os::fd::FromRawFd;
-        // SAFETY: the package hands over a descriptor of its own making (`os.dup`), used by nothing else
-        (fd >= 0).then(|| Wake(Arc::new(unsafe { std::os::fd::OwnedFd::from_raw_fd(fd) })))
-    }
-
-    /// Writes the byte: non-blocking (the socket is, as asyncio made it), no SIGPIPE; a full pipe or a closed
-    /// loop is no error (the loop has a byte to read already, or runs no more).
-    fn wake(&self) {
-        use std::os::fd::AsRawFd;
-        // SAFETY: a valid descriptor owned by `self`, a one-byte buffer that outlives the call
-        unsafe {
-            libc::send(
-                self.0.as_raw_fd(),
-                [0u8].as_ptr().cast(),
-                1,
-                libc::MSG_DONTWAIT | libc::MSG_NOSIGNAL,
-            );
-        }
-    }
 }
 
 impl SlotLoop {
@@ -100,18 +68,14 @@ impl SlotLoop {
                 Ok(())
             },
         )?;
-        // the task made and its first step queued; the loop woken here only if it gave no way to wake it
-        // without the GIL (else by [`PyCall::wake`], once the caller let go of the GIL)
-        let fut = self.submit.bind(py).call1((
-            coro,
-            self.event_loop.bind(py),
-            done,
-            self.wake.is_none(),
-        ))?;
+        // the last thing done holding the GIL: the loop's thread, woken by it, does not wait for the GIL
+        let fut = self
+            .submit
+            .bind(py)
+            .call1((coro, self.event_loop.bind(py), done))?;
         Ok(PyCall {
             fut: Some(fut.unbind()),
             rx,
-            wake: self.wake.clone(),
         })
     }
 }
@@ -120,22 +84,11 @@ impl SlotLoop {
 pub(crate) struct PyCall<T> {
     pub(crate) fut: Option<Py<PyAny>>,
     pub(crate) rx: tokio::sync::oneshot::Receiver<Ended<T>>,
-    /// The loop's wake-up, until written.
-    wake: Option<Wake>,
 }
 
 impl<T> PyCall<T> {
-    /// Wakes the loop to take the coroutine's first step, if [`SlotLoop::schedule`] left that to the caller:
-    /// call it without the GIL, as soon as the call is made (`result` and dropping call it too).
-    pub(crate) fn wake(&mut self) {
-        if let Some(w) = self.wake.take() {
-            w.wake();
-        }
-    }
-
     /// How the coroutine ended (read in the loop's thread; no GIL taken here unless the loop stopped).
     pub(crate) async fn result(mut self) -> Ended<T> {
-        self.wake();
         let r = (&mut self.rx).await;
         // done: nothing to cancel (its reference is dropped when a thread next holds the GIL)
         self.fut = None;
@@ -147,7 +100,6 @@ impl<T> PyCall<T> {
 
 impl<T> Drop for PyCall<T> {
     fn drop(&mut self) {
-        self.wake();
         if let Some(fut) = self.fut.take() {
             Python::attach(|py| {
                 let _ = fut.bind(py).call_method0("cancel");

@@ -645,44 +645,6 @@ def test_a_slot_call_runs_its_coroutine_on_the_loop_tells_its_end_and_cancels_fr
         loop.close()
 
 
-def test_a_slot_call_left_to_its_caller_to_wake_runs_once_the_wake_fd_is_written() -> None:
-    """How the engine wakes the slot loop without the GIL: `_SlotCall(..., wake=False)` queues the task's first
-    step and leaves the loop asleep; one byte written to `_wake_fd(loop)` (the engine's own copy of the loop's
-    self-pipe) wakes it, and the coroutine runs. A loop in asyncio's debug mode gives no descriptor (-1): the
-    engine then lets `_SlotCall` wake it."""
-    import os
-
-    from radar_ros import _SlotCall, _wake_fd
-
-    loop = asyncio.new_event_loop()
-    thread = threading.Thread(target=loop.run_forever, daemon=True)
-    thread.start()
-    fd = _wake_fd(loop)
-    try:
-        assert fd >= 0
-        got = threading.Event()
-
-        async def body() -> str:
-            return "ran"
-
-        told: List[Any] = []
-        _SlotCall(body(), loop, lambda outcome: (told.append(outcome.result()), got.set()), False)
-        assert not got.wait(0.3), "ran with nothing to wake the loop"
-        os.write(fd, b"\0")
-        assert got.wait(WAIT) and told == ["ran"]
-    finally:
-        loop.call_soon_threadsafe(loop.stop)
-        thread.join(WAIT)
-        loop.close()
-        os.close(fd)
-    debug = asyncio.new_event_loop()
-    debug.set_debug(True)
-    try:
-        assert _wake_fd(debug) == -1
-    finally:
-        debug.close()
-
-
 def test_a_slot_call_pending_when_its_loop_is_closed_is_destroyed_untold() -> None:
     """A slot's coroutine still pending when its loop stops and closes (the program's end): its task is destroyed
     with the loop, and `done` is not told an outcome (the engine sees the loop stopped), not a `GeneratorExit`."""

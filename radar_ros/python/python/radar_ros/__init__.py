@@ -27,7 +27,6 @@ import asyncio
 import atexit
 import ctypes
 import inspect
-import os
 import signal as _signal_module
 import sys
 import threading
@@ -235,16 +234,12 @@ class _SlotCall:
     iteration the wake-up starts, not in the one after it (where a task made by a callback of the loop's would
     take it), about 40 us sooner on a 2-core machine. A task made outside its loop's thread is safe here: only
     the first step is queued (``call_soon``, one append to the loop's ready queue under the GIL), the loop is
-    woken after, and nothing else touches the task from this thread. ``wake=False``: the caller wakes the loop
-    itself once it let go of the GIL (the engine writes to :func:`_wake_fd`'s descriptor), so the loop's thread
-    does not wake only to wait for the GIL. asyncio's debug mode refuses a task made from another thread
-    (``PYTHONASYNCIODEBUG``, ``-X dev``): then the loop's thread makes the task, as before."""
+    woken by ``call_soon_threadsafe`` after, and nothing else touches the task from this thread. asyncio's debug
+    mode refuses it (``PYTHONASYNCIODEBUG``, ``-X dev``): then the loop's thread makes the task, as before."""
 
     __slots__ = ("_loop", "_coro", "_done", "_task", "_ended", "_cancelling")
 
-    def __init__(
-        self, coro: Any, loop: asyncio.AbstractEventLoop, done: Callable[[Any], None], wake: bool = True
-    ):
+    def __init__(self, coro: Any, loop: asyncio.AbstractEventLoop, done: Callable[[Any], None]):
         self._loop = loop
         self._coro: Any = coro
         self._done = done
@@ -256,8 +251,7 @@ class _SlotCall:
                 loop.call_soon_threadsafe(self._begin)
             else:
                 self._begin()
-                if wake:
-                    loop.call_soon_threadsafe(_nothing)  # the wake-up: the first step is queued already
+                loop.call_soon_threadsafe(_nothing)  # the wake-up: the first step is queued already
         except BaseException:
             # the loop is closed: the coroutine never runs; closed here, not left to warn "never awaited"
             self._coro = None
@@ -322,20 +316,6 @@ class _SlotCall:
 
 def _nothing() -> None:
     """What wakes the slot loop for a task queued from another thread (see :class:`_SlotCall`)."""
-
-
-def _wake_fd(loop: asyncio.AbstractEventLoop) -> int:
-    """A descriptor of its own for the write end of ``loop``'s self-pipe: a byte written to it wakes the loop, as
-    ``call_soon_threadsafe`` wakes it, and needs no GIL. -1 when the loop has none to give (another loop class)
-    or runs in asyncio's debug mode; the engine then leaves the waking to :class:`_SlotCall`. A copy
-    (``os.dup``): the number stays the engine's after the loop closes its own, so it never names another file."""
-    sock = getattr(loop, "_csock", None)
-    if sock is None or loop.get_debug():
-        return -1
-    try:
-        return os.dup(sock.fileno())
-    except (OSError, ValueError):
-        return -1
 
 
 class _Outcome:
@@ -925,7 +905,6 @@ class Radar:
                 namespace,
                 program,
                 shutdown_timeout,
-                _wake_fd(self._loop),
             )
         except BaseException:
             self._stop_loop()

@@ -84,7 +84,6 @@ class Engine:
         namespace: Optional[str] = None,
         program: Optional[str] = None,
         shutdown_timeout: Optional[float] = None,
-        wake_fd: int = -1,
     ) -> None: ...
     @property
     def domain_id(self) -> int: ...
