@@ -232,7 +232,7 @@ class _SlotCall:
 
     The task is made here, in the engine's thread, and the loop woken after: its first step runs in the loop
     iteration the wake-up starts, not in the one after it (where a task made by a callback of the loop's would
-    take it), about 40 us sooner on a 2-core machine. A task made outside its loop's thread is safe here: only
+    take it), 15-50 us sooner on a 2-core machine. A task made outside its loop's thread is safe here: only
     the first step is queued (``call_soon``, one append to the loop's ready queue under the GIL), the loop is
     woken by ``call_soon_threadsafe`` after, and nothing else touches the task from this thread. asyncio's debug
     mode refuses it (``PYTHONASYNCIODEBUG``, ``-X dev``): then the loop's thread makes the task, as before."""
