@@ -360,6 +360,14 @@ impl Event for Relayed {
     }
 }
 
+/// The next check's trigger, handed over by [`Relayed::before_check`].
+async fn next_trigger(
+    triggers: &mut tokio::sync::mpsc::UnboundedReceiver<Trigger<Int32>>,
+) -> Trigger<Int32> {
+    let next = tokio::time::timeout(DISCOVERY, triggers.recv()).await;
+    next.expect("a check began").expect("the event is alive")
+}
+
 /// The `Int32` values an observer (which never activates the event) has seen so far.
 async fn observed(obs: &radar_ros::RawSubscription, within: Duration) -> Vec<i32> {
     let mut seen = Vec::new();
@@ -395,10 +403,7 @@ async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_af
     let sub = host
         .signal_subscription::<Int32>("/relayed/triggered")
         .unwrap();
-    let t1 = tokio::time::timeout(DISCOVERY, triggers.recv())
-        .await
-        .unwrap()
-        .unwrap();
+    let t1 = next_trigger(&mut triggers).await;
     // emitted from a thread that is not the runtime's: once per check
     let t = t1.clone();
     let (first, second) =
@@ -411,20 +416,11 @@ async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_af
         8,
         "a second trigger of one check is handed back"
     );
-    assert_eq!(
-        sub.recv()
-            .timeout(Duration::from_secs(5))
-            .await
-            .unwrap()
-            .data,
-        7
-    );
+    let heard = sub.recv().timeout(Duration::from_secs(5)).await;
+    assert_eq!(heard.unwrap().data, 7);
     // the check's own value, after it emitted, is not emitted again; the trigger is counted once
     resolve.notify_one();
-    let t2 = tokio::time::timeout(DISCOVERY, triggers.recv())
-        .await
-        .unwrap()
-        .unwrap();
+    let t2 = next_trigger(&mut triggers).await;
     let st = until_state(&h, DISCOVERY, |s| s.triggers == 1).await;
     assert!(st.active, "{st:?}");
     assert!(!t1.is_open() && t2.is_open());
@@ -444,10 +440,7 @@ async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_af
         let sub = host
             .signal_subscription::<Int32>("/relayed/triggered")
             .unwrap();
-        let t = tokio::time::timeout(DISCOVERY, triggers.recv())
-            .await
-            .unwrap()
-            .unwrap();
+        let t = next_trigger(&mut triggers).await;
         let racer = std::thread::spawn(move || {
             let sent = t.emit(Int32 { data: 100 + round }).is_ok();
             (t, sent)
