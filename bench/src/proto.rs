@@ -191,6 +191,74 @@ pub fn cpu_time(pid: u32) -> Result<Duration> {
     Ok(Duration::from_nanos(ticks * 1_000_000_000 / hz))
 }
 
+/// What the scheduler saw of a process, summed over its threads (`/proc/<pid>/task/*/schedstat`): time on a
+/// core, time runnable but waiting for one, and how many times a thread was put on a core (a thread woken, or
+/// given the core back after a preemption). Threads that ended before the read are not counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sched {
+    /// Nanoseconds on a core.
+    pub run_ns: u64,
+    /// Nanoseconds runnable, waiting for a core.
+    pub wait_ns: u64,
+    /// Times a thread was put on a core.
+    pub slices: u64,
+}
+
+impl Sched {
+    /// What happened between `before` and `self`.
+    pub fn since(self, before: Sched) -> Sched {
+        Sched {
+            run_ns: self.run_ns.saturating_sub(before.run_ns),
+            wait_ns: self.wait_ns.saturating_sub(before.wait_ns),
+            slices: self.slices.saturating_sub(before.slices),
+        }
+    }
+}
+
+impl std::ops::Add for Sched {
+    type Output = Sched;
+    fn add(self, o: Sched) -> Sched {
+        Sched {
+            run_ns: self.run_ns + o.run_ns,
+            wait_ns: self.wait_ns + o.wait_ns,
+            slices: self.slices + o.slices,
+        }
+    }
+}
+
+/// The scheduler's figures of process `pid` now by thread name (`/proc/<pid>/task/*/comm`), threads of one
+/// name summed (a runtime's workers).
+pub fn sched_by_thread(pid: u32) -> Result<std::collections::BTreeMap<String, Sched>> {
+    let dir = format!("/proc/{pid}/task");
+    let mut by = std::collections::BTreeMap::new();
+    for t in std::fs::read_dir(&dir).with_context(|| format!("reading {dir}"))? {
+        let path = t?.path();
+        // a thread that ends between the listing and the read is left out
+        let (Ok(line), Ok(name)) = (
+            std::fs::read_to_string(path.join("schedstat")),
+            std::fs::read_to_string(path.join("comm")),
+        ) else {
+            continue;
+        };
+        let f: Vec<u64> = line
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<std::result::Result<_, _>>()
+            .with_context(|| format!("unexpected schedstat {line:?} in {dir}"))?;
+        let [run_ns, wait_ns, slices] = f[..] else {
+            bail!("unexpected schedstat {line:?} in {dir}");
+        };
+        let s: &mut Sched = by.entry(name.trim().to_owned()).or_default();
+        *s = *s
+            + Sched {
+                run_ns,
+                wait_ns,
+                slices,
+            };
+    }
+    Ok(by)
+}
+
 /// This process's resident memory in bytes, from `/proc/self/status`.
 pub fn rss_bytes() -> u64 {
     std::fs::read_to_string("/proc/self/status")
@@ -208,6 +276,27 @@ pub fn rss_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sched_counts_this_process_working_and_a_thread_woken() {
+        let pid = std::process::id();
+        let sched = |pid| {
+            sched_by_thread(pid)
+                .unwrap()
+                .into_values()
+                .fold(Sched::default(), |a, b| a + b)
+        };
+        let before = sched(pid);
+        let t = std::time::Instant::now();
+        while t.elapsed() < Duration::from_millis(30) {}
+        // this thread sleeps and is woken ten times: ten more times on a core at least
+        for _ in 0..10 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let d = sched(pid).since(before);
+        assert!(d.run_ns >= 20_000_000, "{d:?}");
+        assert!(d.slices >= 10, "{d:?}");
+    }
 
     #[test]
     fn cpu_time_grows_when_this_process_works() {

@@ -142,6 +142,7 @@ impl Bench {
                 summary,
                 missing: 0,
                 note: String::new(),
+                usage: None,
                 samples,
             });
         }

@@ -84,12 +84,15 @@ impl Bench {
             )
             .await?;
         all.ask("active /bench/ev", START).await?;
+        let before = sched_now(&[all.pid()])?;
         all.ask(&format!("run /bench/ev {n} {p}"), self.run_timeout(n))
             .await?;
         tokio::time::sleep(Duration::from_millis(500)).await;
-        let r = all
+        let after = sched_now(&[all.pid()])?;
+        let mut r = all
             .ask_json(&format!("report {}", self.plan.warmup), START)
             .await?;
+        r["usage"] = usage_per_signal(before, after, n);
         let note = format!(
             "{} starts ignored (response busy)",
             r["extra"]["ignored_starts"]
@@ -284,7 +287,8 @@ impl Bench {
         };
         let mut src = self.child(d, &["raw-source", "--topic", topic]).await?;
         src.ask("wait", START).await?;
-        let r = self.paced(&mut src, run, &mut sink).await?;
+        let others: Vec<u32> = fwd.iter().map(Child::pid).collect();
+        let r = self.paced_with(&mut src, run, &mut sink, &others).await?;
         Ok((
             r,
             [Some(src), fwd, Some(sink)].into_iter().flatten().collect(),
@@ -344,8 +348,14 @@ impl Bench {
             None
         };
         ev.ask("active /bench/ev", START).await?;
+        let others: Vec<u32> = mgr.iter().map(Child::pid).collect();
         let r = self
-            .paced(&mut ev, &format!("run /bench/ev {n} {p}"), &mut resp)
+            .paced_with(
+                &mut ev,
+                &format!("run /bench/ev {n} {p}"),
+                &mut resp,
+                &others,
+            )
             .await?;
         Ok((
             r,

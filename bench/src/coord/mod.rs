@@ -18,6 +18,7 @@ mod view;
 mod zenoh;
 
 use std::{
+    collections::BTreeMap,
     path::{Path, PathBuf},
     time::{Duration, Instant},
 };
@@ -27,7 +28,7 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::{
-    proto::{cpu_time, Child},
+    proto::{cpu_time, sched_by_thread, Child, Sched},
     stats::{summarize, Summary},
 };
 
@@ -153,6 +154,9 @@ pub struct Latency {
     pub missing: u64,
     /// Notes for the table.
     pub note: String,
+    /// What each signal cost the run's processes on the cores (see [`Bench::paced_with`]), where measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usage: Option<Value>,
     /// The raw samples (ns), for plots; not written to JSON.
     #[serde(skip)]
     pub samples: Vec<u64>,
@@ -387,11 +391,32 @@ impl Bench {
 
     /// Sends `run` to `source`, waits for the deliveries to drain, and reads `sink`'s report.
     async fn paced(&self, source: &mut Child, run: &str, sink: &mut Child) -> Result<Value> {
+        self.paced_with(source, run, sink, &[]).await
+    }
+
+    /// [`Bench::paced`], with the scheduler's figures of the run's processes (`source`, `sink` and `others`)
+    /// added to the report as `usage`: what each signal cost them on the cores, over the whole run.
+    async fn paced_with(
+        &self,
+        source: &mut Child,
+        run: &str,
+        sink: &mut Child,
+        others: &[u32],
+    ) -> Result<Value> {
         let n = self.plan.latency_n + self.plan.warmup;
+        let pids: Vec<u32> = [source.pid(), sink.pid()]
+            .into_iter()
+            .chain(others.iter().copied())
+            .collect();
+        let before = sched_now(&pids)?;
         source.ask(run, self.run_timeout(n)).await?;
         tokio::time::sleep(Duration::from_millis(500)).await;
-        sink.ask_json(&format!("report {}", self.plan.warmup), START)
-            .await
+        let after = sched_now(&pids)?;
+        let mut r = sink
+            .ask_json(&format!("report {}", self.plan.warmup), START)
+            .await?;
+        r["usage"] = usage_per_signal(before, after, n);
+        Ok(r)
     }
 
     fn push_latency(
@@ -406,16 +431,85 @@ impl Bench {
         let summary =
             summarize(&samples).ok_or_else(|| anyhow!("{label}: no signal arrived ({report})"))?;
         let missing = self.plan.latency_n.saturating_sub(samples.len() as u64);
+        let usage = report.get("usage").cloned();
+        let mut note = extra_note.to_owned();
+        if let Some(t) = usage.as_ref().map(|u| &u["total"]) {
+            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+            let procs = usage
+                .as_ref()
+                .map_or(0, |u| u["processes"].as_array().map_or(0, Vec::len));
+            if !note.is_empty() {
+                note.push_str("; ");
+            }
+            note.push_str(&format!(
+                "per signal, its {procs} processes: {:.1} us on a core, {:.1} us waiting for one, on a core {:.2} times",
+                f("cpu_us"),
+                f("wait_us"),
+                f("slices")
+            ));
+        }
         self.results.latency.push(Latency {
             key: key.into(),
             label: label.into(),
             summary,
             missing,
-            note: extra_note.into(),
+            note,
+            usage,
             samples,
         });
         Ok(())
     }
+}
+
+/// The scheduler's figures of a run's processes per signal sent (`n`): in all, and by process in the run's
+/// order (the source first, the sink second).
+/// The scheduler's figures of each of `pids` now, by thread name.
+fn sched_now(pids: &[u32]) -> Result<Vec<BTreeMap<String, Sched>>> {
+    pids.iter().map(|p| sched_by_thread(*p)).collect()
+}
+
+/// The figures per signal ([`usage_per_signal_of`]) of what happened between two [`sched_now`] reads of the
+/// same processes (a thread that began in between counts from zero).
+fn usage_per_signal(
+    before: Vec<BTreeMap<String, Sched>>,
+    after: Vec<BTreeMap<String, Sched>>,
+    n: u64,
+) -> Value {
+    let used: Vec<BTreeMap<String, Sched>> = after
+        .into_iter()
+        .zip(&before)
+        .map(|(a, b)| {
+            a.into_iter()
+                .map(|(name, s)| {
+                    let was = b.get(&name).copied().unwrap_or_default();
+                    (name, s.since(was))
+                })
+                .collect()
+        })
+        .collect();
+    usage_per_signal_of(&used, n)
+}
+
+fn usage_per_signal_of(used: &[BTreeMap<String, Sched>], n: u64) -> Value {
+    let per = |s: &Sched| {
+        let n = n.max(1) as f64;
+        json!({
+            "cpu_us": s.run_ns as f64 / 1e3 / n,
+            "wait_us": s.wait_ns as f64 / 1e3 / n,
+            "slices": s.slices as f64 / n,
+        })
+    };
+    let sum = |m: &BTreeMap<String, Sched>| m.values().fold(Sched::default(), |a, b| a + *b);
+    let total = used.iter().map(sum).fold(Sched::default(), |a, b| a + b);
+    let processes: Vec<Value> = used
+        .iter()
+        .map(|m| {
+            let mut p = per(&sum(m));
+            p["threads"] = m.iter().map(|(name, s)| (name.clone(), per(s))).collect();
+            p
+        })
+        .collect();
+    json!({ "total": per(&total), "processes": processes })
 }
 
 /// Latencies `t1 - t0` of the sequence numbers in both `sent` (`[[seq, t0], ...]`) and `at` (`[[seq, t1], ...]`),
@@ -433,4 +527,45 @@ fn pair_latencies(sent: &Value, at: &Value, warmup: u64) -> Result<Vec<u64>> {
         .filter(|(seq, _)| *seq >= warmup)
         .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(threads: &[(&str, u64, u64, u64)]) -> BTreeMap<String, Sched> {
+        threads
+            .iter()
+            .map(|(n, run_ns, wait_ns, slices)| {
+                (
+                    n.to_string(),
+                    Sched {
+                        run_ns: *run_ns,
+                        wait_ns: *wait_ns,
+                        slices: *slices,
+                    },
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn usage_is_what_each_signal_cost_by_process_and_thread_and_a_new_thread_counts_from_zero() {
+        let before = vec![
+            at(&[("worker", 1_000, 0, 10)]),
+            at(&[("loop", 5_000, 100, 1)]),
+        ];
+        let after = vec![
+            at(&[("worker", 21_000, 4_000, 30), ("new", 2_000, 0, 4)]),
+            at(&[("loop", 15_000, 2_100, 11)]),
+        ];
+        let u = usage_per_signal(before, after, 2);
+        // 2 signals: process 0 used 20 + 2 us, waited 4 us, 24 slices; process 1: 10 us, 2 us, 10
+        assert_eq!(u["processes"][0]["cpu_us"], 11.0);
+        assert_eq!(u["processes"][0]["slices"], 12.0);
+        assert_eq!(u["processes"][0]["threads"]["new"]["slices"], 2.0);
+        assert_eq!(u["processes"][1]["wait_us"], 1.0);
+        assert_eq!(u["total"]["cpu_us"], 16.0);
+        assert_eq!(u["total"]["slices"], 17.0);
+    }
 }

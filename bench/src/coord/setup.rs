@@ -11,6 +11,7 @@ impl Bench {
             summary,
             missing: 0,
             note: String::new(),
+            usage: None,
             samples,
         });
         Ok(())
