@@ -1,6 +1,6 @@
 //! The connection manager as a ROS node: connect/disconnect/list services called from another participant,
 //! the `connections` topic, errors as answers, and a caller that exits taking its connections with it (also
-//! while its connection is still arming). Domains 90-92, 32 and 13.
+//! while its connection is still arming), counts kept current. Domains 90-92, 32, 13 and 61.
 
 use std::{sync::atomic::Ordering, time::Duration};
 
@@ -399,5 +399,61 @@ async fn a_caller_that_leaves_while_its_connection_arms_owns_nothing() {
             live.is_empty(),
             "a connection of a caller that left: {live:?}"
         );
+    }
+}
+
+/// The counts on a program's `connections` topic follow the signals: a signal does not wake the task that
+/// publishes the list (at most one signal per publication tells it), and the list published after each burst
+/// shows every signal of it, burst after burst.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_connections_topic_shows_every_signal_delivered_burst_after_burst() {
+    use radar_ros::{msg::Int32, Signal};
+    let program = radar_with(61, |b| b.program("counting"));
+    let src = program.signal_publisher::<Int32>("/n").unwrap();
+    let got = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let g = got.clone();
+    let resp = program
+        .spawn_response(
+            "tally",
+            FnResponse::new(move |_: Int32| {
+                g.fetch_add(1, Ordering::SeqCst);
+                async { Ok(radar_ros::msg::Empty::default()) }
+            }),
+        )
+        .unwrap();
+    let guard = program
+        .whenever(Signal::new("/n", "std_msgs/msg/Int32"))
+        .start(&resp)
+        .depth(100)
+        .await
+        .unwrap();
+    let observer = radar(61);
+    let connections = observer
+        .state_subscription::<ConnectionList>("/counting/connections")
+        .unwrap();
+    let mut sent = 0u64;
+    for burst in [7u64, 1, 25] {
+        for _ in 0..burst {
+            sent += 1;
+            src.publish(Int32 { data: sent as i32 }).unwrap();
+            // one at a time: the response takes each (a start while it runs would be ignored, not delivered)
+            eventually(DISCOVERY, "the start", || {
+                got.load(Ordering::SeqCst) == sent
+            })
+            .await;
+        }
+        assert_eq!(guard.delivered(), sent);
+        // the list published after the burst, within the throttle's period, shows all of it
+        let shown = tokio::time::timeout(DISCOVERY, async {
+            loop {
+                let l = connections.recv().await.unwrap();
+                if l.connections.first().is_some_and(|c| c.delivered >= sent) {
+                    return l.connections[0].delivered;
+                }
+            }
+        })
+        .await
+        .unwrap_or_else(|_| panic!("the list never showed {sent} delivered"));
+        assert_eq!(shown, sent, "no more than were sent");
     }
 }

@@ -89,8 +89,8 @@ pub(crate) fn serve_program(
         Ok((Arc::new(srv), publisher))
     })?;
     let weak: Weak<Manager> = Arc::downgrade(manager);
-    let mut changes = manager.changes();
-    let first = made_here(manager.list());
+    let (mut changes, mut counts) = (manager.changes(), manager.count_changes());
+    let first = made_here(manager.listing());
     Ok(ComponentTask::spawn(
         participant.components(),
         &name.fully_qualified(),
@@ -110,22 +110,34 @@ pub(crate) fn serve_program(
                         }
                         Err(e) => malformed(&graph, &fq, "list", &e),
                     },
-                    changed = changes.changed() => {
+                    changed = changed_or_counted(&mut changes, &mut counts) => {
                         if changed.is_err() {
                             break;
                         }
                         if throttle.changed() {
-                            publish(made_here(manager.list()));
+                            publish(made_here(manager.listing()));
                         }
                     }
                     _ = throttle.due() => {
-                        publish(made_here(manager.list()));
+                        publish(made_here(manager.listing()));
                         throttle.published();
                     }
                 }
             }
         },
     ))
+}
+
+/// The next change of a manager's table or of its counts (`Manager::changes`, `Manager::count_changes`): what
+/// a task that publishes its list waits for.
+pub(crate) async fn changed_or_counted(
+    changes: &mut tokio::sync::watch::Receiver<u64>,
+    counts: &mut tokio::sync::watch::Receiver<u64>,
+) -> Result<(), tokio::sync::watch::error::RecvError> {
+    tokio::select! {
+        r = changes.changed() => r,
+        r = counts.changed() => r,
+    }
 }
 
 #[cfg(test)]

@@ -261,7 +261,10 @@ impl Serving {
     ) {
         let (reader, mut beats) = read_beats(self.radar.graph().clone(), owners);
         let mut check = tokio::time::interval(Duration::from_millis(100));
-        let mut changes = self.radar.manager().changes();
+        let (mut changes, mut counts) = (
+            self.radar.manager().changes(),
+            self.radar.manager().count_changes(),
+        );
         let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
         let publish = |list| publish_connections(&list_pub, &fq, list);
         publish(self.made_through());
@@ -307,7 +310,7 @@ impl Serving {
                 }
                 Some(owner) = beats.recv() => self.owner_heard(owner),
                 _ = check.tick() => self.owners_silent(),
-                Ok(()) = changes.changed() => {
+                Ok(()) = crate::connections::program::changed_or_counted(&mut changes, &mut counts) => {
                     if throttle.changed() {
                         publish(self.made_through());
                     }
@@ -323,7 +326,7 @@ impl Serving {
 
     /// The connections made through this node's services (its program node lists the code's own).
     fn made_through(&self) -> Vec<ConnectionMsg> {
-        let mut list = self.radar.manager().list();
+        let mut list = self.radar.manager().listing();
         list.retain(|c| self.owned.contains_key(&c.id));
         list
     }

@@ -158,8 +158,13 @@ pub(crate) struct Manager {
     /// Deliver to this process's responses directly (one DDS hop), not through a DDS writer (two).
     local: bool,
     state: Mutex<State>,
-    /// Bumped whenever the table may have changed.
+    /// Bumped whenever the table may have changed, but for counts alone (connections made, ended, waiting, back).
     changed: tokio::sync::watch::Sender<u64>,
+    /// Bumped when a signal changed the counts a listing shows (delivered, panics) since a listing last read
+    /// them: once per listing read, not once per signal, so a signal wakes no task that only lists.
+    counted: tokio::sync::watch::Sender<u64>,
+    /// Whether a signal was dispatched since a listing last read the counts ([`Manager::listing`]).
+    unlisted: std::sync::atomic::AtomicBool,
     /// Whether the task that tells component instances apart runs (`instances.rs`).
     instances_watched: std::sync::atomic::AtomicBool,
 }
@@ -178,6 +183,8 @@ impl Manager {
                 ..State::default()
             }),
             changed: tokio::sync::watch::channel(0).0,
+            counted: tokio::sync::watch::channel(0).0,
+            unlisted: Default::default(),
             instances_watched: Default::default(),
         }
     }
@@ -209,9 +216,23 @@ impl Manager {
             .map_or(0, |r| r.faults.count())
     }
 
-    /// Resolves at the next change of the table.
+    /// Resolves at the next change of the table, but for its counts (see [`Manager::count_changes`]).
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
         self.changed.subscribe()
+    }
+
+    /// Resolves when signals changed the counts of the table since a listing last read them
+    /// ([`Manager::listing`]): what a task that publishes the list waits for besides [`Manager::changes`].
+    pub(crate) fn count_changes(&self) -> tokio::sync::watch::Receiver<u64> {
+        self.counted.subscribe()
+    }
+
+    /// The list with its counts as they are now, for a task that publishes it: the next signal dispatched
+    /// tells [`Manager::count_changes`] again.
+    pub(crate) fn listing(&self) -> Vec<crate::wire::msg::Connection> {
+        self.unlisted
+            .store(false, std::sync::atomic::Ordering::SeqCst);
+        self.list()
     }
 
     /// One signal read on `source`, sent as `sent`: deliver it. Publishing happens under the lock, so a
@@ -283,19 +304,31 @@ impl Manager {
             }
         }
         // a `once` that fired, or whose until is over, is gone: forget what it carried
-        for id in st.table.take_ended() {
-            st.records.remove(&id);
+        let ended = st.table.take_ended();
+        for id in &ended {
+            st.records.remove(id);
         }
-        self.prune(st);
+        let released = self.prune(st);
         drop(guard);
-        self.changed.send_modify(|g| *g += 1);
+        if !ended.is_empty() || released {
+            self.changed.send_modify(|g| *g += 1);
+        }
+        // the counts changed: the first signal since the last listing tells the listings, later ones tell
+        // nobody (the listing reads the counts when it publishes)
+        if !self
+            .unlisted
+            .swap(true, std::sync::atomic::Ordering::SeqCst)
+        {
+            self.counted.send_modify(|g| *g += 1);
+        }
     }
 
     /// Lets go of the relays, outlets and anonymous queues the table no longer needs: an event whose only
     /// listener was a fired `once` deactivates. Looks only at what the table released, so its cost does not
-    /// grow with the number of connections.
-    fn prune(&self, st: &mut State) {
+    /// grow with the number of connections. Whether the table released anything.
+    fn prune(&self, st: &mut State) -> bool {
         let (sources, targets) = st.table.take_released();
+        let released = !sources.is_empty() || !targets.is_empty();
         for s in sources {
             if st.relays.remove(&s).is_some() {
                 self.participant.release(&s);
@@ -322,6 +355,7 @@ impl Manager {
                 }
             }
         }
+        released
     }
 
     fn peers_changed(&self, end: &End, change: Change, departure: impl FnOnce() -> Departure) {
