@@ -343,7 +343,7 @@ impl Writer {
       },
     );
 
-    Self {
+    let writer = Self {
       endianness: Endianness::LittleEndian,
       push_mode: true,
       heartbeat_period,
@@ -380,7 +380,10 @@ impl Writer {
       participant_status_sender,
 
       security_plugins: i.security_plugins,
-    }
+    };
+    // RADAR patch 61: no reader yet
+    writer.refresh_inline_plan();
+    writer
   }
 
   /// Entity id encoded as a mio token. The internal poll no longer registers
@@ -1861,14 +1864,15 @@ impl Writer {
   /// [`InlinePlan`]): only when every matched reader is reached by one unicast datagram, exactly as
   /// `send_message_to_readers` would reach it.
   fn refresh_inline_plan(&self) {
+    let eligible = inline_send_enabled()
+      && !self.like_stateless
+      && self.push_mode
+      && !self.my_guid.entity_id.kind().is_built_in()
+      && self.extra_unicast_destinations.is_empty();
+    // RADAR patch 61: with no reader, a sample is sent to nobody by its DataWriter's thread
+    self.send_buffer.set_readerless(eligible && self.readers.is_empty());
     let plan = (|| {
-      if !inline_send_enabled()
-        || self.like_stateless
-        || !self.push_mode
-        || self.my_guid.entity_id.kind().is_built_in()
-        || !self.extra_unicast_destinations.is_empty()
-        || self.readers.is_empty()
-      {
+      if !eligible || self.readers.is_empty() {
         return None;
       }
       let mut dests: Vec<std::net::SocketAddr> = Vec::new();
@@ -2156,6 +2160,13 @@ impl Writer {
     match self.qos_policies.compliance_failure_wrt(requested_qos) {
       // matched QoS
       None => {
+        // RADAR patch 61: samples written while no reader was matched were taken as sent to nobody: account
+        // for them before a reader counts, and send what is written from now on as usual (a volatile reader
+        // gets a GAP for what came before it, a durable one repairs it from the history)
+        if self.readers.is_empty() {
+          self.send_buffer.set_readerless(false);
+          self.process_pending();
+        }
         let new_reader = self.matched_reader_update(reader_proxy);
         // A (possibly new) reliable reader changes the acknowledgement frontier
         // and thus the back-pressure window.
@@ -3217,6 +3228,26 @@ mod tests {
 
     /// A reliable user Writer matched with one reader that listens on `reader`, and its send buffer.
     fn matched_writer(reader: &UdpSocket) -> (Writer, WriterSendBuffer) {
+      let (mut writer, send_buffer) = lone_writer();
+      match_reader(&mut writer, reader);
+      (writer, send_buffer)
+    }
+
+    /// `matched_reader` on `reader`'s socket, matched to `writer`.
+    fn match_reader(writer: &mut Writer, reader: &UdpSocket) {
+      let qos = writer.qos_policies.clone();
+      let reader_guid = matched_reader();
+      let mut proxy = RtpsReaderProxy::new(reader_guid, qos.clone(), false);
+      // a reader on this host reached over loopback, as the event loop routes it
+      proxy
+        .unicast_locator_list
+        .push(Locator::from(reader.local_addr().unwrap()));
+      proxy.normalize_loopback();
+      writer.update_reader_proxy(&proxy, &qos);
+    }
+
+    /// A reliable, volatile user Writer with no reader yet, and its send buffer.
+    fn lone_writer() -> (Writer, WriterSendBuffer) {
       let id = EntityId::new([0, 0, 7], EntityKind::WRITER_NO_KEY_USER_DEFINED);
       let guid = GUID::new(GuidPrefix::new(&[1; 12]), id);
       let qos = QosPolicyBuilder::new()
@@ -3257,15 +3288,53 @@ mod tests {
         Rc::new(RefCell::new(observations)),
         Rc::from(Vec::<IfAddr>::new()),
       );
-      let reader_id = EntityId::new([0, 0, 7], EntityKind::READER_NO_KEY_USER_DEFINED);
-      let mut proxy = RtpsReaderProxy::new(GUID::new(reader_prefix, reader_id), qos.clone(), false);
-      // a reader on this host reached over loopback, as the event loop routes it
-      proxy
-        .unicast_locator_list
-        .push(Locator::from(reader.local_addr().unwrap()));
-      proxy.normalize_loopback();
-      writer.update_reader_proxy(&proxy, &qos);
       (writer, send_buffer)
+    }
+
+    /// RADAR patch 61: a writer with no reader takes what is written as sent to nobody as it is admitted (its
+    /// DataWriter then wakes no event loop for it), except every READERLESS_RING_EVERY-th sample; the first
+    /// reader to match gets none of those samples, and what is written after it matched as before.
+    #[test]
+    fn a_writer_without_readers_takes_a_sample_as_sent_to_nobody_and_a_reader_that_matches_gets_what_follows() {
+      use crate::rtps::writer_send_buffer::READERLESS_RING_EVERY;
+      let (mut writer, send_buffer) = lone_writer();
+      assert!(send_buffer.inline_plan().is_none(), "no reader: no plan");
+      let every = i64::from(READERLESS_RING_EVERY);
+      let sns: Vec<SequenceNumber> = (0..=every).map(|_| admit(&send_buffer)).collect();
+      for sn in &sns[..sns.len() - 1] {
+        assert!(send_buffer.is_inline_sent(*sn), "{sn:?} is sent to nobody as admitted");
+      }
+      let last = *sns.last().unwrap();
+      assert!(
+        !send_buffer.is_inline_sent(last),
+        "the {}-th sample is left to the event loop, so that its bookkeeping keeps up",
+        every + 1
+      );
+      // the event loop woken for that one accounts for all of them, and sends nothing
+      writer.process_pending();
+      assert_eq!(writer.last_sent, last);
+      // more while nobody listens, then a reader matches: they are accounted for at the match
+      let before_match = admit(&send_buffer);
+      assert!(send_buffer.is_inline_sent(before_match));
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(300)))
+        .unwrap();
+      match_reader(&mut writer, &reader);
+      assert_eq!(writer.last_sent, before_match, "accounted for before the reader counts");
+      // what is written now goes to the reader as before the patch (here: by the event loop)
+      send_buffer.set_inline_plan(None);
+      let after = admit(&send_buffer);
+      assert!(!send_buffer.is_inline_sent(after), "a reader is matched: sent as usual");
+      writer.process_pending();
+      let data: Vec<String> = data_and_heartbeats(&reader)
+        .into_iter()
+        .filter(|s| s.starts_with("DATA"))
+        .collect();
+      assert_eq!(data, vec![format!("DATA {}", i64::from(after))], "nothing from before the match");
+      // and once the last reader is gone, a sample is sent to nobody again
+      writer.matched_reader_remove(matched_reader());
+      assert!(send_buffer.is_inline_sent(admit(&send_buffer)));
     }
 
     fn admit(send_buffer: &WriterSendBuffer) -> SequenceNumber {

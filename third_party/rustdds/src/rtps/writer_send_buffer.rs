@@ -85,7 +85,19 @@ struct Inner {
   /// RADAR patch 22: samples the DataWriter put on the wire itself; the event loop only does their
   /// bookkeeping.
   inline_sent: BTreeSet<SequenceNumber>,
+  /// RADAR patch 61: the Writer has no matched reader (and would send a new sample to nobody): a sample
+  /// admitted now is taken as sent (to nobody) at once, in `inline_sent`, and its DataWriter does not wake
+  /// the event loop for it. Set by the Writer, for the writers it would let send inline.
+  readerless: bool,
+  /// RADAR patch 61: samples taken as sent to nobody since the event loop was last woken for one; every
+  /// `READERLESS_RING_EVERY`th is left to the event loop, so that its bookkeeping keeps up.
+  unrung: u32,
 }
+
+/// RADAR patch 61: with no matched reader, one sample in this many wakes the event loop (the others are
+/// taken as sent to nobody by the DataWriter's thread), so that the event loop's bookkeeping, and the set of
+/// samples it has yet to account for, stay bounded.
+pub(crate) const READERLESS_RING_EVERY: u32 = 64;
 
 /// RADAR patch 22: where a DataWriter may send a new sample from its own thread, as the event loop's Writer
 /// would (the same unicast destinations), without waking the event loop first. Published by the Writer
@@ -212,6 +224,8 @@ impl WriterSendBuffer {
           max_retain: max_retain.max(1),
           wakers: Vec::new(),
           inline_sent: BTreeSet::new(),
+          readerless: false,
+          unrung: 0,
         }),
         progress: Condvar::new(),
         writer_guid,
@@ -357,6 +371,17 @@ impl WriterSendBuffer {
     let cc = CacheChange::new(shared.writer_guid, seq, write_options, data);
     inner.changes.insert(seq, cc);
     inner.last_seq = seq;
+    // RADAR patch 61: no reader to send it to: sent (to nobody) now, under the lock that admits it, so the
+    // event loop never sees it unaccounted for; its DataWriter then leaves the event loop asleep
+    if inner.readerless {
+      if inner.unrung < READERLESS_RING_EVERY {
+        inner.unrung += 1;
+        inner.inline_sent.insert(seq);
+        inner.sent_frontier = max(inner.sent_frontier, seq);
+      } else {
+        inner.unrung = 0;
+      }
+    }
 
     // KeepLast "newest wins" bound. Applied on insert for:
     //  - non-blocking best-effort writes: never throttled at admission (`has_room`
@@ -592,6 +617,16 @@ impl WriterSendBuffer {
     // claims the loop has passed (a duplicate it already sent) cannot pile up
     inner.inline_sent = inner.inline_sent.split_off(&sn);
     inner.inline_sent.remove(&sn)
+  }
+
+  /// RADAR patch 61: the Writer has no matched reader (`true`), or has one again (`false`). See
+  /// `Inner::readerless`.
+  pub fn set_readerless(&self, readerless: bool) {
+    let mut inner = self.shared.inner.lock().unwrap();
+    if inner.readerless != readerless {
+      inner.readerless = readerless;
+      inner.unrung = 0;
+    }
   }
 
   /// RADAR patch 22: whether the DataWriter sent sample `sn` itself (the event loop's coalescing stops there).

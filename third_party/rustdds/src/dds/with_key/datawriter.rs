@@ -410,19 +410,27 @@ where
         }
         // RADAR patch 22: put it on the wire from this thread when the Writer says how (no event loop
         // wake-up before the send); the event loop, woken after, only does the bookkeeping.
-        if let Some(plan) = self.send_buffer.inline_plan() {
-          if probe_t0.is_some() {
-            crate::probe::stamp(crate::probe::Stage::LoopSend, sequence_number.into());
+        match self.send_buffer.inline_plan() {
+          Some(plan) => {
+            if probe_t0.is_some() {
+              crate::probe::stamp(crate::probe::Stage::LoopSend, sequence_number.into());
+            }
+            self.send_buffer.mark_inline_sent(sequence_number, true);
+            let sent =
+              crate::rtps::writer::send_inline(&self.send_buffer, &plan, self.my_guid, sequence_number);
+            if !sent {
+              self.send_buffer.mark_inline_sent(sequence_number, false);
+            } else if probe_t0.is_some() {
+              crate::probe::stamp(crate::probe::Stage::SocketSent, sequence_number.into());
+            }
+            self.ring_doorbell();
           }
-          self.send_buffer.mark_inline_sent(sequence_number, true);
-          let sent = crate::rtps::writer::send_inline(&self.send_buffer, &plan, self.my_guid, sequence_number);
-          if !sent {
-            self.send_buffer.mark_inline_sent(sequence_number, false);
-          } else if probe_t0.is_some() {
-            crate::probe::stamp(crate::probe::Stage::SocketSent, sequence_number.into());
-          }
+          // RADAR patch 61: no reader matched: admitted as sent to nobody, so the event loop has nothing to
+          // do for it now (it accounts for it when next woken: every READERLESS_RING_EVERY-th such sample,
+          // or when a reader matches)
+          None if self.send_buffer.is_inline_sent(sequence_number) => {}
+          None => self.ring_doorbell(),
         }
-        self.ring_doorbell();
         self.refresh_manual_liveliness();
         Ok(SampleIdentity {
           writer_guid: self.my_guid,
