@@ -310,11 +310,16 @@ impl Manager {
         }
         let released = self.prune(st);
         drop(guard);
-        if !ended.is_empty() || released {
+        self.signal_told(!ended.is_empty() || released);
+    }
+
+    /// After a signal: tells everyone who waits for the table if it changed (`changed_table`: a connection
+    /// ended, something was released); and, since the counts changed, the listings if this is the first signal
+    /// since one read them (later ones tell nobody: the listing reads the counts when it publishes).
+    fn signal_told(&self, changed_table: bool) {
+        if changed_table {
             self.changed.send_modify(|g| *g += 1);
         }
-        // the counts changed: the first signal since the last listing tells the listings, later ones tell
-        // nobody (the listing reads the counts when it publishes)
         if !self
             .unlisted
             .swap(true, std::sync::atomic::Ordering::SeqCst)
