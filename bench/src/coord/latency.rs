@@ -69,6 +69,13 @@ impl Bench {
         ] {
             self.radar_latency(n, p, host).await?;
         }
+        // again, the trigger written by the pacing thread itself, as raw ros2-client's source publishes from
+        // its pacing loop (the rows above hand each sequence number to the event's check on another thread)
+        self.event_trigger = true;
+        for host in [Host::Third, Host::Response, Host::Event] {
+            self.radar_latency(n, p, host).await?;
+        }
+        self.event_trigger = false;
         // all in one process: what radar_ros itself adds, without DDS
         let d = self.domain();
         let mut all = self
@@ -304,7 +311,14 @@ impl Bench {
             r["extra"]["ignored_starts"]
         );
         let (key, label) = host.row();
-        self.push_latency(key, label, &r, &note)?;
+        let (key, label) = match self.event_trigger {
+            false => (key.to_owned(), label.to_owned()),
+            true => (
+                format!("{key}_trigger"),
+                format!("{label}, emitted by the pacing thread (Trigger)"),
+            ),
+        };
+        self.push_latency(&key, &label, &r, &note)?;
         for c in children {
             c.quit().await;
         }
@@ -321,6 +335,9 @@ impl Bench {
     ) -> Result<(Value, Vec<Child>)> {
         let d = self.domain();
         let mut ev_args = vec!["events", "--names", "/bench/ev"];
+        if self.event_trigger {
+            ev_args.push("--trigger");
+        }
         let mut args = vec!["response", "--name", "/bench/resp"];
         match host {
             Host::Third => {}

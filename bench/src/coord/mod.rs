@@ -232,6 +232,8 @@ pub struct Bench {
     next_domain: u16,
     /// Environment of the children started now (RustDDS's latency probe, its inline send switch).
     child_env: Vec<(String, String)>,
+    /// The latency runs' events emit from the pacing thread (`events --trigger`) instead of being fed.
+    event_trigger: bool,
     /// What was measured so far.
     pub results: Results,
 }
@@ -257,6 +259,7 @@ impl Bench {
         Ok(Bench {
             next_domain: opts.domain,
             child_env: Vec::new(),
+            event_trigger: false,
             opts,
             plan,
             exe,

@@ -25,7 +25,7 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use futures::{StreamExt, TryStreamExt};
 use radar_ros::{
     msg::{Empty, EventState, Header},
-    ConnectionGuard, Event, EventHandle, FnResponse, Radar, Response, SlotError,
+    ConnectionGuard, Event, EventHandle, FnResponse, Radar, Response, SlotError, Trigger,
 };
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -64,6 +64,7 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
                 opt("--local-response"),
                 flag("--relay"),
                 opt("--born").map(|b| b.parse()).transpose()?,
+                flag("--trigger"),
             )
             .await
         }

@@ -11,10 +11,26 @@ pub(super) struct Fed {
     /// connects it: its one trigger is emitted as the statement's reader activates the event, before the
     /// statement is armed, and is delivered (C1 counts from when the statement began).
     born: Option<u64>,
+    /// With `--trigger`: each check's [`Trigger`] goes to the pacing loop, which emits through it itself, and
+    /// the check ends when told that it did (instead of resolving with a value fed through `rx`).
+    triggers: Option<PacedTriggers>,
+}
+
+/// The two ends between a `--trigger` event and its pacing loop: each check's trigger, handed as the check
+/// begins, and the check's end, told once the loop emitted through it.
+#[derive(Clone)]
+pub(super) struct PacedTriggers {
+    to_loop: mpsc::UnboundedSender<Trigger<Header>>,
+    emitted: Arc<tokio::sync::Notify>,
 }
 
 impl Event for Fed {
     type Payload = Header;
+    fn before_check(&mut self, trigger: Trigger<Header>) {
+        if let Some(t) = &self.triggers {
+            let _ = t.to_loop.send(trigger);
+        }
+    }
     async fn check(&mut self) -> Result<Header, SlotError> {
         if let Some(t) = self.born.take() {
             let mut h = stamped(0);
@@ -22,11 +38,45 @@ impl Event for Fed {
             h.stamp.nanosec = (t % 1_000_000_000) as u32;
             return Ok(h);
         }
+        if let Some(t) = &self.triggers {
+            // the loop emitted this check's trigger: its value is not emitted again
+            t.emitted.notified().await;
+            return Ok(Header::default());
+        }
         match self.rx.recv().await {
             Some(seq) => Ok(stamped(seq)),
             None => futures::future::pending().await,
         }
     }
+}
+
+/// `run` of a `--trigger` event: `n` triggers `period` apart, each stamped and emitted by this (the pacing)
+/// task through the running check's trigger, as raw ros2-client's source publishes from its pacing loop. A
+/// trigger whose check was dropped meanwhile (the event deactivated) is skipped for the next one.
+async fn run_triggers(
+    triggers: &tokio::sync::Mutex<mpsc::UnboundedReceiver<Trigger<Header>>>,
+    emitted: &tokio::sync::Notify,
+    n: u64,
+    period: Duration,
+) -> Result<()> {
+    let mut from_checks = triggers.lock().await;
+    let start = tokio::time::Instant::now();
+    for i in 0..n {
+        tokio::time::sleep_until(start + period * i as u32).await;
+        let mut h = stamped(i);
+        loop {
+            let t = from_checks
+                .recv()
+                .await
+                .ok_or_else(|| anyhow!("the event stopped"))?;
+            match t.emit(h) {
+                Ok(()) => break,
+                Err(back) => h = back,
+            }
+        }
+        emitted.notify_one();
+    }
+    Ok(())
 }
 
 /// A running [`Fed`] event and the way to feed it.
@@ -38,23 +88,40 @@ type FedEvent = (EventHandle, mpsc::UnboundedSender<u64>);
 /// process makes `whenever FIRST start RESPONSE` itself (the manager embedded in the event's process); with
 /// `--local-response NAME` it also runs the recording response NAME (as the role `response` does, answering
 /// `report`) and connects FIRST to it: event, manager and response in one process. With `--born NS` (when
-/// the coordinator started this process) FIRST triggers once, as soon as something listens, stamped NS.
+/// the coordinator started this process) FIRST triggers once, as soon as something listens, stamped NS. With
+/// `--trigger`, `run FIRST N PERIOD_US` emits FIRST's triggers from the pacing task itself, through each
+/// check's [`Trigger`] (as raw ros2-client's source publishes from its pacing loop), instead of feeding them to
+/// the check.
 pub(super) async fn events(
     names: &str,
     connect: Option<String>,
     local_response: Option<String>,
     relay: bool,
     born: Option<u64>,
+    trigger: bool,
 ) -> Result<()> {
     let radar = radar_relaying(relay)?;
     let all: Arc<Mutex<HashMap<String, FedEvent>>> = Default::default();
     let born = Arc::new(Mutex::new(born));
+    // with `--trigger`, the first event's checks hand their triggers to `run`
+    let (to_loop, from_checks) = mpsc::unbounded_channel();
+    let from_checks = Arc::new(tokio::sync::Mutex::new(from_checks));
+    let emitted = Arc::new(tokio::sync::Notify::new());
+    let pacing = Arc::new(Mutex::new(trigger.then(|| PacedTriggers {
+        to_loop,
+        emitted: emitted.clone(),
+    })));
+    let paced_name = names.split(',').next().unwrap_or_default().to_owned();
     let spawn = {
         let (radar, all) = (radar.clone(), all.clone());
         move |name: &str| -> Result<()> {
             let (tx, rx) = mpsc::unbounded_channel();
             let born = born.lock().unwrap().take();
-            let h = radar.spawn_event(name, Fed { rx, born })?;
+            let triggers = match name == paced_name {
+                true => pacing.lock().unwrap().take(),
+                false => None,
+            };
+            let h = radar.spawn_event(name, Fed { rx, born, triggers })?;
             all.lock().unwrap().insert(name.to_owned(), (h, tx));
             Ok(())
         }
@@ -77,6 +144,7 @@ pub(super) async fn events(
     };
     serve(|w| {
         let (all, spawn) = (all.clone(), spawn.clone());
+        let (from_checks, emitted) = (from_checks.clone(), emitted.clone());
         let rec = recorder.as_ref().map(|(h, rec)| (rec.clone(), h.state()));
         async move {
             if let (Some((rec, state)), "report") = (rec, w[0].as_str()) {
@@ -91,6 +159,11 @@ pub(super) async fn events(
                     let t = now_ns();
                     spawn(&name)?;
                     Ok(format!("spawned {t}"))
+                }
+                "run" if trigger => {
+                    let (n, period): (u64, u64) = (word(&w, 2)?, word(&w, 3)?);
+                    run_triggers(&from_checks, &emitted, n, Duration::from_micros(period)).await?;
+                    Ok(format!("sent {n}"))
                 }
                 "run" => {
                     let (n, period): (u64, u64) = (word(&w, 2)?, word(&w, 3)?);
