@@ -72,6 +72,9 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
             "radar_embedded_relay",
             "radar_embedded",
             "radar_embedded_event",
+            "radar_manager_process_trigger",
+            "radar_embedded_trigger",
+            "radar_embedded_event_trigger",
             "radar_one_process",
             "radar_interrupt",
             "oneshot_radar",
@@ -94,8 +97,27 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
         p50(1)
     );
     // the paced latency runs send 300 signals each; nearly all must have been measured
-    for l in &r["latency"].as_array().unwrap()[..9] {
+    for l in &r["latency"].as_array().unwrap()[..12] {
         assert!(l["summary"]["n"].as_u64().unwrap() >= 290, "{l}");
+        // and what each signal cost their processes on the cores: every process ran, every signal made some
+        // thread run somewhere (the sink's at least)
+        let procs = l["usage"]["processes"]
+            .as_array()
+            .unwrap_or_else(|| panic!("no usage: {l}"));
+        let want = match l["key"].as_str().unwrap() {
+            "raw_2hop" => 3,
+            "radar_one_process" => 1,
+            k if k.starts_with("radar_manager_process") => 3,
+            _ => 2,
+        };
+        assert_eq!(procs.len(), want, "{l}");
+        for p in procs {
+            assert!(p["cpu_us"].as_f64().unwrap() > 0.0, "{l}");
+        }
+        assert!(
+            l["usage"]["total"]["slices"].as_f64().unwrap() >= 1.0,
+            "{l}"
+        );
     }
     // the stage breakdown (RustDDS's probe, patch 21) joined the stamps of both processes for nearly every
     // sample of each path, and every stage was measured
@@ -167,12 +189,23 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
     }
 
     // one-shot publishes from fresh processes: every one arrived
-    for l in &r["latency"].as_array().unwrap()[10..12] {
+    let rows = |prefix: &str| -> Vec<Value> {
+        r["latency"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|l| l["key"].as_str().unwrap().starts_with(prefix))
+            .cloned()
+            .collect()
+    };
+    for l in rows("oneshot_") {
         assert_eq!(l["missing"], 0, "{l}");
         assert_eq!(l["summary"]["n"], r["meta"]["oneshot_publishes"], "{l}");
     }
     // actions, radar_ros and the rclpy baseline: every goal (after the warm-up) and every cancel measured
-    for l in &r["latency"].as_array().unwrap()[12..] {
+    let actions = rows("action_");
+    assert_eq!(actions.len(), 4);
+    for l in actions {
         assert_eq!(l["missing"], 0, "{l}");
     }
     // memory along a run of state changes, and its raw baseline: sampled from start to end
