@@ -158,7 +158,8 @@ pub(crate) struct Manager {
     /// Deliver to this process's responses directly (one DDS hop), not through a DDS writer (two).
     local: bool,
     state: Mutex<State>,
-    /// Bumped whenever the table may have changed, but for counts alone (connections made, ended, waiting, back).
+    /// Bumped whenever the table itself may have changed (connections made, ended, waiting, back), not when only
+    /// its counts did (see `counted`).
     changed: tokio::sync::watch::Sender<u64>,
     /// Bumped when a signal changed the counts a listing shows (delivered, panics) since a listing last read
     /// them: once per listing read, not once per signal, so a signal wakes no task that only lists.
@@ -216,7 +217,8 @@ impl Manager {
             .map_or(0, |r| r.faults.count())
     }
 
-    /// Resolves at the next change of the table, but for its counts (see [`Manager::count_changes`]).
+    /// Resolves at the next change of the table itself; a change of its counts alone does not tell it (see
+    /// [`Manager::count_changes`]).
     pub(crate) fn changes(&self) -> tokio::sync::watch::Receiver<u64> {
         self.changed.subscribe()
     }
