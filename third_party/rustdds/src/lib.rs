@@ -180,6 +180,7 @@ mod checked_impl;
 #[doc(hidden)]
 /// RADAR patch 21: stamps of one sample's stages, for latency breakdowns.
 pub mod probe;
+pub mod local_delivery;
 // entry points for fuzzing what arrives from the network (RADAR patch 32)
 #[cfg(any(test, feature = "fuzzing"))]
 #[doc(hidden)]

@@ -657,6 +657,8 @@ impl InnerPublisher {
     // against `DomainParticipant::find_topic()`, which holds `dpi` while
     // reading the DB.
     let dwd = DiscoveredWriterData::new(&data_writer, topic, &dp, security_info);
+    // RADAR patch 62: a writer made inside `local_delivery::marking` is marked before anything can match it
+    crate::local_delivery::on_made(guid, true);
 
     // Add the topic & writer to Discovery DB. The write guard is scoped so
     // that it is released before the blocking `add_writer_sender.send` below:
@@ -1280,6 +1282,8 @@ impl InnerSubscriber {
     // from overlapping avoids the reverse of `DomainParticipant::find_topic()`'s
     // nested `dpi` -> `discovery_db` order.
     let drd = DiscoveryDB::local_topic_reader_data(&dp, topic, &new_reader, security_info);
+    // RADAR patch 62: a reader made inside `local_delivery::marking` is marked before anything can match it
+    crate::local_delivery::on_made(reader_guid, false);
 
     // Add the topic & reader to Discovery DB
     {

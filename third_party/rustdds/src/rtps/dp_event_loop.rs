@@ -292,6 +292,14 @@ impl DPEventLoop {
     let mut poll_alive = Instant::now();
     let mut ev_wrapper = self;
     let mut preparing_to_stop = false;
+    // RADAR patch 62: the marks of this participant's endpoints go with it
+    struct ForgetMarks(GuidPrefix);
+    impl Drop for ForgetMarks {
+      fn drop(&mut self) {
+        crate::local_delivery::forget_participant(self.0);
+      }
+    }
+    let _forget_marks = ForgetMarks(ev_wrapper.domain_info.domain_participant_guid.prefix);
 
     if let Err(e) = ev_wrapper.waker.install(&ev_wrapper.poll, LOOP_WAKE_TOKEN) {
       error!("dp_event_loop failed to install waker: {e}");
@@ -1221,6 +1229,7 @@ impl DPEventLoop {
   }
 
   fn remove_local_reader(&mut self, reader_guid: GUID) {
+    crate::local_delivery::forget(reader_guid); // RADAR patch 62
     if let Some(reader) = self.message_receiver.remove_reader(reader_guid) {
       self
         .local_readers_by_topic
@@ -1311,6 +1320,7 @@ impl DPEventLoop {
   }
 
   fn remove_local_writer(&mut self, writer_guid: &GUID) {
+    crate::local_delivery::forget(*writer_guid); // RADAR patch 62
     self.bump_writer_matches();
     if let Some(writer) = self.writers.remove(&writer_guid.entity_id) {
       self

@@ -197,6 +197,9 @@ pub(crate) struct Writer {
   /// The RTPS ReaderProxy class represents the information an RTPS
   /// StatefulWriter maintains on each matched RTPS Reader
   readers: BTreeMap<GUID, RtpsReaderProxy>,
+  /// RADAR patch 62: readers of this participant matched with this writer that the application feeds itself
+  /// (`crate::local_delivery`): counted as matched, sent nothing, never waited for.
+  local_readers: std::collections::BTreeSet<GUID>,
   matched_readers_count_total: i32, // all matches ever, never decremented
   requested_incompatible_qos_count: i32, // how many times some Reader requested incompatible QoS
 
@@ -360,6 +363,7 @@ impl Writer {
       data_max_size_serialized: FALLBACK_MAX_AGGREGATED_DATAGRAM_SIZE,
       my_guid: i.guid,
       readers: BTreeMap::new(),
+      local_readers: std::collections::BTreeSet::new(),
       matched_readers_count_total: 0,
       requested_incompatible_qos_count: 0,
       udp_sender,
@@ -2160,11 +2164,23 @@ impl Writer {
     match self.qos_policies.compliance_failure_wrt(requested_qos) {
       // matched QoS
       None => {
+        let guid = reader_proxy.remote_reader_guid;
+        // RADAR patch 62: a reader the application feeds itself is matched, and sent nothing
+        if self.local_readers.contains(&guid)
+          || (!self.readers.contains_key(&guid)
+            && !self.my_guid.entity_id.kind().is_built_in()
+            && crate::local_delivery::skips(self.my_guid, guid))
+        {
+          if self.local_readers.insert(guid) {
+            self.reader_matched_status(guid);
+          }
+          return;
+        }
         // RADAR patch 61: samples written while no reader was matched were taken as sent to nobody: account
         // for them before a reader counts, and send what is written from now on as usual (a volatile reader
-        // gets a GAP for what came before it, a durable one repairs it from the history)
-        if self.readers.is_empty() {
-          self.send_buffer.set_readerless(false);
+        // gets a GAP for what came before it, a durable one repairs it from the history). Only then: with the
+        // readerless mode off, what is pending is sent as usual to the reader that matches now.
+        if self.readers.is_empty() && self.send_buffer.set_readerless(false) {
           self.process_pending();
         }
         let new_reader = self.matched_reader_update(reader_proxy);
@@ -2173,18 +2189,7 @@ impl Writer {
         self.refresh_acked_frontier();
         if new_reader {
           self.arm_idle_timers();
-          self.matched_readers_count_total += 1;
-          self.send_status(DataWriterStatus::PublicationMatched {
-            // total: How many matches have been detected ever?
-            total: CountWithChange::new(self.matched_readers_count_total, 1),
-            // current: How many readers we are matched with?
-            current: CountWithChange::new(self.readers.len() as i32, 1),
-            reader: reader_proxy.remote_reader_guid,
-          });
-          self.send_participant_status(DomainParticipantStatusEvent::RemoteReaderMatched {
-            local_writer: self.my_guid,
-            remote_reader: reader_proxy.remote_reader_guid,
-          });
+          self.reader_matched_status(reader_proxy.remote_reader_guid);
           // Reliable: send an initial HEARTBEAT to the newly matched reader so it
           // can request the samples we already hold (repair/late-join). This runs
           // synchronously on the discovery-match event in the event loop, so it
@@ -2247,6 +2252,27 @@ impl Writer {
         });
       }
     } // match
+  }
+
+  /// The statuses of a reader newly matched: `PublicationMatched` and the participant's `RemoteReaderMatched`.
+  fn reader_matched_status(&mut self, reader: GUID) {
+    self.matched_readers_count_total += 1;
+    self.send_status(DataWriterStatus::PublicationMatched {
+      // total: How many matches have been detected ever?
+      total: CountWithChange::new(self.matched_readers_count_total, 1),
+      // current: How many readers we are matched with?
+      current: CountWithChange::new(self.matched_count(), 1),
+      reader,
+    });
+    self.send_participant_status(DomainParticipantStatusEvent::RemoteReaderMatched {
+      local_writer: self.my_guid,
+      remote_reader: reader,
+    });
+  }
+
+  /// How many readers this writer is matched with (RADAR patch 62: those fed by the application included).
+  fn matched_count(&self) -> i32 {
+    (self.readers.len() + self.local_readers.len()) as i32
   }
 
   // Update the given reader proxy. Preserve data we are tracking.
@@ -2364,6 +2390,22 @@ impl Writer {
   }
 
   pub fn reader_lost(&mut self, guid: GUID) {
+    // RADAR patch 62: nothing was kept for it but the match (and what secure discovery registered for it, if it
+    // did: let go as for any reader, an error meaning it had not)
+    if self.local_readers.remove(&guid) {
+      #[cfg(feature = "security")]
+      if let Some(security_plugins_handle) = &self.security_plugins {
+        let _ = security_plugins_handle
+          .get_plugins()
+          .unregister_remote_reader(&self.my_guid, &guid);
+      }
+      self.send_status(DataWriterStatus::PublicationMatched {
+        total: CountWithChange::new(self.matched_readers_count_total, 0),
+        current: CountWithChange::new(self.matched_count(), -1),
+        reader: guid,
+      });
+      return;
+    }
     if self.readers.contains_key(&guid) {
       info!(
         "reader_lost topic={:?} reader={:?}",
@@ -2376,7 +2418,7 @@ impl Writer {
       // self.matched_readers_count_total -= 1; // this never decreases
       self.send_status(DataWriterStatus::PublicationMatched {
         total: CountWithChange::new(self.matched_readers_count_total, 0),
-        current: CountWithChange::new(self.readers.len() as i32, -1),
+        current: CountWithChange::new(self.matched_count(), -1),
         reader: guid,
       });
       // A matched reader going away may complete a pending wait_for_acknowledgments
@@ -2394,6 +2436,7 @@ impl Writer {
       .readers
       .range(guid_prefix.range())
       .map(|(g, _)| *g)
+      .chain(self.local_readers.range(guid_prefix.range()).copied())
       .collect();
     for reader in lost_readers {
       self.reader_lost(reader);
@@ -3248,7 +3291,20 @@ mod tests {
 
     /// A reliable, volatile user Writer with no reader yet, and its send buffer.
     fn lone_writer() -> (Writer, WriterSendBuffer) {
-      let id = EntityId::new([0, 0, 7], EntityKind::WRITER_NO_KEY_USER_DEFINED);
+      let (writer, send_buffer, kept) = lone_writer_with_status([0, 0, 7]);
+      std::mem::forget(kept);
+      (writer, send_buffer)
+    }
+
+    /// What a writer tells: its own statuses and its participant's.
+    type Statuses = (
+      crate::dds::statusevents::StatusChannelReceiver<DataWriterStatus>,
+      crate::dds::statusevents::StatusChannelReceiver<DomainParticipantStatusEvent>,
+    );
+
+    /// `lone_writer` with entity key `key`, and the receivers of its statuses.
+    fn lone_writer_with_status(key: [u8; 3]) -> (Writer, WriterSendBuffer, Statuses) {
+      let id = EntityId::new(key, EntityKind::WRITER_NO_KEY_USER_DEFINED);
       let guid = GUID::new(GuidPrefix::new(&[1; 12]), id);
       let qos = QosPolicyBuilder::new()
         .reliability(Reliability::Reliable {
@@ -3266,13 +3322,12 @@ mod tests {
         DEFAULT_WRITER_MAX_SAMPLES,
         true,
       );
-      let (status_sender, status) = sync_status_channel(4).unwrap();
+      let (status_sender, status) = sync_status_channel(16).unwrap();
       let (participant_status_sender, participant_status) = sync_status_channel(16).unwrap();
-      std::mem::forget((status, participant_status));
       let reader_prefix = GuidPrefix::new(&[2; 12]);
       let mut observations = InterfaceObservations::default();
       observations.record(reader_prefix, None, "127.0.0.1:7777".parse().unwrap());
-      let mut writer = Writer::new(
+      let writer = Writer::new(
         WriterIngredients {
           guid,
           send_buffer: send_buffer.clone(),
@@ -3288,7 +3343,135 @@ mod tests {
         Rc::new(RefCell::new(observations)),
         Rc::from(Vec::<IfAddr>::new()),
       );
-      (writer, send_buffer)
+      (writer, send_buffer, (status, participant_status))
+    }
+
+    /// A reader with entity key `key` of the participant `prefix`, listening on `socket`, matched to `writer`.
+    fn match_reader_of(writer: &mut Writer, prefix: [u8; 12], key: [u8; 3], socket: &UdpSocket) -> GUID {
+      let qos = writer.qos_policies.clone();
+      let guid = GUID::new(
+        GuidPrefix::new(&prefix),
+        EntityId::new(key, EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      let mut proxy = RtpsReaderProxy::new(guid, qos.clone(), false);
+      proxy
+        .unicast_locator_list
+        .push(Locator::from(socket.local_addr().unwrap()));
+      proxy.normalize_loopback();
+      writer.update_reader_proxy(&proxy, &qos);
+      guid
+    }
+
+    fn quiet_socket() -> UdpSocket {
+      let s = UdpSocket::bind("127.0.0.1:0").unwrap();
+      s.set_read_timeout(Some(StdDuration::from_millis(200))).unwrap();
+      s
+    }
+
+    /// The current match counts the writer told, and the readers its participant was told it matched.
+    fn told(statuses: &Statuses) -> (Vec<i32>, Vec<GUID>) {
+      let mut counts = Vec::new();
+      while let Ok(s) = statuses.0.try_recv() {
+        if let DataWriterStatus::PublicationMatched { current, .. } = s {
+          counts.push(current.count());
+        }
+      }
+      let mut matched = Vec::new();
+      while let Ok(e) = statuses.1.try_recv() {
+        if let DomainParticipantStatusEvent::RemoteReaderMatched { remote_reader, .. } = e {
+          matched.push(remote_reader);
+        }
+      }
+      (counts, matched)
+    }
+
+    /// RADAR patch 62: a writer and a reader of one participant that the application feeds itself are matched
+    /// (counted, told) but the writer sends that reader nothing, and with only such readers writes as with none
+    /// (patch 61); any other reader, of this participant unmarked or of another participant marked, is sent
+    /// what is written as before; losing the fed reader counts down; a writer whose mark is forgotten (it was
+    /// deleted) is matched as any other.
+    #[test]
+    fn a_reader_the_application_feeds_is_matched_and_sent_nothing() {
+      use crate::local_delivery;
+      let (mut writer, send_buffer, statuses) = lone_writer_with_status([0, 6, 2]);
+      let own = [1; 12]; // the writer's participant
+      local_delivery::delivers_locally(writer.my_guid);
+      let fed_guid = GUID::new(
+        GuidPrefix::new(&own),
+        EntityId::new([0, 6, 3], EntityKind::READER_NO_KEY_USER_DEFINED),
+      );
+      local_delivery::takes_locally(fed_guid);
+      let fed = quiet_socket();
+      assert_eq!(match_reader_of(&mut writer, own, [0, 6, 3], &fed), fed_guid);
+      assert_eq!(told(&statuses), (vec![1], vec![fed_guid]), "matched and told");
+      assert!(writer.readers.is_empty(), "no proxy kept for it");
+      // told again (discovery repeats itself): nothing changes
+      match_reader_of(&mut writer, own, [0, 6, 3], &fed);
+      assert_eq!(told(&statuses), (vec![], vec![]));
+      // what is written goes nowhere: taken as sent as admitted, nothing on the fed reader's socket
+      let sn = admit(&send_buffer);
+      assert!(send_buffer.is_inline_sent(sn), "written as with no reader");
+      writer.process_pending();
+      writer.handle_timed_event(TimedEvent::Heartbeat);
+      assert!(data_and_heartbeats(&fed).is_empty(), "the fed reader is sent nothing");
+
+      // a reader of another participant, marked too, is sent what is written as before
+      let other = quiet_socket();
+      let other_guid = match_reader_of(&mut writer, [2; 12], [0, 6, 4], &other);
+      local_delivery::takes_locally(other_guid);
+      assert_eq!(told(&statuses), (vec![2], vec![other_guid]));
+      send_buffer.set_inline_plan(None);
+      let sent = admit(&send_buffer);
+      assert!(!send_buffer.is_inline_sent(sent));
+      writer.process_pending();
+      let data = |s: &UdpSocket| -> Vec<String> {
+        data_and_heartbeats(s)
+          .into_iter()
+          .filter(|m| m.starts_with("DATA"))
+          .collect()
+      };
+      assert_eq!(data(&other), vec![format!("DATA {}", i64::from(sent))]);
+      assert!(data_and_heartbeats(&fed).is_empty(), "still nothing for the fed one");
+      // so is an unmarked reader of this participant
+      let plain = quiet_socket();
+      // this host's loopback is a route to this participant's readers once it has been seen
+      writer.interface_observations.borrow_mut().record(
+        GuidPrefix::new(&own),
+        None,
+        "127.0.0.1:7777".parse().unwrap(),
+      );
+      match_reader_of(&mut writer, own, [0, 6, 5], &plain);
+      let next = admit(&send_buffer);
+      writer.process_pending();
+      assert_eq!(data(&plain), vec![format!("DATA {}", i64::from(next))]);
+
+      // the fed reader goes: the count goes down by one
+      told(&statuses);
+      writer.reader_lost(fed_guid);
+      assert_eq!(told(&statuses).0, vec![2]);
+      assert!(writer.local_readers.is_empty());
+
+      // a deleted writer's mark is forgotten: a writer of that GUID matches the fed reader as any other
+      local_delivery::forget(writer.my_guid);
+      let again = quiet_socket();
+      match_reader_of(&mut writer, own, [0, 6, 3], &again);
+      assert!(writer.readers.contains_key(&fed_guid), "a proxy, as for any reader");
+      local_delivery::forget(fed_guid);
+      local_delivery::forget(other_guid);
+    }
+
+    /// RADAR patch 61 (mended with 62): with the readerless mode off (as with `RUSTDDS_INLINE_SEND=0`), a
+    /// sample admitted before the first reader matches is not accounted as sent to nobody at the match: the
+    /// event loop sends it as usual afterwards.
+    #[test]
+    fn a_first_match_leaves_what_is_pending_to_be_sent_when_the_readerless_mode_was_off() {
+      let (mut writer, send_buffer) = lone_writer();
+      send_buffer.set_readerless(false); // as `refresh_inline_plan` leaves it when inline send is off
+      let pending = admit(&send_buffer);
+      assert!(!send_buffer.is_inline_sent(pending), "the mode is off");
+      let reader = quiet_socket();
+      match_reader(&mut writer, &reader);
+      assert!(writer.last_sent < pending, "not accounted for at the match");
     }
 
     /// RADAR patch 61: a writer with no reader takes what is written as sent to nobody as it is admitted (its

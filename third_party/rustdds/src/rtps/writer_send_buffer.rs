@@ -620,13 +620,15 @@ impl WriterSendBuffer {
   }
 
   /// RADAR patch 61: the Writer has no matched reader (`true`), or has one again (`false`). See
-  /// `Inner::readerless`.
-  pub fn set_readerless(&self, readerless: bool) {
+  /// `Inner::readerless`. Returns whether it was in that mode before.
+  pub fn set_readerless(&self, readerless: bool) -> bool {
     let mut inner = self.shared.inner.lock().unwrap();
-    if inner.readerless != readerless {
+    let was = inner.readerless;
+    if was != readerless {
       inner.readerless = readerless;
       inner.unrung = 0;
     }
+    was
   }
 
   /// RADAR patch 22: whether the DataWriter sent sample `sn` itself (the event loop's coalescing stops there).
