@@ -36,13 +36,15 @@ impl Radar {
         })?;
         let triggered = SignalWriter::new(
             self.participant().taps(),
-            crate::node::endpoints::publisher::<E::Payload>(
-                self.graph(),
-                node,
-                &name.endpoint(crate::Endpoint::Triggered),
-                &payload_t,
-                &signal_qos(),
-            )?,
+            crate::wire::local::marked(|| {
+                crate::node::endpoints::publisher::<E::Payload>(
+                    self.graph(),
+                    node,
+                    &name.endpoint(crate::Endpoint::Triggered),
+                    &payload_t,
+                    &signal_qos(),
+                )
+            })?,
             &name.endpoint(crate::Endpoint::Triggered),
             &payload_t.ros,
         );

@@ -157,10 +157,14 @@ impl Radar {
         )?;
         let taps = self.participant().taps();
         let t = |e: crate::Endpoint| name.endpoint(e);
-        let started = publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?;
-        let interrupted =
-            publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?;
-        let exited = publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?;
+        // the signal writers hand every sample to their taps (`wire/local.rs`)
+        let (started, interrupted, exited) = crate::wire::local::marked(|| -> Result<_> {
+            Ok((
+                publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
+                publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
+                publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
+            ))
+        })?;
         let io = Io {
             name: name.clone(),
             start_type: start_t.ros.clone(),

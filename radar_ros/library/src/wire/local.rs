@@ -161,6 +161,36 @@ impl TapListener {
     }
 }
 
+/// A signal as a tap hands it over: the message, its time of emission (as the DDS sample carries it) and its
+/// cause.
+pub(crate) type Emitted = (RawMessage, i64, Option<Cause>);
+
+/// What a tap gave while a statement armed (C1 with local delivery): a relay's DDS reader is sent nothing by
+/// this process's signal writers (RustDDS patch 62), so what they emit from before the reader is made until
+/// the relay listens must be kept here, as the reader would have kept it.
+pub(crate) struct Buffered {
+    listener: TapListener,
+    got: Arc<Mutex<std::collections::VecDeque<Emitted>>>,
+}
+
+impl Buffered {
+    /// From when it kept what was emitted (see [`TapListener::since`]).
+    pub(crate) fn since(&self) -> i64 {
+        self.listener.since()
+    }
+
+    /// What it kept that was emitted before `until` (a relay that listens from `until` gets the rest itself),
+    /// in order of emission; it keeps nothing more.
+    pub(crate) fn before(self, until: i64) -> Vec<Emitted> {
+        drop(self.listener);
+        let got = std::mem::take(&mut *self.got.lock().unwrap());
+        // listeners run outside the tap's lock: two emitters may have handed theirs over out of order
+        let mut got: Vec<Emitted> = got.into_iter().filter(|(_, at, _)| *at < until).collect();
+        got.sort_by_key(|(_, at, _)| *at);
+        got
+    }
+}
+
 /// Called with each signal emitted on a tap, its time of emission (ns since the epoch) and its cause, in the
 /// emitting task: it must not block.
 pub(crate) type Listener = Arc<dyn Fn(&RawMessage, i64, Option<Cause>) + Send + Sync>;
@@ -216,6 +246,22 @@ impl Tap {
             _token: token,
             since,
         }
+    }
+
+    /// Keeps what the components of this process emit here from now on (the last `depth` of it, as a DDS
+    /// reader of that depth would), for a statement that arms a relay of this topic: see [`Buffered`].
+    pub(crate) fn buffer(&self, depth: usize) -> Buffered {
+        let got: Arc<Mutex<std::collections::VecDeque<Emitted>>> = Default::default();
+        let g = got.clone();
+        let depth = depth.max(1);
+        let listener = self.listen(Arc::new(move |raw: &RawMessage, at, by| {
+            let mut g = g.lock().unwrap();
+            if g.len() == depth {
+                g.pop_front();
+            }
+            g.push_back((raw.clone(), at, by));
+        }));
+        Buffered { listener, got }
     }
 
     /// Whether a component of this process emits on the topic now.
@@ -308,6 +354,14 @@ impl Drop for TapWriter {
     fn drop(&mut self) {
         self.tap.close(self.writer);
     }
+}
+
+/// Runs `make`, which makes a signal writer of a component (whose every sample it hands to its tap) or a relay's
+/// reader (which takes this process's signals from the taps): marked as they are made, before discovery can
+/// match them, such writers send such readers of this participant nothing over DDS (RustDDS patch 62). A
+/// pair matched otherwise (a writer made elsewhere) is sent over DDS and the relay skips it.
+pub(crate) fn marked<R>(make: impl FnOnce() -> R) -> R {
+    ros2_client::dds::rustdds::local_delivery::marking(make)
 }
 
 /// Now, in ns since the epoch (the clock of DDS source timestamps).

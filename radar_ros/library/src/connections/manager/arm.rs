@@ -4,6 +4,7 @@
 use std::sync::{Arc, Mutex};
 
 use radar_semantics::connection::{Kind, Until};
+use radar_semantics::response::Sent;
 
 use super::{
     anon::AnonQueue, faults::Faults, ConnectionGuard, Manager, Record, Spec, State, Target,
@@ -18,7 +19,7 @@ use crate::{
     wire::refs::{Signal, Slot},
 };
 
-use crate::wire::local::now_ns;
+use crate::wire::local::{now_ns, Buffered, Emitted};
 
 fn key(topic: &str, ros_type: &str, depth: usize, dir: Dir) -> Key {
     Key {
@@ -115,17 +116,24 @@ impl Plan {
 struct Holds<'a> {
     participant: &'a Participant,
     keys: Mutex<Vec<Key>>,
+    /// With local delivery the readers made are those this process's signal writers send nothing to over DDS.
+    local: bool,
 }
 
 impl<'a> Holds<'a> {
-    fn new(participant: &'a Participant) -> Holds<'a> {
+    fn new(participant: &'a Participant, local: bool) -> Holds<'a> {
         Holds {
             participant,
             keys: Mutex::new(Vec::new()),
+            local,
         }
     }
     fn reader(&self, k: &Key) -> Result<Arc<RawSubscription>> {
-        let r = self.participant.pooled_reader(k)?;
+        // marked as made (RustDDS patch 62): what this process emits on `k` comes to it by the tap alone
+        let r = match self.local {
+            true => crate::wire::local::marked(|| self.participant.pooled_reader(k))?,
+            false => self.participant.pooled_reader(k)?,
+        };
         self.keys.lock().unwrap().push(k.clone());
         Ok(r)
     }
@@ -145,10 +153,12 @@ impl Drop for Holds<'_> {
 }
 
 /// A plan's endpoints, held and matched: a reader per source, and per slot a writer (`None`: a response of
-/// this process reads the slot, no DDS writer is needed).
+/// this process reads the slot, no DDS writer is needed); with local delivery, per source what this process's
+/// components emitted on it from before its reader was made (see [`Buffered`]).
 struct Matched {
     readers: Vec<Arc<RawSubscription>>,
     writers: Vec<Option<Arc<RawPublisher>>>,
+    kept: Vec<Option<Buffered>>,
 }
 
 impl Manager {
@@ -159,8 +169,8 @@ impl Manager {
         let began = now_ns();
         let plan = Plan::of(&spec)?;
         // this statement's own holds while it arms: released whatever happens
-        let held = Holds::new(&self.participant);
-        let matched = self.hold_and_match(&plan, &held, spec.timeout).await?;
+        let held = Holds::new(&self.participant, self.local);
+        let mut matched = self.hold_and_match(&plan, &held, spec.timeout).await?;
         let causes = spec
             .until
             .as_ref()
@@ -168,7 +178,7 @@ impl Manager {
         if let Some(u) = &spec.until {
             tracing::debug!(response = %u.state, causes, "until: the response keeps causes (C6) or not (C7)");
         }
-        let id = self.enter(plan, &matched, spec, causes, began)?;
+        let id = self.enter(plan, &mut matched, spec, causes, began)?;
         drop(held);
         self.changed.send_modify(|g| *g += 1);
         Ok(ConnectionGuard {
@@ -185,6 +195,20 @@ impl Manager {
         held: &Holds<'_>,
         timeout: std::time::Duration,
     ) -> Result<Matched> {
+        // with local delivery, what this process emits on a source is kept from before its reader is made
+        // (which may activate an event, C1): the writers of this process send that reader nothing over DDS
+        let kept: Vec<Option<Buffered>> = plan
+            .reads
+            .iter()
+            .map(|(k, _)| {
+                self.local.then(|| {
+                    self.participant
+                        .taps()
+                        .get(&k.topic, &k.ros_type)
+                        .buffer(k.depth)
+                })
+            })
+            .collect();
         let readers = plan
             .reads
             .iter()
@@ -236,7 +260,11 @@ impl Manager {
                     after: timeout,
                 })?;
         }
-        Ok(Matched { readers, writers })
+        Ok(Matched {
+            readers,
+            writers,
+            kept,
+        })
     }
 
     /// Whether a response of this process reads the slot `k` (with local delivery).
@@ -255,17 +283,25 @@ impl Manager {
     fn enter(
         self: &Arc<Self>,
         plan: Plan,
-        matched: &Matched,
+        matched: &mut Matched,
         spec: Spec,
         causes: bool,
         began: i64,
     ) -> Result<radar_semantics::connection::ConnId> {
         self.watch_instances();
         let mut st = self.state();
-        for ((k, _), r) in plan.reads.iter().zip(&matched.readers) {
+        // what the taps kept while this statement armed, for the sources it gives a relay to
+        let mut replay: Vec<(Key, Emitted)> = Vec::new();
+        for (((k, _), r), kept) in plan
+            .reads
+            .iter()
+            .zip(&matched.readers)
+            .zip(&mut matched.kept)
+        {
             if !st.relays.contains_key(k) {
                 self.participant.pooled_reader(k)?;
-                let relay = self.relay(k, r.clone());
+                let (relay, kept) = self.relay(k, r.clone(), kept.take());
+                replay.extend(kept.into_iter().map(|e| (k.clone(), e)));
                 st.relays.insert(k.clone(), relay);
             }
         }
@@ -315,7 +351,23 @@ impl Manager {
                 suspended: None,
             },
         );
+        self.replay(st, replay);
         Ok(id)
+    }
+
+    /// Hands the table what the taps kept while a statement armed (now that it is in the table), in the order
+    /// emitted, before anything its relays get from the taps from now on (they wait for the table's lock).
+    fn replay(&self, mut st: std::sync::MutexGuard<'_, State>, mut kept: Vec<(Key, Emitted)>) {
+        if kept.is_empty() {
+            return;
+        }
+        kept.sort_by_key(|(_, (_, at, _))| *at);
+        let mut changed = false;
+        for (k, (raw, at, by)) in kept {
+            changed |= self.dispatch_held(&mut st, &k, raw, Sent { at, by });
+        }
+        drop(st);
+        self.signal_told(changed);
     }
 
     /// The outlet of slot `k`, made if the table has none, given the DDS writer `w` if it has none (B1: its

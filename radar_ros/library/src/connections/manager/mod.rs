@@ -242,7 +242,13 @@ impl Manager {
     /// already.
     fn dispatch(&self, source: &Key, raw: RawMessage, sent: Sent) {
         let mut guard = self.state();
-        let st = &mut *guard;
+        let changed_table = self.dispatch_held(&mut guard, source, raw, sent);
+        drop(guard);
+        self.signal_told(changed_table);
+    }
+
+    /// [`Manager::dispatch`] with the table held; whether the table itself changed.
+    fn dispatch_held(&self, st: &mut State, source: &Key, raw: RawMessage, sent: Sent) -> bool {
         let records = &st.records;
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
         let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
@@ -311,8 +317,7 @@ impl Manager {
             st.records.remove(id);
         }
         let released = self.prune(st);
-        drop(guard);
-        self.signal_told(!ended.is_empty() || released);
+        !ended.is_empty() || released
     }
 
     /// After a signal: tells everyone who waits for the table if it changed (`changed_table`: a connection

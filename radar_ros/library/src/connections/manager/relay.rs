@@ -8,7 +8,12 @@ use futures::StreamExt;
 use radar_semantics::response::Sent;
 
 use super::{presence::Presence, End, Manager};
-use crate::{node::pool::Key, node::topics::RawSubscription, wire::raw::RawMessage};
+use crate::{
+    node::pool::Key,
+    node::topics::RawSubscription,
+    wire::local::{Buffered, Emitted},
+    wire::raw::RawMessage,
+};
 
 /// A source the table reads: the task that feeds its reader's signals to the table (stopped on drop), and
 /// its listening to this process's emitters of the source (ends on drop).
@@ -20,8 +25,16 @@ pub(super) struct Relay {
 impl Manager {
     /// A relay for `k`, whose reader `sub` is held once more for it; its task feeds the table, and tells it
     /// when the source's publishers have all gone (and when one is back). With local delivery it takes what
-    /// this process's components emit on `k` from their tap, and skips their samples on DDS.
-    pub(super) fn relay(self: &Arc<Self>, k: &Key, sub: Arc<RawSubscription>) -> Relay {
+    /// this process's components emit on `k` from their tap, and skips their samples on DDS (those writers
+    /// send its reader nothing, RustDDS patch 62, unless matched before they were marked); `kept` is what the
+    /// tap gave the statement that makes the relay while it armed, from before the reader was made: returned
+    /// with the relay, what of it the relay will not get itself, for the table once the statement is in it.
+    pub(super) fn relay(
+        self: &Arc<Self>,
+        k: &Key,
+        sub: Arc<RawSubscription>,
+        kept: Option<Buffered>,
+    ) -> (Relay, Vec<Emitted>) {
         let (stop, mut stop_rx) = tokio::sync::oneshot::channel();
         let me = Arc::downgrade(self);
         let source = k.clone();
@@ -38,7 +51,15 @@ impl Manager {
                 }
             }))
         });
-        let since = token.as_ref().map(|t| t.since());
+        // this process's signals from `kept`'s start come by the tap, up to the relay's own start through `kept`
+        let since = match (&kept, &token) {
+            (Some(b), Some(_)) => Some(b.since()),
+            (_, t) => t.as_ref().map(|t| t.since()),
+        };
+        let replay = match (kept, &token) {
+            (Some(b), Some(t)) => b.before(t.since()),
+            _ => Vec::new(),
+        };
         tokio::spawn(async move {
             let mut samples = std::pin::pin!(sub.stream_from());
             loop {
@@ -60,9 +81,12 @@ impl Manager {
                 }
             }
         });
-        Relay {
-            _stop: stop,
-            _tap: token,
-        }
+        (
+            Relay {
+                _stop: stop,
+                _tap: token,
+            },
+            replay,
+        )
     }
 }
