@@ -10,12 +10,15 @@
 //! **Signals.** An event's `triggered` and a response's `started`, `interrupted` and `exited` writers open a
 //! [`Tap`] on their topic and hand each signal to it before writing it. The manager's relay for that topic
 //! listens to the tap (its listener runs in the emitting task, with the time of emission, before the DDS
-//! write) and skips the DDS samples of the writers the tap names, which it already has; samples of other publishers (another
-//! process, `ros2 topic pub`) still come over DDS. The relay keeps its DDS reader either way: it is what the
-//! event counts as a listener. A listener gets what is emitted from the moment it began to listen
-//! ([`TapListener::since`], by the source time the DDS samples carry); what a writer of this process emitted
-//! before (when the statement's reader, made first, activated an event) comes over DDS, so each signal
-//! reaches the relay exactly once, by one way or the other.
+//! write); samples of other publishers (another process, `ros2 topic pub`) still come over DDS. The relay keeps its
+//! DDS reader either way: it is what the event counts as a listener, what arming waits for and what tells the
+//! connection its source left. The signal writers and the relays' readers are made [`marked`], so such a writer
+//! sends such a reader of this participant nothing over DDS (RustDDS patch 62); a pair matched otherwise (a
+//! writer made elsewhere) still is, and the relay skips the DDS samples of the writers the tap names. A
+//! listener gets what is emitted from the moment it began to listen ([`TapListener::since`], by the source
+//! time the DDS samples carry); what a writer of this process emits while a statement arms (its reader, made
+//! first, may activate an event) is kept for it from before its reader is made ([`Buffered`]) and handed to
+//! the table once the statement is in it, so each signal reaches the relay exactly once.
 
 use std::{
     collections::HashMap,
