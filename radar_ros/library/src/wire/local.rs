@@ -173,7 +173,16 @@ pub(crate) type Emitted = (RawMessage, i64, Option<Cause>);
 /// the relay listens must be kept here, as the reader would have kept it.
 pub(crate) struct Buffered {
     listener: TapListener,
-    got: Arc<Mutex<std::collections::VecDeque<Emitted>>>,
+    kept: Arc<Mutex<Kept>>,
+}
+
+/// What a [`Buffered`] does with what the tap hands it.
+enum Kept {
+    /// Keeps the last `depth` of it.
+    Keeping(std::collections::VecDeque<Emitted>, usize),
+    /// Hands what was emitted before `until` to `to` (a signal the tap had already handed over when the
+    /// buffer was emptied, whose listener call came after), and drops the rest (the relay got it itself).
+    Forwarding { until: i64, to: Listener },
 }
 
 impl Buffered {
@@ -183,11 +192,18 @@ impl Buffered {
     }
 
     /// What it kept that was emitted before `until` (a relay that listens from `until` gets the rest itself),
-    /// in order of emission; it keeps nothing more.
-    pub(crate) fn before(self, until: i64) -> Vec<Emitted> {
+    /// in order of emission; from now on, a signal emitted before `until` whose hand-over was still under way
+    /// (the tap calls its listeners outside its lock) goes to `late`.
+    pub(crate) fn before(self, until: i64, late: Listener) -> Vec<Emitted> {
+        let kept = std::mem::replace(
+            &mut *self.kept.lock().unwrap(),
+            Kept::Forwarding { until, to: late },
+        );
         drop(self.listener);
-        let got = std::mem::take(&mut *self.got.lock().unwrap());
-        // listeners run outside the tap's lock: two emitters may have handed theirs over out of order
+        let Kept::Keeping(got, _) = kept else {
+            return Vec::new();
+        };
+        // two emitters may have handed theirs over out of order
         let mut got: Vec<Emitted> = got.into_iter().filter(|(_, at, _)| *at < until).collect();
         got.sort_by_key(|(_, at, _)| *at);
         got
@@ -254,17 +270,26 @@ impl Tap {
     /// Keeps what the components of this process emit here from now on (the last `depth` of it, as a DDS
     /// reader of that depth would), for a statement that arms a relay of this topic: see [`Buffered`].
     pub(crate) fn buffer(&self, depth: usize) -> Buffered {
-        let got: Arc<Mutex<std::collections::VecDeque<Emitted>>> = Default::default();
-        let g = got.clone();
-        let depth = depth.max(1);
+        let kept = Arc::new(Mutex::new(Kept::Keeping(Default::default(), depth.max(1))));
+        let k = kept.clone();
         let listener = self.listen(Arc::new(move |raw: &RawMessage, at, by| {
-            let mut g = g.lock().unwrap();
-            if g.len() == depth {
-                g.pop_front();
+            let mut k = k.lock().unwrap();
+            match &mut *k {
+                Kept::Keeping(q, depth) => {
+                    if q.len() == *depth {
+                        q.pop_front();
+                    }
+                    q.push_back((raw.clone(), at, by));
+                }
+                Kept::Forwarding { until, to } if at < *until => {
+                    let to = to.clone();
+                    drop(k);
+                    to(raw, at, by);
+                }
+                Kept::Forwarding { .. } => {}
             }
-            g.push_back((raw.clone(), at, by));
         }));
-        Buffered { listener, got }
+        Buffered { listener, kept }
     }
 
     /// Whether a component of this process emits on the topic now.
@@ -557,6 +582,54 @@ mod tests {
                     by_tap != by_dds,
                     "round {round}: stamp {wire} since {}: tap {by_tap}, dds {by_dds}",
                     listener.since()
+                );
+            }
+        }
+    }
+
+    /// C1 with local delivery: a signal emitted from another thread while a statement's buffer is made, then
+    /// handed over to its relay, reaches the relay exactly once if it was emitted after the buffer began:
+    /// kept (then replayed), handed over late (its listener call came after the buffer was emptied), or taken
+    /// by the relay's own listener; none if emitted before. 10,000 rounds, no pause.
+    #[test]
+    fn each_signal_emitted_while_a_statement_arms_reaches_its_relay_exactly_once() {
+        let taps = Arc::new(Taps::default());
+        let w = GUID::new_participant_guid();
+        let tap = Arc::new(taps.open("/arm/triggered", "std_msgs/msg/Int32", w));
+        let source = taps.get("/arm/triggered", "std_msgs/msg/Int32");
+        for round in 0..10_000 {
+            let emitter = {
+                let tap = tap.clone();
+                std::thread::spawn(move || {
+                    (0..6)
+                        .map(|i| {
+                            crate::wire::cause::on_wire(
+                                tap.emit(&crate::wire::msg::Int32 { data: i }, None),
+                            )
+                        })
+                        .collect::<Vec<i64>>()
+                })
+            };
+            let buffered = source.buffer(64);
+            let begun = buffered.since();
+            let got: Arc<Mutex<Vec<i64>>> = Default::default();
+            let (live_got, late_got) = (got.clone(), got.clone());
+            let relay = source.listen(Arc::new(move |_, at, _| live_got.lock().unwrap().push(at)));
+            let kept = buffered.before(
+                relay.since(),
+                Arc::new(move |_, at, _| late_got.lock().unwrap().push(at)),
+            );
+            let stamps = emitter.join().unwrap();
+            let mut all: Vec<i64> = kept.iter().map(|(_, at, _)| *at).collect();
+            all.extend(got.lock().unwrap().iter());
+            for at in stamps {
+                let n = all.iter().filter(|x| **x == at).count();
+                let want = usize::from(at >= begun);
+                assert_eq!(
+                    n,
+                    want,
+                    "round {round}: stamp {at}, buffer from {begun}, relay from {}",
+                    relay.since()
                 );
             }
         }

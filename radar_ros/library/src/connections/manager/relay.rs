@@ -11,7 +11,7 @@ use super::{presence::Presence, End, Manager};
 use crate::{
     node::pool::Key,
     node::topics::RawSubscription,
-    wire::local::{Buffered, Emitted},
+    wire::local::{Buffered, Emitted, Listener},
     wire::raw::RawMessage,
 };
 
@@ -43,21 +43,22 @@ impl Manager {
         let tap = self
             .local
             .then(|| self.participant.taps().get(&k.topic, &k.ros_type));
-        let token = tap.as_ref().map(|t| {
+        let to_table: Listener = {
             let (me, source) = (me.clone(), source.clone());
-            t.listen(Arc::new(move |raw: &RawMessage, at, by| {
+            Arc::new(move |raw: &RawMessage, at, by| {
                 if let Some(m) = me.upgrade() {
                     m.dispatch(&source, raw.clone(), Sent { at, by });
                 }
-            }))
-        });
+            })
+        };
+        let token = tap.as_ref().map(|t| t.listen(to_table.clone()));
         // this process's signals from `kept`'s start come by the tap, up to the relay's own start through `kept`
         let since = match (&kept, &token) {
             (Some(b), Some(_)) => Some(b.since()),
             (_, t) => t.as_ref().map(|t| t.since()),
         };
         let replay = match (kept, &token) {
-            (Some(b), Some(t)) => b.before(t.since()),
+            (Some(b), Some(t)) => b.before(t.since(), to_table),
             _ => Vec::new(),
         };
         tokio::spawn(async move {
