@@ -2270,6 +2270,15 @@ impl Writer {
     });
   }
 
+  /// The status of a matched reader lost (`matched_readers_count_total` never decreases).
+  fn reader_lost_status(&mut self, reader: GUID) {
+    self.send_status(DataWriterStatus::PublicationMatched {
+      total: CountWithChange::new(self.matched_readers_count_total, 0),
+      current: CountWithChange::new(self.matched_count(), -1),
+      reader,
+    });
+  }
+
   /// How many readers this writer is matched with (RADAR patch 62: those fed by the application included).
   fn matched_count(&self) -> i32 {
     (self.readers.len() + self.local_readers.len()) as i32
@@ -2399,11 +2408,7 @@ impl Writer {
           .get_plugins()
           .unregister_remote_reader(&self.my_guid, &guid);
       }
-      self.send_status(DataWriterStatus::PublicationMatched {
-        total: CountWithChange::new(self.matched_readers_count_total, 0),
-        current: CountWithChange::new(self.matched_count(), -1),
-        reader: guid,
-      });
+      self.reader_lost_status(guid);
       return;
     }
     if self.readers.contains_key(&guid) {
@@ -2416,11 +2421,7 @@ impl Writer {
       // Removing a reader may relax (raise) the writer-wide minimum budget.
       self.recompute_min_datagram_payload();
       // self.matched_readers_count_total -= 1; // this never decreases
-      self.send_status(DataWriterStatus::PublicationMatched {
-        total: CountWithChange::new(self.matched_readers_count_total, 0),
-        current: CountWithChange::new(self.matched_count(), -1),
-        reader: guid,
-      });
+      self.reader_lost_status(guid);
       // A matched reader going away may complete a pending wait_for_acknowledgments
       // and may relax back-pressure: recompute the acknowledgement frontier. (RADAR patch 45: only then.
       // Every writer of the participant is told of every reader lost, and recomputing it for writers that
