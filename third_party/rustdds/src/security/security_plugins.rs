@@ -1410,7 +1410,8 @@ mod lock_tests {
   use crate::security::{AccessControlBuiltin, AuthenticationBuiltin, CryptographicBuiltin};
 
   /// radar_ros patch 28: a thread that asks for the plugins while another holds them for 10 ms gets them
-  /// when they are released, not after a 100 ms sleep.
+  /// when they are released, not after a 100 ms sleep. A loaded machine can delay any one try past 95 ms,
+  /// so the test takes the best of a few: a waiter that polls with a 100 ms sleep can never do better.
   #[test]
   fn the_plugins_are_handed_over_when_released() {
     let h = SecurityPluginsHandle::new(SecurityPlugins::new(
@@ -1418,22 +1419,26 @@ mod lock_tests {
       Box::new(AccessControlBuiltin::new()),
       Box::new(CryptographicBuiltin::new()),
     ));
-    let held = h.get_plugins();
-    let h2 = h.clone();
-    let (tx, rx) = std::sync::mpsc::channel();
-    let waiter = std::thread::spawn(move || {
-      let t = std::time::Instant::now();
-      tx.send(()).unwrap();
-      let _g = h2.get_plugins();
-      t.elapsed()
-    });
-    rx.recv().unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(10));
-    drop(held);
-    let waited = waiter.join().unwrap();
-    assert!(
-      waited < std::time::Duration::from_millis(95),
-      "waited {waited:?} for plugins held 10 ms"
-    );
+    let mut tries = Vec::new();
+    for _ in 0..5 {
+      let held = h.get_plugins();
+      let h2 = h.clone();
+      let (tx, rx) = std::sync::mpsc::channel();
+      let waiter = std::thread::spawn(move || {
+        let t = std::time::Instant::now();
+        tx.send(()).unwrap();
+        let _g = h2.get_plugins();
+        t.elapsed()
+      });
+      rx.recv().unwrap();
+      std::thread::sleep(std::time::Duration::from_millis(10));
+      drop(held);
+      let waited = waiter.join().unwrap();
+      if waited < std::time::Duration::from_millis(95) {
+        return;
+      }
+      tries.push(waited);
+    }
+    panic!("waited {tries:?} in five tries for plugins held 10 ms");
   }
 }
