@@ -183,9 +183,12 @@ impl ResponseModel {
                             if self.queued.replace((*p, *s)).is_some() {
                                 self.ignored_starts += 1;
                             }
-                            // R14: a newer start that replaces the queued one drops what was kept for it; an
-                            // until's interrupt of its statement, sent after it and kept while it was on its
-                            // way, goes with it
+                            // R14: what was kept with a start this one replaces is kept again (as in R12);
+                            // an until's interrupt of its statement, sent after it and kept while it was on
+                            // its way (or with the start it replaces), goes with it
+                            if let Some(b) = self.bound.take() {
+                                self.keep(b);
+                            }
                             let st = s.by.map(|c| c.statement);
                             self.bound = st
                                 .and_then(|st| {
@@ -237,11 +240,7 @@ impl ResponseModel {
                 } else {
                     // R5, R11, R13 (and R12: an idle response keeps it; R14: any response keeps an until's)
                     if (self.phase == Phase::Idle || (!exit && by.is_some())) && !self.stopping {
-                        self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
-                        if self.kept.len() == 8 {
-                            self.kept.remove(0);
-                        }
-                        self.kept.push(KeptSignal {
+                        self.keep(KeptSignal {
                             exit,
                             at: s.at,
                             by,
@@ -313,12 +312,17 @@ impl ResponseModel {
         {
             self.bound = Some(k);
         } else {
-            self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
-            if self.kept.len() == 8 {
-                self.kept.remove(0);
-            }
-            self.kept.push(k);
+            self.keep(k);
         }
+    }
+
+    /// R12: keeps a signal, the newest 8 sent within HOLD of now.
+    fn keep(&mut self, k: KeptSignal) {
+        self.kept.retain(|k| k.at >= self.now.saturating_sub(HOLD));
+        if self.kept.len() == 8 {
+            self.kept.remove(0);
+        }
+        self.kept.push(k);
     }
 
     /// R12: the run just begun reached its first await: a signal it took applies now.

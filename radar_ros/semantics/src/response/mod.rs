@@ -58,8 +58,9 @@
 //!   (R6: `QueueOne`, or `Restart` while the run before is still in its interrupt or exit slot) is kept with it,
 //!   and one that reaches a busy response while its statement's start is still on its way is kept as in R12:
 //!   the run begins (R1, `started`) and takes the interrupt at its first await. A newer start that replaces the
-//!   queued one drops it. So an `until` bounds its statement's run even when that run had to wait for
-//!   another.
+//!   queued one takes it if it is of the same statement and was sent before it; else it is kept again, as in
+//!   R12, for that statement's next start. So an `until` bounds its statement's run even when that run had to
+//!   wait for another, or its start replaced another of the same statement.
 //!
 //! Stamps come from the senders' clocks, and a machine takes them as rule T1 says ([`crate::time`]): never
 //! later than its own clock, at most [`LATE`](crate::time::LATE) before it; when its own clock steps back, the
@@ -531,8 +532,14 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         if self.pending.replace((p, s)).is_some() {
             self.counters.ignored_starts += 1;
         }
-        // R14: an until's interrupt of this start's statement, sent after it and kept while the start was on
-        // its way, goes with it (a start that replaces another drops what was kept for that one)
+        // R14: what was kept with a start this one replaces is kept again: an until's interrupt sent after
+        // both starts of its statement bounds the newer one's run too, and one of another statement waits for
+        // that statement's next start
+        if let Some(b) = self.bound.take() {
+            self.keep(b);
+        }
+        // an until's interrupt of this start's statement, sent after it and kept while the start was on its
+        // way, goes with it
         self.bound = self.kept.take_until_of(s);
     }
 
@@ -1196,7 +1203,7 @@ mod tests {
         m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
         m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
         assert!(!m.resume_due());
-        // a newer start that replaces the queued one drops it
+        // a newer start of no statement that replaces the queued one does not take it
         let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
         m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
         m.handle_at(Input::Interrupt(Sent::by(30, K)), 30);
@@ -1204,6 +1211,49 @@ mod tests {
         m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
         m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
         assert!(!m.resume_due());
+    }
+
+    #[test]
+    fn r14_a_start_that_replaces_a_queued_one_of_its_statement_takes_the_until_sent_after_both() {
+        let other = Cause {
+            statement: 9,
+            delivery: 1,
+        };
+        let k2 = Cause {
+            statement: K.statement,
+            delivery: K.delivery + 1,
+        };
+        // K's two starts (sent at 20 and 25) both came before its until's interrupt (30), the first queued
+        // and then replaced: the run the second begins is bounded by that interrupt
+        for (second_at, bounded) in [(25, true), (35, false)] {
+            let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
+            m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
+            m.handle_at(Input::Interrupt(Sent::by(30, K)), 30);
+            m.handle_at(Input::Start(9, Sent::by(second_at, k2)), 36);
+            m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+            let fx = m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+            assert!(fx.contains(&RunStart(9)), "{fx:?}");
+            assert_eq!(m.resume_due(), bounded, "second start sent at {second_at}");
+            if bounded {
+                assert_eq!(
+                    m.resume(),
+                    vec![CancelStart, EmitInterrupted(Some(k2)), RunInterrupt]
+                );
+            }
+        }
+        // a start of no statement replaces K's queued one, and K's second start (sent before the interrupt)
+        // comes later still: the interrupt, kept again, bounds that run
+        let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, other));
+        m.handle_at(Input::Start(8, Sent::by(20, K)), 20);
+        m.handle_at(Input::Interrupt(Sent::by(30, K)), 30);
+        m.handle_at(Input::Start(7, Sent::at(35)), 35);
+        m.handle_at(Input::Start(9, Sent::by(25, k2)), 36);
+        m.handle_at(Input::StartEnded(StartEnd::Returned(String::new())), 40);
+        m.handle_at(Input::ExitEnded(Ok(ExitAction::Done)), 50);
+        assert_eq!(
+            m.resume(),
+            vec![CancelStart, EmitInterrupted(Some(k2)), RunInterrupt]
+        );
     }
 
     #[test]
