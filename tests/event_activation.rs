@@ -1,6 +1,7 @@
 //! An event checks only while someone listens on `triggered`: activation and deactivation follow the DDS
 //! match count, for subscribers in the same participant, in another participant, and in a child process that
-//! exits cleanly or is killed; a check emitting through its own trigger from another thread. Domains 40-46, 227.
+//! exits cleanly or is killed; a check emitting through its own trigger from another thread, once or continuing.
+//! Domains 40-46, 227, 228.
 
 use std::{
     process::Stdio,
@@ -466,5 +467,166 @@ async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_af
     println!(
         "{} of 30 raced triggers went out before their check was dropped",
         accepted - 1
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trigger_that_continues_emits_every_value_from_its_thread_with_one_check_and_never_after_it_ended(
+) {
+    let host = radar(228);
+    let (tx, mut triggers) = tokio::sync::mpsc::unbounded_channel();
+    let resolve = Arc::new(tokio::sync::Notify::new());
+    let h = host
+        .spawn_event(
+            "continued",
+            Relayed {
+                triggers: tx,
+                resolve: resolve.clone(),
+            },
+        )
+        .unwrap();
+    let watcher = radar(228);
+    let obs = watcher
+        .observe_raw("/continued/triggered", "std_msgs/msg/Int32")
+        .unwrap();
+    obs.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
+    let sub = host
+        .signal_subscription::<Int32>("/continued/triggered")
+        .unwrap();
+    let t = next_trigger(&mut triggers).await;
+    // 200 values from a thread of its own, each the value of one check (the next emitted once the last was
+    // heard: signal QoS keeps only the last few): all go out, in order, through the one trigger (no new check is
+    // handed over), and `state` counts every one
+    let emitter = t.clone();
+    let (go, gone) = std::sync::mpsc::channel::<()>();
+    let thread = std::thread::spawn(move || {
+        let mut sent = 0;
+        for i in 0..200 {
+            if emitter.emit_and_continue(Int32 { data: i }).is_ok() {
+                sent += 1;
+            }
+            if gone.recv().is_err() {
+                break;
+            }
+        }
+        sent
+    });
+    let mut heard = Vec::new();
+    while heard.len() < 200 {
+        let m = sub.recv().timeout(Duration::from_secs(5)).await;
+        heard.push(m.expect("every continued trigger is delivered").data);
+        // and on the wire, to a reader of another participant
+        let (w, _) = obs
+            .recv_stamped()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap();
+        assert_eq!(
+            i32::from_le_bytes(w.as_bytes()[0..4].try_into().unwrap()),
+            heard[heard.len() - 1]
+        );
+        let _ = go.send(());
+    }
+    assert_eq!(thread.join().unwrap(), 200);
+    assert_eq!(heard, (0..200).collect::<Vec<_>>());
+    let st = until_state(&h, DISCOVERY, |s| s.triggers == 200).await;
+    assert!(st.active, "{st:?}");
+    assert!(
+        triggers.try_recv().is_err(),
+        "the check went on: no new one"
+    );
+    assert!(t.is_open());
+    // a single `emit` takes the check's own value and ends continuing; the check's own value is not emitted
+    // again when it resolves, and the next check hands over a new trigger
+    t.emit(Int32 { data: 500 }).unwrap();
+    assert_eq!(
+        t.emit_and_continue(Int32 { data: 501 }).unwrap_err().data,
+        501
+    );
+    resolve.notify_one();
+    let t2 = next_trigger(&mut triggers).await;
+    until_state(&h, DISCOVERY, |s| s.triggers == 201).await;
+    assert_eq!(
+        sub.recv()
+            .timeout(Duration::from_secs(5))
+            .await
+            .unwrap()
+            .data,
+        500
+    );
+    // the check resolving by itself ends the continuing trigger too: its value is emitted, counted after the
+    // continued ones
+    t2.emit_and_continue(Int32 { data: 600 }).unwrap();
+    resolve.notify_one();
+    let t3 = next_trigger(&mut triggers).await;
+    until_state(&h, DISCOVERY, |s| s.triggers == 203).await;
+    assert_eq!(
+        t2.emit_and_continue(Int32 { data: 601 }).unwrap_err().data,
+        601
+    );
+    let mut last = Vec::new();
+    for _ in 0..2 {
+        last.push(
+            sub.recv()
+                .timeout(Duration::from_secs(5))
+                .await
+                .unwrap()
+                .data,
+        );
+    }
+    assert_eq!(last, vec![600, -1]);
+    assert_eq!(
+        observed(&obs, Duration::from_millis(300)).await,
+        vec![500, 600, -1]
+    );
+
+    // continued triggers racing the last listener's departure, 30 times with nothing to let it settle (up to 8
+    // a round: the wire keeps the last 10): every trigger on the wire is counted once, and none goes out once
+    // the event said it is inactive
+    drop(sub);
+    until_state(&h, DISCOVERY, |s| !s.active).await;
+    assert!(t3.emit_and_continue(Int32 { data: 9 }).is_err());
+    let mut accepted = 203;
+    for round in 0..30 {
+        let sub = host
+            .signal_subscription::<Int32>("/continued/triggered")
+            .unwrap();
+        let t = next_trigger(&mut triggers).await;
+        let racer = std::thread::spawn(move || {
+            let mut sent = 0u64;
+            while sent < 8 && t.emit_and_continue(Int32 { data: 1000 + round }).is_ok() {
+                sent += 1;
+            }
+            (t, sent)
+        });
+        drop(sub);
+        let st = until_state(&h, DISCOVERY, |s| {
+            !s.active && s.activations == round as u64 + 2
+        })
+        .await;
+        let (t, sent) = racer.join().unwrap();
+        accepted += sent;
+        assert_eq!(st.triggers, accepted, "round {round}: {st:?}");
+        assert!(
+            t.emit_and_continue(Int32 { data: -2 }).is_err(),
+            "round {round}: out after inactive"
+        );
+        for _ in 0..sent {
+            let (w, _) = obs
+                .recv_stamped()
+                .timeout(Duration::from_secs(5))
+                .await
+                .expect("each counted trigger is on the wire");
+            let d = i32::from_le_bytes(w.as_bytes()[0..4].try_into().unwrap());
+            assert_eq!(d, 1000 + round, "round {round}");
+        }
+    }
+    assert_eq!(
+        observed(&obs, Duration::from_millis(500)).await,
+        Vec::<i32>::new()
+    );
+    println!(
+        "{} continued triggers went out in 30 rounds before their check was dropped",
+        accepted - 203
     );
 }

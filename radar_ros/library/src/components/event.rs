@@ -19,7 +19,7 @@ use radar_semantics::event::{Activation, Transition};
 
 use crate::{
     components::own_node::{ComponentNode, EventSubscription},
-    components::trigger::{CheckTrigger, Trigger},
+    components::trigger::{CheckTrigger, Emitted, Nudge, Trigger},
     error::{Result, SlotError},
     node::endpoints::{emit, panic_message, SignalWriter, Throttle, Watched},
     node::shutdown::ComponentTask,
@@ -54,7 +54,9 @@ pub trait Event: Send + 'static {
     /// Called before each check with that check's own writer of `triggered`: an event whose condition is seen
     /// on a thread of its own can emit from there ([`Trigger::emit`]) instead of resolving the check and waiting
     /// for the event's task to emit. A check that emitted this way still resolves (soon after: the trigger is
-    /// counted in `state` then), and the value it resolves with is not emitted again. Default: unused.
+    /// counted in `state` then), and the value it resolves with is not emitted again. A thread that sees the
+    /// condition again and again emits with [`Trigger::emit_and_continue`] instead: each emission is one check's
+    /// value and begins the next check there, so the event's task is not woken per trigger. Default: unused.
     fn before_check(&mut self, trigger: Trigger<Self::Payload>) {
         let _ = trigger;
     }
@@ -354,7 +356,7 @@ struct Check<P> {
 
 impl<P> Check<P> {
     /// Ends the check's trigger (see [`CheckTrigger::close`]); the future is dropped with `self`.
-    fn end(self) -> Option<i64> {
+    fn end(self) -> Emitted {
         self.trigger.close()
     }
 }
@@ -362,10 +364,11 @@ impl<P> Check<P> {
 fn new_check<E: Event>(
     event: &Arc<Mutex<E>>,
     writer: &Arc<SignalWriter<E::Payload>>,
+    nudge: &Arc<Nudge>,
     delay: Option<Duration>,
 ) -> Check<E::Payload> {
     let e = Arc::clone(event);
-    let (trigger, side) = CheckTrigger::open(writer);
+    let (trigger, side) = CheckTrigger::open(writer, nudge);
     let run = Box::pin(async move {
         if let Some(d) = delay {
             tokio::time::sleep(d).await;
@@ -395,6 +398,8 @@ struct Driver<E: Event> {
     st: EventState,
     activation: Activation,
     check: Option<Check<E::Payload>>,
+    /// Pokes the task when a check's trigger emitted and continued (its count is due in `state`).
+    nudge: Arc<Nudge>,
     throttle: Throttle,
     /// A state is stamped when it was entered: a trigger's, when `triggered` was emitted (so that a reader can
     /// put it in order with the signals it caused).
@@ -403,24 +408,48 @@ struct Driver<E: Event> {
 
 impl<E: Event> Driver<E> {
     fn publish(&mut self) {
+        // armed before counting: a trigger the count below misses pokes again
+        self.nudge.rearm();
+        self.count_continued();
         self.st.stamp = self.entered.take().map_or_else(Time::now, Time::from_nanos);
         emit(&self.state_pub, "state", self.st.clone());
         self.state_tx.send_replace(self.st.clone());
         self.throttle.published();
     }
 
-    /// A trigger emitted at `at` (ns), by the event's task or by the check itself.
-    fn count(&mut self, at: i64) {
+    /// `n` triggers emitted, the first at `at` (ns), by the event's task or by the check itself.
+    fn count(&mut self, n: u64, at: i64) {
         self.entered.get_or_insert(at);
-        self.st.triggers += 1;
+        self.st.triggers += n;
     }
 
-    /// Ends the running check, if any: nothing more goes out through its trigger, and what it emitted itself
-    /// is counted. Whether it had emitted.
+    /// Counts what the running check's trigger emitted and continued.
+    fn count_continued(&mut self) {
+        if let Some((n, last)) = self.check.as_ref().and_then(|c| c.trigger.take_continued()) {
+            self.count(n, last);
+        }
+    }
+
+    /// A check's trigger emitted and continued: counted, in `state` when the throttle lets it.
+    fn on_continued(&mut self) {
+        self.count_continued();
+        if self.throttle.changed() {
+            self.publish();
+        }
+    }
+
+    /// Ends the running check, if any: nothing more goes out through its trigger, and what it emitted is
+    /// counted. Whether it had emitted its own value.
     fn end_check(&mut self) -> bool {
-        match self.check.take().and_then(Check::end) {
+        let Some(emitted) = self.check.take().map(Check::end) else {
+            return false;
+        };
+        if let Some((n, last)) = emitted.continued {
+            self.count(n, last);
+        }
+        match emitted.own {
             Some(at) => {
-                self.count(at);
+                self.count(1, at);
                 true
             }
             None => false,
@@ -433,7 +462,7 @@ impl<E: Event> Driver<E> {
         match self.activation.set_listeners(n) {
             Some(Transition::Activate) => {
                 self.event.lock().await.on_activate();
-                self.check = Some(new_check(&self.event, &self.triggered, None));
+                self.check = Some(new_check(&self.event, &self.triggered, &self.nudge, None));
                 tracing::debug!(event = %self.st.name, listeners = n, "activated");
             }
             Some(Transition::Deactivate) => {
@@ -456,9 +485,9 @@ impl<E: Event> Driver<E> {
             Ok(payload) => {
                 if !emitted {
                     let at = self.triggered.emit("triggered", payload, None);
-                    self.count(at);
+                    self.count(1, at);
                 }
-                self.check = Some(new_check(&self.event, &self.triggered, None));
+                self.check = Some(new_check(&self.event, &self.triggered, &self.nudge, None));
                 if self.throttle.changed() {
                     self.publish();
                 }
@@ -468,7 +497,12 @@ impl<E: Event> Driver<E> {
                 self.st.check_errors += 1;
                 self.st.last_error = e.into_message();
                 let delay = self.event.lock().await.retry_after();
-                self.check = Some(new_check(&self.event, &self.triggered, Some(delay)));
+                self.check = Some(new_check(
+                    &self.event,
+                    &self.triggered,
+                    &self.nudge,
+                    Some(delay),
+                ));
                 self.publish();
             }
         }
@@ -492,6 +526,7 @@ pub(crate) async fn drive_event<E: Event>(
         st,
         activation: Activation::new(),
         check: None,
+        nudge: Nudge::new(),
         throttle: Throttle::new(STATE_TRIGGER_THROTTLE),
         entered: None,
     };
@@ -513,6 +548,7 @@ pub(crate) async fn drive_event<E: Event>(
                     None => std::future::pending().await,
                 }
             } => d.on_checked(res).await,
+            _ = d.nudge.poked() => d.on_continued(),
             _ = d.throttle.due() => d.publish(),
         }
     }
