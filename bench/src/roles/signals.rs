@@ -11,24 +11,24 @@ pub(super) struct Fed {
     /// connects it: its one trigger is emitted as the statement's reader activates the event, before the
     /// statement is armed, and is delivered (C1 counts from when the statement began).
     born: Option<u64>,
-    /// With `--trigger`: each check's [`Trigger`] goes to the pacing loop, which emits through it itself, and
-    /// the check ends when told that it did (instead of resolving with a value fed through `rx`).
-    triggers: Option<PacedTriggers>,
+    /// With `--trigger`: each check's [`Trigger`] goes to the pacing loop, which emits through it itself and
+    /// continues (`Trigger::emit_and_continue`: each emission is one check's value and begins the next), and
+    /// the check never resolves by itself (instead of resolving with a value fed through `rx`).
+    triggers: Option<mpsc::UnboundedSender<Trigger<Header>>>,
 }
 
-/// The two ends between a `--trigger` event and its pacing loop: each check's trigger, handed as the check
-/// begins, and the check's end, told once the loop emitted through it.
-#[derive(Clone)]
-pub(super) struct PacedTriggers {
-    to_loop: mpsc::UnboundedSender<Trigger<Header>>,
-    emitted: Arc<tokio::sync::Notify>,
+/// The pacing loop's end of a `--trigger` event: the triggers its checks hand over, and the one it emits
+/// through now.
+pub(super) struct Paced {
+    from_checks: mpsc::UnboundedReceiver<Trigger<Header>>,
+    current: Option<Trigger<Header>>,
 }
 
 impl Event for Fed {
     type Payload = Header;
     fn before_check(&mut self, trigger: Trigger<Header>) {
         if let Some(t) = &self.triggers {
-            let _ = t.to_loop.send(trigger);
+            let _ = t.send(trigger);
         }
     }
     async fn check(&mut self) -> Result<Header, SlotError> {
@@ -38,10 +38,9 @@ impl Event for Fed {
             h.stamp.nanosec = (t % 1_000_000_000) as u32;
             return Ok(h);
         }
-        if let Some(t) = &self.triggers {
-            // the loop emitted this check's trigger: its value is not emitted again
-            t.emitted.notified().await;
-            return Ok(Header::default());
+        if self.triggers.is_some() {
+            // the loop emits through this check's trigger and continues
+            return futures::future::pending().await;
         }
         match self.rx.recv().await {
             Some(seq) => Ok(stamped(seq)),
@@ -51,30 +50,32 @@ impl Event for Fed {
 }
 
 /// `run` of a `--trigger` event: `n` triggers `period` apart, each stamped and emitted by this (the pacing)
-/// task through the running check's trigger, as raw ros2-client's source publishes from its pacing loop. A
-/// trigger whose check was dropped meanwhile (the event deactivated) is skipped for the next one.
-async fn run_triggers(
-    triggers: &tokio::sync::Mutex<mpsc::UnboundedReceiver<Trigger<Header>>>,
-    emitted: &tokio::sync::Notify,
-    n: u64,
-    period: Duration,
-) -> Result<()> {
-    let mut from_checks = triggers.lock().await;
+/// task through the running check's trigger, which continues, as raw ros2-client's source publishes from its
+/// pacing loop. A trigger whose check was dropped meanwhile (the event deactivated) is left for the next
+/// check's.
+async fn run_triggers(paced: &tokio::sync::Mutex<Paced>, n: u64, period: Duration) -> Result<()> {
+    let mut paced = paced.lock().await;
     let start = tokio::time::Instant::now();
     for i in 0..n {
         tokio::time::sleep_until(start + period * i as u32).await;
         let mut h = stamped(i);
         loop {
-            let t = from_checks
-                .recv()
-                .await
-                .ok_or_else(|| anyhow!("the event stopped"))?;
-            match t.emit(h) {
-                Ok(()) => break,
+            let t = match paced.current.take() {
+                Some(t) => t,
+                None => paced
+                    .from_checks
+                    .recv()
+                    .await
+                    .ok_or_else(|| anyhow!("the event stopped"))?,
+            };
+            match t.emit_and_continue(h) {
+                Ok(()) => {
+                    paced.current = Some(t);
+                    break;
+                }
                 Err(back) => h = back,
             }
         }
-        emitted.notify_one();
     }
     Ok(())
 }
@@ -105,12 +106,11 @@ pub(super) async fn events(
     let born = Arc::new(Mutex::new(born));
     // with `--trigger`, the first event's checks hand their triggers to `run`
     let (to_loop, from_checks) = mpsc::unbounded_channel();
-    let from_checks = Arc::new(tokio::sync::Mutex::new(from_checks));
-    let emitted = Arc::new(tokio::sync::Notify::new());
-    let pacing = Arc::new(Mutex::new(trigger.then(|| PacedTriggers {
-        to_loop,
-        emitted: emitted.clone(),
-    })));
+    let by_trigger = Arc::new(tokio::sync::Mutex::new(Paced {
+        from_checks,
+        current: None,
+    }));
+    let pacing = Arc::new(Mutex::new(trigger.then_some(to_loop)));
     let paced_name = names.split(',').next().unwrap_or_default().to_owned();
     let spawn = {
         let (radar, all) = (radar.clone(), all.clone());
@@ -144,7 +144,7 @@ pub(super) async fn events(
     };
     serve(|w| {
         let (all, spawn) = (all.clone(), spawn.clone());
-        let (from_checks, emitted) = (from_checks.clone(), emitted.clone());
+        let by_trigger = by_trigger.clone();
         let rec = recorder.as_ref().map(|(h, rec)| (rec.clone(), h.state()));
         async move {
             if let (Some((rec, state)), "report") = (rec, w[0].as_str()) {
@@ -162,7 +162,7 @@ pub(super) async fn events(
                 }
                 "run" if trigger => {
                     let (n, period): (u64, u64) = (word(&w, 2)?, word(&w, 3)?);
-                    run_triggers(&from_checks, &emitted, n, Duration::from_micros(period)).await?;
+                    run_triggers(&by_trigger, n, Duration::from_micros(period)).await?;
                     Ok(format!("sent {n}"))
                 }
                 "run" => {
