@@ -369,36 +369,69 @@ async fn next_trigger(
     next.expect("a check began").expect("the event is alive")
 }
 
-/// The `Int32` values an observer (which never activates the event) has seen so far.
-async fn observed(obs: &radar_ros::RawSubscription, within: Duration) -> Vec<i32> {
-    let mut seen = Vec::new();
-    while let Ok((m, _)) = obs.recv_stamped().timeout(within).await {
-        let b = m.as_bytes();
-        seen.push(i32::from_le_bytes(b[0..4].try_into().unwrap()));
-    }
-    seen
+/// A [`Relayed`] event `name` on a host of `domain`, and a reader of its `triggered` in another participant that
+/// only observes (the wire's own count: it activates nothing), seen matched.
+struct RelayedEvent {
+    host: radar_ros::Radar,
+    h: EventHandle,
+    triggers: tokio::sync::mpsc::UnboundedReceiver<Trigger<Int32>>,
+    resolve: Arc<tokio::sync::Notify>,
+    _watcher: radar_ros::Radar,
+    obs: radar_ros::RawSubscription,
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_after_it_ended() {
-    let host = radar(227);
-    let (tx, mut triggers) = tokio::sync::mpsc::unbounded_channel();
+async fn relayed_event(domain: u16, name: &str) -> RelayedEvent {
+    let host = radar(domain);
+    let (tx, triggers) = tokio::sync::mpsc::unbounded_channel();
     let resolve = Arc::new(tokio::sync::Notify::new());
     let h = host
         .spawn_event(
-            "relayed",
+            name,
             Relayed {
                 triggers: tx,
                 resolve: resolve.clone(),
             },
         )
         .unwrap();
-    // the wire's own count: a reader in another participant that only observes (it activates nothing)
-    let watcher = radar(227);
+    let watcher = radar(domain);
     let obs = watcher
-        .observe_raw("/relayed/triggered", "std_msgs/msg/Int32")
+        .observe_raw(&format!("/{name}/triggered"), "std_msgs/msg/Int32")
         .unwrap();
     obs.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
+    RelayedEvent {
+        host,
+        h,
+        triggers,
+        resolve,
+        _watcher: watcher,
+        obs,
+    }
+}
+
+/// The `Int32` an observed sample carries.
+fn int32_of(m: &radar_ros::RawMessage) -> i32 {
+    i32::from_le_bytes(m.as_bytes()[0..4].try_into().unwrap())
+}
+
+/// The `Int32` values an observer (which never activates the event) has seen so far.
+async fn observed(obs: &radar_ros::RawSubscription, within: Duration) -> Vec<i32> {
+    let mut seen = Vec::new();
+    while let Ok((m, _)) = obs.recv_stamped().timeout(within).await {
+        seen.push(int32_of(&m));
+    }
+    seen
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_after_it_ended() {
+    let RelayedEvent {
+        host,
+        h,
+        mut triggers,
+        resolve,
+        obs,
+        _watcher,
+    } = relayed_event(227, "relayed").await;
     assert!(triggers.try_recv().is_err(), "no check runs unlistened");
 
     let sub = host
@@ -473,23 +506,14 @@ async fn a_check_emits_through_its_trigger_from_another_thread_once_and_never_af
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_trigger_that_continues_emits_every_value_from_its_thread_with_one_check_and_never_after_it_ended(
 ) {
-    let host = radar(228);
-    let (tx, mut triggers) = tokio::sync::mpsc::unbounded_channel();
-    let resolve = Arc::new(tokio::sync::Notify::new());
-    let h = host
-        .spawn_event(
-            "continued",
-            Relayed {
-                triggers: tx,
-                resolve: resolve.clone(),
-            },
-        )
-        .unwrap();
-    let watcher = radar(228);
-    let obs = watcher
-        .observe_raw("/continued/triggered", "std_msgs/msg/Int32")
-        .unwrap();
-    obs.wait_for_publishers(1).timeout(DISCOVERY).await.unwrap();
+    let RelayedEvent {
+        host,
+        h,
+        mut triggers,
+        resolve,
+        obs,
+        _watcher,
+    } = relayed_event(228, "continued").await;
     let sub = host
         .signal_subscription::<Int32>("/continued/triggered")
         .unwrap();
@@ -521,10 +545,7 @@ async fn a_trigger_that_continues_emits_every_value_from_its_thread_with_one_che
             .timeout(Duration::from_secs(5))
             .await
             .unwrap();
-        assert_eq!(
-            i32::from_le_bytes(w.as_bytes()[0..4].try_into().unwrap()),
-            heard[heard.len() - 1]
-        );
+        assert_eq!(int32_of(&w), heard[heard.len() - 1]);
         let _ = go.send(());
     }
     assert_eq!(thread.join().unwrap(), 200);
@@ -617,7 +638,7 @@ async fn a_trigger_that_continues_emits_every_value_from_its_thread_with_one_che
                 .timeout(Duration::from_secs(5))
                 .await
                 .expect("each counted trigger is on the wire");
-            let d = i32::from_le_bytes(w.as_bytes()[0..4].try_into().unwrap());
+            let d = int32_of(&w);
             assert_eq!(d, 1000 + round, "round {round}");
         }
     }
