@@ -259,6 +259,24 @@ pub fn sched_by_thread(pid: u32) -> Result<std::collections::BTreeMap<String, Sc
     Ok(by)
 }
 
+/// UDP datagrams sent and received so far in this process's network namespace (`/proc/self/net/snmp`'s
+/// `OutDatagrams` and `InDatagrams`): under `tests/isolated.sh` only the benchmark's processes send any, so the
+/// difference over a run is what the run's processes sent. `None` where the counters cannot be read.
+pub fn udp_datagrams() -> Option<(u64, u64)> {
+    let snmp = std::fs::read_to_string("/proc/self/net/snmp").ok()?;
+    udp_datagrams_of(&snmp)
+}
+
+fn udp_datagrams_of(snmp: &str) -> Option<(u64, u64)> {
+    let mut udp = snmp.lines().filter(|l| l.starts_with("Udp:"));
+    let (names, values) = (udp.next()?, udp.next()?);
+    let field = |want: &str| {
+        let i = names.split_whitespace().position(|n| n == want)?;
+        values.split_whitespace().nth(i)?.parse::<u64>().ok()
+    };
+    Some((field("OutDatagrams")?, field("InDatagrams")?))
+}
+
 /// This process's resident memory in bytes, from `/proc/self/status`.
 pub fn rss_bytes() -> u64 {
     std::fs::read_to_string("/proc/self/status")
@@ -276,6 +294,17 @@ pub fn rss_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn udp_datagrams_are_read_from_the_udp_lines_not_udplite() {
+        let snmp = "Ip: Forwarding DefaultTTL\nIp: 1 64\n\
+                    Udp: InDatagrams NoPorts InErrors OutDatagrams RcvbufErrors\n\
+                    Udp: 120 3 0 77 0\n\
+                    UdpLite: InDatagrams NoPorts InErrors OutDatagrams RcvbufErrors\n\
+                    UdpLite: 9 9 9 9 9\n";
+        assert_eq!(udp_datagrams_of(snmp), Some((77, 120)));
+        assert_eq!(udp_datagrams_of("Ip: 1\n"), None);
+    }
 
     #[test]
     fn sched_counts_this_process_working_and_a_thread_woken() {

@@ -91,15 +91,16 @@ impl Bench {
             )
             .await?;
         all.ask("active /bench/ev", START).await?;
-        let before = sched_now(&[all.pid()])?;
+        let (before, sent_before) = (sched_now(&[all.pid()])?, udp_datagrams());
         all.ask(&format!("run /bench/ev {n} {p}"), self.run_timeout(n))
             .await?;
         tokio::time::sleep(Duration::from_millis(500)).await;
-        let after = sched_now(&[all.pid()])?;
+        let (after, sent_after) = (sched_now(&[all.pid()])?, udp_datagrams());
         let mut r = all
             .ask_json(&format!("report {}", self.plan.warmup), START)
             .await?;
         r["usage"] = usage_per_signal(before, after, n);
+        add_datagrams(&mut r["usage"], sent_before, sent_after, n);
         let note = format!(
             "{} starts ignored (response busy)",
             r["extra"]["ignored_starts"]

@@ -28,7 +28,7 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::{
-    proto::{cpu_time, sched_by_thread, Child, Sched},
+    proto::{cpu_time, sched_by_thread, udp_datagrams, Child, Sched},
     stats::{summarize, Summary},
 };
 
@@ -411,14 +411,15 @@ impl Bench {
             .into_iter()
             .chain(others.iter().copied())
             .collect();
-        let before = sched_now(&pids)?;
+        let (before, sent_before) = (sched_now(&pids)?, udp_datagrams());
         source.ask(run, self.run_timeout(n)).await?;
         tokio::time::sleep(Duration::from_millis(500)).await;
-        let after = sched_now(&pids)?;
+        let (after, sent_after) = (sched_now(&pids)?, udp_datagrams());
         let mut r = sink
             .ask_json(&format!("report {}", self.plan.warmup), START)
             .await?;
         r["usage"] = usage_per_signal(before, after, n);
+        add_datagrams(&mut r["usage"], sent_before, sent_after, n);
         Ok(r)
     }
 
@@ -450,6 +451,9 @@ impl Bench {
                 f("wait_us"),
                 f("slices")
             ));
+            if t.get("datagrams_sent").is_some() {
+                note.push_str(&format!(", {:.2} UDP datagrams sent", f("datagrams_sent")));
+            }
         }
         self.results.latency.push(Latency {
             key: key.into(),
@@ -466,6 +470,16 @@ impl Bench {
 
 /// The scheduler's figures of a run's processes per signal sent (`n`): in all, and by process in the run's
 /// order (the source first, the sink second).
+/// Adds to `usage`'s total the UDP datagrams sent in the namespace per signal between two
+/// [`udp_datagrams`] reads (`datagrams_sent`, `datagrams_received`); nothing if either read failed.
+fn add_datagrams(usage: &mut Value, before: Option<(u64, u64)>, after: Option<(u64, u64)>, n: u64) {
+    if let (Some((out0, in0)), Some((out1, in1))) = (before, after) {
+        let n = n.max(1) as f64;
+        usage["total"]["datagrams_sent"] = json!(out1.saturating_sub(out0) as f64 / n);
+        usage["total"]["datagrams_received"] = json!(in1.saturating_sub(in0) as f64 / n);
+    }
+}
+
 /// The scheduler's figures of each of `pids` now, by thread name.
 fn sched_now(pids: &[u32]) -> Result<Vec<BTreeMap<String, Sched>>> {
     pids.iter().map(|p| sched_by_thread(*p)).collect()
