@@ -249,13 +249,18 @@ impl DPEventLoop {
       discovery_db,
       udp_listeners,
       udp_sender: Rc::new(udp_sender),
-      message_receiver: MessageReceiver::new(
-        participant_guid_prefix,
-        acknack_sender,
-        spdp_liveness_sender,
-        security_plugins_opt.clone(),
-        Rc::clone(&interface_observations),
-      ),
+      message_receiver: {
+        let mut r = MessageReceiver::new(
+          participant_guid_prefix,
+          acknack_sender,
+          spdp_liveness_sender,
+          security_plugins_opt.clone(),
+          Rc::clone(&interface_observations),
+        );
+        // RADAR patch 63: a reader's replies follow the same-host route as the writers' sends
+        r.set_same_host_loopback(same_host_loopback);
+        r
+      },
       interface_observations,
       local_interfaces,
       #[cfg(feature = "security")]

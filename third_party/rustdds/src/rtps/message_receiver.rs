@@ -89,6 +89,11 @@ pub struct MessageReceiverState<'a> {
 
   pub source_timestamp: Option<Timestamp>,
 
+  /// RADAR patch 63: the source participant is on this host (its traffic has come from a loopback address,
+  /// or it is this participant) and the same-host loopback route is on: a reply to it goes to its loopback
+  /// locator alone, as a writer's sends to a reader on this host do.
+  pub reply_on_loopback: bool,
+
   #[allow(dead_code)] // TODO: Remove this when/if SecureWrapping actually does something.
   #[cfg(feature = "security")]
   pub secure_rtps_wrapped: Option<SecureWrapping>,
@@ -101,6 +106,7 @@ impl Default for MessageReceiverState<'_> {
       unicast_reply_locator_list: &[],
       multicast_reply_locator_list: &[],
       source_timestamp: Some(Timestamp::INVALID),
+      reply_on_loopback: false,
       #[cfg(feature = "security")]
       secure_rtps_wrapped: None,
     }
@@ -136,6 +142,10 @@ pub(crate) struct MessageReceiver {
   // have observed their traffic on. Shared (intra-thread) with DPEventLoop,
   // which consumes it to resolve interface-aware send routes.
   interface_observations: Rc<RefCell<InterfaceObservations>>,
+  /// RADAR patch 63: the participant's same-host loopback route is on (`same_host_loopback`, default true).
+  same_host_loopback: bool,
+  /// RADAR patch 63: the message being interpreted comes from a participant on this host.
+  source_on_this_host: bool,
 
   own_guid_prefix: GuidPrefix,
   pub source_version: ProtocolVersion,
@@ -179,6 +189,8 @@ impl MessageReceiver {
       spdp_liveness_sender,
       security_plugins,
       interface_observations,
+      same_host_loopback: true,
+      source_on_this_host: false,
       own_guid_prefix: participant_guid_prefix,
 
       source_version: ProtocolVersion::THIS_IMPLEMENTATION,
@@ -200,6 +212,12 @@ impl MessageReceiver {
       #[cfg(feature = "security")]
       decode_failures: Default::default(),
     }
+  }
+
+  /// RADAR patch 63: whether replies to a participant on this host go to its loopback locator alone (the
+  /// participant builder's `same_host_loopback`, default true).
+  pub fn set_same_host_loopback(&mut self, on: bool) {
+    self.same_host_loopback = on;
   }
 
   pub fn reset(&mut self) {
@@ -235,6 +253,7 @@ impl MessageReceiver {
       unicast_reply_locator_list: &self.unicast_reply_locator_list,
       multicast_reply_locator_list: &self.multicast_reply_locator_list,
       source_timestamp: self.source_timestamp,
+      reply_on_loopback: self.same_host_loopback && self.source_on_this_host,
       #[cfg(feature = "security")]
       secure_rtps_wrapped: self.secure_rtps_wrapped.clone(),
     };
@@ -403,6 +422,13 @@ impl MessageReceiver {
     self.reset();
     self.dest_guid_prefix = self.own_guid_prefix;
     self.source_guid_prefix = rtps_message.header.guid_prefix;
+    // RADAR patch 63: where replies to the source go (its observation was recorded before this)
+    self.source_on_this_host = self.source_guid_prefix == self.own_guid_prefix
+      || self
+        .interface_observations
+        .borrow()
+        .get(self.source_guid_prefix)
+        .is_some_and(|o| o.is_same_host());
     self.source_version = rtps_message.header.protocol_version;
     self.source_vendor_id = rtps_message.header.vendor_id;
 
@@ -1621,6 +1647,52 @@ mod tests {
     }
     let reached: usize = writers.iter().map(|&w| message_receiver.targets_of(w).len()).sum();
     assert!(reached > 5, "the order leaves matches to find: {reached}");
+  }
+
+  /// RADAR patch 63: replies to a participant go on the loopback once its traffic has come from a loopback
+  /// address (sticky, as the writers' route), or if it is this participant, and only while the same-host
+  /// loopback route is on.
+  #[test]
+  fn replies_go_on_the_loopback_to_a_participant_seen_from_it_while_the_route_is_on() {
+    // INFO_DST, ACKNACK (as in mr_test_submsg_count), from the participant of prefix `[first; 12]`
+    let packet = |first: u8| {
+      let mut b = vec![
+        0x52, 0x54, 0x50, 0x53, 0x02, 0x03, 0x01, 0x0f, 0x01, 0x0f, 0x99, 0x06, 0x78, 0x34, 0x00,
+        0x00, 0x01, 0x00, 0x00, 0x00, 0x0e, 0x01, 0x0c, 0x00, 0x01, 0x03, 0x00, 0x0c, 0x29, 0x2d,
+        0x31, 0xa2, 0x28, 0x20, 0x02, 0x08, 0x06, 0x03, 0x18, 0x00, 0x00, 0x00, 0x04, 0xc7, 0x00,
+        0x00, 0x04, 0xc2, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+        0x03, 0x00, 0x00, 0x00,
+      ];
+      b[8..20].copy_from_slice(&[first; 12]);
+      Bytes::from(b)
+    };
+    let from = |addr: &str| PacketOrigin {
+      source: Some(addr.parse().unwrap()),
+      local_if: None,
+    };
+    let waker = LoopWaker::new();
+    let (acknack_sender, _acknack_receiver) = wake_channel(8, &waker);
+    let (spdp_liveness_sender, _spdp_liveness_receiver) = wake_channel(8, &waker);
+    let own = GuidPrefix::new(&[9; 12]);
+    let mut mr = MessageReceiver::new(
+      own,
+      acknack_sender,
+      spdp_liveness_sender,
+      None,
+      Rc::new(RefCell::new(InterfaceObservations::new())),
+    );
+    let mut replies_on_loopback = |mr: &mut MessageReceiver, first: u8, origin: PacketOrigin| {
+      mr.handle_received_packet(&packet(first), origin);
+      mr.partial_message_receiver_state(&EntityId::UNKNOWN)
+        .0
+        .reply_on_loopback
+    };
+    assert!(replies_on_loopback(&mut mr, 1, from("127.0.0.1:7411")));
+    assert!(!replies_on_loopback(&mut mr, 2, from("10.77.0.2:7411")), "a peer not seen on the loopback");
+    assert!(replies_on_loopback(&mut mr, 1, from("10.77.0.2:7411")), "once seen from it, sticky");
+    assert!(replies_on_loopback(&mut mr, 9, PacketOrigin::UNKNOWN), "this participant");
+    mr.set_same_host_loopback(false);
+    assert!(!replies_on_loopback(&mut mr, 1, from("127.0.0.1:7411")), "the route off");
   }
 
   #[test]

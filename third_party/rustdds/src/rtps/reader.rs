@@ -1192,7 +1192,7 @@ impl Reader {
 
           // Decide where should we send a reply, i.e. ACKNACK
           let reply_locators = match mr_state.unicast_reply_locator_list {
-            [] | [Locator::Invalid] => &writer_proxy.unicast_locator_list,
+            [] | [Locator::Invalid] => writer_proxy.reply_locators(mr_state.reply_on_loopback),
             //TODO: What is writer_proxy has an empty list?
             others => others,
           };
@@ -2116,6 +2116,125 @@ mod tests {
     let after = sent(&reader);
     reader.send_preemptive_acknacks();
     assert_eq!(sent(&reader), after, "a writer heard from is not asked again");
+  }
+
+  /// A reliable reader of topic `test_name` with no writer matched, sending with its own `UDPSender`.
+  fn reliable_reader() -> (Reader, QosPolicies) {
+    let dds_cache = Arc::new(RwLock::new(DDSCache::new()));
+    let qos = QosPolicyBuilder::new()
+      .reliability(Reliability::Reliable {
+        max_blocking_time: Duration::from_millis(100),
+      })
+      .build();
+    let topic_cache_handle = dds_cache.write().unwrap().add_new_topic(
+      "test_name".to_string(),
+      TypeDesc::new("test_type".to_string()),
+      &qos,
+    );
+    let (notification_sender, notification_receiver) = crate::mio_source::notification_channel(100);
+    let (notification_event_source, poll_event_sender) = mio_source::make_poll_channel().unwrap();
+    let (status_sender, status_receiver) = sync_status_channel::<DataReaderStatus>(4).unwrap();
+    let (participant_status_sender, participant_status_receiver) = sync_status_channel(16).unwrap();
+    let (reader_command_sender, data_reader_command_receiver) =
+      wake_channel::<ReaderCommand>(10, &LoopWaker::new());
+    // the other ends live as long as the test
+    std::mem::forget((
+      notification_receiver,
+      notification_event_source,
+      status_receiver,
+      participant_status_receiver,
+      reader_command_sender,
+    ));
+    let reader = Reader::new(
+      ReaderIngredients {
+        guid: GUID::dummy_test_guid(EntityKind::READER_NO_KEY_USER_DEFINED),
+        notification_sender,
+        status_sender,
+        topic_name: "test_name".to_string(),
+        topic_cache_handle,
+        like_stateless: false,
+        qos_policy: qos.clone(),
+        data_reader_command_receiver,
+        data_reader_waker: Arc::new(Mutex::new(None)),
+        poll_event_sender,
+        security_plugins: None,
+        discovery_notify: None,
+      },
+      Rc::new(UDPSender::new(0).unwrap()),
+      new_shared_timer(),
+      participant_status_sender,
+    );
+    (reader, qos)
+  }
+
+  /// RADAR patch 63: a reader answers a writer whose participant is on this host (`reply_on_loopback`) on
+  /// the writer's loopback locator alone, as writers send to readers on this host; before, it sent each
+  /// ACKNACK once to every unicast locator the participant announced. A writer not known to be on this host
+  /// is answered on all of them, as before.
+  #[test]
+  fn a_reader_answers_a_writer_on_this_host_on_its_loopback_locator_alone() {
+    use std::net::{SocketAddr, UdpSocket};
+
+    use bytes::Bytes;
+
+    use crate::rtps::submessage::SubmessageBody;
+    // the writer's participant announces this host's first other IPv4 address and the loopback
+    let lan_ip = crate::network::util::get_local_unicast_locators_filtered(0, None)
+      .into_iter()
+      .map(|l| SocketAddr::from(l).ip())
+      .find(|ip| !ip.is_loopback())
+      .expect("this test needs an IPv4 interface besides the loopback (tests/isolated.sh makes one)");
+    let lan = UdpSocket::bind(SocketAddr::new(lan_ip, 0)).unwrap();
+    let lo = UdpSocket::bind("127.0.0.1:0").unwrap();
+    for s in [&lan, &lo] {
+      s.set_read_timeout(Some(std::time::Duration::from_millis(200))).unwrap();
+    }
+    let acknacks = |s: &UdpSocket| {
+      let mut buf = vec![0u8; 65536];
+      let mut n = 0;
+      while let Ok(len) = s.recv(&mut buf) {
+        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..len])).unwrap();
+        n += msg
+          .submessages
+          .iter()
+          .filter(|m| matches!(m.body, SubmessageBody::Reader(ReaderSubmessage::AckNack(..))))
+          .count();
+      }
+      n
+    };
+    let (mut reader, qos) = reliable_reader();
+    let writer_guid = GUID::dummy_test_guid(EntityKind::WRITER_NO_KEY_USER_DEFINED);
+    reader.matched_writer_add(
+      writer_guid,
+      EntityId::UNKNOWN,
+      vec![Locator::from(lan.local_addr().unwrap()), Locator::from(lo.local_addr().unwrap())],
+      vec![],
+      &qos,
+    );
+    // the preemptive ACKNACK of the match (sent before anything was heard from the writer)
+    let (lan_before, lo_before) = (acknacks(&lan), acknacks(&lo));
+    assert_eq!((lan_before, lo_before), (1, 1), "the match's preemptive ACKNACK went to both");
+    let mut count = 1;
+    let mut heartbeat = |reader: &mut Reader, on_loopback: bool| {
+      count += 1;
+      let hb = Heartbeat {
+        reader_id: reader.entity_id(),
+        writer_id: writer_guid.entity_id,
+        first_sn: SequenceNumber::new(1),
+        last_sn: SequenceNumber::new(count.into()),
+        count,
+      };
+      let mr_state = MessageReceiverState {
+        source_guid_prefix: writer_guid.prefix,
+        reply_on_loopback: on_loopback,
+        ..Default::default()
+      };
+      assert!(reader.handle_heartbeat_msg(&hb, false, &mr_state), "an ACKNACK is due");
+    };
+    heartbeat(&mut reader, true);
+    assert_eq!((acknacks(&lan), acknacks(&lo)), (0, 1), "on this host: the loopback alone");
+    heartbeat(&mut reader, false);
+    assert_eq!((acknacks(&lan), acknacks(&lo)), (1, 1), "not known on this host: every locator");
   }
 
   #[test]

@@ -79,6 +79,10 @@ pub(crate) struct RtpsReaderProxy {
   // sends one ACKNACK to each of our locators; the copies carry the same count.
   pub last_acknack_count: Option<i32>,
   pub last_nackfrag_count: Option<i32>,
+  /// RADAR patch 63: every sample after this one goes to this reader as it is written, with a HEARTBEAT
+  /// asking it to acknowledge (the writer's last sequence number once this proxy was in the writer's send
+  /// plans). Those before it may have been sent before the reader matched.
+  pub live_after: SequenceNumber,
   qos: QosPolicies,
   frags_requested: BTreeMap<SequenceNumber, BitVec>,
 
@@ -115,6 +119,7 @@ impl RtpsReaderProxy {
       repair_frags_scheduled: false,
       last_acknack_count: None,
       last_nackfrag_count: None,
+      live_after: SequenceNumber::new(i64::MAX),
       qos,
       frags_requested: BTreeMap::new(),
       send_route: SendRoute::default(),
@@ -244,6 +249,7 @@ impl RtpsReaderProxy {
       repair_frags_scheduled: false,
       last_acknack_count: None,
       last_nackfrag_count: None,
+      live_after: SequenceNumber::new(i64::MAX),
       qos: reader.qos_policy.clone(),
       frags_requested: BTreeMap::new(),
       send_route: SendRoute::default(),
@@ -322,6 +328,7 @@ impl RtpsReaderProxy {
       repair_frags_scheduled: false,
       last_acknack_count: None,
       last_nackfrag_count: None,
+      live_after: SequenceNumber::new(i64::MAX),
       qos: discovered_reader_data.subscription_topic_data.qos(),
       frags_requested: BTreeMap::new(),
       send_route: SendRoute::default(),

@@ -105,6 +105,23 @@ impl RtpsWriterProxy {
     }
   }
 
+  /// Where a reply (ACKNACK, NACK_FRAG) to this writer goes (RADAR patch 63): with `on_loopback` (the
+  /// writer's participant is on this host), to the first loopback UDP locator it announced, alone; otherwise,
+  /// or if it announced none, to every unicast locator it announced. A writer's participant that announced
+  /// 127.0.0.1 and a LAN address was sent each reply twice (once per locator), and parsed both.
+  pub fn reply_locators(&self, on_loopback: bool) -> &[Locator] {
+    if on_loopback {
+      if let Some(i) = self
+        .unicast_locator_list
+        .iter()
+        .position(|l| l.is_udp() && l.is_loopback())
+      {
+        return &self.unicast_locator_list[i..=i];
+      }
+    }
+    &self.unicast_locator_list
+  }
+
   pub fn next_ack_nack_sequence_number(&mut self) -> i32 {
     let c = self.sent_ack_nack_count;
     self.sent_ack_nack_count += 1;

@@ -1368,8 +1368,13 @@ impl Writer {
           // patch 34): a writer that has written nothing sends its HEARTBEAT only
           // on the match, and when that one is lost the reader never hears from it.
           let preemptive = an.reader_sn_state.base() == SequenceNumber::zero();
+          // RADAR patch 63: but a reader that has all we wrote up to the match and after it up to some
+          // sample does know what we have: every sample after that one went to it (or goes now) with a
+          // HEARTBEAT asking for an ACKNACK. An ACKNACK that crossed the next sample on the wire is
+          // answered by that sample's HEARTBEAT; a lost one, by the periodic HEARTBEAT.
+          let knows_the_rest = reader_proxy.all_acked_before > reader_proxy.live_after;
           if an.reader_sn_state.iter().next().is_none()
-            && (preemptive || reader_proxy.all_acked_before <= last_seq)
+            && (preemptive || (reader_proxy.all_acked_before <= last_seq && !knows_the_rest))
           {
             let hb_message = self
               .heartbeat_asking_acknack(
@@ -2332,6 +2337,14 @@ impl Writer {
     // A reader was added or its locators changed: refresh the writer-wide
     // minimum datagram budget used for packing.
     self.recompute_min_datagram_payload();
+    if is_new {
+      // RADAR patch 63: read after the send plans include the reader (the DataWriter reads its plan after
+      // admitting a sample): every later sample goes to it with a HEARTBEAT
+      let last = self.send_buffer.last_change_sequence_number();
+      if let Some(rp) = self.readers.get_mut(&updated_reader_proxy.remote_reader_guid) {
+        rp.live_after = last;
+      }
+    }
     is_new
   }
 
@@ -3673,6 +3686,53 @@ mod tests {
       // an ACKNACK that answers a HEARTBEAT (base 1: nothing missing) needs no answer
       writer.handle_ack_nack(GuidPrefix::new(&[2; 12]), &answer);
       assert_eq!(heartbeats(&mut buf), vec![]);
+    }
+
+    /// RADAR patch 63: an ACKNACK that requests nothing from a reader that has had every sample since it
+    /// matched crossed a newer sample on the wire (it acknowledges the one before): that sample's HEARTBEAT
+    /// answers it, so the writer sends none now. A reader that has not all that was written before it matched
+    /// is still told at once what the writer has (patch 34's answer).
+    #[test]
+    fn an_acknack_that_crossed_a_newer_sample_is_left_to_that_sample_s_heartbeat() {
+      let reader = UdpSocket::bind("127.0.0.1:0").unwrap();
+      reader
+        .set_read_timeout(Some(StdDuration::from_millis(100)))
+        .unwrap();
+      let (mut writer, send_buffer) = lone_writer();
+      // two samples written before the reader matched
+      admit(&send_buffer);
+      admit(&send_buffer);
+      writer.process_pending();
+      match_reader(&mut writer, &reader);
+      data_and_heartbeats(&reader);
+      let heartbeats = |reader: &UdpSocket| {
+        data_and_heartbeats(reader)
+          .into_iter()
+          .filter(|s| s.starts_with("HEARTBEAT"))
+          .count()
+      };
+      // it has nothing of them and asks for nothing: it does not know them, a HEARTBEAT at once
+      ask_for(&mut writer, 1, 0, 1);
+      assert_eq!(heartbeats(&reader), 1, "a reader that matched after samples is told of them");
+      ask_for(&mut writer, 3, 2, 2);
+      assert_eq!(heartbeats(&reader), 0, "all acknowledged");
+      // samples 3 and 4 written and sent, each with its HEARTBEAT
+      admit(&send_buffer);
+      writer.process_pending();
+      admit(&send_buffer);
+      writer.process_pending();
+      assert_eq!(
+        data_and_heartbeats(&reader)
+          .iter()
+          .filter(|s| s.starts_with("DATA"))
+          .count(),
+        2
+      );
+      // the ACKNACK for 3 comes after 4 went out: 4's HEARTBEAT asks for the next one, none now
+      ask_for(&mut writer, 4, 3, 3);
+      assert_eq!(heartbeats(&reader), 0, "the ACKNACK that crossed sample 4 is answered by 4's HEARTBEAT");
+      ask_for(&mut writer, 5, 4, 4);
+      assert_eq!(heartbeats(&reader), 0);
     }
 
     /// RADAR patch 59: a reader that joined late asks for a writer's history at most 256 samples at a time;
