@@ -1681,7 +1681,7 @@ mod tests {
       None,
       Rc::new(RefCell::new(InterfaceObservations::new())),
     );
-    let mut replies_on_loopback = |mr: &mut MessageReceiver, first: u8, origin: PacketOrigin| {
+    let replies_on_loopback = |mr: &mut MessageReceiver, first: u8, origin: PacketOrigin| {
       mr.handle_received_packet(&packet(first), origin);
       mr.partial_message_receiver_state(&EntityId::UNKNOWN)
         .0
