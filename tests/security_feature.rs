@@ -9,8 +9,9 @@
 //!   of one endpoint within one participant; 28: the plugins' lock handed over when released; 31: a submessage
 //!   from a participant without registered endpoints is no error; 32: the bounded fuzz step, with the
 //!   security handshake target; 44: an encoded fragment run is parsed; 54: authentication messages resent soon
-//!   after their first sending; 55: session keys kept once derived; 56: a secured writer sends from its own
-//!   thread, and a secured reader decodes every sample);
+//!   after their first sending; 55: session keys kept once derived, and (64) set up for AES-GCM once; 56: a
+//!   secured writer sends from its own thread, and a secured reader decodes every sample; 64: a submessage
+//!   serialized for protection in one pass has the generic bytes);
 //! - `radar_ros/library/tests/secure.rs` over real DDS (two secured programs signal each other, a plain one is kept
 //!   out, one secured program hears its own signals on every subscription, only a permitted publisher starts
 //!   a secured response (not a secured one without the grant, not a plain rclpy one), docs/security.md's
@@ -94,6 +95,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "quick_resend_tests",
         "session_key_cache_tests",
         "secured_inline_send",
+        "a_submessage_serialized_in_one_pass",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");

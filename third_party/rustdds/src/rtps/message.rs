@@ -918,10 +918,8 @@ mod tests {
     assert_eq!(bits1, serialized);
   }
 
-  #[test]
-  fn write_to_vec_fast_matches_generic() {
-    // Capture containing INFO_DST, INFO_TS, DATA(w) (with payload) and HEARTBEAT.
-    let bits = Bytes::from_static(&[
+  /// A capture containing INFO_DST, INFO_TS, DATA(w) (with payload) and HEARTBEAT.
+  const CAPTURE_DST_TS_DATA_HB: &[u8] = &[
       0x52, 0x54, 0x50, 0x53, 0x02, 0x03, 0x01, 0x0f, 0x01, 0x0f, 0x99, 0x06, 0x78, 0x34, 0x00,
       0x00, 0x01, 0x00, 0x00, 0x00, 0x0e, 0x01, 0x0c, 0x00, 0x01, 0x03, 0x00, 0x0c, 0x29, 0x2d,
       0x31, 0xa2, 0x28, 0x20, 0x02, 0x08, 0x09, 0x01, 0x08, 0x00, 0x12, 0x15, 0xf3, 0x5e, 0x00,
@@ -946,7 +944,12 @@ mod tests {
       0x00, 0x01, 0x00, 0x00, 0x00, 0x07, 0x01, 0x1c, 0x00, 0x00, 0x00, 0x03, 0xc7, 0x00, 0x00,
       0x03, 0xc2, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01,
       0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00,
-    ]);
+    ];
+
+  #[test]
+  fn write_to_vec_fast_matches_generic() {
+    // Capture containing INFO_DST, INFO_TS, DATA(w) (with payload) and HEARTBEAT.
+    let bits = Bytes::from_static(CAPTURE_DST_TS_DATA_HB);
 
     let msg = Message::read_from_buffer(&bits).unwrap();
 
@@ -975,6 +978,37 @@ mod tests {
       .unwrap();
     let fast_multi = multi.write_to_vec_fast(Endianness::LittleEndian).unwrap();
     assert_eq!(generic_multi, fast_multi);
+  }
+
+  /// RADAR patch 64: the security plugins' serializer of one submessage (and of a run of them into one
+  /// buffer) writes the same bytes as the generic path, for the captured INFO_DST, INFO_TS, DATA and
+  /// HEARTBEAT and for a big-endian security submessage.
+  #[cfg(feature = "security")]
+  #[test]
+  fn a_submessage_serialized_in_one_pass_has_the_generic_bytes() {
+    use crate::messages::submessages::{
+      elements::crypto_content::CryptoContent, secure_body::SecureBody,
+    };
+    let msg = Message::read_from_buffer(&Bytes::from_static(CAPTURE_DST_TS_DATA_HB)).unwrap();
+    let mut subs = msg.submessages;
+    subs.push(
+      SecureBody {
+        crypto_content: CryptoContent {
+          data: (0..37).collect(),
+        },
+      }
+      .create_submessage(Endianness::BigEndian)
+      .unwrap(),
+    );
+    assert!(subs.len() >= 4, "the capture's submessages and the secure body");
+    let mut run = Vec::new();
+    for sub in &subs {
+      let generic = sub.write_to_vec().unwrap();
+      assert_eq!(sub.to_bytes_fast().unwrap(), generic);
+      sub.append_to(&mut run).unwrap();
+    }
+    let generic_run: Vec<u8> = subs.iter().flat_map(|s| s.write_to_vec().unwrap()).collect();
+    assert_eq!(run, generic_run);
   }
 
   #[test]

@@ -1,14 +1,12 @@
 use core::fmt;
-use std::{
-  collections::{HashMap, HashSet},
-  sync::{Arc, Mutex, MutexGuard},
-};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use bytes::Bytes;
 use log::{debug, error};
 
 use crate::{
   create_security_error_and_log,
+  security::{FastHashMap as HashMap, FastHashSet as HashSet},
   discovery::{DiscoveredReaderData, DiscoveredWriterData, TopicBuiltinTopicData},
   messages::submessages::{
     elements::{crypto_header::CryptoHeader, parameter_list::ParameterList},
@@ -65,17 +63,17 @@ impl SecurityPlugins {
       auth,
       access,
       crypto,
-      identity_handle_cache: HashMap::new(),
-      permissions_handle_cache: HashMap::new(),
-      handshake_handle_cache: HashMap::new(),
+      identity_handle_cache: HashMap::default(),
+      permissions_handle_cache: HashMap::default(),
+      handshake_handle_cache: HashMap::default(),
       local_participant_crypto_handle: None,
-      remote_participant_crypto_handle_cache: HashMap::new(),
-      local_endpoint_crypto_handle_cache: HashMap::new(),
-      remote_endpoint_crypto_handle_cache: HashMap::new(),
+      remote_participant_crypto_handle_cache: HashMap::default(),
+      local_endpoint_crypto_handle_cache: HashMap::default(),
+      remote_endpoint_crypto_handle_cache: HashMap::default(),
 
-      rtps_not_protected: HashSet::new(),
-      submessage_not_protected: HashSet::new(),
-      payload_not_protected: HashSet::new(),
+      rtps_not_protected: HashSet::default(),
+      submessage_not_protected: HashSet::default(),
+      payload_not_protected: HashSet::default(),
     }
   }
 

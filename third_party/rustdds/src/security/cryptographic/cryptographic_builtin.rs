@@ -8,7 +8,7 @@ mod key_material;
 pub(crate) mod types;
 mod validate_receiver_specific_macs;
 
-use std::collections::{HashMap, HashSet};
+use crate::security::{FastHashMap as HashMap, FastHashSet as HashSet};
 
 use crate::{
   create_security_error_and_log,
@@ -89,16 +89,16 @@ impl super::Cryptographic for CryptographicBuiltin {}
 impl CryptographicBuiltin {
   pub fn new() -> Self {
     CryptographicBuiltin {
-      common_encode_key_materials: HashMap::new(),
-      receiver_specific_encode_key_materials: HashMap::new(),
-      decode_key_materials: HashMap::new(),
-      participant_encrypt_options: HashMap::new(),
-      endpoint_encrypt_options: HashMap::new(),
-      participant_to_endpoint_info: HashMap::new(),
-      endpoint_to_participant: HashMap::new(),
-      used_local_key_ids: HashSet::from([CryptoTransformKeyId::ZERO]),
-      matched_remote_endpoint: HashMap::new(),
-      matched_local_endpoint: HashMap::new(),
+      common_encode_key_materials: HashMap::default(),
+      receiver_specific_encode_key_materials: HashMap::default(),
+      decode_key_materials: HashMap::default(),
+      participant_encrypt_options: HashMap::default(),
+      endpoint_encrypt_options: HashMap::default(),
+      participant_to_endpoint_info: HashMap::default(),
+      endpoint_to_participant: HashMap::default(),
+      used_local_key_ids: HashSet::from_iter([CryptoTransformKeyId::ZERO]),
+      matched_remote_endpoint: HashMap::default(),
+      matched_local_endpoint: HashMap::default(),
       crypto_handle_counter: 0,
     }
   }
@@ -232,7 +232,7 @@ impl CryptographicBuiltin {
       None => {
         self
           .participant_to_endpoint_info
-          .insert(participant_crypto_handle, HashSet::from([endpoint_info]));
+          .insert(participant_crypto_handle, HashSet::from_iter([endpoint_info]));
       }
     };
   }
@@ -299,9 +299,9 @@ impl CryptographicBuiltin {
     master_key: &BuiltinKey,
     master_salt: &BuiltinKey,
     iv: BuiltinInitializationVector,
-  ) -> BuiltinKey {
+  ) -> SessionKey {
     if let BuiltinKey::None = master_key {
-      return BuiltinKey::None;
+      return SessionKey::none();
     }
     session_key_cache::get_or_derive(
       session_key_cache::Inputs::new(rec_spec, master_key, master_salt, iv.session_id()),
@@ -394,7 +394,8 @@ impl CryptographicBuiltin {
     );
 
     // Get the keys for computing receiver-specific MACs
-    let receiver_specific_keys = SecurityResult::<Vec<ReceiverSpecificKeyMaterial>>::from_iter(
+    let receiver_specific_keys =
+      SecurityResult::<Vec<ReceiverSpecificKeyMaterial<SessionKey>>>::from_iter(
       // Iterate over receiver handles
       receiving_remote_entity_crypto_handles
         .iter()
@@ -512,20 +513,20 @@ impl CryptographicBuiltin {
 struct EncodeSessionMaterials {
   key_id: CryptoTransformKeyId, // key identifier over the wire
   transformation_kind: BuiltinCryptoTransformationKind, // encrypt/sign/none
-  session_key: BuiltinKey,      // session-specific AES-GCM key
+  session_key: SessionKey,      // session-specific AES-GCM key
   initialization_vector: BuiltinInitializationVector, /* AES-GCM also needs init vector (shared,
                                  * but not secret) */
   // there may be several receivers
-  receiver_specific_keys: Vec<ReceiverSpecificKeyMaterial>,
+  receiver_specific_keys: Vec<ReceiverSpecificKeyMaterial<SessionKey>>,
 }
 
 struct DecodeSessionMaterials {
   key_id: CryptoTransformKeyId, // key identifier over the wire
   transformation_kind: BuiltinCryptoTransformationKind, // encrypt/sign/none
-  session_key: BuiltinKey,      // session-specific AES-GCM key
+  session_key: SessionKey,      // session-specific AES-GCM key
   // initialization vector is not returned, because it is received from sender, so caller already
   // knows it
-  receiver_specific_key: Option<ReceiverSpecificKeyMaterial>,
+  receiver_specific_key: Option<ReceiverSpecificKeyMaterial<SessionKey>>,
   // Either we have receiver specific key material specific to us or not.
 }
 
@@ -538,7 +539,7 @@ mod session_key_cache {
     sync::{Mutex, OnceLock},
   };
 
-  use super::{BuiltinKey, ReceiverSpecific};
+  use super::{BuiltinKey, ReceiverSpecific, SessionKey};
   use crate::security::cryptographic::cryptographic_builtin::types::SessionId;
 
   pub(super) const LIMIT: usize = 4096;
@@ -567,17 +568,20 @@ mod session_key_cache {
     }
   }
 
-  fn cache() -> &'static Mutex<HashMap<Inputs, BuiltinKey>> {
-    static CACHE: OnceLock<Mutex<HashMap<Inputs, BuiltinKey>>> = OnceLock::new();
+  type Cache = HashMap<Inputs, SessionKey, foldhash::fast::RandomState>;
+
+  fn cache() -> &'static Mutex<Cache> {
+    static CACHE: OnceLock<Mutex<Cache>> = OnceLock::new();
     CACHE.get_or_init(Default::default)
   }
 
-  /// The key derived from `inputs`: kept, or derived by `derive` and kept.
-  pub(super) fn get_or_derive(inputs: Inputs, derive: impl FnOnce() -> BuiltinKey) -> BuiltinKey {
+  /// The key derived from `inputs`: kept, or derived by `derive`, set up for AES-GCM (RADAR patch 64) and
+  /// kept.
+  pub(super) fn get_or_derive(inputs: Inputs, derive: impl FnOnce() -> BuiltinKey) -> SessionKey {
     if let Some(k) = cache().lock().unwrap().get(&inputs) {
       return k.clone();
     }
-    let k = derive();
+    let k = SessionKey::new(derive());
     let mut c = cache().lock().unwrap();
     if c.len() >= LIMIT {
       c.clear();
@@ -622,9 +626,13 @@ mod session_key_cache_tests {
             let iv = BuiltinInitializationVector::new(SessionId::new(sid), [seed; 8]);
             let derived = CryptographicBuiltin::derive_session_key(rec, &k, &salt, iv);
             for _ in 0..2 {
+              let kept = CryptographicBuiltin::compute_session_key(rec, &k, &salt, iv);
+              assert_eq!(kept.key(), &derived);
+              // RADAR patch 64: the kept AES-GCM key is the derived key's
+              let (ct, mac) = super::aes_gcm_gmac::encrypt(&kept, iv, b"radar").unwrap();
               assert_eq!(
-                CryptographicBuiltin::compute_session_key(rec, &k, &salt, iv),
-                derived
+                super::aes_gcm_gmac::decrypt(&derived, iv, &ct, mac).unwrap(),
+                b"radar"
               );
             }
             seen.insert(derived.as_bytes().to_vec());
@@ -639,8 +647,9 @@ mod session_key_cache_tests {
         &BuiltinKey::None,
         &key(1, false),
         BuiltinInitializationVector::new(SessionId::new([1, 3, 3, 7]), [0; 8])
-      ),
-      BuiltinKey::None
+      )
+      .key(),
+      &BuiltinKey::None
     );
     for seed in 0..=(super::session_key_cache::LIMIT / 200) as u32 {
       for n in 0..200u32 {

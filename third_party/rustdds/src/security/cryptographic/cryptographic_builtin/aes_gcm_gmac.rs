@@ -1,4 +1,6 @@
-use ring::{aead::*, error::Unspecified};
+use std::borrow::Cow;
+
+use ring::aead::*;
 
 use crate::{
   create_security_error_and_log,
@@ -9,47 +11,49 @@ use super::{
   types::{BuiltinInitializationVector, BuiltinMAC, MAC_LENGTH},
 };
 
-// By design of Secure RTPS, there is a unique Initialization Vector
-// for each submessage, and we only encrypt once (one submessage) with that,
-// so we can construct a trivial sequence of just one element.
-
-struct TrivialNonceSequence {
-  iv: BuiltinInitializationVector,
-  used: bool, // The purpose of this is to panic on misuse.
-}
-
-impl TrivialNonceSequence {
-  fn new(iv: BuiltinInitializationVector) -> Self {
-    TrivialNonceSequence { iv, used: false }
-  }
-}
-
-impl NonceSequence for TrivialNonceSequence {
-  fn advance(&mut self) -> Result<Nonce, Unspecified> {
-    if self.used {
-      Err(Unspecified) // you had one nonce
-    } else {
-      self.used = true;
-      Ok(Nonce::assume_unique_for_key(self.iv.into()))
-    }
-  }
-}
-
 // Generate a key of the given length
 pub(super) fn keygen(key_length: KeyLength) -> BuiltinKey {
   BuiltinKey::generate_random(key_length)
 }
 
-#[allow(non_snake_case)]
-fn to_unbound_AES_GCM_key(key: &BuiltinKey) -> SecurityResult<UnboundKey> {
-  match key {
-    BuiltinKey::None => Err(create_security_error_and_log!(
-      "Attempted to call a cryptographic function with an empty key."
-    )),
-    // unwraps should be safe, because builtin key lengths always match expected length
-    BuiltinKey::AES128(key) => Ok(UnboundKey::new(&AES_128_GCM, key).unwrap()),
-    BuiltinKey::AES256(key) => Ok(UnboundKey::new(&AES_256_GCM, key).unwrap()),
+/// A key the AES-GCM operations below can use: a [`SessionKey`], set up once (RADAR patch 64), or a
+/// [`BuiltinKey`], set up for the one operation.
+///
+/// By design of Secure RTPS, there is a unique initialization vector for each submessage, and each key is
+/// used once with it, so the nonce is the initialization vector itself.
+pub(super) trait AeadKey {
+  fn aead(&self) -> SecurityResult<Cow<'_, LessSafeKey>>;
+}
+
+fn empty_key_error() -> SecurityError {
+  create_security_error_and_log!("Attempted to call a cryptographic function with an empty key.")
+}
+
+impl AeadKey for BuiltinKey {
+  fn aead(&self) -> SecurityResult<Cow<'_, LessSafeKey>> {
+    // unwraps are safe, because builtin key lengths always match the expected length
+    match self {
+      BuiltinKey::None => Err(empty_key_error()),
+      BuiltinKey::AES128(key) => Ok(Cow::Owned(LessSafeKey::new(
+        UnboundKey::new(&AES_128_GCM, key).unwrap(),
+      ))),
+      BuiltinKey::AES256(key) => Ok(Cow::Owned(LessSafeKey::new(
+        UnboundKey::new(&AES_256_GCM, key).unwrap(),
+      ))),
+    }
   }
+}
+
+impl AeadKey for SessionKey {
+  fn aead(&self) -> SecurityResult<Cow<'_, LessSafeKey>> {
+    SessionKey::aead(self)
+      .map(Cow::Borrowed)
+      .ok_or_else(empty_key_error)
+  }
+}
+
+fn nonce(iv: BuiltinInitializationVector) -> Nonce {
+  Nonce::assume_unique_for_key(iv.into())
 }
 
 fn to_builtin_mac(tag: &Tag) -> BuiltinMAC {
@@ -67,7 +71,7 @@ fn to_builtin_mac(tag: &Tag) -> BuiltinMAC {
 
 // Computes the message authentication code (MAC) for the given data
 pub(super) fn compute_mac(
-  key: &BuiltinKey,
+  key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
   data: &[u8],
 ) -> SecurityResult<BuiltinMAC> {
@@ -79,19 +83,17 @@ pub(super) fn compute_mac(
   //
   //T = AES-GMAC(K, AAD, IV) = AES-GCM(K, “”, AAD, IV)
 
-  let mut sealing_key = SealingKey::new(
-    to_unbound_AES_GCM_key(key)?,
-    TrivialNonceSequence::new(initialization_vector),
-  );
-
-  let tag = sealing_key.seal_in_place_separate_tag(Aad::from(data), &mut [])?;
+  let tag =
+    key
+      .aead()?
+      .seal_in_place_separate_tag(nonce(initialization_vector), Aad::from(data), &mut [])?;
 
   Ok(to_builtin_mac(&tag))
 }
 
 // Authenticated encryption: computes the ciphertext and and a MAC for it
 pub(super) fn encrypt(
-  key: &BuiltinKey,
+  key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
   plaintext: &[u8],
 ) -> SecurityResult<(Vec<u8>, BuiltinMAC)> {
@@ -99,19 +101,18 @@ pub(super) fn encrypt(
   // ring encrypts + tags (signs) in place, so we must create a buffer for that.
   let mut in_out_data = Vec::from(plaintext);
 
-  let mut sealing_key = SealingKey::new(
-    to_unbound_AES_GCM_key(key)?,
-    TrivialNonceSequence::new(initialization_vector),
-  );
-
-  let tag = sealing_key.seal_in_place_separate_tag(Aad::empty(), &mut in_out_data)?;
+  let tag = key.aead()?.seal_in_place_separate_tag(
+    nonce(initialization_vector),
+    Aad::empty(),
+    &mut in_out_data,
+  )?;
 
   Ok((in_out_data, to_builtin_mac(&tag)))
 }
 
 // Validates the MAC
 pub(super) fn validate_mac(
-  key: &BuiltinKey,
+  key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
   data: &[u8],
   mac: BuiltinMAC,
@@ -119,20 +120,18 @@ pub(super) fn validate_mac(
   let mut in_out = Vec::with_capacity(MAC_LENGTH);
   in_out.extend_from_slice(&mac);
 
-  let mut opening_key = OpeningKey::new(
-    to_unbound_AES_GCM_key(key)?,
-    TrivialNonceSequence::new(initialization_vector),
-  );
-
   // This will return `Err(..)` if verification fails
-  let _plaintext = opening_key.open_in_place(Aad::from(data), &mut in_out)?;
+  let _plaintext =
+    key
+      .aead()?
+      .open_in_place(nonce(initialization_vector), Aad::from(data), &mut in_out)?;
   // If we get here, the mac ("tag") was valid.
   Ok(())
 }
 
 // Authenticated decryption: validates the MAC and decrypts the ciphertext
 pub(super) fn decrypt(
-  key: &BuiltinKey,
+  key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
   ciphertext: &[u8],
   mac: BuiltinMAC,
@@ -142,13 +141,11 @@ pub(super) fn decrypt(
   in_out.extend_from_slice(ciphertext.as_ref());
   in_out.extend_from_slice(mac.as_ref());
 
-  let mut opening_key = OpeningKey::new(
-    to_unbound_AES_GCM_key(key)?,
-    TrivialNonceSequence::new(initialization_vector),
-  );
-
   // This will return `Err(..)` if verification fails
-  let plaintext = opening_key.open_in_place(Aad::empty(), &mut in_out)?;
+  let plaintext =
+    key
+      .aead()?
+      .open_in_place(nonce(initialization_vector), Aad::empty(), &mut in_out)?;
   // If we get here, the mac ("tag") was valid.
   // and `plaintext` is actually a slice of `in_out`
   let plain_len = plaintext.len();

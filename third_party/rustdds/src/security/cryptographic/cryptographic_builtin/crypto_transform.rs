@@ -40,7 +40,7 @@ impl CryptographicBuiltin {
     // Serialize plaintext
     // TODO: Do we respect RTPS endianness here? I.e. used and flagged encodings
     // match?
-    let plaintext = plain_rtps_submessage.write_to_vec().map_err(|err| {
+    let plaintext = plain_rtps_submessage.to_bytes_fast().map_err(|err| {
       create_security_error_and_log!("Error converting Submessage to byte vector: {}", err)
     })?;
 
@@ -221,19 +221,18 @@ impl CryptoTransform for CryptographicBuiltin {
     // Add info_source in front of the other submessages
     let submessages_with_info_source = [vec![info_source], submessages].concat();
 
-    // Serialize plaintext
-    let plaintext = SecurityResult::<Vec<Vec<u8>>>::from_iter(
+    // Serialize plaintext: the submessages one after another, in one buffer (RADAR patch 64)
+    let mut plaintext = Vec::with_capacity(
       submessages_with_info_source
-        // Serialize submessages
         .iter()
-        .map(|submessage| {
-          submessage.write_to_vec().map_err(|err| {
-            create_security_error_and_log!("Error converting Submessage to byte vector: {}", err)
-          })
-        }),
-    )? // Deal with errors
-    // Combine the serialized submessages
-    .concat();
+        .map(|s| 4 + s.header.content_length as usize)
+        .sum(),
+    );
+    for submessage in &submessages_with_info_source {
+      submessage.append_to(&mut plaintext).map_err(|err| {
+        create_security_error_and_log!("Error converting Submessage to byte vector: {}", err)
+      })?;
+    }
 
     // Get the key material for encoding
     let EncodeSessionMaterials {

@@ -12,7 +12,7 @@ use super::{
 
 fn compute_receiver_specific_macs(
   initialization_vector: BuiltinInitializationVector,
-  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial],
+  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial<SessionKey>],
   common_mac: BuiltinMAC,
 ) -> SecurityResult<BuiltinCryptoFooter> {
   // Iterate over receiver_specific_keys to compute receiver_specific_macs
@@ -37,10 +37,10 @@ fn compute_receiver_specific_macs(
 }
 
 pub(super) fn encode_gmac(
-  key: &BuiltinKey,
+  key: &SessionKey,
   initialization_vector: BuiltinInitializationVector,
   data: &[u8],
-  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial],
+  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial<SessionKey>],
 ) -> SecurityResult<BuiltinCryptoFooter> {
   // Compute the common_mac
   compute_mac(key, initialization_vector, data)
@@ -55,10 +55,10 @@ pub(super) fn encode_gmac(
 }
 
 pub(super) fn encode_gcm(
-  key: &BuiltinKey,
+  key: &SessionKey,
   initialization_vector: BuiltinInitializationVector,
   data: &[u8],
-  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial],
+  receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial<SessionKey>],
 ) -> SecurityResult<(Submessage, BuiltinCryptoFooter)> {
   // Compute the common_mac
   encrypt(key, initialization_vector, data).and_then(|(ciphertext, common_mac)| {

@@ -263,10 +263,11 @@ impl KeyMaterial_AES_GCM_GMAC {
   }
 }
 
+/// A receiver-specific key with its id: a master key, or (RADAR patch 64) the session key derived from one.
 #[derive(Debug)]
-pub(super) struct ReceiverSpecificKeyMaterial {
+pub(super) struct ReceiverSpecificKeyMaterial<K = BuiltinKey> {
   pub key_id: CryptoTransformKeyId,
-  pub key: BuiltinKey,
+  pub key: K,
 }
 
 #[derive(Debug, Clone, Copy, Eq, PartialEq)]
