@@ -14,7 +14,6 @@ use crate::{
     protocol_version::ProtocolVersion,
     submessages::{
       elements::{parameter::Parameter, parameter_list::ParameterList},
-      submessage_flag::endianness_flag,
       submessages::*,
     },
     validity_trait::Validity,
@@ -77,12 +76,8 @@ impl Message {
     let mut buf = Vec::with_capacity(total);
     self.header.write_to_stream_with_ctx(endianness, &mut buf)?;
     for sm in &self.submessages {
-      // Mirror the generic Submessage::write_to exactly: the submessage header
-      // is written in the message endianness, the body in its own endianness.
-      sm.header.write_to_stream_with_ctx(endianness, &mut buf)?;
-      let body_endianness = endianness_flag(sm.header.flags);
-      sm.body
-        .write_to_stream_with_ctx(body_endianness, &mut buf)?;
+      // as the generic Submessage::write_to: the header by its own flags, the body in their endianness
+      sm.append_to(&mut buf)?;
     }
     debug_assert_eq!(buf.len(), total);
     Ok(buf)
@@ -948,7 +943,6 @@ mod tests {
 
   #[test]
   fn write_to_vec_fast_matches_generic() {
-    // Capture containing INFO_DST, INFO_TS, DATA(w) (with payload) and HEARTBEAT.
     let bits = Bytes::from_static(CAPTURE_DST_TS_DATA_HB);
 
     let msg = Message::read_from_buffer(&bits).unwrap();

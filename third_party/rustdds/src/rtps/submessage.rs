@@ -322,8 +322,8 @@ impl Submessage {
   /// [`Writable`] path serializes the body into a throwaway `Vec` and splices it in, and speedy's
   /// `write_to_vec` runs that whole thing twice (a sizing pass first): four passes over the body, two
   /// allocations. The bytes are identical (the header writes itself by its own flags, the body in the
-  /// endianness they name). Used where the security plugins serialize submessages to protect them.
-  #[cfg(feature = "security")]
+  /// endianness they name). Used to write a datagram (`Message::write_to_vec_fast`) and where the security
+  /// plugins serialize submessages to protect them.
   pub(crate) fn append_to(&self, buf: &mut Vec<u8>) -> Result<(), speedy::Error> {
     self
       .header

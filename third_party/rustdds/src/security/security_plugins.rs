@@ -6,7 +6,6 @@ use log::{debug, error};
 
 use crate::{
   create_security_error_and_log,
-  security::{FastHashMap as HashMap, FastHashSet as HashSet},
   discovery::{DiscoveredReaderData, DiscoveredWriterData, TopicBuiltinTopicData},
   messages::submessages::{
     elements::{crypto_header::CryptoHeader, parameter_list::ParameterList},
@@ -16,7 +15,9 @@ use crate::{
   },
   qos,
   rtps::{Message, Submessage, SubmessageBody},
-  security::cryptographic::CryptoTransformIdentifier,
+  security::{
+    cryptographic::CryptoTransformIdentifier, FastHashMap as HashMap, FastHashSet as HashSet,
+  },
   structure::guid::{EntityId, GuidPrefix},
   QosPolicies, GUID,
 };

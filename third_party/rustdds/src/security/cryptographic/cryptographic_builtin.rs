@@ -534,12 +534,9 @@ struct DecodeSessionMaterials {
 /// [`session_key_cache::LIMIT`] keys (a process with more secured endpoints than that derives again, as
 /// before). A derived key is as secret as the master key it comes from, which the plugin keeps too.
 mod session_key_cache {
-  use std::{
-    collections::HashMap,
-    sync::{Mutex, OnceLock},
-  };
+  use std::sync::{Mutex, OnceLock};
 
-  use super::{BuiltinKey, ReceiverSpecific, SessionKey};
+  use super::{BuiltinKey, HashMap, ReceiverSpecific, SessionKey};
   use crate::security::cryptographic::cryptographic_builtin::types::SessionId;
 
   pub(super) const LIMIT: usize = 4096;
@@ -568,7 +565,7 @@ mod session_key_cache {
     }
   }
 
-  type Cache = HashMap<Inputs, SessionKey, foldhash::fast::RandomState>;
+  type Cache = HashMap<Inputs, SessionKey>;
 
   fn cache() -> &'static Mutex<Cache> {
     static CACHE: OnceLock<Mutex<Cache>> = OnceLock::new();

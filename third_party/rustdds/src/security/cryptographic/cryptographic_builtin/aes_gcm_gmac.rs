@@ -31,16 +31,10 @@ fn empty_key_error() -> SecurityError {
 
 impl AeadKey for BuiltinKey {
   fn aead(&self) -> SecurityResult<Cow<'_, LessSafeKey>> {
-    // unwraps are safe, because builtin key lengths always match the expected length
-    match self {
-      BuiltinKey::None => Err(empty_key_error()),
-      BuiltinKey::AES128(key) => Ok(Cow::Owned(LessSafeKey::new(
-        UnboundKey::new(&AES_128_GCM, key).unwrap(),
-      ))),
-      BuiltinKey::AES256(key) => Ok(Cow::Owned(LessSafeKey::new(
-        UnboundKey::new(&AES_256_GCM, key).unwrap(),
-      ))),
-    }
+    self
+      .aes_gcm_key()
+      .map(Cow::Owned)
+      .ok_or_else(empty_key_error)
   }
 }
 

@@ -98,14 +98,21 @@ impl From<BuiltinCryptoTransformationKind> for KeyLength {
 #[derive(Clone)]
 pub(super) struct SessionKey(Arc<(BuiltinKey, Option<LessSafeKey>)>);
 
-impl SessionKey {
-  pub(super) fn new(key: BuiltinKey) -> Self {
+impl BuiltinKey {
+  /// This key set up for AES-GCM (ring's key schedule and GHASH table); `None` for an empty key.
+  pub(super) fn aes_gcm_key(&self) -> Option<LessSafeKey> {
     // unwraps are safe: builtin key lengths always match the algorithm's
-    let aead = match &key {
+    match self {
       BuiltinKey::None => None,
       BuiltinKey::AES128(k) => Some(LessSafeKey::new(UnboundKey::new(&AES_128_GCM, k).unwrap())),
       BuiltinKey::AES256(k) => Some(LessSafeKey::new(UnboundKey::new(&AES_256_GCM, k).unwrap())),
-    };
+    }
+  }
+}
+
+impl SessionKey {
+  pub(super) fn new(key: BuiltinKey) -> Self {
+    let aead = key.aes_gcm_key();
     SessionKey(Arc::new((key, aead)))
   }
 
