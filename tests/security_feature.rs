@@ -96,6 +96,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "session_key_cache_tests",
         "secured_inline_send",
         "a_submessage_serialized_in_one_pass",
+        "decode_key_index_tests",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");

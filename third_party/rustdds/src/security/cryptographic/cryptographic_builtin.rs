@@ -56,6 +56,15 @@ pub struct CryptographicBuiltin {
   // For reverse lookups
   endpoint_to_participant: HashMap<EndpointCryptoHandle, ParticipantCryptoHandle>,
 
+  /// RADAR patch 65: the registered endpoints of each participant that have decode key materials, by the
+  /// key id of their submessage key (`KeyMaterialScope::MessageOrSubmessage`): what `decode_submessage`
+  /// found by trying every endpoint of the sending participant (a cost per submessage that grew with the
+  /// sender's endpoints). Kept by [`Self::reindex_decode_key`] wherever an endpoint's registration or decode
+  /// key materials change.
+  decode_key_index: HashMap<(ParticipantCryptoHandle, CryptoTransformKeyId), Vec<EndpointInfo>>,
+  /// Where each endpoint is in `decode_key_index`, to take it out again.
+  decode_key_index_entry: HashMap<EndpointCryptoHandle, (ParticipantCryptoHandle, CryptoTransformKeyId)>,
+
   // For generating random key IDs without collisions
   used_local_key_ids: HashSet<CryptoTransformKeyId>,
 
@@ -96,6 +105,8 @@ impl CryptographicBuiltin {
       endpoint_encrypt_options: HashMap::default(),
       participant_to_endpoint_info: HashMap::default(),
       endpoint_to_participant: HashMap::default(),
+      decode_key_index: HashMap::default(),
+      decode_key_index_entry: HashMap::default(),
       used_local_key_ids: HashSet::from_iter([CryptoTransformKeyId::ZERO]),
       matched_remote_endpoint: HashMap::default(),
       matched_local_endpoint: HashMap::default(),
@@ -184,7 +195,10 @@ impl CryptographicBuiltin {
       .decode_key_materials
       .insert(remote_entity_crypto_handle, key_materials)
     {
-      None => SecurityResult::Ok(()),
+      None => {
+        self.reindex_decode_key(remote_entity_crypto_handle);
+        SecurityResult::Ok(())
+      }
       Some(old_key_materials) => {
         self
           .decode_key_materials
@@ -235,6 +249,66 @@ impl CryptographicBuiltin {
           .insert(participant_crypto_handle, HashSet::from_iter([endpoint_info]));
       }
     };
+    self.reindex_decode_key(endpoint_info.crypto_handle);
+  }
+
+  /// Puts an endpoint where it now belongs in `decode_key_index` (RADAR patch 65): under (its participant, the
+  /// key id of its submessage decode key) if it is registered in its participant's endpoint set and has decode
+  /// key materials, nowhere otherwise. Called after every change to either.
+  fn reindex_decode_key(&mut self, endpoint_crypto_handle: EndpointCryptoHandle) {
+    if let Some(old) = self.decode_key_index_entry.remove(&endpoint_crypto_handle) {
+      if let Some(endpoints) = self.decode_key_index.get_mut(&old) {
+        endpoints.retain(|e| e.crypto_handle != endpoint_crypto_handle);
+        if endpoints.is_empty() {
+          self.decode_key_index.remove(&old);
+        }
+      }
+    }
+    let Some(&participant) = self.endpoint_to_participant.get(&endpoint_crypto_handle) else {
+      return;
+    };
+    let Some(registered) = self.participant_to_endpoint_info.get(&participant) else {
+      return;
+    };
+    let Some(endpoint_info) = [EndpointKind::DataWriter, EndpointKind::DataReader]
+      .into_iter()
+      .map(|kind| EndpointInfo {
+        crypto_handle: endpoint_crypto_handle,
+        kind,
+      })
+      .find(|info| registered.contains(info))
+    else {
+      return;
+    };
+    let Some(key_materials) = self.decode_key_materials.get(&endpoint_crypto_handle) else {
+      return;
+    };
+    let key = (
+      participant,
+      key_materials
+        .select(KeyMaterialScope::MessageOrSubmessage)
+        .sender_key_id,
+    );
+    self
+      .decode_key_index
+      .entry(key)
+      .or_default()
+      .push(endpoint_info);
+    self
+      .decode_key_index_entry
+      .insert(endpoint_crypto_handle, key);
+  }
+
+  /// The endpoints of a participant whose submessage decode key has this key id (RADAR patch 65).
+  fn endpoints_with_decode_key(
+    &self,
+    participant_crypto_handle: ParticipantCryptoHandle,
+    key_id: CryptoTransformKeyId,
+  ) -> &[EndpointInfo] {
+    self
+      .decode_key_index
+      .get(&(participant_crypto_handle, key_id))
+      .map_or(&[], Vec::as_slice)
   }
 
   fn insert_participant_attributes(
@@ -469,25 +543,46 @@ impl CryptographicBuiltin {
     key_material_scope: KeyMaterialScope,
     initialization_vector: BuiltinInitializationVector, // as received in header
   ) -> Option<DecodeSessionMaterials> {
-    let KeyMaterial_AES_GCM_GMAC {
+    let key_material =
+      self.get_decode_key_material(remote_sender_handle, header_key_id, key_material_scope)?;
+    Some(Self::session_decode_materials(
+      key_material,
+      initialization_vector,
+      None,
+      true,
+    ))
+  }
+
+  /// The session's decode materials from a key material. `session_key`, when given, is the session key of
+  /// this same master key and salt for this initialization vector, derived already for another endpoint
+  /// under the same key id (RADAR patch 65): the session-key cache is not asked again. A receiver-specific
+  /// key is the endpoint's own: derived when `with_receiver_specific`, left out otherwise (the caller found
+  /// no receiver-specific MAC for it in the footer, so there is nothing it could validate).
+  fn session_decode_materials(
+    KeyMaterial_AES_GCM_GMAC {
       transformation_kind,
       master_salt,
       sender_key_id,
       master_sender_key,
       receiver_specific_key_id,
       master_receiver_specific_key,
-    } = self.get_decode_key_material(remote_sender_handle, header_key_id, key_material_scope)?;
-
+    }: &KeyMaterial_AES_GCM_GMAC,
+    initialization_vector: BuiltinInitializationVector,
+    session_key: Option<SessionKey>,
+    with_receiver_specific: bool,
+  ) -> DecodeSessionMaterials {
     let transformation_kind = *transformation_kind;
-    let session_key = Self::compute_session_key(
-      ReceiverSpecific::No,
-      master_sender_key,
-      master_salt,
-      initialization_vector,
-    );
+    let session_key = session_key.unwrap_or_else(|| {
+      Self::compute_session_key(
+        ReceiverSpecific::No,
+        master_sender_key,
+        master_salt,
+        initialization_vector,
+      )
+    });
 
-    let receiver_specific_key = if receiver_specific_key_id.is_zero() {
-      None // does not exist
+    let receiver_specific_key = if receiver_specific_key_id.is_zero() || !with_receiver_specific {
+      None // does not exist, or not asked for
     } else {
       let session_key = Self::compute_session_key(
         ReceiverSpecific::Yes,
@@ -501,12 +596,12 @@ impl CryptographicBuiltin {
       })
     };
 
-    Some(DecodeSessionMaterials {
+    DecodeSessionMaterials {
       key_id: *sender_key_id,
       transformation_kind,
       session_key,
       receiver_specific_key,
-    })
+    }
   }
 }
 

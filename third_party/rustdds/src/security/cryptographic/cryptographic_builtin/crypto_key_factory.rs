@@ -218,6 +218,7 @@ impl CryptographicBuiltin {
       {
         endpoint_info_set.remove(&endpoint_info);
       }
+      self.reindex_decode_key(endpoint_crypto_handle);
 
       // If the endpoint is remote remove the association to the corresponding local
       // endpoint

@@ -500,28 +500,57 @@ impl CryptoTransform for CryptographicBuiltin {
     // endpoints (none matched yet, or a peer that is leaving: its endpoints go before its participant does, and
     // its last submessages are still on their way) has no keys to decode with, as one whose endpoints were all
     // unregistered: not an error (RADAR patch 31).
-    let Some(sending_participant_endpoints) = self
+    if !self
       .participant_to_endpoint_info
-      .get(&sending_remote_participant_crypto_handle)
-    else {
+      .contains_key(&sending_remote_participant_crypto_handle)
+    {
       debug!(
         "No registered entities for the sending remote participant {}: no keys for the submessage",
         sending_remote_participant_crypto_handle
       );
       return Ok(DecodeOutcome::KeysNotFound(header_key_id));
-    };
+    }
 
-    let matching_decode_materials = sending_participant_endpoints
+    // Only those whose key has the header's key id, by the index (RADAR patch 65): trying every endpoint of the
+    // sender cost a lookup per endpoint per submessage
+    // Several endpoints under one key id are one remote endpoint matched with several local ones (a remote reader
+    // has a handle per local writer it matched, patch 27): one master key, so one session key, derived for the
+    // first and shared by those with the same master key and salt (patch 65)
+    let mut first_derived: Option<(&KeyMaterial_AES_GCM_GMAC, SessionKey)> = None;
+    let matching_decode_materials = self
+      .endpoints_with_decode_key(sending_remote_participant_crypto_handle, header_key_id)
       .iter()
       .filter_map(|sending_endpoint_info| {
-        self
-          .get_session_decode_crypto_materials(
-            sending_endpoint_info.crypto_handle,
-            header_key_id,
-            KeyMaterialScope::MessageOrSubmessage,
-            initialization_vector,
-          )
-          .map(|decode_materials| (decode_materials, sending_endpoint_info))
+        let key_material = self.get_decode_key_material(
+          sending_endpoint_info.crypto_handle,
+          header_key_id,
+          KeyMaterialScope::MessageOrSubmessage,
+        )?;
+        let shared = first_derived
+          .as_ref()
+          .filter(|(first, _)| {
+            first.master_sender_key == key_material.master_sender_key
+              && first.master_salt == key_material.master_salt
+              && first.transformation_kind == key_material.transformation_kind
+          })
+          .map(|(_, session_key)| session_key.clone());
+        // With origin authentication, only an endpoint whose receiver-specific key id the footer carries a MAC for
+        // can pass the receiver-specific check: the others' receiver-specific keys are not derived (one remote
+        // reader matched with many local writers sends each ACKNACK to one of them)
+        let addressed = key_material.receiver_specific_key_id.is_zero()
+          || receiver_specific_macs
+            .iter()
+            .any(|m| m.receiver_mac_key_id == key_material.receiver_specific_key_id);
+        let decode_materials = Self::session_decode_materials(
+          key_material,
+          initialization_vector,
+          shared,
+          addressed,
+        );
+        if first_derived.is_none() {
+          first_derived = Some((key_material, decode_materials.session_key.clone()));
+        }
+        Some((decode_materials, sending_endpoint_info, addressed))
       })
       .collect::<Vec<_>>();
 
@@ -535,6 +564,7 @@ impl CryptoTransform for CryptographicBuiltin {
             session_key,
             ..
           },
+          _,
           _,
         )| {
           if transformation_kind.eq(&header_transformation_kind) {
@@ -581,7 +611,7 @@ impl CryptoTransform for CryptographicBuiltin {
 
         let sending_endpoint_infos = matching_decode_materials
           .iter()
-          .map(|(_, sending_endpoint_info)| sending_endpoint_info)
+          .map(|(_, sending_endpoint_info, _)| sending_endpoint_info)
           .collect::<Vec<_>>();
 
         (encoded_submessage.body, sending_endpoint_infos)
@@ -596,13 +626,14 @@ impl CryptoTransform for CryptographicBuiltin {
           // Check receiver-specific MACS and filter the list of endpoints by them
           let sending_endpoint_infos = matching_decode_materials
             .iter()
-            .filter_map(|(decode_materials, sending_endpoint_info)| {
-              validate_receiver_specific_mac(
-                decode_materials,
-                &initialization_vector,
-                &common_mac,
-                &receiver_specific_macs,
-              )
+            .filter_map(|(decode_materials, sending_endpoint_info, addressed)| {
+              (*addressed
+                && validate_receiver_specific_mac(
+                  decode_materials,
+                  &initialization_vector,
+                  &common_mac,
+                  &receiver_specific_macs,
+                ))
               .then_some(sending_endpoint_info)
             })
             .collect::<Vec<_>>();
@@ -633,13 +664,14 @@ impl CryptoTransform for CryptographicBuiltin {
           // Check receiver-specific MACS and filter the list of endpoints by them
           let sending_endpoint_infos = matching_decode_materials
             .iter()
-            .filter_map(|(decode_materials, sending_endpoint_info)| {
-              validate_receiver_specific_mac(
-                decode_materials,
-                &initialization_vector,
-                &common_mac,
-                &receiver_specific_macs,
-              )
+            .filter_map(|(decode_materials, sending_endpoint_info, addressed)| {
+              (*addressed
+                && validate_receiver_specific_mac(
+                  decode_materials,
+                  &initialization_vector,
+                  &common_mac,
+                  &receiver_specific_macs,
+                ))
               .then_some(sending_endpoint_info)
             })
             .collect::<Vec<_>>();
@@ -1011,5 +1043,288 @@ mod unregistered_sender_tests {
       Ok(_) => panic!("decoded without keys"),
       Err(e) => panic!("an error for a sender without registered endpoints: {e:?}"),
     }
+  }
+}
+
+#[cfg(test)]
+mod decode_key_index_tests {
+  use std::collections::HashSet as StdHashSet;
+
+  use super::*;
+  use crate::{
+    messages::submessages::{
+      ack_nack::AckNack,
+      heartbeat::Heartbeat,
+      submessage_flag::{ACKNACK_Flags, HEARTBEAT_Flags},
+    },
+    security::{
+      access_control::{
+        access_control_builtin::types::BuiltinPluginEndpointSecurityAttributes,
+        ParticipantSecurityAttributes,
+      },
+      authentication::types::{Challenge, SharedSecret, SharedSecretHandle},
+    },
+    structure::{
+      guid::EntityId,
+      sequence_number::{SequenceNumber, SequenceNumberSet},
+    },
+  };
+
+  fn secret() -> SharedSecretHandle {
+    SharedSecretHandle {
+      shared_secret: SharedSecret::from([7; 32]),
+      challenge1: Challenge::from([1; 32]),
+      challenge2: Challenge::from([2; 32]),
+    }
+  }
+
+  /// Submessages encrypted, as radar_ros's governance asks (metadata_protection_kind ENCRYPT), or with origin
+  /// authentication too (ENCRYPT_WITH_ORIGIN_AUTHENTICATION: a receiver-specific MAC per addressed endpoint).
+  fn encrypted(origin_authenticated: bool) -> EndpointSecurityAttributes {
+    EndpointSecurityAttributes {
+      is_submessage_protected: true,
+      is_payload_protected: true,
+      plugin_endpoint_attributes: BuiltinPluginEndpointSecurityAttributes {
+        is_submessage_encrypted: true,
+        is_submessage_origin_authenticated: origin_authenticated,
+        is_payload_encrypted: true,
+      }
+      .into(),
+      ..EndpointSecurityAttributes::empty()
+    }
+  }
+
+  /// What `decode_submessage` searched before patch 65: every registered endpoint of every participant that
+  /// has decode key materials, with its participant and the key id of its submessage key. The oracle the
+  /// index must equal.
+  fn scanned(
+    c: &CryptographicBuiltin,
+  ) -> StdHashSet<(ParticipantCryptoHandle, CryptoTransformKeyId, EndpointInfo)> {
+    let mut all = StdHashSet::new();
+    for (participant, endpoints) in &c.participant_to_endpoint_info {
+      for info in endpoints {
+        if let Some(m) = c.decode_key_materials.get(&info.crypto_handle) {
+          let key_id = m.select(KeyMaterialScope::MessageOrSubmessage).sender_key_id;
+          all.insert((*participant, key_id, *info));
+        }
+      }
+    }
+    all
+  }
+
+  fn indexed(
+    c: &CryptographicBuiltin,
+  ) -> StdHashSet<(ParticipantCryptoHandle, CryptoTransformKeyId, EndpointInfo)> {
+    let mut all = StdHashSet::new();
+    for ((participant, key_id), endpoints) in &c.decode_key_index {
+      assert!(!endpoints.is_empty(), "an empty entry is left in the index");
+      for info in endpoints {
+        assert!(
+          all.insert((*participant, *key_id, *info)),
+          "{info:?} twice in the index"
+        );
+      }
+    }
+    assert_eq!(all.len(), c.decode_key_index_entry.len());
+    all
+  }
+
+  fn heartbeat(count: i32) -> Submessage {
+    Heartbeat {
+      reader_id: EntityId::UNKNOWN,
+      writer_id: EntityId::UNKNOWN,
+      first_sn: SequenceNumber::new(1),
+      last_sn: SequenceNumber::new(1),
+      count,
+    }
+    .create_submessage(BitFlags::from_flag(HEARTBEAT_Flags::Endianness))
+    .unwrap()
+  }
+
+  fn acknack(count: i32) -> Submessage {
+    AckNack {
+      reader_id: EntityId::UNKNOWN,
+      writer_id: EntityId::UNKNOWN,
+      reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(2)),
+      count,
+    }
+    .create_submessage(BitFlags::from_flag(ACKNACK_Flags::Endianness))
+  }
+
+  fn describe(o: &DecodeOutcome<DecodedSubmessage>) -> &'static str {
+    match o {
+      DecodeOutcome::Success(DecodedSubmessage::Writer(..)) => "a writer submessage",
+      DecodeOutcome::Success(DecodedSubmessage::Reader(..)) => "a reader submessage",
+      DecodeOutcome::Success(_) => "another submessage",
+      DecodeOutcome::KeysNotFound(_) => "no keys",
+      _ => "a failed MAC check",
+    }
+  }
+
+  fn as_received(encoded: EncodedSubmessage) -> (SecurePrefix, Submessage, SecurePostfix) {
+    let EncodedSubmessage::Encoded(prefix, body, postfix) = encoded else {
+      panic!("the submessage was not protected");
+    };
+    let SubmessageBody::Security(SecuritySubmessage::SecurePrefix(prefix, _)) = prefix.body else {
+      panic!("no SecurePrefix first");
+    };
+    let SubmessageBody::Security(SecuritySubmessage::SecurePostfix(postfix, _)) = postfix.body else {
+      panic!("no SecurePostfix last");
+    };
+    (prefix, body, postfix)
+  }
+
+  /// A sending participant `a` with many writers, a receiving `b` whose readers match them (two readers of `b`
+  /// both match writer 0, so one key id stands for two of `b`'s remote writers). Through registration, key
+  /// exchange and unregistration the index holds exactly what a scan of all endpoints finds, and a submessage
+  /// of each writer decodes for exactly the readers matched with it, or finds no keys once they are gone.
+  #[test]
+  fn the_decode_key_index_equals_a_scan_and_decodes_for_the_matched_readers() {
+    decodes_for_the_matched_endpoints(false);
+  }
+
+  /// The same with origin authentication: a reader's submessage addressed to one of the writers it matched is
+  /// for that writer only (the others' receiver-specific keys are not derived, patch 65, and they do not pass).
+  #[test]
+  fn with_origin_authentication_a_submessage_is_for_the_endpoints_it_is_addressed_to() {
+    decodes_for_the_matched_endpoints(true);
+  }
+
+  fn decodes_for_the_matched_endpoints(origin_authenticated: bool) {
+    const WRITERS: usize = 12;
+    let encrypted = || encrypted(origin_authenticated);
+    let (mut a, mut b) = (CryptographicBuiltin::new(), CryptographicBuiltin::new());
+    let pa = a
+      .register_local_participant(1, 1, &[], ParticipantSecurityAttributes::empty())
+      .unwrap();
+    let pb = b
+      .register_local_participant(2, 2, &[], ParticipantSecurityAttributes::empty())
+      .unwrap();
+    let pb_in_a = a
+      .register_matched_remote_participant(pa, 2, 2, secret())
+      .unwrap();
+    let pa_in_b = b
+      .register_matched_remote_participant(pb, 1, 1, secret())
+      .unwrap();
+    let readers = [
+      b.register_local_datareader(pb, &[], encrypted()).unwrap(),
+      b.register_local_datareader(pb, &[], encrypted()).unwrap(),
+    ];
+    assert_eq!(indexed(&b), scanned(&b));
+
+    // writer i: its handle in a, the reader handles a has for it, and its handles in b (one per matched reader)
+    let mut writers = Vec::new();
+    for i in 0..WRITERS {
+      let w = a.register_local_datawriter(pa, &[], encrypted()).unwrap();
+      let matched: &[_] = if i == 0 { &readers } else { &readers[..1] };
+      let (mut readers_in_a, mut in_b) = (Vec::new(), Vec::new());
+      for &reader in matched {
+        let r_in_a = a
+          .register_matched_remote_datareader(w, pb_in_a, secret(), false)
+          .unwrap();
+        let w_in_b = b
+          .register_matched_remote_datawriter(reader, pa_in_b, secret())
+          .unwrap();
+        assert_eq!(indexed(&b), scanned(&b), "writer {i} registered in b");
+        let tokens = a.create_local_datawriter_crypto_tokens(w, r_in_a).unwrap();
+        b.set_remote_datawriter_crypto_tokens(reader, w_in_b, tokens)
+          .unwrap();
+        assert_eq!(indexed(&b), scanned(&b), "writer {i}'s tokens set in b");
+        let tokens = b.create_local_datareader_crypto_tokens(reader, w_in_b).unwrap();
+        a.set_remote_datareader_crypto_tokens(w, r_in_a, tokens)
+          .unwrap();
+        assert_eq!(indexed(&a), scanned(&a), "writer {i}'s reader's tokens set in a");
+        readers_in_a.push(r_in_a);
+        in_b.push((w_in_b, reader));
+      }
+      writers.push((w, readers_in_a, in_b));
+    }
+    assert_eq!(scanned(&b).len(), WRITERS + 1);
+
+    let decode = |b: &CryptographicBuiltin, i: usize, count: i32| {
+      let (w, readers_in_a, _) = &writers[i];
+      let encoded = a
+        .encode_datawriter_submessage(heartbeat(count), *w, readers_in_a.clone())
+        .unwrap();
+      b.decode_submessage(as_received(encoded), pb, pa_in_b)
+        .unwrap()
+    };
+    for (i, (_, _, in_b)) in writers.iter().enumerate() {
+      match decode(&b, i, i as i32) {
+        DecodeOutcome::Success(DecodedSubmessage::Writer(_, mut got)) => {
+          let mut want: Vec<_> = in_b.iter().map(|(_, r)| *r).collect();
+          got.sort_unstable();
+          want.sort_unstable();
+          assert_eq!(got, want, "writer {i}'s submessage is for its matched readers");
+        }
+        other => panic!("writer {i}'s submessage did not decode: {}", describe(&other)),
+      }
+    }
+
+    // reader 0 is matched with every writer of a: a has a handle for it per writer, all under its one key id
+    // (so one session key, patch 65's shared derivation), and its submessage is for all of them
+    let reader_handles_in_b: Vec<_> = writers
+      .iter()
+      .flat_map(|(_, _, in_b)| in_b.iter())
+      .filter(|(_, reader)| *reader == readers[0])
+      .map(|(w_in_b, _)| *w_in_b)
+      .collect();
+    let encoded = b
+      .encode_datareader_submessage(acknack(1), readers[0], reader_handles_in_b)
+      .unwrap();
+    match a.decode_submessage(as_received(encoded), pa, pb_in_a).unwrap() {
+      DecodeOutcome::Success(DecodedSubmessage::Reader(_, mut got)) => {
+        let mut want: Vec<_> = writers.iter().map(|(w, _, _)| *w).collect();
+        got.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(got, want, "reader 0's submessage is for every writer matched with it");
+      }
+      other => panic!("reader 0's submessage did not decode: {}", describe(&other)),
+    }
+    // addressed to writer 3 alone (as an ACKNACK is): with origin authentication, for writer 3 only
+    let (w3_in_b, _) = writers[3].2[0];
+    let encoded = b
+      .encode_datareader_submessage(acknack(2), readers[0], vec![w3_in_b])
+      .unwrap();
+    match a.decode_submessage(as_received(encoded), pa, pb_in_a).unwrap() {
+      DecodeOutcome::Success(DecodedSubmessage::Reader(_, mut got)) => {
+        let mut want: Vec<_> = if origin_authenticated {
+          vec![writers[3].0]
+        } else {
+          writers.iter().map(|(w, _, _)| *w).collect()
+        };
+        got.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(got, want, "reader 0's submessage to writer 3");
+      }
+      other => panic!("reader 0's submessage to writer 3 did not decode: {}", describe(&other)),
+    }
+
+    // b forgets every other writer (and one of writer 0's two matches): their submessages find no keys
+    let mut gone = Vec::new();
+    for i in (0..WRITERS).step_by(2) {
+      let (w_in_b, _) = writers[i].2[writers[i].2.len() - 1];
+      b.unregister_datawriter(w_in_b).unwrap();
+      assert_eq!(indexed(&b), scanned(&b), "writer {i} unregistered in b");
+      if i != 0 {
+        gone.push(i);
+      }
+    }
+    for i in 0..WRITERS {
+      let outcome = decode(&b, i, 100 + i as i32);
+      match (gone.contains(&i), outcome) {
+        (true, DecodeOutcome::KeysNotFound(_)) => {}
+        (false, DecodeOutcome::Success(DecodedSubmessage::Writer(_, got))) => {
+          assert_eq!(got, vec![readers[0]], "writer {i}");
+        }
+        (g, other) => panic!("writer {i} (unregistered: {g}): {}", describe(&other)),
+      }
+    }
+
+    // b forgets a: nothing is left to decode with, and nothing in the index
+    b.unregister_participant(pa_in_b).unwrap();
+    assert_eq!(indexed(&b), scanned(&b));
+    assert!(b.decode_key_index.is_empty() && b.decode_key_index_entry.is_empty());
+    assert!(matches!(decode(&b, 1, 200), DecodeOutcome::KeysNotFound(_)));
   }
 }
