@@ -75,6 +75,11 @@ impl CryptoTransformKeyId {
     let random_array: [u8; 4] = rand::random();
     Self(random_array)
   }
+
+  /// The key id's four bytes, as on the wire.
+  pub fn as_bytes(&self) -> &[u8; 4] {
+    &self.0
+  }
 }
 
 impl From<[u8; 4]> for CryptoTransformKeyId {
