@@ -511,11 +511,11 @@ impl CryptoTransform for CryptographicBuiltin {
       return Ok(DecodeOutcome::KeysNotFound(header_key_id));
     }
 
-    // Only those whose key has the header's key id, by the index (RADAR patch 65): trying every endpoint of the
-    // sender cost a lookup per endpoint per submessage
-    // Several endpoints under one key id are one remote endpoint matched with several local ones (a remote reader
-    // has a handle per local writer it matched, patch 27): one master key, so one session key, derived for the
-    // first and shared by those with the same master key and salt (patch 65)
+    // The candidates are the sender's endpoints whose key has the header's key id, from the index (RADAR patch
+    // 65; trying every endpoint of the sender cost a lookup per endpoint per submessage). Several under one key
+    // id are one remote endpoint matched with several local ones (a remote reader has a handle per local writer
+    // it matched, patch 27): one master key, so one session key, derived for the first and shared by those with
+    // the same master key and salt.
     let mut first_derived: Option<(&KeyMaterial_AES_GCM_GMAC, SessionKey)> = None;
     let matching_decode_materials = self
       .endpoints_with_decode_key(sending_remote_participant_crypto_handle, header_key_id)
