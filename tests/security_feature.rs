@@ -99,6 +99,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         "decode_key_index_tests",
         "footer_tests",
         "a_footer_read_from_a_buffer",
+        "in_place_encoding_tests",
     ];
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");

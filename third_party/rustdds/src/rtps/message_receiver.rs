@@ -690,7 +690,7 @@ impl MessageReceiver {
         // Now expecting postfix, and only that.
         match submessage.body {
           SubmessageBody::Security(SecuritySubmessage::SecurePostfix(sec_postfix, _)) => {
-            self.handle_secure_submessage(&sec_prefix, &sec_submessage, &sec_postfix);
+            self.handle_secure_submessage(sec_prefix, sec_submessage, sec_postfix);
           }
           other => {
             warn!(
@@ -1038,9 +1038,9 @@ impl MessageReceiver {
   #[cfg(feature = "security")]
   fn handle_secure_submessage(
     &mut self,
-    sec_prefix: &SecurePrefix,
-    encoded_submessage: &Submessage,
-    sec_postfix: &SecurePostfix,
+    sec_prefix: SecurePrefix,
+    encoded_submessage: Submessage,
+    sec_postfix: SecurePostfix,
   ) {
     let security_plugins = self.security_plugins.clone();
     match security_plugins {
@@ -1051,12 +1051,10 @@ impl MessageReceiver {
         // Call 8.5.1.9.6 Operation: preprocess_secure_submsg to determine what
         // the submessage contains and then proceed to decode and process accordingly.
 
+        // The three parts are moved in, not cloned: nothing looks at them after they are decoded (RADAR
+        // patch 67)
         let decode_result = security_plugins_handle.get_plugins().decode_submessage(
-          (
-            sec_prefix.clone(),
-            encoded_submessage.clone(),
-            sec_postfix.clone(),
-          ),
+          (sec_prefix, encoded_submessage, sec_postfix),
           &self.source_guid_prefix,
         );
         match decode_result {

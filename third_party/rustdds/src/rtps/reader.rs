@@ -11,8 +11,6 @@ use mio1::Token;
 use log::{debug, error, info, trace, warn};
 use enumflags2::BitFlags;
 use speedy::Endianness;
-#[cfg(feature = "security")]
-use speedy::Writable;
 
 use crate::{
   dds::{
@@ -56,8 +54,6 @@ use crate::{
     time::Timestamp,
   },
 };
-#[cfg(feature = "security")]
-use super::Submessage;
 #[cfg(feature = "security")]
 use crate::security::{security_plugins::SecurityPluginsHandle, SecurityResult};
 #[cfg(not(feature = "security"))]
@@ -1438,7 +1434,8 @@ impl Reader {
   ) {
     match self.security_encode(message, destination_guid) {
       Ok(message) => {
-        let bytes = match message.write_to_vec_with_ctx(Endianness::LittleEndian) {
+        // the same bytes as write_to_vec_with_ctx, in one buffer sized up front (as the writer sends)
+        let bytes = match message.write_to_vec_fast(Endianness::LittleEndian) {
           Ok(b) => b,
           Err(e) => {
             error!("Failed to serialize RTPS message for send: {e:?}");
@@ -1469,31 +1466,24 @@ impl Reader {
         submessages,
       } = message;
 
-      // Encode submessages
-      SecurityResult::<Vec<Vec<Submessage>>>::from_iter(submessages.iter().map(|submessage| {
-        security_plugins_handle
-          .get_plugins()
-          .encode_datareader_submessage(submessage.clone(), &source_guid, &[destination_guid])
-          // Convert each encoding output to a Vec of 1 or 3 submessages
-          .map(Vec::from)
-      }))
-      // Flatten and convert back to Message
-      .map(|encoded_submessages| Message {
-        header,
-        submessages: encoded_submessages.concat(),
-      })
+      // Encode submessages, each to 1 or 3, into one Vec, under one hold of the plugins: the submessages are
+      // moved, not cloned, and not gathered in a Vec each first (RADAR patch 67)
+      let plugins = security_plugins_handle.get_plugins();
+      let mut encoded = Vec::with_capacity(submessages.len() * 3);
+      for submessage in submessages {
+        plugins
+          .encode_datareader_submessage(submessage, &source_guid, &[destination_guid])?
+          .append_to(&mut encoded);
+      }
       // Encode message
-      .and_then(|message| {
-        // Convert GUIDs to GuidPrefixes
-        let source_guid_prefix = source_guid.prefix;
-        let destination_guid_prefix = destination_guid.prefix;
-        // Encode message
-        security_plugins_handle.get_plugins().encode_message(
-          message,
-          &source_guid_prefix,
-          &[destination_guid_prefix],
-        )
-      })
+      plugins.encode_message(
+        Message {
+          header,
+          submessages: encoded,
+        },
+        &source_guid.prefix,
+        &[destination_guid.prefix],
+      )
     } else {
       Ok(message)
     }

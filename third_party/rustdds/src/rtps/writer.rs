@@ -2630,11 +2630,9 @@ fn security_encode_for(
   let mut encoded: Vec<Submessage> = Vec::with_capacity(submessages.len() * 3);
   for submessage in submessages {
     // each encodes to 1 or 3 submessages
-    encoded.extend(Vec::from(plugins.encode_datawriter_submessage(
-      submessage,
-      &source_guid,
-      destinations,
-    )?));
+    plugins
+      .encode_datawriter_submessage(submessage, &source_guid, destinations)?
+      .append_to(&mut encoded);
   }
   let destination_prefixes: Vec<GuidPrefix> = destinations.iter().map(|g| g.prefix).collect();
   plugins.encode_message(

@@ -23,13 +23,13 @@ pub struct SecurePostfix {
 impl SecurePostfix {
   pub fn create_submessage(self, endianness: speedy::Endianness) -> SecurityResult<Submessage> {
     let flags: BitFlags<SECUREPOSTFIX_Flags> = BitFlags::from_endianness(endianness);
-    self
-      .write_to_vec()
-      .map(|bytes| Submessage {
+    // The length the body writes, counted (RADAR patch 67): not the body written to a new Vec to be measured
+    <Self as Writable<speedy::Endianness>>::bytes_needed(&self)
+      .map(|length| Submessage {
         header: SubmessageHeader {
           kind: SubmessageKind::SEC_POSTFIX,
           flags: flags.bits(),
-          content_length: bytes.len() as u16,
+          content_length: length as u16,
         },
         body: SubmessageBody::Security(SecuritySubmessage::SecurePostfix(self, flags)),
         original_bytes: None,

@@ -24,13 +24,13 @@ pub struct SecurePrefix {
 impl SecurePrefix {
   pub fn create_submessage(self, endianness: speedy::Endianness) -> SecurityResult<Submessage> {
     let flags: BitFlags<SECUREPREFIX_Flags> = BitFlags::from_endianness(endianness);
-    self
-      .write_to_vec()
-      .map(|bytes| Submessage {
+    // The length the body writes, counted (RADAR patch 67): not the body written to a new Vec to be measured
+    <Self as Writable<speedy::Endianness>>::bytes_needed(&self)
+      .map(|length| Submessage {
         header: SubmessageHeader {
           kind: SubmessageKind::SEC_PREFIX,
           flags: flags.bits(),
-          content_length: bytes.len() as u16,
+          content_length: length as u16,
         },
         body: SubmessageBody::Security(SecuritySubmessage::SecurePrefix(self, flags)),
         original_bytes: None,

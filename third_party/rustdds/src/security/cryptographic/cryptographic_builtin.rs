@@ -361,7 +361,9 @@ impl CryptographicBuiltin {
   }
 
   fn random_initialization_vector(&self) -> BuiltinInitializationVector {
-    BuiltinInitializationVector::new(self.session_id(), rand::random())
+    // One 64-bit draw from the thread's CSPRNG for the 8-byte suffix: `rand::random::<[u8; 8]>()` draws a
+    // 32-bit word for each byte (RADAR patch 67); the same generator, the same uniform suffix
+    BuiltinInitializationVector::new(self.session_id(), rand::random::<u64>().to_le_bytes())
   }
 
   /// RADAR patch 55: the session key of `master_key`, `master_salt` and the IV's session id, derived once
@@ -721,9 +723,9 @@ mod session_key_cache_tests {
               let kept = CryptographicBuiltin::compute_session_key(rec, &k, &salt, iv);
               assert_eq!(kept.key(), &derived);
               // RADAR patch 64: the kept AES-GCM key is the derived key's
-              let (ct, mac) = super::aes_gcm_gmac::encrypt(&kept, iv, b"radar").unwrap();
+              let (ct, mac) = super::aes_gcm_gmac::encrypt(&kept, iv, b"radar".to_vec()).unwrap();
               assert_eq!(
-                super::aes_gcm_gmac::decrypt(&derived, iv, &ct, mac).unwrap(),
+                super::aes_gcm_gmac::decrypt(&derived, iv, ct, mac).unwrap(),
                 b"radar"
               );
             }

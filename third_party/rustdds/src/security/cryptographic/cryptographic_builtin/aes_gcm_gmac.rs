@@ -8,7 +8,7 @@ use crate::{
 };
 use super::{
   builtin_key::*,
-  types::{BuiltinInitializationVector, BuiltinMAC, MAC_LENGTH},
+  types::{BuiltinInitializationVector, BuiltinMAC},
 };
 
 // Generate a key of the given length
@@ -85,23 +85,30 @@ pub(super) fn compute_mac(
   Ok(to_builtin_mac(&tag))
 }
 
-// Authenticated encryption: computes the ciphertext and and a MAC for it
+// Authenticated encryption: computes the ciphertext and and a MAC for it, in the plaintext's own buffer
+// (RADAR patch 67: the plaintext, always a buffer its caller had just written, was copied into a new one
+// first)
 pub(super) fn encrypt(
   key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
-  plaintext: &[u8],
+  mut plaintext: Vec<u8>,
 ) -> SecurityResult<(Vec<u8>, BuiltinMAC)> {
-  // Compute the ciphertext
-  // ring encrypts + tags (signs) in place, so we must create a buffer for that.
-  let mut in_out_data = Vec::from(plaintext);
+  let mac = encrypt_in_place(key, initialization_vector, &mut plaintext)?;
+  Ok((plaintext, mac))
+}
 
-  let tag = key.aead()?.seal_in_place_separate_tag(
-    nonce(initialization_vector),
-    Aad::empty(),
-    &mut in_out_data,
-  )?;
-
-  Ok((in_out_data, to_builtin_mac(&tag)))
+// Authenticated encryption of `in_out` where it is: the ciphertext replaces the plaintext (AES-GCM's is as
+// long), and the MAC is returned
+pub(super) fn encrypt_in_place(
+  key: &impl AeadKey,
+  initialization_vector: BuiltinInitializationVector,
+  in_out: &mut [u8],
+) -> SecurityResult<BuiltinMAC> {
+  let tag =
+    key
+      .aead()?
+      .seal_in_place_separate_tag(nonce(initialization_vector), Aad::empty(), in_out)?;
+  Ok(to_builtin_mac(&tag))
 }
 
 // Validates the MAC
@@ -111,8 +118,8 @@ pub(super) fn validate_mac(
   data: &[u8],
   mac: BuiltinMAC,
 ) -> SecurityResult<()> {
-  let mut in_out = Vec::with_capacity(MAC_LENGTH);
-  in_out.extend_from_slice(&mac);
+  // The tag is opened where it is, in a copy on the stack: not in a Vec of its own (RADAR patch 67)
+  let mut in_out = mac;
 
   // This will return `Err(..)` if verification fails
   let _plaintext =
@@ -123,27 +130,28 @@ pub(super) fn validate_mac(
   Ok(())
 }
 
-// Authenticated decryption: validates the MAC and decrypts the ciphertext
+// Authenticated decryption: validates the MAC and decrypts the ciphertext, in the ciphertext's own buffer
+// (RADAR patch 67: the ciphertext and the tag were copied into a new Vec first, and the caller copied the
+// plaintext once more). On failure the buffer is gone with the error, as the submessage it came from.
 pub(super) fn decrypt(
   key: &impl AeadKey,
   initialization_vector: BuiltinInitializationVector,
-  ciphertext: &[u8],
+  mut ciphertext: Vec<u8>,
   mac: BuiltinMAC,
 ) -> SecurityResult<Vec<u8>> {
-  // TODO: round data.len() up to block size
-  let mut in_out = Vec::with_capacity(ciphertext.len() + MAC_LENGTH);
-  in_out.extend_from_slice(ciphertext.as_ref());
-  in_out.extend_from_slice(mac.as_ref());
-
   // This will return `Err(..)` if verification fails
-  let plaintext =
-    key
-      .aead()?
-      .open_in_place(nonce(initialization_vector), Aad::empty(), &mut in_out)?;
-  // If we get here, the mac ("tag") was valid.
-  // and `plaintext` is actually a slice of `in_out`
-  let plain_len = plaintext.len();
-  in_out.truncate(plain_len);
-
-  Ok(in_out)
+  let plain_len = key
+    .aead()?
+    .open_in_place_separate_tag(
+      nonce(initialization_vector),
+      Aad::empty(),
+      Tag::from(mac),
+      &mut ciphertext,
+      0..,
+    )?
+    .len();
+  // If we get here, the mac ("tag") was valid, and the plaintext is the start of the buffer (AES-GCM's
+  // plaintext is as long as its ciphertext)
+  ciphertext.truncate(plain_len);
+  Ok(ciphertext)
 }

@@ -24,7 +24,7 @@ use crate::{
   security::cryptographic::cryptographic_builtin::*,
 };
 use super::{
-  aes_gcm_gmac::{compute_mac, decrypt, encrypt, validate_mac},
+  aes_gcm_gmac::{compute_mac, decrypt, encrypt_in_place, validate_mac},
   encode::{encode_gcm, encode_gmac},
   key_material::*,
   validate_receiver_specific_macs::validate_receiver_specific_mac,
@@ -77,7 +77,7 @@ impl CryptographicBuiltin {
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => encode_gcm(
         &session_key,
         initialization_vector,
-        &plaintext,
+        plaintext,
         &receiver_specific_keys,
       )?,
     };
@@ -140,38 +140,47 @@ impl CryptoTransform for CryptographicBuiltin {
       builtin_crypto_header_extra: initialization_vector.into(),
     };
 
-    let (encoded_data, footer) = match transformation_kind {
-      BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_NONE => {
-        return Ok((plain_buffer, ParameterList::new()))
-      }
-      BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
-      | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => {
-        let mac = compute_mac(&session_key, initialization_vector, &plain_buffer)?;
-        (plain_buffer, BuiltinCryptoFooter::only_common_mac(mac))
-      }
+    if let BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_NONE = transformation_kind {
+      return Ok((plain_buffer, ParameterList::new()));
+    }
+
+    // The header, the payload (signed) or its CryptoContent (encrypted where it is written), and the footer,
+    // written into one buffer (RADAR patch 67: the plaintext was copied to be encrypted, the ciphertext to
+    // be a CryptoContent, and the three parts once more to be concatenated)
+    let mut encoded = Vec::with_capacity(
+      BuiltinCryptoHeader::serialized_len()
+        + 4
+        + plain_buffer.len()
+        + BuiltinCryptoFooter::minimal_serialized_len(),
+    );
+    CryptoHeader::from(header)
+      .write_to_stream(&mut encoded)
+      .map_err(|err| {
+        create_security_error_and_log!("Error converting CryptoHeader to byte vector: {}", err)
+      })?;
+    let footer = match transformation_kind {
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => {
-        let (ciphertext, mac) = encrypt(&session_key, initialization_vector, &plain_buffer)?;
-        (
-          CryptoContent { data: ciphertext }
-            .write_to_vec()
-            .map_err(|err| {
-              create_security_error_and_log!(
-                "Error converting CryptoContent to byte vector: {}",
-                err
-              )
-            })?,
-          BuiltinCryptoFooter::only_common_mac(mac),
-        )
+        // CryptoContent: a big-endian length (9.5.2.4), then the ciphertext, as long as the plaintext
+        let length = u32::try_from(plain_buffer.len()).map_err(|_| {
+          create_security_error_and_log!("Error converting CryptoContent to byte vector: too long")
+        })?;
+        encoded.extend_from_slice(&length.to_be_bytes());
+        let start = encoded.len();
+        encoded.extend_from_slice(&plain_buffer);
+        let mac = encrypt_in_place(&session_key, initialization_vector, &mut encoded[start..])?;
+        BuiltinCryptoFooter::only_common_mac(mac)
+      }
+      // AES128_GMAC, AES256_GMAC (NONE returned above)
+      _ => {
+        let mac = compute_mac(&session_key, initialization_vector, &plain_buffer)?;
+        encoded.extend_from_slice(&plain_buffer);
+        BuiltinCryptoFooter::only_common_mac(mac)
       }
     };
-
-    let header_vec = CryptoHeader::from(header).write_to_vec().map_err(|err| {
-      create_security_error_and_log!("Error converting CryptoHeader to byte vector: {}", err)
-    })?;
-    let footer_vec = Vec::<u8>::try_from(footer)?;
+    footer.append_to(&mut encoded)?;
     Ok((
-      [header_vec, encoded_data, footer_vec].concat(),
+      encoded,
       ParameterList::new(),
       // TODO: If the payload was not data but key, then construct a key_hash
       // and return that to be appended to the InlineQoS of the outgoing DATA Submessage.
@@ -218,17 +227,17 @@ impl CryptoTransform for CryptographicBuiltin {
     let info_source = InfoSource::from(header)
       .create_submessage(BitFlags::from_endianness(speedy::Endianness::BigEndian));
 
-    // Add info_source in front of the other submessages
-    let submessages_with_info_source = [vec![info_source], submessages].concat();
-
-    // Serialize plaintext: the submessages one after another, in one buffer (RADAR patch 64)
+    // Serialize plaintext: the InfoSource, then the submessages one after another, in one buffer (RADAR patch
+    // 64). The submessages are read where they are: not cloned, with the InfoSource, into a new Vec first
+    // (RADAR patch 67).
     let mut plaintext = Vec::with_capacity(
-      submessages_with_info_source
-        .iter()
-        .map(|s| 4 + s.header.content_length as usize)
-        .sum(),
+      4 + info_source.header.content_length as usize
+        + submessages
+          .iter()
+          .map(|s| 4 + s.header.content_length as usize)
+          .sum::<usize>(),
     );
-    for submessage in &submessages_with_info_source {
+    for submessage in std::iter::once(&info_source).chain(&submessages) {
       submessage.append_to(&mut plaintext).map_err(|err| {
         create_security_error_and_log!("Error converting Submessage to byte vector: {}", err)
       })?;
@@ -247,8 +256,9 @@ impl CryptoTransform for CryptographicBuiltin {
       &receiving_participant_crypto_handle_list,
     )?;
 
-    // Compute encoded submessages and footer
-    let (encoded_submessages, crypto_footer) = match transformation_kind {
+    // Compute the footer and what goes between the prefix and the postfix: with GMAC the InfoSource and the
+    // submessages as they were, with GCM one SecureBody
+    let (secure_body, crypto_footer) = match transformation_kind {
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_NONE => {
         return Err(create_security_error_and_log!(
           "encode_rtps_message called when transformation kind is NONE."
@@ -256,7 +266,7 @@ impl CryptoTransform for CryptographicBuiltin {
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => (
-        submessages_with_info_source,
+        None,
         encode_gmac(
           &session_key,
           initialization_vector,
@@ -266,14 +276,13 @@ impl CryptoTransform for CryptographicBuiltin {
       ),
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => {
-        encode_gcm(
+        let (secure_body_submessage, footer) = encode_gcm(
           &session_key,
           initialization_vector,
-          &plaintext,
+          plaintext,
           &receiver_specific_keys,
-        )
-        // Wrap the submessage in Vec
-        .map(|(secure_body_submessage, footer)| (vec![secure_body_submessage], footer))?
+        )?;
+        (Some(secure_body_submessage), footer)
       }
     };
 
@@ -293,15 +302,25 @@ impl CryptoTransform for CryptographicBuiltin {
       crypto_footer: CryptoFooter::try_from(crypto_footer)?,
     };
 
+    // The message, built once in place (it was concatenated from three Vecs and copied again, RADAR patch 67)
+    let mut encoded = Vec::with_capacity(
+      2 + secure_body
+        .as_ref()
+        .map_or(1 + submessages.len(), |_| 1),
+    );
+    encoded.push(prefix.create_submessage(speedy::Endianness::BigEndian)?); // 9.5.2.3 use BigEndian
+    match secure_body {
+      Some(secure_body_submessage) => encoded.push(secure_body_submessage),
+      None => {
+        encoded.push(info_source);
+        encoded.extend(submessages);
+      }
+    }
+    encoded.push(postfix.create_submessage(speedy::Endianness::BigEndian)?); // 9.5.2.5 use BigEndian
+
     Ok(Message {
       header,
-      submessages: [
-        vec![prefix.create_submessage(speedy::Endianness::BigEndian)?], // 9.5.2.3 use BigEndian
-        encoded_submessages,
-        vec![postfix.create_submessage(speedy::Endianness::BigEndian)?], // 9.5.2.5 use BigEndian
-      ]
-      .concat()
-      .to_vec(),
+      submessages: encoded,
     })
   }
 
@@ -309,7 +328,7 @@ impl CryptoTransform for CryptographicBuiltin {
     &self,
     Message {
       header: rtps_header,
-      submessages,
+      mut submessages,
     }: Message,
     _receiving_participant_crypto_handle: ParticipantCryptoHandle,
     sending_participant_crypto_handle: ParticipantCryptoHandle,
@@ -326,7 +345,7 @@ impl CryptoTransform for CryptographicBuiltin {
         Submessage { body:
           SubmessageBody::Security(SecuritySubmessage::SecureRTPSPostfix(
             SecureRTPSPostfix { crypto_footer }, _, )), .. }
-      ] = submessages.as_slice()
+      ] = submessages.as_mut_slice()
     {
       let BuiltinCryptoHeader {
         transform_identifier:
@@ -372,7 +391,7 @@ impl CryptoTransform for CryptographicBuiltin {
 
       match decode_key_material.transformation_kind {
         BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_NONE =>{
-          let submessages_with_info_source = encoded_content; // rename for clarity
+          let submessages_with_info_source: &[Submessage] = encoded_content; // rename for clarity
           // We expect an InfoSource submessage followed by the original message
           if let
             [ Submessage { body: SubmessageBody::Interpreter(
@@ -380,14 +399,14 @@ impl CryptoTransform for CryptographicBuiltin {
               submessages @ ..  // this is all the rest of the submessages
             ] = submessages_with_info_source
           {
-            Ok((Vec::from(submessages), *info_source))
+            Ok((submessages.to_vec(), *info_source))
           } else {
             Err(create_security_error_and_log!("Expected the first submessage to be InfoSource."))
           }
         }
         BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
         | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => {
-          let submessages_with_info_source = encoded_content; // rename for clarity
+          let submessages_with_info_source: &[Submessage] = encoded_content; // rename for clarity
           // We expect an InfoSource submessage followed by the original message
           if let
             [ Submessage { body: SubmessageBody::Interpreter(
@@ -408,7 +427,7 @@ impl CryptoTransform for CryptographicBuiltin {
             // Validate the common MAC
             validate_mac(decode_key, initialization_vector, &serialized_submessages, common_mac)
               // If the MACs are ok, return content. 
-              .map( |_| (Vec::from(submessages), *info_source))
+              .map( |_| (submessages.to_vec(), *info_source))
           } else {
             Err(create_security_error_and_log!("Expected the first submessage to be InfoSource."))
           }
@@ -424,10 +443,14 @@ impl CryptoTransform for CryptographicBuiltin {
             if !validate_receiver_specific_mac(&decode_key_material,&initialization_vector,&common_mac,&receiver_specific_macs){
               return Ok(DecodeOutcome::ValidatingReceiverSpecificMACFailed);
             }
-            // Authenticated decryption, or exit on failure
-            let mut plaintext =
-              Bytes::copy_from_slice(
-                &decrypt(decode_key, initialization_vector, ciphertext, common_mac)?);
+            // Authenticated decryption in the ciphertext's own buffer, taken from the submessage (it is not
+            // looked at again), or exit on failure (RADAR patch 67: copied twice before)
+            let mut plaintext = Bytes::from(decrypt(
+              decode_key,
+              initialization_vector,
+              std::mem::take(ciphertext),
+              common_mac,
+            )?);
 
             // We expect an InfoSource submessage followed by the original submessage sequence
             let info_source =
@@ -441,7 +464,9 @@ impl CryptoTransform for CryptographicBuiltin {
                 Err(create_security_error_and_log!("Expected the first decrypted submessage to be InfoSource."))?
               };
 
-            let mut submessages = Vec::<Submessage>::new();
+            // Room for a sample's submessages (INFO_DST, INFO_TS and a secured DATA and HEARTBEAT, say) at
+            // once: not grown from none through 4 to 8 (RADAR patch 67)
+            let mut submessages = Vec::<Submessage>::with_capacity(8);
             while !plaintext.is_empty() {
               if let Some(submessage) = Submessage::read_from_buffer(&mut plaintext)
                 .map_err(|e| create_security_error_and_log!("Failed to deserialize the plaintext: {e}"))?
@@ -676,11 +701,11 @@ impl CryptoTransform for CryptographicBuiltin {
             })
             .collect::<Vec<_>>();
 
-          // Authenticated decryption
-          let mut plaintext = Bytes::copy_from_slice(&decrypt(
+          // Authenticated decryption, in the ciphertext's own buffer (RADAR patch 67: copied twice before)
+          let mut plaintext = Bytes::from(decrypt(
             decode_key,
             initialization_vector,
-            &ciphertext,
+            ciphertext,
             common_mac,
           )?);
 
@@ -890,7 +915,7 @@ impl CryptoTransform for CryptographicBuiltin {
         let (content_bytes, footer_bytes) = gcm_split(content_and_footer_bytes, foot_len)?;
         let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
         let ciphertext = CryptoContent::read_from_buffer(content_bytes)?.data;
-        decrypt(decode_key, initialization_vector, &ciphertext, common_mac)
+        decrypt(decode_key, initialization_vector, ciphertext, common_mac)
       }
     }
   }
@@ -938,7 +963,7 @@ fn gcm_split(content_and_footer: &[u8], foot_len: usize) -> SecurityResult<(&[u8
 
 #[cfg(test)]
 mod padded_payload_tests {
-  use super::*;
+  use super::{super::aes_gcm_gmac::encrypt, *};
 
   fn iv() -> BuiltinInitializationVector {
     BuiltinInitializationVector::new(SessionId::new([0, 0, 0, 1]), [7; 8])
@@ -951,7 +976,7 @@ mod padded_payload_tests {
   fn an_encrypted_payload_followed_by_submessage_padding_is_split_at_its_footer() {
     let key = BuiltinKey::generate_random(KeyLength::AES128);
     let plain = [0u8, 1, 0, 0, 0];
-    let (ciphertext, mac) = encrypt(&key, iv(), &plain).unwrap();
+    let (ciphertext, mac) = encrypt(&key, iv(), plain.to_vec()).unwrap();
     let content = CryptoContent { data: ciphertext }.write_to_vec().unwrap();
     let footer = Vec::<u8>::try_from(BuiltinCryptoFooter::only_common_mac(mac)).unwrap();
     let foot_len = BuiltinCryptoFooter::minimal_serialized_len();
@@ -962,7 +987,7 @@ mod padded_payload_tests {
       let (c, f) = gcm_split(&buf, foot_len).unwrap();
       let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(f).unwrap();
       let data = CryptoContent::read_from_buffer(c).unwrap().data;
-      assert_eq!(decrypt(&key, iv(), &data, common_mac).unwrap(), plain, "padding {pad}");
+      assert_eq!(decrypt(&key, iv(), data, common_mac).unwrap(), plain, "padding {pad}");
     }
     // more than a submessage's padding, or less than the content says: refused
     let mut long = [content.clone(), footer.clone()].concat();
@@ -1326,5 +1351,405 @@ mod decode_key_index_tests {
     assert_eq!(indexed(&b), scanned(&b));
     assert!(b.decode_key_index.is_empty() && b.decode_key_index_entry.is_empty());
     assert!(matches!(decode(&b, 1, 200), DecodeOutcome::KeysNotFound(_)));
+  }
+}
+
+/// RADAR patch 67: messages and payloads are encoded into buffers written once (no submessage cloned, no
+/// plaintext copied to be encrypted) and decrypted in the ciphertext's own buffer. The oracle is ring itself
+/// (sealing and opening copies, as the code did before) and the serializers' own concatenation, with the key
+/// derived again from the key material (not taken from the session key cache).
+#[cfg(test)]
+mod in_place_encoding_tests {
+  use ring::aead::{Aad, LessSafeKey, Nonce, Tag, UnboundKey, AES_128_GCM, AES_256_GCM};
+
+  use super::{super::aes_gcm_gmac::encrypt, *};
+  use crate::{
+    messages::{
+      header::Header,
+      submessages::{
+        ack_nack::AckNack,
+        heartbeat::Heartbeat,
+        submessage_flag::{ACKNACK_Flags, HEARTBEAT_Flags},
+      },
+    },
+    security::{
+      access_control::{
+        access_control_builtin::types::{
+          BuiltinPluginEndpointSecurityAttributes, BuiltinPluginParticipantSecurityAttributes,
+        },
+        ParticipantSecurityAttributes,
+      },
+      authentication::types::{Challenge, SharedSecret, SharedSecretHandle},
+    },
+    structure::{
+      guid::{EntityId, GuidPrefix},
+      sequence_number::{SequenceNumber, SequenceNumberSet},
+    },
+  };
+
+  fn secret() -> SharedSecretHandle {
+    SharedSecretHandle {
+      shared_secret: SharedSecret::from([9; 32]),
+      challenge1: Challenge::from([3; 32]),
+      challenge2: Challenge::from([4; 32]),
+    }
+  }
+
+  fn participant(encrypted: bool) -> ParticipantSecurityAttributes {
+    ParticipantSecurityAttributes {
+      is_rtps_protected: true,
+      plugin_participant_attributes: BuiltinPluginParticipantSecurityAttributes {
+        is_rtps_encrypted: encrypted,
+        is_discovery_encrypted: false,
+        is_liveliness_encrypted: false,
+        is_rtps_origin_authenticated: false,
+        is_discovery_origin_authenticated: false,
+        is_liveliness_origin_authenticated: false,
+      }
+      .into(),
+      ..ParticipantSecurityAttributes::empty()
+    }
+  }
+
+  fn payload_protected(encrypted: bool) -> EndpointSecurityAttributes {
+    EndpointSecurityAttributes {
+      is_payload_protected: true,
+      plugin_endpoint_attributes: BuiltinPluginEndpointSecurityAttributes {
+        is_submessage_encrypted: false,
+        is_submessage_origin_authenticated: false,
+        is_payload_encrypted: encrypted,
+      }
+      .into(),
+      ..EndpointSecurityAttributes::empty()
+    }
+  }
+
+  /// Participants `a` (sending) and `b`, matched both ways with their participant keys exchanged.
+  fn pair(
+    encrypted: bool,
+  ) -> (
+    CryptographicBuiltin,
+    CryptographicBuiltin,
+    [ParticipantCryptoHandle; 4],
+  ) {
+    let (mut a, mut b) = (CryptographicBuiltin::new(), CryptographicBuiltin::new());
+    let pa = a
+      .register_local_participant(1, 1, &[], participant(encrypted))
+      .unwrap();
+    let pb = b
+      .register_local_participant(2, 2, &[], participant(encrypted))
+      .unwrap();
+    let pb_in_a = a
+      .register_matched_remote_participant(pa, 2, 2, secret())
+      .unwrap();
+    let pa_in_b = b
+      .register_matched_remote_participant(pb, 1, 1, secret())
+      .unwrap();
+    let tokens = a.create_local_participant_crypto_tokens(pa, pb_in_a).unwrap();
+    b.set_remote_participant_crypto_tokens(pb, pa_in_b, tokens)
+      .unwrap();
+    let tokens = b.create_local_participant_crypto_tokens(pb, pa_in_b).unwrap();
+    a.set_remote_participant_crypto_tokens(pa, pb_in_a, tokens)
+      .unwrap();
+    (a, b, [pa, pb, pb_in_a, pa_in_b])
+  }
+
+  /// The session key for `iv`, derived from `handle`'s key material (the derivation, not the cache), as ring's
+  /// AES-GCM key.
+  fn oracle_key(
+    c: &CryptographicBuiltin,
+    handle: CryptoHandle,
+    scope: KeyMaterialScope,
+    iv: BuiltinInitializationVector,
+  ) -> LessSafeKey {
+    let CommonEncodeKeyMaterials::Some(materials) =
+      c.get_common_encode_key_materials(&handle).unwrap()
+    else {
+      panic!("no common key material")
+    };
+    let m = materials.select(scope);
+    let key =
+      CryptographicBuiltin::derive_session_key(ReceiverSpecific::No, &m.master_sender_key, &m.master_salt, iv);
+    let algorithm = match key.key_length() {
+      KeyLength::AES128 => &AES_128_GCM,
+      KeyLength::AES256 => &AES_256_GCM,
+      KeyLength::None => panic!("no key"),
+    };
+    LessSafeKey::new(UnboundKey::new(algorithm, key.as_bytes()).unwrap())
+  }
+
+  fn nonce(iv: BuiltinInitializationVector) -> Nonce {
+    Nonce::assume_unique_for_key(iv.into())
+  }
+
+  fn submessages() -> Vec<Submessage> {
+    vec![
+      Heartbeat {
+        reader_id: EntityId::UNKNOWN,
+        writer_id: EntityId::UNKNOWN,
+        first_sn: SequenceNumber::new(1),
+        last_sn: SequenceNumber::new(5),
+        count: 7,
+      }
+      .create_submessage(BitFlags::from_flag(HEARTBEAT_Flags::Endianness))
+      .unwrap(),
+      AckNack {
+        reader_id: EntityId::UNKNOWN,
+        writer_id: EntityId::UNKNOWN,
+        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(3)),
+        count: 2,
+      }
+      .create_submessage(BitFlags::from_flag(ACKNACK_Flags::Endianness)),
+    ]
+  }
+
+  /// The bytes of submessages as the generic (speedy) serializer writes them, one after another.
+  fn serialized(submessages: &[Submessage]) -> Vec<u8> {
+    submessages
+      .iter()
+      .flat_map(|s| {
+        s.write_to_vec_with_ctx(speedy::Endianness::LittleEndian)
+          .unwrap()
+      })
+      .collect()
+  }
+
+  fn security_submessage(s: &Submessage) -> &SecuritySubmessage {
+    match &s.body {
+      SubmessageBody::Security(m) => m,
+      other => panic!("not a security submessage: {other:?}"),
+    }
+  }
+
+  /// A message of a rtps-protected participant, encrypted (GCM) and signed (GMAC): the encoded message is the
+  /// prefix, what the specification puts between (one SecureBody, or the InfoSource and the submessages as
+  /// they were) and the postfix; ring opens the SecureBody with the derived key to the InfoSource and the
+  /// submessages as the serializer writes them (or verifies the MAC over them); and the message, serialized
+  /// and read back as it arrives, decodes in `b` to the same submessages.
+  #[test]
+  fn a_message_encoded_in_place_is_what_ring_and_the_serializer_give_and_decodes_back() {
+    for encrypted in [true, false] {
+      let (a, b, [pa, pb, pb_in_a, pa_in_b]) = pair(encrypted);
+      let header = Header::new(GuidPrefix::new(&[1; 12]));
+      let plain = submessages();
+      let encoded = a
+        .encode_rtps_message(
+          Message {
+            header,
+            submessages: plain.clone(),
+          },
+          pa,
+          vec![pb_in_a],
+        )
+        .unwrap();
+      let info_source =
+        InfoSource::from(header).create_submessage(BitFlags::from_endianness(speedy::Endianness::BigEndian));
+      let expected_plaintext = serialized(&[vec![info_source.clone()], plain.clone()].concat());
+
+      let n = encoded.submessages.len();
+      let SecuritySubmessage::SecureRTPSPrefix(SecureRTPSPrefix { crypto_header }, _) =
+        security_submessage(&encoded.submessages[0])
+      else {
+        panic!("no SecureRTPSPrefix first")
+      };
+      let SecuritySubmessage::SecureRTPSPostfix(SecureRTPSPostfix { crypto_footer }, _) =
+        security_submessage(&encoded.submessages[n - 1])
+      else {
+        panic!("no SecureRTPSPostfix last")
+      };
+      let iv = BuiltinCryptoHeader::try_from(crypto_header.clone())
+        .unwrap()
+        .builtin_crypto_header_extra
+        .0;
+      let footer = BuiltinCryptoFooter::try_from(crypto_footer.clone()).unwrap();
+      let key = oracle_key(&a, pa, KeyMaterialScope::MessageOrSubmessage, iv);
+      if encrypted {
+        assert_eq!(n, 3, "prefix, SecureBody, postfix");
+        let SecuritySubmessage::SecureBody(SecureBody { crypto_content }, _) =
+          security_submessage(&encoded.submessages[1])
+        else {
+          panic!("no SecureBody between")
+        };
+        let mut in_out = crypto_content.data.clone();
+        let opened = key
+          .open_in_place_separate_tag(
+            nonce(iv),
+            Aad::empty(),
+            Tag::from(footer.common_mac),
+            &mut in_out,
+            0..,
+          )
+          .expect("ring opens the SecureBody with the derived key and the footer's MAC");
+        assert_eq!(opened, &expected_plaintext[..]);
+      } else {
+        assert_eq!(n, plain.len() + 3, "prefix, InfoSource, the submessages, postfix");
+        assert_eq!(serialized(&encoded.submessages[1..n - 1]), expected_plaintext);
+        let mut tag = footer.common_mac;
+        key
+          .open_in_place(nonce(iv), Aad::from(&expected_plaintext[..]), &mut tag)
+          .expect("the footer's MAC is ring's over the InfoSource and the submessages");
+      }
+
+      let bytes = encoded
+        .write_to_vec_with_ctx(speedy::Endianness::LittleEndian)
+        .unwrap();
+      let received = Message::read_from_buffer(&Bytes::from(bytes)).unwrap();
+      match b.decode_rtps_message(received, pb, pa_in_b).unwrap() {
+        DecodeOutcome::Success(Message {
+          submessages: decoded,
+          ..
+        }) => assert_eq!(serialized(&decoded), serialized(&plain), "encrypted {encrypted}"),
+        _ => panic!("the message did not decode (encrypted {encrypted})"),
+      }
+    }
+  }
+
+  /// A payload encrypted (GCM) or signed (GMAC) into one buffer is, byte for byte, the CryptoHeader, the
+  /// CryptoContent of ring's ciphertext (or the payload) and the footer as their serializers write them, for
+  /// payloads of 0 to 40 bytes.
+  #[test]
+  fn a_payload_encoded_in_one_buffer_is_the_serializers_concatenation() {
+    for encrypted in [true, false] {
+      let (mut a, _, [pa, ..]) = pair(true);
+      let w = a
+        .register_local_datawriter(pa, &[], payload_protected(encrypted))
+        .unwrap();
+      for len in 0..=40usize {
+        let plain: Vec<u8> = (0..len as u8).map(|i| i.wrapping_mul(37)).collect();
+        let (encoded, _) = a.encode_serialized_payload(plain.clone(), w).unwrap();
+        let head_len = BuiltinCryptoHeader::serialized_len();
+        let crypto_header = CryptoHeader::read_from_buffer(&encoded[..head_len]).unwrap();
+        let iv = BuiltinCryptoHeader::try_from(crypto_header.clone())
+          .unwrap()
+          .builtin_crypto_header_extra
+          .0;
+        let key = oracle_key(&a, w, KeyMaterialScope::PayloadOnly, iv);
+        let (content, tag) = if encrypted {
+          let mut in_out = plain.clone();
+          let tag = key
+            .seal_in_place_separate_tag(nonce(iv), Aad::empty(), &mut in_out)
+            .unwrap();
+          (CryptoContent { data: in_out }.write_to_vec().unwrap(), tag)
+        } else {
+          let tag = key
+            .seal_in_place_separate_tag(nonce(iv), Aad::from(&plain[..]), &mut [])
+            .unwrap();
+          (plain.clone(), tag)
+        };
+        let footer = Vec::<u8>::try_from(BuiltinCryptoFooter::only_common_mac(
+          tag.as_ref().try_into().unwrap(),
+        ))
+        .unwrap();
+        let expected = [crypto_header.write_to_vec().unwrap(), content, footer].concat();
+        assert_eq!(encoded, expected, "encrypted {encrypted}, {len} bytes");
+      }
+    }
+  }
+
+  /// Decryption in the ciphertext's buffer gives what ring's opening of a copy with the tag appended gives (the
+  /// code before), and refuses a flipped bit in the ciphertext or the MAC as that does.
+  #[test]
+  fn decrypting_in_place_is_opening_a_copy_with_the_tag_appended() {
+    let key = BuiltinKey::generate_random(KeyLength::AES256);
+    let iv = BuiltinInitializationVector::new(SessionId::new([5, 6, 7, 8]), [1, 2, 3, 4, 5, 6, 7, 8]);
+    let oracle = LessSafeKey::new(UnboundKey::new(&AES_256_GCM, key.as_bytes()).unwrap());
+    let open_copy = |ciphertext: &[u8], mac: &BuiltinMAC| {
+      let mut in_out = [ciphertext, mac].concat();
+      oracle
+        .open_in_place(nonce(iv), Aad::empty(), &mut in_out)
+        .ok()
+        .map(|p| p.to_vec())
+    };
+    for len in [0usize, 1, 15, 16, 17, 100] {
+      let plain: Vec<u8> = (0..len).map(|i| (i * 11) as u8).collect();
+      let (ciphertext, mac) = encrypt(&key, iv, plain.clone()).unwrap();
+      assert_eq!(open_copy(&ciphertext, &mac), Some(plain.clone()));
+      assert_eq!(decrypt(&key, iv, ciphertext.clone(), mac).unwrap(), plain);
+      let mut bad_mac = mac;
+      bad_mac[len % MAC_LENGTH] ^= 1;
+      assert_eq!(open_copy(&ciphertext, &bad_mac), None);
+      assert!(decrypt(&key, iv, ciphertext.clone(), bad_mac).is_err());
+      if len > 0 {
+        let mut bad = ciphertext.clone();
+        bad[len / 2] ^= 0x80;
+        assert_eq!(open_copy(&bad, &mac), None);
+        assert!(decrypt(&key, iv, bad, mac).is_err());
+      }
+    }
+  }
+
+  /// A security submessage's header says the length its body writes (counted, patch 67; it was the length of
+  /// the body written out to a new Vec), in both byte orders: SecureBody with 0-40 bytes of content, the
+  /// prefixes, and the postfixes with 0-3 receiver-specific MACs.
+  #[test]
+  fn a_security_submessages_length_is_the_length_its_body_writes() {
+    fn same<T: Writable<speedy::Endianness>>(
+      body: &T,
+      submessage: SecurityResult<Submessage>,
+      what: &str,
+    ) {
+      let length = submessage.unwrap().header.content_length as usize;
+      for e in [speedy::Endianness::LittleEndian, speedy::Endianness::BigEndian] {
+        assert_eq!(length, body.write_to_vec_with_ctx(e).unwrap().len(), "{what}, {e:?}");
+      }
+    }
+    for len in 0..=40u8 {
+      let body = SecureBody {
+        crypto_content: CryptoContent {
+          data: (0..len).collect(),
+        },
+      };
+      for e in [speedy::Endianness::LittleEndian, speedy::Endianness::BigEndian] {
+        same(&body, body.clone().create_submessage(e), "SecureBody");
+      }
+    }
+    let header = || {
+      CryptoHeader::from(BuiltinCryptoHeader {
+        transform_identifier: BuiltinCryptoTransformIdentifier {
+          transformation_kind: BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM,
+          transformation_key_id: CryptoTransformKeyId::from([9, 8, 7, 6]),
+        },
+        builtin_crypto_header_extra: BuiltinInitializationVector::new(SessionId::new([1; 4]), [2; 8])
+          .into(),
+      })
+    };
+    let prefix = SecurePrefix {
+      crypto_header: header(),
+    };
+    same(&prefix, prefix.clone().create_submessage(speedy::Endianness::BigEndian), "SecurePrefix");
+    let rtps_prefix = SecureRTPSPrefix {
+      crypto_header: header(),
+    };
+    same(&rtps_prefix, rtps_prefix.clone().create_submessage(speedy::Endianness::BigEndian), "SecureRTPSPrefix");
+    for macs in 0..=3u8 {
+      let footer = || {
+        CryptoFooter::try_from(BuiltinCryptoFooter {
+          common_mac: [macs; MAC_LENGTH],
+          receiver_specific_macs: (0..macs)
+            .map(|i| ReceiverSpecificMAC {
+              receiver_mac_key_id: CryptoTransformKeyId::from([i; 4]),
+              receiver_mac: [i; MAC_LENGTH],
+            })
+            .collect(),
+        })
+        .unwrap()
+      };
+      let postfix = SecurePostfix {
+        crypto_footer: footer(),
+      };
+      same(&postfix, postfix.clone().create_submessage(speedy::Endianness::BigEndian), "SecurePostfix");
+      let rtps_postfix = SecureRTPSPostfix {
+        crypto_footer: footer(),
+      };
+      same(&rtps_postfix, rtps_postfix.clone().create_submessage(speedy::Endianness::BigEndian), "SecureRTPSPostfix");
+    }
+  }
+
+  /// An initialization vector is its session id, then its suffix (what concatenating them gave).
+  #[test]
+  fn an_initialization_vector_is_its_session_id_then_its_suffix() {
+    let iv = BuiltinInitializationVector::new(SessionId::new([1, 2, 3, 4]), [5, 6, 7, 8, 9, 10, 11, 12]);
+    assert_eq!(<[u8; 12]>::from(iv), [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]);
+    assert_eq!(iv.session_id().as_bytes(), &[1, 2, 3, 4]);
   }
 }

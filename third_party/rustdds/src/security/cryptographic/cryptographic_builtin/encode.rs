@@ -57,10 +57,10 @@ pub(super) fn encode_gmac(
 pub(super) fn encode_gcm(
   key: &SessionKey,
   initialization_vector: BuiltinInitializationVector,
-  data: &[u8],
+  data: Vec<u8>,
   receiver_specific_key_materials: &[ReceiverSpecificKeyMaterial<SessionKey>],
 ) -> SecurityResult<(Submessage, BuiltinCryptoFooter)> {
-  // Compute the common_mac
+  // Compute the common_mac, encrypting `data` in its own buffer (RADAR patch 67)
   encrypt(key, initialization_vector, data).and_then(|(ciphertext, common_mac)| {
     // Compute compute_receiver_specific_macs
     compute_receiver_specific_macs(

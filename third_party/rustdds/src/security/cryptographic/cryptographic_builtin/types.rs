@@ -7,7 +7,9 @@ use crate::{
     crypto_footer::CryptoFooter,
     crypto_header::{CryptoHeader, PluginCryptoHeaderExtra},
   },
-  security::{cryptographic::EndpointCryptoHandle, BinaryProperty, DataHolder, SecurityError},
+  security::{
+    cryptographic::EndpointCryptoHandle, BinaryProperty, DataHolder, SecurityError, SecurityResult,
+  },
 };
 use super::{
   key_material::*, CryptoToken, CryptoTransformIdentifier, CryptoTransformKeyId,
@@ -169,16 +171,12 @@ pub(super) struct BuiltinInitializationVector([u8; INITIALIZATION_VECTOR_LENGTH]
 
 impl BuiltinInitializationVector {
   pub(super) fn new(session_id: SessionId, initialization_vector_suffix: [u8; 8]) -> Self {
-    BuiltinInitializationVector(
-      // Concatenate
-      [
-        Vec::from(session_id.0),
-        Vec::from(initialization_vector_suffix),
-      ]
-      .concat()
-      .try_into()
-      .unwrap(), // 4+8=12
-    )
+    // The session id, then the suffix (4 + 8 = 12 bytes), copied into place: not concatenated through two
+    // Vecs and a third, three allocations for every submessage, message and payload encoded (RADAR patch 67)
+    let mut iv = [0u8; INITIALIZATION_VECTOR_LENGTH];
+    iv[..4].copy_from_slice(&session_id.0);
+    iv[4..].copy_from_slice(&initialization_vector_suffix);
+    BuiltinInitializationVector(iv)
   }
   pub(super) fn session_id(&self) -> SessionId {
     // Succeeds as the slice length is 4
@@ -449,27 +447,35 @@ impl TryFrom<CryptoFooter> for BuiltinCryptoFooter {
     Self::try_from(data.as_ref())
   }
 }
-impl TryFrom<BuiltinCryptoFooter> for Vec<u8> {
-  type Error = SecurityError;
-  /// Written as CDR big-endian (RADAR patch 66: by hand, the bytes serde's CDR serializer writes, without its
-  /// per-byte tuple writing; the test compares both).
-  fn try_from(value: BuiltinCryptoFooter) -> Result<Self, Self::Error> {
-    let count = u32::try_from(value.receiver_specific_macs.len()).map_err(|_| Self::Error {
+impl BuiltinCryptoFooter {
+  /// Appends the footer to `bytes` as CDR big-endian (RADAR patch 66: by hand, the bytes serde's CDR
+  /// serializer writes, without its per-byte tuple writing; the test compares both). Patch 67: appended to
+  /// the buffer the payload is written into, not a Vec of its own.
+  pub(super) fn append_to(&self, bytes: &mut Vec<u8>) -> SecurityResult<()> {
+    let count = u32::try_from(self.receiver_specific_macs.len()).map_err(|_| SecurityError {
       msg: "Error serializing BuiltinCryptoFooter: more receiver-specific MACs than a footer holds"
         .to_string(),
     })?;
-    let mut bytes =
-      Vec::with_capacity(MAC_LENGTH + 4 + value.receiver_specific_macs.len() * (4 + MAC_LENGTH));
-    bytes.extend_from_slice(&value.common_mac);
+    bytes.reserve(MAC_LENGTH + 4 + self.receiver_specific_macs.len() * (4 + MAC_LENGTH));
+    bytes.extend_from_slice(&self.common_mac);
     bytes.extend_from_slice(&count.to_be_bytes());
     for ReceiverSpecificMAC {
       receiver_mac_key_id,
       receiver_mac,
-    } in &value.receiver_specific_macs
+    } in &self.receiver_specific_macs
     {
       bytes.extend_from_slice(receiver_mac_key_id.as_bytes());
       bytes.extend_from_slice(receiver_mac);
     }
+    Ok(())
+  }
+}
+impl TryFrom<BuiltinCryptoFooter> for Vec<u8> {
+  type Error = SecurityError;
+  /// Written as CDR big-endian ([`BuiltinCryptoFooter::append_to`]).
+  fn try_from(value: BuiltinCryptoFooter) -> Result<Self, Self::Error> {
+    let mut bytes = Vec::new();
+    value.append_to(&mut bytes)?;
     Ok(bytes)
   }
 }
