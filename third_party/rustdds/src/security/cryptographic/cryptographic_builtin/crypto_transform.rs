@@ -914,8 +914,13 @@ impl CryptoTransform for CryptographicBuiltin {
         // footer are the submessage's padding)
         let (content_bytes, footer_bytes) = gcm_split(content_and_footer_bytes, foot_len)?;
         let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
-        let ciphertext = CryptoContent::read_from_buffer(content_bytes)?.data;
-        decrypt(decode_key, initialization_vector, ciphertext, common_mac)
+        // The ciphertext is decrypted in the buffer it came in, moved to its start (RADAR patch 67: it was
+        // copied out into a CryptoContent of its own): the CryptoContent is its 4-byte length, then it
+        let ciphertext = head_len + 4..head_len + content_bytes.len();
+        let mut buffer = encoded_buffer;
+        buffer.truncate(ciphertext.end);
+        buffer.drain(..ciphertext.start);
+        decrypt(decode_key, initialization_vector, buffer, common_mac)
       }
     }
   }
@@ -1606,13 +1611,26 @@ mod in_place_encoding_tests {
 
   /// A payload encrypted (GCM) or signed (GMAC) into one buffer is, byte for byte, the CryptoHeader, the
   /// CryptoContent of ring's ciphertext (or the payload) and the footer as their serializers write them, for
-  /// payloads of 0 to 40 bytes.
+  /// payloads of 0 to 40 bytes; and a matched reader of the peer decodes it (decrypted where it came in) to
+  /// the payload, with 0-3 bytes of its DATA submessage's padding after it.
   #[test]
   fn a_payload_encoded_in_one_buffer_is_the_serializers_concatenation() {
     for encrypted in [true, false] {
-      let (mut a, _, [pa, ..]) = pair(true);
+      let (mut a, mut b, [pa, pb, pb_in_a, pa_in_b]) = pair(true);
       let w = a
         .register_local_datawriter(pa, &[], payload_protected(encrypted))
+        .unwrap();
+      let r = b
+        .register_local_datareader(pb, &[], payload_protected(encrypted))
+        .unwrap();
+      let r_in_a = a
+        .register_matched_remote_datareader(w, pb_in_a, secret(), false)
+        .unwrap();
+      let w_in_b = b
+        .register_matched_remote_datawriter(r, pa_in_b, secret())
+        .unwrap();
+      let tokens = a.create_local_datawriter_crypto_tokens(w, r_in_a).unwrap();
+      b.set_remote_datawriter_crypto_tokens(r, w_in_b, tokens)
         .unwrap();
       for len in 0..=40usize {
         let plain: Vec<u8> = (0..len as u8).map(|i| i.wrapping_mul(37)).collect();
@@ -1642,6 +1660,14 @@ mod in_place_encoding_tests {
         .unwrap();
         let expected = [crypto_header.write_to_vec().unwrap(), content, footer].concat();
         assert_eq!(encoded, expected, "encrypted {encrypted}, {len} bytes");
+        for pad in 0..=3 {
+          let mut received = encoded.clone();
+          received.extend(std::iter::repeat_n(0, pad));
+          let decoded = b
+            .decode_serialized_payload(received, ParameterList::new(), r, w_in_b)
+            .unwrap();
+          assert_eq!(decoded, plain, "encrypted {encrypted}, {len} bytes, padding {pad}");
+        }
       }
     }
   }
