@@ -123,10 +123,9 @@ impl EncodedSubmessage {
 
 impl From<EncodedSubmessage> for Vec<Submessage> {
   fn from(value: EncodedSubmessage) -> Self {
-    match value {
-      EncodedSubmessage::Unencoded(submessage) => vec![submessage],
-      EncodedSubmessage::Encoded(prefix, submessage, postfix) => vec![prefix, submessage, postfix],
-    }
+    let mut submessages = Vec::with_capacity(3);
+    value.append_to(&mut submessages);
+    submessages
   }
 }
 

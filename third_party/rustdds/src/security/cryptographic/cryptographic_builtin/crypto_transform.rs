@@ -303,11 +303,12 @@ impl CryptoTransform for CryptographicBuiltin {
     };
 
     // The message, built once in place (it was concatenated from three Vecs and copied again, RADAR patch 67)
-    let mut encoded = Vec::with_capacity(
-      2 + secure_body
-        .as_ref()
-        .map_or(1 + submessages.len(), |_| 1),
-    );
+    let between = if secure_body.is_some() {
+      1
+    } else {
+      1 + submessages.len()
+    };
+    let mut encoded = Vec::with_capacity(2 + between);
     encoded.push(prefix.create_submessage(speedy::Endianness::BigEndian)?); // 9.5.2.3 use BigEndian
     match secure_body {
       Some(secure_body_submessage) => encoded.push(secure_body_submessage),
