@@ -16,26 +16,44 @@ pub mod listing1;
 /// interrupt it caused). A line given the time its signal was emitted ([`Timeline::mark_at`], the signal's
 /// source timestamp) is held for [`SETTLE`] and printed in order of those times, so the timeline reads in
 /// cause order. Lines still held when the process exits (`main` returns, or Ctrl-C) are printed then.
+///
+/// Times are kept on the monotonic clock. A source timestamp is a wall-clock time, so it is read as an age (how
+/// long before the wall clock's now it was stamped) and placed that long before the monotonic now: a step of the
+/// wall clock (NTP or chrony setting it at boot, a virtual machine resumed) moves only the lines of signals
+/// that were in flight when it stepped, not the rest of the timeline.
 #[derive(Clone, Copy, Debug)]
 pub struct Timeline {
-    t0: Instant,
-    /// The same moment on the wall clock (the clock of source timestamps), in ns since the epoch.
-    t0_ns: i64,
+    /// Its start, in ns on the monotonic clock ([`mono_ns`]).
+    t0: i64,
 }
 
 /// How long a line is held for lines of things that happened before it to arrive: well above a DDS hop.
 pub const SETTLE: Duration = Duration::from_millis(150);
 
-/// Lines not printed yet: (when it happened, in ns since the epoch; order given; the line).
+/// Lines not printed yet: (when it happened, in ns on the monotonic clock; order given; the line).
 static HELD: Mutex<Vec<(i64, u64, String)>> = Mutex::new(Vec::new());
 
+/// Now, in ns on the monotonic clock (from this process's first call).
+fn mono_ns() -> i64 {
+    static ORIGIN: OnceLock<Instant> = OnceLock::new();
+    ORIGIN.get_or_init(Instant::now).elapsed().as_nanos() as i64
+}
+
+/// Now on the wall clock (the clock of source timestamps), in ns since the epoch.
 fn wall_ns() -> i64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos() as i64)
 }
 
-/// Prints the held lines of things that happened up to `until` (ns), in order.
+/// The monotonic time of something stamped `at_ns` on the wall clock: its age by the wall clock, back from the
+/// monotonic now.
+fn mono_of_wall(at_ns: i64) -> i64 {
+    let (mono, wall) = (mono_ns(), wall_ns());
+    mono - (wall - at_ns)
+}
+
+/// Prints the held lines of things that happened up to `until` (ns, monotonic), in order.
 fn print_held(until: i64) {
     let mut held = HELD.lock().unwrap_or_else(|p| p.into_inner());
     held.sort();
@@ -56,32 +74,34 @@ impl Timeline {
         PRINTER.get_or_init(|| {
             std::thread::spawn(|| loop {
                 std::thread::sleep(Duration::from_millis(20));
-                print_held(wall_ns() - SETTLE.as_nanos() as i64);
+                print_held(mono_ns() - SETTLE.as_nanos() as i64);
             });
             // `exit` (a signal's handler, or the end of `main`) prints what is still held
             // SAFETY: registers a plain function without arguments, as atexit requires
             unsafe { libc::atexit(print_all_held) };
         });
-        Timeline {
-            t0: Instant::now(),
-            t0_ns: wall_ns(),
-        }
+        Timeline { t0: mono_ns() }
     }
 
     /// Seconds since the start.
     pub fn now(&self) -> f64 {
-        self.t0.elapsed().as_secs_f64()
+        (mono_ns() - self.t0) as f64 / 1e9
     }
 
     /// A line for something that happens now; `listing` is when the paper's listing says it should happen.
     pub fn mark(&self, what: &str, listing: Option<f64>) {
-        self.mark_at(what, listing, wall_ns());
+        self.hold(what, listing, mono_ns());
     }
 
     /// A line for something that happened at `at_ns` (ns since the epoch: a signal's source timestamp).
     pub fn mark_at(&self, what: &str, listing: Option<f64>, at_ns: i64) {
+        self.hold(what, listing, mono_of_wall(at_ns));
+    }
+
+    /// Holds the line for something that happened at `at` (ns, monotonic).
+    fn hold(&self, what: &str, listing: Option<f64>, at: i64) {
         static ORDER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let secs = (at_ns - self.t0_ns) as f64 / 1e9;
+        let secs = (at - self.t0) as f64 / 1e9;
         let line = match listing {
             Some(l) => format!("[{secs:7.3} s] {what:<34} (listing: {l:.1} s)"),
             None => format!("[{secs:7.3} s] {what}"),
@@ -89,7 +109,7 @@ impl Timeline {
         let order = ORDER.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
         HELD.lock()
             .unwrap_or_else(|p| p.into_inner())
-            .push((at_ns, order, line));
+            .push((at, order, line));
     }
 
     /// Prints every line held so far (before the program prints something of its own).

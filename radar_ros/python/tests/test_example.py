@@ -97,7 +97,7 @@ def test_the_python_listing_1_follows_the_rust_example_within_100_ms_per_step() 
     # each within 100 ms of the Rust example's
     for text, times in rust_at.items():
         for k, (p, r) in enumerate(zip(py_at[text], times)):
-            assert abs(p - r) <= 0.1, f"{text!r} #{k + 1}: Python at {p:.3f} s, Rust at {r:.3f} s"
+            assert abs(p - r) <= 0.1, f"{text!r} #{k + 1}: Python at {p:.3f} s, Rust at {r:.3f} s\n{rust_out}"
     # and where the listing gives a time, within 100 ms of it
     for t, text, listing in py_tl:
         if listing >= 0:
