@@ -46,6 +46,8 @@ fn vendored_rustdds_passes_its_unit_tests() {
     // the patches' own tests ran
     for name in [
         "data_that_arrives_before_its_writer_is_matched_is_delivered_on_the_match",
+        // patch 68: a reader fed by the application does not ask its feeding writer for a HEARTBEAT
+        "a_reader_fed_by_the_application_does_not_ask_its_writer_for_a_heartbeat",
         // patch 59: a late reader is sent a writer's history window after window, without waiting
         "a_repair_window_short_of_the_history_ends_with_a_heartbeat",
         // patch 60: repair to a reader on this host goes in larger rounds

@@ -472,7 +472,9 @@ impl Reader {
           // reader withholds all samples received in the meantime.
           if self.reliability != policy::Reliability::BestEffort {
             if let Some(mut writer_proxy) = self.matched_writers.remove(&writer) {
-              self.send_preemptive_acknack_to(&mut writer_proxy);
+              if !writer_proxy.fed_locally {
+                self.send_preemptive_acknack_to(&mut writer_proxy);
+              }
               self.matched_writers.insert(writer, writer_proxy);
             }
           }
@@ -514,6 +516,11 @@ impl Reader {
       0
     } else {
       let writer = proxy.remote_writer_guid;
+      let mut proxy = proxy;
+      // RADAR patch 68: a writer of this participant that the application's own delivery replaces (patch 62)
+      // keeps no proxy for this reader and sends it nothing; the same marks decide it here, at the match
+      proxy.fed_locally = !writer.entity_id.kind().is_built_in()
+        && crate::local_delivery::skips(writer, self.my_guid);
       self.matched_writers.insert(writer, proxy);
       self.matches_changed(writer, true);
       1
@@ -1561,7 +1568,11 @@ impl Reader {
     // RADAR patch 34: every matched writer not heard from yet (no HEARTBEAT, DATA or GAP since the match).
     // The filter was `no_changes_received`, which never holds (a writer proxy's ack base starts at 1), so
     // a reader whose writer's first HEARTBEAT was lost waited for the writer's first sample.
-    for (_, writer_proxy) in writer_proxies.iter_mut().filter(|(_, p)| !p.heard) {
+    // RADAR patch 68: nor a writer that feeds this reader through the application (it never answers)
+    for (_, writer_proxy) in writer_proxies
+      .iter_mut()
+      .filter(|(_, p)| !p.heard && !p.fed_locally)
+    {
       self.send_preemptive_acknack_to(writer_proxy);
     }
     // put writer proxies back
@@ -2106,6 +2117,78 @@ mod tests {
     let after = sent(&reader);
     reader.send_preemptive_acknacks();
     assert_eq!(sent(&reader), after, "a writer heard from is not asked again");
+  }
+
+  /// RADAR patch 68: a reader the application feeds itself (patch 62) is sent nothing by the writer of its own
+  /// participant that feeds it, so it does not ask that writer for a HEARTBEAT, at the match or every period
+  /// after (before, it did so every second for as long as both lived: the idle cost of every connection of a
+  /// process to its own components). Any other writer is still asked until it is heard: one of this
+  /// participant that is not marked, one marked of another participant. Counted on the writers' sockets.
+  #[test]
+  fn a_reader_fed_by_the_application_does_not_ask_its_writer_for_a_heartbeat() {
+    use std::net::UdpSocket;
+
+    use bytes::Bytes;
+
+    use crate::{local_delivery, rtps::submessage::SubmessageBody};
+    let acknacks = |s: &UdpSocket| {
+      let mut buf = vec![0u8; 65536];
+      let mut n = 0;
+      while let Ok(len) = s.recv(&mut buf) {
+        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..len])).unwrap();
+        n += msg
+          .submessages
+          .iter()
+          .filter(|m| matches!(m.body, SubmessageBody::Reader(ReaderSubmessage::AckNack(..))))
+          .count();
+      }
+      n
+    };
+    let (mut reader, qos) = reliable_reader();
+    local_delivery::takes_locally(reader.my_guid);
+    let own = reader.my_guid.prefix;
+    let writer = |prefix: GuidPrefix, key: u8| {
+      GUID::new(
+        prefix,
+        EntityId::new([0, 9, key], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+      )
+    };
+    // the feeding writer: this participant's, marked; an unmarked one of this participant; a marked one of
+    // another participant
+    let (fed, plain, other) = (
+      writer(own, 1),
+      writer(own, 2),
+      writer(GuidPrefix::new(&[7; 12]), 3),
+    );
+    local_delivery::delivers_locally(fed);
+    local_delivery::delivers_locally(other);
+    let sockets: Vec<UdpSocket> = (0..3)
+      .map(|_| {
+        let s = UdpSocket::bind("127.0.0.1:0").unwrap();
+        s.set_read_timeout(Some(std::time::Duration::from_millis(200)))
+          .unwrap();
+        s
+      })
+      .collect();
+    for (w, s) in [fed, plain, other].into_iter().zip(&sockets) {
+      reader.matched_writer_add(
+        w,
+        EntityId::UNKNOWN,
+        vec![Locator::from(s.local_addr().unwrap())],
+        vec![],
+        &qos,
+      );
+    }
+    let counts = || sockets.iter().map(acknacks).collect::<Vec<_>>();
+    assert_eq!(counts(), vec![0, 1, 1], "at the match: every writer but the feeding one");
+    for _ in 0..3 {
+      reader.send_preemptive_acknacks();
+    }
+    assert_eq!(counts(), vec![0, 3, 3], "each period: every writer not heard from but the feeding one");
+    for w in [fed, plain, other] {
+      local_delivery::forget(w);
+    }
+    local_delivery::forget(reader.my_guid);
   }
 
   /// A reliable reader of topic `test_name` with no writer matched, sending with its own `UDPSender`.

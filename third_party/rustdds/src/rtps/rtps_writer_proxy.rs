@@ -69,6 +69,11 @@ pub(crate) struct RtpsWriterProxy {
   /// participant) and sends to it.
   pub heard: bool,
 
+  /// RADAR patch 68: the writer sends this reader nothing, as the application feeds the reader itself (a
+  /// pair of patch 62, read when the reader matched the writer): no preemptive ACKNACK asks it for a HEARTBEAT
+  /// it will never send.
+  pub fed_locally: bool,
+
   pub sent_ack_nack_count: i32,
 
   ack_base: SequenceNumber, // We can ACK everything before this number.
@@ -96,6 +101,7 @@ impl RtpsWriterProxy {
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
       heard: false,
+      fed_locally: false,
       sent_ack_nack_count: 0,
       // Sequence numbering must start at 1.
       // Therefore, we can ACK all sequence numbers below 1 even before receiving anything.
@@ -345,6 +351,7 @@ impl RtpsWriterProxy {
       changes: BTreeMap::new(),
       received_heartbeat_count: 0,
       heard: false,
+      fed_locally: false,
       sent_ack_nack_count: 0,
       ack_base: SequenceNumber::default(),
       last_received_sequence_number: SequenceNumber::new(0),
