@@ -68,6 +68,7 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
             "raw_1hop",
             "raw_2hop",
             "rclpy_1hop",
+            "fastdds_1hop",
             "radar_manager_process",
             "radar_embedded_relay",
             "radar_embedded",
@@ -97,7 +98,7 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
         p50(1)
     );
     // the paced latency runs send 300 signals each; nearly all must have been measured
-    for l in &r["latency"].as_array().unwrap()[..12] {
+    for l in &r["latency"].as_array().unwrap()[..13] {
         assert!(l["summary"]["n"].as_u64().unwrap() >= 290, "{l}");
         // and what each signal cost their processes on the cores: every process ran, every signal made some
         // thread run somewhere (the sink's at least)

@@ -61,6 +61,20 @@ impl Bench {
                 .errors
                 .push(format!("latency rclpy_1hop: {e:#}")),
         }
+        // Fast DDS itself (C++, over UDP), one hop
+        let fd = self.fastdds_1hop(&run, "rt/bench/lat_fastdds", None).await;
+        match fd {
+            Ok(r) => self.push_latency(
+                "fastdds_1hop",
+                "Fast DDS 2.9 (C++, UDPv4), 1 hop (writer -> WaitSet thread)",
+                &r,
+                "",
+            )?,
+            Err(e) => self
+                .results
+                .errors
+                .push(format!("latency fastdds_1hop: {e:#}")),
+        }
         for host in [
             Host::Third,
             Host::ResponseRelaying,
@@ -120,6 +134,31 @@ impl Bench {
         let d = self.domain();
         let mut sink = self.python(d, &["sink", "--topic", topic]).await?;
         let mut src = self.python(d, &["source", "--topic", topic]).await?;
+        src.ask("wait", START).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        src.quit().await;
+        sink.quit().await;
+        Ok(r)
+    }
+
+    /// Fast DDS's own one hop on the DDS topic `topic` (`bench/fastdds/fastdds_hop.cpp`): its writer to a reader
+    /// taken from a WaitSet's thread, paced by `run`; secured from the keystore's `enclave` directory if given.
+    pub(super) async fn fastdds_1hop(
+        &mut self,
+        run: &str,
+        topic: &str,
+        enclave: Option<&Path>,
+    ) -> Result<Value> {
+        let d = self.domain();
+        let mut args = vec!["--topic", topic];
+        let enclave = enclave.map(|e| e.to_string_lossy().into_owned());
+        if let Some(e) = &enclave {
+            args.extend(["--enclave", e.as_str()]);
+        }
+        let sink_args: Vec<&str> = ["sink"].into_iter().chain(args.iter().copied()).collect();
+        let source_args: Vec<&str> = ["source"].into_iter().chain(args.iter().copied()).collect();
+        let mut sink = self.fastdds(d, &sink_args).await?;
+        let mut src = self.fastdds(d, &source_args).await?;
         src.ask("wait", START).await?;
         let r = self.paced(&mut src, run, &mut sink).await?;
         src.quit().await;

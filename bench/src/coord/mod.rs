@@ -234,6 +234,8 @@ pub struct Bench {
     child_env: Vec<(String, String)>,
     /// The latency runs' events emit from the pacing thread (`events --trigger`) instead of being fed.
     event_trigger: bool,
+    /// The C++ Fast DDS baseline (`bench/fastdds/fastdds_hop.cpp`), once built in this run.
+    fastdds_exe: Option<PathBuf>,
     /// What was measured so far.
     pub results: Results,
 }
@@ -260,6 +262,7 @@ impl Bench {
             next_domain: opts.domain,
             child_env: Vec::new(),
             event_trigger: false,
+            fastdds_exe: None,
             opts,
             plan,
             exe,
@@ -332,6 +335,20 @@ impl Bench {
         .await
     }
 
+    /// A child of the C++ Fast DDS baseline (`bench/fastdds/fastdds_hop.cpp`), built with g++ against Debian's
+    /// Fast DDS beside this program the first time a run needs it (again when the source is newer).
+    async fn fastdds(&mut self, domain: u16, args: &[&str]) -> Result<Child> {
+        let exe = match &self.fastdds_exe {
+            Some(exe) => exe.clone(),
+            None => {
+                let exe = build_fastdds_hop(&self.exe)?;
+                self.fastdds_exe = Some(exe.clone());
+                exe
+            }
+        };
+        Child::start(&exe, args, domain, &[], START).await
+    }
+
     /// Runs every scenario (or those `--only` names); a failing scenario is recorded and the rest go on.
     pub async fn run_all(&mut self) {
         type Scenario = (
@@ -386,6 +403,11 @@ impl Bench {
             }
             eprintln!("radar_bench: {key} took {:.1} s", t.elapsed().as_secs_f64());
         }
+        eprintln!(
+            "radar_bench: ROS domains {}-{} used",
+            self.opts.domain,
+            self.next_domain.saturating_sub(1).max(self.opts.domain)
+        );
     }
 
     fn run_timeout(&self, n: u64) -> Duration {
@@ -544,6 +566,35 @@ fn pair_latencies(sent: &Value, at: &Value, warmup: u64) -> Result<Vec<u64>> {
         .filter(|(seq, _)| *seq >= warmup)
         .filter_map(|(seq, t0)| at.get(seq).map(|t1| t1.saturating_sub(*t0)))
         .collect())
+}
+
+/// Builds `bench/fastdds/fastdds_hop.cpp` into `fastdds_hop` beside `bench_exe` unless it is there and newer than
+/// its source.
+fn build_fastdds_hop(bench_exe: &Path) -> Result<PathBuf> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("fastdds/fastdds_hop.cpp");
+    let exe = bench_exe.with_file_name("fastdds_hop");
+    let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    if let (Some(built), Some(written)) = (modified(&exe), modified(&src)) {
+        if built >= written {
+            return Ok(exe);
+        }
+    }
+    let out = std::process::Command::new("g++")
+        .args(["-std=c++17", "-O2"])
+        .arg(&src)
+        .arg("-o")
+        .arg(&exe)
+        .args(["-lfastrtps", "-lfastcdr"])
+        .output()
+        .context("running g++ for the Fast DDS baseline (apt-get install g++ libfastrtps-dev)")?;
+    if !out.status.success() {
+        bail!(
+            "building the Fast DDS baseline {} failed (apt-get install g++ libfastrtps-dev; .ci/run installs them):\n{}",
+            src.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    Ok(exe)
 }
 
 #[cfg(test)]
