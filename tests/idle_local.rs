@@ -14,7 +14,7 @@ use std::{
 };
 
 use radar_ros::{msg::Empty, Event, SlotError};
-use radar_test_util::{counter, eventually, radar};
+use radar_test_util::{counter, datagrams_sent, eventually, radar};
 use tokio::sync::{mpsc, Mutex};
 
 /// Connections of the program to its own components.
@@ -36,18 +36,6 @@ impl Event for Gate {
             None => std::future::pending().await,
         }
     }
-}
-
-/// UDP datagrams sent in this network namespace so far.
-fn datagrams_sent() -> u64 {
-    let snmp = std::fs::read_to_string("/proc/self/net/snmp").expect("reading /proc/self/net/snmp");
-    let mut udp = snmp.lines().filter(|l| l.starts_with("Udp:"));
-    let (names, values) = (udp.next().unwrap(), udp.next().unwrap());
-    let i = names
-        .split_whitespace()
-        .position(|n| n == "OutDatagrams")
-        .unwrap();
-    values.split_whitespace().nth(i).unwrap().parse().unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

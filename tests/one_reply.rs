@@ -8,19 +8,7 @@
 use std::time::Duration;
 
 use radar_ros::msg::StringMsg;
-use radar_test_util::{radar, DISCOVERY};
-
-/// UDP datagrams sent in this network namespace so far.
-fn datagrams_sent() -> u64 {
-    let snmp = std::fs::read_to_string("/proc/self/net/snmp").expect("/proc/self/net/snmp");
-    let mut udp = snmp.lines().filter(|l| l.starts_with("Udp:"));
-    let (names, values) = (udp.next().unwrap(), udp.next().unwrap());
-    let i = names
-        .split_whitespace()
-        .position(|n| n == "OutDatagrams")
-        .expect("OutDatagrams");
-    values.split_whitespace().nth(i).unwrap().parse().unwrap()
-}
+use radar_test_util::{datagrams_sent, radar, DISCOVERY};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_reliable_sample_to_a_participant_of_this_host_costs_two_datagrams() {

@@ -43,6 +43,19 @@ pub fn require_isolation() {
     );
 }
 
+/// UDP datagrams sent in this network namespace so far (`/proc/self/net/snmp`: every process of the test
+/// namespace counts, so a test that reads it runs alone in its binary).
+pub fn datagrams_sent() -> u64 {
+    let snmp = std::fs::read_to_string("/proc/self/net/snmp").expect("/proc/self/net/snmp");
+    let mut udp = snmp.lines().filter(|l| l.starts_with("Udp:"));
+    let (names, values) = (udp.next().unwrap(), udp.next().unwrap());
+    let i = names
+        .split_whitespace()
+        .position(|n| n == "OutDatagrams")
+        .expect("OutDatagrams");
+    values.split_whitespace().nth(i).unwrap().parse().unwrap()
+}
+
 /// A participant in `domain` (subnet discovery, as ROS 2's default; inside the test namespace).
 pub fn radar(domain: u16) -> Radar {
     radar_with(domain, |b| b)

@@ -45,6 +45,8 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 
+#include "../../tests/fastdds/security_properties.hpp"
+
 using namespace eprosima::fastdds::dds;
 using eprosima::fastdds::rtps::UDPv4TransportDescriptor;
 using eprosima::fastrtps::rtps::InstanceHandle_t;
@@ -141,18 +143,7 @@ int main(int argc, char** argv) {
   pqos.transport().use_builtin_transports = false;
   pqos.transport().user_transports.push_back(std::make_shared<UDPv4TransportDescriptor>());
   if (!enclave.empty()) {
-    auto& props = pqos.properties().properties();
-    auto file = [&](const char* f) { return "file://" + enclave + "/" + f; };
-    props.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
-    props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_ca", file("identity_ca.cert.pem"));
-    props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_certificate", file("cert.pem"));
-    props.emplace_back("dds.sec.auth.builtin.PKI-DH.private_key", file("key.pem"));
-    props.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
-    props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions_ca",
-                       file("permissions_ca.cert.pem"));
-    props.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", file("governance.p7s"));
-    props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", file("permissions.p7s"));
-    props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+    add_security_properties(pqos, enclave);
   }
   DomainParticipant* participant =
       DomainParticipantFactory::get_instance()->create_participant(domain, pqos);

@@ -24,6 +24,8 @@
 #include <fastdds/dds/topic/TopicDataType.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "security_properties.hpp"
+
 using namespace eprosima::fastdds::dds;
 using eprosima::fastrtps::rtps::InstanceHandle_t;
 using eprosima::fastrtps::rtps::SerializedPayload_t;
@@ -75,18 +77,7 @@ int main(int argc, char** argv) {
 
   DomainParticipantQos pqos = PARTICIPANT_QOS_DEFAULT;
   pqos.name("fastdds_secure_peer");
-  auto& props = pqos.properties().properties();
-  auto file = [&](const char* f) { return "file://" + enclave + "/" + f; };
-  props.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
-  props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_ca", file("identity_ca.cert.pem"));
-  props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_certificate", file("cert.pem"));
-  props.emplace_back("dds.sec.auth.builtin.PKI-DH.private_key", file("key.pem"));
-  props.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
-  props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions_ca",
-                     file("permissions_ca.cert.pem"));
-  props.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", file("governance.p7s"));
-  props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", file("permissions.p7s"));
-  props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+  add_security_properties(pqos, enclave);
 
   DomainParticipant* participant =
       DomainParticipantFactory::get_instance()->create_participant(domain, pqos);

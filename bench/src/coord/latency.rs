@@ -49,32 +49,14 @@ impl Bench {
         self.raw_latency(&run, true).await?;
         // rclpy, one hop
         let py = self.rclpy_1hop(&run, "/bench/lat").await;
-        match py {
-            Ok(r) => self.push_latency(
-                "rclpy_1hop",
-                "rclpy, 1 hop (publisher -> subscriber)",
-                &r,
-                "",
-            )?,
-            Err(e) => self
-                .results
-                .errors
-                .push(format!("latency rclpy_1hop: {e:#}")),
-        }
+        self.push_baseline("rclpy_1hop", "rclpy, 1 hop (publisher -> subscriber)", py)?;
         // Fast DDS itself (C++, over UDP), one hop
         let fd = self.fastdds_1hop(&run, "rt/bench/lat_fastdds", None).await;
-        match fd {
-            Ok(r) => self.push_latency(
-                "fastdds_1hop",
-                "Fast DDS 2.9 (C++, UDPv4), 1 hop (writer -> WaitSet thread)",
-                &r,
-                "",
-            )?,
-            Err(e) => self
-                .results
-                .errors
-                .push(format!("latency fastdds_1hop: {e:#}")),
-        }
+        self.push_baseline(
+            "fastdds_1hop",
+            "Fast DDS 2.9 (C++, UDPv4), 1 hop (writer -> WaitSet thread)",
+            fd,
+        )?;
         for host in [
             Host::Third,
             Host::ResponseRelaying,

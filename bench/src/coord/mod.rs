@@ -445,6 +445,17 @@ impl Bench {
         Ok(r)
     }
 
+    /// A baseline's latency row, or why it could not be measured in the run's errors (the rest goes on).
+    fn push_baseline(&mut self, key: &str, label: &str, measured: Result<Value>) -> Result<()> {
+        match measured {
+            Ok(r) => self.push_latency(key, label, &r, ""),
+            Err(e) => {
+                self.results.errors.push(format!("{key}: {e:#}"));
+                Ok(())
+            }
+        }
+    }
+
     fn push_latency(
         &mut self,
         key: &str,
@@ -569,12 +580,19 @@ fn pair_latencies(sent: &Value, at: &Value, warmup: u64) -> Result<Vec<u64>> {
 }
 
 /// Builds `bench/fastdds/fastdds_hop.cpp` into `fastdds_hop` beside `bench_exe` unless it is there and newer than
-/// its source.
+/// its sources (the file and the security header it shares with radar_ros's interop test).
 fn build_fastdds_hop(bench_exe: &Path) -> Result<PathBuf> {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("fastdds/fastdds_hop.cpp");
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = here.join("fastdds/fastdds_hop.cpp");
+    let header = here.join("../tests/fastdds/security_properties.hpp");
     let exe = bench_exe.with_file_name("fastdds_hop");
     let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
-    if let (Some(built), Some(written)) = (modified(&exe), modified(&src)) {
+    let written = [&src, &header]
+        .into_iter()
+        .map(|p| modified(p))
+        .max()
+        .flatten();
+    if let (Some(built), Some(written)) = (modified(&exe), written) {
         if built >= written {
             return Ok(exe);
         }
