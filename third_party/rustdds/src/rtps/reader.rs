@@ -510,13 +510,12 @@ impl Reader {
   }
 
   // return value counts how many new proxies were added
-  fn matched_writer_update(&mut self, proxy: RtpsWriterProxy) -> i32 {
+  fn matched_writer_update(&mut self, mut proxy: RtpsWriterProxy) -> i32 {
     if let Some(op) = self.matched_writer_mut(proxy.remote_writer_guid) {
       op.update_contents(proxy);
       0
     } else {
       let writer = proxy.remote_writer_guid;
-      let mut proxy = proxy;
       // RADAR patch 68: a writer of this participant that the application's own delivery replaces (patch 62)
       // keeps no proxy for this reader and sends it nothing; the same marks decide it here, at the match
       proxy.fed_locally = !writer.entity_id.kind().is_built_in()
@@ -2128,22 +2127,7 @@ mod tests {
   fn a_reader_fed_by_the_application_does_not_ask_its_writer_for_a_heartbeat() {
     use std::net::UdpSocket;
 
-    use bytes::Bytes;
-
-    use crate::{local_delivery, rtps::submessage::SubmessageBody};
-    let acknacks = |s: &UdpSocket| {
-      let mut buf = vec![0u8; 65536];
-      let mut n = 0;
-      while let Ok(len) = s.recv(&mut buf) {
-        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..len])).unwrap();
-        n += msg
-          .submessages
-          .iter()
-          .filter(|m| matches!(m.body, SubmessageBody::Reader(ReaderSubmessage::AckNack(..))))
-          .count();
-      }
-      n
-    };
+    use crate::local_delivery;
     let (mut reader, qos) = reliable_reader();
     local_delivery::takes_locally(reader.my_guid);
     let own = reader.my_guid.prefix;
@@ -2179,7 +2163,7 @@ mod tests {
         &qos,
       );
     }
-    let counts = || sockets.iter().map(acknacks).collect::<Vec<_>>();
+    let counts = || sockets.iter().map(acknacks_on).collect::<Vec<_>>();
     assert_eq!(counts(), vec![0, 1, 1], "at the match: every writer but the feeding one");
     for _ in 0..3 {
       reader.send_preemptive_acknacks();
@@ -2189,6 +2173,24 @@ mod tests {
       local_delivery::forget(w);
     }
     local_delivery::forget(reader.my_guid);
+  }
+
+  /// The ACKNACKs that reached `s` until it stays quiet for its read timeout.
+  fn acknacks_on(s: &std::net::UdpSocket) -> usize {
+    use bytes::Bytes;
+
+    use crate::rtps::submessage::SubmessageBody;
+    let mut buf = vec![0u8; 65536];
+    let mut n = 0;
+    while let Ok(len) = s.recv(&mut buf) {
+      let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..len])).unwrap();
+      n += msg
+        .submessages
+        .iter()
+        .filter(|m| matches!(m.body, SubmessageBody::Reader(ReaderSubmessage::AckNack(..))))
+        .count();
+    }
+    n
   }
 
   /// A reliable reader of topic `test_name` with no writer matched, sending with its own `UDPSender`.
@@ -2248,9 +2250,6 @@ mod tests {
   fn a_reader_answers_a_writer_on_this_host_on_its_loopback_locator_alone() {
     use std::net::{SocketAddr, UdpSocket};
 
-    use bytes::Bytes;
-
-    use crate::rtps::submessage::SubmessageBody;
     // the writer's participant announces this host's first other IPv4 address and the loopback
     let lan_ip = crate::network::util::get_local_unicast_locators_filtered(0, None)
       .into_iter()
@@ -2262,19 +2261,6 @@ mod tests {
     for s in [&lan, &lo] {
       s.set_read_timeout(Some(std::time::Duration::from_millis(200))).unwrap();
     }
-    let acknacks = |s: &UdpSocket| {
-      let mut buf = vec![0u8; 65536];
-      let mut n = 0;
-      while let Ok(len) = s.recv(&mut buf) {
-        let msg = Message::read_from_buffer(&Bytes::copy_from_slice(&buf[..len])).unwrap();
-        n += msg
-          .submessages
-          .iter()
-          .filter(|m| matches!(m.body, SubmessageBody::Reader(ReaderSubmessage::AckNack(..))))
-          .count();
-      }
-      n
-    };
     let (mut reader, qos) = reliable_reader();
     let writer_guid = GUID::dummy_test_guid(EntityKind::WRITER_NO_KEY_USER_DEFINED);
     reader.matched_writer_add(
@@ -2285,7 +2271,7 @@ mod tests {
       &qos,
     );
     // the preemptive ACKNACK of the match (sent before anything was heard from the writer)
-    let (lan_before, lo_before) = (acknacks(&lan), acknacks(&lo));
+    let (lan_before, lo_before) = (acknacks_on(&lan), acknacks_on(&lo));
     assert_eq!((lan_before, lo_before), (1, 1), "the match's preemptive ACKNACK went to both");
     let mut count = 1;
     let mut heartbeat = |reader: &mut Reader, on_loopback: bool| {
@@ -2305,9 +2291,9 @@ mod tests {
       assert!(reader.handle_heartbeat_msg(&hb, false, &mr_state), "an ACKNACK is due");
     };
     heartbeat(&mut reader, true);
-    assert_eq!((acknacks(&lan), acknacks(&lo)), (0, 1), "on this host: the loopback alone");
+    assert_eq!((acknacks_on(&lan), acknacks_on(&lo)), (0, 1), "on this host: the loopback alone");
     heartbeat(&mut reader, false);
-    assert_eq!((acknacks(&lan), acknacks(&lo)), (1, 1), "not known on this host: every locator");
+    assert_eq!((acknacks_on(&lan), acknacks_on(&lo)), (1, 1), "not known on this host: every locator");
   }
 
   #[test]
