@@ -6,7 +6,7 @@
 //! the crate docs); this type turns count changes into activate / deactivate transitions.
 
 /// A transition of an event between checking and not checking.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Transition {
     /// The first listener arrived: start checking.
     Activate,
@@ -24,7 +24,7 @@ pub enum Transition {
 /// assert_eq!(a.set_listeners(0), Some(Transition::Deactivate));
 /// assert_eq!(a.activations(), 1);
 /// ```
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Activation {
     listeners: usize,
     activations: u64,

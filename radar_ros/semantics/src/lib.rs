@@ -13,6 +13,8 @@
 //! - [`goal`]: an action server driven as a response, one goal per run ([`goal::GoalMachine`], rules A1-A7).
 //! - [`connection`]: the connection table ([`connection::ConnectionTable`], rules C1-C7: once, whenever,
 //!   until windows, no stale signals, removal, components that leave, signals read out of order).
+//! - [`instances`]: which process runs a component, so that one started again within its lease is told from
+//!   the one it replaces (rule C5).
 //! - [`time`]: what a receiver makes of another clock's stamps, and of its own clock stepping back (rules
 //!   T1-T2).
 //!
@@ -32,6 +34,7 @@
 pub mod connection;
 pub mod event;
 pub mod goal;
+pub mod instances;
 pub mod response;
 pub mod served;
 pub mod time;

@@ -45,7 +45,7 @@ pub fn received(stamp: i64, now: i64) -> i64 {
 
 /// A receiver's clock as the machines see it: it never runs ahead of the clock it is given, and when that
 /// clock steps back it reports by how much, so remembered times can follow it (T2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Clock {
     now: i64,
 }

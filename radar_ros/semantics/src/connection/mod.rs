@@ -57,7 +57,7 @@ mod departures;
 mod outputs;
 mod window;
 
-pub use outputs::{ConnInfo, Delivery, Link, Via};
+pub use outputs::{ConnInfo, Delivery, Link, Outcome, Send, Via};
 use window::WindowSignal;
 pub use window::{Until, UntilWindow};
 
@@ -65,13 +65,13 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use crate::time::Clock;
 
-pub use crate::response::{Cause, StatementId, HOLD};
+pub use crate::response::{Cause, Sent, StatementId, HOLD};
 
 /// Identifies a connection in a table.
 pub type ConnId = u64;
 
 /// `once` or `whenever`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kind {
     /// Deliver one signal.
     Once,
@@ -79,7 +79,7 @@ pub enum Kind {
     Whenever,
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 struct Conn<S, T> {
     source: S,
     target: T,
@@ -93,6 +93,8 @@ struct Conn<S, T> {
     link: Link,
     /// Re-arm when a lost target comes back (rule 5).
     rearm: bool,
+    /// Its deliveries to the target carry the statement's cause: the target is a response's `start` (R13).
+    starts: bool,
     until: Option<(Until<S, T>, UntilWindow)>,
 }
 
@@ -114,7 +116,7 @@ struct Conn<S, T> {
 /// assert!(!t.contains(id));
 /// assert_eq!(t.take_released(), (vec!["bumper"], vec!["dock/start"]));
 /// ```
-#[derive(Debug)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct ConnectionTable<S, T> {
     next: ConnId,
     /// The high 64 bits of this table's statement ids (C6).
@@ -323,6 +325,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             reading: true,
             link: Link::Armed,
             rearm: false,
+            starts: false,
             until: until.map(|u| {
                 let w = UntilWindow::new(u.causes);
                 (u, w)
@@ -517,6 +520,76 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             self.ended.push(id);
         }
         out
+    }
+
+    /// Marks connection `id`'s target as a response's `start` slot: each delivery to it carries the statement's
+    /// cause ([`ConnectionTable::signal`], R13, C6).
+    pub fn set_starts(&mut self, id: ConnId, starts: bool) {
+        if let Some(c) = self.conns.get_mut(&id) {
+            c.starts = starts;
+        }
+    }
+
+    /// One signal read on `source`, sent as `sent` (its stamp as this host takes it, T1, and the cause it
+    /// carries: a response's `started` and `exited` carry their run's, C6), at `now` by the receiver's clock
+    /// (T2): everything the runtime must do for it. `accept(id)` is connection `id`'s property (C2): a signal
+    /// it refuses is not delivered through `id` and does not use up a `once`. The sends come tagged as they go
+    /// on the wire: the stamp of the signal they carry, a start with the statement's cause, an `until`'s
+    /// interrupt naming its statement (C6).
+    ///
+    /// ```
+    /// use radar_semantics::connection::{ConnectionTable, Kind};
+    /// use radar_semantics::response::Sent;
+    /// let mut t = ConnectionTable::new();
+    /// let id = t.arm("bumper", "dock/start", Kind::Once, None, 100);
+    /// t.set_starts(id, true);
+    /// let out = t.signal(&"bumper", Sent::at(150), 150, |_| true);
+    /// assert_eq!(out.sends[0].sent, Sent::by(150, t.cause(id, 1)));
+    /// assert_eq!((out.ended, out.released), (vec![id], (vec!["bumper"], vec!["dock/start"])));
+    /// ```
+    #[must_use = "the outcome is what the binding must carry out"]
+    pub fn signal(
+        &mut self,
+        source: &S,
+        sent: Sent,
+        now: i64,
+        accept: impl FnMut(ConnId) -> bool,
+    ) -> Outcome<S, T> {
+        self.clock(now);
+        // (a connection the signal ends is gone from the table once it has been delivered through)
+        let starts: BTreeSet<ConnId> =
+            self.by_source
+                .get(source)
+                .map_or_else(BTreeSet::new, |ids| {
+                    ids.iter()
+                        .copied()
+                        .filter(|id| self.conns.get(id).is_some_and(|c| c.starts))
+                        .collect()
+                });
+        let deliveries = self.on_signal_with(source, sent.at, sent.by, accept);
+        let sends = deliveries
+            .into_iter()
+            .map(|d| {
+                let tagged = match d.via {
+                    Via::Signal { n } => Sent {
+                        at: sent.at,
+                        by: starts.contains(&d.id).then(|| self.cause(d.id, n)),
+                    },
+                    Via::Until { at } => Sent::by(at, self.cause(d.id, 0)),
+                };
+                Send {
+                    id: d.id,
+                    target: d.target,
+                    sent: tagged,
+                    via: d.via,
+                }
+            })
+            .collect();
+        Outcome {
+            sends,
+            ended: self.take_ended(),
+            released: self.take_released(),
+        }
     }
 
     /// The connections that signals ended since the last call (a `once` that fired, or whose `until` is over:

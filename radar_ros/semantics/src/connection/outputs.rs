@@ -1,9 +1,10 @@
 //! What the table tells the binding: what to deliver and by which way, each connection's link and listing.
 
 use super::{ConnId, Kind};
+use crate::response::Sent;
 
 /// Whether a connection can deliver now (rule 5).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Link {
     /// Source and target are there: signals are delivered.
     #[default]
@@ -29,7 +30,7 @@ impl Link {
 }
 
 /// What the runtime must deliver.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Delivery<T> {
     /// Through which connection.
     pub id: ConnId,
@@ -40,7 +41,7 @@ pub struct Delivery<T> {
 }
 
 /// What a [`Delivery`] carries, for the runtime to tag it (C6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Via {
     /// The connection's source signal, its delivery number `n` (from 1): a start slot gets the cause
     /// `(statement, n)`.
@@ -57,7 +58,7 @@ pub enum Via {
 }
 
 /// One live connection, as listed by [`ConnectionTable::list`](super::ConnectionTable::list).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct ConnInfo<S, T> {
     /// Its id.
     pub id: ConnId,
@@ -73,4 +74,30 @@ pub struct ConnInfo<S, T> {
     pub until: Option<S>,
     /// Whether it can deliver now.
     pub link: Link,
+}
+
+/// A slot signal the runtime must send (or a payload to hand to an anonymous slot), tagged as it goes on the
+/// wire.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Send<T> {
+    /// Through which connection.
+    pub id: ConnId,
+    /// To which slot.
+    pub target: T,
+    /// The stamp and cause it carries (C6).
+    pub sent: Sent,
+    /// What it is: the connection's signal, or its `until`'s interrupt.
+    pub via: Via,
+}
+
+/// Everything one signal read by the table comes to (see
+/// [`ConnectionTable::signal`](super::ConnectionTable::signal)).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Outcome<S, T> {
+    /// What to send, in connection order.
+    pub sends: Vec<Send<T>>,
+    /// The connections this signal ended (a `once` that fired, or whose run ended: C2, C3).
+    pub ended: Vec<ConnId>,
+    /// The sources and targets no connection needs any more: the readers and writers to let go.
+    pub released: (Vec<S>, Vec<T>),
 }

@@ -4,7 +4,7 @@
 use crate::time::HOLD;
 
 /// The `until U` part of a statement that starts response R.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Until<S, T> {
     /// U: the signal that interrupts.
     pub source: S,
@@ -20,7 +20,7 @@ pub struct Until<S, T> {
 }
 
 /// The window of C3, for one `until`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct UntilWindow {
     causes: bool,
     /// C6: the latest start delivery whose run may be going.

@@ -10,7 +10,7 @@ use super::{Cause, Sent, HOLD};
 const KEPT: usize = 8;
 
 /// A slot signal kept for a run that has not begun (R12, R14).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum Kept {
     /// An interrupt, counted as ignored until a run takes it.
     Interrupt(Sent),
@@ -36,7 +36,7 @@ impl Kept {
 }
 
 /// The signals kept while idle (R12), oldest first, at most [`KEPT`].
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub(super) struct KeptSignals {
     kept: VecDeque<Kept>,
 }

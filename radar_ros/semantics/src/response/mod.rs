@@ -95,7 +95,7 @@ pub use crate::time::HOLD;
 /// assert_eq!((r.phase(), r.counters().interrupts), (Phase::Idle, 1));
 /// # let _ = StartEnd::<()>::Returned(());
 /// ```
-#[derive(Debug)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct ResponseMachine<P, O> {
     phase: Phase,
     policy: StartPolicy,

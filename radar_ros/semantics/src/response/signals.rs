@@ -16,7 +16,7 @@ pub struct Cause {
 }
 
 /// When, and by which statement, a slot signal was sent (R11-R13).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Sent {
     /// When the signal that caused it was emitted, in ns since the epoch: the DDS source timestamp of the
     /// original signal (a relay keeps it).
@@ -52,7 +52,7 @@ impl Sent {
 }
 
 /// Where a response is in its lifecycle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Phase {
     /// Waiting for `start`.
     Idle,
@@ -87,7 +87,7 @@ impl Phase {
 }
 
 /// What a response does with `start` while it is not idle.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum StartPolicy {
     /// Ignore the signal (counted in the state). The default, as in RADAR.
     #[default]
@@ -110,7 +110,7 @@ impl StartPolicy {
 }
 
 /// When a response emits `started` (R9).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Announce {
     /// As the start behaviour begins (R1). The default.
     #[default]
@@ -120,7 +120,7 @@ pub enum Announce {
 }
 
 /// Why the exit slot is running.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum ExitReason {
     /// The start behaviour returned normally.
     Completed,
@@ -170,7 +170,7 @@ impl ExitReason {
 }
 
 /// How the start behaviour ended.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum StartEnd<O> {
     /// It returned this output.
     Returned(O),
@@ -181,7 +181,7 @@ pub enum StartEnd<O> {
 }
 
 /// What the exit slot decided.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ExitAction {
     /// Go idle after `exited`.
     #[default]
@@ -191,7 +191,7 @@ pub enum ExitAction {
 }
 
 /// An input to the machine.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Input<P, O> {
     /// A `start` signal with its payload.
     Start(P, Sent),
@@ -212,7 +212,7 @@ pub enum Input<P, O> {
 }
 
 /// Why a signal was ignored.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IgnoreReason {
     /// Nothing it could act on: an `interrupt` or `exit` while not running (R5), a `start` while busy (R6), or
     /// anything while stopping.
@@ -224,7 +224,7 @@ pub enum IgnoreReason {
 }
 
 /// Something the runtime must do, in the order given.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Effect<P, O> {
     /// Publish `started` with the payload, carrying the run's cause (R13).
     EmitStarted(P, Option<Cause>),
@@ -260,7 +260,7 @@ pub enum Effect<P, O> {
 }
 
 /// Counters exposed in the state message.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Counters {
     /// Runs started (including restarts).
     pub starts: u64,

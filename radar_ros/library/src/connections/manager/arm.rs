@@ -339,6 +339,7 @@ impl Manager {
             .table
             .arm_from(plan.source, target, spec.kind, until, began, now_ns());
         st.table.set_rearm(id, spec.rearm);
+        st.table.set_starts(id, spec.starts);
         st.records.insert(
             id,
             Record {

@@ -11,7 +11,7 @@
 //! a re-arming connection re-arms). Components without a `state` topic (rclpy ones) keep the counts alone.
 
 use std::{
-    collections::{BTreeSet, HashMap},
+    collections::HashMap,
     sync::{Arc, Weak},
     time::Duration,
 };
@@ -27,43 +27,7 @@ use crate::{
 /// How often at most the processes of the watched components are looked at while discovery changes.
 const EVERY: Duration = Duration::from_millis(100);
 
-/// What the watcher knows of one component.
-#[derive(Default)]
-struct Seen {
-    /// The process its connections were made with, once seen.
-    current: Option<GUID>,
-    /// The processes seen running it, at the last look.
-    known: BTreeSet<GUID>,
-}
-
-impl Seen {
-    /// Looks at `hosts`, the processes running the component now: whether one appeared beside (or after) the
-    /// one its connections were made with, which it then takes as current. `vanished` says whether a process
-    /// is off the graph but not yet taken as gone ([`crate::graph::Graph::vanished_within_lease`]: over Zenoh
-    /// a killed process's tokens vanish at once, and the new process's may come after that): one that has
-    /// is replaced by a new one as if it were still there.
-    fn replaced(&mut self, hosts: BTreeSet<GUID>, vanished: impl Fn(GUID) -> bool) -> bool {
-        let fresh = hosts.difference(&self.known).next().copied();
-        self.known = hosts;
-        match (self.current, fresh) {
-            (Some(c), Some(new)) if new != c && (self.known.contains(&c) || vanished(c)) => {
-                self.current = Some(new);
-                true
-            }
-            _ => {
-                // not seen yet, or gone (the counts tell that): take whichever runs it now; one that went away
-                // is kept until another comes (then judged above), so that a look between the tokens of one
-                // death does not forget which process it was
-                if self.current.is_none_or(|c| !self.known.contains(&c)) {
-                    if let Some(now) = self.known.iter().next().copied() {
-                        self.current = Some(now);
-                    }
-                }
-                false
-            }
-        }
-    }
-}
+type Seen = radar_semantics::instances::Instances<GUID>;
 
 impl Manager {
     /// Starts, once, the task that watches which processes run the components of this manager's relays and
@@ -153,58 +117,5 @@ impl Manager {
             }
         }
         true
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn p(n: u8) -> GUID {
-        let mut bytes = [0u8; 16];
-        bytes[0] = n;
-        GUID::from_bytes(bytes)
-    }
-
-    #[test]
-    fn a_new_process_beside_the_one_in_use_replaces_it_and_others_do_not() {
-        let on_graph = |_| false;
-        let mut s = Seen::default();
-        assert!(!s.replaced(BTreeSet::new(), on_graph), "not running yet");
-        assert!(!s.replaced(BTreeSet::from([p(1)]), on_graph), "first seen");
-        assert!(!s.replaced(BTreeSet::from([p(1)]), on_graph), "no change");
-        // respawned within the lease: the old one still shows
-        assert!(s.replaced(BTreeSet::from([p(1), p(2)]), on_graph));
-        // the old one's lease runs out: nothing more to tell
-        assert!(!s.replaced(BTreeSet::from([p(2)]), on_graph));
-        // it exits (counts tell that), then starts again: a return, not a replacement
-        assert!(!s.replaced(BTreeSet::new(), on_graph));
-        assert!(!s.replaced(BTreeSet::from([p(3)]), on_graph));
-        assert_eq!(s.current, Some(p(3)));
-    }
-
-    #[test]
-    fn a_process_that_vanished_within_its_lease_is_replaced_by_the_next() {
-        // over Zenoh: p(1) is killed, its tokens vanish at once, p(2) comes after that
-        let vanished = |g| g == p(1);
-        let mut s = Seen::default();
-        assert!(!s.replaced(BTreeSet::from([p(1)]), vanished));
-        assert!(
-            !s.replaced(BTreeSet::new(), vanished),
-            "gone from the graph"
-        );
-        assert!(s.replaced(BTreeSet::from([p(2)]), vanished), "replaced");
-        assert_eq!(s.current, Some(p(2)));
-        // a look between the tokens of one death (its session not yet vanished as a whole) forgets nothing
-        let later = |g| g == p(2);
-        assert!(!s.replaced(BTreeSet::new(), |_| false));
-        assert!(
-            s.replaced(BTreeSet::from([p(3)]), later),
-            "judged when p(3) comes"
-        );
-        // one that left for good (or still runs elsewhere on the graph) is not replaced: a return
-        assert!(!s.replaced(BTreeSet::new(), |_| false));
-        assert!(!s.replaced(BTreeSet::from([p(4)]), |_| false));
-        assert_eq!(s.current, Some(p(4)));
     }
 }

@@ -252,12 +252,11 @@ impl Manager {
         let records = &st.records;
         // C2: a signal a filter refuses, or a transform turns into nothing, is not a delivery
         let mut mapped: Vec<(ConnId, RawMessage)> = Vec::new();
-        // T2: this host's clock may have stepped back
-        st.table.clock(now_ns());
         // a program told to stop starts nothing more (its exit slots may take seconds; a start it relayed then
         // would set a robot moving as the program that drives it goes): interrupts and calls still go
         let stopping = self.participant.components().stopping();
-        let deliveries = st.table.on_signal_with(source, sent.at, sent.by, |id| {
+        // T2: this host's clock may have stepped back
+        let out = st.table.signal(source, sent, now_ns(), |id| {
             let Some(r) = records.get(&id) else {
                 return true;
             };
@@ -281,27 +280,19 @@ impl Manager {
                 None => true,
             }
         });
-        for d in &deliveries {
-            let (payload, slot_sent) = match d.via {
-                Via::Signal { n } => {
-                    let payload = match mapped.iter().position(|(id, _)| *id == d.id) {
-                        Some(i) => mapped.swap_remove(i).1,
-                        None => raw.clone(),
-                    };
-                    let starts = st.records.get(&d.id).is_some_and(|r| r.starts);
-                    let by = starts.then(|| st.table.cause(d.id, n));
-                    (payload, Sent { at: sent.at, by })
-                }
-                // an until's interrupt names the statement, with the time of U's signal (R13, C7)
-                Via::Until { at } => (
-                    RawMessage::from_bytes(vec![0]),
-                    Sent::by(at, st.table.cause(d.id, 0)),
-                ),
+        for d in out.sends {
+            let payload = match d.via {
+                Via::Signal { .. } => match mapped.iter().position(|(id, _)| *id == d.id) {
+                    Some(i) => mapped.swap_remove(i).1,
+                    None => raw.clone(),
+                },
+                // an until's interrupt: the slot takes std_msgs/msg/Empty
+                Via::Until { .. } => RawMessage::from_bytes(vec![0]),
             };
             match &d.target {
                 Target::Slot(k) => {
                     if let Some(o) = st.outlets.get(k) {
-                        o.deliver(payload, slot_sent);
+                        o.deliver(payload, d.sent);
                     }
                 }
                 Target::Anon(k) => {
@@ -312,11 +303,11 @@ impl Manager {
             }
         }
         // a `once` that fired, or whose until is over, is gone: forget what it carried
-        let ended = st.table.take_ended();
-        for id in &ended {
+        for id in &out.ended {
             st.records.remove(id);
         }
-        let released = self.prune(st);
+        let ended = out.ended;
+        let released = self.release(st, out.released);
         !ended.is_empty() || released
     }
 
@@ -339,7 +330,12 @@ impl Manager {
     /// listener was a fired `once` deactivates. Looks only at what the table released, so its cost does not
     /// grow with the number of connections. Whether the table released anything.
     fn prune(&self, st: &mut State) -> bool {
-        let (sources, targets) = st.table.take_released();
+        let released = st.table.take_released();
+        self.release(st, released)
+    }
+
+    /// Lets go of the relays, outlets and anonymous queues of `released` (the table's own words for them).
+    fn release(&self, st: &mut State, (sources, targets): (Vec<Key>, Vec<Target>)) -> bool {
         let released = !sources.is_empty() || !targets.is_empty();
         for s in sources {
             if st.relays.remove(&s).is_some() {
