@@ -622,8 +622,9 @@ async fn a_waiter_sees_the_signal_emitted_right_after_it_is_armed() {
 }
 
 /// Rule 3 when R is busy: `once E start R until U` delivers its start while R runs another run, so R drops it
-/// (it ignores starts while running). R's next run, started by something else once R is idle again, is not
-/// this statement's run, and U must not interrupt it.
+/// (it ignores starts while running, R6) and says so on `dropped`. The statement is then over (C3, issue 69:
+/// before, it never ended: U went on checking and `closed()` never resolved), and U is let go; R's next run,
+/// started by something else once R is idle again, is not this statement's run, and U must not interrupt it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn until_opens_no_window_for_a_start_the_busy_response_dropped() {
     let r = radar(36);
@@ -645,7 +646,7 @@ async fn until_opens_no_window_for_a_start_the_busy_response_dropped() {
         .await
         .unwrap();
     eventually(T, "run 1", || resp.state().starts == 1).await;
-    let _c = r
+    let c = r
         .once(Signal::new("/ub/e", empty))
         .start(&resp)
         .until(Signal::new("/ub/u", empty))
@@ -656,6 +657,15 @@ async fn until_opens_no_window_for_a_start_the_busy_response_dropped() {
         resp.state().ignored_starts == 1
     })
     .await;
+    c.closed()
+        .timeout(T)
+        .await
+        .expect("the once ... until is over once R dropped its start");
+    assert!(resp.state().starts == 1, "before run 1 ended");
+    u.wait_for_no_subscribers()
+        .timeout(T)
+        .await
+        .expect("U let go by the statement that is over");
     eventually(T, "run 1 to end", || resp.state().exits == 1).await;
     // later, something else starts R
     tokio::time::sleep(Duration::from_millis(100)).await;
@@ -1014,4 +1024,57 @@ async fn an_event_already_true_when_connected_delivers_its_first_trigger() {
             .await
             .unwrap_or_else(|e| panic!("waitfor round {round}: {e}"));
     }
+}
+
+/// Rule C4 (issue 69): a fired `once ... call` whose guard is dropped before its call began begins no call
+/// after that. The once fires (its payload waits in the anonymous slot's queue, for the slot's own task) and its
+/// scope ends at once, 200 times in a row with no pause between: a call that begins after the guard dropped is
+/// counted (before: the table no longer knew the spent connection's queue, so the drop did not cancel it, and
+/// the call came after the scope had ended).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_fired_once_call_begins_no_call_after_its_scope_ended() {
+    let r = radar(127);
+    let source = r.signal_publisher::<Empty>("/oc/e").unwrap();
+    let signal = Signal::new("/oc/e", "std_msgs/msg/Empty");
+    let late = Arc::new(AtomicU64::new(0));
+    let (mut called, mut dropped_first) = (0, 0);
+    for _ in 0..200 {
+        let scope_over = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let calls = Arc::new(AtomicU64::new(0));
+        let (over, late2, calls2) = (scope_over.clone(), late.clone(), calls.clone());
+        let c = r
+            .once(&signal)
+            .call(move |_: Empty| {
+                calls2.fetch_add(1, Ordering::SeqCst);
+                if over.load(Ordering::SeqCst) {
+                    late2.fetch_add(1, Ordering::SeqCst);
+                }
+            })
+            .timeout(T)
+            .await
+            .unwrap();
+        source.publish(Empty::default()).unwrap();
+        // the once fires: gone from the table; its scope ends at once
+        let began = std::time::Instant::now();
+        while c.is_live() {
+            assert!(began.elapsed() < T, "the once never fired");
+            std::hint::spin_loop();
+        }
+        let before = calls.load(Ordering::SeqCst);
+        drop(c);
+        // from here no call may begin
+        scope_over.store(true, Ordering::SeqCst);
+        if before == 0 && calls.load(Ordering::SeqCst) == 0 {
+            dropped_first += 1;
+        }
+        tokio::task::yield_now().await;
+        called += calls.load(Ordering::SeqCst);
+    }
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    println!("{dropped_first} of 200 scopes ended before the call could begin; {called} calls began before");
+    assert_eq!(
+        late.load(Ordering::SeqCst),
+        0,
+        "calls began after their statement's scope had ended ({dropped_first} of 200 rounds dropped first)"
+    );
 }

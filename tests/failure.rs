@@ -539,3 +539,74 @@ async fn a_target_respawned_within_its_lease_is_seen_replaced() {
     respawned.send("quit").await;
     respawned.wait().await;
 }
+
+/// The `count_up` example built beside the tests.
+fn count_up_example() -> std::path::PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let path = exe
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("examples/count_up");
+    assert!(
+        path.exists(),
+        "{} is missing: `cargo test --workspace` builds it",
+        path.display()
+    );
+    path
+}
+
+/// Issue 69 (rule C5): the README's `count_up` started twice on one domain, 1 s apart (two terminals; a laptop
+/// beside the robot running the same launch file). Each program keeps its own statement and its count_up runs
+/// Listing 1; neither takes the other's components as a respawn of its own (before: both warned that its
+/// components were "started again ... the old one is taken as gone", both dropped their statement, and neither
+/// count_up ever started). Each warns once per component that it runs in two live processes, naming both.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_live_programs_of_one_name_each_keep_their_connections() {
+    radar_test_util::require_isolation();
+    let run = |duration: &str| {
+        tokio::process::Command::new(count_up_example())
+            .args(["--duration", duration])
+            .env("ROS_DOMAIN_ID", "126")
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("count_up runs")
+    };
+    let first = run("7");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let second = run("6");
+    let (a, b) = tokio::join!(first.wait_with_output(), second.wait_with_output());
+    for (who, out) in [("first", a.unwrap()), ("second", b.unwrap())] {
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        );
+        assert!(out.status.success(), "{who}: {stdout}\n{stderr}");
+        for line in [
+            "count_up started",
+            "count_up counts 1",
+            "count_up interrupted",
+        ] {
+            assert!(
+                stdout.contains(line),
+                "{who} has no `{line}`:\n{stdout}\n{stderr}"
+            );
+        }
+        for wrong in [
+            "taken as gone",
+            "delivers nothing more",
+            "is gone (respawned?)",
+        ] {
+            assert!(!stderr.contains(wrong), "{who} says `{wrong}`:\n{stderr}");
+        }
+        assert!(
+            stderr.contains("/count_up runs in two live processes, process ")
+                && stderr.matches("on this host").count() >= 2,
+            "{who} names both processes:\n{stderr}"
+        );
+    }
+}

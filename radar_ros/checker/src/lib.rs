@@ -58,7 +58,7 @@ impl Budget {
     /// A deeper run.
     pub fn deep() -> Budget {
         Budget {
-            states: 20_000_000,
+            states: 4_000_000,
             depth: 200,
         }
     }

@@ -22,7 +22,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use radar_semantics::{
     connection::{ConnId, ConnectionTable, Kind as TableKind, Until},
     event::{Activation, Transition},
-    instances::Instances,
+    instances::{Instances, Liveness, Seen},
     response::{
         Cause as MCause, Effect, ExitAction as MExitAction, ExitReason as MExitReason, Input,
         ResponseMachine, Sent, StartEnd as MStartEnd, StartPolicy,
@@ -554,8 +554,10 @@ impl World {
                     ..
                 })
             );
-            // a filter that looks at values (a typed closure) refuses what does not decode
-            st.accepts.passes(payload) == Some(true) && !(stopping && starts)
+            // a filter that looks at values (a typed closure) refuses what does not decode; so does the check
+            // of a start slot's type, and an anonymous slot's decoding (the binding's `reads`, C2)
+            let reads = !payload.unreadable || !(starts || st.target == Target::Call);
+            st.accepts.passes(payload) == Some(true) && reads && !(stopping && starts)
         };
         let out = self.mgr.table.signal(&source, sent, now, accept);
         for d in out.sends {
@@ -720,6 +722,10 @@ impl World {
                     comp: slot.comp,
                     kind: SignalKind::Exited,
                 },
+                dropped: Signal {
+                    comp: slot.comp,
+                    kind: SignalKind::Dropped,
+                },
                 interrupt: Tgt::Slot(Slot {
                     comp: slot.comp,
                     kind: SlotKind::Interrupt,
@@ -746,6 +752,7 @@ impl World {
                 })
             ),
         );
+        self.mgr.table.set_call(id, st.target == Target::Call);
         self.mgr.conn[usize::from(k)] = Some(id);
         let since = self.insts[usize::from(mp)].clock;
         self.rec(
@@ -767,13 +774,7 @@ impl World {
             comps.push(slot.comp);
         }
         for c in comps {
-            let hosts = self.hosts(c);
-            let _ = self
-                .mgr
-                .instances
-                .entry(c)
-                .or_default()
-                .replaced(hosts, |_| false);
+            self.look_instances(c);
         }
     }
 
@@ -822,8 +823,37 @@ impl World {
                 );
             }
         }
+        // a spent `once ... until` whose response left is over (C3, C5)
+        for id in self.mgr.table.take_ended() {
+            if let Some(k) = stmt_of(&self.mgr, id) {
+                self.rec(mp, Obs::Ended { stmt: stmt_no(k) });
+            }
+        }
         let released = self.mgr.table.take_released();
         self.release(s, released);
+    }
+
+    /// The instance watcher's look at `comp`; what is known of each instance's life: the truth (every process
+    /// runs on this host, whose sockets tell).
+    fn look_instances(&mut self, comp: Comp) -> Seen<u32> {
+        let hosts = self.hosts(comp);
+        let alive: BTreeSet<u32> = self
+            .insts
+            .iter()
+            .filter(|i| i.comp == comp && i.alive)
+            .map(|i| i.no)
+            .collect();
+        self.mgr
+            .instances
+            .entry(comp)
+            .or_default()
+            .look(hosts, |n| {
+                if alive.contains(&n) {
+                    Liveness::Alive
+                } else {
+                    Liveness::Dead
+                }
+            })
     }
 
     fn back(&mut self, s: &Scenario, end: End) {
@@ -842,12 +872,7 @@ impl World {
             return;
         }
         let hosts = self.hosts(comp);
-        let replaced = self
-            .mgr
-            .instances
-            .entry(comp)
-            .or_default()
-            .replaced(hosts.clone(), |_| false);
+        let replaced = matches!(self.look_instances(comp), Seen::Replaced { .. });
         if replaced {
             for &e in &ends {
                 self.lost(s, e);
@@ -870,14 +895,13 @@ impl World {
         let Some(id) = self.mgr.conn[usize::from(k)] else {
             return;
         };
-        // as the binding's `Manager::remove`: cancel the anonymous slot of a live connection, remove it
-        if let Some(Tgt::Anon(a)) = self.mgr.table.target(id) {
-            let a = *a;
+        // as the binding's `Manager::remove`: the table forgets the connection; its anonymous slot (of a live
+        // connection, or of one that fired) begins no further call
+        if let Some(Tgt::Anon(a)) = self.mgr.table.forget(id) {
             if let Some(q) = self.mgr.anon.get_mut(&a) {
                 q.cancelled = true;
             }
         }
-        self.mgr.table.remove(id);
         let released = self.mgr.table.take_released();
         self.release(s, released);
     }
@@ -980,6 +1004,9 @@ impl World {
                         },
                         cause,
                     );
+                }
+                Effect::EmitDropped(cause) => {
+                    self.emit(s, i, SignalKind::Dropped, Payload::default(), Some(cause))
                 }
                 Effect::ReportPanic { .. } | Effect::Ignored { .. } => {}
             }
@@ -1333,10 +1360,19 @@ impl World {
                     return;
                 }
                 let now = self.now(self.mp(s));
+                // a response's signals speak of its runs only from the instance the manager follows: another
+                // live instance of that name (a second process) closes no `until` window (C5)
+                let (comp, no) = (signal.comp, self.insts[usize::from(i)].no);
+                let followed = self
+                    .mgr
+                    .instances
+                    .get(&comp)
+                    .and_then(|x| x.current())
+                    .is_none_or(|c| c == no);
                 // the relay takes the stamp as rule T1 says
                 let sent = Sent {
                     at: time::received(stamp, now),
-                    by: cause,
+                    by: cause.filter(|_| followed),
                 };
                 self.dispatch(s, signal, sig, sent, payload);
             }

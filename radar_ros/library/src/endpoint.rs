@@ -1,8 +1,8 @@
 //! The RADAR endpoints below a component's name, by role rather than by string.
 
 /// A RADAR endpoint below a component's name: an event's `triggered` and `state`; a response's `start`,
-/// `interrupt` and `exit` slots, its `started`, `interrupted` and `exited` signals, its `state`, and (an action
-/// response's) `feedback`.
+/// `interrupt` and `exit` slots, its `started`, `interrupted` and `exited` signals, its `dropped` notice, its
+/// `state`, and (an action response's) `feedback`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Endpoint {
     /// An event's signal.
@@ -19,6 +19,9 @@ pub enum Endpoint {
     Interrupted,
     /// A response's signal that a run ended.
     Exited,
+    /// A response's notice that it did not take a start a statement sent (busy, replaced in its queue,
+    /// stopping), carrying that statement's cause (rule R6): the statement's `until` ends (C3).
+    Dropped,
     /// An action response's feedback signal.
     Feedback,
     /// A component's state (transient-local).
@@ -27,7 +30,7 @@ pub enum Endpoint {
 
 impl Endpoint {
     /// Every RADAR endpoint.
-    pub const ALL: [Endpoint; 9] = [
+    pub const ALL: [Endpoint; 10] = [
         Endpoint::Triggered,
         Endpoint::Start,
         Endpoint::Interrupt,
@@ -35,6 +38,7 @@ impl Endpoint {
         Endpoint::Started,
         Endpoint::Interrupted,
         Endpoint::Exited,
+        Endpoint::Dropped,
         Endpoint::Feedback,
         Endpoint::State,
     ];
@@ -49,6 +53,7 @@ impl Endpoint {
             Endpoint::Started => "started",
             Endpoint::Interrupted => "interrupted",
             Endpoint::Exited => "exited",
+            Endpoint::Dropped => "dropped",
             Endpoint::Feedback => "feedback",
             Endpoint::State => "state",
         }
@@ -67,7 +72,8 @@ impl Endpoint {
         (!parent.is_empty()).then_some((parent, e))
     }
 
-    /// A signal (published by the component: `triggered`, `started`, `interrupted`, `exited`, `feedback`).
+    /// A signal (published by the component: `triggered`, `started`, `interrupted`, `exited`, `dropped`,
+    /// `feedback`).
     pub fn is_signal(self) -> bool {
         matches!(
             self,
@@ -75,6 +81,7 @@ impl Endpoint {
                 | Endpoint::Started
                 | Endpoint::Interrupted
                 | Endpoint::Exited
+                | Endpoint::Dropped
                 | Endpoint::Feedback
         )
     }

@@ -1,11 +1,57 @@
-//! Which process runs a component (rule C5 for a component started again within its lease).
+//! Which process runs a component (rule C5 for a component started again within its lease, or twice).
 //!
 //! A component killed and started again at once (launch's `respawn=True`, a systemd restart) is back on the
 //! graph before the old process's lease runs out: its endpoints match while the dead one's are still matched,
 //! so match counts cannot tell the two apart; the processes can. [`Instances`] follows the processes seen
-//! running one component and says when its connections must take the one they were made with as gone.
+//! running one component and says, at each look, what its connections must be told:
+//!
+//! - a new process beside the one the connections were made with, which is known to have died (on this host:
+//!   its sockets are closed): a **replacement**, told at once (the old one is gone, the new one is back);
+//! - the one the connections were made with is off the graph (its lease ran out, it said goodbye) and another
+//!   runs the component: a **replacement** too (the two may have come and gone between two looks, so that no
+//!   match count ever reached zero);
+//! - a new process beside one that is alive, or of whose life nothing is known (another host): a **second
+//!   process of one name**. Nothing changes for the connections (they stay with the process they were made
+//!   with, and one program's statements do not lose a healthy component because a laptop beside the robot
+//!   started the same launch file); it is reported, naming both. Once the first one goes, the second takes
+//!   its place as above.
 
 use std::collections::BTreeSet;
+
+/// What is known of whether a process still runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Liveness {
+    /// It runs (on this host, its sockets are open).
+    Alive,
+    /// It is gone (on this host, its sockets are closed, or another process now has them; over Zenoh, its
+    /// session vanished), though its lease has not run out.
+    Dead,
+    /// Nothing is known (it runs on another host): only its lease will tell.
+    Unknown,
+}
+
+/// What a look found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Seen<P> {
+    /// Nothing to tell.
+    Nothing,
+    /// `new` replaced `old`: the connections made with `old` must be told it is gone, then that the component
+    /// is back.
+    Replaced {
+        /// The process the connections were made with.
+        old: P,
+        /// The one that runs the component now.
+        new: P,
+    },
+    /// `other` runs the component too, beside `current`, which is alive (or may be): two live processes of
+    /// one name. The connections stay with `current`.
+    Beside {
+        /// The process the connections were made with.
+        current: P,
+        /// The second one.
+        other: P,
+    },
+}
 
 /// What is known of the processes running one component; `P` names a process (its participant).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -31,38 +77,45 @@ impl<P: Ord + Copy> Instances<P> {
         self.current
     }
 
-    /// Looks at `hosts`, the processes running the component now: whether one appeared beside (or after) the
-    /// one its connections were made with, which it then takes as current. `vanished` says whether a process
-    /// is off the graph but not yet taken as gone (over Zenoh a killed process's tokens vanish at once, and the
-    /// new process's may come after that): one that has is replaced by a new one as if it were still there.
+    /// Looks at `hosts`, the processes running the component on the graph now, with what is known of the life
+    /// of each (`live`).
     ///
     /// ```
     /// use std::collections::BTreeSet;
-    /// use radar_semantics::instances::Instances;
+    /// use radar_semantics::instances::{Instances, Liveness, Seen};
     /// let mut s = Instances::default();
-    /// assert!(!s.replaced(BTreeSet::from([1]), |_| false), "first seen");
-    /// assert!(s.replaced(BTreeSet::from([1, 2]), |_| false), "respawned within the lease");
+    /// assert_eq!(s.look(BTreeSet::from([1]), |_| Liveness::Alive), Seen::Nothing);
+    /// // killed and respawned within its lease: the old one is known to be dead
+    /// assert_eq!(s.look(BTreeSet::from([1, 2]), |p| if p == 1 { Liveness::Dead } else { Liveness::Alive }),
+    ///            Seen::Replaced { old: 1, new: 2 });
+    /// // a second live process of that name: reported, the connections stay with 2
+    /// assert_eq!(s.look(BTreeSet::from([2, 3]), |_| Liveness::Alive), Seen::Beside { current: 2, other: 3 });
     /// assert_eq!(s.current(), Some(2));
     /// ```
-    pub fn replaced(&mut self, hosts: BTreeSet<P>, vanished: impl Fn(P) -> bool) -> bool {
-        let fresh = hosts.difference(&self.known).next().copied();
+    pub fn look(&mut self, hosts: BTreeSet<P>, live: impl Fn(P) -> Liveness) -> Seen<P> {
+        let fresh: Vec<P> = hosts.difference(&self.known).copied().collect();
         self.known = hosts;
-        match (self.current, fresh) {
-            (Some(c), Some(new)) if new != c && (self.known.contains(&c) || vanished(c)) => {
-                self.current = Some(new);
-                true
-            }
-            _ => {
-                // not seen yet, or gone (the counts tell that): take whichever runs it now; one that went away
-                // is kept until another comes (then judged above), so that a look between the tokens of one
-                // death does not forget which process it was
-                if self.current.is_none_or(|c| !self.known.contains(&c)) {
-                    if let Some(now) = self.known.iter().next().copied() {
-                        self.current = Some(now);
-                    }
+        let Some(c) = self.current else {
+            self.current = self.known.iter().next().copied();
+            return Seen::Nothing;
+        };
+        if !self.known.contains(&c) {
+            // off the graph: whichever runs it now took its place
+            return match self.known.iter().next().copied() {
+                Some(new) => {
+                    self.current = Some(new);
+                    Seen::Replaced { old: c, new }
                 }
-                false
+                None => Seen::Nothing,
+            };
+        }
+        match fresh.into_iter().find(|n| *n != c) {
+            Some(new) if live(c) == Liveness::Dead => {
+                self.current = Some(new);
+                Seen::Replaced { old: c, new }
             }
+            Some(other) => Seen::Beside { current: c, other },
+            None => Seen::Nothing,
         }
     }
 }
@@ -71,45 +124,87 @@ impl<P: Ord + Copy> Instances<P> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_new_process_beside_the_one_in_use_replaces_it_and_others_do_not() {
-        let on_graph = |_| false;
-        let mut s = Instances::default();
-        assert!(!s.replaced(BTreeSet::new(), on_graph), "not running yet");
-        assert!(!s.replaced(BTreeSet::from([1]), on_graph), "first seen");
-        assert!(!s.replaced(BTreeSet::from([1]), on_graph), "no change");
-        // respawned within the lease: the old one still shows
-        assert!(s.replaced(BTreeSet::from([1, 2]), on_graph));
-        // the old one's lease runs out: nothing more to tell
-        assert!(!s.replaced(BTreeSet::from([2]), on_graph));
-        // it exits (counts tell that), then starts again: a return, not a replacement
-        assert!(!s.replaced(BTreeSet::new(), on_graph));
-        assert!(!s.replaced(BTreeSet::from([3]), on_graph));
-        assert_eq!(s.current, Some(3));
+    fn dead_but(alive: u8) -> impl Fn(u8) -> Liveness {
+        move |p| {
+            if p == alive {
+                Liveness::Alive
+            } else {
+                Liveness::Dead
+            }
+        }
     }
 
     #[test]
-    fn a_process_that_vanished_within_its_lease_is_replaced_by_the_next() {
-        // over Zenoh: 1 is killed, its tokens vanish at once, 2 comes after that
-        let vanished = |g| g == 1;
+    fn c5_a_new_process_beside_a_dead_one_replaces_it_at_once() {
         let mut s = Instances::default();
-        assert!(!s.replaced(BTreeSet::from([1]), vanished));
-        assert!(
-            !s.replaced(BTreeSet::new(), vanished),
-            "gone from the graph"
+        assert_eq!(
+            s.look(BTreeSet::new(), dead_but(1)),
+            Seen::Nothing,
+            "not running yet"
         );
-        assert!(s.replaced(BTreeSet::from([2]), vanished), "replaced");
-        assert_eq!(s.current, Some(2));
-        // a look between the tokens of one death (its session not yet vanished as a whole) forgets nothing
-        let later = |g| g == 2;
-        assert!(!s.replaced(BTreeSet::new(), |_| false));
-        assert!(
-            s.replaced(BTreeSet::from([3]), later),
-            "judged when 3 comes"
+        assert_eq!(
+            s.look(BTreeSet::from([1]), dead_but(1)),
+            Seen::Nothing,
+            "first seen"
         );
-        // one that left for good (or still runs elsewhere on the graph) is not replaced: a return
-        assert!(!s.replaced(BTreeSet::new(), |_| false));
-        assert!(!s.replaced(BTreeSet::from([4]), |_| false));
-        assert_eq!(s.current, Some(4));
+        assert_eq!(
+            s.look(BTreeSet::from([1]), dead_but(1)),
+            Seen::Nothing,
+            "no change"
+        );
+        // respawned within the lease: the old one still shows, and is known to be dead
+        assert_eq!(
+            s.look(BTreeSet::from([1, 2]), dead_but(2)),
+            Seen::Replaced { old: 1, new: 2 }
+        );
+        // the old one's lease runs out: nothing more to tell
+        assert_eq!(s.look(BTreeSet::from([2]), dead_but(2)), Seen::Nothing);
+        assert_eq!(s.current(), Some(2));
+    }
+
+    #[test]
+    fn c5_the_one_in_use_gone_off_the_graph_is_replaced_by_the_one_there() {
+        let mut s = Instances::default();
+        let _ = s.look(BTreeSet::from([1]), dead_but(1));
+        // killed, its lease ran out and a new one came, all between two looks
+        assert_eq!(
+            s.look(BTreeSet::from([2]), dead_but(2)),
+            Seen::Replaced { old: 1, new: 2 }
+        );
+        // gone with none to take its place: the match counts tell that, not this
+        assert_eq!(s.look(BTreeSet::new(), dead_but(9)), Seen::Nothing);
+        assert_eq!(s.current(), Some(2), "kept until another comes");
+        assert_eq!(
+            s.look(BTreeSet::from([3]), dead_but(3)),
+            Seen::Replaced { old: 2, new: 3 }
+        );
+    }
+
+    #[test]
+    fn c5_a_second_live_process_of_one_name_is_told_and_changes_nothing() {
+        for life in [Liveness::Alive, Liveness::Unknown] {
+            let mut s = Instances::default();
+            let _ = s.look(BTreeSet::from([1]), |_| life);
+            assert_eq!(
+                s.look(BTreeSet::from([1, 2]), |_| life),
+                Seen::Beside {
+                    current: 1,
+                    other: 2
+                },
+                "{life:?}"
+            );
+            assert_eq!(
+                s.look(BTreeSet::from([1, 2]), |_| life),
+                Seen::Nothing,
+                "told once"
+            );
+            assert_eq!(s.current(), Some(1));
+            // the first one goes: the second takes its place
+            assert_eq!(
+                s.look(BTreeSet::from([2]), |_| life),
+                Seen::Replaced { old: 1, new: 2 },
+                "{life:?}"
+            );
+        }
     }
 }

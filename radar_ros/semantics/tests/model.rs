@@ -756,6 +756,7 @@ proptest! {
                         source: "U",
                         started: "R.started",
                         exited: "R.exited",
+            dropped: "R.dropped",
                         interrupt: "R.interrupt",
                         causes,
                     });
@@ -806,11 +807,14 @@ proptest! {
                         if c.target == target && matches!(c.link, Link::Armed | Link::WaitingForSource) {
                             c.link = if c.rearm { Link::WaitingForTarget } else { Link::TargetLost };
                         }
-                        // C5: R's run ended with it; a new R did not take this statement's start
+                        // C5: R's run ended with it; a new R did not take this statement's start (C3: a
+                        // spent once ... until is over)
                         if let (Some(w), "R.start") = (&mut c.until, target) {
                             *w = ModelWindow::new(w.causes);
+                            c.over |= c.spent;
                         }
                     }
+                    model.retain(|c| !c.over);
                 }
                 Op::QBack | Op::RBack => {
                     let target = if matches!(o, Op::QBack) { "Q.start" } else { "R.start" };
@@ -961,7 +965,7 @@ proptest! {
     ) {
         let mut t = ConnectionTable::<&'static str, &'static str>::with_statement_base(5);
         let kind = if once { Kind::Once } else { Kind::Whenever };
-        let until = Until { source: "U", started: "R.started", exited: "R.exited", interrupt: "R.interrupt", causes: true };
+        let until = Until { source: "U", started: "R.started", exited: "R.exited", dropped: "R.dropped", interrupt: "R.interrupt", causes: true };
         let id = t.arm("E", "R.start", kind, Some(until), 0);
         let k = t.statement(id);
         let mut r = ResponseMachine::<u8, ()>::new(policy);

@@ -71,6 +71,8 @@ pub enum SignalKind {
     Interrupted,
     /// A response's: a run ended (after its exit slot).
     Exited,
+    /// A response's: a start a statement sent (its cause) was not taken, and no run of it will come.
+    Dropped,
 }
 
 /// The slots of a response.

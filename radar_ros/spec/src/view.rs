@@ -118,6 +118,7 @@ impl RunView {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Emission {
     pub(crate) signal: Signal,
+    pub(crate) inst: u32,
     pub(crate) stamp: Time,
     pub(crate) cause: Option<Cause>,
     pub(crate) payload: Payload,
@@ -220,7 +221,7 @@ impl<'t> View<'t> {
                 sig, signal, inst, ..
             } => {
                 self.emitted.entry(sig).or_insert(i);
-                if signal.kind != SignalKind::Triggered {
+                if !matches!(signal.kind, SignalKind::Triggered | SignalKind::Dropped) {
                     let who = (signal.comp, inst);
                     self.add_to_run(who, i, current);
                     if signal.kind == SignalKind::Exited {
@@ -332,12 +333,14 @@ impl<'t> View<'t> {
         match r.obs {
             Obs::Emitted {
                 signal,
+                inst,
                 stamp,
                 cause,
                 payload,
                 ..
             } => Some(Emission {
                 signal,
+                inst,
                 stamp,
                 cause,
                 payload,

@@ -220,6 +220,7 @@ impl ConnectionRequest {
                     source: u.signal(),
                     started: r.started(),
                     exited: r.exited(),
+                    dropped: r.dropped(),
                     interrupt: r.interrupt_slot(),
                     state: r.name().endpoint(crate::Endpoint::State),
                 })

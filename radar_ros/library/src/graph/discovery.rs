@@ -333,6 +333,31 @@ impl Graph {
             .collect()
     }
 
+    /// What is known of whether the process of participant `p` still runs ([`super::processes`]): over
+    /// Zenoh, a session that vanished within its grace is gone.
+    pub(crate) fn liveness(&self, p: GUID) -> radar_semantics::instances::Liveness {
+        if self.vanished_within_lease(p) {
+            return radar_semantics::instances::Liveness::Dead;
+        }
+        self.participants()
+            .into_iter()
+            .find(|(g, _)| *g == p)
+            .map_or(radar_semantics::instances::Liveness::Unknown, |(_, u)| {
+                super::processes::liveness(&u)
+            })
+    }
+
+    /// The process of participant `p`, as a user recognises it (`process 1234 on this host`).
+    pub(crate) fn describe_process(&self, p: GUID) -> String {
+        let user_data = self
+            .participants()
+            .into_iter()
+            .find(|(g, _)| *g == p)
+            .map(|(_, u)| u)
+            .unwrap_or_default();
+        super::processes::describe(&user_data, p.prefix.as_ref())
+    }
+
     /// The DDS topics of discovered remote readers of DDS type `dds_type` (a service's servers, for its
     /// request type).
     pub(crate) fn discovered_reader_topics(&self, dds_type: &str) -> BTreeSet<String> {

@@ -34,6 +34,7 @@ pub(crate) mod lookup;
 pub(crate) mod nodes;
 mod observers;
 mod peers;
+pub(crate) mod processes;
 #[cfg(feature = "zenoh")]
 pub(crate) mod tokens;
 

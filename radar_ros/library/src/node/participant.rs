@@ -88,6 +88,8 @@ pub(crate) struct Participant {
     program_node: Mutex<Option<String>>,
     /// The slots of this process's responses, for in-process delivery.
     inlets: Arc<crate::wire::local::Inlets>,
+    /// The types whose payloads this process can check (C2).
+    readers: crate::wire::readers::Readers,
     /// The signals of this process's components, for in-process delivery.
     taps: crate::wire::local::Taps,
     /// The components of this participant, so that they can all be stopped at once.
@@ -273,6 +275,7 @@ impl Participant {
             graph_ended: Mutex::new(Some(ended)),
             program_node: Mutex::new(None),
             inlets: Default::default(),
+            readers: Default::default(),
             taps: Default::default(),
             components: Default::default(),
             shutdown_timeout,
@@ -382,6 +385,11 @@ impl Participant {
     /// The slots of this process's responses, reachable without DDS.
     pub(crate) fn inlets(&self) -> &Arc<crate::wire::local::Inlets> {
         &self.inlets
+    }
+
+    /// The types whose payloads this process can check (rule C2).
+    pub(crate) fn readers(&self) -> &crate::wire::readers::Readers {
+        &self.readers
     }
 
     /// The signals of this process's components, reachable without DDS.

@@ -57,7 +57,13 @@ fn dds_participant(s: &Settings) -> Result<rustdds::DomainParticipant> {
     }
     // as rmw announces it (rmw_dds_common): graph tools show each node's enclave from it
     // (`get_node_names_and_namespaces_with_enclaves`, `radar security generate_policy`)
-    dpb = dpb.user_data(format!("enclave={};", s.policy_enclave));
+    // and its process, so that other radar_ros programs on this host tell a respawn from a second live
+    // process of one name (rule C5, `graph/processes.rs`)
+    dpb = dpb.user_data(format!(
+        "enclave={};{}",
+        s.policy_enclave,
+        crate::graph::processes::user_data_entry()
+    ));
     let enclave = match &s.security {
         Some(o) => crate::security::locate(o)?.map(|dir| (o.enclave.clone(), dir)),
         None => None,

@@ -66,6 +66,12 @@ impl Radar {
             output: crate::wire::raw::component_type(&response.output_type(), "its output type")?
                 .with_hash_of::<R::Output>(),
         };
+        // a manager of this process can tell which payloads its start slot reads (C2)
+        if <R::Start as crate::wire::msg::RosMessage>::ros_type_name() == types.start.ros {
+            self.participant()
+                .readers()
+                .register(&types.start.ros, crate::wire::msg::reads::<R::Start>);
+        }
         let mut endpoints = self.response_endpoints::<R>(node, &name, &types)?;
         endpoints.io.incomplete_output = response.incomplete_output();
         let slot_publishers = [
@@ -158,13 +164,15 @@ impl Radar {
         let taps = self.participant().taps();
         let t = |e: crate::Endpoint| name.endpoint(e);
         // the signal writers hand every sample to their taps (`wire/local.rs`)
-        let (started, interrupted, exited) = crate::wire::local::marked(|| -> Result<_> {
-            Ok((
-                publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
-                publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
-                publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
-            ))
-        })?;
+        let (started, interrupted, exited, dropped) =
+            crate::wire::local::marked(|| -> Result<_> {
+                Ok((
+                    publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
+                    publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
+                    publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
+                    publisher::<Empty>(g, node, &t(crate::Endpoint::Dropped), &empty_t, &sq)?,
+                ))
+            })?;
         let io = Io {
             name: name.clone(),
             start_type: start_t.ros.clone(),
@@ -177,6 +185,7 @@ impl Radar {
                 &empty_t.ros,
             ),
             exited: SignalWriter::new(taps, exited, &t(crate::Endpoint::Exited), &output_t.ros),
+            dropped: SignalWriter::new(taps, dropped, &t(crate::Endpoint::Dropped), &empty_t.ros),
             state_pub,
             state_tx: watch::channel(ResponseState::default()).0,
         };

@@ -12,4 +12,5 @@ mod msg_support;
 pub(crate) mod names;
 pub mod qos;
 pub(crate) mod raw;
+pub(crate) mod readers;
 pub(crate) mod refs;

@@ -13,6 +13,7 @@
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 pub use super::msg_support::{fixed_array, WString};
+pub use super::raw::reads;
 
 /// A Rust type that is the wire form of a ROS 2 message.
 ///

@@ -202,6 +202,13 @@ impl ResponseRef {
             self.output_type.clone(),
         )
     }
+    /// `dropped`: a start a statement sent that the response did not take, with that statement's cause (R6).
+    pub fn dropped(&self) -> Signal {
+        Signal::new(
+            self.name.endpoint(crate::Endpoint::Dropped),
+            Empty::ros_type_name(),
+        )
+    }
     /// The `start` slot.
     pub fn start_slot(&self) -> Slot {
         Slot::new(

@@ -13,11 +13,13 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     }
 
     /// Every publisher of `source` left the graph (rule 5): connections from it wait for it, and `until`
-    /// windows whose response's `started` or `exited` it is close. Returns the connections whose state
-    /// changed. (Looks at every connection: components leave rarely.)
+    /// windows whose response's `started` or `exited` it is close (a spent `once ... until` is then over:
+    /// [`ConnectionTable::take_ended`]). Returns the connections whose state changed. (Looks at every
+    /// connection: components leave rarely.)
     #[must_use = "the connections whose state changed are to be reported"]
     pub fn source_lost(&mut self, source: &S) -> Vec<ConnId> {
         let mut changed = Vec::new();
+        let mut over = Vec::new();
         for (id, c) in self.conns.iter_mut() {
             let mut hit = false;
             if &c.source == source && !c.spent && c.link == Link::Armed {
@@ -27,11 +29,18 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             if let Some((u, w)) = &mut c.until {
                 if &u.started == source || &u.exited == source {
                     hit |= w.response_lost();
+                    // C3, C5: its response left, and with it the run of a spent `once`'s start
+                    if c.spent {
+                        over.push(*id);
+                    }
                 }
             }
             if hit {
                 changed.push(*id);
             }
+        }
+        for id in over {
+            self.end(id);
         }
         changed
     }
@@ -50,11 +59,12 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
     }
 
     /// Every subscriber of slot `target` left the graph (rule 5): connections to it are lost (or wait for it,
-    /// if they re-arm), and `until` windows whose response's `interrupt` it is close. Returns the connections
-    /// whose state changed.
+    /// if they re-arm), and `until` windows whose response's `interrupt` it is close (a spent `once ... until`
+    /// is then over: [`ConnectionTable::take_ended`]). Returns the connections whose state changed.
     #[must_use = "the connections whose state changed are to be reported"]
     pub fn target_lost(&mut self, target: &T) -> Vec<ConnId> {
         let mut changed = Vec::new();
+        let mut over = Vec::new();
         for (id, c) in self.conns.iter_mut() {
             let mut hit = false;
             if &c.target == target && matches!(c.link, Link::Armed | Link::WaitingForSource) {
@@ -72,11 +82,18 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             if let Some((u, w)) = &mut c.until {
                 if &u.interrupt == target {
                     hit |= w.response_lost();
+                    // C3, C5: its response left, and with it the run of a spent `once`'s start
+                    if c.spent {
+                        over.push(*id);
+                    }
                 }
             }
             if hit {
                 changed.push(*id);
             }
+        }
+        for id in over {
+            self.end(id);
         }
         changed
     }

@@ -18,10 +18,11 @@
 //!   started, from the moment that run began. A run R starts by itself (an exit-slot restart) or that another
 //!   statement started is not interrupted by this one, nor is a run that begins after the signal of U.
 //!   U is read (and so active) from arming until the statement is over: until removal for a `whenever`; for a
-//!   `once`, until the run its start began has ended (R's `exited` for it, or R's signals showing that R was
-//!   busy and dropped the start), when the connection is removed as a `once` without `until` is when it fires
-//!   (its guard's `closed()` resolves; U, and R's `started` and `exited`, are released, so an event that was
-//!   U for it alone deactivates, as the paper's once-only connections go once their condition has fired).
+//!   `once`, until the run its start began has ended (R's `exited` for it), or R did not take the start (R's
+//!   `dropped` for it: R was busy, the start was replaced in R's queue, R was stopping), or R left (C5), when
+//!   the connection is removed as a `once` without `until` is when it fires (its guard's `closed()` resolves;
+//!   U, and R's `started`, `exited` and `dropped`, are released, so an event that was U for it alone
+//!   deactivates, as the paper's once-only connections go once their condition has fired).
 //! - **C4.** [`ConnectionTable::remove`] (the statement's scope ending) ends a connection at once: after it
 //!   returns nothing more is delivered through it.
 //! - **C5.** Components leave (they exit, crash, hang, or the network cuts them off; the runtime tells the table
@@ -93,6 +94,9 @@ struct Conn<S, T> {
     link: Link,
     /// Re-arm when a lost target comes back (rule 5).
     rearm: bool,
+    /// Its target is an anonymous slot: once it ends by itself, its target is kept for
+    /// [`ConnectionTable::forget`] (a call already queued must not begin after its scope ended, C4).
+    call: bool,
     /// Its deliveries to the target carry the statement's cause: the target is a response's `start` (R13).
     starts: bool,
     until: Option<(Until<S, T>, UntilWindow)>,
@@ -135,6 +139,8 @@ pub struct ConnectionTable<S, T> {
     /// Connections a signal ended (a `once` that fired, or whose run ended) since the last
     /// [`ConnectionTable::take_ended`].
     ended: Vec<ConnId>,
+    /// The targets of anonymous-slot connections that ended by themselves, until their scope ends.
+    ended_calls: BTreeMap<ConnId, T>,
 }
 
 impl<S, T> Default for ConnectionTable<S, T> {
@@ -149,6 +155,7 @@ impl<S, T> Default for ConnectionTable<S, T> {
             released: (Vec::new(), Vec::new()),
             clock: Clock::default(),
             ended: Vec::new(),
+            ended_calls: BTreeMap::new(),
         }
     }
 }
@@ -209,6 +216,10 @@ impl<S: Clone + Ord, T: Clone + Ord> Conn<S, T> {
             });
             over = self.spent && w.settled();
         }
+        if &u.dropped == source {
+            w.apply(WindowSignal::Dropped { ours: mine });
+            over = self.spent && w.settled();
+        }
         if &u.source == source {
             let send = w.apply(WindowSignal::U { at: emitted_at });
             u.interrupt_at(id, send, out);
@@ -219,15 +230,18 @@ impl<S: Clone + Ord, T: Clone + Ord> Conn<S, T> {
     /// Every source whose signals this connection looks at.
     fn listens(&self) -> Vec<S> {
         let mut v = vec![self.source.clone()];
-        if let Some((u, _)) = &self.until {
-            v.extend([u.source.clone(), u.started.clone(), u.exited.clone()]);
-        }
+        v.extend(self.until_reads());
         v
     }
     /// The `until` sources, read from arming to removal.
     fn until_reads(&self) -> Vec<S> {
         match &self.until {
-            Some((u, _)) => vec![u.source.clone(), u.started.clone(), u.exited.clone()],
+            Some((u, _)) => vec![
+                u.source.clone(),
+                u.started.clone(),
+                u.exited.clone(),
+                u.dropped.clone(),
+            ],
             None => Vec::new(),
         }
     }
@@ -325,6 +339,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             reading: true,
             link: Link::Armed,
             rearm: false,
+            call: false,
             starts: false,
             until: until.map(|u| {
                 let w = UntilWindow::new(u.causes);
@@ -516,10 +531,51 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
             }
         }
         for id in finished {
-            self.remove(id);
-            self.ended.push(id);
+            self.end(id);
         }
         out
+    }
+
+    /// Connection `id` is over by itself (a `once` that fired, or whose run ended or will not come): removed,
+    /// listed in [`ConnectionTable::take_ended`], its anonymous slot kept for [`ConnectionTable::forget`].
+    pub(crate) fn end(&mut self, id: ConnId) {
+        if let Some(c) = self.conns.get(&id) {
+            if c.call {
+                self.ended_calls.insert(id, c.target.clone());
+            }
+        }
+        self.remove(id);
+        self.ended.push(id);
+    }
+
+    /// Marks connection `id`'s target as an anonymous slot (see [`ConnectionTable::forget`]).
+    pub fn set_call(&mut self, id: ConnId, call: bool) {
+        if let Some(c) = self.conns.get_mut(&id) {
+            c.call = call;
+        }
+    }
+
+    /// The statement's scope ended (its guard dropped, C4): removes connection `id` if it is live, and returns
+    /// its target: also that of an anonymous-slot connection that had ended by itself (a `once` that fired,
+    /// whose call may still wait in the runtime's queue: it must not begin now).
+    ///
+    /// ```
+    /// use radar_semantics::connection::{ConnectionTable, Kind};
+    /// let mut t = ConnectionTable::new();
+    /// let id = t.arm("tick", "call 1", Kind::Once, None, 0);
+    /// t.set_call(id, true);
+    /// let _ = t.signal(&"tick", radar_semantics::response::Sent::at(5), 5, |_| true);
+    /// assert!(!t.contains(id), "the once fired");
+    /// assert_eq!(t.forget(id), Some("call 1"), "its queued call is cancelled");
+    /// assert_eq!(t.forget(id), None);
+    /// ```
+    pub fn forget(&mut self, id: ConnId) -> Option<T> {
+        if let Some(t) = self.ended_calls.remove(&id) {
+            return Some(t);
+        }
+        let target = self.conns.get(&id).map(|c| c.target.clone());
+        self.remove(id);
+        target
     }
 
     /// Marks connection `id`'s target as a response's `start` slot: each delivery to it carries the statement's
@@ -653,6 +709,7 @@ mod tests {
             source: "U",
             started: "R.started",
             exited: "R.exited",
+            dropped: "R.dropped",
             interrupt: "R.interrupt",
             causes: false,
         };
@@ -724,6 +781,7 @@ mod tests {
             source: "U",
             started: "R.started",
             exited: "R.exited",
+            dropped: "R.dropped",
             interrupt: "R.interrupt",
             causes,
         }
@@ -871,12 +929,87 @@ mod tests {
     }
 
     #[test]
+    fn c3_a_spent_once_until_ends_when_its_response_does_not_take_the_start() {
+        let mut t = Table::with_statement_base(3);
+        let id = t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+        assert_eq!(targets(t.on_signal(&"E", 1)), ["R.start"]);
+        // another statement's start dropped, or this one's of no delivery: still on
+        let other = Cause {
+            statement: 7 << 64,
+            delivery: 1,
+        };
+        t.on_signal_with(&"R.dropped", 2, Some(other), |_| true);
+        assert!(t.contains(id));
+        // R did not take this statement's start: no run of it comes, the once is over and lets go of U
+        let _ = t.take_released();
+        t.on_signal_with(&"R.dropped", 3, Some(t.cause(id, 1)), |_| true);
+        assert!(!t.contains(id));
+        assert_eq!(t.take_ended(), [id]);
+        let (mut s, _) = t.take_released();
+        s.sort();
+        assert_eq!(s, ["R.dropped", "R.exited", "R.started", "U"]);
+        // a whenever ... until whose start was dropped goes on
+        let mut t = Table::with_statement_base(3);
+        let id = t.arm("E", "R.start", Kind::Whenever, Some(until_with(true)), 0);
+        t.on_signal(&"E", 1);
+        t.on_signal_with(&"R.dropped", 3, Some(t.cause(id, 1)), |_| true);
+        assert!(t.contains(id));
+    }
+
+    #[test]
+    fn c3_c5_a_spent_once_until_ends_when_its_response_leaves() {
+        for leaves in ["R.interrupt", "R.started", "R.exited"] {
+            let mut t = Table::with_statement_base(3);
+            let id = t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+            t.on_signal(&"E", 1);
+            let changed = if leaves == "R.interrupt" {
+                t.target_lost(&leaves)
+            } else {
+                t.source_lost(&leaves)
+            };
+            assert_eq!(changed, [id], "{leaves}");
+            assert!(!t.contains(id), "{leaves}");
+            assert_eq!(t.take_ended(), [id], "{leaves}");
+        }
+        // not spent yet: the once waits for its source's next signal, with a new R
+        let mut t = Table::with_statement_base(3);
+        let id = t.arm("E", "R.start", Kind::Once, Some(until_with(true)), 0);
+        let _ = t.source_lost(&"R.exited");
+        assert!(t.contains(id));
+        assert!(t.take_ended().is_empty());
+    }
+
+    #[test]
+    fn c4_an_anonymous_slot_that_fired_is_forgotten_with_its_scope() {
+        let mut t = Table::new();
+        let id = t.arm("E", "call", Kind::Once, None, 0);
+        t.set_call(id, true);
+        let out = t.signal(&"E", Sent::at(1), 1, |_| true);
+        assert_eq!(out.ended, [id]);
+        assert_eq!(t.target(id), None, "gone from the table");
+        assert_eq!(
+            t.forget(id),
+            Some("call"),
+            "what its scope's end must cancel"
+        );
+        assert_eq!(t.forget(id), None);
+        // a live one is removed and named; a slot target that ended is not kept
+        let id = t.arm("E", "call", Kind::Whenever, None, 2);
+        t.set_call(id, true);
+        assert_eq!(t.forget(id), Some("call"));
+        assert!(!t.contains(id));
+        let id = t.arm("E", "R.start", Kind::Once, None, 3);
+        let _ = t.signal(&"E", Sent::at(4), 4, |_| true);
+        assert_eq!(t.forget(id), None);
+    }
+
+    #[test]
     fn c3_until_interrupts_only_the_run_this_connection_started() {
         let mut t = Table::new();
         let id = t.arm("E", "R.start", Kind::Once, Some(until()), 0);
         assert_eq!(
             t.sources(),
-            BTreeSet::from(["E", "U", "R.started", "R.exited"])
+            BTreeSet::from(["E", "U", "R.started", "R.exited", "R.dropped"])
         );
         assert!(
             t.on_signal(&"U", 1).is_empty(),
@@ -885,7 +1018,7 @@ mod tests {
         assert_eq!(targets(t.on_signal(&"E", 2)), ["R.start"]);
         assert_eq!(
             t.sources(),
-            BTreeSet::from(["U", "R.started", "R.exited"]),
+            BTreeSet::from(["U", "R.started", "R.exited", "R.dropped"]),
             "E is released"
         );
         t.on_signal(&"R.started", 4);
@@ -995,7 +1128,11 @@ mod tests {
             }
             let (mut s, _) = t.take_released();
             s.sort();
-            assert_eq!(s, ["R.exited", "R.started", "U"], "causes {causes}");
+            assert_eq!(
+                s,
+                ["R.dropped", "R.exited", "R.started", "U"],
+                "causes {causes}"
+            );
         }
         // a whenever keeps its until for as long as it lives
         let mut t = ConnectionTable::new();
@@ -1018,7 +1155,7 @@ mod tests {
         let (mut s, mut w) = t.take_released();
         s.sort();
         w.sort();
-        assert_eq!(s, ["R.exited", "R.started", "U"]);
+        assert_eq!(s, ["R.dropped", "R.exited", "R.started", "U"]);
         assert_eq!(w, ["R.interrupt", "R.start"]);
     }
 

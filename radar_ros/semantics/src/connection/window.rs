@@ -12,6 +12,8 @@ pub struct Until<S, T> {
     pub started: S,
     /// R's `exited`.
     pub exited: S,
+    /// R's `dropped`: a start R did not take (R6). A response that keeps no causes has none.
+    pub dropped: S,
     /// R's `interrupt` slot.
     pub interrupt: T,
     /// R keeps causes (a RADAR response: response rules R11-R13): C6. Otherwise (rclpy): the table decides
@@ -50,6 +52,8 @@ pub(super) enum WindowSignal {
     Started { at: i64 },
     /// R emitted `exited` at `at`, carrying `from` (the delivery of this statement whose run it ends).
     Exited { at: i64, ours: Option<u64> },
+    /// R did not take a start: this statement's delivery, if it was one of ours.
+    Dropped { ours: Option<u64> },
     /// U emitted at `at`.
     U { at: i64 },
 }
@@ -73,13 +77,17 @@ impl UntilWindow {
                     self.outstanding = Some(n);
                     self.kept.take().filter(|&u| u > at && u - at <= HOLD)
                 }
-                WindowSignal::Exited { ours: Some(m), .. } => {
+                // the run of our latest start has ended, or will never be: nothing to interrupt
+                WindowSignal::Exited { ours: Some(m), .. }
+                | WindowSignal::Dropped { ours: Some(m) } => {
                     if self.outstanding.is_some_and(|n| m >= n) {
                         self.outstanding = None;
                     }
                     None
                 }
-                WindowSignal::Exited { .. } | WindowSignal::Started { .. } => None,
+                WindowSignal::Exited { .. }
+                | WindowSignal::Dropped { .. }
+                | WindowSignal::Started { .. } => None,
                 WindowSignal::U { at } => {
                     if self.outstanding.is_some() {
                         Some(at)
@@ -114,6 +122,8 @@ impl UntilWindow {
                     let since = self.open_since?;
                     kept.filter(|&u| u >= since && u - since <= HOLD)
                 }
+                // (a response that keeps no causes announces no start it dropped)
+                WindowSignal::Dropped { .. } => None,
                 WindowSignal::Exited { at, .. } => {
                     if at < self.last_response_signal {
                         return None;

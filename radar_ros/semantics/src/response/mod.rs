@@ -18,7 +18,9 @@
 //! - **R5.** `interrupt` or `exit` while `Idle`, `Interrupting` or `Exiting` → ignored, counted.
 //! - **R6.** `start` while not `Idle` → by [`StartPolicy`]: `Ignore` (counted), `Restart` (interrupt as in R3,
 //!   then start anew with the newest payload), `QueueOne` (run the newest payload after `exited`; a start that
-//!   replaces a queued one counts as ignored).
+//!   replaces a queued one counts as ignored). A start a statement sent that is not taken (ignored, replaced
+//!   in the queue, dropped by a stop) is announced with its cause ([`Effect::EmitDropped`]): the statement
+//!   learns that no run of it will come (C3).
 //! - **R7.** The exit slot always runs, whatever ended the run: completion, interrupt, exit signal, error,
 //!   panic, or the response being stopped ([`ResponseMachine::stop`]; the runtime stops every response when
 //!   its process is told to stop). A panic in any slot is reported and treated as that slot finishing; a panic
@@ -217,11 +219,13 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     #[must_use = "the effects are what the binding must carry out, in order"]
     pub fn stop(&mut self) -> Vec<Effect<P, O>> {
         self.stopping = true;
-        self.pending = None;
+        let mut fx = Vec::new();
+        if let Some((_, s)) = self.pending.take() {
+            Self::dropped(s, &mut fx);
+        }
         self.bound = None;
         self.held = None;
         self.kept.clear();
-        let mut fx = Vec::new();
         if self.phase == Phase::Running {
             self.counters.exit_signals += 1;
             fx.push(Effect::CancelStart);
@@ -282,7 +286,8 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         };
         let mut fx = Vec::new();
         match (self.phase, input) {
-            (_, Input::Start(_, _)) if self.stopping => {
+            (_, Input::Start(_, s)) if self.stopping => {
+                Self::dropped(s, &mut fx);
                 self.ignore("start", IgnoreReason::Phase, &mut fx)
             }
             (Phase::Idle, Input::Start(p, s)) => {
@@ -402,10 +407,13 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
     /// R6: a `start` while not idle, by the start policy.
     fn start_while_busy(&mut self, p: P, s: Sent, fx: &mut Vec<Effect<P, O>>) {
         match self.policy {
-            StartPolicy::Ignore => self.ignore("start", IgnoreReason::Phase, fx),
-            StartPolicy::QueueOne => self.queue(p, s),
+            StartPolicy::Ignore => {
+                Self::dropped(s, fx);
+                self.ignore("start", IgnoreReason::Phase, fx)
+            }
+            StartPolicy::QueueOne => self.queue(p, s, fx),
             StartPolicy::Restart => {
-                self.queue(p, s);
+                self.queue(p, s, fx);
                 if self.phase == Phase::Running {
                     self.interrupt(fx);
                 }
@@ -528,9 +536,10 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
         fx.push(Effect::RunExit(reason));
     }
 
-    fn queue(&mut self, p: P, s: Sent) {
-        if self.pending.replace((p, s)).is_some() {
+    fn queue(&mut self, p: P, s: Sent, fx: &mut Vec<Effect<P, O>>) {
+        if let Some((_, old)) = self.pending.replace((p, s)) {
             self.counters.ignored_starts += 1;
+            Self::dropped(old, fx);
         }
         // R14: what was kept with a start this one replaces is kept again: an until's interrupt sent after
         // both starts of its statement bounds the newer one's run too, and one of another statement waits for
@@ -577,6 +586,13 @@ impl<P: Clone, O: Default> ResponseMachine<P, O> {
             self.bound = Some(Kept::Bound(s));
         }
         for_queued
+    }
+
+    /// R6: a start sent as `s` is not taken: if a statement sent it, it hears of it.
+    fn dropped(s: Sent, fx: &mut Vec<Effect<P, O>>) {
+        if let Some(c) = s.by {
+            fx.push(Effect::EmitDropped(c));
+        }
     }
 
     fn ignore(&mut self, signal: &'static str, why: IgnoreReason, fx: &mut Vec<Effect<P, O>>) {
@@ -1254,6 +1270,38 @@ mod tests {
             m.resume(),
             vec![CancelStart, EmitInterrupted(Some(k2)), RunInterrupt]
         );
+    }
+
+    #[test]
+    fn r6_a_start_a_statement_sent_that_is_not_taken_is_announced_with_its_cause() {
+        let dropped = |fx: &[Effect<u32, String>]| -> Vec<Cause> {
+            fx.iter()
+                .filter_map(|e| match e {
+                    EmitDropped(c) => Some(*c),
+                    _ => None,
+                })
+                .collect()
+        };
+        // busy, ignore: dropped
+        let mut m = started_by(StartPolicy::Ignore, Sent::by(10, OTHER));
+        assert_eq!(dropped(&m.handle(Input::Start(2, Sent::by(20, K)))), [K]);
+        // a start no statement sent: nothing to tell
+        assert!(dropped(&m.handle(Input::Start(3, Sent::at(30)))).is_empty());
+        // queue_one: the start a newer one replaces is dropped, not the one that waits
+        let mut m = started_by(StartPolicy::QueueOne, Sent::by(10, OTHER));
+        assert!(dropped(&m.handle(Input::Start(2, Sent::by(20, K)))).is_empty());
+        let k2 = Cause {
+            statement: 5,
+            delivery: 1,
+        };
+        assert_eq!(dropped(&m.handle(Input::Start(3, Sent::by(30, k2)))), [K]);
+        // a stop drops the queued one
+        assert_eq!(dropped(&m.stop()), [k2]);
+        // and every start it reads from then on
+        assert_eq!(dropped(&m.handle(Input::Start(4, Sent::by(40, K)))), [K]);
+        // a start taken is not dropped
+        let mut m = M::new(StartPolicy::Ignore);
+        assert!(dropped(&m.handle(Input::Start(1, Sent::by(10, K)))).is_empty());
     }
 
     #[test]

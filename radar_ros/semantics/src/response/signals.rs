@@ -238,6 +238,9 @@ pub enum Effect<P, O> {
     RunInterrupt,
     /// Begin the exit slot.
     RunExit(ExitReason),
+    /// Publish `dropped` carrying this cause: a start that statement sent was not taken (R6), so no run of it
+    /// comes (C3).
+    EmitDropped(Cause),
     /// Publish `exited` with the output of the run (the start behaviour's result, or the default), carrying
     /// the run's cause.
     EmitExited(O, Option<Cause>),

@@ -287,8 +287,14 @@ fn until_lasts_its_run(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView) {
     if lost {
         return;
     }
-    // every run the statement's start began must have ended, as the manager read it, before it ended
-    for (_, runs) in v.runs.iter().filter(|(w, _)| w.0 == r) {
+    // every run the statement's start began on an instance it was made with must have ended, as the manager
+    // read it, before it ended
+    let made_with = v.alive_at(r, st.armed);
+    for (_, runs) in v
+        .runs
+        .iter()
+        .filter(|(w, _)| w.0 == r && made_with.contains(&w.1))
+    {
         for run in runs
             .iter()
             .filter(|run| run.cause.map(|c| c.stmt) == Some(k))
@@ -416,6 +422,10 @@ fn spent_lets_go(f: &mut Found<'_, '_>) {
             needed.insert(Signal {
                 comp: r,
                 kind: SignalKind::Exited,
+            });
+            needed.insert(Signal {
+                comp: r,
+                kind: SignalKind::Dropped,
             });
         }
         who.push(*k);
@@ -546,17 +556,16 @@ fn nothing_to_the_lost(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView) {
     }
 }
 
-/// Record `j` is the manager's read of R's `exited` carrying statement `k`'s delivery `n` or a later one.
-fn closes(f: &Found<'_, '_>, j: usize, r: Comp, k: Stmt, n: u64) -> bool {
+/// Record `j` is the manager's read of R's `exited` or `dropped` carrying statement `k`'s delivery `n` or a
+/// later one, from an instance of R the statement was made with (`made_with`): no run of it goes on.
+fn closes(f: &Found<'_, '_>, j: usize, r: Comp, made_with: &[u32], k: Stmt, n: u64) -> bool {
     let Obs::ManagerRead { sig, .. } = f.view.obs(j) else {
         return false;
     };
     f.view.emission(sig).is_some_and(|e| {
-        e.signal
-            == Signal {
-                comp: r,
-                kind: SignalKind::Exited,
-            }
+        e.signal.comp == r
+            && made_with.contains(&e.inst)
+            && matches!(e.signal.kind, SignalKind::Exited | SignalKind::Dropped)
             && e.cause.is_some_and(|c| c.stmt == k && c.delivery >= n)
     })
 }
@@ -571,12 +580,13 @@ fn until_reaches_its_run(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &
     }
     let v = f.view;
     let lost = |j: usize| matches!(v.obs(j), Obs::LossSeen { comp, .. } if comp == r);
+    let made_with = v.alive_at(r, st.armed);
     // whether a run of the statement's latest start may be going at record `j`, as the manager can know it
     let open_at = |j: usize| -> bool {
         let Some((n, &d)) = sends.iter().enumerate().rev().find(|(_, &d)| d < j) else {
             return false;
         };
-        !(d + 1..j).any(|i| closes(f, i, r, k, n as u64 + 1) || lost(i))
+        !(d + 1..j).any(|i| closes(f, i, r, &made_with, k, n as u64 + 1) || lost(i))
     };
     let end = st.over().unwrap_or(v.len());
     let u_reads: Vec<(usize, SigId, Time)> = (st.armed + 1..end)

@@ -65,6 +65,12 @@ rules! {
         "A `start` read while not idle: `ignore` does nothing with it; `restart` interrupts a running start \
          behaviour at once and runs the newest start after `exited`; `queue_one` runs the newest start after \
          `exited`.";
+    R6_A_START_NOT_TAKEN_IS_TOLD = "R6" "a-start-not-taken-is-told" Safety
+        "A start a statement sent that the response does not take (ignored while busy, replaced in its queue, \
+         dropped by a stop) is announced on `dropped` with its cause, and a start so announced never runs.";
+    R6_EVERY_START_TAKEN_OR_TOLD = "R6" "every-start-taken-or-told" Liveness
+        "In the end every start a statement sent that a response read has begun a run, or was announced on \
+         `dropped`, unless the response was killed.";
     R7_EVERY_RUN_EXITS = "R7" "every-run-exits" Liveness
         "The exit slot always runs: every run of a response that was not killed ends with `exited`.";
     R7_STOP = "R7" "a-stop-ends-the-run" Safety
@@ -93,15 +99,15 @@ rules! {
          program is stopping (then it starts nothing).";
     C3_SPENT_ONCE_ENDS = "C3" "spent-once-ends" Liveness
         "A `once` that has delivered ends by itself (its guard's `closed()` resolves): at once without `until`; \
-         with `until U`, once the run its start began has ended, or its response did not take the start (busy, \
-         or it left).";
+         with `until U`, once the run its start began has ended, or its response did not take the start (R's \
+         `dropped`), or its response left.";
     C3_UNTIL_LASTS_ITS_RUN = "C3" "until-lasts-its-run" Safety
         "A `once ... until` does not end while the run its start began goes on: U is read until that run ends.";
     C3_SPENT_LETS_GO = "C3" "spent-lets-go" Liveness
         "The manager reads exactly what its live statements need: a statement's source until it is spent or its \
-         target is lost, and with `until U` the signals of U and the response's `started` and `exited` until the \
-         statement is over. What an ended statement read alone is let go (an event it alone listened to \
-         deactivates).";
+         target is lost, and with `until U` the signals of U and the response's `started`, `exited` and \
+         `dropped` until the statement is over. What an ended statement read alone is let go (an event it alone \
+         listened to deactivates).";
     C4_SCOPE = "C4" "scope" Safety
         "After a statement's scope ends, it delivers nothing more, and its anonymous slot begins no call.";
     C5_LOSS_SEEN = "C5" "loss-seen" Liveness
@@ -117,7 +123,7 @@ rules! {
          interrupt names the statement (delivery 0) and carries the stamp of U's signal.";
     C6_UNTIL_REACHES_ITS_RUN = "C6" "until-reaches-its-run" Safety
         "A signal of U read while a run of the statement's start may be going (from its latest start delivery \
-         until R's `exited` carrying it) is sent to R's `interrupt`; the newest one read while none may be going \
+         until R's `exited` or `dropped` carrying it) is sent to R's `interrupt`; the newest one read while none may be going \
          is sent right after the next start, if that start's source was emitted before it, within HOLD (C7).";
     E1_CHECKS_ONLY_WHILE_LISTENED = "E1" "checks-only-while-listened" Safety
         "An event checks its condition only while it knows of a listener to its `triggered`, stops as soon as it \

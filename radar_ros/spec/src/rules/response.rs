@@ -28,6 +28,7 @@ struct Candidate {
 }
 
 pub(super) fn check(f: &mut Found<'_, '_>) {
+    starts_taken_or_told(f);
     let v = f.view;
     for (who, runs) in &v.runs {
         for (k, r) in runs.iter().enumerate() {
@@ -791,4 +792,103 @@ fn a_stop_ends_the_run(f: &mut Found<'_, '_>, who: Who, s: usize) {
             ),
         );
     }
+}
+
+/// R6: every start with a cause a response instance read began a run or was announced on `dropped`, and none
+/// announced runs.
+fn starts_taken_or_told(f: &mut Found<'_, '_>) {
+    let v = f.view;
+    let mut out: Vec<(&'static Rule, usize, Comp, String)> = Vec::new();
+    for j in 0..v.len() {
+        match v.obs(j) {
+            Obs::Emitted {
+                signal,
+                inst,
+                cause: Some(c),
+                ..
+            } if signal.kind == SignalKind::Dropped => {
+                let who = (signal.comp, inst);
+                let read = v
+                    .reads_of(who, 0..j)
+                    .any(|(_, slot, _, by, _)| slot == SlotKind::Start && by == Some(c));
+                let runs = v
+                    .runs
+                    .get(&who)
+                    .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began > j));
+                if !read || runs {
+                    out.push((
+                        &R6_A_START_NOT_TAKEN_IS_TOLD,
+                        j,
+                        signal.comp,
+                        format!(
+                            "{} announced it dropped the start {c:?}, which it {}",
+                            f.name(signal.comp),
+                            if runs { "then ran" } else { "never read" }
+                        ),
+                    ));
+                }
+            }
+            Obs::Read {
+                comp,
+                inst,
+                slot: SlotKind::Start,
+                by: Some(c),
+                payload,
+                ..
+            } if !payload.unreadable && v.trace.response(comp).is_some() => {
+                let who = (comp, inst);
+                let step_end = v.step_of(j).end;
+                let began = v
+                    .runs
+                    .get(&who)
+                    .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began >= j));
+                let told = (j..v.len()).any(|i| {
+                    matches!(v.obs(i), Obs::Emitted { signal, inst: n, cause: Some(d), .. }
+                        if signal.kind == SignalKind::Dropped && (signal.comp, n) == who && d == c)
+                });
+                // read while busy by a response that ignores starts, or while it stops: dropped at once
+                let busy = v
+                    .run_at(who, j)
+                    .is_some_and(|r| r.began < j && r.exited.is_none_or(|e| e > j));
+                let ignores = v
+                    .trace
+                    .response(comp)
+                    .is_some_and(|(p, _)| p == Policy::Ignore);
+                let at_once = (busy && ignores) || v.stopping_before(who, j);
+                if at_once && !told_in(v, who, c, j..step_end) {
+                    out.push((
+                        &R6_A_START_NOT_TAKEN_IS_TOLD,
+                        j,
+                        comp,
+                        format!(
+                            "{} did not take the start {c:?} and did not announce it",
+                            f.name(comp)
+                        ),
+                    ));
+                } else if !began && !told && !v.crashed_by(who, v.len()) && f.judged(j) {
+                    out.push((
+                        &R6_EVERY_START_TAKEN_OR_TOLD,
+                        v.len().saturating_sub(1),
+                        comp,
+                        format!(
+                            "{} read the start {c:?}, and neither ran it nor announced it dropped",
+                            f.name(comp)
+                        ),
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    for (rule, i, comp, why) in out {
+        f.add(rule, i, &[comp], &[], &[], why);
+    }
+}
+
+/// Whether instance `who` announced `c` dropped within `range`.
+fn told_in(v: &crate::view::View<'_>, who: Who, c: Cause, range: std::ops::Range<usize>) -> bool {
+    range.into_iter().any(|i| {
+        matches!(v.obs(i), Obs::Emitted { signal, inst, cause: Some(d), .. }
+            if signal.kind == SignalKind::Dropped && (signal.comp, inst) == who && d == c)
+    })
 }

@@ -7,6 +7,11 @@ use std::sync::{
 
 use crate::wire::raw::RawMessage;
 
+thread_local! {
+    /// This thread runs an anonymous slot's call now.
+    static IN_CALL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// The payloads waiting for one anonymous slot: keep-last `depth`, like a ROS subscription's queue, so a
 /// slow closure under a fast source costs bounded memory and sees the newest signals.
 pub(crate) struct AnonQueue {
@@ -18,6 +23,9 @@ pub(crate) struct AnonQueue {
     closed: AtomicBool,
     /// The guard dropped: the consumer ends before the next call.
     cancelled: AtomicBool,
+    /// Held from the consumer's last look at `cancelled` to the end of the call it begins: a cancel waits for
+    /// it, so that once the guard's drop has returned no call begins (C4).
+    calling: Mutex<()>,
     dropped: std::sync::atomic::AtomicU64,
 }
 
@@ -30,6 +38,7 @@ impl AnonQueue {
             ready: tokio::sync::Notify::new(),
             closed: AtomicBool::new(false),
             cancelled: AtomicBool::new(false),
+            calling: Mutex::new(()),
             dropped: Default::default(),
         }
     }
@@ -56,9 +65,26 @@ impl AnonQueue {
         self.ready.notify_one();
     }
 
+    /// No call begins after this returns: one that is going on (begun before) is waited for, unless this is
+    /// called from within that call (a slot that drops its own statement's guard).
     pub(crate) fn cancel(&self) {
         self.cancelled.store(true, Ordering::SeqCst);
         self.close();
+        if !IN_CALL.with(|c| c.get()) {
+            drop(self.calling.lock().unwrap_or_else(|p| p.into_inner()));
+        }
+    }
+
+    /// Calls `f` with `m` unless the queue was cancelled: whether it did.
+    pub(crate) fn call(&self, m: RawMessage, f: impl FnOnce(RawMessage)) -> bool {
+        let _calling = self.calling.lock().unwrap_or_else(|p| p.into_inner());
+        if self.cancelled.load(Ordering::SeqCst) {
+            return false;
+        }
+        IN_CALL.with(|c| c.set(true));
+        f(m);
+        IN_CALL.with(|c| c.set(false));
+        true
     }
 
     /// The next payload to call the slot with; `None` when closed and drained, or cancelled.

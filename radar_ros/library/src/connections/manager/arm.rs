@@ -43,11 +43,12 @@ fn check_types(source: &Signal, slot: &Slot) -> Result<()> {
     }
 }
 
-/// The `until` part's endpoints: U, R's `started` and `exited` (read), R's `interrupt` (written).
+/// The `until` part's endpoints: U, R's `started`, `exited` and `dropped` (read), R's `interrupt` (written).
 struct UntilKeys {
     source: Key,
     started: Key,
     exited: Key,
+    dropped: Key,
     interrupt: Key,
 }
 
@@ -91,12 +92,14 @@ impl Plan {
                 source: reader(&u.source),
                 started: reader(&u.started),
                 exited: reader(&u.exited),
+                dropped: reader(&u.dropped),
                 interrupt: writer(&u.interrupt),
             };
             reads.extend([
                 (keys.source.clone(), u.source.clone()),
                 (keys.started.clone(), u.started.clone()),
                 (keys.exited.clone(), u.exited.clone()),
+                (keys.dropped.clone(), u.dropped.clone()),
             ]);
             writes.push((keys.interrupt.clone(), u.interrupt.clone()));
             keys
@@ -225,9 +228,11 @@ impl Manager {
             .collect::<Result<Vec<_>>>()?;
         for (i, (r, (_, s))) in readers.iter().zip(&plan.reads).enumerate() {
             // an until's signal often comes from one-shot publishers (an operator's `ros2 topic pub --once`, a
-            // fresh process per stop): wait only for those the graph knows now, so that none is missed
-            let until = plan.until.is_some() && i == 1; // reads: source, then until: U, started, exited
-            if until && self.graph().writer_participants(s.topic()).is_empty() {
+            // fresh process per stop): wait only for those the graph knows now, so that none is missed; R's
+            // `dropped` likewise (an rclpy response has none, and a RADAR one announces it with its others)
+            // (reads: source, then until: U, started, exited, dropped)
+            let optional = plan.until.is_some() && (i == 1 || i == 4);
+            if optional && self.graph().writer_participants(s.topic()).is_empty() {
                 tracing::debug!(
                     topic = s.topic(),
                     "until: no publisher on the graph yet, armed without one"
@@ -320,6 +325,7 @@ impl Manager {
                 None => "call (anonymous slot)".into(),
             }
         )));
+        let plan_target = plan.target.clone();
         let target = match (spec.target, plan.target) {
             (TargetSpec::Slot(_), Some(k)) => Target::Slot(k),
             (TargetSpec::Anon(f), _) => {
@@ -332,14 +338,28 @@ impl Manager {
             source: u.source,
             started: u.started,
             exited: u.exited,
+            dropped: u.dropped,
             interrupt: Target::Slot(u.interrupt),
             causes,
         });
+        let call = matches!(target, Target::Anon(_));
         let id = st
             .table
             .arm_from(plan.source, target, spec.kind, until, began, now_ns());
         st.table.set_rearm(id, spec.rearm);
         st.table.set_starts(id, spec.starts);
+        st.table.set_call(id, call);
+        let reads = match (&plan_target, spec.starts, &spec.map) {
+            // (an Empty start takes any signal: its payload is dropped)
+            (Some(k), true, None) if k.ros_type != Empty::ros_type_name() => {
+                self.participant.readers().get(&k.ros_type)
+            }
+            _ => None,
+        };
+        let target_named = plan_target
+            .as_ref()
+            .map(|k| (k.topic.clone(), k.ros_type.clone()))
+            .unwrap_or_default();
         st.records.insert(
             id,
             Record {
@@ -348,6 +368,8 @@ impl Manager {
                 filter: spec.filter,
                 map: spec.map,
                 starts: spec.starts,
+                reads,
+                target: target_named,
                 departure: None,
                 suspended: None,
             },
@@ -432,7 +454,12 @@ fn anon_target(
     let consumer = q.clone();
     tokio::spawn(async move {
         while let Some(m) = consumer.next().await {
-            faults.run("call", || f(m));
+            // a call not begun when the statement's scope ended is not begun at all (C4)
+            if !consumer.call(m, |m| {
+                faults.run("call", || f(m));
+            }) {
+                break;
+            }
         }
     });
     st.anon.insert(k, q);

@@ -1,14 +1,19 @@
-//! Components told apart by the process they run in (rule C5 for a component restarted within its lease).
+//! Components told apart by the process they run in (rule C5 for a component restarted within its lease, or
+//! run twice).
 //!
 //! A component killed and started again at once (launch's `respawn=True`, a systemd restart) is back on the
 //! graph before the old process's lease runs out: its endpoints match while the dead one's are still matched,
 //! so the match counts a relay or an outlet watches never reach zero. Counts cannot tell the two apart; the
 //! participants can. Every RADAR component writes its `state` topic, so the participants with a writer on
-//! `<component>/state` are the processes it runs in. When a new one appears beside the one a connection was
-//! made with, the old instance is gone (ROS 2 node names are unique on a graph): the manager tells the table
-//! the component left (its connections lose their target, or wait for their source; an `until` window closes;
-//! `departed()` resolves, naming [`LossCause::Replaced`]) and then that one is back (a source delivers again,
-//! a re-arming connection re-arms). Components without a `state` topic (rclpy ones) keep the counts alone.
+//! `<component>/state` are the processes it runs in, and each radar_ros participant says which process it is
+//! (`graph/processes.rs`). The decision is `radar_semantics::instances`: a new process beside one known dead
+//! (or one gone off the graph between two looks) replaces it, and the manager tells the table the component
+//! left (its connections lose their target, or wait for their source; an `until` window closes, a spent `once
+//! ... until` ends; `departed()` resolves, naming [`LossCause::Replaced`]) and then that it is back (a source
+//! delivers again, a re-arming connection re-arms). A new process beside a live one (a second terminal, a
+//! laptop running the same launch file) changes nothing for the connections: it is reported once, naming both
+//! processes, and the response signals of the second carry no cause to this manager's table (they close no
+//! `until` window of its statements). Components without a `state` topic (rclpy ones) keep the counts alone.
 
 use std::{
     collections::HashMap,
@@ -27,7 +32,7 @@ use crate::{
 /// How often at most the processes of the watched components are looked at while discovery changes.
 const EVERY: Duration = Duration::from_millis(100);
 
-type Seen = radar_semantics::instances::Instances<GUID>;
+use radar_semantics::instances::{Instances, Seen};
 
 impl Manager {
     /// Starts, once, the task that watches which processes run the components of this manager's relays and
@@ -45,7 +50,7 @@ impl Manager {
         // the next change of the graph (which may be its target's death: too late to know which process ran it)
         let mut table = self.changes();
         tokio::spawn(async move {
-            let mut seen: HashMap<String, Seen> = HashMap::new();
+            let mut seen: HashMap<String, Instances<GUID>> = HashMap::new();
             // a first look now: the processes the first connections were made with
             if !Manager::look_at_instances(&me, &mut seen) {
                 return;
@@ -65,7 +70,7 @@ impl Manager {
 
     /// One look: every component a relay or outlet reaches, the processes running it, and for each component
     /// now running in a new one, its departure and return. False once the manager is gone.
-    fn look_at_instances(me: &Weak<Manager>, seen: &mut HashMap<String, Seen>) -> bool {
+    fn look_at_instances(me: &Weak<Manager>, seen: &mut HashMap<String, Instances<GUID>>) -> bool {
         let Some(m) = me.upgrade() else {
             return false;
         };
@@ -91,29 +96,49 @@ impl Manager {
         seen.retain(|c, _| ends.contains_key(c));
         for (component, ends) in ends {
             let hosts = m.graph().writer_participants(&format!("{component}/state"));
-            let vanished = |p| m.graph().vanished_within_lease(p);
-            if !seen
-                .entry(component.clone())
-                .or_default()
-                .replaced(hosts, vanished)
-            {
-                continue;
+            let instances = seen.entry(component.clone()).or_default();
+            let found = instances.look(hosts, |p| m.graph().liveness(p));
+            if let Some(current) = instances.current() {
+                m.state().following.insert(component.clone(), current);
             }
-            tracing::warn!(
-                component = %component,
-                "{component} was started again in another process while the old one was still on the graph \
-                 (respawned?): the old one is taken as gone"
-            );
-            for end in &ends {
-                let d = match end {
-                    End::Source(k) => Departure::of_publisher(&k.topic, LossCause::Replaced),
-                    End::Target(Target::Slot(k)) => {
-                        Departure::of_subscriber(&k.topic, LossCause::Replaced)
+            match found {
+                Seen::Nothing => {}
+                Seen::Beside { current, other } => {
+                    let (current, other) = (
+                        m.graph().describe_process(current),
+                        m.graph().describe_process(other),
+                    );
+                    tracing::warn!(
+                        component = %component,
+                        "{component} runs in two live processes, {current} and {other}: ROS 2 names are meant to \
+                         be unique on a graph. This program's connections stay with the first; the topics of that \
+                         name carry both processes' signals. Stop one, or give it another name or namespace"
+                    )
+                }
+                Seen::Replaced { old, new } => {
+                    let (old, new) = (
+                        m.graph().describe_process(old),
+                        m.graph().describe_process(new),
+                    );
+                    tracing::warn!(
+                        component = %component,
+                        "{component} was started again in {new}, and the one in {old} is gone (respawned?): its \
+                         connections take it as gone"
+                    );
+                    for end in &ends {
+                        let d = match end {
+                            End::Source(k) => {
+                                Departure::of_publisher(&k.topic, LossCause::Replaced)
+                            }
+                            End::Target(Target::Slot(k)) => {
+                                Departure::of_subscriber(&k.topic, LossCause::Replaced)
+                            }
+                            End::Target(Target::Anon(_)) => continue,
+                        };
+                        m.peers_gone(end, d);
+                        m.peers_back(end);
                     }
-                    End::Target(Target::Anon(_)) => continue,
-                };
-                m.peers_gone(end, d);
-                m.peers_back(end);
+                }
             }
         }
         true

@@ -95,6 +95,8 @@ pub(crate) struct UntilSpec {
     pub(crate) source: Signal,
     pub(crate) started: Signal,
     pub(crate) exited: Signal,
+    /// R's `dropped` (a RADAR response's; an rclpy response has none).
+    pub(crate) dropped: Signal,
     pub(crate) interrupt: Slot,
     /// R's `state` topic: a response that publishes a `radar_msgs/msg/ResponseState` there keeps causes (C6).
     pub(crate) state: String,
@@ -134,6 +136,11 @@ struct Record {
     map: Option<MapFn>,
     /// Its deliveries carry the statement's cause (a start target).
     starts: bool,
+    /// Whether a payload is a whole message of its start target's type, when that is known and no transform
+    /// makes the payload (C2: a payload its target cannot read is no delivery).
+    reads: Option<crate::wire::readers::Reads>,
+    /// The target's topic and type, for the report of a payload it cannot read.
+    target: (String, String),
     /// The component whose leaving put the connection out of `Armed`, while it is out.
     departure: Option<Departure>,
     /// Why it delivers nothing for now though armed (its owner is silent), while it does not.
@@ -150,6 +157,10 @@ struct State {
     outlets: HashMap<Key, Outlet>,
     anon: HashMap<u64, Arc<AnonQueue>>,
     next_anon: u64,
+    /// Per component the manager's relays and outlets reach, the process its connections were made with
+    /// (`instances.rs`): a response's signals from another live process of that name carry no cause to the
+    /// table (they close no `until` window of this program's statements, C5).
+    following: HashMap<String, crate::node::transport::EndpointId>,
 }
 
 /// The embedded connection manager of one [`Radar`](crate::Radar).
@@ -171,6 +182,31 @@ pub(crate) struct Manager {
 }
 
 use crate::wire::local::now_ns;
+
+impl State {
+    /// `sent` as the table takes it from the writer `from`: a response's signals (`started`, `exited`, ...)
+    /// speak of the runs of the process the connections follow only; another live process of that name gives
+    /// them without their cause.
+    fn as_followed(
+        &self,
+        source: &Key,
+        sent: Sent,
+        from: crate::node::transport::EndpointId,
+    ) -> Sent {
+        let Some((component, e)) = crate::endpoint::Endpoint::of_topic(&source.topic) else {
+            return sent;
+        };
+        let followed = match self.following.get(component) {
+            Some(p) => p.prefix == from.prefix,
+            None => true,
+        };
+        if !followed && e.is_signal() && e != crate::endpoint::Endpoint::Triggered {
+            Sent { by: None, ..sent }
+        } else {
+            sent
+        }
+    }
+}
 
 impl Manager {
     /// A manager on `participant`; `local`: it hands signals to this process's responses directly.
@@ -240,8 +276,15 @@ impl Manager {
     /// One signal read on `source`, sent as `sent`: deliver it. Publishing happens under the lock, so a
     /// connection removed before this takes the lock gets nothing, and one removed after got this signal
     /// already.
-    fn dispatch(&self, source: &Key, raw: RawMessage, sent: Sent) {
+    fn dispatch(
+        &self,
+        source: &Key,
+        raw: RawMessage,
+        sent: Sent,
+        from: crate::node::transport::EndpointId,
+    ) {
         let mut guard = self.state();
+        let sent = guard.as_followed(source, sent, from);
         let changed_table = self.dispatch_held(&mut guard, source, raw, sent);
         drop(guard);
         self.signal_told(changed_table);
@@ -262,6 +305,24 @@ impl Manager {
             };
             if (stopping && r.starts) || r.suspended.is_some() {
                 return false;
+            }
+            // C2: a payload the target cannot read (a peer of another definition, a truncated sample) is no
+            // delivery: it does not use up a `once`; it is counted and reported as malformed
+            if let Some(reads) = r.reads {
+                if !reads(raw.as_bytes()) {
+                    self.graph().malformed().note(
+                        &source.topic,
+                        &r.target.1,
+                        None,
+                        &format!(
+                            "{} bytes that are not a whole {}, not delivered to {}",
+                            raw.len(),
+                            r.target.1,
+                            r.target.0
+                        ),
+                    );
+                    return false;
+                }
             }
             // a filter or map that panics refuses the signal (caught and reported on the connection)
             if let Some(f) = &r.filter {
@@ -355,9 +416,10 @@ impl Manager {
                         }
                     }
                 }
-                // closing the queue lets a delivery already queued (a `once` that just fired) still run
+                // closing the queue lets a delivery already queued (a `once` that just fired) still run; the queue
+                // stays reachable until the statement's scope ends, which cancels a call not begun (C4)
                 Target::Anon(k) => {
-                    if let Some(q) = st.anon.remove(&k) {
+                    if let Some(q) = st.anon.get(&k) {
                         q.close();
                     }
                 }
@@ -382,6 +444,11 @@ impl Manager {
             End::Target(t) => st.table.target_lost(t),
         };
         self.note_departure(&mut st, &ids, &d);
+        // a spent `once ... until` whose response left is over (C3, C5): its guard's `closed()` resolves
+        for id in st.table.take_ended() {
+            st.records.remove(&id);
+            tracing::info!(connection = id, %d, "connection {id} is over: its response left with the run it started");
+        }
         self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
@@ -437,12 +504,13 @@ impl Manager {
     /// The guard dropped: remove the connection, and cancel anonymous-slot calls it has not begun.
     fn remove(&self, id: ConnId) {
         let mut st = self.state();
-        if let Some(Target::Anon(k)) = st.table.target(id) {
-            if let Some(q) = st.anon.get(k) {
+        // the anonymous slot of a live connection, or of a `once` that fired and whose call may still wait in
+        // its queue: no further call begins (C4)
+        if let Some(Target::Anon(k)) = st.table.forget(id) {
+            if let Some(q) = st.anon.remove(&k) {
                 q.cancel();
             }
         }
-        st.table.remove(id);
         st.records.remove(&id);
         self.prune(&mut st);
         drop(st);

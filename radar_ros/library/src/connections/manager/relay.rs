@@ -45,9 +45,10 @@ impl Manager {
             .then(|| self.participant.taps().get(&k.topic, &k.ros_type));
         let to_table: Listener = {
             let (me, source) = (me.clone(), source.clone());
+            let here = self.participant.guid();
             Arc::new(move |raw: &RawMessage, at, by| {
                 if let Some(m) = me.upgrade() {
-                    m.dispatch(&source, raw.clone(), Sent { at, by });
+                    m.dispatch(&source, raw.clone(), Sent { at, by }, here);
                 }
             })
         };
@@ -72,7 +73,9 @@ impl Manager {
                         (Some((_, _, gid, stamp)), Some(_))
                             if since.is_some_and(|s| stamp >= s)
                                 && tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
-                        (Some((raw, sent, _, _)), Some(m)) => m.dispatch(&source, raw, sent),
+                        (Some((raw, sent, gid, _)), Some(m)) => {
+                            m.dispatch(&source, raw, sent, crate::node::transport::EndpointId::from(gid))
+                        }
                         _ => break,
                     },
                     change = presence.next() => match (change, me.upgrade()) {
