@@ -8,7 +8,9 @@
 //!
 //! - **T1.** A stamp is taken as it is while it lies within [`LATE`] before the receiver's clock and not after
 //!   it; outside, it is taken as the nearest edge: a stamp from the future is read as *now* (it cannot have
-//!   been sent later than it arrived), one older than `LATE` as `now - LATE`. So a stamp never moves a
+//!   been sent later than it arrived), one older than `LATE` as `now - LATE`. A manager's relay first brings
+//!   a sender's stamps back by that sender's [`Lead`] (how far ahead its recent stamps were), so that the
+//!   signals of a sender whose clock is ahead keep their order and age, not all read as *now*. So a stamp never moves a
 //!   machine past its own clock, and a peer whose clock is off by any amount can change a decision only about
 //!   signals read within [`LATE`] of each other: a peer whose clock is *ahead* changes nothing (its signals
 //!   are read as sent when they arrive); one whose clock is *behind* by more than `LATE` has its signals read
@@ -41,6 +43,55 @@ pub const LATE: i64 = 2 * HOLD;
 /// (T1).
 pub fn received(stamp: i64, now: i64) -> i64 {
     stamp.clamp(now.saturating_sub(LATE), now)
+}
+
+/// How far one sender's clock runs ahead of the receiver's, as its recent stamps show (rule T1): a stamp
+/// from a sender that is ahead is brought back by that much before it is taken, so that its signals keep the
+/// order and the age they had when sent. The lead is the largest amount by which one of the sender's last
+/// [`Lead::KEPT`] stamps was ahead of the receiver's clock as it read it (the stamp of a signal that took
+/// long to come is less ahead, and says nothing more); never below zero (a clock behind is T1's other case).
+///
+/// Without it a stamp from the future is read as *now*, so a signal a sender whose clock is ahead emitted
+/// before a statement was armed, and that was read after, was taken as emitted after it (C1). The first
+/// signal a receiver reads from such a sender still cannot be dated: it is read as sent when it arrives.
+///
+/// ```
+/// use radar_semantics::time::{Lead, LATE};
+/// let hour = 3_600_000_000_000;
+/// let mut lead = Lead::default();
+/// let now = 1_000 * LATE;
+/// // a sender an hour ahead: its first signal, 1 us in transit, is read as sent now
+/// assert_eq!(lead.date(now - 1_000 + hour, now), now);
+/// // one it sent 5 ms before, read later, is dated 5 ms before that one, not now
+/// assert_eq!(lead.date(now - 5_001_000 + hour, now + 10), now - 5_000_000);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Lead {
+    recent: [i64; Lead::KEPT],
+    seen: usize,
+}
+
+impl Lead {
+    /// How many of a sender's latest stamps its lead is taken from.
+    pub const KEPT: usize = 8;
+
+    /// The sender's lead now: how much to take from its stamps.
+    pub fn get(&self) -> i64 {
+        self.recent[..self.seen.min(Self::KEPT)]
+            .iter()
+            .copied()
+            .max()
+            .unwrap_or(0)
+            .max(0)
+    }
+
+    /// A stamp of the sender, read at `now`: when the signal is taken as sent (T1), with this stamp counted in
+    /// the lead.
+    pub fn date(&mut self, stamp: i64, now: i64) -> i64 {
+        self.recent[self.seen % Self::KEPT] = stamp.saturating_sub(now);
+        self.seen += 1;
+        received(stamp.saturating_sub(self.get()), now)
+    }
 }
 
 /// A receiver's clock as the machines see it: it never runs ahead of the clock it is given, and when that
@@ -86,6 +137,34 @@ mod tests {
         assert_eq!(received(i64::MIN, now), now - LATE);
         // a clock that has never been read does not overflow
         assert_eq!(received(5, i64::MIN), i64::MIN);
+    }
+
+    #[test]
+    fn t1_a_senders_lead_dates_its_later_signals_by_when_they_were_sent() {
+        let now = 10 * LATE;
+        let ahead = 3_600_000_000_000;
+        let mut l = Lead::default();
+        assert_eq!(l.date(now + ahead, now), now, "the first: read as now");
+        // a signal sent 1 ms before the next read, and one read 5 ms late: both dated by when they were sent
+        assert_eq!(
+            l.date(now + 9_000_000 + ahead, now + 10_000_000),
+            now + 9_000_000
+        );
+        assert_eq!(
+            l.date(now + 20_000_000 + ahead, now + 25_000_000),
+            now + 20_000_000
+        );
+        // a sender in step (or behind) has no lead: its stamps are taken as T1 takes them
+        let mut l = Lead::default();
+        assert_eq!(l.date(now - 5, now), now - 5);
+        assert_eq!(l.get(), 0);
+        // only the latest few count: a sender whose clock was set back is soon read by its new lead
+        let mut l = Lead::default();
+        l.date(now + ahead, now);
+        for i in 1..=Lead::KEPT as i64 {
+            l.date(now + i, now + i);
+        }
+        assert_eq!(l.get(), 0);
     }
 
     #[test]

@@ -161,6 +161,8 @@ struct State {
     /// (`instances.rs`): a response's signals from another live process of that name carry no cause to the
     /// table (they close no `until` window of this program's statements, C5).
     following: HashMap<String, crate::node::transport::EndpointId>,
+    /// Per process that sends to the relays, how far its clock runs ahead of this host's (T1).
+    leads: HashMap<crate::node::transport::EndpointId, radar_semantics::time::Lead>,
 }
 
 /// The embedded connection manager of one [`Radar`](crate::Radar).
@@ -276,14 +278,28 @@ impl Manager {
     /// One signal read on `source`, sent as `sent`: deliver it. Publishing happens under the lock, so a
     /// connection removed before this takes the lock gets nothing, and one removed after got this signal
     /// already.
+    /// `stamp`: the sample's source time as its writer stamped it (0: none), for a signal that came over the
+    /// wire from another process: dated by that process's lead (T1).
     fn dispatch(
         &self,
         source: &Key,
         raw: RawMessage,
-        sent: Sent,
+        mut sent: Sent,
         from: crate::node::transport::EndpointId,
+        stamp: i64,
     ) {
         let mut guard = self.state();
+        if stamp > 0 && from.prefix != self.participant.guid().prefix {
+            let process = crate::node::transport::EndpointId::new(
+                from.prefix,
+                crate::node::transport::EndpointId::new_participant_guid().entity_id,
+            );
+            sent.at = guard
+                .leads
+                .entry(process)
+                .or_default()
+                .date(stamp, now_ns());
+        }
         let sent = guard.as_followed(source, sent, from);
         let changed_table = self.dispatch_held(&mut guard, source, raw, sent);
         drop(guard);

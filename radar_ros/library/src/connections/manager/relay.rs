@@ -48,7 +48,7 @@ impl Manager {
             let here = self.participant.guid();
             Arc::new(move |raw: &RawMessage, at, by| {
                 if let Some(m) = me.upgrade() {
-                    m.dispatch(&source, raw.clone(), Sent { at, by }, here);
+                    m.dispatch(&source, raw.clone(), Sent { at, by }, here, 0);
                 }
             })
         };
@@ -73,9 +73,13 @@ impl Manager {
                         (Some((_, _, gid, stamp)), Some(_))
                             if since.is_some_and(|s| stamp >= s)
                                 && tap.as_ref().is_some_and(|t| t.is_local(gid)) => {}
-                        (Some((raw, sent, gid, _)), Some(m)) => {
-                            m.dispatch(&source, raw, sent, crate::node::transport::EndpointId::from(gid))
-                        }
+                        (Some((raw, sent, gid, stamp)), Some(m)) => m.dispatch(
+                            &source,
+                            raw,
+                            sent,
+                            crate::node::transport::EndpointId::from(gid),
+                            stamp,
+                        ),
                         _ => break,
                     },
                     change = presence.next() => match (change, me.upgrade()) {
