@@ -231,7 +231,9 @@ pub use endpoint::Endpoint;
 pub use error::{Error, Result, SlotError, Source};
 pub use graph::lookup::Component;
 pub use node::shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
-pub use node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription};
+pub use node::topics::{
+    RawPublisher, RawSubscription, Sample, SignalPublisher, SignalSubscription,
+};
 #[cfg(feature = "zenoh")]
 pub use node::zenoh::ZenohSignals;
 pub use radar::manager_node::{ManagerHandle, OWNER_SILENT};

@@ -299,6 +299,26 @@ impl SignalSubscription<RawMessage> {
         })
     }
 
+    /// The next message body as it came (a recorder's view: `radar record` keeps it for `radar verify`): its
+    /// source time as written, the statement's cause it carries and its writer. Unbounded unless `.timeout(d)`.
+    pub fn recv_sample(&self) -> Wait<'_, Sample> {
+        Wait::signal(format!("a message on {}", self.topic), async move {
+            let (body, info) = self.next_info(self.bodies()).await?;
+            let cause = info
+                .related_request_id()
+                .and_then(|r| crate::wire::cause::from_identity(r.into()))
+                .map(|c| (c.statement, c.delivery));
+            let mut writer = [0u8; 16];
+            writer.copy_from_slice(&info.publisher_gid().as_bytes()[..16]);
+            Ok(Sample {
+                body,
+                stamp: info.source_timestamp().map_or(0, |t| t.to_nanos()),
+                cause,
+                writer,
+            })
+        })
+    }
+
     /// The message bodies from publishers of the right type, with when and by which statement they were sent
     /// (see [`crate::wire::cause`]; the time of reading if the sample has no source time), their writers and
     /// their source times as written (ns, 0 if none). One stream for a reader's life (making a stream per
@@ -325,4 +345,18 @@ impl SignalSubscription<RawMessage> {
                 )
             })
     }
+}
+
+/// A sample as it came on a topic ([`RawSubscription::recv_sample`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Sample {
+    /// Its body.
+    pub body: RawMessage,
+    /// Its source time as its writer stamped it (ns since the epoch, 0 if none).
+    pub stamp: i64,
+    /// The cause it carries, if a RADAR statement sent it or a RADAR response's run emitted it: the
+    /// statement's id and the delivery's number (0 on an `until`'s interrupt; rules R13, C6).
+    pub cause: Option<(u128, u64)>,
+    /// Its writer's id (GID): the first 12 bytes name the process's participant.
+    pub writer: [u8; 16],
 }

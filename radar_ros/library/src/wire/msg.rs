@@ -368,6 +368,10 @@ pub struct Connection {
     pub panics: u64,
     /// The last of them: which closure and its message, else empty.
     pub panic: String,
+    /// When the statement began: it delivers signals emitted from then on (rule C1).
+    pub since: Time,
+    /// The statement's id as the causes of its slot signals carry it (32 hex digits, rule C6).
+    pub statement: String,
 }
 ros_message!(Connection, "radar_msgs", "Connection", hash <crate::interfaces::radar_msgs::msg::Connection as RosMessage>::TYPE_HASH);
 

@@ -444,6 +444,7 @@ impl<S: Clone + Ord, T: Clone + Ord> ConnectionTable<S, T> {
                 delivered: c.delivered,
                 until: c.until.as_ref().map(|(u, _)| u.source.clone()),
                 link: c.link,
+                armed_at: c.armed_at,
             })
             .collect()
     }

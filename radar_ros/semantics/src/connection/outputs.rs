@@ -74,6 +74,8 @@ pub struct ConnInfo<S, T> {
     pub until: Option<S>,
     /// Whether it can deliver now.
     pub link: Link,
+    /// The signals it delivers are those emitted from this time on (C1).
+    pub armed_at: i64,
 }
 
 /// A slot signal the runtime must send (or a payload to hand to an anonymous slot), tagged as it goes on the

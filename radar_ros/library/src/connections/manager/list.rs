@@ -68,6 +68,8 @@ impl Manager {
                         .get(&c.id)
                         .map(|r| r.faults.last())
                         .unwrap_or_default(),
+                    since: crate::wire::msg::Time::from_nanos(c.armed_at),
+                    statement: format!("{:032x}", st.table.statement(c.id)),
                 }
             })
             .collect()
