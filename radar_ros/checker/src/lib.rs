@@ -21,6 +21,7 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod mutants;
 pub mod scenario;
 pub mod scenarios;
 pub mod world;
@@ -47,8 +48,16 @@ pub struct Budget {
 }
 
 impl Budget {
-    /// What CI explores per scenario.
+    /// What CI explores per scenario: enough for every scenario of [`scenarios::all`] to be explored whole.
     pub fn ci() -> Budget {
+        Budget {
+            states: 2_500_000,
+            depth: 80,
+        }
+    }
+
+    /// A quick look (the mutation runner's first pass).
+    pub fn quick() -> Budget {
         Budget {
             states: 300_000,
             depth: 60,
@@ -103,6 +112,11 @@ impl System {
             reduce: false,
             ..System::new(scenario)
         }
+    }
+
+    /// The scenario.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
     }
 
     /// The components, as the specification names them.

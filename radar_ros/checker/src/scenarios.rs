@@ -159,7 +159,121 @@ pub fn all() -> Vec<Scenario> {
     v.push(anon_call());
     v.push(filtered());
     v.push(unreadable());
+    v.push(whenever_until_and_exit());
+    v.push(interrupt_beside_start(vec![]));
+    v.push(interrupt_beside_start(vec![Fault::Wait]));
+    v.push(clock_ahead());
+    v.push(starts_while_busy(Policy::QueueOne));
+    v.push(starts_while_busy(Policy::Restart));
     v
+}
+
+/// `whenever E start R`, E triggering three times (payloads 0, 1, 2) while R's first run goes on: R queues or
+/// restarts with the newest start (R6), and runs it after `exited` (R1).
+fn starts_while_busy(policy: Policy) -> Scenario {
+    let mut s = Scenario {
+        name: match policy {
+            Policy::Restart => "starts-while-busy-restart",
+            _ => "starts-while-busy-queue-one",
+        },
+        components: vec![program(0), event("/e", 1, 3), response("/r", 2, policy)],
+        statements: vec![],
+        faults: vec![],
+        skew: vec![],
+    };
+    let (e, r) = (s.comp("/e"), s.comp("/r"));
+    s.statements = vec![stmt(Kind::Whenever, triggered(e), start(r), None)];
+    s
+}
+
+/// `whenever E start R until U` and `whenever X exit R`, R's start behaviour returning, failing or panicking,
+/// R queueing one start; the manager beside R.
+fn whenever_until_and_exit() -> Scenario {
+    let mut s = Scenario {
+        name: "whenever-until-and-exit",
+        components: vec![
+            program(0),
+            event("/e", 1, 2),
+            event("/u", 1, 1),
+            event("/x", 2, 1),
+            resp_with(
+                "/r",
+                0,
+                Policy::QueueOne,
+                vec![StartEnd::Returned, StartEnd::Failed, StartEnd::Panicked],
+                0,
+                true,
+            ),
+        ],
+        statements: vec![],
+        faults: vec![],
+        skew: vec![],
+    };
+    let (e, u, x, r) = (s.comp("/e"), s.comp("/u"), s.comp("/x"), s.comp("/r"));
+    s.statements = vec![
+        stmt(Kind::Whenever, triggered(e), start(r), Some(triggered(u))),
+        stmt(Kind::Whenever, triggered(x), exit(r), None),
+    ];
+    s
+}
+
+/// `once E start R` and `whenever E interrupt R` in another process than R: the interrupt, sent after the start,
+/// may be read first (R12); with `faults`, time may jump past HOLD between the two.
+fn interrupt_beside_start(faults: Vec<Fault>) -> Scenario {
+    let name = if faults.is_empty() {
+        "interrupt-overtakes-its-start"
+    } else {
+        "interrupt-overtakes-its-start-after-hold"
+    };
+    let mut s = Scenario {
+        name,
+        components: vec![
+            program(0),
+            event("/e", 0, 2),
+            response("/r", 1, Policy::Ignore),
+        ],
+        statements: vec![],
+        faults,
+        skew: vec![],
+    };
+    let (e, r) = (s.comp("/e"), s.comp("/r"));
+    s.statements = vec![
+        stmt(Kind::Once, triggered(e), start(r), None),
+        stmt(Kind::Whenever, triggered(e), interrupt(r), None),
+    ];
+    s
+}
+
+/// `once E start R`, made while E already triggers, E in a process whose clock is `LATE` ahead (rule T1: its
+/// stamps are dated by its lead); time may jump between a signal and its reading.
+fn clock_ahead() -> Scenario {
+    let mut s = Scenario {
+        name: "source-clock-ahead",
+        components: vec![
+            program(0),
+            event("/e", 1, 3),
+            response("/r", 2, Policy::Ignore),
+            stmt_holder(),
+        ],
+        statements: vec![],
+        faults: vec![Fault::Wait],
+        skew: vec![0, 2 * radar_spec::rules::LATE, 0],
+    };
+    s.components.pop();
+    let (e, r) = (s.comp("/e"), s.comp("/r"));
+    s.statements = vec![
+        // a whenever that keeps E checking, then a once made at any step
+        stmt(Kind::Whenever, triggered(e), interrupt(r), None),
+        Statement {
+            arm: ArmAt::Any,
+            ..stmt(Kind::Once, triggered(e), start(r), None)
+        },
+    ];
+    s
+}
+
+fn stmt_holder() -> Component {
+    program(0)
 }
 
 /// `once E call`, its scope ending at any step.

@@ -174,6 +174,8 @@ pub struct Mgr {
     pub looks: BTreeSet<Comp>,
     /// The signals it read, by source and stamp as taken: which emission an `until`'s interrupt carries.
     pub read: BTreeMap<(Signal, Time), SigId>,
+    /// Per sending instance, how far its clock runs ahead (T1: the relay dates stamps by it).
+    pub leads: BTreeMap<u8, time::Lead>,
 }
 
 /// A message on its way, with the time it was sent (by the sender's true clock).
@@ -354,6 +356,7 @@ impl World {
                 instances: BTreeMap::new(),
                 looks: BTreeSet::new(),
                 read: BTreeMap::new(),
+                leads: BTreeMap::new(),
             },
             procs: (0..s.procs())
                 .map(|p| Proc {
@@ -1369,9 +1372,9 @@ impl World {
                     .get(&comp)
                     .and_then(|x| x.current())
                     .is_none_or(|c| c == no);
-                // the relay takes the stamp as rule T1 says
+                // the relay takes the stamp as rule T1 says, by its sender's lead
                 let sent = Sent {
-                    at: time::received(stamp, now),
+                    at: self.mgr.leads.entry(i).or_default().date(stamp, now),
                     by: cause.filter(|_| followed),
                 };
                 self.dispatch(s, signal, sig, sent, payload);

@@ -48,7 +48,7 @@ pub mod rules;
 pub mod trace;
 mod view;
 
-pub use rules::{Rule, Violation};
+pub use rules::{Rule, Sight, Violation};
 pub use trace::{End, Trace};
 
 /// What a check found.
@@ -60,6 +60,8 @@ pub struct Report {
     pub signals: usize,
     /// How many statements were armed.
     pub statements: usize,
+    /// The rules not judged: what the trace saw cannot show them ([`Sight::Wire`]).
+    pub unjudged: Vec<&'static Rule>,
 }
 
 impl Report {
@@ -80,6 +82,17 @@ pub fn check_records(
     records: &[trace::Record],
     end: End,
 ) -> Report {
+    check_seen(components, records, end, Sight::Inside)
+}
+
+/// [`check`] for a trace that saw what `sight` says: a recording's ([`Sight::Wire`]) is judged by the rules it
+/// can show alone, and the report names the others.
+pub fn check_seen(
+    components: &[trace::Component],
+    records: &[trace::Record],
+    end: End,
+    sight: Sight,
+) -> Report {
     let view = view::View::of(view::TraceRef {
         components,
         records,
@@ -87,15 +100,19 @@ pub fn check_records(
     let mut found = rules::Found {
         view: &view,
         end,
+        sight,
         out: Vec::new(),
     };
     rules::check_all(&mut found);
     let mut violations = found.out;
+    let judged = |r: &Rule| sight == Sight::Inside || r.wire;
+    violations.retain(|v| judged(v.rule));
     violations.sort_by_key(|v| v.index);
     Report {
         violations,
         signals: view.emitted.len(),
         statements: view.stmts.len(),
+        unjudged: rules::ALL.iter().copied().filter(|r| !judged(r)).collect(),
     }
 }
 

@@ -87,13 +87,34 @@ fn target_comp(st: &StmtView) -> Option<Comp> {
     }
 }
 
+/// How precisely the manager can date the signals of the instance that emitted `e` by record `i` (T1): exactly
+/// if its clock is the true one; if it is ahead, within the transit time of the fastest of its signals the
+/// manager read before (none read yet: not at all).
+fn dating_error(f: &Found<'_, '_>, e: &crate::view::Emission, i: usize) -> Time {
+    if e.stamp <= e.at {
+        return 0;
+    }
+    let v = f.view;
+    (0..i)
+        .filter_map(|j| match v.obs(j) {
+            Obs::ManagerRead { sig, .. } => {
+                let x = v.emission(sig)?;
+                (x.signal.comp == e.signal.comp && x.inst == e.inst && x.stamp > x.at)
+                    .then(|| v.trace.records[j].at - x.at)
+            }
+            _ => None,
+        })
+        .min()
+        .unwrap_or(Time::MAX)
+}
+
 fn not_before_armed(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &[usize]) {
     for &i in sends {
         let (sig, ..) = sent(f, i);
         let Some(e) = f.view.emission(sig) else {
             continue;
         };
-        if e.at < st.since {
+        if e.at < st.since && st.since - e.at > dating_error(f, &e, i) {
             f.add(
                 &C1_NOT_BEFORE_ARMED,
                 i,
@@ -153,12 +174,21 @@ fn only_what_passes(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &[usiz
 }
 
 fn causes(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &[usize]) {
+    // a trace that begins in the middle of a run counts the deliveries from the first it saw
+    let first = sends.iter().copied().find(|&i| is_start(sent(f, i).1));
+    let before = match (f.sight, first) {
+        (Sight::WireSince, Some(i)) => match sent(f, i).3 {
+            Some(c) if c.stmt == k => c.delivery.saturating_sub(1),
+            _ => 0,
+        },
+        _ => 0,
+    };
     for (n, &i) in sends.iter().enumerate() {
         let (sig, to, _, by) = sent(f, i);
         if is_start(to) {
             let want = Some(Cause {
                 stmt: k,
-                delivery: n as u64 + 1,
+                delivery: before + n as u64 + 1,
             });
             if by != want {
                 f.add(

@@ -29,17 +29,28 @@ pub struct Rule {
     pub text: &'static str,
     /// Safety or liveness.
     pub class: Class,
+    /// Whether a recording of the topics can show it (else it needs what happens inside a component or a
+    /// manager: what was read and when, which slot ran).
+    pub wire: bool,
 }
 
 macro_rules! rules {
-    ($($konst:ident = $id:literal $name:literal $class:ident $text:literal;)*) => {
+    ($($konst:ident = $id:literal $name:literal $class:ident $($wire:ident)? $text:literal;)*) => {
         $(
             #[doc = concat!("**", $id, " ", $name, ".** ", $text)]
-            pub static $konst: Rule = Rule { id: $id, name: $name, text: $text, class: Class::$class };
+            pub static $konst: Rule = Rule {
+                id: $id,
+                name: $name,
+                text: $text,
+                class: Class::$class,
+                wire: rules!(@wire $($wire)?),
+            };
         )*
         /// Every rule, in the order the documentation gives them.
         pub static ALL: &[&Rule] = &[$(&$konst),*];
     };
+    (@wire wire) => { true };
+    (@wire) => { false };
 }
 
 rules! {
@@ -47,13 +58,13 @@ rules! {
         "A run begins only when the response reads a `start` while idle (then at once, with that start's payload \
          and cause), or as the run before it ends (its `exited`): with the newest start it queued (R6), else \
          with the same payload and no cause if its exit slot asked for a restart (R8). Runs never overlap.";
-    R1_STARTED_ANNOUNCES_ITS_RUN = "R1" "started-announces-its-run" Safety
+    R1_STARTED_ANNOUNCES_ITS_RUN = "R1" "started-announces-its-run" Safety wire
         "`started` is emitted once per run, as the run begins and before anything else of it, with the run's \
          payload and cause; never outside a run.";
     R1_AN_IDLE_START_BEGINS_A_RUN = "R1" "an-idle-start-begins-a-run" Safety
         "A `start` read while the response is idle, and not stopping, begins a run at once; a run that ends with \
          a start queued or a restart asked for is followed at once by the next run.";
-    R2_SLOTS_IN_ORDER = "R2" "slots-in-order" Safety
+    R2_SLOTS_IN_ORDER = "R2" "slots-in-order" Safety wire
         "A run goes: its start behaviour; then, if it ended by itself, the exit slot for that reason (completed, \
          failed, panicked); if an interrupt ended it, `interrupted`, the interrupt slot, then the exit slot \
          (interrupted); if an exit signal or a stop ended it, the exit slot (exit signal) with no interrupt slot; \
@@ -71,7 +82,7 @@ rules! {
     R6_EVERY_START_TAKEN_OR_TOLD = "R6" "every-start-taken-or-told" Liveness
         "In the end every start a statement sent that a response read has begun a run, or was announced on \
          `dropped`, unless the response was killed.";
-    R7_EVERY_RUN_EXITS = "R7" "every-run-exits" Liveness
+    R7_EVERY_RUN_EXITS = "R7" "every-run-exits" Liveness wire
         "The exit slot always runs: every run of a response that was not killed ends with `exited`.";
     R7_STOP = "R7" "a-stop-ends-the-run" Safety
         "A response whose program is told to stop begins no run after that, and a start behaviour that runs then \
@@ -86,9 +97,11 @@ rules! {
          run as soon as it begins (at its first await), as if they had been read in the order they were sent: one \
          read while idle (R12); an `until`'s interrupt read before a run of its statement whose start was sent \
          before it, also when that run had to wait for another (R14).";
-    C1_NOT_BEFORE_ARMED = "C1" "not-before-armed" Safety
-        "A statement delivers only signals emitted at or after it began.";
-    C2_ONCE_AT_MOST_ONE = "C2" "once-at-most-one" Safety
+    C1_NOT_BEFORE_ARMED = "C1" "not-before-armed" Safety wire
+        "A statement delivers only signals emitted at or after it began. A signal from a process whose clock is \
+         ahead is dated by how far ahead that process's earlier signals were (T1): then only within the transit \
+         time of the fastest of those its manager read.";
+    C2_ONCE_AT_MOST_ONE = "C2" "once-at-most-one" Safety wire
         "A `once` delivers at most one signal of its source.";
     C2_ONLY_WHAT_PASSES = "C2" "only-what-passes" Safety
         "A statement delivers only payloads its filter lets through, and to a start slot or an anonymous slot \
@@ -118,14 +131,14 @@ rules! {
          process of that name beside it is not a loss.";
     C5_NOTHING_TO_THE_LOST = "C5" "nothing-to-the-lost" Safety
         "After a statement has seen its target lost, it sends that target nothing more.";
-    C6_CAUSES = "C6" "causes" Safety
+    C6_CAUSES = "C6" "causes" Safety wire
         "A start a statement delivers carries the statement and the delivery's number (from 1); an `until`'s \
          interrupt names the statement (delivery 0) and carries the stamp of U's signal.";
     C6_UNTIL_REACHES_ITS_RUN = "C6" "until-reaches-its-run" Safety
         "A signal of U read while a run of the statement's start may be going (from its latest start delivery \
          until R's `exited` or `dropped` carrying it) is sent to R's `interrupt`; the newest one read while none may be going \
          is sent right after the next start, if that start's source was emitted before it, within HOLD (C7).";
-    E1_CHECKS_ONLY_WHILE_LISTENED = "E1" "checks-only-while-listened" Safety
+    E1_CHECKS_ONLY_WHILE_LISTENED = "E1" "checks-only-while-listened" Safety wire
         "An event checks its condition only while it knows of a listener to its `triggered`, stops as soon as it \
          knows of none, and emits `triggered` only while checking.";
     E1_UNHEARD_EVENTS_STOP = "E1" "unheard-events-stop" Liveness
@@ -163,10 +176,24 @@ pub struct Violation {
     pub why: String,
 }
 
+/// What a trace saw of the system.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sight {
+    /// Everything: what components and managers read, when, and which slots ran (a model's trace).
+    Inside,
+    /// What crosses the topics (a recording): the rules that need more are not judged.
+    Wire,
+    /// What crosses the topics from some point in a run on (a live view's window of the latest samples): as
+    /// [`Sight::Wire`], and what happened before the trace is not in it, so what a rule counts (a statement's
+    /// deliveries) begins where the trace does.
+    WireSince,
+}
+
 /// Collects the violations of one check.
 pub(crate) struct Found<'v, 't> {
     pub(crate) view: &'v View<'t>,
     pub(crate) end: End,
+    pub(crate) sight: Sight,
     pub(crate) out: Vec<Violation>,
 }
 
