@@ -104,6 +104,8 @@ def mcap(path: str) -> None:
 
     with open(path, "rb") as f:
         for schema, channel, message in make_reader(f).iter_messages():
+            if channel.message_encoding != "cdr":
+                continue  # radar record's own /radar/trace (JSON), not a ROS message
             pkg, kind, name = schema.name.split("/")
             cls = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
             m = deserialize_message(message.data, cls)

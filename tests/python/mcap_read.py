@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Reads an MCAP file with the independent Python readers (`mcap`, `mcap-ros2-support`) and prints one JSON
 line per message: topic, schema name and encoding, message encoding, log and publish time, and the message
-decoded from its CDR with the schema stored in the file (as Foxglove and rosbag2 tooling would).
+decoded from its CDR with the schema stored in the file (as Foxglove and rosbag2 tooling would); a JSON message
+(radar record's /radar/trace) as its JSON.
 
     mcap_read.py FILE.mcap             a message the reader cannot decode (it implements no wstring) is printed
                                        with "undecodable": the reader's reason, instead of "msg"
@@ -52,6 +53,10 @@ def main() -> None:
                 "log_time": message.log_time,
                 "publish_time": message.publish_time,
             }
+            if channel.message_encoding == "json":  # radar record's /radar/trace
+                line["msg"] = json.loads(message.data)
+                print(json.dumps(line), flush=True)
+                continue
             if schema.id not in decoders:
                 decoders[schema.id] = factory.decoder_for(channel.message_encoding, schema)
             try:

@@ -170,6 +170,24 @@ enum Cmd {
         #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
         wait: f64,
     },
+    /// Judge a recording (from `radar record`) by RADAR's rules: name every rule the run broke.
+    ///
+    /// Reads what the recording saw on the topics (each signal with its stamp, cause and writer, the slot
+    /// signals that crossed processes, states, connection lists) and checks it against radar_spec's rules:
+    /// prints each rule broken (rule, time, components, the signals involved), or "no violation in N signals,
+    /// M statements", and which rules a recording cannot show (what a component read and when, which slot ran).
+    /// Exits with 1 if a rule was broken.
+    Verify {
+        /// The MCAP file `radar record` wrote (or its trace's lines, FILE.jsonl, as --trace prints them).
+        input: std::path::PathBuf,
+        /// Print what the recording saw, one JSON object a line in the order sent, and judge nothing.
+        #[arg(long)]
+        trace: bool,
+        /// What happened in the last SECONDS of the recording is not judged by the rules that wait for
+        /// something (every started run exits, a spent statement ends).
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        grace: f64,
+    },
     /// A running RADAR system in a browser, live: components, connections, states, signals.
     ///
     /// Serves a page (everything it needs is in this binary; nothing is loaded from the internet) that draws
@@ -370,6 +388,11 @@ pub async fn run(cli: Cli) -> Result<(), String> {
         },
         Cmd::Security { verb } => return security(verb, &out),
         Cmd::Router { listen } => return verbs::router::router(listen, &out).await,
+        Cmd::Verify {
+            input,
+            grace,
+            trace,
+        } => return verbs::verify::verify(&input, grace, trace, &out),
         other => other,
     };
     // the command line handles Ctrl-C itself (a watch prints its summary, a recording closes its file)
@@ -394,7 +417,9 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
         Cmd::Security {
             verb: SecurityVerb::GeneratePolicy { policy },
         } => generate_policy(radar, out, discovery, &policy).await,
-        Cmd::Security { .. } | Cmd::Router { .. } => unreachable!("handled above"),
+        Cmd::Security { .. } | Cmd::Router { .. } | Cmd::Verify { .. } => {
+            unreachable!("handled above")
+        }
         Cmd::Ls { namespace, long } => verbs::ls::ls(radar, out, discovery, namespace, long).await,
         Cmd::Cat { name } => verbs::cat::cat(radar, out, discovery, &name).await,
         Cmd::Act {

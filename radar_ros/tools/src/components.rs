@@ -18,6 +18,25 @@ pub(crate) fn signal_topics(c: &Component) -> Vec<(String, String, &'static str)
     }
 }
 
+/// What else of a component `radar record` keeps for `radar verify`, `(topic, type, label)`: a response's
+/// slots (the statements' slot signals, with their causes) and its `dropped`.
+pub(crate) fn slot_topics(c: &Component) -> Vec<(String, String, &'static str)> {
+    match c {
+        Component::Response(r) => {
+            let of =
+                |s: radar_ros::Slot, label| (s.topic().to_owned(), s.ros_type().to_owned(), label);
+            let d = r.dropped();
+            vec![
+                of(r.start_slot(), "start"),
+                of(r.interrupt_slot(), "interrupt"),
+                of(r.exit_slot(), "exit"),
+                (d.topic().to_owned(), d.ros_type().to_owned(), "dropped"),
+            ]
+        }
+        Component::Event(_) => Vec::new(),
+    }
+}
+
 /// A sample of one of a component's signals: its topic, type and label ([`signal_topics`]), its body and its
 /// source time (ns since the epoch, 0: unknown).
 pub(crate) struct SignalSample<'a> {
@@ -26,6 +45,10 @@ pub(crate) struct SignalSample<'a> {
     pub(crate) label: &'static str,
     pub(crate) body: radar_ros::RawMessage,
     pub(crate) stamp: i64,
+    /// The statement's cause it carries.
+    pub(crate) cause: Option<(u128, u64)>,
+    /// Its writer.
+    pub(crate) writer: [u8; 16],
 }
 
 /// Subscribes to the signals that show `c`'s activity ([`signal_topics`]) and forwards each sample, made into
@@ -38,11 +61,26 @@ pub(crate) fn forward_signals<T: Send + 'static>(
     tx: &tokio::sync::mpsc::UnboundedSender<T>,
     make: impl Fn(SignalSample<'_>) -> T + Clone + Send + 'static,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
+    forward(radar, signal_topics(c), activate, tx, make)
+}
+
+/// [`forward_signals`] for the topics given. An event's `triggered` is only observed (a reader no one counts as
+/// a peer), unless `activate`; a response's slots and `dropped` always are (a recorder on a slot would keep its
+/// outlets from seeing the response leave).
+pub(crate) fn forward<T: Send + 'static>(
+    radar: &Radar,
+    topics: Vec<(String, String, &'static str)>,
+    activate: bool,
+    tx: &tokio::sync::mpsc::UnboundedSender<T>,
+    make: impl Fn(SignalSample<'_>) -> T + Clone + Send + 'static,
+) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
     let mut tasks = Vec::new();
-    for (topic, ros_type, label) in signal_topics(c) {
+    for (topic, ros_type, label) in topics {
         // an event's `triggered` is only observed (the event does not count this reader as a listener, so
         // watching changes nothing), unless `activate`
-        let sub = if label == "triggered" && !activate {
+        let observe = (label == "triggered" && !activate)
+            || matches!(label, "start" | "interrupt" | "exit" | "dropped");
+        let sub = if observe {
             radar.observe_raw(&topic, &ros_type)
         } else {
             radar.raw_subscription(&topic, &ros_type)
@@ -50,13 +88,15 @@ pub(crate) fn forward_signals<T: Send + 'static>(
         .map_err(|e| e.to_string())?;
         let (tx, make) = (tx.clone(), make.clone());
         tasks.push(tokio::spawn(async move {
-            while let Ok((body, stamp)) = sub.recv_stamped().await {
+            while let Ok(s) = sub.recv_sample().await {
                 let sample = SignalSample {
                     topic: &topic,
                     ros_type: &ros_type,
                     label,
-                    body,
-                    stamp,
+                    body: s.body,
+                    stamp: s.stamp,
+                    cause: s.cause,
+                    writer: s.writer,
                 };
                 if tx.send(make(sample)).is_err() {
                     break;

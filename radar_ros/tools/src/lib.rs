@@ -33,5 +33,6 @@ pub mod logging;
 pub mod mcap_out;
 pub mod picture;
 pub mod schemas;
+mod seen;
 mod verbs;
 mod view;

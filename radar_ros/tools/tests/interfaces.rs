@@ -373,7 +373,8 @@ async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
         let before = h.state().exits;
         let slot = h.reference().start_slot();
         let p = r.raw_publisher(slot.topic(), slot.ros_type()).unwrap();
-        p.wait_for_subscribers(1)
+        // the response and the recorder (which reads the slots too, for `radar verify`)
+        p.wait_for_subscribers(2)
             .timeout(Duration::from_secs(10))
             .await
             .unwrap();

@@ -581,9 +581,16 @@ async fn record_writes_mcap_that_python_reads_and_replay_plays_it_back() {
     let on =
         |topic: &str| -> Vec<&Value> { messages.iter().filter(|m| m["topic"] == topic).collect() };
     for m in &messages {
+        if m["topic"] == "/radar/trace" {
+            // what `radar verify` reads: JSON with its JSON schema
+            assert_eq!(m["schema_encoding"], "jsonschema");
+            assert_eq!(m["message_encoding"], "json");
+            continue;
+        }
         assert_eq!(m["schema_encoding"], "ros2msg");
         assert_eq!(m["message_encoding"], "cdr");
     }
+    assert!(!on("/radar/trace").is_empty(), "{messages:?}");
     let started = on("/rec/say/started");
     assert_eq!(started.len(), 1, "{messages:?}");
     assert_eq!(started[0]["schema"], "std_msgs/msg/String");
@@ -730,4 +737,141 @@ async fn record_of_count_up_holds_start_event_s_trigger_and_changes_nothing() {
     assert!(sent(last) > sent(triggers[0]), "{last} {}", triggers[0]);
     // and count_up's runs are there too
     assert!(!on("/count_up/started").is_empty(), "{messages:?}");
+}
+
+/// Records `script` (a launch script running a listing's components each in its own process) with `radar
+/// record` on `domain`; returns the recording.
+async fn record_listing(
+    domain: &str,
+    script: &str,
+    args: &[&str],
+    secs: u32,
+) -> std::path::PathBuf {
+    use radar_ros_examples::test_support::examples_dir;
+    let dir = std::env::temp_dir().join(format!("radar_verify_{}_{domain}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("run.mcap");
+    let file_s = file.to_str().unwrap().to_owned();
+    let duration = (secs + 3).to_string();
+    let rec_args = ["record", "-o", &file_s, "--duration", &duration, "--json"].map(str::to_owned);
+    let d = domain.to_owned();
+    let recorder = tokio::spawn(async move {
+        let args: Vec<&str> = rec_args.iter().map(String::as_str).collect();
+        radar_in(&d, &args).await
+    });
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let run =
+        tokio::process::Command::new(radar_test_util::repo().join("launch_scripts").join(script))
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain)
+            .env("RADAR_EXAMPLES", examples_dir("count_up_nodes"))
+            .stdout(std::process::Stdio::null())
+            .kill_on_drop(true)
+            .output();
+    let run = tokio::time::timeout(Duration::from_secs(u64::from(secs) + 30), run)
+        .await
+        .expect("the listing ends")
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let recorded = recorder.await.unwrap();
+    assert!(
+        recorded.status.success(),
+        "{}",
+        String::from_utf8_lossy(&recorded.stderr)
+    );
+    file
+}
+
+/// `radar verify` on `file`: its exit status and what it printed.
+fn verify(file: &std::path::Path) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["verify", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
+
+/// Issue 69: `radar verify` judges recordings of real runs by the specification. Listing 1 and Listings 2/3,
+/// each component in its own process, recorded by `radar record`: no violation (and the statements and signals
+/// counted). The Listing 1 recording doctored, as `radar verify --trace` prints it: a second start delivered by
+/// its `once` names C2 once-at-most-one; `count_up`'s `interrupted` moved into the run after the one it ended
+/// names R2 slots-in-order. Domains 128, 129.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn verify_finds_no_violation_in_the_listings_and_names_the_rule_a_doctored_run_breaks() {
+    radar_ros_examples::test_support::require_isolation();
+    let listing1 = record_listing("128", "count_up_processes.sh", &["--duration", "7"], 8).await;
+    let (ok, text) = verify(&listing1);
+    assert!(ok && text.contains("no violation in"), "{text}");
+    assert!(text.contains(" 1 statements"), "{text}");
+    let listing2 = record_listing(
+        "129",
+        "deliberative.sh",
+        &["--loop-secs", "4", "--duration", "8"],
+        9,
+    )
+    .await;
+    let (ok, text) = verify(&listing2);
+    assert!(
+        ok && text.contains("no violation in") && text.contains(" 2 statements"),
+        "{text}"
+    );
+
+    // the trace of Listing 1's recording, to doctor
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["verify", "--trace", listing1.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let lines: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let write = |name: &str, lines: &[Value]| {
+        let f = listing1.with_file_name(name);
+        let text: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        std::fs::write(&f, text.join("\n")).unwrap();
+        f
+    };
+    // as recorded, the trace alone judges the same
+    let (ok, text) = verify(&write("as_recorded.jsonl", &lines));
+    assert!(ok, "{text}");
+
+    // a second delivery of the once: its start again, carrying delivery 2
+    let start = lines
+        .iter()
+        .find(|l| l["topic"] == "/count_up/start" && l["cause"][1] == 1)
+        .unwrap_or_else(|| panic!("the once's start crosses processes: {lines:?}"))
+        .clone();
+    let mut again = start.clone();
+    again["cause"][1] = 2.into();
+    again["stamp"] = (start["stamp"].as_i64().unwrap() + 1_000_000).into();
+    let mut twice = lines.clone();
+    twice.push(again);
+    let (ok, text) = verify(&write("twice.jsonl", &twice));
+    assert!(!ok && text.contains("C2 once-at-most-one"), "{text}");
+
+    // the interrupt of the statement's run moved into the next run (count_up's restart)
+    let interrupted = lines
+        .iter()
+        .position(|l| l["topic"] == "/count_up/interrupted")
+        .expect("count_up was interrupted");
+    let restart = lines
+        .iter()
+        .filter(|l| l["topic"] == "/count_up/started")
+        .nth(1)
+        .expect("count_up restarted")
+        .clone();
+    let mut moved = lines.clone();
+    moved[interrupted]["stamp"] = (restart["stamp"].as_i64().unwrap() + 1_000).into();
+    let (ok, text) = verify(&write("moved.jsonl", &moved));
+    assert!(!ok && text.contains("R2 slots-in-order"), "{text}");
 }

@@ -104,6 +104,8 @@ struct Page {
     last_line: u64,
     dropped: u64,
     changes: usize,
+    /// The rules the page was told the system broke.
+    violations: Vec<Value>,
 }
 
 impl Page {
@@ -118,6 +120,7 @@ impl Page {
                 }
                 self.dropped = m["dropped"].as_u64().unwrap();
                 self.lines_in(&m["timeline"]);
+                self.violations = m["violations"].as_array().unwrap().clone();
             }
             Some("changes") => {
                 let seq = self.seq.expect("changes before the snapshot");
@@ -137,6 +140,8 @@ impl Page {
                 }
                 self.dropped += m["dropped"].as_u64().unwrap();
                 self.lines_in(&m["timeline"]);
+                self.violations
+                    .extend(m["violations"].as_array().unwrap().iter().cloned());
             }
             _ => panic!("not a snapshot or changes: {m}"),
         }
@@ -304,6 +309,8 @@ async fn pages_get_a_snapshot_then_every_change_in_order() {
         .await;
         assert_eq!(page.components["/ws/job"], truth);
         assert_eq!(page.dropped, 0);
+        // five runs that keep RADAR's rules: the view judges them and tells no violation
+        assert_eq!(page.violations, Vec::<Value>::new());
     }
     assert_eq!(page_a.of("/ws/job", "started"), 5, "{:?}", page_a.lines);
     assert_eq!(page_a.of("/ws/job", "exited"), 5, "{:?}", page_a.lines);

@@ -9,4 +9,5 @@ pub(crate) mod ls;
 pub(crate) mod record;
 pub(crate) mod replay;
 pub(crate) mod router;
+pub(crate) mod verify;
 pub(crate) mod watch;

@@ -1,4 +1,5 @@
-//! `radar record`: signals, their payloads and state changes to MCAP (like rtlog).
+//! `radar record`: signals, their payloads and state changes to MCAP (like rtlog); beside them, on the
+//! `/radar/trace` channel, what `radar verify` needs that CDR does not carry (causes, writers; `crate::seen`).
 
 use std::{
     collections::{BTreeMap, BTreeSet},
@@ -12,19 +13,21 @@ use radar_ros::{
 use serde_json::json;
 
 use crate::{
-    common::{epoch_ns, Fallible, Out, Stop},
-    components::{forward_signals, state_type, Following},
+    common::{epoch_ns, stamp_ns, Fallible, Out, Stop},
+    components::{forward, forward_signals, slot_topics, state_type, Following},
     mcap_out::{ChunkLimits, McapOut, MessageOut},
     schemas,
+    seen::{self, Seen, SeenConnection},
 };
 
-/// One recorded message.
+/// One recorded message, and what `radar verify` keeps of it.
 struct Recorded {
     topic: String,
     ros_type: String,
     body: radar_ros::RawMessage,
     /// Source timestamp, nanoseconds since the epoch (0: unknown).
     published: i64,
+    seen: Option<Seen>,
 }
 
 /// A CDR message as MCAP stores it: the 4-byte encapsulation header (little-endian CDR), then the body.
@@ -42,6 +45,8 @@ struct Recording {
     schemas: BTreeMap<String, u16>,
     counts: BTreeMap<String, u64>,
     unknown: BTreeSet<String>,
+    /// The `/radar/trace` channel, once made.
+    trace: Option<u16>,
 }
 
 impl Recording {
@@ -62,6 +67,7 @@ impl Recording {
             schemas: BTreeMap::new(),
             counts: BTreeMap::new(),
             unknown: BTreeSet::new(),
+            trace: None,
         })
     }
 
@@ -72,8 +78,44 @@ impl Recording {
         )
     }
 
-    /// Adds `m` to the open chunk, with its topic's channel and type's schema the first time.
-    fn add(&mut self, m: Recorded) -> Fallible<()> {
+    /// Adds `m` to the open chunk, with its topic's channel and type's schema the first time, and what
+    /// `radar verify` keeps of it.
+    fn add(&mut self, mut m: Recorded) -> Fallible<()> {
+        if let Some(s) = m.seen.take() {
+            self.add_seen(&s)?;
+        }
+        self.add_message(m)
+    }
+
+    /// One line of the `/radar/trace` channel.
+    fn add_seen(&mut self, s: &Seen) -> Fallible<()> {
+        let channel = match self.trace {
+            Some(c) => c,
+            None => {
+                let schema = self.out.add_schema(
+                    "radar_tools/trace",
+                    "jsonschema",
+                    br#"{"type":"object","description":"what radar record saw of a RADAR system (radar verify reads it)"}"#,
+                );
+                let c = self.out.add_channel(schema, seen::CHANNEL, "json");
+                self.trace = Some(c);
+                c
+            }
+        };
+        let n = self.counts.entry(seen::CHANNEL.to_owned()).or_default();
+        *n += 1;
+        let data = serde_json::to_vec(s).map_err(|e| e.to_string())?;
+        let message = MessageOut {
+            channel,
+            sequence: *n as u32,
+            log_time: s.log().max(0) as u64,
+            publish_time: s.stamp().max(0) as u64,
+            data: &data,
+        };
+        self.out.write(message).map_err(|e| self.failed(e))
+    }
+
+    fn add_message(&mut self, m: Recorded) -> Fallible<()> {
         let Some(def) = schemas::definition(&m.ros_type) else {
             // a type radar cannot describe (a user's own): said once, not recorded
             if self.unknown.insert(m.ros_type.clone()) {
@@ -164,6 +206,7 @@ pub(crate) async fn record(
     let mut recording = Recording::create(output)?;
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Recorded>();
     let mut tasks = Vec::new();
+    let mut lists: BTreeSet<String> = BTreeSet::new();
     let end = stop.after(duration);
     tokio::pin!(end);
     let mut rescan = tokio::time::interval(Duration::from_millis(250));
@@ -176,6 +219,14 @@ pub(crate) async fn record(
             _ = &mut end => break Ok(()),
             _ = rescan.tick() => following.new_components(radar).iter().try_for_each(|c| {
                 tasks.extend(tap(radar, c, activate, tx.clone())?);
+                Ok(())
+            }).and_then(|()| {
+                // the managers' connection lists: which statements there are, and when each began
+                for topic in radar.introspect().connection_topics() {
+                    if lists.insert(topic.clone()) {
+                        tasks.push(tap_connections(radar, topic, tx.clone())?);
+                    }
+                }
                 Ok(())
             }),
             Some(m) = rx.recv() => recording.add(m),
@@ -205,12 +256,22 @@ fn tap(
     tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
 ) -> Fallible<Vec<tokio::task::JoinHandle<()>>> {
     let state_type = state_type(c);
-    let mut tasks = forward_signals(radar, c, activate, &tx, |s| Recorded {
+    let make = |s: crate::components::SignalSample<'_>| Recorded {
         topic: s.topic.to_owned(),
         ros_type: s.ros_type.to_owned(),
+        seen: Some(Seen::Signal {
+            topic: s.topic.to_owned(),
+            stamp: s.stamp,
+            log: epoch_ns() as i64,
+            cause: seen::cause(s.cause),
+            writer: seen::hex(&s.writer),
+            len: s.body.len(),
+        }),
         body: s.body,
         published: s.stamp,
-    })?;
+    };
+    let mut tasks = forward_signals(radar, c, activate, &tx, make)?;
+    tasks.extend(forward(radar, slot_topics(c), activate, &tx, make)?);
     // the state, from its transient-local topic (the current one first)
     let topic = c.name().topic("state");
     macro_rules! state_task {
@@ -227,6 +288,7 @@ fn tap(
                     let r = Recorded {
                         topic: topic.clone(),
                         ros_type: state_type.into(),
+                        seen: Some(seen_state(&m)),
                         body,
                         published,
                     };
@@ -242,4 +304,74 @@ fn tap(
         Component::Event(_) => state_task!(EventState),
     });
     Ok(tasks)
+}
+
+/// What `radar verify` keeps of a state.
+trait SeenState {
+    fn seen(&self) -> Seen;
+}
+
+fn seen_state(s: &impl SeenState) -> Seen {
+    s.seen()
+}
+
+impl SeenState for ResponseState {
+    fn seen(&self) -> Seen {
+        Seen::ResponseState {
+            name: self.name.clone(),
+            stamp: stamp_ns(&self.stamp),
+            log: epoch_ns() as i64,
+            state: self.state_label.clone(),
+            last_exit_reason: self.last_exit_reason.clone(),
+            policy: self.start_policy.clone(),
+            restarts: self.restarts,
+        }
+    }
+}
+
+impl SeenState for EventState {
+    fn seen(&self) -> Seen {
+        Seen::EventState {
+            name: self.name.clone(),
+            stamp: stamp_ns(&self.stamp),
+            log: epoch_ns() as i64,
+            active: self.active,
+            listeners: self.listeners,
+        }
+    }
+}
+
+/// Records a manager's connection list (`<manager>/connections`, transient-local): the list, and the
+/// statements in it for `radar verify`.
+fn tap_connections(
+    radar: &Radar,
+    topic: String,
+    tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
+) -> Fallible<tokio::task::JoinHandle<()>> {
+    let sub = radar
+        .state_subscription::<radar_ros::msg::ConnectionList>(&topic)
+        .map_err(|e| e.to_string())?;
+    Ok(tokio::spawn(async move {
+        while let Ok((m, published)) = sub.recv_stamped().await {
+            let Ok(body) = radar_ros::RawMessage::encode(&m) else {
+                continue;
+            };
+            let seen = Seen::Connections {
+                manager: m.manager.clone(),
+                stamp: stamp_ns(&m.stamp),
+                log: epoch_ns() as i64,
+                connections: m.connections.iter().map(SeenConnection::of).collect(),
+            };
+            let r = Recorded {
+                topic: topic.clone(),
+                ros_type: "radar_msgs/msg/ConnectionList".into(),
+                body,
+                published,
+                seen: Some(seen),
+            };
+            if tx.send(r).is_err() {
+                break;
+            }
+        }
+    }))
 }

@@ -12,7 +12,12 @@ use serde_json::{json, Value};
 use tokio::{sync::mpsc::UnboundedSender, task::JoinHandle};
 
 use super::model::Seen;
-use crate::{codec, common::Fallible, components::forward_signals};
+use crate::{
+    codec,
+    common::{epoch_ns, Fallible},
+    components::{forward, forward_signals, slot_topics},
+    seen::{self, Seen as Traced},
+};
 
 /// How often the graph is looked at again for components and managers that came or went.
 const RESCAN: Duration = Duration::from_millis(250);
@@ -144,9 +149,54 @@ fn follow(radar: &Radar, c: &Component, name: &str, tx: &UnboundedSender<Seen>) 
             signal: s.label,
             payload: codec::decode(s.ros_type, &s.body),
             stamp: s.stamp,
+            trace: Some(traced(&s)),
         }
     })?);
+    // the slots and `dropped`, for the rules only
+    tasks.extend(forward(radar, slot_topics(c), false, tx, |s| {
+        Seen::Trace(traced(&s))
+    })?);
     Ok(Tasks(tasks))
+}
+
+/// What the rules are judged on of a sample.
+fn traced(s: &crate::components::SignalSample<'_>) -> Traced {
+    Traced::Signal {
+        topic: s.topic.to_owned(),
+        stamp: s.stamp,
+        log: epoch_ns() as i64,
+        cause: seen::cause(s.cause),
+        writer: seen::hex(&s.writer),
+        len: s.body.len(),
+    }
+}
+
+/// A time field of a message as JSON, in ns.
+fn ns(v: &Value) -> i64 {
+    v["sec"].as_i64().unwrap_or(0) * 1_000_000_000 + v["nanosec"].as_i64().unwrap_or(0)
+}
+
+/// What the rules are judged on of a state (as JSON).
+fn traced_state(kind: &str, s: &Value) -> Traced {
+    let text = |k: &str| s[k].as_str().unwrap_or_default().to_owned();
+    match kind {
+        "response" => Traced::ResponseState {
+            name: text("name"),
+            stamp: ns(&s["stamp"]),
+            log: epoch_ns() as i64,
+            state: text("state_label"),
+            last_exit_reason: text("last_exit_reason"),
+            policy: text("start_policy"),
+            restarts: s["restarts"].as_u64().unwrap_or(0),
+        },
+        _ => Traced::EventState {
+            name: text("name"),
+            stamp: ns(&s["stamp"]),
+            log: epoch_ns() as i64,
+            active: s["active"].as_bool().unwrap_or(false),
+            listeners: s["listeners"].as_u64().unwrap_or(0) as u32,
+        },
+    }
 }
 
 /// The task that forwards each sample of `c`'s state topic.
@@ -158,29 +208,45 @@ fn follow_state(
 ) -> Fallible<JoinHandle<()>> {
     let topic = c.name().topic("state");
     let name = name.to_owned();
-    let seen = move |state| Seen::State {
+    let kind = match c {
+        Component::Response(_) => "response",
+        Component::Event(_) => "event",
+    };
+    let seen = move |state: Value| Seen::State {
         name: name.clone(),
+        trace: Some(traced_state(kind, &state)),
         state,
     };
     match c {
-        Component::Response(_) => forward::<ResponseState>(radar, &topic, tx, seen),
-        Component::Event(_) => forward::<EventState>(radar, &topic, tx, seen),
+        Component::Response(_) => forward_state::<ResponseState>(radar, &topic, tx, seen),
+        Component::Event(_) => forward_state::<EventState>(radar, &topic, tx, seen),
     }
 }
 
 /// The task that forwards each connection list published on `topic`.
 fn follow_connections(radar: &Radar, topic: &str, tx: &UnboundedSender<Seen>) -> Fallible<Tasks> {
     let manager = manager_of(topic);
-    let task = forward::<ConnectionList>(radar, topic, tx, move |list| Seen::Connections {
-        manager: manager.clone(),
-        list: list["connections"].clone(),
+    let task = forward_state::<ConnectionList>(radar, topic, tx, move |list| {
+        let connections = serde_json::from_value::<ConnectionList>(list.clone())
+            .map(|l| l.connections.iter().map(seen::SeenConnection::of).collect())
+            .unwrap_or_default();
+        Seen::Connections {
+            manager: manager.clone(),
+            trace: Some(Traced::Connections {
+                manager: manager.clone(),
+                stamp: ns(&list["stamp"]),
+                log: epoch_ns() as i64,
+                connections,
+            }),
+            list: list["connections"].clone(),
+        }
     })?;
     Ok(Tasks(vec![task]))
 }
 
 /// Subscribes to the transient-local `topic` and sends each sample, as JSON made into a [`Seen`] by `make`,
 /// until `tx` closes.
-fn forward<M: radar_ros::msg::RosMessage + serde::Serialize>(
+fn forward_state<M: radar_ros::msg::RosMessage + serde::Serialize>(
     radar: &Radar,
     topic: &str,
     tx: &UnboundedSender<Seen>,

@@ -19,12 +19,13 @@ const view = {
   filter: "",
   params: new Map(),       // component -> params (or null: serves none)
   actResult: null,         // {component, text, error}: what the last act came to
+  violations: [],          // the rules the system broke, each once: {rule, name, why, at, components}
 };
 // set once per load: a test tells a reload from a live change by it
 window.radarViewLoaded = Date.now();
 window.radarView = view;
 
-let dirty = { graph: true, timeline: true, card: true };
+let dirty = { graph: true, timeline: true, card: true, rules: true };
 const changedBoxes = new Set(); // components whose box shows an old state
 let scheduled = false;
 function schedule(what) {
@@ -67,6 +68,8 @@ function take(m) {
       view.seq = m.seq;
       view.dropped = m.dropped;
       view.allowAct = !!m.allow_act;
+      view.violations = m.violations || [];
+      dirty.rules = true;
       document.getElementById("domain").textContent = `ROS_DOMAIN_ID ${m.domain}`;
       setStatus("live", "live");
       dirty.timelineAll = true;
@@ -95,6 +98,11 @@ function take(m) {
       if (m.timeline.length || m.dropped) what.push("timeline");
       addLines(m.timeline);
       view.dropped += m.dropped;
+      if (m.violations && m.violations.length) {
+        view.violations.push(...m.violations);
+        what.push("rules");
+        for (const v of m.violations) for (const n of v.components) changedBoxes.add(n);
+      }
       schedule(what.length ? what : ["boxes"]);
       break;
     case "params":
@@ -282,13 +290,19 @@ function drawEdge(layer, from, to, dy, cls, label, tip, data) {
   layer.appendChild(t);
 }
 
+function broke(name) {
+  return view.violations.filter((v) => v.components.includes(name));
+}
 function updateBox(name) {
   const b = boxes.get(name);
   if (!b) return;
   const c = view.components.get(name) || b.c;
   b.c = c;
   const selected = name === view.selected ? " selected" : "";
-  b.g.setAttribute("class", `node ${c.kind} ${stateClass(c)}${selected}`);
+  const broken = broke(name);
+  b.g.setAttribute("class", `node ${c.kind} ${stateClass(c)}${selected}${broken.length ? " broken" : ""}`);
+  if (broken.length) b.g.setAttribute("data-broken", broken.map((v) => v.rule).join(" "));
+  else b.g.removeAttribute("data-broken");
   b.g.setAttribute("data-state", c.kind === "response" && c.state ? c.state.state_label : stateClass(c));
   b.stateText.textContent = stateText(c);
 }
@@ -432,6 +446,19 @@ function drawTimeline(all) {
     view.dropped ? `(${view.dropped} signals not shown: more than the page's update bound)` : "";
 }
 
+// ---- the rules broken ----
+
+function drawRules() {
+  const list = document.getElementById("violations");
+  list.replaceChildren(...view.violations.map((v) => {
+    const li = el(null, "li", { "data-rule": v.rule, "data-name": v.name });
+    li.appendChild(el(null, "span", { class: "rule" }, `${v.rule} ${v.name}`));
+    li.appendChild(document.createTextNode(` at ${fmtTime(v.at)}: ${v.why}`));
+    return li;
+  }));
+  document.getElementById("rules-pane").hidden = view.violations.length === 0;
+}
+
 // ---- render ----
 
 let graphShape = "";
@@ -454,7 +481,8 @@ function render() {
   changedBoxes.clear();
   if (dirty.timeline) drawTimeline(dirty.timelineAll);
   if (dirty.card) drawCard();
-  dirty = { graph: false, timeline: false, card: false };
+  if (dirty.rules) drawRules();
+  dirty = { graph: false, timeline: false, card: false, rules: false };
 }
 
 document.getElementById("filter").addEventListener("input", (e) => {
