@@ -1078,3 +1078,33 @@ async fn a_fired_once_call_begins_no_call_after_its_scope_ended() {
         "calls began after their statement's scope had ended ({dropped_first} of 200 rounds dropped first)"
     );
 }
+
+/// `.timeout(d)` bounds the whole of arming, not each wait in it: a source whose publisher appears at 0.7 d and
+/// a target nobody serves fail after about d (each wait given all of d took 1.7 d).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_arming_timeout_bounds_the_whole_arming_not_each_wait() {
+    let r = radar(130);
+    let d = Duration::from_millis(1500);
+    let source = Signal::new("/late_source/triggered", "std_msgs/msg/Empty");
+    let nobody = radar_ros::ResponseRef::new(
+        radar_ros::ComponentName::resolve("/nobody_serves", "/").unwrap(),
+        "std_msgs/msg/Empty",
+        "std_msgs/msg/Empty",
+    );
+    let began = std::time::Instant::now();
+    let (armed, _publisher) = tokio::join!(r.once(&source).start(&nobody).timeout(d), async {
+        tokio::time::sleep(d.mul_f64(0.7)).await;
+        r.signal_publisher::<Empty>(source.topic()).unwrap()
+    });
+    let took = began.elapsed();
+    let e = armed.expect_err("nobody serves the target");
+    assert!(matches!(e, Error::Timeout { .. }), "{e:?}");
+    assert!(
+        e.to_string().contains("/nobody_serves/start"),
+        "the error names what it waited for last: {e}"
+    );
+    assert!(
+        took < d.mul_f64(1.3),
+        "arming with .timeout({d:?}) took {took:?}"
+    );
+}

@@ -190,7 +190,7 @@ impl Manager {
         })
     }
 
-    /// Holds the plan's endpoints and waits (up to `timeout`) until every reader has a publisher
+    /// Holds the plan's endpoints and waits (up to `timeout` in all) until every reader has a publisher
     /// and every writer a subscriber.
     async fn hold_and_match(
         &self,
@@ -198,6 +198,9 @@ impl Manager {
         held: &Holds<'_>,
         timeout: std::time::Duration,
     ) -> Result<Matched> {
+        // one deadline for every wait: `.timeout(d)` bounds the arming, not each endpoint's match
+        let deadline = std::time::Instant::now() + timeout;
+        let left = || deadline.saturating_duration_since(std::time::Instant::now());
         // with local delivery, what this process emits on a source is kept from before its reader is made
         // (which may activate an event, C1): the writers of this process send that reader nothing over DDS
         let kept: Vec<Option<Buffered>> = plan
@@ -240,7 +243,7 @@ impl Manager {
                 continue;
             }
             r.wait_for_publishers(1)
-                .timeout(timeout)
+                .timeout(left())
                 .await
                 .map_err(|_| Error::Timeout {
                     what: format!(
@@ -254,7 +257,7 @@ impl Manager {
         for (w, (_, s)) in writers.iter().zip(&plan.writes) {
             let Some(w) = w else { continue };
             w.wait_for_subscribers(1)
-                .timeout(timeout)
+                .timeout(left())
                 .await
                 .map_err(|_| Error::Timeout {
                     what: format!(
