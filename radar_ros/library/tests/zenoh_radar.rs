@@ -99,6 +99,41 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
         "RMW_IMPLEMENTATION=rmw_zenoh_cpp chose Zenoh"
     );
 
+    // E1 over Zenoh as over DDS: an event checks while something listens, and stops as soon as its last
+    // listener lets go (the listener's session stays: not a lease later, as when a process vanishes)
+    let tick = radar
+        .spawn_event(
+            "/zr/tick",
+            radar_ros::TimerEvent::new(std::time::Duration::from_millis(50)),
+        )
+        .unwrap();
+    let listened = radar
+        .whenever(&tick)
+        .call(|_: Empty| {})
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !tick.state().active {
+        assert!(t.elapsed() < WAIT, "the event checks once listened");
+        tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+    }
+    drop(listened);
+    let let_go = std::time::Instant::now();
+    while tick.state().active {
+        assert!(let_go.elapsed() < WAIT, "the event stops checking");
+        tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+    }
+    println!(
+        "zenoh_radar: the event stopped checking {:?} after its last listener let go",
+        let_go.elapsed()
+    );
+    assert!(
+        let_go.elapsed() < std::time::Duration::from_secs(1),
+        "an event kept checking {:?} after its last listener let go (the lease is 3 s)",
+        let_go.elapsed()
+    );
+
     let bumper = radar
         .spawn_event(
             "/zr/bumper",

@@ -463,6 +463,7 @@ impl Participant {
                         domain_id: self.domain_id,
                         malformed: malformed.clone(),
                         grace: *grace,
+                        ctx: ctx.clone(),
                     })
                 })
                 .map_err(|e| Error::transport(format!("node {fq} over Zenoh"), e)),

@@ -36,6 +36,8 @@ pub(crate) struct ZenohNode {
     /// How long a fall of a match count must last to be believed (the lease: a router restart is not a
     /// departure).
     pub(crate) grace: std::time::Duration,
+    /// Its session: the tokens that tell why a peer went.
+    pub(crate) ctx: ros2_client::zenoh::Context,
 }
 
 impl RosNode {

@@ -219,17 +219,56 @@ impl Drop for Matching {
     }
 }
 
+/// What the tokens show of the peers of a Zenoh endpoint, now: the endpoints of the other kind on its topic
+/// (session id, node id, entity id) and every session that has a token. What tells a peer that undeclared one
+/// endpoint (its session still there: believed at once, as DDS believes an unmatch) from a session that
+/// vanished (a crash, a lost link, a router restart: held for the lease).
+#[cfg(feature = "zenoh")]
+pub(crate) type Peers =
+    std::sync::Arc<dyn Fn() -> (PeerSet, std::collections::BTreeSet<String>) + Send + Sync>;
+
+/// Endpoints by (session id, node id, entity id).
+#[cfg(feature = "zenoh")]
+pub(crate) type PeerSet = std::collections::BTreeSet<(String, u64, u64)>;
+
+/// [`Peers`] of an endpoint of `ctx` on `topic` whose peers are of kind `other`.
+#[cfg(feature = "zenoh")]
+pub(crate) fn peers_of(
+    ctx: ros2_client::zenoh::Context,
+    topic: &str,
+    other: ros2_client::graph::EntityKind,
+) -> Peers {
+    let topic = topic.to_owned();
+    std::sync::Arc::new(move || {
+        let all = ctx.graph_entities();
+        let on_topic = all
+            .iter()
+            .filter(|(_, e)| e.kind == other && e.topic_name.as_deref() == Some(topic.as_str()))
+            .map(|(_, e)| (e.zid.clone(), e.node_id, e.entity_id))
+            .collect();
+        let sessions = all.into_iter().map(|(_, e)| e.zid).collect();
+        (on_topic, sessions)
+    })
+}
+
+/// How long after a fall the tokens are looked at to tell why (a session's tokens go in one burst).
+#[cfg(feature = "zenoh")]
+const SETTLE: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// `inner`, an endpoint over Zenoh, with its matched count from `counts` (its `watch_matched`: the count at once,
 /// then each change), kept current by a task on the caller's tokio runtime that ends with the endpoint. A rise
-/// is said at once; a fall only once it has lasted `grace` (the lease): a router restart makes every peer's
-/// tokens vanish and come back within a second, and a peer is not taken for gone for that (as over DDS a
-/// peer silent for less than its lease is not).
+/// is said at once. A fall is said at once when each peer that went undeclared its endpoint while its session
+/// stays (an `until` let go, a connection dropped: as over DDS, and what lets an event stop checking as soon
+/// as its last listener leaves, E1); otherwise once it has lasted `grace` (the lease): a router restart makes
+/// every peer's tokens vanish and come back within a second, and a peer is not taken for gone for that (as
+/// over DDS a peer silent for less than its lease is not).
 #[cfg(feature = "zenoh")]
 pub(crate) fn over_zenoh<T>(
     inner: T,
     counts: async_channel::Receiver<usize>,
     malformed: std::sync::Arc<crate::wire::malformed::Malformed>,
     grace: std::time::Duration,
+    peers: Peers,
 ) -> Result<Watched<T>> {
     let runtime = tokio::runtime::Handle::try_current().map_err(|_| Error::Config {
         setting: "tokio runtime",
@@ -239,7 +278,9 @@ pub(crate) fn over_zenoh<T>(
             .into(),
     })?;
     let (tx, matched) = tokio::sync::watch::channel(counts.try_recv().unwrap_or(0));
-    let bridge = runtime.spawn(held_falls(counts, tx, grace)).abort_handle();
+    let bridge = runtime
+        .spawn(held_falls(counts, tx, grace, Some(peers)))
+        .abort_handle();
     Ok(Watched {
         inner,
         matching: Matching {
@@ -249,26 +290,51 @@ pub(crate) fn over_zenoh<T>(
     })
 }
 
-/// Sends each count of `counts` on `tx`: a rise at once, a fall once it has lasted `grace` (a fall undone within
-/// it is never sent). Ends when either side closes.
+/// Sends each count of `counts` on `tx`: a rise at once; a fall at once when `peers` shows, [`SETTLE`] after
+/// it, that every peer gone undeclared its endpoint while its session stayed, else once it has lasted `grace`
+/// (a fall undone within it is never sent). Ends when either side closes.
 #[cfg(feature = "zenoh")]
 async fn held_falls(
     counts: async_channel::Receiver<usize>,
     tx: tokio::sync::watch::Sender<usize>,
     grace: std::time::Duration,
+    peers: Option<Peers>,
 ) {
     let mut shown = *tx.borrow();
-    // a fall not said yet: the count now, and when it is said
+    // the peers when the count was last said
+    let mut known = peers.as_ref().map(|p| p().0).unwrap_or_default();
+    // a fall not said yet: the count now, when it is said, and when the tokens are looked at
     let mut held: Option<(usize, tokio::time::Instant)> = None;
+    let mut look: Option<tokio::time::Instant> = None;
     loop {
-        let next = match held {
-            Some((_, due)) => match tokio::time::timeout_at(due, counts.recv()).await {
+        let wake = match (held, look) {
+            (Some((_, due)), Some(l)) => Some(due.min(l)),
+            (Some((_, due)), None) => Some(due),
+            (None, _) => None,
+        };
+        let next = match wake {
+            Some(at) => match tokio::time::timeout_at(at, counts.recv()).await {
                 Ok(next) => next.ok(),
                 Err(_) => {
-                    let (n, _) = held.take().expect("held");
-                    shown = n;
-                    if tx.send(n).is_err() {
-                        return;
+                    let (n, due) = held.expect("held");
+                    let now = tokio::time::Instant::now();
+                    let said = if now >= due {
+                        true
+                    } else {
+                        // the look: who went, and whether their sessions are still there
+                        look = None;
+                        let (on_topic, sessions) = peers.as_ref().map(|p| p()).unwrap_or_default();
+                        let mut gone = known.difference(&on_topic).peekable();
+                        gone.peek().is_some() && gone.all(|(zid, _, _)| sessions.contains(zid))
+                    };
+                    if said {
+                        held = None;
+                        look = None;
+                        shown = n;
+                        known = peers.as_ref().map(|p| p().0).unwrap_or_default();
+                        if tx.send(n).is_err() {
+                            return;
+                        }
                     }
                     continue;
                 }
@@ -278,6 +344,8 @@ async fn held_falls(
         let Some(n) = next else { return };
         if n >= shown {
             held = None;
+            look = None;
+            known = peers.as_ref().map(|p| p().0).unwrap_or_default();
             if n != shown {
                 shown = n;
                 if tx.send(n).is_err() {
@@ -285,8 +353,12 @@ async fn held_falls(
                 }
             }
         } else {
-            let due = held.map_or_else(|| tokio::time::Instant::now() + grace, |(_, due)| due);
+            let now = tokio::time::Instant::now();
+            let due = held.map_or(now + grace, |(_, due)| due);
             held = Some((n, due));
+            if peers.is_some() {
+                look = Some(now + SETTLE);
+            }
         }
     }
 }
@@ -324,12 +396,65 @@ mod tests {
     use super::*;
     use std::time::Duration;
 
+    /// A peer that undeclares its endpoint while its session stays is believed at once (E1: an event stops
+    /// checking when its last listener lets go); a session that vanishes is believed after the grace, and one
+    /// back within it (a router restart) never.
+    #[tokio::test(start_paused = true)]
+    async fn a_fall_is_said_at_once_when_the_peers_session_stays_and_after_the_grace_when_it_went()
+    {
+        use std::sync::{Arc, Mutex};
+        let grace = Duration::from_secs(3);
+        type Shown = (PeerSet, std::collections::BTreeSet<String>);
+        let tokens: Arc<Mutex<Shown>> = Arc::default();
+        let set = |t: &Arc<Mutex<Shown>>, eps: &[(&str, u64)], sessions: &[&str]| {
+            *t.lock().unwrap() = (
+                eps.iter().map(|(z, e)| (z.to_string(), 0, *e)).collect(),
+                sessions.iter().map(|z| z.to_string()).collect(),
+            );
+        };
+        set(&tokens, &[("a", 1)], &["a", "me"]);
+        let seen = tokens.clone();
+        let peers: Peers = Arc::new(move || seen.lock().unwrap().clone());
+        let (counts_tx, counts) = async_channel::unbounded();
+        let (tx, mut rx) = tokio::sync::watch::channel(1);
+        tokio::spawn(held_falls(counts, tx, grace, Some(peers)));
+        tokio::task::yield_now().await;
+        // a's endpoint undeclared, a's session still there: said at the look
+        let t0 = tokio::time::Instant::now();
+        set(&tokens, &[], &["a", "me"]);
+        counts_tx.send(0).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!((*rx.borrow_and_update(), t0.elapsed()), (0, SETTLE));
+        // b comes; then b's whole session goes (a crash, a lost link): said after the grace
+        set(&tokens, &[("b", 7)], &["a", "b", "me"]);
+        counts_tx.send(1).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!(*rx.borrow_and_update(), 1);
+        let t0 = tokio::time::Instant::now();
+        set(&tokens, &[], &["a", "me"]);
+        counts_tx.send(0).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!((*rx.borrow_and_update(), t0.elapsed()), (0, grace));
+        // c comes; every session's tokens vanish and come back within the grace (a router restart): not said
+        set(&tokens, &[("c", 2)], &["a", "c", "me"]);
+        counts_tx.send(1).await.unwrap();
+        rx.changed().await.unwrap();
+        assert_eq!(*rx.borrow_and_update(), 1);
+        set(&tokens, &[], &["me"]);
+        counts_tx.send(0).await.unwrap();
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        set(&tokens, &[("c", 2)], &["a", "c", "me"]);
+        counts_tx.send(1).await.unwrap();
+        tokio::time::sleep(Duration::from_secs(5)).await;
+        assert!(!rx.has_changed().unwrap(), "nothing said: {}", *rx.borrow());
+    }
+
     #[tokio::test(start_paused = true)]
     async fn a_fall_is_said_once_it_has_lasted_the_grace_and_a_rise_at_once() {
         let grace = Duration::from_secs(3);
         let (counts_tx, counts) = async_channel::unbounded();
         let (tx, mut rx) = tokio::sync::watch::channel(1);
-        tokio::spawn(held_falls(counts, tx, grace));
+        tokio::spawn(held_falls(counts, tx, grace, None));
         // a fall undone within the grace (a router restart) is never said
         counts_tx.send(0).await.unwrap();
         tokio::time::sleep(Duration::from_secs(2)).await;

@@ -5,14 +5,14 @@ use std::sync::Arc;
 
 use ros2_client::{
     zenoh::{register_type_hash, Context, ContextOptions, Node, Topic},
-    MessageTypeName, NodeName, NodeOptions, QosProfile,
+    EntityKind, MessageTypeName, NodeName, NodeOptions, QosProfile,
 };
 
 use crate::{
     error::{Error, Result},
     node::topics::{RawPublisher, RawSubscription, SignalPublisher, SignalSubscription},
     node::transport::{Publisher, Subscription, ZenohNode},
-    node::watched::{over_zenoh, topic_name, Watched},
+    node::watched::{over_zenoh, peers_of, topic_name, Watched},
     wire::msg::{RosMessage, TypeName},
     wire::qos::{signal_qos, state_qos},
     wire::raw::RawMessage,
@@ -80,6 +80,7 @@ impl ZenohSignals {
                 domain_id: domain,
                 malformed: Arc::default(),
                 grace: crate::node::domain::lease_in(&|k| std::env::var(k))?,
+                ctx: ctx.clone(),
             },
             _ctx: ctx,
         })
@@ -190,7 +191,14 @@ pub(crate) fn publisher<M: serde::Serialize + Send + Sync + 'static>(
         .create_publisher::<M>(&t, None)
         .map_err(|e| Error::transport(format!("a publisher on {topic_abs} over Zenoh"), e))?;
     let counts = p.watch_matched(&z.node);
-    over_zenoh(Publisher::Zenoh(p), counts, z.malformed.clone(), z.grace)
+    let peers = peers_of(z.ctx.clone(), topic_abs, EntityKind::Subscription);
+    over_zenoh(
+        Publisher::Zenoh(p),
+        counts,
+        z.malformed.clone(),
+        z.grace,
+        peers,
+    )
 }
 
 /// A subscription of `M` to the absolute `topic_abs` of node `z` (see [`publisher`]); with `observer`, one that
@@ -212,7 +220,14 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
     let s =
         made.map_err(|e| Error::transport(format!("a subscription to {topic_abs} over Zenoh"), e))?;
     let counts = s.watch_matched(&z.node);
-    over_zenoh(Subscription::Zenoh(s), counts, z.malformed.clone(), z.grace)
+    let peers = peers_of(z.ctx.clone(), topic_abs, EntityKind::Publisher);
+    over_zenoh(
+        Subscription::Zenoh(s),
+        counts,
+        z.malformed.clone(),
+        z.grace,
+        peers,
+    )
 }
 
 /// The Zenoh topic of type `ty` on the absolute `abs`, its hash given to the backend (what rmw_zenoh peers
