@@ -65,6 +65,8 @@ def to_dict(msg: Any) -> Any:
         return {f: to_dict(getattr(msg, f)) for f in msg.get_fields_and_field_types()}
     if isinstance(msg, (list, tuple)):
         return [to_dict(v) for v in msg]
+    if hasattr(msg, "tolist"):  # a fixed-size numeric array: rclpy gives a numpy array
+        return msg.tolist()
     return msg
 
 

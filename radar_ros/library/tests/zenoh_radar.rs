@@ -134,6 +134,56 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
         let_go.elapsed()
     );
 
+    // a type this program has no Rust type or table entry for (radar_demo_msgs, generated for the venv as a
+    // user's package is): a statement between a peer's topics relays it, under the hash the peer's tokens
+    // announce (the relay registered none: never matched over Zenoh, armed over DDS)
+    let demo_type = "radar_demo_msgs/msg/Dock3D";
+    let mut demo = zenoh_util::Proc::start(
+        "zenoh_peer.py",
+        &[
+            "tcp/localhost:7447",
+            &DOMAIN.to_string(),
+            demo_type,
+            "/zr/demo_dock/start",
+            "/zr/demo_lvl/triggered",
+        ],
+    );
+    demo.until_up().await;
+    let relay = radar
+        .whenever(radar_ros::Signal::new("/zr/demo_lvl/triggered", demo_type))
+        .start(&radar_ros::ResponseRef::new(
+            radar_ros::ComponentName::resolve("/zr/demo_dock", "/").unwrap(),
+            demo_type,
+            demo_type,
+        ))
+        .timeout(WAIT)
+        .await
+        .expect("armed over Zenoh with a type only the peers know");
+    // sent again until heard: the peer's publisher may learn of the relay's interest after its token was
+    // counted (over Zenoh nothing says when it has)
+    let t = std::time::Instant::now();
+    let relayed = 'heard: loop {
+        assert!(t.elapsed() < WAIT, "the peer never heard the relayed start");
+        demo.send(r#"{"name": "dock7", "position": {"x": 1.5}}"#)
+            .await;
+        while let Some(line) = demo
+            .line_within(std::time::Duration::from_millis(200))
+            .await
+        {
+            let v: Value = serde_json::from_str(&line).unwrap();
+            if v.get("received").is_some() {
+                break 'heard v["received"].clone();
+            }
+        }
+    };
+    assert_eq!(
+        (relayed["name"].as_str(), relayed["position"]["x"].as_f64()),
+        (Some("dock7"), Some(1.5)),
+        "{relayed}"
+    );
+    drop(relay);
+    demo.close();
+
     let bumper = radar
         .spawn_event(
             "/zr/bumper",

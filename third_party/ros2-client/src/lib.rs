@@ -253,7 +253,7 @@ pub mod zenoh {
   #[doc(inline)]
   pub use crate::zenoh_backend::rosout::Logger;
   #[doc(inline)]
-  pub use crate::zenoh_backend::type_hash::register_type_hash;
+  pub use crate::zenoh_backend::type_hash::{known_type_hash, register_type_hash};
 }
 
 // Re-exports from crate root to simplify usage

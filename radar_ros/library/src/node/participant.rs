@@ -357,6 +357,21 @@ impl Participant {
         }
     }
 
+    /// The Zenoh session's context, over Zenoh.
+    #[cfg(feature = "zenoh")]
+    pub(crate) fn zenoh_context(&self) -> Option<ros2_client::zenoh::Context> {
+        match &self.ctx {
+            Ctx::Zenoh(ctx, ..) => Some(ctx.clone()),
+            Ctx::Dds(_) => None,
+        }
+    }
+
+    /// No Zenoh here.
+    #[cfg(not(feature = "zenoh"))]
+    pub(crate) fn zenoh_context(&self) -> Option<std::convert::Infallible> {
+        None
+    }
+
     /// Whether this participant is on Zenoh.
     pub(crate) fn over_zenoh(&self) -> bool {
         self.dds_context().is_none()

@@ -117,6 +117,25 @@ impl Participant {
         })
     }
 
+    /// Over Zenoh, waits (until `deadline`) until the type hash of `key`'s type is known, from a peer on its
+    /// topic if need be (see `node::zenoh::learn_type_hash`); over DDS at once.
+    pub(crate) async fn learn_type_hash(
+        &self,
+        key: &Key,
+        deadline: std::time::Instant,
+    ) -> Result<()> {
+        match self.zenoh_context() {
+            #[cfg(feature = "zenoh")]
+            Some(ctx) => {
+                crate::node::zenoh::learn_type_hash(&ctx, &key.topic, &key.ros_type, deadline).await
+            }
+            _ => {
+                let _ = (key, deadline);
+                Ok(())
+            }
+        }
+    }
+
     /// Gives up one hold on a pooled endpoint; whether it is gone.
     pub(crate) fn release(&self, key: &Key) -> bool {
         self.pool().release(key)

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use ros2_client::{
-    zenoh::{register_type_hash, Context, ContextOptions, Node, Topic},
+    zenoh::{register_type_hash, Context, ContextOptions, Topic},
     EntityKind, MessageTypeName, NodeName, NodeOptions, QosProfile,
 };
 
@@ -185,7 +185,7 @@ pub(crate) fn publisher<M: serde::Serialize + Send + Sync + 'static>(
     ty: &TypeName,
     qos: &QosProfile,
 ) -> Result<Watched<Publisher<M>>> {
-    let t = topic(&z.node, topic_abs, ty, qos)?;
+    let t = topic(z, topic_abs, ty, qos)?;
     let p = z
         .node
         .create_publisher::<M>(&t, None)
@@ -211,7 +211,7 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
     qos: &QosProfile,
     observer: bool,
 ) -> Result<Watched<Subscription<M>>> {
-    let t = topic(&z.node, topic_abs, ty, qos)?;
+    let t = topic(z, topic_abs, ty, qos)?;
     let made = if observer {
         z.node.create_unlisted_subscription::<M>(&t, None)
     } else {
@@ -231,8 +231,9 @@ pub(crate) fn subscription<M: serde::de::DeserializeOwned + Send + Sync + 'stati
 }
 
 /// The Zenoh topic of type `ty` on the absolute `abs`, its hash given to the backend (what rmw_zenoh peers
-/// match on).
-fn topic(node: &Node, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topic> {
+/// match on). A type this process knows no hash of (a relay or a raw endpoint of a type only the user's
+/// other programs generated) takes the one its peers on `abs` announce in their tokens, if they agree.
+fn topic(z: &ZenohNode, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topic> {
     let name = topic_name(abs)?;
     let (package, rest) = ty.ros.split_once('/').unwrap_or(("", &ty.ros));
     let (kind, base) = rest.split_once('/').unwrap_or(("msg", rest));
@@ -245,12 +246,86 @@ fn topic(node: &Node, abs: &str, ty: &TypeName, qos: &QosProfile) -> Result<Topi
                     .into(),
         });
     }
-    if let Some(hash) = ty.hash {
-        register_type_hash(&ty.dds, hash).map_err(|reason| Error::InvalidName {
+    match ty.hash {
+        Some(hash) => register_type_hash(&ty.dds, hash).map_err(|reason| Error::InvalidName {
             name: ty.ros.clone(),
             reason,
-        })?;
+        })?,
+        None => {
+            if let Some(hash) = announced_hash(&z.ctx, abs, &ty.dds) {
+                // known already under another hash (a type radar_ros ships, or one registered before):
+                // that peer runs another definition, which rmw_zenoh does not match either
+                if let Err(reason) = register_type_hash(&ty.dds, &hash) {
+                    tracing::warn!(
+                        topic = abs,
+                        %reason,
+                        "a peer on this topic announces another definition of its type: it is not matched; \
+                         build every program against the same interface package"
+                    );
+                }
+            }
+        }
     }
     let ty = MessageTypeName::new_prefix(package, base, kind.to_owned());
-    Ok(node.create_topic(&name, ty, qos))
+    Ok(z.node.create_topic(&name, ty, qos))
+}
+
+/// The hash the endpoints of `dds_type` on `abs` announce (their liveliness tokens), when they all announce
+/// one and the same; a warning when they disagree (two definitions under one name: none is taken).
+pub(crate) fn announced_hash(ctx: &Context, abs: &str, dds_type: &str) -> Option<String> {
+    let hashes: std::collections::BTreeSet<String> = ctx
+        .graph_entities()
+        .into_iter()
+        .filter(|(_, e)| {
+            e.topic_name.as_deref() == Some(abs) && e.type_name.as_deref() == Some(dds_type)
+        })
+        .filter_map(|(_, e)| e.type_hash)
+        .filter(|h| h.starts_with("RIHS01_") && h.len() == 71)
+        .collect();
+    if hashes.len() > 1 {
+        tracing::warn!(
+            topic = abs,
+            r#type = dds_type,
+            ?hashes,
+            "peers announce different definitions of one type on this topic: none is taken; \
+             build every program against the same interface package"
+        );
+    }
+    (hashes.len() == 1).then(|| hashes.into_iter().next().expect("one"))
+}
+
+/// Waits (until `deadline`) until this process knows the type hash of `ros_type` (shipped, registered by a
+/// typed endpoint, or announced by a peer on `abs`, which is then registered): over Zenoh a key is made with
+/// its hash, and one made with none matches no rmw_zenoh peer. What a relay of a type the program has no Rust
+/// type for waits for before it makes its endpoints.
+pub(crate) async fn learn_type_hash(
+    ctx: &Context,
+    abs: &str,
+    ros_type: &str,
+    deadline: std::time::Instant,
+) -> Result<()> {
+    let ty = crate::wire::raw::parse_type_name(ros_type)?;
+    if ty.hash.is_some() || ros2_client::zenoh::known_type_hash(&ty.dds).is_some() {
+        return Ok(());
+    }
+    let events = ctx.graph_event_stream();
+    loop {
+        if let Some(hash) = announced_hash(ctx, abs, &ty.dds) {
+            return register_type_hash(&ty.dds, &hash).map_err(|reason| Error::InvalidName {
+                name: ros_type.to_owned(),
+                reason,
+            });
+        }
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if tokio::time::timeout(left, events.recv()).await.is_err() {
+            return Err(Error::Timeout {
+                what: format!(
+                    "a peer on {abs} that announces the type hash of {ros_type} (this program has no Rust type for \
+                     it, and over Zenoh peers match on the hash: is the component running? or generate the type \
+                     in this program with radar_idl)"
+                ),
+                after: std::time::Duration::ZERO,
+            });
+        }
+    }
 }
