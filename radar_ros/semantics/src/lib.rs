@@ -18,8 +18,10 @@
 //! - [`time`]: what a receiver makes of another clock's stamps, and of its own clock stepping back (rules
 //!   T1-T2).
 //!
-//! The rules are numbered once, here, and the `radar_ros` documentation, the README and the tests (named
-//! `r3_...`, `c6_...`) use these numbers.
+//! The rules are stated once, in `radar_spec` (`radar_ros/spec/src/rules/mod.rs`; the list is `docs/rules.md`),
+//! as checks over a whole trace, apart from these machines. Each module here says, step by step, how its
+//! machine carries them out, under the same numbers; the `radar_ros` documentation, the README and the tests
+//! (named `r3_...`, `c6_...`) use them too.
 //!
 //! ```
 //! use radar_semantics::response::{Effect, Input, ResponseMachine, Sent, StartPolicy};

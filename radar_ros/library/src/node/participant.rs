@@ -360,16 +360,10 @@ impl Participant {
     /// The Zenoh session's context, over Zenoh.
     #[cfg(feature = "zenoh")]
     pub(crate) fn zenoh_context(&self) -> Option<ros2_client::zenoh::Context> {
-        match &self.ctx {
-            Ctx::Zenoh(ctx, ..) => Some(ctx.clone()),
-            Ctx::Dds(_) => None,
-        }
-    }
-
-    /// No Zenoh here.
-    #[cfg(not(feature = "zenoh"))]
-    pub(crate) fn zenoh_context(&self) -> Option<std::convert::Infallible> {
-        None
+        let Ctx::Zenoh(ctx, ..) = &self.ctx else {
+            return None;
+        };
+        Some(ctx.clone())
     }
 
     /// Whether this participant is on Zenoh.

@@ -124,16 +124,13 @@ impl Participant {
         key: &Key,
         deadline: std::time::Instant,
     ) -> Result<()> {
-        match self.zenoh_context() {
-            #[cfg(feature = "zenoh")]
-            Some(ctx) => {
-                crate::node::zenoh::learn_type_hash(&ctx, &key.topic, &key.ros_type, deadline).await
-            }
-            _ => {
-                let _ = (key, deadline);
-                Ok(())
-            }
+        #[cfg(feature = "zenoh")]
+        if let Some(ctx) = self.zenoh_context() {
+            return crate::node::zenoh::learn_type_hash(&ctx, &key.topic, &key.ros_type, deadline)
+                .await;
         }
+        let _ = (key, deadline);
+        Ok(())
     }
 
     /// Gives up one hold on a pooled endpoint; whether it is gone.

@@ -72,86 +72,97 @@ impl UntilWindow {
     /// R's `interrupt` now.
     pub(super) fn apply(&mut self, s: WindowSignal) -> Option<i64> {
         if self.causes {
-            match s {
-                WindowSignal::StartDelivered { n, at } => {
-                    self.outstanding = Some(n);
-                    self.kept.take().filter(|&u| u > at && u - at <= HOLD)
-                }
-                // the run of our latest start has ended, or will never be: nothing to interrupt
-                WindowSignal::Exited { ours: Some(m), .. }
-                | WindowSignal::Dropped { ours: Some(m) } => {
-                    if self.outstanding.is_some_and(|n| m >= n) {
-                        self.outstanding = None;
-                    }
-                    None
-                }
-                WindowSignal::Exited { .. }
-                | WindowSignal::Dropped { .. }
-                | WindowSignal::Started { .. } => None,
-                WindowSignal::U { at } => {
-                    if self.outstanding.is_some() {
-                        Some(at)
-                    } else {
-                        self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
-                        None
-                    }
-                }
-            }
+            self.apply_by_cause(s)
         } else {
-            match s {
-                WindowSignal::StartDelivered { at, .. } => {
-                    if self.running {
-                        self.sent_while_running = Some(at);
-                    } else {
-                        self.awaiting = true;
-                    }
-                    None
-                }
-                WindowSignal::Started { at } => {
-                    if at < self.last_response_signal {
-                        return None;
-                    }
-                    self.last_response_signal = at;
-                    self.running = true;
-                    self.sent_while_running = None;
-                    // a run starts: it is this connection's if it awaited one; any other run closes the window
-                    // (its `exited` for the run before may still be on its way)
-                    self.open_since = self.awaiting.then_some(at);
-                    self.awaiting = false;
-                    let kept = self.kept.take();
-                    let since = self.open_since?;
-                    kept.filter(|&u| u >= since && u - since <= HOLD)
-                }
-                // (a response that keeps no causes announces no start it dropped)
-                WindowSignal::Dropped { .. } => None,
-                WindowSignal::Exited { at, .. } => {
-                    if at < self.last_response_signal {
-                        return None;
-                    }
-                    self.last_response_signal = at;
-                    self.running = false;
-                    self.open_since = None;
-                    // R had already ended when the start was sent: it was idle, and took it
-                    if self
-                        .sent_while_running
-                        .take()
-                        .is_some_and(|sent| at <= sent)
-                    {
-                        self.awaiting = true;
-                    }
-                    None
-                }
-                WindowSignal::U { at } => match self.open_since {
-                    Some(since) if at >= since => Some(at),
-                    Some(_) => None,
-                    None => {
-                        if self.awaiting || self.sent_while_running.is_some() {
-                            self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
-                        }
-                        None
-                    }
-                },
+            self.apply_by_stamps(s)
+        }
+    }
+
+    /// [`UntilWindow::apply`] for a response that keeps causes: its signals say which start they are of.
+    fn apply_by_cause(&mut self, s: WindowSignal) -> Option<i64> {
+        match s {
+            WindowSignal::StartDelivered { n, at } => {
+                self.outstanding = Some(n);
+                self.kept.take().filter(|&u| u > at && u - at <= HOLD)
             }
+            // the run of our latest start has ended, or will never be: nothing to interrupt
+            WindowSignal::Exited { ours: Some(m), .. }
+            | WindowSignal::Dropped { ours: Some(m) } => {
+                if self.outstanding.is_some_and(|n| m >= n) {
+                    self.outstanding = None;
+                }
+                None
+            }
+            WindowSignal::Exited { .. }
+            | WindowSignal::Dropped { .. }
+            | WindowSignal::Started { .. } => None,
+            WindowSignal::U { at } => {
+                if self.outstanding.is_some() {
+                    Some(at)
+                } else {
+                    self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
+                    None
+                }
+            }
+        }
+    }
+
+    /// [`UntilWindow::apply`] for a response that keeps no causes (rclpy): the window is read from the stamps
+    /// of R's `started` and `exited`.
+    fn apply_by_stamps(&mut self, s: WindowSignal) -> Option<i64> {
+        match s {
+            WindowSignal::StartDelivered { at, .. } => {
+                if self.running {
+                    self.sent_while_running = Some(at);
+                } else {
+                    self.awaiting = true;
+                }
+                None
+            }
+            WindowSignal::Started { at } => {
+                if at < self.last_response_signal {
+                    return None;
+                }
+                self.last_response_signal = at;
+                self.running = true;
+                self.sent_while_running = None;
+                // a run starts: it is this connection's if it awaited one; any other run closes the window
+                // (its `exited` for the run before may still be on its way)
+                self.open_since = self.awaiting.then_some(at);
+                self.awaiting = false;
+                let kept = self.kept.take();
+                let since = self.open_since?;
+                kept.filter(|&u| u >= since && u - since <= HOLD)
+            }
+            // (a response that keeps no causes announces no start it dropped)
+            WindowSignal::Dropped { .. } => None,
+            WindowSignal::Exited { at, .. } => {
+                if at < self.last_response_signal {
+                    return None;
+                }
+                self.last_response_signal = at;
+                self.running = false;
+                self.open_since = None;
+                // R had already ended when the start was sent: it was idle, and took it
+                if self
+                    .sent_while_running
+                    .take()
+                    .is_some_and(|sent| at <= sent)
+                {
+                    self.awaiting = true;
+                }
+                None
+            }
+            WindowSignal::U { at } => match self.open_since {
+                Some(since) if at >= since => Some(at),
+                Some(_) => None,
+                None => {
+                    if self.awaiting || self.sent_while_running.is_some() {
+                        self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
+                    }
+                    None
+                }
+            },
         }
     }
 

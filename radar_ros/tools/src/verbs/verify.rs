@@ -317,71 +317,75 @@ impl Making {
                 self.also(stamp, emit);
                 self.also(stamp, Obs::InterruptBegan { comp, inst, run });
             }
-            SignalKind::Exited => {
-                let (run, interrupted) = self.runs.remove(&who).unwrap_or((0, false));
-                let reason = if interrupted {
-                    self.at(stamp, Obs::InterruptEnded { comp, inst, run });
-                    ExitReason::Interrupted
-                } else {
-                    let said = self.exit_reason.get(&comp).cloned().unwrap_or_default();
-                    let (first, reason) = match said.split(':').next().unwrap_or_default() {
-                        "exit_signal" | "interrupted" => {
-                            (Obs::Cancelled { comp, inst, run }, ExitReason::ExitSignal)
-                        }
-                        "failed" => (
-                            Obs::StartEnded {
-                                comp,
-                                inst,
-                                run,
-                                how: StartEnd::Failed,
-                            },
-                            ExitReason::Failed,
-                        ),
-                        "panicked" => (
-                            Obs::StartEnded {
-                                comp,
-                                inst,
-                                run,
-                                how: StartEnd::Panicked,
-                            },
-                            ExitReason::Panicked,
-                        ),
-                        _ => (
-                            Obs::StartEnded {
-                                comp,
-                                inst,
-                                run,
-                                how: StartEnd::Returned,
-                            },
-                            ExitReason::Completed,
-                        ),
-                    };
-                    self.at(stamp, first);
-                    reason
-                };
-                self.also(
-                    stamp,
-                    Obs::ExitBegan {
-                        comp,
-                        inst,
-                        run,
-                        reason,
-                    },
-                );
-                self.also(
-                    stamp,
-                    Obs::ExitEnded {
-                        comp,
-                        inst,
-                        run,
-                        action: ExitAction::Done,
-                        now: stamp,
-                    },
-                );
-                self.also(stamp, emit);
-            }
+            SignalKind::Exited => self.exited(who, stamp, emit),
             SignalKind::Triggered | SignalKind::Dropped => self.at(stamp, emit),
         }
+    }
+
+    /// A run's `exited`: how it ended, as its `interrupted` or its state's exit reason says, then its exit slot.
+    fn exited(&mut self, who: (Comp, u32), stamp: Time, emit: Obs) {
+        let (comp, inst) = who;
+        let (run, interrupted) = self.runs.remove(&who).unwrap_or((0, false));
+        let reason = if interrupted {
+            self.at(stamp, Obs::InterruptEnded { comp, inst, run });
+            ExitReason::Interrupted
+        } else {
+            let said = self.exit_reason.get(&comp).cloned().unwrap_or_default();
+            let (first, reason) = match said.split(':').next().unwrap_or_default() {
+                "exit_signal" | "interrupted" => {
+                    (Obs::Cancelled { comp, inst, run }, ExitReason::ExitSignal)
+                }
+                "failed" => (
+                    Obs::StartEnded {
+                        comp,
+                        inst,
+                        run,
+                        how: StartEnd::Failed,
+                    },
+                    ExitReason::Failed,
+                ),
+                "panicked" => (
+                    Obs::StartEnded {
+                        comp,
+                        inst,
+                        run,
+                        how: StartEnd::Panicked,
+                    },
+                    ExitReason::Panicked,
+                ),
+                _ => (
+                    Obs::StartEnded {
+                        comp,
+                        inst,
+                        run,
+                        how: StartEnd::Returned,
+                    },
+                    ExitReason::Completed,
+                ),
+            };
+            self.at(stamp, first);
+            reason
+        };
+        self.also(
+            stamp,
+            Obs::ExitBegan {
+                comp,
+                inst,
+                run,
+                reason,
+            },
+        );
+        self.also(
+            stamp,
+            Obs::ExitEnded {
+                comp,
+                inst,
+                run,
+                action: ExitAction::Done,
+                now: stamp,
+            },
+        );
+        self.also(stamp, emit);
     }
 
     /// A slot signal a statement sent (its cause names it): a delivery of that statement.
@@ -487,59 +491,9 @@ pub(crate) fn verify(
         },
         Sight::Wire,
     );
-    let name = |c: &Comp| trace.name(*c).to_owned();
-    if out.json {
-        let violations: Vec<serde_json::Value> = report
-            .violations
-            .iter()
-            .map(|v| {
-                serde_json::json!({
-                    "rule": v.rule.id, "name": v.rule.name, "at_ns": v.at,
-                    "components": v.comps.iter().map(name).collect::<Vec<_>>(),
-                    "statements": v.stmts, "signals": v.sigs, "why": v.why,
-                })
-            })
-            .collect();
-        println!(
-            "{}",
-            serde_json::json!({
-                "file": path, "signals": report.signals, "statements": report.statements,
-                "violations": violations,
-                "not_judged": report.unjudged.iter().map(|r| format!("{} {}", r.id, r.name)).collect::<Vec<_>>(),
-            })
-        );
-    } else {
-        for v in &report.violations {
-            let comps: Vec<String> = v.comps.iter().map(name).collect();
-            println!(
-                "{} {} broken at {:.3} s ({}): {} [signals {:?}]",
-                v.rule.id,
-                v.rule.name,
-                v.at as f64 / 1e9,
-                comps.join(", "),
-                v.why,
-                v.sigs
-            );
-        }
-        if report.ok() {
-            println!("{report}");
-        } else {
-            println!(
-                "{} violations in {} signals, {} statements",
-                report.violations.len(),
-                report.signals,
-                report.statements
-            );
-        }
-        let unjudged: Vec<String> = report
-            .unjudged
-            .iter()
-            .map(|r| format!("{} {}", r.id, r.name))
-            .collect();
-        println!(
-            "not judged from a recording (they need what happens inside a process): {}",
-            unjudged.join(", ")
-        );
+    match out.json {
+        true => print_json(path, &trace, &report),
+        false => print_text(&trace, &report),
     }
     if report.ok() {
         Ok(())
@@ -550,4 +504,64 @@ pub(crate) fn verify(
             report.violations.len()
         ))
     }
+}
+
+/// A report as one JSON object.
+fn print_json(path: &std::path::Path, trace: &Trace, report: &radar_spec::Report) {
+    let name = |c: &Comp| trace.name(*c).to_owned();
+    let violations: Vec<serde_json::Value> = report
+        .violations
+        .iter()
+        .map(|v| {
+            serde_json::json!({
+                "rule": v.rule.id, "name": v.rule.name, "at_ns": v.at,
+                "components": v.comps.iter().map(name).collect::<Vec<_>>(),
+                "statements": v.stmts, "signals": v.sigs, "why": v.why,
+            })
+        })
+        .collect();
+    println!(
+        "{}",
+        serde_json::json!({
+            "file": path, "signals": report.signals, "statements": report.statements,
+            "violations": violations,
+            "not_judged": report.unjudged.iter().map(|r| format!("{} {}", r.id, r.name)).collect::<Vec<_>>(),
+        })
+    );
+}
+
+/// A report as lines: each violation, the count, the rules a recording cannot show.
+fn print_text(trace: &Trace, report: &radar_spec::Report) {
+    let name = |c: &Comp| trace.name(*c).to_owned();
+    for v in &report.violations {
+        let comps: Vec<String> = v.comps.iter().map(name).collect();
+        println!(
+            "{} {} broken at {:.3} s ({}): {} [signals {:?}]",
+            v.rule.id,
+            v.rule.name,
+            v.at as f64 / 1e9,
+            comps.join(", "),
+            v.why,
+            v.sigs
+        );
+    }
+    if report.ok() {
+        println!("{report}");
+    } else {
+        println!(
+            "{} violations in {} signals, {} statements",
+            report.violations.len(),
+            report.signals,
+            report.statements
+        );
+    }
+    let unjudged: Vec<String> = report
+        .unjudged
+        .iter()
+        .map(|r| format!("{} {}", r.id, r.name))
+        .collect();
+    println!(
+        "not judged from a recording (they need what happens inside a process): {}",
+        unjudged.join(", ")
+    );
 }

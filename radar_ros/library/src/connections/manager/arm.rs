@@ -190,49 +190,26 @@ impl Manager {
         })
     }
 
-    /// Holds the plan's endpoints and waits (up to `timeout` in all) until every reader has a publisher
-    /// and every writer a subscriber.
-    async fn hold_and_match(
+    /// Over Zenoh a key carries its type's hash: one this program has no Rust type for is learned from the
+    /// peers first (a relay made without it matches nobody), by `deadline`.
+    async fn learn_type_hashes(
         &self,
         plan: &Plan,
-        held: &Holds<'_>,
+        deadline: std::time::Instant,
         timeout: std::time::Duration,
-    ) -> Result<Matched> {
-        // one deadline for every wait: `.timeout(d)` bounds the arming, not each endpoint's match
-        let deadline = std::time::Instant::now() + timeout;
-        let left = || deadline.saturating_duration_since(std::time::Instant::now());
-        // with local delivery, what this process emits on a source is kept from before its reader is made
-        // (which may activate an event, C1): the writers of this process send that reader nothing over DDS
-        let kept: Vec<Option<Buffered>> = plan
+    ) -> Result<()> {
+        let reads = plan
             .reads
             .iter()
-            .map(|(k, _)| {
-                self.local.then(|| {
-                    self.participant
-                        .taps()
-                        .get(&k.topic, &k.ros_type)
-                        .buffer(k.depth)
-                })
-            })
-            .collect();
-        // over Zenoh a key carries its type's hash: one this program has no Rust type for is learned from
-        // the peers first (a relay made without it matches nobody)
-        for (i, (k, _)) in plan.reads.iter().enumerate() {
-            let optional = plan.until.is_some() && (i == 1 || i == 4);
-            if !optional {
-                self.participant
-                    .learn_type_hash(k, deadline)
-                    .await
-                    .map_err(|e| match e {
-                        Error::Timeout { what, .. } => Error::Timeout {
-                            what,
-                            after: timeout,
-                        },
-                        e => e,
-                    })?;
-            }
-        }
-        for (k, _) in plan.writes.iter().filter(|(k, _)| !self.reads_here(k)) {
+            .enumerate()
+            .filter(|(i, _)| !(plan.until.is_some() && (*i == 1 || *i == 4)))
+            .map(|(_, (k, _))| k);
+        let writes = plan
+            .writes
+            .iter()
+            .map(|(k, _)| k)
+            .filter(|k| !self.reads_here(k));
+        for k in reads.chain(writes) {
             self.participant
                 .learn_type_hash(k, deadline)
                 .await
@@ -244,6 +221,38 @@ impl Manager {
                     e => e,
                 })?;
         }
+        Ok(())
+    }
+
+    /// With local delivery, what this process emits on each source is kept from before its reader is made
+    /// (which may activate an event, C1): the writers of this process send that reader nothing over DDS.
+    fn keep_local(&self, plan: &Plan) -> Vec<Option<Buffered>> {
+        plan.reads
+            .iter()
+            .map(|(k, _)| {
+                self.local.then(|| {
+                    self.participant
+                        .taps()
+                        .get(&k.topic, &k.ros_type)
+                        .buffer(k.depth)
+                })
+            })
+            .collect()
+    }
+
+    /// Holds the plan's endpoints and waits (up to `timeout` in all) until every reader has a publisher
+    /// and every writer a subscriber.
+    async fn hold_and_match(
+        &self,
+        plan: &Plan,
+        held: &Holds<'_>,
+        timeout: std::time::Duration,
+    ) -> Result<Matched> {
+        // one deadline for every wait: `.timeout(d)` bounds the arming, not each endpoint's match
+        let deadline = std::time::Instant::now() + timeout;
+        let left = || deadline.saturating_duration_since(std::time::Instant::now());
+        let kept = self.keep_local(plan);
+        self.learn_type_hashes(plan, deadline, timeout).await?;
         let readers = plan
             .reads
             .iter()
@@ -321,7 +330,7 @@ impl Manager {
         self: &Arc<Self>,
         plan: Plan,
         matched: &mut Matched,
-        spec: Spec,
+        mut spec: Spec,
         causes: bool,
         began: i64,
     ) -> Result<radar_semantics::connection::ConnId> {
@@ -345,19 +354,8 @@ impl Manager {
         for ((k, _), w) in plan.writes.iter().zip(&matched.writers) {
             self.hold_outlet(&mut st, k, w)?;
         }
-        let faults = Arc::new(Faults::new(format!(
-            "{} {} {}",
-            match spec.kind {
-                Kind::Once => "once",
-                Kind::Whenever => "whenever",
-            },
-            spec.source.topic(),
-            match &plan.target {
-                Some(k) => format!("-> {}", k.topic),
-                None => "call (anonymous slot)".into(),
-            }
-        )));
-        let plan_target = plan.target.clone();
+        let faults = Arc::new(Faults::new(statement_label(&spec, &plan)));
+        let record = self.record(plan.target.as_ref(), &mut spec, faults.clone());
         let target = match (spec.target, plan.target) {
             (TargetSpec::Slot(_), Some(k)) => Target::Slot(k),
             (TargetSpec::Anon(f), _) => {
@@ -381,33 +379,34 @@ impl Manager {
         st.table.set_rearm(id, spec.rearm);
         st.table.set_starts(id, spec.starts);
         st.table.set_call(id, call);
-        let reads = match (&plan_target, spec.starts, &spec.map) {
+        st.records.insert(id, record);
+        self.replay(st, replay);
+        Ok(id)
+    }
+
+    /// What the manager keeps of a statement beside the table: who made it, its closures, the check of its
+    /// start payloads (C2: for a start slot of a type this process can read, unless a map makes the payload).
+    fn record(&self, target: Option<&Key>, spec: &mut Spec, faults: Arc<Faults>) -> Record {
+        let reads = match (target, spec.starts, &spec.map) {
             // (an Empty start takes any signal: its payload is dropped)
             (Some(k), true, None) if k.ros_type != Empty::ros_type_name() => {
                 self.participant.readers().get(&k.ros_type)
             }
             _ => None,
         };
-        let target_named = plan_target
-            .as_ref()
-            .map(|k| (k.topic.clone(), k.ros_type.clone()))
-            .unwrap_or_default();
-        st.records.insert(
-            id,
-            Record {
-                owner: spec.owner,
-                faults,
-                filter: spec.filter,
-                map: spec.map,
-                starts: spec.starts,
-                reads,
-                target: target_named,
-                departure: None,
-                suspended: None,
-            },
-        );
-        self.replay(st, replay);
-        Ok(id)
+        Record {
+            owner: std::mem::take(&mut spec.owner),
+            faults,
+            filter: spec.filter.take(),
+            map: spec.map.take(),
+            starts: spec.starts,
+            reads,
+            target: target
+                .map(|k| (k.topic.clone(), k.ros_type.clone()))
+                .unwrap_or_default(),
+            departure: None,
+            suspended: None,
+        }
     }
 
     /// Hands the table what the taps kept while a statement armed (now that it is in the table), in the order
@@ -473,6 +472,22 @@ impl Manager {
 
 /// An anonymous slot's target: a queue of `depth` payloads from `source`, and the task that calls `f` with each
 /// (a call that panics is reported on `faults`, and the next payload gets the next call).
+/// How a statement is named in what its closures' faults report: `once /a/triggered -> /b/start`.
+fn statement_label(spec: &Spec, plan: &Plan) -> String {
+    format!(
+        "{} {} {}",
+        match spec.kind {
+            Kind::Once => "once",
+            Kind::Whenever => "whenever",
+        },
+        spec.source.topic(),
+        match &plan.target {
+            Some(k) => format!("-> {}", k.topic),
+            None => "call (anonymous slot)".into(),
+        }
+    )
+}
+
 fn anon_target(
     st: &mut State,
     source: &str,
