@@ -42,6 +42,8 @@ fn the_architecture_page_lists_every_source_file_and_only_those() {
     for dir in [
         "radar_ros/library/src",
         "radar_ros/semantics/src",
+        "radar_ros/spec/src",
+        "radar_ros/checker/src",
         "radar_ros/idl/src",
         "radar_ros/tools/src",
         "radar_ros/python/src",
