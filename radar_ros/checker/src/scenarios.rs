@@ -163,22 +163,29 @@ pub fn all() -> Vec<Scenario> {
     v.push(interrupt_beside_start(vec![]));
     v.push(interrupt_beside_start(vec![Fault::Wait]));
     v.push(clock_ahead());
-    v.push(starts_while_busy(Policy::QueueOne));
-    v.push(starts_while_busy(Policy::Restart));
+    v.push(starts_while_busy(Policy::QueueOne, false));
+    v.push(starts_while_busy(Policy::Restart, false));
+    v.push(starts_while_busy(Policy::QueueOne, true));
     v
 }
 
 /// `whenever E start R`, E triggering three times (payloads 0, 1, 2) while R's first run goes on: R queues or
-/// restarts with the newest start (R6), and runs it after `exited` (R1).
-fn starts_while_busy(policy: Policy) -> Scenario {
+/// restarts with the newest start (R6), and runs it after `exited` (R1). With `stops`, E triggers twice and R's
+/// process is told to stop at any step: a start it queued is announced on `dropped`, not lost (R6).
+fn starts_while_busy(policy: Policy, stops: bool) -> Scenario {
     let mut s = Scenario {
-        name: match policy {
-            Policy::Restart => "starts-while-busy-restart",
-            _ => "starts-while-busy-queue-one",
+        name: match (policy, stops) {
+            (Policy::Restart, _) => "starts-while-busy-restart",
+            (_, false) => "starts-while-busy-queue-one",
+            (_, true) => "starts-while-busy-queue-one-stops",
         },
-        components: vec![program(0), event("/e", 1, 3), response("/r", 2, policy)],
+        components: vec![
+            program(0),
+            event("/e", 1, if stops { 2 } else { 3 }),
+            response("/r", 2, policy),
+        ],
         statements: vec![],
-        faults: vec![],
+        faults: if stops { vec![Fault::Stop(2)] } else { vec![] },
         skew: vec![],
     };
     let (e, r) = (s.comp("/e"), s.comp("/r"));
