@@ -32,7 +32,7 @@
 //! let start = Target::Slot(Slot { comp: go, kind: SlotKind::Start });
 //! t.push(1, Obs::Armed { stmt: 1, kind: Kind::Once, source, target: start, until: None, since: 1, accepts: Accepts::All });
 //! for (at, sig) in [(2, 10), (3, 11)] {
-//!     t.push(at, Obs::Emitted { sig, signal: source, stamp: at, cause: None, payload: Payload::default() });
+//!     t.push(at, Obs::Emitted { inst: 0, sig, signal: source, stamp: at, cause: None, payload: Payload::default() });
 //!     t.push(at, Obs::ManagerRead { sig, now: at });
 //!     // a manager that forgets that a `once` is spent
 //!     t.push(at, Obs::Sent { stmt: 1, sig, to: start, stamp: at, by: Some(Cause { stmt: 1, delivery: 1 }) });
