@@ -133,6 +133,13 @@ pub static MUTANTS: &[Mutant] = &[
         to: "received(stamp, now)",
     },
     Mutant {
+        name: "fired-call-not-forgotten",
+        what: "a fired `once ... call` whose scope ends is not forgotten: its queued call begins after the scope (C4)",
+        file: "src/connection/outcome.rs",
+        from: "if let Some(t) = self.ended_calls.remove(&id) {\n            return Some(t);\n        }",
+        to: "self.ended_calls.remove(&id);",
+    },
+    Mutant {
         name: "stop-drops-the-queued-start-silently",
         what: "a response told to stop drops its queued start without announcing it (R6)",
         file: "src/response/stop.rs",

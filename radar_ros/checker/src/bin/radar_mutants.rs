@@ -4,7 +4,7 @@
 //! `tests/`) against the same bug. Prints one line per bug and a Markdown table (docs/checker.md holds the last
 //! one). Works in `target/mutants` (the copy and its builds); exits with 1 if the checker missed one.
 //!
-//! `--checker-only` leaves the old tests out.
+//! `--checker-only` leaves the old tests out; `--old-tests-only` leaves the checker out.
 
 use std::{path::Path, process::Command};
 
@@ -90,8 +90,45 @@ fn plant(work: &Path, m: &Mutant) -> String {
     text
 }
 
-fn run(work: &Path, m: &Mutant, old_tests: bool) -> Outcome {
+fn run(work: &Path, m: &Mutant, checker: bool, old_tests: bool) -> Outcome {
     let original = plant(work, m);
+    let caught = if checker { explore(work, m) } else { None };
+    let (mut unit, mut models) = (None, None);
+    if old_tests {
+        let passes = |args: &[&str]| cargo(work, args).status.success();
+        unit = Some(!passes(&[
+            "test",
+            "--release",
+            "--offline",
+            "-p",
+            "radar_semantics",
+            "--lib",
+        ]));
+        // the proptest models alone (`--tests` would run the unit tests again)
+        models = Some(!passes(&[
+            "test",
+            "--release",
+            "--offline",
+            "-p",
+            "radar_semantics",
+            "--test",
+            "model",
+            "--test",
+            "goal_model",
+            "--test",
+            "served_model",
+        ]));
+    }
+    std::fs::write(work.join("radar_ros/semantics").join(m.file), original).unwrap();
+    Outcome {
+        caught,
+        unit,
+        models,
+    }
+}
+
+/// Builds the checker against the planted bug and explores until a rule is broken: (scenario, rule, moves).
+fn explore(work: &Path, m: &Mutant) -> Option<(String, String, usize)> {
     let built = cargo(
         work,
         &[
@@ -116,45 +153,20 @@ fn run(work: &Path, m: &Mutant, old_tests: bool) -> Outcome {
         .output()
         .expect("the checker runs");
     let stdout = String::from_utf8_lossy(&out.stdout);
-    let caught = stdout.lines().find_map(|l| {
+    stdout.lines().find_map(|l| {
         let mut w = l.strip_prefix("caught ")?.split(' ');
         Some((
             w.next()?.to_owned(),
             w.next()?.to_owned(),
             w.next()?.parse().ok()?,
         ))
-    });
-    let (mut unit, mut models) = (None, None);
-    if old_tests {
-        let passes = |args: &[&str]| cargo(work, args).status.success();
-        unit = Some(!passes(&[
-            "test",
-            "--release",
-            "--offline",
-            "-p",
-            "radar_semantics",
-            "--lib",
-        ]));
-        models = Some(!passes(&[
-            "test",
-            "--release",
-            "--offline",
-            "-p",
-            "radar_semantics",
-            "--tests",
-        ]));
-    }
-    std::fs::write(work.join("radar_ros/semantics").join(m.file), original).unwrap();
-    Outcome {
-        caught,
-        unit,
-        models,
-    }
+    })
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let old_tests = !args.iter().any(|a| a == "--checker-only");
+    let checker = !args.iter().any(|a| a == "--old-tests-only");
     let names: Vec<&String> = args.iter().filter(|a| !a.starts_with("--")).collect();
     let work = work();
     let mut rows = Vec::new();
@@ -164,7 +176,7 @@ fn main() {
         .filter(|m| names.is_empty() || names.iter().any(|n| *n == m.name))
     {
         let started = std::time::Instant::now();
-        let o = run(&work, m, old_tests);
+        let o = run(&work, m, checker, old_tests);
         let t = started.elapsed().as_secs_f64();
         let yes_no = |b: Option<bool>| match b {
             Some(true) => "caught",
@@ -176,6 +188,7 @@ fn main() {
                 "{}: caught by {rule} in {scenario}, {moves} moves ({t:.0} s)",
                 m.name
             ),
+            None if !checker => println!("{}: ({t:.0} s)", m.name),
             None => {
                 missed += 1;
                 println!("{}: MISSED by the checker ({t:.0} s)", m.name)
