@@ -198,11 +198,10 @@ fn main() {
             "| `{}` | {} | {} | {} | {} | {} |",
             m.name,
             m.what,
-            o.caught
-                .as_ref()
-                .map_or("**missed**".to_owned(), |(s, r, _)| format!(
-                    "`{r}` in `{s}`"
-                )),
+            o.caught.as_ref().map_or(
+                if checker { "**missed**" } else { "not run" }.to_owned(),
+                |(s, r, _)| format!("`{r}` in `{s}`")
+            ),
             o.caught
                 .as_ref()
                 .map_or("-".to_owned(), |(_, _, n)| n.to_string()),
