@@ -1,7 +1,10 @@
 //! CI's bounded model check: every scenario of `radar_checker::scenarios::all` explored whole (every order of
 //! its moves, but those that commute), with no rule of `radar_spec` broken. Prints, per scenario, the states
-//! explored, the depth and the time. The scenarios are dealt out to four tests so that the test harness explores
+//! explored, the depth and the time (to stderr itself, which the test harness does not capture: CI's log shows
+//! them). The scenarios are dealt out to four tests so that the test harness explores
 //! them on every core.
+
+use std::io::Write;
 
 use radar_checker::{explore, scenarios, Budget};
 
@@ -16,7 +19,8 @@ fn explore_part(part: usize) {
     let mine: Vec<_> = all.iter().skip(part).step_by(PARTS).collect();
     for s in &mine {
         let r = explore(s, Budget::ci());
-        print!("{r}");
+        // a whole scenario's lines at once (the parts run side by side)
+        let _ = write!(std::io::stderr().lock(), "{r}");
         states += r.states;
         if !r.complete {
             failures.push(format!("{}: not explored whole within the budget", s.name));
@@ -30,7 +34,8 @@ fn explore_part(part: usize) {
             ));
         }
     }
-    println!(
+    let _ = writeln!(
+        std::io::stderr().lock(),
         "part {part}: {} of {} scenarios, {states} states in all, {:.1} s",
         mine.len(),
         all.len(),

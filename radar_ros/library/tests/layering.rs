@@ -9,8 +9,21 @@ use std::collections::{BTreeMap, BTreeSet};
 /// `crate::Radar` is an import of `radar` as much as `crate::radar::Radar` is.
 fn root_exports(src: &std::path::Path) -> BTreeMap<String, String> {
     let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap();
+    // each `pub use` whole, also when rustfmt folded it over lines
+    let mut uses: Vec<String> = Vec::new();
+    let mut open: Option<String> = None;
+    for line in lib.lines() {
+        match open.as_mut() {
+            Some(u) => u.push_str(line.trim()),
+            None if line.starts_with("pub use ") => open = Some(line.to_owned()),
+            None => continue,
+        }
+        if line.trim_end().ends_with(';') {
+            uses.extend(open.take());
+        }
+    }
     let mut items = BTreeMap::new();
-    for line in lib.lines().filter(|l| l.starts_with("pub use ")) {
+    for line in &uses {
         let path = line["pub use ".len()..].trim_end_matches(';');
         let Some((module, rest)) = path.split_once("::") else {
             continue;
@@ -194,6 +207,8 @@ fn root_re_exports_count_as_imports_of_their_module() {
     let exports = root_exports(&src);
     assert_eq!(exports["Radar"], "radar");
     assert_eq!(exports["SignalSubscription"], "node");
+    // one folded over lines by rustfmt
+    assert_eq!(exports["Sample"], "node");
     assert_eq!(exports["Error"], "error");
     let graph = imports();
     // a re-export from another crate is no module of this one

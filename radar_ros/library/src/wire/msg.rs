@@ -13,7 +13,6 @@
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 pub use super::msg_support::{fixed_array, WString};
-pub use super::raw::reads;
 
 /// A Rust type that is the wire form of a ROS 2 message.
 ///
@@ -477,6 +476,24 @@ impl ros2_client::Message for DisconnectRequest {}
 impl ros2_client::Message for DisconnectResponse {}
 impl ros2_client::Message for ListRequest {}
 impl ros2_client::Message for ListResponse {}
+
+/// How many bytes may follow a message's last field: CDR pads a serialized payload to a multiple of 4.
+pub(crate) const PADDING: usize = 4;
+
+/// Whether `bytes` are a whole message of type `M` (a message body in little-endian CDR, with no more after it
+/// than the padding to a multiple of 4): what a connection manager checks before it counts a signal as
+/// delivered to a slot of type `M` (rule C2). Generated interfaces list one per type (`READERS`).
+///
+/// ```
+/// use radar_ros::{msg::{reads, Int32}, RawMessage};
+/// assert!(reads::<Int32>(RawMessage::encode(&Int32 { data: 7 }).unwrap().as_bytes()));
+/// assert!(!reads::<Int32>(&[1, 0]), "too short");
+/// assert!(!reads::<Int32>(&[7, 0, 0, 0, 1, 0, 0, 0]), "another definition: more than padding left");
+/// ```
+pub fn reads<M: RosMessage>(bytes: &[u8]) -> bool {
+    ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(bytes)
+        .is_ok_and(|(_, used)| bytes.len().saturating_sub(used) < PADDING)
+}
 
 #[cfg(test)]
 mod tests {

@@ -99,7 +99,7 @@ impl RawMessage {
             )
         })?;
         // what is left beyond the alignment padding of the last field is another definition's
-        if self.0.len().saturating_sub(used) >= PADDING {
+        if self.0.len().saturating_sub(used) >= crate::wire::msg::PADDING {
             return Err(Error::codec(
                 format!(
                     "decode a {} from {} bytes: {} bytes are left over (a peer of another definition of the type?)",
@@ -112,24 +112,6 @@ impl RawMessage {
         }
         Ok(m)
     }
-}
-
-/// How many bytes may follow a message's last field: CDR pads a serialized payload to a multiple of 4.
-const PADDING: usize = 4;
-
-/// Whether `bytes` are a whole message of type `M` (a message body in little-endian CDR, with no more after it
-/// than the padding to a multiple of 4): what a connection manager checks before it counts a signal as
-/// delivered to a slot of type `M` (rule C2). Generated interfaces list one per type (`READERS`).
-///
-/// ```
-/// use radar_ros::{msg::{reads, Int32}, RawMessage};
-/// assert!(reads::<Int32>(RawMessage::encode(&Int32 { data: 7 }).unwrap().as_bytes()));
-/// assert!(!reads::<Int32>(&[1, 0]), "too short");
-/// assert!(!reads::<Int32>(&[7, 0, 0, 0, 1, 0, 0, 0]), "another definition: more than padding left");
-/// ```
-pub fn reads<M: crate::wire::msg::RosMessage>(bytes: &[u8]) -> bool {
-    ros2_client::dds::rustdds::cdr_encoding::from_bytes::<M, byteorder::LittleEndian>(bytes)
-        .is_ok_and(|(_, used)| bytes.len().saturating_sub(used) < PADDING)
 }
 
 /// A whole message body, as the subscriptions over DDS read it (with a seed): what a typed subscription of
