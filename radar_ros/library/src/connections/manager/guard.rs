@@ -109,8 +109,9 @@ impl ConnectionGuard {
     }
 
     /// Resolves when a component of this connection leaves the graph (its source's last publisher, or its
-    /// target's last subscriber, or the response of its `until`), with who left and why; or with `None` when
-    /// the connection ends without that (a fired `once`). Resolves at once if one has already left. Unbounded
+    /// target's last subscriber, or the response of its `until`), with who left and why, also when that ended
+    /// it (a spent `once ... until` whose response left); or with `None` when the connection ends without that
+    /// (a fired `once`). Resolves at once if one has already left. Unbounded
     /// unless `.timeout(d)`. Cancel safe: it only looks.
     pub fn departed(&self) -> Wait<'_, Option<Departure>> {
         let what = format!("a component of connection {} to leave", self.id);
@@ -122,7 +123,8 @@ impl ConnectionGuard {
         let mut rx = self.manager.changed.subscribe();
         loop {
             match self.manager.link(self.id) {
-                None => return None,
+                // over: because a component left (a spent `once ... until` whose response went), or not
+                None => return self.manager.over_by(self.id),
                 Some((_, Some(d))) => return Some(d),
                 Some((_, None)) => {}
             }

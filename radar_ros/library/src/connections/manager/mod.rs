@@ -163,6 +163,9 @@ struct State {
     following: HashMap<String, crate::node::transport::EndpointId>,
     /// Per process that sends to the relays, how far its clock runs ahead of this host's (T1).
     leads: HashMap<crate::node::transport::EndpointId, radar_semantics::time::Lead>,
+    /// Connections that are over because a component of theirs left (a spent `once ... until` whose response
+    /// went, C3), with who left, until their guard is dropped: `departed()` still says who.
+    over_by: HashMap<ConnId, Departure>,
 }
 
 /// The embedded connection manager of one [`Radar`](crate::Radar).
@@ -463,6 +466,7 @@ impl Manager {
         // a spent `once ... until` whose response left is over (C3, C5): its guard's `closed()` resolves
         for id in st.table.take_ended() {
             st.records.remove(&id);
+            st.over_by.insert(id, d.clone());
             tracing::info!(connection = id, %d, "connection {id} is over: its response left with the run it started");
         }
         self.prune(&mut st);
@@ -528,6 +532,7 @@ impl Manager {
             }
         }
         st.records.remove(&id);
+        st.over_by.remove(&id);
         self.prune(&mut st);
         drop(st);
         self.changed.send_modify(|g| *g += 1);
@@ -538,6 +543,11 @@ impl Manager {
     }
 
     /// The connection's link and the departure that put it out of `Armed`, if it is live.
+    /// Who left, if connection `id` is over because a component of it left.
+    fn over_by(&self, id: ConnId) -> Option<Departure> {
+        self.state().over_by.get(&id).cloned()
+    }
+
     fn link(&self, id: ConnId) -> Option<(Link, Option<Departure>)> {
         let st = self.state();
         let link = st.table.link(id)?;
