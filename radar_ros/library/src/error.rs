@@ -164,7 +164,20 @@ impl std::fmt::Display for Text {
 
 impl std::error::Error for Text {}
 
+/// Whether `source` is DDS Security refusing what was asked (RustDDS's `NotAllowedBySecurity`).
+fn denied_by_security(source: &(dyn std::error::Error + 'static)) -> bool {
+    format!("{source:?}").contains("NotAllowedBySecurity")
+}
+
 impl Error {
+    /// Whether this is DDS Security refusing to create an endpoint this enclave's permissions do not grant.
+    pub(crate) fn not_allowed_by_security(&self) -> bool {
+        match self {
+            Error::Transport { source, .. } => denied_by_security(source.as_ref()),
+            _ => false,
+        }
+    }
+
     /// A transport error while creating `what`, keeping `source`.
     pub(crate) fn transport(
         what: impl Into<String>,
@@ -177,7 +190,7 @@ impl Error {
              its components almost none, so look for what else holds them (many `Radar`s or DDS contexts, open \
              files), or raise the limit (`ulimit -n 65536`, or LimitNOFILE= in a systemd unit)"
                 .to_owned()
-        } else if text.contains("not allowed by security") {
+        } else if text.contains("not allowed by security") || denied_by_security(&source) {
             "; this program's enclave (ROS_SECURITY_KEYSTORE/enclaves/<enclave>/permissions.xml) does not grant \
              it: grant it in the enclave's policy (`radar security create_permission KEYSTORE ENCLAVE POLICY`) or \
              run this part under an enclave that has it; see docs/security.md"

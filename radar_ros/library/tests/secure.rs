@@ -727,7 +727,7 @@ const DOCK_POLICY: &str = r#"<policy version="0.2.0">
         </profile>
         <profile ns="/" node="dock">   <!-- the response: reads its slots, writes its signals -->
           <topics subscribe="ALLOW"><topic>~/start</topic><topic>~/interrupt</topic><topic>~/exit</topic></topics>
-          <topics publish="ALLOW"><topic>~/started</topic><topic>~/interrupted</topic><topic>~/exited</topic><topic>~/state</topic></topics>
+          <topics publish="ALLOW"><topic>~/started</topic><topic>~/interrupted</topic><topic>~/exited</topic><topic>~/dropped</topic><topic>~/state</topic></topics>
           <topics publish="ALLOW"><topic>/rosout</topic><topic>/parameter_events</topic></topics>
           <services reply="ALLOW"><service>~/*</service></services>
         </profile>

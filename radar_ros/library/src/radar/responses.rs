@@ -164,15 +164,32 @@ impl Radar {
         let taps = self.participant().taps();
         let t = |e: crate::Endpoint| name.endpoint(e);
         // the signal writers hand every sample to their taps (`wire/local.rs`)
-        let (started, interrupted, exited, dropped) =
-            crate::wire::local::marked(|| -> Result<_> {
-                Ok((
-                    publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
-                    publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
-                    publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
-                    publisher::<Empty>(g, node, &t(crate::Endpoint::Dropped), &empty_t, &sq)?,
-                ))
-            })?;
+        let (started, interrupted, exited) = crate::wire::local::marked(|| -> Result<_> {
+            Ok((
+                publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
+                publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
+                publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
+            ))
+        })?;
+        // `dropped` came later than the other signals: an enclave whose permissions were written before it
+        // (docs/security.md's policy until issue 69) still runs the response, without it
+        let dropped_topic = t(crate::Endpoint::Dropped);
+        let dropped = match crate::wire::local::marked(|| {
+            publisher::<Empty>(g, node, &dropped_topic, &empty_t, &sq)
+        }) {
+            Ok(p) => Some(SignalWriter::new(taps, p, &dropped_topic, &empty_t.ros)),
+            Err(e) if e.not_allowed_by_security() => {
+                tracing::warn!(
+                    response = %name,
+                    "{dropped_topic} is not granted by this enclave's permissions: {name} runs without it, so a \
+                     start it does not take is not announced, and a `once ... until` whose start it dropped \
+                     lasts until its next `exited`; grant publishing ~/dropped in the enclave's policy \
+                     (docs/security.md)"
+                );
+                None
+            }
+            Err(e) => return Err(e),
+        };
         let io = Io {
             name: name.clone(),
             start_type: start_t.ros.clone(),
@@ -185,7 +202,7 @@ impl Radar {
                 &empty_t.ros,
             ),
             exited: SignalWriter::new(taps, exited, &t(crate::Endpoint::Exited), &output_t.ros),
-            dropped: SignalWriter::new(taps, dropped, &t(crate::Endpoint::Dropped), &empty_t.ros),
+            dropped,
             state_pub,
             state_tx: watch::channel(ResponseState::default()).0,
         };

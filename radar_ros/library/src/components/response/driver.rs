@@ -55,7 +55,8 @@ pub(crate) struct Io<R: Response> {
     pub(crate) interrupted: SignalWriter<Empty>,
     pub(crate) exited: SignalWriter<R::Output>,
     /// A start a statement sent that was not taken, with its cause (R6).
-    pub(crate) dropped: SignalWriter<Empty>,
+    /// `None` where security does not grant it (an enclave's permissions from before it).
+    pub(crate) dropped: Option<SignalWriter<Empty>>,
     pub(crate) state_pub: Watched<crate::node::transport::Publisher<ResponseState>>,
     pub(crate) state_tx: watch::Sender<ResponseState>,
 }
@@ -114,7 +115,9 @@ impl<R: Response> Io<R> {
         let deadline = std::time::Instant::now() + limit;
         let left = || deadline.saturating_duration_since(std::time::Instant::now());
         let _ = self.exited.wait_for_acknowledgments(left());
-        let _ = self.dropped.wait_for_acknowledgments(left());
+        if let Some(d) = &self.dropped {
+            let _ = d.wait_for_acknowledgments(left());
+        }
         let _ = self.interrupted.wait_for_acknowledgments(left());
         let _ = self.started.wait_for_acknowledgments(left());
         let _ = self.state_pub.wait_for_acknowledgments(left());
@@ -234,9 +237,9 @@ impl<R: Response> Driver<R> {
                     io.exited.emit("exited", o, cause);
                 }
                 Effect::EmitDropped(cause) => {
-                    self.io()
-                        .dropped
-                        .emit("dropped", Empty::default(), Some(cause));
+                    if let Some(d) = &self.io().dropped {
+                        d.emit("dropped", Empty::default(), Some(cause));
+                    }
                 }
                 Effect::ReportPanic { slot, message } => {
                     tracing::error!(response = %self.name, slot, %message, "slot panicked; the response carries on")
