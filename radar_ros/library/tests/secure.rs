@@ -792,6 +792,47 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
     std::fs::remove_dir_all(&ks).unwrap();
 }
 
+/// An enclave whose permissions were written before responses had `~/dropped` (docs/security.md's policy
+/// without it) still runs the response, and the planner still starts it and hears it exit.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_policy_from_before_dropped_still_runs_the_response() {
+    let ks = keystore("policy-before-dropped");
+    let policy = ks.join("policy.xml");
+    let before = DOCK_POLICY.replace("<topic>~/dropped</topic>", "");
+    assert_ne!(before, DOCK_POLICY);
+    std::fs::write(&policy, before).unwrap();
+    for e in ["/robot", "/planner"] {
+        policy::create_permission(&ks, e, &policy).unwrap();
+    }
+    let named = |program: &str| {
+        Radar::builder()
+            .domain_id(DOMAIN)
+            .discovery_range(DiscoveryRange::Subnet)
+            .program(program)
+            .security(Some(SecurityOptions::enforce(&ks, &format!("/{program}"))))
+            .build()
+            .unwrap()
+    };
+    let robot = named("robot");
+    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let _dock = counting_response(&robot, "dock", &starts);
+    let planner = named("planner");
+    let dock = planner.response("/dock").timeout(WAIT).await.unwrap();
+    let mut exited = planner
+        .waiter::<Empty>(dock.exited())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    planner
+        .inject(dock.start_slot(), Empty::default())
+        .timeout(WAIT)
+        .await
+        .unwrap();
+    exited.recv().timeout(WAIT).await.unwrap();
+    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
+    std::fs::remove_dir_all(&ks).unwrap();
+}
+
 /// Publishes `std_msgs/msg/Empty` to `/secure_gate/start` and `/plain_gate/start` for 3 s from a plain rclpy
 /// node, then prints how many subscribers of the secured topic it saw.
 const RCLPY_PUBLISHER: &str = r#"
