@@ -751,9 +751,24 @@ const DOCK_POLICY: &str = r#"<policy version="0.2.0">
 /// may only read its slots).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
-    let ks = keystore("policy");
+    only_the_planner_starts_the_dock("policy", DOCK_POLICY).await;
+}
+
+/// An enclave whose permissions were written before responses had `~/dropped` (docs/security.md's policy
+/// without it) still runs the response, and the planner still starts it and hears it exit.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_policy_from_before_dropped_still_runs_the_response() {
+    let before = DOCK_POLICY.replace("<topic>~/dropped</topic>", "");
+    assert_ne!(before, DOCK_POLICY);
+    only_the_planner_starts_the_dock("policy-before-dropped", &before).await;
+}
+
+/// Under `policy_xml` (in keystore `name`): the robot serves the dock and may not write its start; the planner
+/// starts it and hears it exit.
+async fn only_the_planner_starts_the_dock(name: &str, policy_xml: &str) {
+    let ks = keystore(name);
     let policy = ks.join("policy.xml");
-    std::fs::write(&policy, DOCK_POLICY).unwrap();
+    std::fs::write(&policy, policy_xml).unwrap();
     for e in ["/robot", "/planner"] {
         policy::create_permission(&ks, e, &policy).unwrap();
     }
@@ -775,47 +790,6 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
         .expect("the robot may not write the dock's start")
         .to_string();
     assert!(e.contains("rt/dock/start"), "{e}");
-    let planner = named("planner");
-    let dock = planner.response("/dock").timeout(WAIT).await.unwrap();
-    let mut exited = planner
-        .waiter::<Empty>(dock.exited())
-        .timeout(WAIT)
-        .await
-        .unwrap();
-    planner
-        .inject(dock.start_slot(), Empty::default())
-        .timeout(WAIT)
-        .await
-        .unwrap();
-    exited.recv().timeout(WAIT).await.unwrap();
-    assert_eq!(starts.load(std::sync::atomic::Ordering::SeqCst), 1);
-    std::fs::remove_dir_all(&ks).unwrap();
-}
-
-/// An enclave whose permissions were written before responses had `~/dropped` (docs/security.md's policy
-/// without it) still runs the response, and the planner still starts it and hears it exit.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_policy_from_before_dropped_still_runs_the_response() {
-    let ks = keystore("policy-before-dropped");
-    let policy = ks.join("policy.xml");
-    let before = DOCK_POLICY.replace("<topic>~/dropped</topic>", "");
-    assert_ne!(before, DOCK_POLICY);
-    std::fs::write(&policy, before).unwrap();
-    for e in ["/robot", "/planner"] {
-        policy::create_permission(&ks, e, &policy).unwrap();
-    }
-    let named = |program: &str| {
-        Radar::builder()
-            .domain_id(DOMAIN)
-            .discovery_range(DiscoveryRange::Subnet)
-            .program(program)
-            .security(Some(SecurityOptions::enforce(&ks, &format!("/{program}"))))
-            .build()
-            .unwrap()
-    };
-    let robot = named("robot");
-    let starts = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-    let _dock = counting_response(&robot, "dock", &starts);
     let planner = named("planner");
     let dock = planner.response("/dock").timeout(WAIT).await.unwrap();
     let mut exited = planner
