@@ -171,25 +171,7 @@ impl Radar {
                 publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
             ))
         })?;
-        // `dropped` came later than the other signals: an enclave whose permissions were written before it
-        // (docs/security.md's policy until issue 69) still runs the response, without it
-        let dropped_topic = t(crate::Endpoint::Dropped);
-        let dropped = match crate::wire::local::marked(|| {
-            publisher::<Empty>(g, node, &dropped_topic, &empty_t, &sq)
-        }) {
-            Ok(p) => Some(SignalWriter::new(taps, p, &dropped_topic, &empty_t.ros)),
-            Err(e) if e.not_allowed_by_security() => {
-                tracing::warn!(
-                    response = %name,
-                    "{dropped_topic} is not granted by this enclave's permissions: {name} runs without it, so a \
-                     start it does not take is not announced, and a `once ... until` whose start it dropped \
-                     lasts until its next `exited`; grant publishing ~/dropped in the enclave's policy \
-                     (docs/security.md)"
-                );
-                None
-            }
-            Err(e) => return Err(e),
-        };
+        let dropped = self.dropped_writer(node, name)?;
         let io = Io {
             name: name.clone(),
             start_type: start_t.ros.clone(),
@@ -207,5 +189,39 @@ impl Radar {
             state_tx: watch::channel(ResponseState::default()).0,
         };
         Ok(Endpoints { slots, inboxes, io })
+    }
+
+    /// The writer of `<response>/dropped`, or none when the enclave's permissions do not grant it.
+    ///
+    /// `dropped` came later than the other signals: an enclave whose permissions were written before it
+    /// (docs/security.md's policy until issue 69) still runs the response, without it.
+    fn dropped_writer(
+        &self,
+        node: &mut crate::node::transport::RosNode,
+        name: &ComponentName,
+    ) -> Result<Option<SignalWriter<Empty>>> {
+        let (g, sq, empty_t) = (self.graph(), signal_qos(), TypeName::of::<Empty>());
+        let dropped_topic = name.endpoint(crate::Endpoint::Dropped);
+        match crate::wire::local::marked(|| {
+            publisher::<Empty>(g, node, &dropped_topic, &empty_t, &sq)
+        }) {
+            Ok(p) => Ok(Some(SignalWriter::new(
+                self.participant().taps(),
+                p,
+                &dropped_topic,
+                &empty_t.ros,
+            ))),
+            Err(e) if e.not_allowed_by_security() => {
+                tracing::warn!(
+                    response = %name,
+                    "{dropped_topic} is not granted by this enclave's permissions: {name} runs without it, so a \
+                     start it does not take is not announced, and a `once ... until` whose start it dropped \
+                     lasts until its next `exited`; grant publishing ~/dropped in the enclave's policy \
+                     (docs/security.md)"
+                );
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
     }
 }
