@@ -46,6 +46,11 @@ fn vendored_rustdds_passes_its_unit_tests() {
     // the patches' own tests ran
     for name in [
         "data_that_arrives_before_its_writer_is_matched_is_delivered_on_the_match",
+        // patch 70: endpoints that announce different ROS 2 type hashes are not matched
+        "only_two_different_announced_hashes_refuse_a_match_and_each_remote_is_warned_about_once",
+        "the_hash_is_read_from_rosidl_user_data",
+        // patch 69: a preemptive ACKNACK takes the form the writer's vendor answers
+        "a_preemptive_acknack_takes_the_form_the_writers_vendor_answers",
         // patch 68: a reader fed by the application does not ask its feeding writer for a HEARTBEAT
         "a_reader_fed_by_the_application_does_not_ask_its_writer_for_a_heartbeat",
         // patch 59: a late reader is sent a writer's history window after window, without waiting

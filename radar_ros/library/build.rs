@@ -5,7 +5,7 @@
 //! release) stops here, saying what to do.
 
 /// The patches radar_ros needs: `third_party/rustdds/RADAR_PATCHES.md` and `third_party/ros2-client/RADAR_PATCHES.md`.
-const RUSTDDS_PATCHES: u32 = 68;
+const RUSTDDS_PATCHES: u32 = 70;
 const ROS2_CLIENT_PATCHES: u32 = 24;
 
 /// `radar_ros::interfaces`: the Rust types of every interface radar_idl ships, generated as a user's build

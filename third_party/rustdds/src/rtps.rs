@@ -7,6 +7,7 @@ pub(crate) mod decode_failures;
 pub(crate) mod dp_event_loop;
 pub(crate) mod early_arrivals;
 pub(crate) mod topic_index;
+pub(crate) mod type_hash;
 pub(crate) mod fragment_assembler;
 pub(crate) mod message_receiver;
 pub(crate) mod outbound;

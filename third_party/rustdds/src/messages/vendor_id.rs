@@ -19,6 +19,42 @@ impl VendorId {
 
   pub const THIS_IMPLEMENTATION: Self = Self::ATOSTEK;
 
+  /// eProsima Fast DDS
+  pub const EPROSIMA: Self = Self {
+    vendor_id: [0x01, 0x0F],
+  };
+
+  /// Eclipse Cyclone DDS
+  pub const ECLIPSE_CYCLONE: Self = Self {
+    vendor_id: [0x01, 0x10],
+  };
+
+  /// The vendor a GUID prefix names in its first two bytes, as RTPS 2.3 (9.3.1.5) has implementations
+  /// make them (Fast DDS, Cyclone DDS, RTI Connext and RustDDS do). A participant's SPDP announcement says it
+  /// for certain (`PID_VENDOR_ID`); this is for when that is not at hand.
+  pub fn of_guid_prefix(prefix_bytes: &[u8; 12]) -> Self {
+    Self {
+      vendor_id: [prefix_bytes[0], prefix_bytes[1]],
+    }
+  }
+
+  /// RADAR patch 69: whether a writer of this vendor takes an ACKNACK with readerSNState base 0 and no bits
+  /// as the preemptive ACKNACK it is, and answers it with a HEARTBEAT at once. eProsima Fast DDS answers only
+  /// that form at once (base 1 merely restarts its heartbeat timer: RADAR patch 2), RTI Connext sends it
+  /// itself, and RustDDS writers answer it (patch 34). Base 0 is not a valid SequenceNumberSet (RTPS 2.3
+  /// 9.4.2.6: bitmapBase >= 1), and Eclipse Cyclone DDS refuses it from any other vendor as a malformed
+  /// submessage, dropping the whole datagram; every vendor not named here is sent the valid form (base 1,
+  /// no bits, final flag clear), which Cyclone DDS answers with a HEARTBEAT.
+  pub fn takes_base_zero_preemptive_acknack(self) -> bool {
+    matches!(
+      self.vendor_id,
+      [0x01, 0x0F] // eProsima Fast DDS
+        | [0x01, 0x01] // RTI Connext DDS
+        | [0x01, 0x0A] // RTI Connext DDS Micro
+        | [0x01, 0x12] // RustDDS
+    )
+  }
+
   pub fn as_bytes(&self) -> [u8; 2] {
     self.vendor_id
   }

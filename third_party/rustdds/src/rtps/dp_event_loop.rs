@@ -933,7 +933,10 @@ impl DPEventLoop {
           .available_builtin_endpoints
           .contains(*writer_endpoint_set_elem)
         {
-          let writer_proxy = discovered_participant.get_builtin_writer_proxy(*writer_eid);
+          // RADAR patch 69: the vendor it announced says the form of its preemptive ACKNACK
+          let writer_proxy = discovered_participant
+            .get_builtin_writer_proxy(*writer_eid)
+            .with_vendor(discovered_participant.vendor_id);
           let writer_guid = writer_proxy.remote_writer_guid;
 
           if reader.update_writer_proxy(writer_proxy, writer_qos) {
@@ -1096,6 +1099,14 @@ impl DPEventLoop {
         if match_to_reader {
           // Should we check if the participant has published a QoS for the topic?
           let requested_qos = remote_reader.subscription_topic_data.qos();
+          // RADAR patch 70: not a reader of another definition of the type
+          if writer.refuses_type_hash(
+            remote_reader.reader_proxy.remote_reader_guid,
+            remote_reader.subscription_topic_data.type_name(),
+            &requested_qos,
+          ) {
+            continue;
+          }
           writer.update_reader_proxy(
             &RtpsReaderProxy::from_discovered_reader_data(remote_reader, &[], &[]),
             &requested_qos,
@@ -1128,6 +1139,11 @@ impl DPEventLoop {
 
     // update writer proxies in local readers
     let remote_writer_guid = remote_writer.writer_proxy.remote_writer_guid;
+    // RADAR patch 69: the vendor its participant announced, which says the form of the preemptive ACKNACK
+    // its writers answer (the GUID prefix's guess when the participant is not known)
+    let vendor = discovery_db_read(&self.discovery_db)
+      .find_participant_proxy(remote_writer_guid.prefix)
+      .map(|p| p.vendor_id);
     let mut newly_matched = Vec::new();
     // RADAR patch 53: the local readers of its topic, looked up (a scan compared every reader's topic)
     for eid in self
@@ -1189,11 +1205,20 @@ impl DPEventLoop {
 
         if match_to_writer {
           let offered_qos = remote_writer.publication_topic_data.qos();
-          // Should we check if the participant has published a QoS for the topic?
-          if reader.update_writer_proxy(
-            RtpsWriterProxy::from_discovered_writer_data(remote_writer, &[], &[]),
+          // RADAR patch 70: not a writer of another definition of the type
+          if reader.refuses_type_hash(
+            remote_writer_guid,
+            &remote_writer.publication_topic_data.type_name,
             &offered_qos,
           ) {
+            continue;
+          }
+          // Should we check if the participant has published a QoS for the topic?
+          let mut proxy = RtpsWriterProxy::from_discovered_writer_data(remote_writer, &[], &[]);
+          if let Some(vendor) = vendor {
+            proxy = proxy.with_vendor(vendor);
+          }
+          if reader.update_writer_proxy(proxy, &offered_qos) {
             newly_matched.push(reader.entity_id());
           }
         }

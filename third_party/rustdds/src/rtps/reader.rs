@@ -13,6 +13,7 @@ use enumflags2::BitFlags;
 use speedy::Endianness;
 
 use crate::{
+  rtps::type_hash::TypeHashRefusals,
   dds::{
     ddsdata::DDSData,
     qos::{policy, HasQoSPolicy, QosPolicies},
@@ -167,6 +168,8 @@ pub(crate) struct Reader {
 
   topic_name: String,
   qos_policy: QosPolicies,
+  /// RADAR patch 70: writers not matched for announcing another ROS 2 type hash
+  type_hash_refusals: TypeHashRefusals,
 
   my_guid: GUID,
 
@@ -240,6 +243,7 @@ impl Reader {
       topic_cache: i.topic_cache_handle,
       topic_name: i.topic_name,
       qos_policy: i.qos_policy,
+      type_hash_refusals: TypeHashRefusals::default(),
 
       #[cfg(test)]
       seqnum_instant_map: BTreeMap::new(),
@@ -431,6 +435,22 @@ impl Reader {
     }
   }
 
+  /// RADAR patch 70: whether `writer` (of `type_name`, offering `offered_qos`) must not be matched, for
+  /// announcing another ROS 2 type hash than this reader's (`rtps/type_hash.rs`); warns once per writer.
+  pub fn refuses_type_hash(
+    &mut self,
+    writer: GUID,
+    type_name: &str,
+    offered_qos: &QosPolicies,
+  ) -> bool {
+    self.type_hash_refusals.refuses(
+      &self.topic_name,
+      type_name,
+      (self.my_guid, &self.qos_policy),
+      (writer, offered_qos),
+    )
+  }
+
   // updates or adds a new writer proxy, doesn't touch changes.
   // Returns true if the writer was not matched before.
   pub fn update_writer_proxy(&mut self, proxy: RtpsWriterProxy, offered_qos: &QosPolicies) -> bool {
@@ -541,6 +561,7 @@ impl Reader {
   }
 
   pub fn remove_writer_proxy(&mut self, writer_guid: GUID) {
+    self.type_hash_refusals.forget(writer_guid);
     if self.matched_writers.contains_key(&writer_guid) {
       self.matched_writers.remove(&writer_guid);
       self.matches_changed(writer_guid, false);
@@ -1578,17 +1599,26 @@ impl Reader {
     self.matched_writers = writer_proxies;
   }
 
-  // A preemptive ACKNACK (readerSNState base 0, no bits, final flag clear) asks
-  // the writer for an immediate HEARTBEAT. Base 0 is what Fast DDS and others
-  // send and recognise as preemptive: Fast DDS answers it with a HEARTBEAT at
+  // A preemptive ACKNACK (no bits, final flag clear) asks the writer for an
+  // immediate HEARTBEAT. RADAR patch 2 gave it base 0, which is what Fast DDS
+  // sends and recognises as preemptive: Fast DDS answers it with a HEARTBEAT at
   // once, while an ACKNACK with base 1 and no bits only restarts its periodic
   // heartbeat timer (3 s), so samples sent before the match were repaired 3 s
-  // later. RustDDS writers answer both forms.
+  // later. RADAR patch 69: base 0 is not a valid sequence number set, and
+  // Cyclone DDS drops a datagram holding one from any vendor but eProsima and
+  // RTI as malformed; so the writers of vendors that do not ask for base 0 get
+  // base 1, which Cyclone DDS answers with a HEARTBEAT (the final flag is
+  // clear). RustDDS writers answer base 0 (patch 34), and keep getting it.
   fn preemptive_acknack(&self, writer_proxy: &mut RtpsWriterProxy) -> AckNack {
+    let base = if writer_proxy.vendor.takes_base_zero_preemptive_acknack() {
+      SequenceNumber::zero()
+    } else {
+      SequenceNumber::new(1)
+    };
     AckNack {
       reader_id: self.entity_id(),
       writer_id: writer_proxy.remote_writer_guid.entity_id,
-      reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::zero()),
+      reader_sn_state: SequenceNumberSet::new_empty(base),
       count: writer_proxy.next_ack_nack_sequence_number(),
     }
   }
@@ -2410,14 +2440,62 @@ mod tests {
       .expect("Did not find a matched writer");
     assert_eq!(writer_proxy.sent_ack_nack_count, 3);
 
-    // 8. The preemptive ACKNACK has readerSNState base 0 and no bits: the form
-    // Fast DDS answers with an immediate HEARTBEAT (base 1 only restarts its
-    // periodic heartbeat timer).
-    let mut writer_proxy = reader.matched_writers.remove(&writer_guid).unwrap();
+    // 8. The preemptive ACKNACK to a Fast DDS writer has readerSNState base 0
+    // and no bits: the form Fast DDS answers with an immediate HEARTBEAT (base
+    // 1 only restarts its periodic heartbeat timer).
+    let writer_proxy = reader.matched_writers.remove(&writer_guid).unwrap();
+    let mut writer_proxy = writer_proxy.with_vendor(VendorId::EPROSIMA);
     let preemptive = reader.preemptive_acknack(&mut writer_proxy);
     assert_eq!(preemptive.reader_sn_state.base(), SequenceNumber::zero());
     assert_eq!(preemptive.reader_sn_state.iter().count(), 0);
     assert_eq!(preemptive.writer_id, writer_guid.entity_id);
+  }
+
+  // RADAR patch 69: a writer is sent the preemptive ACKNACK its vendor answers,
+  // and every vendor that does not ask for base 0 gets a valid sequence number
+  // set (Cyclone DDS drops a datagram with base 0 as malformed)
+  #[test]
+  fn a_preemptive_acknack_takes_the_form_the_writers_vendor_answers() {
+    let (reader, _) = reliable_reader();
+    let writer_of = |vendor: [u8; 2]| {
+      let mut prefix = [0x5a; 12];
+      prefix[..2].copy_from_slice(&vendor);
+      GUID::new(
+        GuidPrefix::new(&prefix),
+        EntityId::new([0, 0, 1], EntityKind::WRITER_NO_KEY_USER_DEFINED),
+      )
+    };
+    let base_of = |proxy: RtpsWriterProxy| {
+      let mut proxy = proxy;
+      let acknack = reader.preemptive_acknack(&mut proxy);
+      assert_eq!(acknack.reader_sn_state.iter().count(), 0, "a preemptive ACKNACK asks for nothing");
+      acknack.reader_sn_state.base()
+    };
+    let proxy = |guid: GUID| RtpsWriterProxy::new(guid, vec![], vec![], EntityId::UNKNOWN);
+    // by the GUID prefix, when discovery has not said the vendor
+    for (vendor, base) in [
+      ([0x01, 0x0F], 0), // eProsima Fast DDS
+      ([0x01, 0x12], 0), // RustDDS
+      ([0x01, 0x01], 0), // RTI Connext DDS
+      ([0x01, 0x10], 1), // Eclipse Cyclone DDS
+      ([0x01, 0x03], 1), // OpenDDS
+      ([0x5a, 0x5a], 1), // unknown
+    ] {
+      assert_eq!(
+        base_of(proxy(writer_of(vendor))),
+        SequenceNumber::new(base),
+        "vendor {vendor:x?}"
+      );
+    }
+    // the vendor its participant announced wins over the prefix's guess
+    assert_eq!(
+      base_of(proxy(writer_of([0x01, 0x0F])).with_vendor(VendorId::ECLIPSE_CYCLONE)),
+      SequenceNumber::new(1)
+    );
+    assert_eq!(
+      base_of(proxy(writer_of([0x5a, 0x5a])).with_vendor(VendorId::EPROSIMA)),
+      SequenceNumber::zero()
+    );
   }
 
   #[test]

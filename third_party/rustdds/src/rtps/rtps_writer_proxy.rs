@@ -6,6 +6,7 @@ use log::{debug, error, info, trace, warn};
 
 use crate::{
   discovery::sedp_messages::DiscoveredWriterData,
+  messages::vendor_id::VendorId,
   rtps::constant::MAX_TRACKED_CHANGES_PER_WRITER,
   structure::{
     guid::{EntityId, GUID},
@@ -84,6 +85,9 @@ pub(crate) struct RtpsWriterProxy {
   // These are used for quick tracking of
   last_received_sequence_number: SequenceNumber,
   last_received_timestamp: Timestamp,
+  /// RADAR patch 69: the writer's vendor, which says the form of a preemptive ACKNACK it answers (its
+  /// participant's `PID_VENDOR_ID` when discovery knows it, else its GUID prefix's first two bytes).
+  pub vendor: VendorId,
 }
 
 impl RtpsWriterProxy {
@@ -108,7 +112,15 @@ impl RtpsWriterProxy {
       ack_base: SequenceNumber::new(1),
       last_received_sequence_number: SequenceNumber::new(0),
       last_received_timestamp: Timestamp::INVALID,
+      vendor: VendorId::of_guid_prefix(&remote_writer_guid.prefix.bytes),
     }
+  }
+
+  /// RADAR patch 69: the vendor its participant announced (`PID_VENDOR_ID`), which the GUID prefix only
+  /// suggests.
+  pub fn with_vendor(mut self, vendor: VendorId) -> Self {
+    self.vendor = vendor;
+    self
   }
 
   /// Where a reply (ACKNACK, NACK_FRAG) to this writer goes (RADAR patch 63): with `on_loopback` (the
@@ -356,6 +368,13 @@ impl RtpsWriterProxy {
       ack_base: SequenceNumber::default(),
       last_received_sequence_number: SequenceNumber::new(0),
       last_received_timestamp: Timestamp::INVALID,
+      vendor: VendorId::of_guid_prefix(
+        &discovered_writer_data
+          .writer_proxy
+          .remote_writer_guid
+          .prefix
+          .bytes,
+      ),
     }
   } // fn
 

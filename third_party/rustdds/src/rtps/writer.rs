@@ -13,6 +13,7 @@ use speedy::Endianness;
 use mio1::Token;
 
 use crate::{
+  rtps::type_hash::TypeHashRefusals,
   dds::{
     qos::{
       policy,
@@ -274,6 +275,8 @@ pub(crate) struct Writer {
   pub(crate) timed_event_timer: SharedTimer<DpTimerEvent>,
 
   qos_policies: QosPolicies,
+  /// RADAR patch 70: readers not matched for announcing another ROS 2 type hash
+  type_hash_refusals: TypeHashRefusals,
 
   // Used for sending status info about messages sent
   status_sender: StatusChannelSender<DataWriterStatus>,
@@ -380,6 +383,7 @@ impl Writer {
       timed_event_timer,
       like_stateless: i.like_stateless,
       qos_policies: i.qos_policies,
+      type_hash_refusals: TypeHashRefusals::default(),
       status_sender: i.status_sender,
       participant_status_sender,
 
@@ -2157,6 +2161,22 @@ impl Writer {
     self.prefer_loopback_same_host = enabled;
   }
 
+  /// RADAR patch 70: whether `reader` (of `type_name`, requesting `requested_qos`) must not be matched, for
+  /// announcing another ROS 2 type hash than this writer's (`rtps/type_hash.rs`); warns once per reader.
+  pub fn refuses_type_hash(
+    &mut self,
+    reader: GUID,
+    type_name: &str,
+    requested_qos: &QosPolicies,
+  ) -> bool {
+    self.type_hash_refusals.refuses(
+      &self.my_topic_name,
+      type_name,
+      (self.my_guid, &self.qos_policies),
+      (reader, requested_qos),
+    )
+  }
+
   pub fn update_reader_proxy(
     &mut self,
     reader_proxy: &RtpsReaderProxy,
@@ -2412,6 +2432,7 @@ impl Writer {
   }
 
   pub fn reader_lost(&mut self, guid: GUID) {
+    self.type_hash_refusals.forget(guid);
     // RADAR patch 62: nothing was kept for it but the match (and what secure discovery registered for it, if it
     // did: let go as for any reader, an error meaning it had not)
     if self.local_readers.remove(&guid) {
