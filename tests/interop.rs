@@ -16,6 +16,8 @@ use radar_ros::{
 };
 use radar_test_util::{counter, eventually, radar, Py};
 
+mod cyclone;
+
 const T: Duration = Duration::from_secs(20);
 
 fn slow_response(r: &Radar, name: &str) -> radar_ros::ResponseHandle {

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Python environment the interop tests run against: a venv with real rclpy (ROS 2 Jazzy wheels
-# from PyPI, Fast DDS) and this repository's interface packages (msgs/) built into it with cmake.
+# from PyPI, Fast DDS), Eclipse Cyclone DDS (the `cyclonedds` wheel, a plain DDS peer) and this repository's
+# interface packages (msgs/) built into it with cmake.
 #
 #   tests/python_env.sh            # prints the venv's path; builds it first if missing or out of date
 #
@@ -88,6 +89,7 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     pytest==9.2.0 \
     mypy==2.4.1 \
     eclipse-zenoh==1.10.2 \
+    cyclonedds==11.0.1 \
     playwright==1.65.2 >&2
 
 # The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake
@@ -122,6 +124,7 @@ done
 import rclpy, std_msgs.msg, std_srvs.srv, geometry_msgs.msg, test_msgs.action, rclpy.action, mcap.reader, mcap_ros2.decoder
 import radar_msgs.msg, radar_msgs.srv, radar_demo_msgs.action, radar_demo_msgs.msg
 import playwright.sync_api
+import cyclonedds.domain  # a plain Cyclone DDS peer (tests/cyclone.rs)
 from rclpy.utilities import get_rmw_implementation_identifier
 print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),
       "; radar_msgs:", radar_msgs.msg.ResponseState.__name__, radar_msgs.srv.Connect.__name__)
