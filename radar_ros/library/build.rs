@@ -6,21 +6,7 @@
 
 /// The patches radar_ros needs: `third_party/rustdds/RADAR_PATCHES.md` and `third_party/ros2-client/RADAR_PATCHES.md`.
 const RUSTDDS_PATCHES: u32 = 70;
-const ROS2_CLIENT_PATCHES: u32 = 24;
-
-/// `radar_ros::interfaces`: the Rust types of every interface radar_idl ships, generated as a user's build
-/// script generates theirs.
-fn generate_interfaces() {
-    let mut g = radar_idl::rust::Generator::with_interfaces(radar_idl::Interfaces::empty())
-        .standalone("::radar_ros");
-    for pkg in radar_idl::shipped_packages() {
-        g = g.package(pkg);
-    }
-    if let Err(e) = g.write("interfaces.rs") {
-        eprintln!("error: generating radar_ros::interfaces: {e}");
-        std::process::exit(1);
-    }
-}
+const ROS2_CLIENT_PATCHES: u32 = 25;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
@@ -60,5 +46,4 @@ fn main() {
         }
         std::process::exit(1);
     }
-    generate_interfaces();
 }

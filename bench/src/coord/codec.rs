@@ -88,8 +88,8 @@ fn time_each(n: usize, batch: usize, mut f: impl FnMut()) -> Vec<u64> {
         .collect()
 }
 
-fn yaml_of(v: &serde_json::Value) -> serde_yaml::Value {
-    serde_yaml::to_value(v).expect("JSON is YAML")
+fn yaml_of(v: &serde_json::Value) -> yaml_serde::Value {
+    yaml_serde::to_value(v).expect("JSON is YAML")
 }
 
 impl Bench {

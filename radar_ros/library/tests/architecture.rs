@@ -197,3 +197,98 @@ fn the_file_length_counts_up_to_the_tests_module() {
     assert_eq!(lines_before_tests(text), 3);
     assert_eq!(lines_before_tests("fn a() {}\nfn b() {}\n"), 2);
 }
+
+/// `radar_ros::interfaces` is kept in the repository (`generated/interfaces.rs`, so that a user's build compiles
+/// no generator): it must be what radar_idl generates from the definitions radar_ros ships, as a user's build
+/// script would. `RADAR_BLESS=1` writes it again.
+#[test]
+fn the_shipped_interfaces_are_what_radar_idl_generates() {
+    let mut g = radar_idl::rust::Generator::with_interfaces(radar_idl::Interfaces::empty())
+        .standalone("::radar_ros");
+    for pkg in radar_idl::shipped_packages() {
+        g = g.package(pkg);
+    }
+    let fresh = g
+        .generate()
+        .expect("radar_idl generates the shipped interfaces");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("generated/interfaces.rs");
+    if std::env::var_os("RADAR_BLESS").is_some() {
+        std::fs::write(&path, &fresh).unwrap();
+    }
+    let kept = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        kept == fresh,
+        "{} is not what radar_idl generates now: run `RADAR_BLESS=1 cargo test -p radar_ros --test architecture` \
+         and commit it",
+        path.display()
+    );
+}
+
+/// The crates a build of radar_ros with `features` compiles (normal and build dependencies), by name.
+fn crates_built(features: &[&str]) -> Vec<String> {
+    let out = std::process::Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "--offline",
+            "-p",
+            "radar_ros",
+            "-e",
+            "normal,build",
+            "--prefix",
+            "none",
+        ])
+        .args(features.iter().flat_map(|f| ["--features", f]))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "cargo tree: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| {
+            let mut words = l.split_whitespace();
+            Some(format!("{} {}", words.next()?, words.next()?))
+        })
+        .collect();
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// Issue 70: a DDS-only user (default features) builds no code generator (ros2-client's msggen, radar_idl and
+/// its parser), no crate that is deprecated or unmaintained (serde_yaml; mio 0.6 and net2, RUSTSEC-2020-0016),
+/// and at most 130 crates.
+#[test]
+fn a_default_build_compiles_no_code_generator_and_no_deprecated_crate() {
+    let built = crates_built(&[]);
+    let unwanted: Vec<&String> = built
+        .iter()
+        .filter(|c| {
+            let (name, version) = c.split_once(' ').unwrap();
+            [
+                "clap",
+                "nom",
+                "itertools",
+                "radar_idl",
+                "ros2msg",
+                "pest",
+                "serde_yaml",
+                "net2",
+            ]
+            .contains(&name)
+                || (name == "mio" && version.starts_with("v0."))
+        })
+        .collect();
+    assert!(
+        unwanted.is_empty(),
+        "a default build of radar_ros compiles {unwanted:?}"
+    );
+    assert!(
+        built.len() <= 130,
+        "a default build of radar_ros compiles {} crates (at most 130): {built:?}",
+        built.len()
+    );
+}

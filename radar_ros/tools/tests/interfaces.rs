@@ -112,7 +112,7 @@ fn every_test_msgs_fixture_is_read_and_written_as_rclpy_does() {
             .decode(ty, &theirs)
             .unwrap_or_else(|e| panic!("{ty} #{i}: {e}"));
         assert_eq!(read, f["value"], "{ty} #{i}: rclpy's bytes read");
-        let yaml: serde_yaml::Value = serde_yaml::to_value(&f["value"]).unwrap();
+        let yaml: yaml_serde::Value = yaml_serde::to_value(&f["value"]).unwrap();
         let ours = types
             .encode(ty, &yaml)
             .unwrap_or_else(|e| panic!("{ty} #{i}: {e}"));
@@ -132,7 +132,7 @@ fn every_test_msgs_fixture_is_read_and_written_as_rclpy_does() {
 #[test]
 fn fields_left_out_take_the_definitions_defaults_and_bad_input_says_what_is_wrong() {
     let types = Interfaces::from_env().with_dir(venv().join("share"));
-    let y = |s: &str| serde_yaml::from_str::<serde_yaml::Value>(s).unwrap();
+    let y = |s: &str| yaml_serde::from_str::<yaml_serde::Value>(s).unwrap();
     // Defaults.msg gives every field a default ("int32 int32_value -30000", ...): rclpy's Defaults() has them
     let raw = types.encode("test_msgs/msg/Defaults", &y("{}")).unwrap();
     let v = types.decode("test_msgs/msg/Defaults", &raw).unwrap();
@@ -693,13 +693,13 @@ fn the_bundled_interfaces_are_jazzys_and_work_without_an_installation() {
             doc["type_hashes"][0]["hash_string"],
             "{ty}"
         );
-        let raw = none.encode(ty, &serde_yaml::Value::Null).unwrap();
+        let raw = none.encode(ty, &yaml_serde::Value::Null).unwrap();
         none.decode(ty, &raw).unwrap();
     }
     let scan = none
         .encode(
             "sensor_msgs/msg/LaserScan",
-            &serde_yaml::from_str("{header: {frame_id: laser}, ranges: [1.5, 2.0]}").unwrap(),
+            &yaml_serde::from_str("{header: {frame_id: laser}, ranges: [1.5, 2.0]}").unwrap(),
         )
         .unwrap();
     let v = none.decode("sensor_msgs/msg/LaserScan", &scan).unwrap();

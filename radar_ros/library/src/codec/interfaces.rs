@@ -7,7 +7,7 @@
 //! ```no_run
 //! use radar_ros::codec::Interfaces;
 //! let types = Interfaces::from_env();
-//! let raw = types.encode("geometry_msgs/msg/Point", &serde_yaml::from_str("{x: 1.0}").unwrap()).unwrap();
+//! let raw = types.encode("geometry_msgs/msg/Point", &yaml_serde::from_str("{x: 1.0}").unwrap()).unwrap();
 //! assert_eq!(types.decode("geometry_msgs/msg/Point", &raw).unwrap()["x"], 1.0);
 //! ```
 
@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 use ros2msg::{Field, Value as Default};
 use serde_json::Value;
-use serde_yaml::Value as Yaml;
+use yaml_serde::Value as Yaml;
 
 use super::{
     cdr::{Reader, Writer},
@@ -87,14 +87,14 @@ impl Interfaces {
         path: &At<'_>,
     ) -> Result<(), String> {
         let spec = self.definition(ros_type)?;
-        let none = serde_yaml::Mapping::new();
+        let none = yaml_serde::Mapping::new();
         let given = match value {
             Yaml::Mapping(m) => m,
             Yaml::Null => &none,
             other => {
                 return Err(format!(
                     "{path}: a {ros_type} is a mapping of its fields, not {}",
-                    serde_yaml::to_string(other).unwrap_or_default().trim()
+                    yaml_serde::to_string(other).unwrap_or_default().trim()
                 ))
             }
         };
@@ -143,7 +143,7 @@ impl Interfaces {
             other => {
                 return Err(format!(
                     "{at}: give a list, not {}",
-                    serde_yaml::to_string(other).unwrap_or_default().trim()
+                    yaml_serde::to_string(other).unwrap_or_default().trim()
                 ))
             }
         };
@@ -286,7 +286,7 @@ mod tests {
         };
         for ty in kinds {
             // every cut of a valid message, and every byte of it flipped to each of a few values
-            let yaml = serde_yaml::from_str("{}").unwrap();
+            let yaml = yaml_serde::from_str("{}").unwrap();
             let good = types.encode(ty, &yaml).unwrap();
             let bytes = good.as_bytes().to_vec();
             for cut in 0..bytes.len() {

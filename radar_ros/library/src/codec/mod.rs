@@ -78,7 +78,7 @@ pub fn encode(ros_type: &str, yaml: &str) -> Result<RawMessage, String> {
         };
     }
     known_types!(try_type);
-    let given: serde_yaml::Value = serde_yaml::from_str(yaml)
+    let given: yaml_serde::Value = yaml_serde::from_str(yaml)
         .map_err(|e| format!("the payload is not YAML: {e} (e.g. \"{{data: kitchen}}\")"))?;
     run_time_types().encode(ros_type, &given)
 }
@@ -112,22 +112,22 @@ pub fn run_time_types() -> &'static Interfaces {
 fn from_yaml<T: serde::de::DeserializeOwned + serde::Serialize + Default>(
     yaml: &str,
 ) -> Result<T, String> {
-    let given: serde_yaml::Value = serde_yaml::from_str(yaml).map_err(|e| e.to_string())?;
-    let mut full = serde_yaml::to_value(T::default()).map_err(|e| e.to_string())?;
+    let given: yaml_serde::Value = yaml_serde::from_str(yaml).map_err(|e| e.to_string())?;
+    let mut full = yaml_serde::to_value(T::default()).map_err(|e| e.to_string())?;
     merge(&mut full, given)?;
-    serde_yaml::from_value(full).map_err(|e| e.to_string())
+    yaml_serde::from_value(full).map_err(|e| e.to_string())
 }
 
-fn merge(into: &mut serde_yaml::Value, given: serde_yaml::Value) -> Result<(), String> {
+fn merge(into: &mut yaml_serde::Value, given: yaml_serde::Value) -> Result<(), String> {
     match (into, given) {
-        (serde_yaml::Value::Mapping(a), serde_yaml::Value::Mapping(b)) => {
+        (yaml_serde::Value::Mapping(a), yaml_serde::Value::Mapping(b)) => {
             for (k, v) in b {
                 match a.get_mut(&k) {
                     Some(slot) => merge(slot, v)?,
                     None => {
                         return Err(format!(
                             "no field {}",
-                            serde_yaml::to_string(&k).unwrap_or_default().trim()
+                            yaml_serde::to_string(&k).unwrap_or_default().trim()
                         ))
                     }
                 }

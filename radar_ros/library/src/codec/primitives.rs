@@ -3,7 +3,7 @@
 
 use ros2msg::{PrimitiveValue, Type};
 use serde_json::Value;
-use serde_yaml::Value as Yaml;
+use yaml_serde::Value as Yaml;
 
 use super::cdr::{Reader, Writer};
 
@@ -77,7 +77,7 @@ pub(super) fn write_primitive(
     let wrong = || {
         format!(
             "{at}: {} is no {ty}",
-            serde_yaml::to_string(v).unwrap_or_default().trim()
+            yaml_serde::to_string(v).unwrap_or_default().trim()
         )
     };
     let int = |lo: i128, hi: i128| -> Result<i128, String> {

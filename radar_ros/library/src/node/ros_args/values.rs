@@ -26,10 +26,10 @@ pub(super) fn check_param_name(name: &str, arg: &str) -> Result<()> {
 
 /// A `-p` value as rcl reads it: YAML, with rcl's words for booleans.
 pub(super) fn parse_value(text: &str, arg: &str) -> Result<ParameterValue> {
-    let v: serde_yaml::Value =
-        serde_yaml::from_str(text).map_err(|e| bad(arg, format!("the value is not YAML: {e}")))?;
+    let v: yaml_serde::Value =
+        yaml_serde::from_str(text).map_err(|e| bad(arg, format!("the value is not YAML: {e}")))?;
     // an unquoted yes/on/y... is a boolean for rcl (YAML 1.1), a string for YAML 1.2
-    if let serde_yaml::Value::String(s) = &v {
+    if let yaml_serde::Value::String(s) = &v {
         if !text.trim_start().starts_with(['"', '\'']) {
             if let Some(b) = rcl_bool(s) {
                 return Ok(ParameterValue::Boolean(b));
@@ -51,8 +51,8 @@ fn rcl_bool(s: &str) -> Option<bool> {
     }
 }
 
-fn to_value(v: &serde_yaml::Value) -> std::result::Result<ParameterValue, String> {
-    use serde_yaml::Value as Y;
+fn to_value(v: &yaml_serde::Value) -> std::result::Result<ParameterValue, String> {
+    use yaml_serde::Value as Y;
     let scalar = |v: &Y| -> std::result::Result<ParameterValue, String> {
         Ok(match v {
             Y::Bool(b) => ParameterValue::Boolean(*b),
@@ -124,9 +124,9 @@ fn to_value(v: &serde_yaml::Value) -> std::result::Result<ParameterValue, String
 pub(super) fn read_params_file(path: &str) -> Result<FileEntries> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| bad(path, format!("--params-file cannot be read: {e}")))?;
-    let doc: serde_yaml::Value = serde_yaml::from_str(&text)
+    let doc: yaml_serde::Value = yaml_serde::from_str(&text)
         .map_err(|e| bad(path, format!("the parameters file is not YAML: {e}")))?;
-    let serde_yaml::Value::Mapping(nodes) = doc else {
+    let yaml_serde::Value::Mapping(nodes) = doc else {
         return Err(bad(
             path,
             "a parameters file maps node names to `ros__parameters:` (e.g. `/**:\\n  ros__parameters:\\n    period: 0.5`)",
@@ -150,16 +150,16 @@ pub(super) fn read_params_file(path: &str) -> Result<FileEntries> {
 }
 
 fn flatten(
-    v: &serde_yaml::Value,
+    v: &yaml_serde::Value,
     prefix: &str,
     out: &mut Vec<(String, ParameterValue)>,
 ) -> std::result::Result<(), String> {
     match v {
-        serde_yaml::Value::Mapping(m) => {
+        yaml_serde::Value::Mapping(m) => {
             for (k, v) in m {
                 let k = match k {
-                    serde_yaml::Value::String(s) => s.clone(),
-                    other => serde_yaml::to_string(other)
+                    yaml_serde::Value::String(s) => s.clone(),
+                    other => yaml_serde::to_string(other)
                         .unwrap_or_default()
                         .trim()
                         .to_owned(),
