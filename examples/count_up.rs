@@ -19,7 +19,7 @@
 //! fired and the run it began has ended), so it lets go of `end_event` too, which deactivates at 4 s. The
 //! timeline prints each signal at the time it was emitted, in that order.
 //!
-//! Run: `cargo run --example count_up` (`-- --duration 12` to change how long it runs). Ctrl-C (or SIGTERM)
+//! Run: `cargo run --bin count_up` (`-- --duration 12` to change how long it runs). Ctrl-C (or SIGTERM)
 //! stops it at any time as it stops every radar_ros program: CountUp's exit slot runs (it prints
 //! `count_up exit slot (exit_signal)`), `exited` is sent, and the program leaves the ROS graph.
 

@@ -4,7 +4,7 @@
 //! The behaviour is an ordinary response (`/fibonacci_response`, see `fibonacci.rs`); `serve_as_action` lets any
 //! action client drive it: a goal starts it, a cancel interrupts it, its `exited` payload is the result.
 //!
-//! Run: `cargo run --example fibonacci_action`, then, with a ROS 2 installation (or the rclpy venv of the
+//! Run: `cargo run --bin fibonacci_action`, then, with a ROS 2 installation (or the rclpy venv of the
 //! tests), in another shell:
 //!
 //! ```text

@@ -2,7 +2,7 @@
 //! the pose it is started with (here it says where it goes and takes a second), and its `exited` carries the
 //! pose it reached. Any ROS 2 tool starts it, as it would any subscriber of that type.
 //!
-//! Run: `cargo run --example go_to_pose`, then, with a ROS 2 installation, in another shell:
+//! Run: `cargo run --bin go_to_pose`, then, with a ROS 2 installation, in another shell:
 //!
 //! ```text
 //! ros2 topic pub --once /go_to/start geometry_msgs/msg/PoseStamped "{pose: {position: {x: 1.0}}}"

@@ -11,8 +11,8 @@
 //! bumper cancels it: `interrupted`, then `exited` with the part of the sequence the server computed. With a
 //! short one (`--order 3`) the goal finishes first and the bumper changes nothing.
 //!
-//! Run an action server first: `cargo run --example fibonacci_action` (or the rclpy server of the tests,
-//! `tests/python/actions.py server /fibonacci --period 0.5`), then `cargo run --example goal_until`.
+//! Run an action server first: `cargo run --bin fibonacci_action` (or the rclpy server of the tests,
+//! `tests/python/actions.py server /fibonacci --period 0.5`), then `cargo run --bin goal_until`.
 //! Options: `--order N` (default 10), `--bumper-after S` (default 3).
 
 use std::time::Duration;

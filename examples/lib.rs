@@ -265,14 +265,15 @@ pub mod test_support {
             .collect()
     }
 
-    /// The directory of the built example binaries, checking that `name` is there.
+    /// The directory of the built example programs (the binaries of this package, beside every other binary of
+    /// the target directory), checking that `name` is there.
     pub fn examples_dir(name: &str) -> PathBuf {
-        // target/<profile>/deps/<test>-<hash> -> target/<profile>/examples
+        // target/<profile>/deps/<test>-<hash> -> target/<profile>
         let exe = std::env::current_exe().expect("the test binary's path");
-        let dir = exe.parent().unwrap().parent().unwrap().join("examples");
+        let dir = exe.parent().unwrap().parent().unwrap().to_owned();
         assert!(
             dir.join(name).exists(),
-            "{} is missing: `cargo test` builds the examples of this package; or `cargo build --example {name}`",
+            "{} is missing: `cargo test` builds the programs of radar_ros_examples; or `cargo build --bin {name}`",
             dir.join(name).display()
         );
         dir

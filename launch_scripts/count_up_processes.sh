@@ -6,7 +6,7 @@
 #
 #   launch_scripts/count_up_processes.sh [--duration SECONDS]
 #
-# Uses the built example binary (cargo build --example count_up_nodes), or RADAR_EXAMPLES=<dir> to point at it.
+# Uses the built example binary (cargo build --bin count_up_nodes), or RADAR_EXAMPLES=<dir> to point at it.
 set -euo pipefail
 source "$(dirname "$0")/processes.sh"
 run_processes count_up_nodes statement "count_up start_event end_event" "$@"

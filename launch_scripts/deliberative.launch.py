@@ -1,6 +1,6 @@
 # ROS 2 launch file for Listings 2 and 3 (`ros2 launch launch_scripts/deliberative.launch.py`), for users who
 # have a ROS 2 installation. Each component is its own process; build first with
-# `cargo build --example deliberative`. Without ROS, use deliberative.sh beside this file.
+# `cargo build --bin deliberative`. Without ROS, use deliberative.sh beside this file.
 import os
 
 from launch import LaunchDescription
@@ -8,7 +8,7 @@ from launch.actions import ExecuteProcess
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BIN = os.environ.get(
-    'RADAR_EXAMPLES', os.path.join(HERE, '..', 'target', 'debug', 'examples')) + '/deliberative'
+    'RADAR_EXAMPLES', os.path.join(HERE, '..', 'target', 'debug')) + '/deliberative'
 
 
 def generate_launch_description():

@@ -4,7 +4,7 @@
 #
 #   launch_scripts/deliberative.sh [--loop-secs N] [--duration S]
 #
-# Uses the built example binary (cargo build --example deliberative), or RADAR_EXAMPLES=<dir> to point at it.
+# Uses the built example binary (cargo build --bin deliberative), or RADAR_EXAMPLES=<dir> to point at it.
 set -euo pipefail
 source "$(dirname "$0")/processes.sh"
 run_processes deliberative main "test_event test_event2 test_response" "$@"

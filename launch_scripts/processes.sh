@@ -1,7 +1,7 @@
 # Shared by the launch scripts (source it): run_processes EXAMPLE MAIN_ROLE "ROLE ..." [ARGS...]
 # Starts the example binary once per background role (output prefixed with [role]), then MAIN_ROLE in the
 # foreground with ARGS; when it ends (or on Ctrl-C) the others get SIGTERM and are waited for.
-# The binary comes from RADAR_EXAMPLES=<dir>, else target/debug/examples (built on demand).
+# The binary comes from RADAR_EXAMPLES=<dir>, else target/debug (built on demand).
 # ROS_ARGS (a word list, e.g. "--ros-args -r __ns:=/robot1") is appended to every command line, as ros2 launch
 # appends a node's; PREFIX goes before the role in the output prefix ([PREFIXrole]).
 run_processes() {
@@ -9,9 +9,9 @@ run_processes() {
   shift 3
   local here bin
   here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-  bin="${RADAR_EXAMPLES:-$here/target/debug/examples}/$example"
+  bin="${RADAR_EXAMPLES:-$here/target/debug}/$example"
   if [ ! -x "$bin" ]; then
-    (cd "$here" && cargo build --example "$example")
+    (cd "$here" && cargo build --bin "$example")
   fi
   pids=()
   cleanup() {

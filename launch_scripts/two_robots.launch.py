@@ -1,7 +1,7 @@
 # ROS 2 launch file: Listings 2 and 3 for two robots side by side (`ros2 launch launch_scripts/two_robots.launch.py`),
 # for users with a ROS 2 installation. Each robot's four processes run under its own namespace with settings
 # from robots.yaml, as a launch_ros Node(namespace=..., parameters=[...]) passes them; build first with
-# `cargo build --example deliberative`. Without ROS, two_robots.sh beside this file runs the same command lines.
+# `cargo build --bin deliberative`. Without ROS, two_robots.sh beside this file runs the same command lines.
 import os
 
 from launch import LaunchDescription
@@ -9,7 +9,7 @@ from launch.actions import ExecuteProcess
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BIN = os.environ.get(
-    'RADAR_EXAMPLES', os.path.join(HERE, '..', 'target', 'debug', 'examples')) + '/deliberative'
+    'RADAR_EXAMPLES', os.path.join(HERE, '..', 'target', 'debug')) + '/deliberative'
 PARAMS = os.path.join(HERE, 'robots.yaml')
 
 

@@ -6,7 +6,7 @@
 #
 #   launch_scripts/two_robots.sh [--loop-secs N] [--duration S]
 #
-# Uses the built example binary (cargo build --example deliberative), or RADAR_EXAMPLES=<dir> to point at it.
+# Uses the built example binary (cargo build --bin deliberative), or RADAR_EXAMPLES=<dir> to point at it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 source "$here/processes.sh"

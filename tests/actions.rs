@@ -646,7 +646,7 @@ async fn the_go_to_pose_example_is_started_by_a_one_shot_pose_stamped() {
     py.succeeds().await;
     exits(1).await;
     // the same payload through radar's command line
-    let radar = examples_dir("go_to_pose").parent().unwrap().join("radar");
+    let radar = examples_dir("go_to_pose").join("radar");
     let out = tokio::time::timeout(
         T,
         tokio::process::Command::new(&radar)

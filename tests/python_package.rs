@@ -17,15 +17,10 @@ fn repo() -> PathBuf {
 /// The built `count_up` example (the Python example's timeline is checked against it).
 fn count_up_example() -> PathBuf {
     let exe = std::env::current_exe().expect("the test binary's path");
-    let path = exe
-        .parent()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .join("examples/count_up");
+    let path = exe.parent().unwrap().parent().unwrap().join("count_up");
     assert!(
         path.exists(),
-        "{} is missing: `cargo test --workspace` builds it, or `cargo build --example count_up`",
+        "{} is missing: `cargo test --workspace` builds it, or `cargo build --bin count_up`",
         path.display()
     );
     path

@@ -24,7 +24,7 @@ if [ "${RADAR_ISOLATED:-}" != 1 ]; then
   if [ "$which" != secured ]; then cargo build -q -p radar_ros_tests --tests; fi
   if [ "$which" != plain ]; then
     CARGO_TARGET_DIR=target/security-feature cargo build -q -p radar_ros -p radar_tools -p radar_ros_examples \
-      --features radar_ros/security,radar_tools/security,radar_ros_examples/security --bins --examples
+      --features radar_ros/security,radar_tools/security,radar_ros_examples/security --bins
     CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros --features security --test secure --no-run
     CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros_examples --features security \
       --test count_up_secured --no-run

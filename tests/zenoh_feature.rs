@@ -157,11 +157,11 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "radar_ros_examples",
             "--features",
             "zenoh",
-            "--example",
+            "--bin",
             "deliberative",
-            "--example",
+            "--bin",
             "fibonacci_action",
-            "--example",
+            "--bin",
             "goal_until",
         ]),
         "building the deliberative and action examples with the zenoh feature",
@@ -280,7 +280,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         &Command::new(python())
             .arg(scripts.join("zenoh_python_package.py"))
             .arg("144")
-            .arg(zenoh_target.join("debug/examples/deliberative"))
+            .arg(zenoh_target.join("debug/deliberative"))
             .output()
             .expect("run tests/python/zenoh_python_package.py"),
         "tests/python/zenoh_python_package.py: the Python package over Zenoh",

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The paper's Listing 1 with the radar_ros Python package (the same engine, names, topics and printout as
-the Rust example `cargo run --example count_up`):
+the Rust example `cargo run --bin count_up`):
 
     response CountUp:            event StartEvent:      event EndEvent:
       i = 0                        sleep (2 s)            sleep (4 s)

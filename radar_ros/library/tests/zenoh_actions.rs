@@ -357,11 +357,10 @@ fn example(name: &str) -> std::path::PathBuf {
         .parent()
         .and_then(|deps| deps.parent())
         .unwrap()
-        .join("examples")
         .join(name);
     assert!(
         bin.exists(),
-        "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --example {name}` \
+        "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --bin {name}` \
          in this target directory (tests/zenoh_feature.rs does)",
         bin.display()
     );

@@ -35,10 +35,10 @@ fn deliberative() -> PathBuf {
         .parent()
         .and_then(|deps| deps.parent())
         .unwrap()
-        .join("examples/deliberative");
+        .join("deliberative");
     assert!(
         bin.exists(),
-        "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --example \
+        "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --bin \
          deliberative` in this target directory (tests/zenoh_feature.rs does)",
         bin.display()
     );
