@@ -19,7 +19,7 @@
 //!   security generate_policy`'s), a secured Fast DDS 2.9 peer (tests/fastdds/secure_peer.cpp, g++ against Debian's
 //!   libfastrtps-dev) starts a secured response and hears it exit, payloads are not readable in frames
 //!   captured on the wire, bad enclaves stop a program at start naming what is wrong), one test at a time;
-//! - `examples/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
+//! - `examples/tests/count_up_secured.rs`: the README's example secured with a keystore from the `radar security`
 //!   verbs and the permissions of what it declared in a plain run (`RADAR_GENERATE_POLICY`) follows Listing 1; Listings 2 and 3 as four secured processes follow Figure 3.
 //!
 //! Everything is built before anything runs over DDS (a build beside a timed run would load the machine).
@@ -137,7 +137,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     no_run.push("--no-run");
     check(
         &cargo(&no_run, &[]),
-        "building examples/count_up_secured.rs",
+        "building examples/tests/count_up_secured.rs",
     );
 
     // then run
@@ -214,7 +214,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     let cli = repo().join("target/security-feature/debug/radar");
     let out = check(
         &cargo(&timeline, &[("RADAR_CLI", &cli)]),
-        "examples/count_up_secured.rs",
+        "examples/tests/count_up_secured.rs",
     );
     ran_and_passed(
         &out,

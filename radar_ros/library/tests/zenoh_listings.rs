@@ -6,7 +6,7 @@
 //! (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`), told where the router is with `ZENOH_CONFIG_OVERRIDE` (a client of
 //! it, as rmw_zenoh's documentation has a program that cannot reach the others directly).
 //!
-//! The oracle is the paper's Figure 3, as `examples/deliberative_processes.rs` checks it over DDS: the
+//! The oracle is the paper's Figure 3, as `examples/tests/deliberative_processes.rs` checks it over DDS: the
 //! connections the program prints go (a) -> (b) -> (c) -> (b); TestEvent2's `once` fires 3 s after it was made;
 //! TestEvent starts TestResponse 5 s after the `whenever` was made, and the program hears `started` across the
 //! router. Twice: once as it is, once with the router killed (SIGKILL) and started anew right after (c), where
