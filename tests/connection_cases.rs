@@ -686,6 +686,48 @@ async fn until_opens_no_window_for_a_start_the_busy_response_dropped() {
     );
 }
 
+/// Rule C6 when R is busy with the statement's own run: `whenever E start R until U` starts R's run 1; E again
+/// while it goes on, and R drops that start (it ignores starts while running, R6) and says so; U then must
+/// still interrupt run 1, which the statement began (issue 70's session: issue 69's first fix took the dropped
+/// start for the end of the statement's run, and U interrupted nothing; the soak's pokes found it). 10 rounds.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_whenever_until_interrupts_its_run_after_a_later_start_was_dropped() {
+    let r = radar(135);
+    let resp = r
+        .spawn_response(
+            "/wd/r",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_secs(30)).await;
+                Ok(Empty::default())
+            }),
+        )
+        .unwrap();
+    let e = r.signal_publisher::<Empty>("/wd/e").unwrap();
+    let u = r.signal_publisher::<Empty>("/wd/u").unwrap();
+    let empty = "std_msgs/msg/Empty";
+    let _c = r
+        .whenever(Signal::new("/wd/e", empty))
+        .start(&resp)
+        .until(Signal::new("/wd/u", empty))
+        .await
+        .unwrap();
+    for round in 1..=10u64 {
+        e.publish(Empty::default()).unwrap();
+        eventually(T, "the statement's run", || resp.state().starts == round).await;
+        e.publish(Empty::default()).unwrap();
+        eventually(T, "the second start to be dropped", || {
+            resp.state().ignored_starts == round
+        })
+        .await;
+        u.publish(Empty::default()).unwrap();
+        eventually(T, "U to interrupt the statement's run", || {
+            resp.state().interrupts == round
+        })
+        .await;
+        eventually(T, "the run to end", || resp.state().exits == round).await;
+    }
+}
+
 /// Rule 5 for a target of this process: a response that stops takes its connection out of `Armed` naming
 /// it; a plain connection is then lost for good, a rearming one delivers to a response of the same name
 /// started later, and only what comes after.

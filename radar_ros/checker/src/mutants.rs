@@ -24,8 +24,16 @@ pub static MUTANTS: &[Mutant] = &[
         name: "window-one-delivery-too-long",
         what: "an `until` window stays open past the `exited` of the run it was opened for (C6)",
         file: "src/connection/window.rs",
-        from: "if self.outstanding.is_some_and(|n| m >= n) {",
-        to: "if self.outstanding.is_some_and(|n| m > n) {",
+        from: "self.pending.retain(|&n| n > m);",
+        to: "self.pending.retain(|&n| n >= m);",
+    },
+    Mutant {
+        name: "dropped-start-ends-the-run-going",
+        what: "a `whenever ... until` takes a later start its response dropped for the end of the earlier run \
+               the statement began, so U no longer interrupts that run (C6; issue 69's first fix did this)",
+        file: "src/connection/window.rs",
+        from: "self.pending.remove(&m);",
+        to: "self.pending.retain(|&n| n > m);",
     },
     Mutant {
         name: "once-spent-too-late",

@@ -160,6 +160,7 @@ pub fn all() -> Vec<Scenario> {
     v.push(filtered());
     v.push(unreadable());
     v.push(whenever_until_and_exit());
+    v.push(whenever_until_while_busy());
     v.push(interrupt_beside_start(vec![]));
     v.push(interrupt_beside_start(vec![Fault::Wait]));
     v.push(clock_ahead());
@@ -221,6 +222,32 @@ fn whenever_until_and_exit() -> Scenario {
         stmt(Kind::Whenever, triggered(e), start(r), Some(triggered(u))),
         stmt(Kind::Whenever, triggered(x), exit(r), None),
     ];
+    s
+}
+
+/// `whenever E start R until U`, R ignoring starts while busy: E fires twice (R runs the first start and drops
+/// the second, saying so on `dropped`) and U once, at any step; R and the events each in a process of their own.
+/// U must still reach the first run, which the statement began (C6; the soak found it shut out).
+fn whenever_until_while_busy() -> Scenario {
+    let mut s = Scenario {
+        name: "whenever-until-while-busy-ignore",
+        components: vec![
+            program(0),
+            event("/e", 2, 2),
+            event("/u", 2, 1),
+            resp_with("/r", 1, Policy::Ignore, vec![StartEnd::Returned], 0, true),
+        ],
+        statements: vec![],
+        faults: vec![],
+        skew: vec![],
+    };
+    let (e, u, r) = (s.comp("/e"), s.comp("/u"), s.comp("/r"));
+    s.statements = vec![stmt(
+        Kind::Whenever,
+        triggered(e),
+        start(r),
+        Some(triggered(u)),
+    )];
     s
 }
 

@@ -420,6 +420,82 @@ fn whenever_busy(policy: Policy) -> Tr {
     t
 }
 
+/// `whenever e start r until u` on a response that ignores starts while busy: e fires, r runs that start; e
+/// fires again, r drops the second start and says so; u fires while the first run goes on: the statement began
+/// that run, so u interrupts it (C6: a later start dropped does not end an earlier one's run); the scope ends.
+fn whenever_until_busy() -> Tr {
+    whenever_until_busy_where(true)
+}
+
+/// [`whenever_until_busy`], where the manager sends u's signal to r's interrupt if `sent`, or (doctored as the
+/// machine was after issue 69's first fix) takes the dropped second start for the end of the run going, and
+/// sends nothing: the first run then completes.
+fn whenever_until_busy_where(sent: bool) -> Tr {
+    let mut t = Tr::new(Policy::Ignore);
+    t.arm(1, Kind::Whenever, trig(E), start(), Some(trig(U)));
+    t.step(&[
+        reading(sig(R, SignalKind::Started), true),
+        reading(sig(R, SignalKind::Exited), true),
+        reading(sig(R, SignalKind::Dropped), true),
+    ]);
+    t.listened(E);
+    t.listened(U);
+    for n in 1..=2 {
+        let (s, st) = t.fire(E);
+        t.manager(
+            s,
+            &[Obs::Sent {
+                stmt: 1,
+                sig: s,
+                to: start(),
+                stamp: st,
+                by: by(1, n),
+            }],
+        );
+        if n == 1 {
+            let run = t.begins(1, by(1, 1));
+            t.read(SlotKind::Start, st, by(1, 1), &run);
+        } else {
+            let (d, dropped) = t.emit(sig(R, SignalKind::Dropped), by(1, 2));
+            t.read(SlotKind::Start, st, by(1, 2), &[dropped]);
+            t.last_response_sig = d;
+        }
+        let said = t.last_response_sig;
+        t.manager(said, &[]);
+    }
+    let (u1, ut) = t.fire(U);
+    if sent {
+        t.manager(
+            u1,
+            &[Obs::Sent {
+                stmt: 1,
+                sig: u1,
+                to: slot(R, SlotKind::Interrupt),
+                stamp: ut,
+                by: by(1, 0),
+            }],
+        );
+        let int = t.interrupted(1, by(1, 1));
+        t.read(SlotKind::Interrupt, ut, by(1, 0), &int);
+    } else {
+        t.manager(u1, &[]);
+        t.completes(1, by(1, 1));
+    }
+    let exited = t.last_response_sig;
+    t.manager(exited, &[]);
+    t.step(&[
+        Obs::ScopeEnded { stmt: 1 },
+        reading(trig(E), false),
+        reading(trig(U), false),
+        reading(sig(R, SignalKind::Started), false),
+        reading(sig(R, SignalKind::Exited), false),
+        reading(sig(R, SignalKind::Dropped), false),
+    ]);
+    t.unlistened(E);
+    t.unlistened(U);
+    t
+}
+
 /// `whenever e call`: e fires, the anonymous slot is called; the scope ends.
 fn whenever_call() -> Tr {
     let mut t = Tr::new(Policy::Ignore);
@@ -562,6 +638,7 @@ fn clean() -> Vec<(&'static str, Trace)> {
         ("once_until", once_until().t),
         ("whenever_busy ignore", whenever_busy(Policy::Ignore).t),
         ("whenever_busy queue_one", whenever_busy(Policy::QueueOne).t),
+        ("whenever_until_busy", whenever_until_busy().t),
         ("whenever_call", whenever_call().t),
         ("stopped", stopped().t),
         ("target_left", target_left().t),
@@ -943,6 +1020,12 @@ fn doctored() -> Vec<(&'static str, &'static str, Trace)> {
             until_over(&mut t);
             t.t
         },
+    );
+    add(
+        "until-reaches-its-run",
+        "a whenever ... until: U fires while the statement's first run goes on, after its second start was \
+         dropped, and nothing is sent to the interrupt",
+        whenever_until_busy_where(false).t,
     );
     // ---------------------------------------------------------------- events
     add(

@@ -851,6 +851,34 @@ mod tests {
         assert!(t.contains(id));
     }
 
+    /// C6: `whenever E start R until U` while R runs the statement's first start and drops the second (busy,
+    /// `ignore`): U still interrupts the first run, which the statement began; once that run has ended, U
+    /// interrupts nothing (the soak's pokes found U shut out by the dropped start, issue 69's fix).
+    #[test]
+    fn c6_a_dropped_later_start_does_not_end_the_window_of_the_run_going() {
+        let mut t = Table::with_statement_base(3);
+        let id = t.arm("E", "R.start", Kind::Whenever, Some(until_with(true)), 0);
+        assert_eq!(targets(t.on_signal(&"E", 1)), ["R.start"]);
+        t.on_signal_with(&"R.started", 2, Some(t.cause(id, 1)), |_| true);
+        assert_eq!(targets(t.on_signal(&"E", 3)), ["R.start"]);
+        t.on_signal_with(&"R.dropped", 4, Some(t.cause(id, 2)), |_| true);
+        assert_eq!(
+            targets(t.on_signal(&"U", 5)),
+            ["R.interrupt"],
+            "run 1 goes on: U reaches it"
+        );
+        t.on_signal_with(&"R.exited", 6, Some(t.cause(id, 1)), |_| true);
+        assert!(
+            t.on_signal(&"U", 7).is_empty(),
+            "no run of the statement goes on"
+        );
+        // a `started` read after its own `exited` opens nothing
+        assert_eq!(targets(t.on_signal(&"E", 8)), ["R.start"]);
+        t.on_signal_with(&"R.exited", 10, Some(t.cause(id, 3)), |_| true);
+        t.on_signal_with(&"R.started", 9, Some(t.cause(id, 3)), |_| true);
+        assert!(t.on_signal(&"U", 11).is_empty(), "run 3 is over");
+    }
+
     #[test]
     fn c3_c5_a_spent_once_until_ends_when_its_response_leaves() {
         for leaves in ["R.interrupt", "R.started", "R.exited"] {

@@ -1,6 +1,8 @@
 //! The `until` part of a connection: which signals make it, and the window in which U interrupts R (C3, C6,
 //! C7).
 
+use std::collections::BTreeSet;
+
 use crate::time::HOLD;
 
 /// The `until U` part of a statement that starts response R.
@@ -22,11 +24,13 @@ pub struct Until<S, T> {
 }
 
 /// The window of C3, for one `until`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct UntilWindow {
     causes: bool,
-    /// C6: the latest start delivery whose run may be going.
-    outstanding: Option<u64>,
+    /// C6: the start deliveries whose run may be going or still come: each from its delivery until R's
+    /// `exited` carries it or a later one (R takes starts one after another), or R's `dropped` carries it. A later
+    /// start R drops does not end an earlier one's run (a `whenever ... until` while R is busy with it).
+    pending: BTreeSet<u64>,
     /// C7: the emission time of the newest signal of U that was not sent.
     kept: Option<i64>,
     // C7, for responses without causes:
@@ -48,7 +52,7 @@ pub struct UntilWindow {
 pub(super) enum WindowSignal {
     /// This statement delivered start number `n`, whose source was emitted at `at`.
     StartDelivered { n: u64, at: i64 },
-    /// R emitted `started` at `at`, carrying `from`.
+    /// R emitted `started` at `at`.
     Started { at: i64 },
     /// R emitted `exited` at `at`, carrying `from` (the delivery of this statement whose run it ends).
     Exited { at: i64, ours: Option<u64> },
@@ -82,22 +86,25 @@ impl UntilWindow {
     fn apply_by_cause(&mut self, s: WindowSignal) -> Option<i64> {
         match s {
             WindowSignal::StartDelivered { n, at } => {
-                self.outstanding = Some(n);
+                self.pending.insert(n);
                 self.kept.take().filter(|&u| u > at && u - at <= HOLD)
             }
-            // the run of our latest start has ended, or will never be: nothing to interrupt
-            WindowSignal::Exited { ours: Some(m), .. }
-            | WindowSignal::Dropped { ours: Some(m) } => {
-                if self.outstanding.is_some_and(|n| m >= n) {
-                    self.outstanding = None;
-                }
+            // the run of our start m has ended, and so have the runs of our earlier starts (R takes starts in
+            // order): nothing of them to interrupt
+            WindowSignal::Exited { ours: Some(m), .. } => {
+                self.pending.retain(|&n| n > m);
+                None
+            }
+            // R did not take our start m: no run of it will be; the run of an earlier start goes on
+            WindowSignal::Dropped { ours: Some(m) } => {
+                self.pending.remove(&m);
                 None
             }
             WindowSignal::Exited { .. }
             | WindowSignal::Dropped { .. }
             | WindowSignal::Started { .. } => None,
             WindowSignal::U { at } => {
-                if self.outstanding.is_some() {
+                if self.is_open() {
                     Some(at)
                 } else {
                     self.kept = Some(self.kept.map_or(at, |k| k.max(at)));
@@ -184,7 +191,7 @@ impl UntilWindow {
     /// R left the graph: its run (if any) ended without an `exited`, and a new R of that name did not take
     /// this connection's start.
     pub(super) fn response_lost(&mut self) -> bool {
-        let was = self.is_open() || self.awaiting || self.running || self.outstanding.is_some();
+        let was = self.is_open() || self.awaiting || self.running;
         *self = UntilWindow::new(self.causes);
         was
     }
@@ -199,7 +206,7 @@ impl UntilWindow {
     /// Whether U's signals reach R's `interrupt` now (C6: while a run of this statement may be going).
     pub fn is_open(&self) -> bool {
         if self.causes {
-            self.outstanding.is_some()
+            !self.pending.is_empty()
         } else {
             self.open_since.is_some()
         }

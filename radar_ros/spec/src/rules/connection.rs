@@ -586,8 +586,10 @@ fn nothing_to_the_lost(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView) {
     }
 }
 
-/// Record `j` is the manager's read of R's `exited` or `dropped` carrying statement `k`'s delivery `n` or a
-/// later one, from an instance of R the statement was made with (`made_with`): no run of it goes on.
+/// Record `j` is the manager's read of a signal of R, from an instance of R the statement was made with
+/// (`made_with`), that says no run of statement `k`'s delivery `n` goes on: R's `exited` carrying `n` or a later
+/// delivery of `k` (R takes starts one after another: the run of a later one began after `n`'s ended or was
+/// dropped), or R's `dropped` carrying `n` itself (a later start dropped says nothing of `n`'s run).
 fn closes(f: &Found<'_, '_>, j: usize, r: Comp, made_with: &[u32], k: Stmt, n: u64) -> bool {
     let Obs::ManagerRead { sig, .. } = f.view.obs(j) else {
         return false;
@@ -595,8 +597,14 @@ fn closes(f: &Found<'_, '_>, j: usize, r: Comp, made_with: &[u32], k: Stmt, n: u
     f.view.emission(sig).is_some_and(|e| {
         e.signal.comp == r
             && made_with.contains(&e.inst)
-            && matches!(e.signal.kind, SignalKind::Exited | SignalKind::Dropped)
-            && e.cause.is_some_and(|c| c.stmt == k && c.delivery >= n)
+            && e.cause.is_some_and(|c| {
+                c.stmt == k
+                    && match e.signal.kind {
+                        SignalKind::Exited => c.delivery >= n,
+                        SignalKind::Dropped => c.delivery == n,
+                        _ => false,
+                    }
+            })
     })
 }
 
@@ -611,12 +619,15 @@ fn until_reaches_its_run(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &
     let v = f.view;
     let lost = |j: usize| matches!(v.obs(j), Obs::LossSeen { comp, .. } if comp == r);
     let made_with = v.alive_at(r, st.armed);
-    // whether a run of the statement's latest start may be going at record `j`, as the manager can know it
+    // whether a run of one of the statement's starts may be going at record `j`, as the manager can know it
     let open_at = |j: usize| -> bool {
-        let Some((n, &d)) = sends.iter().enumerate().rev().find(|(_, &d)| d < j) else {
-            return false;
-        };
-        !(d + 1..j).any(|i| closes(f, i, r, &made_with, k, n as u64 + 1) || lost(i))
+        sends
+            .iter()
+            .enumerate()
+            .filter(|(_, &d)| d < j)
+            .any(|(n, &d)| {
+                !(d + 1..j).any(|i| closes(f, i, r, &made_with, k, n as u64 + 1) || lost(i))
+            })
     };
     let end = st.over().unwrap_or(v.len());
     let u_reads: Vec<(usize, SigId, Time)> = (st.armed + 1..end)

@@ -135,9 +135,11 @@ rules! {
         "A start a statement delivers carries the statement and the delivery's number (from 1); an `until`'s \
          interrupt names the statement (delivery 0) and carries the stamp of U's signal.";
     C6_UNTIL_REACHES_ITS_RUN = "C6" "until-reaches-its-run" Safety
-        "A signal of U read while a run of the statement's start may be going (from its latest start delivery \
-         until R's `exited` or `dropped` carrying it) is sent to R's `interrupt`; the newest one read while none may be going \
-         is sent right after the next start, if that start's source was emitted before it, within HOLD (C7).";
+        "A signal of U read while a run of one of the statement's starts may be going (from a start delivery until \
+         R's `exited` carrying it or a later delivery of the statement, or R's `dropped` carrying it: a later start \
+         R drops does not end the run of an earlier one) is sent to R's `interrupt`; the newest one read while none \
+         may be going is sent right after the next start, if that start's source was emitted before it, within \
+         HOLD (C7).";
     E1_CHECKS_ONLY_WHILE_LISTENED = "E1" "checks-only-while-listened" Safety wire
         "An event checks its condition only while it knows of a listener to its `triggered`, stops as soon as it \
          knows of none, and emits `triggered` only while checking.";
