@@ -344,9 +344,8 @@ fn until_over(t: &mut Tr) {
     t.unlistened(U);
 }
 
-/// `once e start r until u`: u fires while r runs and interrupts it; when r has exited the statement ends.
-fn once_until() -> Tr {
-    let (mut t, u1, ut) = once_until_fired();
+/// The manager sends u's signal `u1` (stamp `ut`) to r's interrupt for statement 1, and r's run 1 is interrupted.
+fn u_interrupts_run_1(t: &mut Tr, u1: SigId, ut: Time) {
     t.manager(
         u1,
         &[Obs::Sent {
@@ -359,6 +358,12 @@ fn once_until() -> Tr {
     );
     let int = t.interrupted(1, by(1, 1));
     t.read(SlotKind::Interrupt, ut, by(1, 0), &int);
+}
+
+/// `once e start r until u`: u fires while r runs and interrupts it; when r has exited the statement ends.
+fn once_until() -> Tr {
+    let (mut t, u1, ut) = once_until_fired();
+    u_interrupts_run_1(&mut t, u1, ut);
     until_over(&mut t);
     t
 }
@@ -465,18 +470,7 @@ fn whenever_until_busy_where(sent: bool) -> Tr {
     }
     let (u1, ut) = t.fire(U);
     if sent {
-        t.manager(
-            u1,
-            &[Obs::Sent {
-                stmt: 1,
-                sig: u1,
-                to: slot(R, SlotKind::Interrupt),
-                stamp: ut,
-                by: by(1, 0),
-            }],
-        );
-        let int = t.interrupted(1, by(1, 1));
-        t.read(SlotKind::Interrupt, ut, by(1, 0), &int);
+        u_interrupts_run_1(&mut t, u1, ut);
     } else {
         t.manager(u1, &[]);
         t.completes(1, by(1, 1));
