@@ -137,5 +137,19 @@ print("python_env: rclpy ok, rmw", get_rmw_implementation_identifier(),
       "; radar_msgs:", radar_msgs.msg.ResponseState.__name__, radar_msgs.srv.Connect.__name__)
 EOF
 
+# A second distro: ROS 2 Kilted's rclpy on Fast DDS 3 (the ros-kilted-* wheels), in a venv of its own inside this
+# one, for tests/kilted.rs
+KILTED="$VENV/kilted"
+"$PY" -m venv "$KILTED"
+"$KILTED/bin/pip" install --disable-pip-version-check -q \
+    ros-kilted-rclpy==9.1.2 \
+    ros-kilted-std-msgs==5.5.1 \
+    ros-kilted-rmw-fastrtps-cpp==9.3.3 >&2
+"$KILTED/bin/python" - >&2 <<'EOF2'
+import rclpy, std_msgs.msg
+from rclpy.utilities import get_rmw_implementation_identifier
+print("python_env: Kilted rclpy ok, rmw", get_rmw_implementation_identifier())
+EOF2
+
 touch "$STAMP"
 echo "$VENV"

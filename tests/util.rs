@@ -5,7 +5,11 @@
 //! parallel. The suite runs inside `tests/isolated.sh` (a private network namespace), so DDS multicast never
 //! leaves the machine; [`radar`] refuses to run outside it.
 
-use std::{path::PathBuf, process::Stdio, time::Duration};
+use std::{
+    path::{Path, PathBuf},
+    process::Stdio,
+    time::Duration,
+};
 
 use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
@@ -778,6 +782,22 @@ pub fn python() -> PathBuf {
     py
 }
 
+/// The interpreter of ROS 2 Kilted's rclpy venv (inside the Jazzy one; `python_env.sh` builds both).
+pub fn kilted_python() -> PathBuf {
+    let py = python()
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("kilted/bin/python");
+    assert!(
+        py.exists(),
+        "the Kilted rclpy venv is missing at {}: run tests/python_env.sh",
+        py.display()
+    );
+    py
+}
+
 /// A Python process (the rclpy venv's interpreter, Fast DDS) whose stdout is JSON lines (or plain lines from the
 /// examples), killed when dropped.
 pub struct Py {
@@ -795,7 +815,18 @@ impl Py {
 
     /// [`Py::start`] with more environment variables.
     pub fn start_with_env(domain: u16, script: &str, args: &[&str], env: &[(&str, &str)]) -> Py {
-        let mut child = tokio::process::Command::new(python())
+        Py::start_in(&python(), domain, script, args, env)
+    }
+
+    /// [`Py::start_with_env`] with another interpreter (another distro's venv: [`kilted_python`]).
+    pub fn start_in(
+        interpreter: &Path,
+        domain: u16,
+        script: &str,
+        args: &[&str],
+        env: &[(&str, &str)],
+    ) -> Py {
+        let mut child = tokio::process::Command::new(interpreter)
             .envs(env.iter().copied())
             .arg(repo().join(script))
             .args(args)

@@ -1,0 +1,83 @@
+//! Issue 70: a second distro. ROS 2 Kilted's rclpy on Fast DDS 3 (the `ros-kilted-*` wheels, in the venv
+//! `python_env.sh` builds beside Jazzy's) talks to radar_ros as Jazzy's does: a Kilted node starts and
+//! interrupts a RADAR response and reads its signals in order, and a Kilted rclpy event (found by name) drives a
+//! Rust response through a `whenever`, checking only while it is listened to. Part of the `interop` binary;
+//! domains 137, 138.
+
+use std::{sync::atomic::Ordering, time::Duration};
+
+use radar_ros::{msg::Empty, FnResponse};
+use radar_test_util::{counter, eventually, kilted_python, radar, Py};
+
+const T: Duration = Duration::from_secs(20);
+
+/// `ros2 topic pub`'s start and interrupt from a Kilted node: the response runs, is interrupted and exits, and
+/// the Kilted node reads `started`, `interrupted`, `exited` in that order.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_kilted_rclpy_node_starts_and_interrupts_a_response() {
+    // the peer is Kilted's rclpy on Fast DDS 3, not Jazzy's
+    let v = std::process::Command::new(kilted_python())
+        .args([
+            "-c",
+            "import importlib.metadata as m; print(m.version('ros-kilted-rclpy'), m.version('ros-fastdds'))",
+        ])
+        .output()
+        .expect("the Kilted venv's python");
+    let versions = String::from_utf8_lossy(&v.stdout);
+    assert!(
+        versions.starts_with("9.") && versions.contains(" 3."),
+        "{versions}"
+    );
+    let r = radar(137);
+    let resp = r
+        .spawn_response(
+            "/kilted/slow",
+            FnResponse::new(|_: Empty| async {
+                tokio::time::sleep(Duration::from_secs(30)).await;
+                Ok(Empty::default())
+            }),
+        )
+        .unwrap();
+    let mut py = Py::start_in(
+        &kilted_python(),
+        137,
+        "tests/python/interop.py",
+        &["inject", "/kilted/slow"],
+        &[],
+    );
+    let order = py.json_with("order").await;
+    py.succeeds().await;
+    assert_eq!(
+        order["order"],
+        serde_json::json!(["started", "interrupted", "exited"])
+    );
+    let s = resp.state();
+    assert_eq!((s.starts, s.interrupts, s.exits), (1, 1, 1));
+}
+
+/// A Kilted rclpy event (`examples/python/radar_event.py`) found by name drives a Rust response; when the
+/// connection is gone, the event sees no listener and stops checking (E1).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_kilted_rclpy_event_drives_a_rust_response() {
+    let r = radar(138);
+    let (resp, runs) = counter(&r, "/kilted/count");
+    let mut ev = Py::start_in(
+        &kilted_python(),
+        138,
+        "examples/python/radar_event.py",
+        &["/kilted/bumper", "--period", "0.05"],
+        &[],
+    );
+    ev.expect_line("up").await;
+    let found = r.event("/kilted/bumper").await.unwrap();
+    assert_eq!(found.triggered().ros_type(), "std_msgs/msg/Empty");
+    {
+        let _c = r.whenever(found.triggered()).start(&resp).await.unwrap();
+        ev.expect_line("active").await;
+        eventually(T, "runs started by the Kilted event", || {
+            runs.load(Ordering::SeqCst) >= 3
+        })
+        .await;
+    }
+    ev.expect_line("inactive").await;
+}
