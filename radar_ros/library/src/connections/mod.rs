@@ -2,6 +2,7 @@
 //! what the semantics' table decides (relays, outlets, anonymous slots), the manager as a ROS node and other
 //! programs' managers, in-process delivery, and causes and departures on the wire.
 
+pub(crate) mod diagnostics;
 pub(crate) mod manager;
 pub(crate) mod program;
 pub(crate) mod remote;

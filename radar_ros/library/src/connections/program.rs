@@ -6,6 +6,8 @@
 //! | `<node>/connections` (topic, transient-local) | `radar_msgs/msg/ConnectionList`, republished on change (at most every 100 ms) |
 //! | `<node>/list` (service) | `radar_msgs/srv/List` |
 //!
+//! | `/diagnostics` (topic) | `diagnostic_msgs/msg/DiagnosticArray`: its connections' health and the messages this process dropped as malformed, on change and every second ([`diagnostics`](super::diagnostics)) |
+//!
 //! The node is named after the program: the executable's name and the process id (`count_up` -> node
 //! `/count_up_4242`: several processes of one executable, as a launch of components often is, stay apart), or
 //! exactly what [`RadarBuilder::program`](crate::RadarBuilder::program) says; a second program of that
@@ -20,15 +22,16 @@ use std::{
 };
 
 use crate::{
+    connections::diagnostics::{self, Shown},
     connections::manager::Manager,
     error::Result,
-    node::endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
+    node::endpoints::{malformed, reply, typed_publisher, Throttle},
     node::participant::Participant,
     node::services::service_server,
     node::shutdown::ComponentTask,
     wire::msg::{ConnectionList, ListRequest, ListResponse},
     wire::names::ComponentName,
-    wire::qos::state_qos,
+    wire::qos::{signal_qos, state_qos},
 };
 use futures::StreamExt;
 
@@ -78,15 +81,26 @@ pub(crate) fn serve_program(
 ) -> Result<ComponentTask> {
     let fq = name.fully_qualified();
     let graph = participant.graph().clone();
-    let (list_srv, list_pub) = participant.with_client_node(|node| {
+    let (list_srv, shown) = participant.with_client_node(|node| {
         let srv = service_server::<ListRequest, ListResponse>(node, &fq, "list", "List")?;
-        let publisher = typed_publisher::<ConnectionList>(
+        let list = typed_publisher::<ConnectionList>(
             &graph,
             node,
             &name.topic("connections"),
             &state_qos(),
         )?;
-        Ok((Arc::new(srv), publisher))
+        let health = typed_publisher(&graph, node, diagnostics::TOPIC, &signal_qos())?;
+        let malformed = Some(graph.clone());
+        let node = fq.clone();
+        Ok((
+            Arc::new(srv),
+            Shown {
+                node,
+                list,
+                health,
+                malformed,
+            },
+        ))
     })?;
     let weak: Weak<Manager> = Arc::downgrade(manager);
     let (mut changes, mut counts) = (manager.changes(), manager.count_changes());
@@ -95,9 +109,11 @@ pub(crate) fn serve_program(
         participant.components(),
         &name.fully_qualified(),
         move |mut stop| async move {
-            let publish = |list| publish_connections(&list_pub, &fq, list);
+            let publish = |list| shown.publish(list);
             publish(first);
             let mut throttle = Throttle::new(Duration::from_millis(100));
+            // health once a second as well, as diagnostic_updater does (a monitor marks a silent node stale)
+            let mut beat = tokio::time::interval(Duration::from_secs(1));
             let mut lists = Box::pin(list_srv.receive_request_stream());
             loop {
                 let Some(manager) = weak.upgrade() else { break };
@@ -122,6 +138,7 @@ pub(crate) fn serve_program(
                         publish(made_here(manager.listing()));
                         throttle.published();
                     }
+                    _ = beat.tick() => publish(made_here(manager.listing())),
                 }
             }
         },

@@ -25,7 +25,7 @@
 //! service) keeps the lease as its only bound.
 //! Errors come back as `ok = false` with a message saying what to do.
 
-use crate::node::transport::{EndpointId, Publisher, RosNode, Server};
+use crate::node::transport::{EndpointId, RosNode, Server};
 use std::{
     collections::{HashMap, HashSet},
     sync::Arc,
@@ -35,9 +35,11 @@ use std::{
 use futures::StreamExt;
 
 use crate::{
+    connections::diagnostics::{self, Shown},
     connections::manager::ConnectionGuard,
     error::{Error, Result},
-    node::endpoints::{malformed, publish_connections, reply, typed_publisher, Throttle},
+    interfaces::diagnostic_msgs::msg::DiagnosticArray,
+    node::endpoints::{malformed, reply, typed_publisher, Throttle},
     node::services::service_server,
     node::shutdown::ComponentTask,
     radar::Radar,
@@ -47,7 +49,7 @@ use crate::{
         DisconnectRequest, DisconnectResponse, ListRequest, ListResponse,
     },
     wire::names::ComponentName,
-    wire::qos::state_qos,
+    wire::qos::{signal_qos, state_qos},
     wire::refs::{Signal, Slot},
 };
 
@@ -156,12 +158,22 @@ impl Radar {
         let mut claimed = self.participant().claim_node(&name)?;
         let fq = name.fully_qualified();
         let services = Services::create(&mut claimed.node, &fq)?;
-        let list_pub = typed_publisher::<ConnectionList>(
-            self.graph(),
-            &mut claimed.node,
-            &name.topic("connections"),
-            &state_qos(),
-        )?;
+        let shown = Shown {
+            node: fq.clone(),
+            list: typed_publisher::<ConnectionList>(
+                self.graph(),
+                &mut claimed.node,
+                &name.topic("connections"),
+                &state_qos(),
+            )?,
+            health: typed_publisher::<DiagnosticArray>(
+                self.graph(),
+                &mut claimed.node,
+                diagnostics::TOPIC,
+                &signal_qos(),
+            )?,
+            malformed: None,
+        };
         let served = self.participant().served_managers().mark(fq.clone());
         let owners = self.signal_subscription::<crate::wire::msg::Empty>(&name.topic("owners"))?;
         let serving = Serving {
@@ -175,7 +187,7 @@ impl Radar {
         let task = self
             .participant()
             .spawn_component(claimed, served, move |stop| async move {
-                serving.run(services, list_pub, lost, owners, stop).await;
+                serving.run(services, shown, lost, owners, stop).await;
             });
         tracing::info!(manager = %name, "connection manager serving");
         Ok(ManagerHandle { name, task })
@@ -254,7 +266,7 @@ impl Serving {
     async fn run(
         mut self,
         services: Services,
-        list_pub: crate::node::endpoints::Watched<Publisher<ConnectionList>>,
+        shown: Shown,
         mut lost: tokio::sync::broadcast::Receiver<EndpointId>,
         owners: crate::node::topics::SignalSubscription<crate::wire::msg::Empty>,
         mut stop: tokio::sync::oneshot::Receiver<()>,
@@ -266,7 +278,11 @@ impl Serving {
             self.radar.manager().count_changes(),
         );
         let (graph, fq) = (self.radar.graph().clone(), self.fq.clone());
-        let publish = |list| publish_connections(&list_pub, &fq, list);
+        // the list and its health (once a second too, as diagnostic_updater publishes)
+        let (publish, mut beat) = (
+            |l| shown.publish(l),
+            tokio::time::interval(Duration::from_secs(1)),
+        );
         publish(self.made_through());
         // the list changes with every delivered signal (counts): publish at most every 100 ms, and the last
         // change always
@@ -319,6 +335,7 @@ impl Serving {
                     publish(self.made_through());
                     throttle.published();
                 }
+                _ = beat.tick() => publish(self.made_through()),
             }
         }
         reader.abort();
