@@ -17,6 +17,7 @@ use radar_ros::{
 use radar_test_util::{counter, eventually, radar, Py};
 
 mod cyclone;
+mod diagnostics;
 mod kilted;
 
 const T: Duration = Duration::from_secs(20);
