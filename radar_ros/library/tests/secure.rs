@@ -722,7 +722,7 @@ const DOCK_POLICY: &str = r#"<policy version="0.2.0">
     <enclave path="/robot">
       <profiles>
         <profile ns="/" node="robot">  <!-- the program (Radar::builder().program("robot")) -->
-          <topics publish="ALLOW"><topic>~/connections</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
+          <topics publish="ALLOW"><topic>~/connections</topic><topic>/diagnostics</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
           <services reply="ALLOW"><service>~/*</service></services>
         </profile>
         <profile ns="/" node="dock">   <!-- the response: reads its slots, writes its signals -->
@@ -738,7 +738,7 @@ const DOCK_POLICY: &str = r#"<policy version="0.2.0">
         <profile ns="/" node="planner"> <!-- may start and interrupt the dock, and hear it -->
           <topics publish="ALLOW"><topic>/dock/start</topic><topic>/dock/interrupt</topic></topics>
           <topics subscribe="ALLOW"><topic>/dock/*</topic></topics>
-          <topics publish="ALLOW"><topic>~/connections</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
+          <topics publish="ALLOW"><topic>~/connections</topic><topic>/diagnostics</topic><topic>/rosout</topic><topic>/parameter_events</topic></topics>
           <services reply="ALLOW"><service>~/*</service></services>
         </profile>
       </profiles>
@@ -754,11 +754,14 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
     only_the_planner_starts_the_dock("policy", DOCK_POLICY).await;
 }
 
-/// An enclave whose permissions were written before responses had `~/dropped` (docs/security.md's policy
-/// without it) still runs the response, and the planner still starts it and hears it exit.
+/// An enclave whose permissions were written before responses had `~/dropped` and programs published
+/// `/diagnostics` (docs/security.md's policy without them) still runs the response and the programs, and the
+/// planner still starts it and hears it exit.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_policy_from_before_dropped_still_runs_the_response() {
-    let before = DOCK_POLICY.replace("<topic>~/dropped</topic>", "");
+    let before = DOCK_POLICY
+        .replace("<topic>~/dropped</topic>", "")
+        .replace("<topic>/diagnostics</topic>", "");
     assert_ne!(before, DOCK_POLICY);
     only_the_planner_starts_the_dock("policy-before-dropped", &before).await;
 }

@@ -32,8 +32,8 @@ pub(crate) struct Shown {
     pub node: String,
     /// `<node>/connections`.
     pub list: Watched<Publisher<ConnectionList>>,
-    /// `/diagnostics`.
-    pub health: Watched<Publisher<DiagnosticArray>>,
+    /// `/diagnostics` (none where the enclave's permissions do not grant it: [`health_publisher`]).
+    pub health: Option<Watched<Publisher<DiagnosticArray>>>,
     /// The process's malformed messages, reported by this node (its program node's), or none.
     pub malformed: Option<crate::graph::Graph>,
 }
@@ -41,12 +41,14 @@ pub(crate) struct Shown {
 impl Shown {
     /// Publishes `connections` as the list and as health.
     pub(crate) fn publish(&self, connections: Vec<Connection>) {
-        let malformed = self.malformed.as_ref().map(|g| g.malformed().counts());
-        emit(
-            &self.health,
-            TOPIC,
-            array(&self.node, &connections, malformed.as_deref()),
-        );
+        if let Some(health) = &self.health {
+            let malformed = self.malformed.as_ref().map(|g| g.malformed().counts());
+            emit(
+                health,
+                TOPIC,
+                array(&self.node, &connections, malformed.as_deref()),
+            );
+        }
         publish_connections(&self.list, &self.node, connections);
     }
 }
@@ -55,6 +57,29 @@ fn kv(key: &str, value: impl ToString) -> KeyValue {
     KeyValue {
         key: key.to_owned(),
         value: value.to_string(),
+    }
+}
+
+/// The `/diagnostics` publisher of node `node` (on `ros_node`), or none where a DDS Security enclave's permissions
+/// do not grant it (a policy written before `/diagnostics` was published): the node runs without it and warns
+/// once, saying what to grant.
+pub(crate) fn health_publisher(
+    graph: &crate::graph::Graph,
+    ros_node: &mut crate::node::transport::RosNode,
+    node: &str,
+) -> crate::error::Result<Option<Watched<Publisher<DiagnosticArray>>>> {
+    let qos = crate::wire::qos::signal_qos();
+    match crate::node::endpoints::typed_publisher(graph, ros_node, TOPIC, &qos) {
+        Ok(p) => Ok(Some(p)),
+        Err(e) if e.not_allowed_by_security() => {
+            tracing::warn!(
+                node,
+                "{TOPIC} is not granted by this enclave's permissions: {node} publishes no health there; grant \
+                 publishing {TOPIC} in the enclave's policy (docs/security.md)"
+            );
+            Ok(None)
+        }
+        Err(e) => Err(e),
     }
 }
 

@@ -31,7 +31,7 @@ use crate::{
     node::shutdown::ComponentTask,
     wire::msg::{ConnectionList, ListRequest, ListResponse},
     wire::names::ComponentName,
-    wire::qos::{signal_qos, state_qos},
+    wire::qos::state_qos,
 };
 use futures::StreamExt;
 
@@ -89,7 +89,7 @@ pub(crate) fn serve_program(
             &name.topic("connections"),
             &state_qos(),
         )?;
-        let health = typed_publisher(&graph, node, diagnostics::TOPIC, &signal_qos())?;
+        let health = diagnostics::health_publisher(&graph, node, &fq)?;
         let malformed = Some(graph.clone());
         let node = fq.clone();
         Ok((

@@ -38,7 +38,6 @@ use crate::{
     connections::diagnostics::{self, Shown},
     connections::manager::ConnectionGuard,
     error::{Error, Result},
-    interfaces::diagnostic_msgs::msg::DiagnosticArray,
     node::endpoints::{malformed, reply, typed_publisher, Throttle},
     node::services::service_server,
     node::shutdown::ComponentTask,
@@ -49,7 +48,7 @@ use crate::{
         DisconnectRequest, DisconnectResponse, ListRequest, ListResponse,
     },
     wire::names::ComponentName,
-    wire::qos::{signal_qos, state_qos},
+    wire::qos::state_qos,
     wire::refs::{Signal, Slot},
 };
 
@@ -166,12 +165,7 @@ impl Radar {
                 &name.topic("connections"),
                 &state_qos(),
             )?,
-            health: typed_publisher::<DiagnosticArray>(
-                self.graph(),
-                &mut claimed.node,
-                diagnostics::TOPIC,
-                &signal_qos(),
-            )?,
+            health: diagnostics::health_publisher(self.graph(), &mut claimed.node, &fq)?,
             malformed: None,
         };
         let served = self.participant().served_managers().mark(fq.clone());
