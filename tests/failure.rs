@@ -540,21 +540,9 @@ async fn a_target_respawned_within_its_lease_is_seen_replaced() {
     respawned.wait().await;
 }
 
-/// The `count_up` example built beside the tests.
+/// The `count_up` program built beside the tests.
 fn count_up_example() -> std::path::PathBuf {
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let path = exe
-        .parent()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .join("examples/count_up");
-    assert!(
-        path.exists(),
-        "{} is missing: `cargo test --workspace` builds it",
-        path.display()
-    );
-    path
+    radar_ros_examples::test_support::examples_dir("count_up").join("count_up")
 }
 
 /// Issue 69 (rule C5): the README's `count_up` started twice on one domain, 1 s apart (two terminals; a laptop
