@@ -168,15 +168,24 @@ async fn rclpy_injects_into_slots_and_sees_the_signals_in_order() {
 /// response; it checks only while the connection listens.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_rclpy_event_drives_a_rust_response() {
-    let r = radar(96);
-    let (resp, runs) = counter(&r, "/interop/count");
-    let mut ev = Py::example(
-        96,
-        "radar_event.py",
-        &["/interop/py_bumper", "--period", "0.05"],
-    )
-    .await;
-    let found = r.event("/interop/py_bumper").await.unwrap();
+    rclpy_event_drives_a_rust_response(&radar_test_util::python(), 96, "/interop").await;
+}
+
+/// Scenario 3a with the rclpy of `interpreter`'s venv (Jazzy's, or Kilted's: `kilted.rs`) on `domain`, its
+/// components under `ns`.
+async fn rclpy_event_drives_a_rust_response(interpreter: &std::path::Path, domain: u16, ns: &str) {
+    let r = radar(domain);
+    let (resp, runs) = counter(&r, &format!("{ns}/count"));
+    let bumper = format!("{ns}/py_bumper");
+    let mut ev = Py::start_in(
+        interpreter,
+        domain,
+        "examples/python/radar_event.py",
+        &[&bumper, "--period", "0.05"],
+        &[],
+    );
+    ev.expect_line("up").await;
+    let found = r.event(&bumper).await.unwrap();
     assert_eq!(found.triggered().ros_type(), "std_msgs/msg/Empty");
     {
         let _c = r.whenever(found.triggered()).start(&resp).await.unwrap();

@@ -4,12 +4,10 @@
 //! Rust response through a `whenever`, checking only while it is listened to. Part of the `interop` binary;
 //! domains 137, 138.
 
-use std::{sync::atomic::Ordering, time::Duration};
+use std::time::Duration;
 
 use radar_ros::{msg::Empty, FnResponse};
-use radar_test_util::{counter, eventually, kilted_python, radar, Py};
-
-const T: Duration = Duration::from_secs(20);
+use radar_test_util::{kilted_python, radar, Py};
 
 /// `ros2 topic pub`'s start and interrupt from a Kilted node: the response runs, is interrupted and exits, and
 /// the Kilted node reads `started`, `interrupted`, `exited` in that order.
@@ -56,28 +54,8 @@ async fn a_kilted_rclpy_node_starts_and_interrupts_a_response() {
 }
 
 /// A Kilted rclpy event (`examples/python/radar_event.py`) found by name drives a Rust response; when the
-/// connection is gone, the event sees no listener and stops checking (E1).
+/// connection is gone, the event sees no listener and stops checking (E1): `interop.rs`'s scenario 3a.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_kilted_rclpy_event_drives_a_rust_response() {
-    let r = radar(138);
-    let (resp, runs) = counter(&r, "/kilted/count");
-    let mut ev = Py::start_in(
-        &kilted_python(),
-        138,
-        "examples/python/radar_event.py",
-        &["/kilted/bumper", "--period", "0.05"],
-        &[],
-    );
-    ev.expect_line("up").await;
-    let found = r.event("/kilted/bumper").await.unwrap();
-    assert_eq!(found.triggered().ros_type(), "std_msgs/msg/Empty");
-    {
-        let _c = r.whenever(found.triggered()).start(&resp).await.unwrap();
-        ev.expect_line("active").await;
-        eventually(T, "runs started by the Kilted event", || {
-            runs.load(Ordering::SeqCst) >= 3
-        })
-        .await;
-    }
-    ev.expect_line("inactive").await;
+    super::rclpy_event_drives_a_rust_response(&kilted_python(), 138, "/kilted").await;
 }

@@ -39,17 +39,23 @@ pub(crate) struct Shown {
 }
 
 impl Shown {
-    /// Publishes `connections` as the list and as health.
+    /// Publishes `connections` as the list and as health (a change of the list).
     pub(crate) fn publish(&self, connections: Vec<Connection>) {
+        self.health(&connections);
+        publish_connections(&self.list, &self.node, connections);
+    }
+
+    /// Publishes the health of `connections` alone: the once-a-second beat (the list, transient-local, goes
+    /// out on change only).
+    pub(crate) fn health(&self, connections: &[Connection]) {
         if let Some(health) = &self.health {
             let malformed = self.malformed.as_ref().map(|g| g.malformed().counts());
             emit(
                 health,
                 TOPIC,
-                array(&self.node, &connections, malformed.as_deref()),
+                array(&self.node, connections, malformed.as_deref()),
             );
         }
-        publish_connections(&self.list, &self.node, connections);
     }
 }
 

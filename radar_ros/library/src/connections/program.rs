@@ -138,7 +138,7 @@ pub(crate) fn serve_program(
                         publish(made_here(manager.listing()));
                         throttle.published();
                     }
-                    _ = beat.tick() => publish(made_here(manager.listing())),
+                    _ = beat.tick() => shown.health(&made_here(manager.listing())),
                 }
             }
         },

@@ -329,7 +329,7 @@ impl Serving {
                     publish(self.made_through());
                     throttle.published();
                 }
-                _ = beat.tick() => publish(self.made_through()),
+                _ = beat.tick() => shown.health(&self.made_through()),
             }
         }
         reader.abort();
