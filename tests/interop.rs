@@ -120,16 +120,7 @@ async fn rclpy_sees_the_radar_graph() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rclpy_injects_into_slots_and_sees_the_signals_in_order() {
     let r = radar(95);
-    let resp = slow_response(&r, "/interop/slow");
-    let mut py = Py::interop(95, &["inject", "/interop/slow"]);
-    let order = py.json_with("order").await;
-    py.succeeds().await;
-    assert_eq!(
-        order["order"],
-        serde_json::json!(["started", "interrupted", "exited"])
-    );
-    let s = resp.state();
-    assert_eq!((s.starts, s.interrupts, s.exits), (1, 1, 1));
+    rclpy_starts_and_interrupts(&r, &radar_test_util::python(), 95, "/interop/slow").await;
 
     let got: Arc<Mutex<Vec<String>>> = Default::default();
     let g = got.clone();
@@ -162,6 +153,33 @@ async fn rclpy_injects_into_slots_and_sees_the_signals_in_order() {
         ]
     );
     assert_eq!(*got.lock().unwrap(), vec!["kitchen".to_owned()]);
+}
+
+/// Scenario 2's first half with the rclpy of `interpreter`'s venv (Jazzy's, or Kilted's: `kilted.rs`): a
+/// response `name` of `r` (on `domain`) started and interrupted as `ros2 topic pub` does it; rclpy reads
+/// started, interrupted, exited in order.
+async fn rclpy_starts_and_interrupts(
+    r: &Radar,
+    interpreter: &std::path::Path,
+    domain: u16,
+    name: &str,
+) {
+    let resp = slow_response(r, name);
+    let mut py = Py::start_in(
+        interpreter,
+        domain,
+        "tests/python/interop.py",
+        &["inject", name],
+        &[],
+    );
+    let order = py.json_with("order").await;
+    py.succeeds().await;
+    assert_eq!(
+        order["order"],
+        serde_json::json!(["started", "interrupted", "exited"])
+    );
+    let s = resp.state();
+    assert_eq!((s.starts, s.interrupts, s.exits), (1, 1, 1));
 }
 
 /// Scenario 3a: an rclpy event (examples/python/radar_event.py) connected by Rust `whenever` to a Rust

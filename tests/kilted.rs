@@ -4,10 +4,7 @@
 //! Rust response through a `whenever`, checking only while it is listened to. Part of the `interop` binary;
 //! domains 137, 138.
 
-use std::time::Duration;
-
-use radar_ros::{msg::Empty, FnResponse};
-use radar_test_util::{kilted_python, radar, Py};
+use radar_test_util::{kilted_python, radar};
 
 /// `ros2 topic pub`'s start and interrupt from a Kilted node: the response runs, is interrupted and exits, and
 /// the Kilted node reads `started`, `interrupted`, `exited` in that order.
@@ -27,30 +24,7 @@ async fn a_kilted_rclpy_node_starts_and_interrupts_a_response() {
         "{versions}"
     );
     let r = radar(137);
-    let resp = r
-        .spawn_response(
-            "/kilted/slow",
-            FnResponse::new(|_: Empty| async {
-                tokio::time::sleep(Duration::from_secs(30)).await;
-                Ok(Empty::default())
-            }),
-        )
-        .unwrap();
-    let mut py = Py::start_in(
-        &kilted_python(),
-        137,
-        "tests/python/interop.py",
-        &["inject", "/kilted/slow"],
-        &[],
-    );
-    let order = py.json_with("order").await;
-    py.succeeds().await;
-    assert_eq!(
-        order["order"],
-        serde_json::json!(["started", "interrupted", "exited"])
-    );
-    let s = resp.state();
-    assert_eq!((s.starts, s.interrupts, s.exits), (1, 1, 1));
+    super::rclpy_starts_and_interrupts(&r, &kilted_python(), 137, "/kilted/slow").await;
 }
 
 /// A Kilted rclpy event (`examples/python/radar_event.py`) found by name drives a Rust response; when the
