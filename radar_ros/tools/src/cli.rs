@@ -7,7 +7,7 @@ use radar_ros::Radar;
 
 use crate::{
     common::{secs, Out},
-    verbs::{self, act::ActSlot, con::ConKind},
+    verbs::{self, act::ActSlot, connect::ConKind},
 };
 
 /// The arguments of `radar`.
@@ -412,7 +412,7 @@ pub async fn run(cli: Cli) -> Result<(), String> {
 
 /// Runs the verb `cmd` on `radar`.
 async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Result<(), String> {
-    let manager = |named| verbs::con::Manager { named, discovery };
+    let manager = |named| verbs::connect::Manager { named, discovery };
     match cmd {
         Cmd::Security {
             verb: SecurityVerb::GeneratePolicy { policy },
@@ -455,17 +455,17 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             detach,
             duration,
         } => {
-            let statement = verbs::con::Statement {
+            let statement = verbs::connect::Statement {
                 kind,
                 source,
                 slot,
                 until,
             };
             let lifetime = match detach {
-                true => verbs::con::Lifetime::Detached,
-                false => verbs::con::Lifetime::WhileRunning(duration),
+                true => verbs::connect::Lifetime::Detached,
+                false => verbs::connect::Lifetime::WhileRunning(duration),
             };
-            verbs::con::con(radar, out, manager(named), statement, lifetime).await
+            verbs::connect::con(radar, out, manager(named), statement, lifetime).await
         }
         Cmd::Graph {
             output,
@@ -482,7 +482,7 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             verbs::replay::replay(radar, out, input, rate, secs(wait)?).await
         }
         Cmd::View(options) => crate::view::view(radar, out, options).await,
-        Cmd::Dis { id, manager: named } => verbs::con::dis(radar, out, manager(named), id).await,
+        Cmd::Dis { id, manager: named } => verbs::connect::dis(radar, out, manager(named), id).await,
     }
 }
 

@@ -2,7 +2,7 @@
 
 pub(crate) mod act;
 pub(crate) mod cat;
-pub(crate) mod con;
+pub(crate) mod connect;
 pub(crate) mod graph;
 pub(crate) mod inject;
 pub(crate) mod ls;
