@@ -1,7 +1,7 @@
 //! ROS 2 message definitions (`ros2msg`, as rosbag2 stores them in MCAP) for the types the command line
 //! records: the definition of the type itself, then each type it uses, after a separator line. Written here for
-//! the types radar knows without a ROS installation; any other is read from its definition files
-//! ([`radar_ros::codec::schema`]).
+//! the types radar knows without a ROS installation; any other (radar_msgs too: radar_ros ships its definitions)
+//! is read from its definition files ([`radar_ros::codec::schema`]).
 
 const SEPARATOR: &str =
     "================================================================================";
@@ -14,14 +14,6 @@ const POSE: &str = "Point position\nQuaternion orientation\n";
 
 /// The `ros2msg` schema of `ros_type`, if the command line knows it or finds its definition.
 pub fn definition(ros_type: &str) -> Option<String> {
-    let radar = |file: &str| -> &'static str {
-        match file {
-            "ResponseState" => include_str!("../../../msgs/radar_msgs/msg/ResponseState.msg"),
-            "EventState" => include_str!("../../../msgs/radar_msgs/msg/EventState.msg"),
-            "Connection" => include_str!("../../../msgs/radar_msgs/msg/Connection.msg"),
-            _ => include_str!("../../../msgs/radar_msgs/msg/ConnectionList.msg"),
-        }
-    };
     let (main, deps): (&str, Vec<(&str, &str)>) = match ros_type {
         "std_msgs/msg/Empty" => ("", vec![]),
         "std_msgs/msg/String" => ("string data\n", vec![]),
@@ -48,23 +40,6 @@ pub fn definition(ros_type: &str) -> Option<String> {
                 ("geometry_msgs/Pose", POSE),
                 ("geometry_msgs/Point", POINT),
                 ("geometry_msgs/Quaternion", QUATERNION),
-            ],
-        ),
-        "radar_msgs/msg/ResponseState" => (
-            radar("ResponseState"),
-            vec![("builtin_interfaces/Time", TIME)],
-        ),
-        "radar_msgs/msg/EventState" => {
-            (radar("EventState"), vec![("builtin_interfaces/Time", TIME)])
-        }
-        "radar_msgs/msg/Connection" => {
-            (radar("Connection"), vec![("builtin_interfaces/Time", TIME)])
-        }
-        "radar_msgs/msg/ConnectionList" => (
-            radar("ConnectionList"),
-            vec![
-                ("builtin_interfaces/Time", TIME),
-                ("radar_msgs/Connection", radar("Connection")),
             ],
         ),
         "test_msgs/action/Fibonacci_Goal" => ("int32 order\n", vec![]),
