@@ -5,13 +5,15 @@
 # stands in for the registry they will be published to; the workspace's own crates are packaged in one call,
 # which hands each the ones packaged before it (cargo's local overlay).
 #
-# Usage: .ci/package.sh [--no-verify]   (the .crate files land in target/package-check/package/)
+# Usage: .ci/package.sh [--no-verify]   (the .crate files land in target/user-crate/target/package/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 verify=()
 [ "${1:-}" = --no-verify ] && verify=(--no-verify)
-# one target directory for all the verify builds: they share their registry dependencies
-export CARGO_TARGET_DIR="$PWD/target/package-check"
+# The verify builds build radar_ros as a crate outside this workspace does, as tests/user_crate.rs's crates do:
+# they share that test's target directory and settings, so that the test (which runs after this) finds the
+# dependencies built (minutes on 2 cores).
+export CARGO_TARGET_DIR="$PWD/target/user-crate/target" CARGO_INCREMENTAL=0 CARGO_PROFILE_DEV_DEBUG=line-tables-only
 # the patches for the forks are used by some crates only; cargo's "patch was not used" notes are not news
 quiet() { grep -v -e 'was not used in the crate graph' -e '^help: Check that the patched' -e '^      with the dependency' \
   -e '^      what is locked' -e '^      version. This may' -e '^warning: manifest has no documentation' -e '^  |$' \

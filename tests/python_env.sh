@@ -87,6 +87,7 @@ PIP=("$VENV/bin/pip" install --disable-pip-version-check -q)
     ros-jazzy-ament-package==0.16.4 \
     catkin_pkg==1.1.1 \
     maturin==1.16.0 \
+    auditwheel==6.8.2 \
     pytest==9.2.0 \
     mypy==2.4.1 \
     eclipse-zenoh==1.10.2 \

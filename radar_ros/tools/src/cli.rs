@@ -482,7 +482,9 @@ async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Re
             verbs::replay::replay(radar, out, input, rate, secs(wait)?).await
         }
         Cmd::View(options) => crate::view::view(radar, out, options).await,
-        Cmd::Dis { id, manager: named } => verbs::connect::dis(radar, out, manager(named), id).await,
+        Cmd::Dis { id, manager: named } => {
+            verbs::connect::dis(radar, out, manager(named), id).await
+        }
     }
 }
 
