@@ -1,7 +1,7 @@
 //! Issue 70: Eclipse Cyclone DDS as a peer, both ways. `python/cyclone_peer.py` is a plain Cyclone DDS
 //! participant (the `cyclonedds` wheel from PyPI) with the names, types and QoS of an rmw_cyclonedds_cpp node.
 //! Every scenario also reads what Cyclone logged about radar_ros's packets: nothing malformed (RustDDS patch 69:
-//! the preemptive ACKNACK Cyclone refused from RustDDS). Part of the `interop` binary; domains 131-134.
+//! the preemptive ACKNACK Cyclone refused from RustDDS). Part of the `interop` binary; domains 131-134, 152.
 
 use std::{
     sync::{Arc, Mutex},
@@ -158,4 +158,71 @@ async fn a_cyclone_writer_of_another_definition_neither_starts_nor_uses_up_a_onc
     assert_eq!(dock.state().starts, 1);
     py.proceed().await;
     clean_log(py).await;
+}
+
+/// rmw_cyclonedds_cpp maps services its own way: the request's identity (the client's id and a sequence number)
+/// in front of the request's payload, and the reply's, instead of Fast DDS's related sample identity. The
+/// manager's services answer such a client as they answer rclpy (ros2-client patch 26: told by the request
+/// writer's vendor): a Cyclone client connects `whenever tick start count` and gets its answer with its own
+/// header, disconnects it (and gets a clear error for an id that is not there), connects again, and when it
+/// leaves the connection goes with it, as any caller's does (the manager knows which participant asked).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cyclone_client_calls_the_managers_services_and_owns_what_it_made() {
+    let host = radar(152);
+    let tick = host
+        .spawn_event("/cy/svc_tick", TimerEvent::new(Duration::from_millis(100)))
+        .unwrap();
+    let count = host
+        .spawn_response(
+            "/cy/svc_count",
+            FnResponse::new(|_: Empty| async { Ok(Empty::default()) }),
+        )
+        .unwrap();
+    let _manager = host.serve_manager("cy_manager").unwrap();
+    let mut py = cyclone(
+        152,
+        &[
+            "manage",
+            "/cy_manager",
+            "/cy/svc_tick/triggered",
+            "/cy/svc_count/start",
+        ],
+    );
+
+    let made = py.json().await;
+    assert_eq!(made["connected"], true, "{made}");
+    assert_eq!(made["seq"], 1, "the reply carries the request's header");
+    let runs = count.state().exits;
+    eventually(T, "runs through the Cyclone client's connection", || {
+        count.state().exits >= runs + 2
+    })
+    .await;
+
+    py.proceed().await;
+    let gone = py.json().await;
+    assert_eq!(gone["disconnected"], true, "{gone}");
+    let unknown = py.json().await;
+    assert_eq!(unknown["disconnected_unknown"], false, "{unknown}");
+    assert!(
+        unknown["error"].as_str().unwrap().contains("987654321"),
+        "the error names the id: {unknown}"
+    );
+    eventually(T, "the event to stop once disconnected", || {
+        !tick.state().active
+    })
+    .await;
+
+    py.proceed().await;
+    let again = py.json().await;
+    assert_eq!(again["connected"], true, "{again}");
+    assert_ne!(again["id"], made["id"]);
+    eventually(T, "the event to check again", || tick.state().active).await;
+
+    // the caller leaves: its connection goes with it (the manager knew its participant)
+    py.proceed().await;
+    clean_log(py).await;
+    eventually(T, "the Cyclone caller's connection to go with it", || {
+        !tick.state().active
+    })
+    .await;
 }

@@ -1,6 +1,7 @@
 //! The vendored ros2-client's Zenoh backend (`third_party/ros2-client/src/zenoh_backend`, `zenoh` feature)
 //! passes its own unit tests, including the unit tests of radar_ros's patches to it (`RADAR_PATCHES.md`: 10, 12,
-//! 14, 17-20; the others are tested through radar_ros, by tests/zenoh_feature.rs). ros2-client is not a workspace member, so this runs `cargo test --lib --features zenoh
+//! 14, 17-20; the others are tested through radar_ros, by tests/zenoh_feature.rs), and those of patch 26 (DDS
+//! services from rmw_cyclonedds_cpp clients), which build here as well. ros2-client is not a workspace member, so this runs `cargo test --lib --features zenoh
 //! zenoh_backend::` on it, offline, in a target directory of its own (`target/ros2-client-zenoh`); its
 //! `Cargo.lock` starts from the workspace's (so the Zenoh crates are those the workspace pins) and its crates
 //! are fetched by tests/isolated.sh before the tests. Its tests
@@ -25,7 +26,9 @@ fn vendored_ros2_client_passes_its_zenoh_unit_tests() {
             "--lib",
             "--features",
             "zenoh",
+            "--",
             "zenoh_backend::",
+            "radar_patch_26_tests::",
         ])
         .current_dir(&dir)
         .env_remove("RUSTFLAGS")
@@ -50,7 +53,19 @@ fn vendored_ros2_client_passes_its_zenoh_unit_tests() {
             .collect::<Vec<_>>()
             .join("\n")
     );
-    // the patches' own tests ran (not filtered away, not renamed)
+    // the patches' own tests ran (not filtered away, not renamed); patch 26: rmw_cyclonedds_cpp's request header
+    // (DDS services; built here too)
+    for name in [
+        "a_cyclone_request_header_is_split_off_and_echoed_in_front_of_the_reply",
+        "cyclone_is_told_by_the_guid_prefix_vendor",
+    ] {
+        assert!(
+            stdout.contains(&format!(
+                "test service::wrappers::radar_patch_26_tests::{name} ... ok"
+            )),
+            "patch 26's test {name} did not run"
+        );
+    }
     for name in [
         // patch 12: transient local through zenoh-ext's advanced publisher and subscriber
         "pubsub::tests::a_late_transient_local_subscription_gets_the_cached_samples",

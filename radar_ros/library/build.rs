@@ -6,7 +6,7 @@
 
 /// The patches radar_ros needs: `third_party/rustdds/RADAR_PATCHES.md` and `third_party/ros2-client/RADAR_PATCHES.md`.
 const RUSTDDS_PATCHES: u32 = 70;
-const ROS2_CLIENT_PATCHES: u32 = 25;
+const ROS2_CLIENT_PATCHES: u32 = 26;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");

@@ -12,6 +12,8 @@ is {"cyclone_log": [lines]} for the test to read.
     cyclone_peer.py listen EVENT N     # read N of EVENT's triggers
     cyclone_peer.py level TOPIC        # geometry_msgs/Point on TOPIC: a short payload, another definition, a good one
     cyclone_peer.py pub_once TOPIC     # one std_msgs/Empty, as `ros2 topic pub --once` on rmw_cyclonedds_cpp does
+    cyclone_peer.py manage MANAGER SOURCE TARGET   # the manager's connect and disconnect services, as a client
+                                                   # on rmw_cyclonedds_cpp calls them
 """
 import json
 import os
@@ -24,7 +26,7 @@ from pathlib import Path
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import float64, int32, uint8, uint32, uint64
+from cyclonedds.idl.types import float64, int32, int64, uint8, uint32, uint64
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -103,6 +105,45 @@ class ResponseState_(IdlStruct, typename="radar_msgs::msg::dds_::ResponseState_"
     ignored_exits: uint64 = 0
     start_queued: bool = False
     malformed: uint64 = 0
+
+
+# rmw_cyclonedds_cpp's service requests and replies: the rosidl type, with the client's request header
+# (`cdds_request_header_t`: the client's id, then the request's sequence number) written in front of the fields
+@dataclass
+class ConnectRequest_(IdlStruct, typename="radar_msgs::srv::dds_::Connect_Request_"):
+    guid: uint64 = 0
+    seq: int64 = 0
+    kind: uint8 = 0
+    source: str = ""
+    target: str = ""
+    until: str = ""
+    timeout: float64 = 0.0
+    depth: uint32 = 0
+    detach: bool = False
+
+
+@dataclass
+class ConnectResponse_(IdlStruct, typename="radar_msgs::srv::dds_::Connect_Response_"):
+    guid: uint64 = 0
+    seq: int64 = 0
+    ok: bool = False
+    error: str = ""
+    id: uint64 = 0
+
+
+@dataclass
+class DisconnectRequest_(IdlStruct, typename="radar_msgs::srv::dds_::Disconnect_Request_"):
+    guid: uint64 = 0
+    seq: int64 = 0
+    id: uint64 = 0
+
+
+@dataclass
+class DisconnectResponse_(IdlStruct, typename="radar_msgs::srv::dds_::Disconnect_Response_"):
+    guid: uint64 = 0
+    seq: int64 = 0
+    ok: bool = False
+    error: str = ""
 
 
 def qos(*more: object, transient_local: bool = False, depth: int = 10) -> Qos:
@@ -208,6 +249,51 @@ def pub_once(dp: DomainParticipant, name: str) -> None:
     out(published=True)
 
 
+class CycloneClient:
+    """A service client as rmw_cyclonedds_cpp makes one: `rq/<service>Request` and `rr/<service>Reply`, its id
+    in every request's header, and of the replies (every client's) only those whose header is its own."""
+
+    def __init__(self, dp: DomainParticipant, service: str, req: type, resp: type, client_id: int) -> None:
+        self.requests = DataWriter(dp, Topic(dp, f"rq{service}Request", req), qos=qos())
+        self.replies = DataReader(dp, Topic(dp, f"rr{service}Reply", resp), qos=qos())
+        self.client_id, self.seq, self.service = client_id, 0, service
+        wait(lambda: self.requests.get_matched_subscriptions() and self.replies.get_matched_publications(),
+             f"the {service} service to be available")
+
+    def call(self, request):
+        self.seq += 1
+        request.guid, request.seq = self.client_id, self.seq
+        self.requests.write(request)
+        deadline = time.monotonic() + TIMEOUT
+        while time.monotonic() < deadline:
+            for reply in self.replies.take(N=10):
+                if reply.guid == self.client_id and reply.seq == self.seq:
+                    return reply
+            time.sleep(0.002)
+        fail(f"no reply from {self.service} to request {self.seq} in {TIMEOUT}s")
+
+
+def manage(dp: DomainParticipant, manager: str, source: str, target: str) -> None:
+    """`whenever SOURCE start TARGET` through MANAGER's services from a client on rmw_cyclonedds_cpp: connect, then
+    (when the test says) disconnect, then connect again and (when the test says) leave: the connection is the
+    caller's and goes with it."""
+    connect = CycloneClient(dp, f"{manager}/connect", ConnectRequest_, ConnectResponse_, 0x1122334455667788)
+    disconnect = CycloneClient(dp, f"{manager}/disconnect", DisconnectRequest_, DisconnectResponse_,
+                               0x0102030405060708)
+    request = lambda: ConnectRequest_(kind=1, source=source, target=target)  # noqa: E731 (WHENEVER)
+    r = connect.call(request())
+    out(connected=bool(r.ok), id=int(r.id), error=r.error, seq=int(r.seq))
+    sys.stdin.readline()
+    d = disconnect.call(DisconnectRequest_(id=r.id))
+    out(disconnected=bool(d.ok), error=d.error)
+    unknown = disconnect.call(DisconnectRequest_(id=987654321))
+    out(disconnected_unknown=bool(unknown.ok), error=unknown.error)
+    sys.stdin.readline()
+    r = connect.call(request())
+    out(connected=bool(r.ok), id=int(r.id), error=r.error, seq=int(r.seq))
+    sys.stdin.readline()
+
+
 def main() -> None:
     dp = DomainParticipant(int(os.environ["ROS_DOMAIN_ID"]))
     cmd, args = sys.argv[1], sys.argv[2:]
@@ -219,6 +305,8 @@ def main() -> None:
         level(dp, args[0])
     elif cmd == "pub_once":
         pub_once(dp, args[0])
+    elif cmd == "manage":
+        manage(dp, args[0], args[1], args[2])
     else:
         fail(f"unknown command {cmd}")
     finish()

@@ -30,7 +30,14 @@ where
   service_mapping: ServiceMapping,
   request_receiver: SimpleDataReaderR<RequestWrapper<Req>>,
   response_sender: DataWriterR<ResponseWrapper<Resp>>,
+  /// radar_ros patch 26: the headers of requests from rmw_cyclonedds_cpp clients not answered yet (an Enhanced
+  /// server only), oldest first, at most `CYCLONE_PENDING`.
+  cyclone_pending: std::sync::Mutex<std::collections::VecDeque<(RmwRequestId, wrappers::CycloneRequestHeader)>>,
 }
+
+/// radar_ros patch 26: how many requests of rmw_cyclonedds_cpp clients a server keeps the headers of, waiting for
+/// their answers (a request never answered is forgotten once this many newer ones came).
+const CYCLONE_PENDING: usize = 256;
 
 impl<Req, Resp> Server<Req, Resp>
 where
@@ -65,7 +72,44 @@ where
       service_mapping,
       request_receiver,
       response_sender,
+      cyclone_pending: Default::default(),
     })
+  }
+
+  /// radar_ros patch 26: decodes a request; on an Enhanced server, one from an rmw_cyclonedds_cpp client too
+  /// (its header kept for the answer).
+  fn unwrap_request(&self, req_wrapper: &RequestWrapper<Req>, mi: &MessageInfo) -> ReadResult<(RmwRequestId, Req)> {
+    if self.service_mapping != ServiceMapping::Enhanced {
+      return req_wrapper.unwrap(self.service_mapping, mi);
+    }
+    let (id, request, cyclone) = req_wrapper.unwrap_enhanced_or_cyclone(mi)?;
+    if let Some(header) = cyclone {
+      let mut pending = self.cyclone_pending.lock().unwrap();
+      if pending.len() >= CYCLONE_PENDING {
+        pending.pop_front();
+      }
+      pending.push_back((id, header));
+    }
+    Ok((id, request))
+  }
+
+  /// radar_ros patch 26: the reply to request `rmw_req_id`: with the header of the rmw_cyclonedds_cpp client
+  /// that asked, if one did, else in the server's mapping.
+  fn wrap_response(&self, rmw_req_id: RmwRequestId, response: Resp) -> WriteResult<ResponseWrapper<Resp>, ()> {
+    let cyclone = {
+      let mut pending = self.cyclone_pending.lock().unwrap();
+      let at = pending.iter().position(|(id, _)| *id == rmw_req_id);
+      at.and_then(|i| pending.remove(i)).map(|(_, header)| header)
+    };
+    match cyclone {
+      Some(header) => ResponseWrapper::<Resp>::new_for_cyclone_client(header, response),
+      None => ResponseWrapper::<Resp>::new(
+        self.service_mapping,
+        rmw_req_id,
+        RepresentationIdentifier::CDR_LE,
+        response,
+      ),
+    }
   }
 
   /// Receive a request from Client.
@@ -80,7 +124,7 @@ where
       Some(dcc) => {
         let mi = MessageInfo::from(&dcc);
         let req_wrapper = dcc.into_value();
-        let (ri, req) = req_wrapper.unwrap(self.service_mapping, &mi)?;
+        let (ri, req) = self.unwrap_request(&req_wrapper, &mi)?;
         Ok(Some((ri, req)))
       }
     } // match
@@ -89,12 +133,7 @@ where
   /// Send response to request by Client.
   /// rmw_req_id identifies request being responded.
   pub fn send_response(&self, rmw_req_id: RmwRequestId, response: Resp) -> WriteResult<(), ()> {
-    let resp_wrapper = ResponseWrapper::<Resp>::new(
-      self.service_mapping,
-      rmw_req_id,
-      RepresentationIdentifier::CDR_LE,
-      response,
-    )?;
+    let resp_wrapper = self.wrap_response(rmw_req_id, response)?;
     let write_opts = WriteOptionsBuilder::new()
       .source_timestamp(Timestamp::now()) // always add source timestamp
       .related_sample_identity(SampleIdentity::from(rmw_req_id))
@@ -122,7 +161,7 @@ where
       Some(Ok(dcc)) => {
         let mi = MessageInfo::from(&dcc);
         let req_wrapper = dcc.into_value();
-        let (ri, req) = req_wrapper.unwrap(self.service_mapping, &mi)?;
+        let (ri, req) = self.unwrap_request(&req_wrapper, &mi)?;
         debug!("async_receive_request: {ri:?}");
         Ok((ri, req))
       }
@@ -145,7 +184,7 @@ where
             let mi = MessageInfo::from(&dcc);
             let req_wrapper = dcc.into_value();
             debug!("receive_request_stream: messageinfo={mi:?}");
-            req_wrapper.unwrap(self.service_mapping, &mi)
+            self.unwrap_request(&req_wrapper, &mi)
           }
         } // match
       }, // async
@@ -158,12 +197,7 @@ where
     rmw_req_id: RmwRequestId,
     response: Resp,
   ) -> WriteResult<(), ()> {
-    let resp_wrapper = ResponseWrapper::<Resp>::new(
-      self.service_mapping,
-      rmw_req_id,
-      RepresentationIdentifier::CDR_LE,
-      response,
-    )?;
+    let resp_wrapper = self.wrap_response(rmw_req_id, response)?;
     debug!("async_send_response: rmw_req_id = {rmw_req_id:?}");
     debug!(
       "async_send_response: related_sample_identity = {:?}",

@@ -46,7 +46,75 @@ impl<R: Message> Wrapper for RequestWrapper<R> {
   }
 }
 
+/// radar_ros patch 26: the first two bytes of an Eclipse Cyclone DDS GUID prefix (its vendor id, 1.16, as RTPS
+/// 2.3 9.3.1.5 has implementations begin their prefixes).
+const CYCLONE_VENDOR: [u8; 2] = [0x01, 0x10];
+
+/// radar_ros patch 26: whether a request came from an rmw_cyclonedds_cpp client, by its writer's GUID prefix.
+pub(super) fn from_cyclone(writer: crate::gid::Gid) -> bool {
+  writer.to_bytes16()[0..2] == CYCLONE_VENDOR
+}
+
+/// radar_ros patch 26: the request header rmw_cyclonedds_cpp puts in front of a request's payload
+/// (`cdds_request_header_t`: the client's 8-byte id, then a 64-bit sequence number, both in the payload's byte
+/// order), and a server answers with in front of the reply's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct CycloneRequestHeader {
+  /// The client's id (rmw_cyclonedds_cpp: its request writer's instance handle), as its bytes came.
+  pub client: [u8; 8],
+  /// The request's sequence number, as its bytes came.
+  pub sequence: [u8; 8],
+}
+
+impl CycloneRequestHeader {
+  /// The header, and the payload after it.
+  fn split(bytes: &Bytes) -> ReadResult<(Self, Bytes)> {
+    if bytes.len() < 16 {
+      return read_error_deserialization!(
+        "a request from an rmw_cyclonedds_cpp client is shorter than its 16-byte header"
+      );
+    }
+    let mut client = [0u8; 8];
+    let mut sequence = [0u8; 8];
+    client.copy_from_slice(&bytes[0..8]);
+    sequence.copy_from_slice(&bytes[8..16]);
+    Ok((CycloneRequestHeader { client, sequence }, bytes.slice(16..)))
+  }
+
+  /// The sequence number, read in the payload's byte order.
+  fn sequence_number(&self, encoding: RepresentationIdentifier) -> i64 {
+    if encoding == RepresentationIdentifier::CDR_BE || encoding == RepresentationIdentifier::PL_CDR_BE {
+      i64::from_be_bytes(self.sequence)
+    } else {
+      i64::from_le_bytes(self.sequence)
+    }
+  }
+}
+
 impl<R: Message> RequestWrapper<R> {
+  /// radar_ros patch 26: decodes a request on a server of the Enhanced mapping (Fast DDS's, rclpy's, rclcpp's
+  /// on rmw_fastrtps_cpp) that may come from a client on rmw_cyclonedds_cpp, whose requests carry its header in
+  /// the payload instead of a related sample identity: those are told by their writer's vendor and decoded
+  /// after the header; the request id is then the request writer's own GUID (so a server can tell which
+  /// participant asked, as it can of any other client) with the header's sequence number, and the header is
+  /// returned for the reply (see [`ResponseWrapper::new_for_cyclone_client`]).
+  pub(super) fn unwrap_enhanced_or_cyclone(
+    &self,
+    message_info: &MessageInfo,
+  ) -> ReadResult<(RmwRequestId, R, Option<CycloneRequestHeader>)> {
+    if !from_cyclone(message_info.publisher_gid()) {
+      let (id, request) = self.unwrap(ServiceMapping::Enhanced, message_info)?;
+      return Ok((id, request, None));
+    }
+    let (header, payload) = CycloneRequestHeader::split(&self.serialized_message)?;
+    let (request, _) = deserialize_from_cdr_with_rep_id::<R>(&payload, self.encoding)?;
+    let id = RmwRequestId {
+      writer_gid: message_info.publisher_gid(),
+      sequence_number: header.sequence_number(self.encoding),
+    };
+    Ok((id, request, Some(header)))
+  }
+
   // This will decode the RequestWrapper to Request in Server
   pub(super) fn unwrap(
     &self,
@@ -210,6 +278,20 @@ impl<R: Message> ResponseWrapper<R> {
         cyclone_unwrap::<R>(self.serialized_message.clone(), client_guid, self.encoding)
       }
     }
+  }
+
+  /// radar_ros patch 26: a reply to an rmw_cyclonedds_cpp client: its request's header, as it came, in front
+  /// of the response (in little-endian CDR, as every reply of a ros2-client server).
+  pub(super) fn new_for_cyclone_client(header: CycloneRequestHeader, response: R) -> WriteResult<Self, ()> {
+    let mut ser_buffer = BytesMut::with_capacity(16 + std::mem::size_of::<R>() * 3 / 2).writer();
+    ser_buffer.get_mut().put_slice(&header.client);
+    ser_buffer.get_mut().put_slice(&header.sequence);
+    serialization::to_writer_with_rep_id(&mut ser_buffer, &response, RepresentationIdentifier::CDR_LE)?;
+    Ok(ResponseWrapper {
+      serialized_message: ser_buffer.into_inner().freeze(),
+      encoding: RepresentationIdentifier::CDR_LE,
+      phantom: PhantomData,
+    })
   }
 
   // Server creates new ResponseWrapper from Response
@@ -419,5 +501,42 @@ impl<RW: Wrapper> no_key::SerializerAdapter<RW> for ServiceSerializerAdapter<RW>
 
   fn to_bytes(value: &RW) -> WriteResult<Bytes, ()> {
     Ok(value.bytes())
+  }
+}
+
+#[cfg(test)]
+mod radar_patch_26_tests {
+  use super::*;
+
+  #[test]
+  fn a_cyclone_request_header_is_split_off_and_echoed_in_front_of_the_reply() {
+    // rmw_cyclonedds_cpp's request: client id, sequence number 7 (little-endian), then a uint32 field
+    let mut wire = vec![1, 2, 3, 4, 5, 6, 7, 8, 7, 0, 0, 0, 0, 0, 0, 0];
+    wire.extend_from_slice(&42u32.to_le_bytes());
+    let (header, payload) = CycloneRequestHeader::split(&Bytes::from(wire)).unwrap();
+    assert_eq!(header.client, [1, 2, 3, 4, 5, 6, 7, 8]);
+    assert_eq!(header.sequence_number(RepresentationIdentifier::CDR_LE), 7);
+    let (field, _) =
+      deserialize_from_cdr_with_rep_id::<u32>(&payload, RepresentationIdentifier::CDR_LE).unwrap();
+    assert_eq!(field, 42);
+    // the reply: the same 16 bytes, then the response
+    let reply = ResponseWrapper::<u32>::new_for_cyclone_client(header, 9).unwrap();
+    let bytes = reply.bytes();
+    assert_eq!(&bytes[0..8], &[1, 2, 3, 4, 5, 6, 7, 8]);
+    assert_eq!(&bytes[8..16], &7i64.to_le_bytes());
+    assert_eq!(&bytes[16..], &9u32.to_le_bytes());
+    // shorter than a header: an error, not a panic
+    assert!(CycloneRequestHeader::split(&Bytes::from_static(&[1, 2, 3])).is_err());
+  }
+
+  #[test]
+  fn cyclone_is_told_by_the_guid_prefix_vendor() {
+    let mut b = [0u8; 16];
+    b[0..2].copy_from_slice(&[0x01, 0x10]);
+    assert!(from_cyclone(crate::gid::Gid::from(b)));
+    b[0..2].copy_from_slice(&[0x01, 0x0f]); // eProsima Fast DDS
+    assert!(!from_cyclone(crate::gid::Gid::from(b)));
+    b[0..2].copy_from_slice(&[0x01, 0x12]); // RustDDS
+    assert!(!from_cyclone(crate::gid::Gid::from(b)));
   }
 }
