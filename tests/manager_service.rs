@@ -424,7 +424,7 @@ async fn the_connections_topic_shows_every_signal_delivered_burst_after_burst() 
     let guard = program
         .whenever(Signal::new("/n", "std_msgs/msg/Int32"))
         .start(&resp)
-        .depth(100)
+        .depth(std::num::NonZeroUsize::new(100).unwrap())
         .await
         .unwrap();
     let observer = radar(61);

@@ -226,6 +226,15 @@ pub use wire::refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub use connections::manager::ConnectionGuard;
 pub use connections::remote::{RemoteManager, RemoteStatement};
 pub use connections::statement::{ConnectionRequest, Statement};
+
+/// RADAR's statements (`once E ...`, `whenever E ...`) as [`Radar::once`] and [`Radar::whenever`] build them:
+/// a [`Statement`] given its target is a [`ConnectionRequest`], whose type says which target it has
+/// ([`StartTarget`]: it may take `until U`; [`OtherTarget`]: interrupt, exit, a slot, an anonymous slot).
+pub mod statement {
+    pub use crate::connections::statement::{
+        ConnectionRequest, OtherTarget, StartTarget, Statement,
+    };
+}
 pub use connections::waiter::Waiter;
 pub use endpoint::Endpoint;
 pub use error::{Error, Result, SlotError, Source};

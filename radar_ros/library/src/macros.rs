@@ -70,6 +70,15 @@ macro_rules! __radar_statement {
 
 /// `once!(radar, E start R [until U])`, `once!(radar, E interrupt R)`, `once!(radar, E exit R)`,
 /// `once!(radar, E => |payload: T| ...)`: a connection that delivers one signal, for the rest of the block.
+///
+/// Only the paper's forms are statements: `until` goes with `start` alone.
+///
+/// ```compile_fail
+/// # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventHandle, stop: radar_ros::EventHandle,
+/// #            nav: radar_ros::ResponseHandle) -> radar_ros::Result<()> {
+/// radar_ros::once!(radar, bumper interrupt nav until stop);
+/// # Ok(()) }
+/// ```
 #[macro_export]
 macro_rules! once {
     ($radar:expr, $($rest:tt)+) => {

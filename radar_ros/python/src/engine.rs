@@ -117,6 +117,37 @@ impl Engine {
     }
 }
 
+/// A connection's properties from Python, for a request of any target kind.
+struct Props {
+    rearm: bool,
+    depth: Option<usize>,
+    timeout: Option<Duration>,
+}
+
+/// An armed connection, awaited.
+type Arming = <radar_ros::ConnectionRequest as std::future::IntoFuture>::IntoFuture;
+
+impl Props {
+    /// `req` with these properties, ready to arm.
+    fn apply<T>(&self, mut req: radar_ros::statement::ConnectionRequest<T>) -> PyResult<Arming> {
+        if self.rearm {
+            req = req.rearm();
+        }
+        if let Some(d) = self.depth {
+            let Some(d) = std::num::NonZeroUsize::new(d) else {
+                return Err(to_py(radar_ros::Error::InvalidStatement(
+                    "a connection's QoS depth must be at least 1 (the default is 10)".into(),
+                )));
+            };
+            req = req.depth(d);
+        }
+        if let Some(t) = self.timeout {
+            req = req.timeout(t);
+        }
+        Ok(std::future::IntoFuture::into_future(req))
+    }
+}
+
 pub(crate) fn timeout(t: Option<f64>) -> PyResult<Option<Duration>> {
     t.map(|s| {
         Duration::try_from_secs_f64(s).map_err(|_| {
@@ -343,25 +374,52 @@ impl PyEngine {
             true => e.radar.once(source.rust()),
             false => e.radar.whenever(source.rust()),
         };
-        let mut req = match kind {
+        let no_until = |kind: &str| match until.is_some() {
+            true => Err(to_py(radar_ros::Error::InvalidStatement(format!(
+                "`until` goes with a `start` target (once E start R until U), not {kind}"
+            )))),
+            false => Ok(()),
+        };
+        let props = Props {
+            rearm,
+            depth,
+            timeout: self::timeout(timeout)?,
+        };
+        let armed = match kind {
             "start" | "interrupt" | "exit" => {
                 let r = target.extract::<PyRef<'_, ResponseRef>>()?.inner.clone();
                 match kind {
-                    "start" => st.start(&r),
-                    "interrupt" => st.interrupt(&r),
-                    _ => st.exit(&r),
+                    "start" => {
+                        let req = st.start(&r);
+                        match until {
+                            Some(u) => props.apply(req.until(u.rust()))?,
+                            None => props.apply(req)?,
+                        }
+                    }
+                    "interrupt" => {
+                        no_until(kind)?;
+                        props.apply(st.interrupt(&r))?
+                    }
+                    _ => {
+                        no_until(kind)?;
+                        props.apply(st.exit(&r))?
+                    }
                 }
             }
-            "slot" => st.slot(target.extract::<PyRef<'_, Slot>>()?.rust()),
+            "slot" => {
+                no_until(kind)?;
+                props.apply(st.slot(target.extract::<PyRef<'_, Slot>>()?.rust()))?
+            }
             "call" => {
+                no_until(kind)?;
                 let deliver = target.unbind();
-                st.call(move |m: DynMessage| {
+                props.apply(st.call(move |m: DynMessage| {
                     Python::attach(|py| {
                         if let Err(err) = deliver.bind(py).call1((PyBytes::new(py, m.0.as_bytes()),)) {
                             tracing::error!(error = %describe(py, &err), "anonymous slot: not delivered");
                         }
                     })
-                })
+                }))?
             }
             other => {
                 return Err(pyo3::exceptions::PyValueError::new_err(format!(
@@ -369,19 +427,7 @@ impl PyEngine {
                 )))
             }
         };
-        if let Some(u) = until {
-            req = req.until(u.rust());
-        }
-        if rearm {
-            req = req.rearm();
-        }
-        if let Some(d) = depth {
-            req = req.depth(d);
-        }
-        if let Some(t) = self::timeout(timeout)? {
-            req = req.timeout(t);
-        }
-        let guard = e.wait(py, req.into_future())?;
+        let guard = e.wait(py, armed)?;
         Ok(Connection {
             engine: e.clone(),
             id: guard.id(),

@@ -19,6 +19,7 @@
 
 use std::{
     future::{Future, IntoFuture},
+    num::NonZeroUsize,
     pin::Pin,
     sync::Arc,
     time::Duration,
@@ -51,16 +52,67 @@ pub struct Statement {
 /// Arming waits for discovery ([`DEFAULT_TIMEOUT`], `.timeout(d)` to change): the relay's readers must have
 /// matched the sources' writers and its writers the slots' readers. The connection then delivers the signals
 /// emitted after it was armed, for as long as the returned [`ConnectionGuard`] lives.
+///
+/// The target's kind is in the type: only a `start R` target ([`StartTarget`]) has
+/// [`until`](ConnectionRequest::until), so a statement the paper does not allow does not compile:
+///
+/// ```compile_fail,E0599
+/// # async fn f(radar: radar_ros::Radar, bumper: radar_ros::EventRef, stop: radar_ros::EventRef,
+/// #            nav: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+/// // `until` after `interrupt`: no such method (until U interrupts the runs a `start` began)
+/// let _c = radar.whenever(&bumper).interrupt(&nav).until(&stop).await?;
+/// # Ok(()) }
+/// ```
+///
+/// ```compile_fail,E0599
+/// # async fn f(radar: radar_ros::Radar, done: radar_ros::EventRef, stop: radar_ros::EventRef,
+/// #            nav: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+/// // nor after `exit`
+/// let _c = radar.once(&done).exit(&nav).until(&stop).await?;
+/// # Ok(()) }
+/// ```
+///
+/// A depth of 0 does not compile either ([`depth`](ConnectionRequest::depth) takes a [`NonZeroUsize`]):
+///
+/// ```compile_fail,E0308
+/// # async fn f(radar: radar_ros::Radar, scan: radar_ros::EventRef) -> radar_ros::Result<()> {
+/// use radar_ros::msg::Empty;
+/// let _c = radar.whenever(&scan).call(|_: Empty| {}).depth(0).await?;
+/// # Ok(()) }
+/// ```
+///
+/// and a statement's source is a signal, never a slot or a response:
+///
+/// ```compile_fail,E0277
+/// # async fn f(radar: radar_ros::Radar, nav: radar_ros::ResponseRef) -> radar_ros::Result<()> {
+/// use radar_ros::Slot;
+/// let _c = radar.once(Slot::new("/beeper/beep", "std_msgs/msg/Empty")).start(&nav).await?;
+/// # Ok(()) }
+/// ```
+///
+/// ```compile_fail,E0277
+/// # async fn f(radar: radar_ros::Radar, nav: radar_ros::ResponseRef, dock: radar_ros::ResponseRef)
+/// #     -> radar_ros::Result<()> {
+/// let _c = radar.once(&nav).start(&dock).await?; // a response is no signal: `nav.exited()` is
+/// # Ok(()) }
+/// ```
 #[must_use = "a connection is made only when this is awaited"]
-pub struct ConnectionRequest {
+pub struct ConnectionRequest<T = StartTarget> {
     manager: Arc<Manager>,
     spec: Spec,
-    response: Option<ResponseRef>,
-    /// Whether the target is a response's start slot (`until` needs one).
-    starts: bool,
-    /// A mistake found while building the statement, reported when it is awaited.
+    target: T,
+    /// A mistake found while building the statement (a payload type that does not fit), reported when it is
+    /// awaited.
     error: Option<Error>,
 }
+
+/// The target kind of a [`ConnectionRequest`] made by [`Statement::start`]: it may take
+/// [`until`](ConnectionRequest::until).
+pub struct StartTarget(ResponseRef);
+
+/// The target kind of a [`ConnectionRequest`] made by [`Statement::interrupt`], [`Statement::exit`],
+/// [`Statement::slot`] or [`Statement::call`]: no `until`.
+pub struct OtherTarget;
 
 /// The owner a connection made by this program's own code names (`process <pid>`); one made through a manager
 /// node's services names its caller instead. A program node lists the first kind, a manager node the second.
@@ -69,11 +121,8 @@ pub(crate) fn program_owner() -> String {
 }
 
 impl Statement {
-    fn to(self, target: TargetSpec, response: Option<ResponseRef>) -> ConnectionRequest {
-        let starts =
-            matches!((&target, &response), (TargetSpec::Slot(s), Some(r)) if *s == r.start_slot());
+    fn to<T>(self, target: TargetSpec, starts: bool, kind: T) -> ConnectionRequest<T> {
         ConnectionRequest {
-            starts,
             error: None,
             manager: self.manager,
             spec: Spec {
@@ -90,7 +139,7 @@ impl Statement {
                 depth: SIGNAL_DEPTH,
                 rearm: false,
             },
-            response,
+            target: kind,
         }
     }
 
@@ -102,9 +151,9 @@ impl Statement {
     /// let _c = radar.whenever(&ev).start(&r).await?;
     /// # Ok(()) }
     /// ```
-    pub fn start(self, r: &impl AsResponse) -> ConnectionRequest {
+    pub fn start(self, r: &impl AsResponse) -> ConnectionRequest<StartTarget> {
         let r = r.response_ref();
-        self.to(TargetSpec::Slot(r.start_slot()), Some(r))
+        self.to(TargetSpec::Slot(r.start_slot()), true, StartTarget(r))
     }
 
     /// `... interrupt R`.
@@ -115,9 +164,9 @@ impl Statement {
     /// let _c = radar.whenever(&bumper).interrupt(&nav).await?;
     /// # Ok(()) }
     /// ```
-    pub fn interrupt(self, r: &impl AsResponse) -> ConnectionRequest {
+    pub fn interrupt(self, r: &impl AsResponse) -> ConnectionRequest<OtherTarget> {
         let r = r.response_ref();
-        self.to(TargetSpec::Slot(r.interrupt_slot()), Some(r))
+        self.to(TargetSpec::Slot(r.interrupt_slot()), false, OtherTarget)
     }
 
     /// `... exit R`.
@@ -128,9 +177,9 @@ impl Statement {
     /// let _c = radar.once(&done).exit(&nav).await?;
     /// # Ok(()) }
     /// ```
-    pub fn exit(self, r: &impl AsResponse) -> ConnectionRequest {
+    pub fn exit(self, r: &impl AsResponse) -> ConnectionRequest<OtherTarget> {
         let r = r.response_ref();
-        self.to(TargetSpec::Slot(r.exit_slot()), Some(r))
+        self.to(TargetSpec::Slot(r.exit_slot()), false, OtherTarget)
     }
 
     /// `... slot`: any slot topic with its type (a component that is not a RADAR response, say).
@@ -141,8 +190,8 @@ impl Statement {
     /// let _c = radar.whenever(&ev).slot(Slot::new("/beeper/beep", "std_msgs/msg/Empty")).await?;
     /// # Ok(()) }
     /// ```
-    pub fn slot(self, slot: Slot) -> ConnectionRequest {
-        self.to(TargetSpec::Slot(slot), None)
+    pub fn slot(self, slot: Slot) -> ConnectionRequest<OtherTarget> {
+        self.to(TargetSpec::Slot(slot), false, OtherTarget)
     }
 
     /// An anonymous slot: `f` runs with each delivered payload, decoded as `M` (the source's type, or
@@ -154,7 +203,10 @@ impl Statement {
     /// let _c = radar.whenever(&ev).call(|_: Empty| println!("bumped")).await?;
     /// # Ok(()) }
     /// ```
-    pub fn call<M: RosMessage>(self, mut f: impl FnMut(M) + Send + 'static) -> ConnectionRequest {
+    pub fn call<M: RosMessage>(
+        self,
+        mut f: impl FnMut(M) + Send + 'static,
+    ) -> ConnectionRequest<OtherTarget> {
         let topic = self.source.topic().to_owned();
         let ty = M::ros_type_name();
         let error = (!crate::wire::raw::carries::<M>(self.source.ros_type())
@@ -179,7 +231,8 @@ impl Statement {
                     f(m)
                 }
             })),
-            None,
+            false,
+            OtherTarget,
         );
         if !empty {
             // C2: a payload that does not decode as `M` is not a delivery (it does not use up a `once`, nor end
@@ -199,9 +252,9 @@ impl Statement {
     }
 }
 
-impl ConnectionRequest {
+impl ConnectionRequest<StartTarget> {
     /// `... until U`: U's signals interrupt R while a run this statement started is in progress (see
-    /// [until windows](crate#connections), rules C3, C6, C7). Only for `start` targets.
+    /// [until windows](crate#connections), rules C3, C6, C7). Only `start` targets have it.
     ///
     /// U need not have a publisher when the statement is armed: U is often an operator's one-shot
     /// `ros2 topic pub --once` or a fresh process per stop. Arming waits to be matched with the publishers of U
@@ -213,29 +266,23 @@ impl ConnectionRequest {
     /// let _c = radar.once(&go).start(&count_up).until(&stop).await?;
     /// # Ok(()) }
     /// ```
-    pub fn until(mut self, u: impl AsSignal) -> ConnectionRequest {
-        match (&self.response, self.starts) {
-            (Some(r), true) => {
-                self.spec.until = Some(UntilSpec {
-                    source: u.signal(),
-                    started: r.started(),
-                    exited: r.exited(),
-                    dropped: r.dropped(),
-                    interrupt: r.interrupt_slot(),
-                    state: r.name().endpoint(crate::Endpoint::State),
-                })
-            }
-            _ => {
-                self.error.get_or_insert(Error::InvalidStatement(
-                    "`until` goes with a `start` target: once E start R until U".into(),
-                ));
-            }
-        }
+    pub fn until(mut self, u: impl AsSignal) -> ConnectionRequest<StartTarget> {
+        let r = &self.target.0;
+        self.spec.until = Some(UntilSpec {
+            source: u.signal(),
+            started: r.started(),
+            exited: r.exited(),
+            dropped: r.dropped(),
+            interrupt: r.interrupt_slot(),
+            state: r.name().endpoint(crate::Endpoint::State),
+        });
         self
     }
+}
 
+impl<T> ConnectionRequest<T> {
     /// Records who asked for the connection (shown in the manager's `connections` list).
-    pub(crate) fn owner(mut self, owner: String) -> ConnectionRequest {
+    pub(crate) fn owner(mut self, owner: String) -> ConnectionRequest<T> {
         self.spec.owner = owner;
         self
     }
@@ -253,7 +300,7 @@ impl ConnectionRequest {
     pub fn filter<M: RosMessage>(
         mut self,
         f: impl Fn(&M) -> bool + Send + Sync + 'static,
-    ) -> ConnectionRequest {
+    ) -> ConnectionRequest<T> {
         if let Some(e) = self.source_type_error::<M>("a filter") {
             self.error.get_or_insert(e);
             return self;
@@ -296,7 +343,7 @@ impl ConnectionRequest {
     pub fn map<M: RosMessage, N: RosMessage>(
         self,
         f: impl Fn(M) -> N + Send + Sync + 'static,
-    ) -> ConnectionRequest {
+    ) -> ConnectionRequest<T> {
         let mapped = N::ros_type_name();
         self.map_as(&mapped, f)
     }
@@ -307,7 +354,7 @@ impl ConnectionRequest {
         self,
         ros_type: &str,
         f: impl Fn(M) -> crate::DynMessage + Send + Sync + 'static,
-    ) -> ConnectionRequest {
+    ) -> ConnectionRequest<T> {
         self.map_as(ros_type, f)
     }
 
@@ -315,7 +362,7 @@ impl ConnectionRequest {
         mut self,
         mapped: &str,
         f: impl Fn(M) -> N + Send + Sync + 'static,
-    ) -> ConnectionRequest {
+    ) -> ConnectionRequest<T> {
         if let Some(e) = self.source_type_error::<M>("a map") {
             self.error.get_or_insert(e);
             return self;
@@ -359,21 +406,17 @@ impl ConnectionRequest {
     /// retransmission to a slow or lossy target; for an anonymous slot, how many payloads wait for the
     /// closure (the oldest are dropped, with a warning). Connections asking for a depth other than the
     /// default get a reader and writer of their own (shared with connections asking for the same depth). At
-    /// least 1.
+    /// least 1: a [`NonZeroUsize`].
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, scan: radar_ros::EventRef) -> radar_ros::Result<()> {
     /// use radar_ros::msg::Empty;
-    /// let _c = radar.whenever(&scan).call(|_: Empty| {}).depth(100).await?;
+    /// use std::num::NonZeroUsize;
+    /// let _c = radar.whenever(&scan).call(|_: Empty| {}).depth(NonZeroUsize::new(100).unwrap()).await?;
     /// # Ok(()) }
     /// ```
-    pub fn depth(mut self, depth: usize) -> ConnectionRequest {
-        if depth == 0 {
-            self.error.get_or_insert(Error::InvalidStatement(
-                "a connection's QoS depth must be at least 1 (the default is 10)".into(),
-            ));
-        }
-        self.spec.depth = depth.max(1);
+    pub fn depth(mut self, depth: NonZeroUsize) -> ConnectionRequest<T> {
+        self.spec.depth = depth.get();
         self
     }
 
@@ -389,7 +432,7 @@ impl ConnectionRequest {
     /// let _c = radar.whenever(&bumper).start(&stop).rearm().await?;
     /// # Ok(()) }
     /// ```
-    pub fn rearm(mut self) -> ConnectionRequest {
+    pub fn rearm(mut self) -> ConnectionRequest<T> {
         self.spec.rearm = true;
         self
     }
@@ -401,21 +444,27 @@ impl ConnectionRequest {
     /// let _c = radar.whenever(&go).start(&r).timeout(std::time::Duration::from_secs(30)).await?;
     /// # Ok(()) }
     /// ```
-    pub fn timeout(mut self, d: Duration) -> ConnectionRequest {
+    pub fn timeout(mut self, d: Duration) -> ConnectionRequest<T> {
         self.spec.timeout = d;
         self
     }
 }
 
-impl IntoFuture for ConnectionRequest {
+impl<T> IntoFuture for ConnectionRequest<T> {
     type Output = Result<ConnectionGuard>;
     type IntoFuture = Pin<Box<dyn Future<Output = Result<ConnectionGuard>> + Send>>;
     fn into_future(self) -> Self::IntoFuture {
+        let ConnectionRequest {
+            manager,
+            spec,
+            error,
+            ..
+        } = self;
         Box::pin(async move {
-            if let Some(e) = self.error {
+            if let Some(e) = error {
                 return Err(e);
             }
-            self.manager.arm(self.spec).await
+            manager.arm(spec).await
         })
     }
 }

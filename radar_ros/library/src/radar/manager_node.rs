@@ -117,12 +117,12 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
             )))
         }
     };
-    let c = if req.until.is_empty() {
+    if req.until.is_empty() {
         let slot = Slot::new(
             &target_topic,
             radar.topic_type(&target_topic, false, timeout).await?,
         );
-        statement.slot(slot)
+        armed(statement.slot(slot), req, owner, timeout).await
     } else {
         let Some((response, crate::Endpoint::Start)) = crate::Endpoint::of_topic(&target_topic)
         else {
@@ -133,12 +133,20 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         let r = radar.response(response).timeout(timeout).await?;
         let u_topic = radar.resolve(&req.until)?.fully_qualified();
         let u = Signal::new(&u_topic, radar.topic_type(&u_topic, true, timeout).await?);
-        statement.start(&r).until(u)
-    };
-    let c = if req.depth > 0 {
-        c.depth(req.depth as usize)
-    } else {
-        c
+        armed(statement.start(&r).until(u), req, owner, timeout).await
+    }
+}
+
+/// Arms `c` with the request's properties (a depth of 0 means the default).
+async fn armed<T>(
+    c: crate::statement::ConnectionRequest<T>,
+    req: &ConnectRequest,
+    owner: String,
+    timeout: Duration,
+) -> Result<ConnectionGuard> {
+    let c = match std::num::NonZeroUsize::new(req.depth as usize) {
+        Some(depth) => c.depth(depth),
+        None => c,
     };
     c.owner(owner).timeout(timeout).await
 }
