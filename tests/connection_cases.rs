@@ -720,7 +720,7 @@ async fn a_whenever_until_interrupts_its_run_after_a_later_start_was_dropped() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_response_of_this_process_that_stops_loses_its_connections_and_a_rearming_one_finds_the_next(
 ) {
-    use radar_ros::Link;
+    use radar_ros::manager::Link;
     let r = radar(0);
     let go = r.signal_publisher::<Empty>("/go").unwrap();
     let src = Signal::new("/go", "std_msgs/msg/Empty");
@@ -1115,7 +1115,7 @@ async fn an_arming_timeout_bounds_the_whole_arming_not_each_wait() {
     let d = Duration::from_millis(1500);
     let source = Signal::new("/late_source/triggered", "std_msgs/msg/Empty");
     let nobody = radar_ros::ResponseRef::new(
-        radar_ros::ComponentName::resolve("/nobody_serves", "/").unwrap(),
+        radar_ros::graph::ComponentName::resolve("/nobody_serves", "/").unwrap(),
         "std_msgs/msg/Empty",
         "std_msgs/msg/Empty",
     );

@@ -7,7 +7,9 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::{Empty, Int32, StringMsg},
-    DynMessage, Error, Event, RawMessage, Response, SlotError,
+    topics::DynMessage,
+    topics::RawMessage,
+    Error, Event, Response, SlotError,
 };
 use radar_test_util::{radar, DISCOVERY};
 

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 /// The first state message on `state` that satisfies `want` (within [`DISCOVERY`]).
 async fn first_state(
-    state: &radar_ros::SignalSubscription<ResponseState>,
+    state: &radar_ros::topics::SignalSubscription<ResponseState>,
     want: impl Fn(&ResponseState) -> bool,
 ) -> ResponseState {
     let last = std::sync::Mutex::new(None);
@@ -292,7 +292,7 @@ impl ros2_client::Message for Bytes {}
 
 /// Bodies that claim a string of 1 MB, 16 bytes, 0x7fffffff bytes, or are cut short: none decodes as a
 /// std_msgs/msg/String (or anything with a string first), whatever follows.
-fn garbage(rng: &mut u64) -> Vec<radar_ros::RawMessage> {
+fn garbage(rng: &mut u64) -> Vec<radar_ros::topics::RawMessage> {
     let mut next = move || {
         // xorshift
         *rng ^= *rng << 13;
@@ -303,14 +303,14 @@ fn garbage(rng: &mut u64) -> Vec<radar_ros::RawMessage> {
     let mut random = |n: usize, claim: u32| {
         let mut v = claim.to_le_bytes().to_vec();
         v.extend((0..n).map(|_| next() as u8));
-        radar_ros::RawMessage::from_bytes(v)
+        radar_ros::topics::RawMessage::from_bytes(v)
     };
     vec![
-        radar_ros::RawMessage::from_bytes(vec![]), // nothing at all
-        radar_ros::RawMessage::from_bytes(vec![0x10, 0, 0]), // a length cut short
-        radar_ros::RawMessage::from_bytes(vec![0x10, 0, 0, 0, b'a']), // claims 16 bytes, has 1
-        random(64, 1_000_000),                     // random, claiming 1 MB
-        random(200_000, 0x7fff_ffff),              // oversized, claiming 2 GB
+        radar_ros::topics::RawMessage::from_bytes(vec![]), // nothing at all
+        radar_ros::topics::RawMessage::from_bytes(vec![0x10, 0, 0]), // a length cut short
+        radar_ros::topics::RawMessage::from_bytes(vec![0x10, 0, 0, 0, b'a']), // claims 16 bytes, has 1
+        random(64, 1_000_000),        // random, claiming 1 MB
+        random(200_000, 0x7fff_ffff), // oversized, claiming 2 GB
     ]
 }
 
@@ -354,7 +354,7 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
         }
         for p in [&interrupt, &exit] {
             // an Empty is one byte; nothing at all does not decode
-            p.publish(radar_ros::RawMessage::from_bytes(vec![]))
+            p.publish(radar_ros::topics::RawMessage::from_bytes(vec![]))
                 .unwrap();
             sent_empty += 1;
         }
@@ -365,7 +365,8 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
     let garbage_client = {
         use ros2_client::{Name, NodeName, NodeOptions, ServiceMapping, ServiceTypeName};
         let mut node = a
-            .context()
+            .dds_context()
+            .expect("a DDS Radar")
             .new_node(
                 NodeName::new("/", "garbage").unwrap(),
                 NodeOptions::new()
@@ -397,22 +398,24 @@ async fn malformed_cdr_on_every_slot_and_service_is_counted_logged_once_and_vali
     for (svc, c) in &garbage_client.1 {
         // a valid request first, repeated until answered: the service is matched, nothing is lost
         let valid = match *svc {
-            "connect" => radar_ros::RawMessage::encode(&radar_ros::msg::ConnectRequest {
+            "connect" => radar_ros::topics::RawMessage::encode(&radar_ros::msg::ConnectRequest {
                 kind: radar_ros::msg::Connection::WHENEVER,
                 source: "not a topic".into(),
                 target: "/echo/start".into(),
                 ..Default::default()
             }),
             "disconnect" => {
-                radar_ros::RawMessage::encode(&radar_ros::msg::DisconnectRequest { id: 424242 })
+                radar_ros::topics::RawMessage::encode(&radar_ros::msg::DisconnectRequest {
+                    id: 424242,
+                })
             }
-            _ => radar_ros::RawMessage::encode(&radar_ros::msg::ListRequest::default()),
+            _ => radar_ros::topics::RawMessage::encode(&radar_ros::msg::ListRequest::default()),
         }
         .unwrap();
         radar_test_util::call_service(c, Bytes(valid.into_bytes()), DISCOVERY).await;
         // List's request is one padding byte: only an empty body fails to decode
         let bodies = if *svc == "list" {
-            vec![radar_ros::RawMessage::from_bytes(vec![])]
+            vec![radar_ros::topics::RawMessage::from_bytes(vec![])]
         } else {
             garbage(&mut rng)
         };

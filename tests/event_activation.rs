@@ -209,7 +209,7 @@ async fn killed_subscriber_process_deactivates_the_event_when_its_dds_lease_expi
     let took = t0.elapsed();
     println!("SIGKILL of the subscriber process: inactive after {took:?} (DDS participant lease)");
     assert!(
-        took > radar_ros::DEFAULT_LEASE - Duration::from_millis(700),
+        took > radar_ros::graph::DEFAULT_LEASE - Duration::from_millis(700),
         "a killed peer cannot be noticed before its lease: {took:?}"
     );
     assert!(
@@ -377,7 +377,7 @@ struct RelayedEvent {
     triggers: tokio::sync::mpsc::UnboundedReceiver<Trigger<Int32>>,
     resolve: Arc<tokio::sync::Notify>,
     _watcher: radar_ros::Radar,
-    obs: radar_ros::RawSubscription,
+    obs: radar_ros::topics::RawSubscription,
 }
 
 async fn relayed_event(domain: u16, name: &str) -> RelayedEvent {
@@ -409,12 +409,12 @@ async fn relayed_event(domain: u16, name: &str) -> RelayedEvent {
 }
 
 /// The `Int32` an observed sample carries.
-fn int32_of(m: &radar_ros::RawMessage) -> i32 {
+fn int32_of(m: &radar_ros::topics::RawMessage) -> i32 {
     i32::from_le_bytes(m.as_bytes()[0..4].try_into().unwrap())
 }
 
 /// The `Int32` values an observer (which never activates the event) has seen so far.
-async fn observed(obs: &radar_ros::RawSubscription, within: Duration) -> Vec<i32> {
+async fn observed(obs: &radar_ros::topics::RawSubscription, within: Duration) -> Vec<i32> {
     let mut seen = Vec::new();
     while let Ok((m, _)) = obs.recv_stamped().timeout(within).await {
         seen.push(int32_of(&m));

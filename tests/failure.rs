@@ -6,8 +6,10 @@
 use std::time::{Duration, Instant};
 
 use radar_ros::{
+    graph::LossCause,
+    manager::Link,
     msg::{Connection, Empty, ResponseState},
-    Error, Link, LossCause, Signal,
+    Error, Signal,
 };
 use radar_test_util::{eventually, radar, HostPeer, DISCOVERY};
 
@@ -147,7 +149,7 @@ async fn go_starts_arm_in_a_peer(
     rearm: bool,
 ) -> (
     radar_ros::Radar,
-    radar_ros::SignalPublisher<Empty>,
+    radar_ros::topics::SignalPublisher<Empty>,
     HostPeer,
     radar_ros::ConnectionGuard,
 ) {

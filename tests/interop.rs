@@ -41,7 +41,7 @@ fn graph_with_manager(
 ) -> (
     radar_ros::EventHandle,
     radar_ros::ResponseHandle,
-    radar_ros::ManagerHandle,
+    radar_ros::manager::ManagerHandle,
 ) {
     let e = r
         .spawn_event(ev, TimerEvent::new(Duration::from_millis(100)))
@@ -571,7 +571,8 @@ async fn a_late_state_subscriber_gets_only_the_current_state() {
     // ros2-client in another participant, same QoS as the rclpy subscriber
     let late = radar_ros::Radar::builder().domain_id(34).build().unwrap();
     let mut node = late
-        .context()
+        .dds_context()
+        .expect("a DDS Radar")
         .new_node(
             NodeName::new("/", "late_state_reader").unwrap(),
             NodeOptions::new().enable_rosout(false),

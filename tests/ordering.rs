@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use radar_ros::{msg::StringMsg, RawMessage, Signal};
+use radar_ros::{msg::StringMsg, topics::RawMessage, Signal};
 use radar_test_util::{publish_unreadable_string, radar, HostPeer, DISCOVERY};
 
 const T: Duration = Duration::from_secs(5);

@@ -11,7 +11,9 @@ use std::time::Duration;
 use super::radar;
 use radar_ros::{
     msg::{Empty, ResponseState, StringMsg},
-    FnResponse, RawMessage, Signal, SignalSubscription,
+    topics::RawMessage,
+    topics::SignalSubscription,
+    FnResponse, Signal,
 };
 use radar_test_util::{counter, eventually, publish_unreadable_string, HostPeer, DISCOVERY};
 
@@ -55,8 +57,8 @@ struct Remote {
     state: SignalSubscription<ResponseState>,
     started: SignalSubscription<Empty>,
     exited: SignalSubscription<Empty>,
-    e: radar_ros::SignalPublisher<Empty>,
-    u: radar_ros::SignalPublisher<Empty>,
+    e: radar_ros::topics::SignalPublisher<Empty>,
+    u: radar_ros::topics::SignalPublisher<Empty>,
 }
 
 impl Remote {
@@ -302,7 +304,7 @@ async fn b1_a_rearming_connection_follows_its_response_to_another_process() {
     let mut peer = HostPeer::start(peer_exe(), 10).await;
     peer.run("response b1a 10").await;
     eventually(T, "the connection armed again", || {
-        c.link() == Some(radar_ros::Link::Armed)
+        c.link() == Some(radar_ros::manager::Link::Armed)
     })
     .await;
     e.publish(Empty::default()).unwrap();

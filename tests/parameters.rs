@@ -7,9 +7,10 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::{Empty, Float64},
+    nodes::ResponseNode,
     params::{ParamDecl, ParameterValue, Params},
     ros_args::RosArgs,
-    Response, ResponseNode, SlotError,
+    Response, SlotError,
 };
 use radar_test_util::{python, radar_with, repo};
 use serde_json::{json, Value};

@@ -9,7 +9,7 @@
 
 use std::{process::Stdio, time::Duration};
 
-use radar_ros::{msg::Empty, Radar, SignalPublisher, SignalSubscription};
+use radar_ros::{msg::Empty, topics::SignalPublisher, topics::SignalSubscription, Radar};
 use radar_test_util::{radar, DISCOVERY};
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 

@@ -453,3 +453,57 @@ fn the_guard_stops_a_build_against_the_crates_io_rustdds() {
         "radar_ros's build script stops it first, saying what to do: {said}"
     );
 }
+
+/// Issue 72: code written for radar_ros 0.1 still builds, with deprecation notes that name each name's new
+/// place and nothing else: a user crate (outside the workspace, the README's dependency) using the old root
+/// names of a type, a generic type, a constant, a function and the renamed `Source`.
+#[test]
+fn code_written_for_the_old_root_builds_with_notes_naming_the_new_places() {
+    let dir = repo().join("target/user-crate/old_names");
+    write(
+        &dir.join("Cargo.toml"),
+        &format!(
+            "[package]\nname = \"old_names\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n[dependencies]\n\
+             radar_ros = {{ path = \"{}\" }}\n\n[workspace]\n",
+            repo().join("radar_ros/library").display()
+        ),
+    );
+    write(
+        &dir.join("src/lib.rs"),
+        "pub fn old(radar: &radar_ros::Radar) -> Vec<radar_ros::Component> {\n\
+         \x20   let _raw: Option<radar_ros::RawMessage> = None;\n\
+         \x20   let _sub: Option<radar_ros::SignalSubscription<radar_ros::msg::Empty>> = None;\n\
+         \x20   let _lease = radar_ros::DEFAULT_LEASE;\n\
+         \x20   let _domain = radar_ros::domain_id_from_env();\n\
+         \x20   let _cause: Option<radar_ros::Source> = None;\n\
+         \x20   radar.components()\n}\n",
+    );
+    let out = build(&dir, &[]);
+    let said = cargo_said(&out.stderr);
+    assert!(out.status.success(), "old code no longer builds: {said}");
+    for (old, new) in [
+        ("Component", "radar_ros::graph::Component"),
+        ("RawMessage", "radar_ros::topics::RawMessage"),
+        (
+            "SignalSubscription",
+            "radar_ros::topics::SignalSubscription",
+        ),
+        ("DEFAULT_LEASE", "radar_ros::graph::DEFAULT_LEASE"),
+        ("domain_id_from_env", "radar_ros::graph::domain_id_from_env"),
+        ("Source", "radar_ros::error::BoxError"),
+    ] {
+        assert!(
+            said.contains(new),
+            "no deprecation note for {old} naming {new}: {said}"
+        );
+    }
+    let warnings = said
+        .lines()
+        .filter(|l| l.starts_with("warning: use of deprecated"))
+        .count();
+    let all = said
+        .lines()
+        .filter(|l| l.starts_with("warning:") && !l.contains("generated"))
+        .count();
+    assert_eq!(all, warnings, "only deprecation notes: {said}");
+}

@@ -15,9 +15,13 @@ use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
 use radar_ros::{
+    graph::DiscoveryRange,
     msg::{Empty, ResponseState, RosMessage},
-    DiscoveryRange, Radar, RadarBuilder, RawMessage, RawPublisher, SignalPublisher,
-    SignalSubscription,
+    topics::RawMessage,
+    topics::RawPublisher,
+    topics::SignalPublisher,
+    topics::SignalSubscription,
+    Radar, RadarBuilder,
 };
 
 /// How long any wait on DDS discovery may take before a test fails.
@@ -336,7 +340,8 @@ impl ManagerClient {
     pub async fn new(radar: &Radar, manager: &str, node_name: &str) -> ManagerClient {
         use ros2_client::{dds::ServiceMapping, Name, NodeName, NodeOptions, ServiceTypeName};
         let mut node = radar
-            .context()
+            .dds_context()
+            .expect("a DDS Radar")
             .new_node(
                 NodeName::new("/", node_name).unwrap(),
                 NodeOptions::new()

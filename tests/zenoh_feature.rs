@@ -16,7 +16,7 @@
 //!   (ros2-client patch 14), against the design-document peer as it comes and is SIGKILLed;
 //! - `radar_ros/library/tests/zenoh_raw.rs`: raw bodies and a given source time (ros2-client patch 15) both ways
 //!   with the design-document peer, what the manager's relays need;
-//! - `radar_ros/library/tests/zenoh_signals.rs`: `radar_ros::ZenohSignals`, radar_ros's signal publishers and
+//! - `radar_ros/library/tests/zenoh_signals.rs`: `radar_ros::topics::ZenohSignals`, radar_ros's signal publishers and
 //!   subscriptions over Zenoh, waiting, sending and hearing against the design-document peer;
 //! - `radar_ros/library/tests/zenoh_radar.rs`: a `Radar` on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`): Listing 2's
 //!   shape with the design-document peer as the bumper, its graph read from the liveliness tokens; another

@@ -167,7 +167,8 @@ pub async fn wait_until(cond: impl Fn() -> bool, timeout: Duration) -> Result<u6
 pub async fn service_caller(manager: &str, source: &str, target: &str) -> Result<()> {
     let radar = Radar::new()?;
     let mut node = radar
-        .context()
+        .dds_context()
+        .ok_or_else(|| anyhow!("the bench runs over DDS"))?
         .new_node(
             NodeName::new("/bench", "caller").map_err(|e| anyhow!("{e:?}"))?,
             NodeOptions::new()

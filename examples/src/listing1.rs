@@ -5,8 +5,10 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::{Empty, EventState},
+    nodes::EventNode,
+    nodes::ResponseNode,
     params::{ParamDecl, Params},
-    Event, EventNode, ExitAction, ExitReason, Radar, Response, ResponseNode, SlotError,
+    Event, ExitAction, ExitReason, Radar, Response, SlotError,
 };
 
 use crate::Timeline;

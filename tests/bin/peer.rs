@@ -124,7 +124,7 @@ async fn main() {
 async fn subscribe<M: radar_ros::msg::RosMessage>(
     radar: &Radar,
     topic: &str,
-) -> radar_ros::SignalSubscription<M> {
+) -> radar_ros::topics::SignalSubscription<M> {
     let s = radar.signal_subscription::<M>(topic).expect("subscription");
     s.wait_for_publishers(1)
         .timeout(Duration::from_secs(30))
@@ -143,10 +143,12 @@ async fn host(radar: Radar) {
     let mut events = Vec::new();
     let mut clients = Vec::new();
     let mut remotes = Vec::new();
-    let mut i64_publishers: HashMap<String, radar_ros::SignalPublisher<radar_ros::msg::Int64>> =
-        HashMap::new();
+    let mut i64_publishers: HashMap<
+        String,
+        radar_ros::topics::SignalPublisher<radar_ros::msg::Int64>,
+    > = HashMap::new();
     let collected: std::sync::Arc<std::sync::Mutex<Vec<(i64, i64)>>> = Default::default();
-    let mut publishers: HashMap<String, radar_ros::SignalPublisher<Empty>> = HashMap::new();
+    let mut publishers: HashMap<String, radar_ros::topics::SignalPublisher<Empty>> = HashMap::new();
     let mut lines = BufReader::new(tokio::io::stdin()).lines();
     let say = |s: &str| {
         let mut out = std::io::stdout();
@@ -363,7 +365,7 @@ async fn host(radar: Radar) {
                         .timeout(Duration::from_secs(20))
                         .await?;
                     let id = m
-                        .connect(radar_ros::RemoteStatement::whenever(source).to(target))
+                        .connect(radar_ros::manager::RemoteStatement::whenever(source).to(target))
                         .timeout(Duration::from_secs(20))
                         .await?;
                     remotes.push(m);

@@ -11,7 +11,7 @@ use radar_ros::{
     codec::Interfaces,
     interfaces::{geometry_msgs::msg as geo, sensor_msgs::msg as sensor},
     msg::RosMessage,
-    RawMessage,
+    topics::RawMessage,
 };
 use serde::{Deserialize, Serialize};
 

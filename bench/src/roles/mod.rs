@@ -170,7 +170,7 @@ async fn at_rate(rate: f64, window: Duration, mut f: impl FnMut(u64)) -> u64 {
 /// `probe`, answered by every role: the stamps RustDDS's latency probe took in this process since the last
 /// `probe` (`[[stage, sequence number, t_ns], ...]`; empty unless the role runs with `RUSTDDS_PROBE_TOPIC`).
 fn probe_report() -> String {
-    let stamps: Vec<(&str, i64, u64)> = radar_ros::rustdds::probe::drain()
+    let stamps: Vec<(&str, i64, u64)> = radar_ros::transport::rustdds::probe::drain()
         .into_iter()
         .map(|s| (s.stage.name(), s.sn, s.t_ns))
         .collect();
@@ -196,7 +196,7 @@ impl Record {
         };
         let lat: Vec<u64> = kept().map(|(_, l, _)| *l).collect();
         let mut report = json!({ "lat_ns": lat, "received": all.len(), "extra": extra });
-        if radar_ros::rustdds::probe::on() {
+        if radar_ros::transport::rustdds::probe::on() {
             let at: Vec<(u64, u64, u64)> = kept()
                 .map(|(s, l, t1)| (*s, t1.saturating_sub(*l), *t1))
                 .collect();

@@ -26,8 +26,9 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::Empty,
+    nodes::EventNode,
     params::{ParamDecl, Params},
-    Event, EventNode, ExitReason, Radar, Response, ResponseRef, SlotError,
+    Event, ExitReason, Radar, Response, ResponseRef, SlotError,
 };
 use radar_ros_examples::{init_logs, Timeline};
 

@@ -46,7 +46,7 @@ impl std::fmt::Display for LossCause {
 /// A connected component that left the ROS graph: which, through which topic that was seen, and why.
 ///
 /// ```
-/// use radar_ros::{Departure, LossCause};
+/// use radar_ros::{graph::Departure, graph::LossCause};
 /// let d = Departure::of_publisher("/bumper/triggered", LossCause::Left);
 /// assert_eq!(d.component(), "/bumper");
 /// assert!(d.to_string().starts_with("/bumper left the ROS graph"));
@@ -129,6 +129,19 @@ impl std::fmt::Display for Departure {
                 "{} {verb} ({} has no {side} now): {}",
                 self.component, self.topic, self.cause
             ),
+        }
+    }
+}
+
+impl LossCause {
+    /// The cause of a DDS participant's or endpoint's loss, as RustDDS tells it.
+    pub(crate) fn of(reason: &ros2_client::dds::rustdds::LostReason) -> LossCause {
+        use ros2_client::dds::rustdds::LostReason;
+        match reason {
+            LostReason::Disposed => LossCause::Left,
+            LostReason::Timeout { elapsed, .. } => LossCause::Unreachable {
+                silent_for: elapsed.to_std(),
+            },
         }
     }
 }

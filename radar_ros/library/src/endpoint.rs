@@ -62,7 +62,7 @@ impl Endpoint {
     /// The endpoint a topic's last segment names, if it is one.
     ///
     /// ```
-    /// use radar_ros::Endpoint;
+    /// use radar_ros::graph::Endpoint;
     /// assert_eq!(Endpoint::of_topic("/fib/feedback"), Some(("/fib", Endpoint::Feedback)));
     /// assert_eq!(Endpoint::of_topic("/chatter"), None);
     /// ```

@@ -8,8 +8,8 @@
 //! assert!(e.to_string().contains("not a namespace"));
 //! ```
 
-/// A boxed underlying error.
-pub type Source = Box<dyn std::error::Error + Send + Sync + 'static>;
+/// A boxed underlying error (an [`Error`]'s cause, from [`std::error::Error::source`]).
+pub type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;
 
 /// Everything that can go wrong in radar_ros.
 #[derive(Debug, thiserror::Error)]
@@ -115,7 +115,7 @@ pub enum Error {
         /// What was being done: `create a publisher on /x`, `send on /x`.
         what: String,
         /// The underlying error.
-        source: Source,
+        source: BoxError,
         /// What to do about it, if known.
         hint: String,
     },
@@ -125,7 +125,7 @@ pub enum Error {
         /// `decode a std_msgs/msg/String from 3 bytes`, ...
         what: String,
         /// The underlying error.
-        source: Source,
+        source: BoxError,
     },
     /// A component left the ROS graph while we waited for its signal (it exited, crashed, hangs, or the
     /// network cut it off): what it would have sent will not come.

@@ -202,8 +202,6 @@ mod components;
 mod connections;
 mod departure;
 mod endpoint;
-mod error;
-mod graph;
 mod macros;
 mod node;
 mod radar;
@@ -216,44 +214,162 @@ pub use node::{clock, params, ros_args, rosout};
 pub use radar::introspect;
 pub use wire::{msg, qos};
 
-pub use components::event::{Event, EventHandle, EventNode, TimerEvent, TopicEvent};
-pub use components::own_node::{ComponentNode, EventSubscription};
-pub use components::response::{FnResponse, Response, ResponseHandle, ResponseNode};
+// The root: RADAR's own names (docs/public_api.md lists every export; a test keeps the list true).
+pub use components::event::{Event, EventHandle, TimerEvent, TopicEvent};
+pub use components::response::{FnResponse, Response, ResponseHandle};
 pub use components::trigger::Trigger;
-pub use departure::{Departure, LossCause};
+pub use connections::manager::ConnectionGuard;
+pub use connections::statement::{ConnectionRequest, Statement};
+pub use error::{Error, Result, SlotError};
+pub use node::shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
+pub use radar::{Radar, RadarBuilder};
+pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
+pub use wait::{Wait, DEFAULT_TIMEOUT};
 pub use wire::refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 
-pub use connections::manager::ConnectionGuard;
-pub use connections::remote::{RemoteManager, RemoteStatement};
-pub use connections::statement::{ConnectionRequest, Statement};
+pub mod error;
+pub mod graph;
 
-/// RADAR's statements (`once E ...`, `whenever E ...`) as [`Radar::once`] and [`Radar::whenever`] build them:
-/// a [`Statement`] given its target is a [`ConnectionRequest`], whose type says which target it has
-/// ([`StartTarget`]: it may take `until U`; [`OtherTarget`]: interrupt, exit, a slot, an anonymous slot).
 pub mod statement {
+    //! RADAR's statements (`once E ...`, `whenever E ...`, `waitfor`) as [`Radar::once`](crate::Radar::once), [`Radar::whenever`](crate::Radar::whenever) and
+    //! [`Radar::waiter`](crate::Radar::waiter) build them: a [`Statement`] given its target is a [`ConnectionRequest`], whose type says
+    //! which target it has ([`StartTarget`]: it may take `until U`; [`OtherTarget`]: interrupt, exit, a slot, an
+    //! anonymous slot); a [`Waiter`] is a `waitfor` armed.
     pub use crate::connections::statement::{
         ConnectionRequest, OtherTarget, StartTarget, Statement,
     };
+    pub use crate::connections::waiter::Waiter;
 }
-pub use connections::waiter::Waiter;
-pub use endpoint::Endpoint;
-pub use error::{Error, Result, SlotError, Source};
-pub use graph::lookup::Component;
-pub use node::shutdown::DEFAULT_SHUTDOWN_TIMEOUT;
-pub use node::topics::{
-    RawPublisher, RawSubscription, Sample, SignalPublisher, SignalSubscription,
-};
-#[cfg(feature = "zenoh")]
-pub use node::zenoh::ZenohSignals;
-pub use radar::manager_node::{ManagerHandle, OWNER_SILENT};
-pub use radar::settings::{DiscoveryRange, DEFAULT_LEASE};
-pub use radar::{domain_id_from_env, Radar, RadarBuilder};
-pub use radar_semantics::connection::Link;
-pub use radar_semantics::response::{ExitAction, ExitReason, Phase, StartPolicy};
-pub use wait::{Wait, DEFAULT_TIMEOUT};
-pub use wire::malformed::MalformedCount;
-pub use wire::names::ComponentName;
-pub use wire::raw::{DynMessage, RawMessage};
+
+pub mod manager {
+    //! Connection managers: another program's, reached through its services ([`RemoteManager`],
+    //! [`RemoteStatement`]), this program's served as a node ([`ManagerHandle`], [`OWNER_SILENT`]), and the state of
+    //! a connection's link to its target ([`Link`]).
+    pub use crate::connections::remote::{RemoteManager, RemoteStatement};
+    pub use crate::radar::manager_node::{ManagerHandle, OWNER_SILENT};
+    pub use radar_semantics::connection::Link;
+}
+
+pub mod topics {
+    //! Plain topics beside RADAR's: typed and raw publishers and subscriptions ([`SignalPublisher`],
+    //! [`SignalSubscription`], [`RawPublisher`], [`RawSubscription`], [`Sample`]), payloads of any type
+    //! ([`RawMessage`], [`DynMessage`]), a component's own subscriptions ([`EventSubscription`]), what did not decode
+    //! ([`MalformedCount`]), and, over Zenoh, a Radar's signals counted (`ZenohSignals`, feature `zenoh`).
+    pub use crate::components::own_node::EventSubscription;
+    pub use crate::node::topics::{
+        RawPublisher, RawSubscription, Sample, SignalPublisher, SignalSubscription,
+    };
+    #[cfg(feature = "zenoh")]
+    pub use crate::node::zenoh::ZenohSignals;
+    pub use crate::wire::malformed::MalformedCount;
+    pub use crate::wire::raw::{DynMessage, RawMessage};
+}
+
+pub mod nodes {
+    //! The ROS nodes a component's slots and checks run with ([`ComponentNode`]; [`EventNode`] and
+    //! [`ResponseNode`] name it for each kind), for their own topics and parameters.
+    pub use crate::components::event::EventNode;
+    pub use crate::components::own_node::ComponentNode;
+    pub use crate::components::response::ResponseNode;
+}
+
+// The old places, kept for one release (0.2.0) and hidden from the docs; each says where its name went.
+#[allow(missing_docs, deprecated)]
+mod old_names {
+    use std::time::Duration;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::Component")]
+    pub type Component = crate::graph::Component;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::ComponentName")]
+    pub type ComponentName = crate::graph::ComponentName;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::Endpoint")]
+    pub type Endpoint = crate::graph::Endpoint;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::Departure")]
+    pub type Departure = crate::graph::Departure;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::LossCause")]
+    pub type LossCause = crate::graph::LossCause;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::DiscoveryRange")]
+    pub type DiscoveryRange = crate::graph::DiscoveryRange;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::RemoteManager")]
+    pub type RemoteManager = crate::manager::RemoteManager;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::RemoteStatement")]
+    pub type RemoteStatement = crate::manager::RemoteStatement;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::ManagerHandle")]
+    pub type ManagerHandle = crate::manager::ManagerHandle;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::Link")]
+    pub type Link = crate::manager::Link;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::statement::Waiter")]
+    pub type Waiter<M> = crate::statement::Waiter<M>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::RawPublisher")]
+    pub type RawPublisher = crate::topics::RawPublisher;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::RawSubscription")]
+    pub type RawSubscription = crate::topics::RawSubscription;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::Sample")]
+    pub type Sample = crate::topics::Sample;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::DynMessage")]
+    pub type DynMessage = crate::topics::DynMessage;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::RawMessage")]
+    pub type RawMessage = crate::topics::RawMessage;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::MalformedCount")]
+    pub type MalformedCount = crate::topics::MalformedCount;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::nodes::ComponentNode")]
+    pub type ComponentNode<'a> = crate::nodes::ComponentNode<'a>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::nodes::EventNode")]
+    pub type EventNode<'a> = crate::nodes::EventNode<'a>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::nodes::ResponseNode")]
+    pub type ResponseNode<'a> = crate::nodes::ResponseNode<'a>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::SignalPublisher")]
+    pub type SignalPublisher<M> = crate::topics::SignalPublisher<M>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::SignalSubscription")]
+    pub type SignalSubscription<M> = crate::topics::SignalSubscription<M>;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::EventSubscription")]
+    pub type EventSubscription<M> = crate::topics::EventSubscription<M>;
+    #[cfg(feature = "zenoh")]
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::topics::ZenohSignals")]
+    pub type ZenohSignals = crate::topics::ZenohSignals;
+    #[doc(hidden)]
+    #[deprecated(
+        since = "0.2.0",
+        note = "renamed: radar_ros::error::BoxError (a signal's origin is its source)"
+    )]
+    pub type Source = crate::error::BoxError;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::DEFAULT_LEASE")]
+    pub const DEFAULT_LEASE: Duration = crate::graph::DEFAULT_LEASE;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::OWNER_SILENT")]
+    pub const OWNER_SILENT: Duration = crate::manager::OWNER_SILENT;
+    #[doc(hidden)]
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::domain_id_from_env")]
+    pub fn domain_id_from_env() -> crate::Result<u16> {
+        crate::graph::domain_id_from_env()
+    }
+}
+#[doc(hidden)]
+pub use old_names::*;
 
 /// The Rust types of the interfaces radar_ros ships (ROS 2 Jazzy's `std_msgs`, `builtin_interfaces`,
 /// `geometry_msgs`, `sensor_msgs`, `nav_msgs`, `std_srvs`, `action_msgs`, `unique_identifier_msgs`,
@@ -289,21 +405,36 @@ pub use serde;
 /// The RADAR rules themselves, in plain Rust (re-exported from the [`radar_semantics`] crate).
 pub use radar_semantics;
 
-/// The ROS 2 client library radar_ros runs on: ros2-client 0.12.1 with radar_ros's patches (the package
-/// `radar-ros2-client` in radar_ros's `third_party/`). Use this one for your own nodes, topics and services
-/// (`radar.context()` is one of its contexts): a crates.io ros2-client would be a second copy, whose types do
-/// not mix with these.
-///
-/// ```no_run
-/// # async fn f(radar: radar_ros::Radar) {
-/// use radar_ros::ros2_client::{NodeName, NodeOptions};
-/// let node = radar.context().new_node(NodeName::new("/", "my_node").unwrap(), NodeOptions::new());
-/// # }
-/// ```
-pub use ros2_client;
+pub mod transport {
+    //! The transport radar_ros runs on, for your own plain nodes, topics and services beside RADAR's: its patched
+    //! ros2-client and RustDDS. They are pre-1.0 crates with their own release pace; radar_ros's root does not
+    //! re-export them, so that a change of theirs is not a change of radar_ros's face.
+    //!
+    //! ```no_run
+    //! # async fn f(radar: radar_ros::Radar) {
+    //! use radar_ros::transport::ros2_client::{NodeName, NodeOptions};
+    //! // over DDS (None over Zenoh: a Radar on Zenoh has no DDS context)
+    //! if let Some(ctx) = radar.dds_context() {
+    //!     let node = ctx.new_node(NodeName::new("/", "my_node").unwrap(), NodeOptions::new());
+    //! }
+    //! # }
+    //! ```
+    /// The ROS 2 client library radar_ros runs on: ros2-client 0.12.1 with radar_ros's patches (the package
+    /// `radar-ros2-client` in radar_ros's `third_party/`). Use this one for your own nodes, topics and services
+    /// ([`Radar::dds_context`](crate::Radar::dds_context) is one of its contexts): a crates.io ros2-client
+    /// would be a second copy, whose types do not mix with these.
+    pub use ros2_client;
 
-/// The DDS implementation radar_ros runs on: RustDDS 0.15.1 with radar_ros's patches (the package
-/// `radar-rustdds` in radar_ros's `third_party/`), the same as `radar_ros::ros2_client::dds::rustdds`.
+    /// The DDS implementation radar_ros runs on: RustDDS 0.15.1 with radar_ros's patches (the package
+    /// `radar-rustdds` in radar_ros's `third_party/`), the same as `ros2_client::dds::rustdds`.
+    pub use rustdds;
+}
+
+// Kept at the root for one release, hidden: `radar_ros::transport::ros2_client` and `::rustdds` are their place
+// (rustc does not warn of a deprecated re-export, so the docs and CHANGES.md say it).
+#[doc(hidden)]
+pub use ros2_client;
+#[doc(hidden)]
 pub use rustdds;
 
 /// The README's code, compiled as a doc test so that it cannot go stale.

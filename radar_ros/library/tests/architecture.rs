@@ -292,3 +292,187 @@ fn a_default_build_compiles_no_code_generator_and_no_deprecated_crate() {
         built.len()
     );
 }
+
+/// The names `radar_ros`'s root exports, from lib.rs and the exported macros: `(name, hidden)`. Reads the
+/// crate root's own items only (not what is inside its inline modules), `pub use` groups and renames included.
+fn root_exports(lib_rs: &str, macros_rs: &str) -> BTreeSet<(String, bool)> {
+    let code: String = lib_rs
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let mut out = BTreeSet::new();
+    let (mut depth, mut hidden, mut i) = (0usize, false, 0usize);
+    let b = code.as_bytes();
+    while i < b.len() {
+        let rest = &code[i..];
+        match b[i] {
+            b'{' => depth += 1,
+            b'}' => depth = depth.saturating_sub(1),
+            _ if depth == 0 && rest.starts_with("#[doc(hidden)]") => hidden = true,
+            _ if depth == 0 && rest.starts_with("pub use ") => {
+                let end = rest.find(';').expect("a pub use ends with ;");
+                let body: String = rest["pub use ".len()..end]
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                for name in use_names(&body) {
+                    match body.strip_suffix("::*") {
+                        // a glob of a module of lib.rs: the public items written in it
+                        Some(module) if name == "*" => {
+                            for name in items_of_module(&code, module) {
+                                out.insert((name, hidden));
+                            }
+                        }
+                        _ => {
+                            out.insert((name, hidden));
+                        }
+                    }
+                }
+                hidden = false;
+                i += end;
+                continue;
+            }
+            _ if depth == 0 && rest.starts_with("pub mod ") => {
+                let name: String = rest["pub mod ".len()..]
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                out.insert((name, hidden));
+                hidden = false;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    let mut lines = macros_rs.lines().peekable();
+    while let Some(l) = lines.next() {
+        if l.trim() == "#[macro_export]" {
+            let hidden = false;
+            let next = lines.next().unwrap_or_default();
+            let name = next
+                .trim()
+                .trim_start_matches("macro_rules! ")
+                .trim_end_matches(" {");
+            out.insert((format!("{name}!"), hidden || name.starts_with("__")));
+        }
+    }
+    out
+}
+
+/// The `pub type`, `pub const` and `pub fn` names written in `mod NAME { ... }` of `code`.
+fn items_of_module(code: &str, module: &str) -> Vec<String> {
+    let start = code
+        .find(&format!("mod {module} {{"))
+        .unwrap_or_else(|| panic!("a glob of `{module}`, which lib.rs does not hold inline"));
+    let body = &code[start..];
+    let end = body.find("\n}").expect("the module's closing brace");
+    body[..end]
+        .lines()
+        .filter_map(|l| {
+            let l = l.trim_start();
+            let rest = ["pub type ", "pub const ", "pub fn "]
+                .iter()
+                .find_map(|p| l.strip_prefix(p))?;
+            Some(
+                rest.chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// The names a `pub use` body brings in: `a::b::C` -> C, `a::{B, C as D}` -> B, D, `x as y` -> y.
+fn use_names(body: &str) -> Vec<String> {
+    if let (Some(open), Some(close)) = (body.find('{'), body.rfind('}')) {
+        let inner = &body[open + 1..close];
+        let mut parts = Vec::new();
+        let (mut depth, mut start) = (0, 0);
+        for (i, c) in inner.char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    parts.push(&inner[start..i]);
+                    start = i + 1;
+                }
+                _ => {}
+            }
+        }
+        parts.push(&inner[start..]);
+        return parts
+            .into_iter()
+            .map(str::trim)
+            .filter(|p| !p.is_empty())
+            .flat_map(use_names)
+            .collect();
+    }
+    let last = body
+        .rsplit(" as ")
+        .next()
+        .unwrap()
+        .rsplit("::")
+        .next()
+        .unwrap()
+        .trim();
+    vec![last.to_owned()]
+}
+
+/// The root's exports as docs/public_api.md lists them: `name` in backticks at the start of a table row, with
+/// "hidden" in the row for those kept for old code only.
+fn announced(page: &str) -> BTreeSet<(String, bool)> {
+    page.lines()
+        .filter_map(|l| {
+            let l = l.strip_prefix("| `")?;
+            let name = &l[..l.find('`')?];
+            Some((name.to_owned(), l.contains("hidden")))
+        })
+        .collect()
+}
+
+#[test]
+fn the_root_exports_exactly_what_docs_public_api_announces() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let read = |p: &str| std::fs::read_to_string(root.join(p)).unwrap();
+    let exported = root_exports(&read("src/lib.rs"), &read("src/macros.rs"));
+    let page = announced(&read("../../docs/public_api.md"));
+    let unannounced: Vec<_> = exported.difference(&page).collect();
+    let gone: Vec<_> = page.difference(&exported).collect();
+    assert!(
+        unannounced.is_empty() && gone.is_empty(),
+        "radar_ros's root changed without docs/public_api.md saying so (a name, and whether it is hidden):\n\
+         exported, not in the page: {unannounced:?}\nin the page, not exported: {gone:?}\n\
+         A change of the public face is a decision: write it in the page (and CHANGES.md), with the old name \
+         kept hidden for a release where code may use it"
+    );
+}
+
+#[test]
+fn the_export_reader_reads_groups_renames_modules_hidden_items_and_macros() {
+    let lib = "//! docs\nmod private;\npub mod shown;\npub use a::b::{C, d::{E, F as G}};\n\
+               #[doc(hidden)]\npub use h;\npub mod inline {\n    pub use inner::Skipped;\n}\n\
+               pub use x::Y as Z;\n// pub use commented::Out;\nmod old {\n    #[deprecated]\n    \
+               pub type Old<'a> = crate::x::Old<'a>;\n    pub const LATE: u8 = 1;\n    pub fn gone() {}\n}\n\
+               #[doc(hidden)]\npub use old::*;\n";
+    let macros = "#[macro_export]\nmacro_rules! once {\n#[doc(hidden)]\n#[macro_export]\nmacro_rules! __helper {\n";
+    let got: Vec<(String, bool)> = root_exports(lib, macros).into_iter().collect();
+    let want: Vec<(String, bool)> = [
+        ("C", false),
+        ("E", false),
+        ("G", false),
+        ("LATE", true),
+        ("Old", true),
+        ("Z", false),
+        ("__helper!", true),
+        ("gone", true),
+        ("h", true),
+        ("inline", false),
+        ("once!", false),
+        ("shown", false),
+    ]
+    .iter()
+    .map(|(n, h)| (n.to_string(), *h))
+    .collect();
+    assert_eq!(got, want);
+}

@@ -11,9 +11,10 @@
 use std::{path::PathBuf, time::Duration};
 
 use radar_ros::{
+    graph::DiscoveryRange,
     msg::Empty,
     security::{keystore, policy, SecurityOptions},
-    DiscoveryRange, FnResponse, Radar,
+    FnResponse, Radar,
 };
 
 const DOMAIN: u16 = 109;

@@ -31,7 +31,8 @@ mod zenoh_util;
 use radar_ros::{
     action::{Fibonacci, FibonacciFeedback, FibonacciGoal, FibonacciResult},
     msg::{Empty, ResponseState},
-    Radar, SignalSubscription,
+    topics::SignalSubscription,
+    Radar,
 };
 use serde_json::Value;
 use zenoh_util::{local_router, Proc, WAIT};

@@ -25,7 +25,8 @@ use std::time::Duration;
 
 use radar_ros::{
     msg::{Empty, ResponseState, StringMsg},
-    FnResponse, Radar, Signal, SignalSubscription,
+    topics::SignalSubscription,
+    FnResponse, Radar, Signal,
 };
 use serde_json::Value;
 use zenoh_util::{local_router, Proc, WAIT};

@@ -42,8 +42,9 @@ use std::sync::{
 };
 
 use radar_ros::{
+    manager::RemoteStatement,
     msg::{Empty, PoseStamped, RosMessage},
-    FnResponse, Radar, RemoteStatement, TopicEvent,
+    FnResponse, Radar, TopicEvent,
 };
 use serde_json::Value;
 use zenoh_util::{local_router, start_peer_on, WAIT};
@@ -152,7 +153,7 @@ async fn listing_2_runs_over_zenoh_with_a_design_document_peer_as_the_bumper() {
     let relay = radar
         .whenever(radar_ros::Signal::new("/zr/demo_lvl/triggered", demo_type))
         .start(&radar_ros::ResponseRef::new(
-            radar_ros::ComponentName::resolve("/zr/demo_dock", "/").unwrap(),
+            radar_ros::graph::ComponentName::resolve("/zr/demo_dock", "/").unwrap(),
             demo_type,
             demo_type,
         ))

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use radar_ros::{
     msg::{PoseStamped, RosMessage},
-    RawMessage,
+    topics::RawMessage,
 };
 use ros2_client::{
     qos::History,

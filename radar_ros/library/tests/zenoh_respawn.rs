@@ -17,7 +17,7 @@ mod zenoh_util;
 
 use std::time::{Duration, Instant};
 
-use radar_ros::{msg::Empty, FnResponse, Link, LossCause, Radar, Signal};
+use radar_ros::{graph::LossCause, manager::Link, msg::Empty, FnResponse, Radar, Signal};
 use tokio::io::{AsyncBufReadExt, BufReader};
 use zenoh_util::{local_router, start_role, until_line, RoleLines, WAIT};
 

@@ -1,4 +1,4 @@
-//! Issue 37, step 3's first half: radar_ros's own signal endpoints over Zenoh (`radar_ros::ZenohSignals`), the
+//! Issue 37, step 3's first half: radar_ros's own signal endpoints over Zenoh (`radar_ros::topics::ZenohSignals`), the
 //! `SignalPublisher`, `SignalSubscription` and raw ones a `Radar` makes over DDS, with their waits.
 //!
 //! The oracle is the peer written from rmw_zenoh's design document (tests/python/zenoh_peer.py: the
@@ -21,7 +21,9 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use radar_ros::{
     msg::{PoseStamped, RosMessage},
-    Error, RawMessage, ZenohSignals,
+    topics::RawMessage,
+    topics::ZenohSignals,
+    Error,
 };
 use ros2_client::zenoh::{Context, ContextOptions};
 use serde_json::Value;

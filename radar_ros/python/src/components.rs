@@ -8,7 +8,7 @@ use pyo3::{
     types::{PyBytes, PyCFunction, PyDict, PyTuple},
 };
 use radar_ros::{
-    DynMessage, Event, ExitAction, ExitReason, Response, SlotError, StartPolicy, Trigger,
+    topics::DynMessage, Event, ExitAction, ExitReason, Response, SlotError, StartPolicy, Trigger,
 };
 
 use crate::slot_loop::{

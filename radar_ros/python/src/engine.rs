@@ -8,7 +8,7 @@ use std::{
 };
 
 use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
-use radar_ros::{DynMessage, RawMessage, StartPolicy};
+use radar_ros::{topics::DynMessage, topics::RawMessage, StartPolicy};
 
 use crate::{
     components::{PyEvent, PyResponse},

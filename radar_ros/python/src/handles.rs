@@ -8,7 +8,7 @@ use pyo3::{
     prelude::*,
     types::{PyBytes, PyDict},
 };
-use radar_ros::{ConnectionGuard, DynMessage};
+use radar_ros::{topics::DynMessage, ConnectionGuard};
 
 use crate::{
     engine::{timeout, Engine},
@@ -295,7 +295,7 @@ impl Drop for Connection {
 #[pyclass(module = "radar_ros._native")]
 pub(crate) struct Waiter {
     pub(crate) engine: Arc<Engine>,
-    pub(crate) inner: Option<radar_ros::Waiter<DynMessage>>,
+    pub(crate) inner: Option<radar_ros::statement::Waiter<DynMessage>>,
 }
 
 #[pymethods]

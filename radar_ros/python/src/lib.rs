@@ -19,7 +19,7 @@ mod rosidl;
 mod slot_loop;
 
 use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
-use radar_ros::RawMessage;
+use radar_ros::topics::RawMessage;
 
 use crate::{
     engine::PyEngine,

@@ -11,7 +11,7 @@ use pyo3::{
     prelude::*,
     types::{PyCFunction, PyDict, PyTuple},
 };
-use radar_ros::{DynMessage, RawMessage};
+use radar_ros::{topics::DynMessage, topics::RawMessage};
 
 /// The asyncio loop Python slots run on, and the package's `_SlotCall(coro, loop, done)`, which runs `coro` in
 /// a task of the loop with `done(outcome)` called as it ends (`outcome.result()`: its value, or what it raised), and has `cancel()`.

@@ -4,8 +4,9 @@
 use std::{io::IsTerminal, time::Duration};
 
 use radar_ros::{
+    graph::Component,
     msg::{EventState, ResponseState},
-    Component, Radar,
+    Radar,
 };
 use serde_json::Value;
 

@@ -1,6 +1,6 @@
 //! Which topics show a component's activity, and the components a `watch` or `record` follows.
 
-use radar_ros::{Component, Radar};
+use radar_ros::{graph::Component, Radar};
 
 use crate::common::Fallible;
 
@@ -43,7 +43,7 @@ pub(crate) struct SignalSample<'a> {
     pub(crate) topic: &'a str,
     pub(crate) ros_type: &'a str,
     pub(crate) label: &'static str,
-    pub(crate) body: radar_ros::RawMessage,
+    pub(crate) body: radar_ros::topics::RawMessage,
     pub(crate) stamp: i64,
     /// The statement's cause it carries.
     pub(crate) cause: Option<(u128, u64)>,

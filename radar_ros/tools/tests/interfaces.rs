@@ -6,7 +6,7 @@
 
 use std::{path::PathBuf, process::Stdio, time::Duration};
 
-use radar_ros::{codec::Interfaces, RawMessage};
+use radar_ros::{codec::Interfaces, topics::RawMessage};
 use radar_test_util::{python, repo, Py};
 use serde_json::{json, Value};
 
@@ -285,13 +285,13 @@ fn a_run_time_types_schema_holds_its_definition_and_every_type_it_uses() {
 struct Echo(String);
 
 impl radar_ros::Response for Echo {
-    type Start = radar_ros::DynMessage;
-    type Output = radar_ros::DynMessage;
+    type Start = radar_ros::topics::DynMessage;
+    type Output = radar_ros::topics::DynMessage;
 
     async fn start(
         &mut self,
-        p: radar_ros::DynMessage,
-    ) -> Result<radar_ros::DynMessage, radar_ros::SlotError> {
+        p: radar_ros::topics::DynMessage,
+    ) -> Result<radar_ros::topics::DynMessage, radar_ros::SlotError> {
         Ok(p)
     }
 
@@ -313,7 +313,7 @@ async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
     const DOMAIN: u16 = 115;
     let r = radar_ros::Radar::builder()
         .domain_id(DOMAIN)
-        .discovery_range(radar_ros::DiscoveryRange::Subnet)
+        .discovery_range(radar_ros::graph::DiscoveryRange::Subnet)
         .build()
         .unwrap();
     let fixtures = fixtures();
@@ -460,14 +460,14 @@ async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
     std::fs::write(own.join("my_robot_msgs/msg/DockBay.msg"), "uint8 number\n").unwrap();
     let r = radar_ros::Radar::builder()
         .domain_id(DOMAIN)
-        .discovery_range(radar_ros::DiscoveryRange::Subnet)
+        .discovery_range(radar_ros::graph::DiscoveryRange::Subnet)
         .build()
         .unwrap();
     let dock = r
         .spawn_response("/dock", Echo("my_robot_msgs/msg/Dock".into()))
         .unwrap();
     let mut exited = r
-        .waiter::<radar_ros::DynMessage>(dock.reference().exited())
+        .waiter::<radar_ros::topics::DynMessage>(dock.reference().exited())
         .await
         .unwrap();
     let inject = |args: Vec<String>| {

@@ -7,8 +7,9 @@ use std::{process::Output, time::Duration};
 
 use common::Never;
 use radar_ros::{
+    graph::DiscoveryRange,
     msg::{Empty, StringMsg},
-    DiscoveryRange, FnResponse, Radar, TimerEvent,
+    FnResponse, Radar, TimerEvent,
 };
 use serde_json::Value;
 

@@ -74,7 +74,7 @@ pub trait Event: Send + 'static {
     }
 
     /// The ROS type of `triggered`, as `pkg/msg/Name`. Default: `Payload`'s. An event whose `Payload` is a
-    /// [`DynMessage`](crate::DynMessage) says here what it is.
+    /// [`DynMessage`](crate::topics::DynMessage) says here what it is.
     fn payload_type(&self) -> String {
         Self::Payload::ros_type_name()
     }
@@ -292,7 +292,7 @@ impl EventHandle {
     /// ```
     pub fn triggered(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::Endpoint::Triggered),
+            self.name.endpoint(crate::graph::Endpoint::Triggered),
             self.payload_type.clone(),
         )
     }

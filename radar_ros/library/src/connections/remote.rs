@@ -3,7 +3,7 @@
 //!
 //! ```no_run
 //! # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
-//! use radar_ros::RemoteStatement;
+//! use radar_ros::manager::RemoteStatement;
 //! let m = radar.remote_manager("/radar_manager").await?;
 //! let whenever = RemoteStatement::whenever("/bumper/triggered").to("/dock/start");
 //! let id = m.connect(whenever.detach()).await?; // stays after this program ends
@@ -37,7 +37,7 @@ const CALL_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
 /// (`radar_msgs/srv/Connect`). Names resolve in the manager's namespace.
 ///
 /// ```
-/// use radar_ros::RemoteStatement;
+/// use radar_ros::manager::RemoteStatement;
 /// let s = RemoteStatement::once("/go/triggered").to("/arm/start").until("/stop/triggered").depth(20);
 /// let req = s.request();
 /// assert_eq!((req.kind, req.target.as_str(), req.depth), (radar_ros::msg::Connection::ONCE, "/arm/start", 20));

@@ -274,7 +274,7 @@ impl ConnectionRequest<StartTarget> {
             exited: r.exited(),
             dropped: r.dropped(),
             interrupt: r.interrupt_slot(),
-            state: r.name().endpoint(crate::Endpoint::State),
+            state: r.name().endpoint(crate::graph::Endpoint::State),
         });
         self
     }
@@ -349,11 +349,11 @@ impl<T> ConnectionRequest<T> {
     }
 
     /// [`map`](Self::map) to a payload whose type is known only at run time: `f` returns a
-    /// [`DynMessage`](crate::DynMessage) holding a `ros_type` (`pkg/msg/Name`).
+    /// [`DynMessage`](crate::topics::DynMessage) holding a `ros_type` (`pkg/msg/Name`).
     pub fn map_dyn<M: RosMessage>(
         self,
         ros_type: &str,
-        f: impl Fn(M) -> crate::DynMessage + Send + Sync + 'static,
+        f: impl Fn(M) -> crate::topics::DynMessage + Send + Sync + 'static,
     ) -> ConnectionRequest<T> {
         self.map_as(ros_type, f)
     }

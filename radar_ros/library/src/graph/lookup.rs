@@ -108,9 +108,13 @@ pub(crate) fn in_list(
 pub(crate) fn candidates(endpoints: &[(bool, String, String)], wanted: &str) -> Vec<String> {
     let mut names = BTreeSet::new();
     for (w, t, _) in endpoints {
-        match (w, crate::Endpoint::of_topic(t)) {
-            (true, Some((n, crate::Endpoint::Triggered))) => names.insert(format!("{n} (event)")),
-            (false, Some((n, crate::Endpoint::Start))) => names.insert(format!("{n} (response)")),
+        match (w, crate::graph::Endpoint::of_topic(t)) {
+            (true, Some((n, crate::graph::Endpoint::Triggered))) => {
+                names.insert(format!("{n} (event)"))
+            }
+            (false, Some((n, crate::graph::Endpoint::Start))) => {
+                names.insert(format!("{n} (response)"))
+            }
             _ => false,
         };
     }

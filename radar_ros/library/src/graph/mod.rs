@@ -1,22 +1,36 @@
-//! Who is matched with whom, from DDS discovery, with counts that also drop when a peer process dies.
-//!
-//! ros2-client's `Publisher::get_subscription_count` never drops after a subscriber process is killed: its
-//! spinner ignores the DDS "participant lost" event. This module consumes the participant's status events
-//! itself (the process runs no ros2-client spinner) and keeps, for every local writer and reader, the set of
-//! matched remote endpoints:
-//!
-//! - `RemoteReaderMatched` / `RemoteWriterMatched` add a peer (also for readers in the same participant);
-//! - `ReaderLost` / `WriterLost` remove it (a peer that closes its endpoint or exits cleanly: milliseconds);
-//! - `ParticipantLost` removes every endpoint of that participant. After `kill -9` this is the only signal, and
-//!   it comes when the dead participant's lease expires: 3 s for radar_ros peers (`DEFAULT_LEASE`, announced
-//!   every 0.6 s), 20 s for Fast DDS (rclpy) peers, 50 s for other RustDDS programs, plus up to one lease
-//!   check period (0.6 s with radar_ros's lease).
-//!
-//! RustDDS matches endpoints of one topic whatever their type names; ROS 2 (and Fast DDS) do not. So on every
-//! match the peer's type, from DDS discovery data, is compared with the local endpoint's: a peer of another
-//! type is not counted, a warning names both types, and [`Graph::accepts`] tells readers to drop its samples.
-//!
-//! Counts are published through `tokio::sync::watch` channels, so an event reacts to a change at once.
+//! The ROS graph as radar_ros sees it: components found by name ([`Component`], [`ComponentName`],
+//! [`Endpoint`]), how far discovery reaches ([`DiscoveryRange`], [`DEFAULT_LEASE`], the domain from
+//! [`domain_id_from_env`]), the nodes on it ([`GraphNode`]), and why a component left ([`Departure`],
+//! [`LossCause`]).
+
+pub use crate::departure::{Departure, LossCause};
+pub use crate::endpoint::Endpoint;
+pub use crate::radar::domain_id_from_env;
+pub use crate::radar::settings::{DiscoveryRange, DEFAULT_LEASE};
+pub use crate::wire::names::ComponentName;
+pub use lookup::Component;
+
+// How the graph is kept:
+//
+// Who is matched with whom, from DDS discovery, with counts that also drop when a peer process dies.
+//
+// ros2-client's `Publisher::get_subscription_count` never drops after a subscriber process is killed: its
+// spinner ignores the DDS "participant lost" event. This module consumes the participant's status events
+// itself (the process runs no ros2-client spinner) and keeps, for every local writer and reader, the set of
+// matched remote endpoints:
+//
+// - `RemoteReaderMatched` / `RemoteWriterMatched` add a peer (also for readers in the same participant);
+// - `ReaderLost` / `WriterLost` remove it (a peer that closes its endpoint or exits cleanly: milliseconds);
+// - `ParticipantLost` removes every endpoint of that participant. After `kill -9` this is the only signal, and
+//   it comes when the dead participant's lease expires: 3 s for radar_ros peers (`DEFAULT_LEASE`, announced
+//   every 0.6 s), 20 s for Fast DDS (rclpy) peers, 50 s for other RustDDS programs, plus up to one lease
+//   check period (0.6 s with radar_ros's lease).
+//
+// RustDDS matches endpoints of one topic whatever their type names; ROS 2 (and Fast DDS) do not. So on every
+// match the peer's type, from DDS discovery data, is compared with the local endpoint's: a peer of another
+// type is not counted, a warning names both types, and [`Graph::accepts`] tells readers to drop its samples.
+//
+// Counts are published through `tokio::sync::watch` channels, so an event reacts to a change at once.
 
 use std::{
     collections::{BTreeSet, HashMap},
@@ -26,8 +40,6 @@ use std::{
 use futures::StreamExt;
 use ros2_client::dds::rustdds::{self, DomainParticipantStatusEvent, StatusEvented, GUID};
 use tokio::sync::watch;
-
-use crate::departure::LossCause;
 
 mod discovery;
 pub(crate) mod lookup;
@@ -43,15 +55,6 @@ pub(crate) use observers::OBSERVER_USER_DATA;
 pub use nodes::GraphNode;
 
 use discovery::TopicIndex;
-
-fn cause_of(reason: &rustdds::LostReason) -> LossCause {
-    match reason {
-        rustdds::LostReason::Disposed => LossCause::Left,
-        rustdds::LostReason::Timeout { elapsed, .. } => LossCause::Unreachable {
-            silent_for: elapsed.to_std(),
-        },
-    }
-}
 
 #[derive(Default)]
 struct Entry {
@@ -516,11 +519,11 @@ impl Graph {
             DomainParticipantStatusEvent::ReaderLost { guid, reason } => {
                 Self::note_left(&mut t, guid);
                 t.observers.remove(&guid);
-                t.drop_peers(&[guid], &cause_of(&reason));
+                t.drop_peers(&[guid], &LossCause::of(&reason));
             }
             DomainParticipantStatusEvent::WriterLost { guid, reason } => {
                 Self::note_left(&mut t, guid);
-                t.drop_peers(&[guid], &cause_of(&reason));
+                t.drop_peers(&[guid], &LossCause::of(&reason));
             }
             DomainParticipantStatusEvent::ParticipantDiscovered { dpd } => {
                 t.left.remove(&participant_of(dpd.guid));
@@ -533,7 +536,7 @@ impl Graph {
                 t.observers.retain(|g| g.prefix != id);
                 let _ = self.lost.send(who);
                 let gone = t.mentioned_of_participant(who);
-                t.drop_peers(&gone, &cause_of(&reason));
+                t.drop_peers(&gone, &LossCause::of(&reason));
             }
             _ => {}
         }

@@ -6,7 +6,7 @@
 //! simulated time gets there, however fast or slow it runs, and not at all while it is paused. When the time
 //! jumps backwards (a simulation reset, a bag looping) a sleep starts over from the new time, as rclcpp's timers
 //! do. [`TimerEvent`](crate::TimerEvent) runs on it; components get it from
-//! [`EventNode::clock`](crate::EventNode::clock) and [`ResponseNode::clock`](crate::ResponseNode::clock).
+//! [`EventNode::clock`](crate::nodes::EventNode::clock) and [`ResponseNode::clock`](crate::nodes::ResponseNode::clock).
 //!
 //! The library's own waits (discovery, acknowledgements, shutdown) stay on the wall clock: they are about the
 //! network, not the simulated world.
@@ -154,7 +154,7 @@ impl SimClock {
     }
 
     /// Follows what `sub` (a subscription to `/clock` with [`SimClock::qos`]) receives.
-    pub(crate) fn start(sub: crate::SignalSubscription<ClockMsg>) -> SimClock {
+    pub(crate) fn start(sub: crate::topics::SignalSubscription<ClockMsg>) -> SimClock {
         let (tx, rx) = watch::channel(0i64);
         let task = tokio::spawn(async move {
             loop {

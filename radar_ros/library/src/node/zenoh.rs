@@ -30,7 +30,7 @@ use crate::{
 ///
 /// ```no_run
 /// # async fn f() -> radar_ros::Result<()> {
-/// use radar_ros::{msg::Empty, ZenohSignals};
+/// use radar_ros::{msg::Empty, topics::ZenohSignals};
 /// // the session as rmw_zenoh's: ROS_DOMAIN_ID, ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE, else a peer
 /// // that connects to the router at tcp/localhost:7447
 /// let zenoh = ZenohSignals::open("cloud_planner")?;
@@ -57,7 +57,7 @@ impl ZenohSignals {
     ///
     /// ```no_run
     /// # fn f() -> radar_ros::Result<()> {
-    /// let zenoh = radar_ros::ZenohSignals::open("cloud_planner")?;
+    /// let zenoh = radar_ros::topics::ZenohSignals::open("cloud_planner")?;
     /// # Ok(()) }
     /// ```
     pub fn open(node_name: &str) -> Result<ZenohSignals> {
@@ -89,7 +89,7 @@ impl ZenohSignals {
     /// A publisher on `topic` (relative names resolve in the root namespace), with signal QoS.
     ///
     /// ```no_run
-    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// # fn f(zenoh: radar_ros::topics::ZenohSignals) -> radar_ros::Result<()> {
     /// let p = zenoh.signal_publisher::<radar_ros::msg::Empty>("/dock/interrupt")?;
     /// # Ok(()) }
     /// ```
@@ -100,7 +100,7 @@ impl ZenohSignals {
     /// A subscription to `topic`, with signal QoS.
     ///
     /// ```no_run
-    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// # fn f(zenoh: radar_ros::topics::ZenohSignals) -> radar_ros::Result<()> {
     /// let s = zenoh.signal_subscription::<radar_ros::msg::Empty>("/dock/exited")?;
     /// # Ok(()) }
     /// ```
@@ -112,7 +112,7 @@ impl ZenohSignals {
     /// (from the publisher's cache, as rmw_zenoh's latched topics).
     ///
     /// ```no_run
-    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// # fn f(zenoh: radar_ros::topics::ZenohSignals) -> radar_ros::Result<()> {
     /// let s = zenoh.state_subscription::<radar_ros::msg::ResponseState>("/dock/state")?;
     /// # Ok(()) }
     /// ```
@@ -124,7 +124,7 @@ impl ZenohSignals {
     /// (signal QoS).
     ///
     /// ```no_run
-    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// # fn f(zenoh: radar_ros::topics::ZenohSignals) -> radar_ros::Result<()> {
     /// let p = zenoh.raw_publisher("/say/start", "std_msgs/msg/String")?;
     /// # Ok(()) }
     /// ```
@@ -136,7 +136,7 @@ impl ZenohSignals {
     /// A subscription to `ros_type` on `topic` that yields message bodies unchanged (signal QoS).
     ///
     /// ```no_run
-    /// # fn f(zenoh: radar_ros::ZenohSignals) -> radar_ros::Result<()> {
+    /// # fn f(zenoh: radar_ros::topics::ZenohSignals) -> radar_ros::Result<()> {
     /// let s = zenoh.raw_subscription("/say/exited", "std_msgs/msg/String")?;
     /// # Ok(()) }
     /// ```

@@ -68,10 +68,12 @@ impl Radar {
             interrupt: self.signal_publisher::<Empty>(r.interrupt_slot().topic())?,
             started: self.signal_subscription::<A::Goal>(r.started().topic())?,
             exited: self.signal_subscription::<A::Result>(exited.topic())?,
-            feedback: self
-                .signal_subscription::<A::Feedback>(&name.endpoint(crate::Endpoint::Feedback))?,
-            state: self
-                .state_subscription::<ResponseState>(&name.endpoint(crate::Endpoint::State))?,
+            feedback: self.signal_subscription::<A::Feedback>(
+                &name.endpoint(crate::graph::Endpoint::Feedback),
+            )?,
+            state: self.state_subscription::<ResponseState>(
+                &name.endpoint(crate::graph::Endpoint::State),
+            )?,
         };
         let served = self.participant().served_actions().mark(action_fq.clone());
         let (graph, fq) = (self.graph().clone(), action_fq.clone());

@@ -31,7 +31,7 @@ impl Radar {
         let types_on = in_list(&eps);
         let mut names = BTreeSet::new();
         for (w, t, _) in &eps {
-            use crate::Endpoint as E;
+            use crate::graph::Endpoint as E;
             let n = match (w, E::of_topic(t)) {
                 (true, Some((n, E::Triggered | E::Exited))) | (false, Some((n, E::Start))) => {
                     Some(n)

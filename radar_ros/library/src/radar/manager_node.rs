@@ -14,10 +14,10 @@
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
 //! through the service belongs to the caller's DDS participant (its process) and is removed when that
 //! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed (3-3.6 s
-//! for a radar_ros program, see [`crate::DEFAULT_LEASE`]; ~20 s for an rclpy one).
+//! for a radar_ros program, see [`crate::graph::DEFAULT_LEASE`]; ~20 s for an rclpy one).
 //!
 //! An owner may also say it is alive, on `<name>/owners` (a radar_ros program does, every 200 ms, from its
-//! first owned connection on: [`RemoteManager::connect`](crate::RemoteManager::connect)). The manager then
+//! first owned connection on: [`RemoteManager::connect`](crate::manager::RemoteManager::connect)). The manager then
 //! holds it to that: once it has not heard from an owner for [`OWNER_SILENT`] (a killed, hung or stopped
 //! program), the owner's connections deliver nothing (the list says why, in `departure`) until it is heard
 //! again; they go when its participant leaves the graph, as above. So a dead program's `whenever bumper start
@@ -124,7 +124,8 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         );
         armed(statement.slot(slot), req, owner, timeout).await
     } else {
-        let Some((response, crate::Endpoint::Start)) = crate::Endpoint::of_topic(&target_topic)
+        let Some((response, crate::graph::Endpoint::Start)) =
+            crate::graph::Endpoint::of_topic(&target_topic)
         else {
             return Err(Error::InvalidStatement(format!(
                 "`until` goes with a start slot (…/start), not {target_topic}"

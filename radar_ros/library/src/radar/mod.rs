@@ -35,7 +35,7 @@ use crate::{
 /// its own ros2-client `Context` (whose `Context::new()` uses domain 0 whatever the variable says).
 ///
 /// ```
-/// let domain = radar_ros::domain_id_from_env()?;
+/// let domain = radar_ros::graph::domain_id_from_env()?;
 /// assert!(domain <= 232);
 /// # Ok::<(), radar_ros::Error>(())
 /// ```
@@ -342,18 +342,12 @@ impl Radar {
         &self.program.name
     }
 
-    /// The underlying ros2-client context, for creating plain ROS 2 nodes on the same participant.
-    ///
-    /// ```no_run
-    /// # async fn f(radar: radar_ros::Radar) {
-    /// use ros2_client::{NodeName, NodeOptions};
-    /// let node = radar.context().new_node(NodeName::new("/", "my_plain_node").unwrap(), NodeOptions::new());
-    /// # }
-    /// ```
-    ///
-    /// # Panics
-    /// When this `Radar` runs over Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp` in a build with the `zenoh`
-    /// feature), which has no DDS context: code that runs on either uses [`Radar::dds_context`].
+    /// The underlying ros2-client context. Panics over Zenoh, which has no DDS context: use
+    /// [`Radar::dds_context`], `None` there.
+    #[deprecated(
+        since = "0.2.0",
+        note = "panics over Zenoh: use Radar::dds_context, which is None there"
+    )]
     pub fn context(&self) -> &ros2_client::dds::Context {
         self.dds_context().expect(
             "Radar::context: this Radar runs over Zenoh (RMW_IMPLEMENTATION=rmw_zenoh_cpp) and has no DDS \

@@ -7,6 +7,7 @@ use crate::components::response::{
     Response, ResponseHandle,
 };
 use crate::{
+    endpoint::Endpoint,
     error::Result,
     node::endpoints::{emit, publisher, subscription, typed_publisher, SignalWriter},
     radar::Radar,
@@ -130,45 +131,45 @@ impl Radar {
             start: subscription::<RawMessage>(
                 g,
                 node,
-                &name.endpoint(crate::Endpoint::Start),
+                &name.endpoint(Endpoint::Start),
                 &start_t,
                 &sq,
             )?,
             interrupt: subscription::<RawMessage>(
                 g,
                 node,
-                &name.endpoint(crate::Endpoint::Interrupt),
+                &name.endpoint(Endpoint::Interrupt),
                 &empty_t,
                 &sq,
             )?,
             exit: subscription::<RawMessage>(
                 g,
                 node,
-                &name.endpoint(crate::Endpoint::Exit),
+                &name.endpoint(Endpoint::Exit),
                 &empty_t,
                 &sq,
             )?,
         };
         let inlets = self.participant().inlets();
         let inboxes = Inboxes {
-            start: inlets.open(&name.endpoint(crate::Endpoint::Start), &start_t.ros),
-            interrupt: inlets.open(&name.endpoint(crate::Endpoint::Interrupt), &empty_t.ros),
-            exit: inlets.open(&name.endpoint(crate::Endpoint::Exit), &empty_t.ros),
+            start: inlets.open(&name.endpoint(Endpoint::Start), &start_t.ros),
+            interrupt: inlets.open(&name.endpoint(Endpoint::Interrupt), &empty_t.ros),
+            exit: inlets.open(&name.endpoint(Endpoint::Exit), &empty_t.ros),
         };
         let state_pub = typed_publisher::<ResponseState>(
             g,
             node,
-            &name.endpoint(crate::Endpoint::State),
+            &name.endpoint(Endpoint::State),
             &state_qos(),
         )?;
         let taps = self.participant().taps();
-        let t = |e: crate::Endpoint| name.endpoint(e);
+        let t = |e: Endpoint| name.endpoint(e);
         // the signal writers hand every sample to their taps (`wire/local.rs`)
         let (started, interrupted, exited) = crate::wire::local::marked(|| -> Result<_> {
             Ok((
-                publisher::<R::Start>(g, node, &t(crate::Endpoint::Started), &start_t, &sq)?,
-                publisher::<Empty>(g, node, &t(crate::Endpoint::Interrupted), &empty_t, &sq)?,
-                publisher::<R::Output>(g, node, &t(crate::Endpoint::Exited), &output_t, &sq)?,
+                publisher::<R::Start>(g, node, &t(Endpoint::Started), &start_t, &sq)?,
+                publisher::<Empty>(g, node, &t(Endpoint::Interrupted), &empty_t, &sq)?,
+                publisher::<R::Output>(g, node, &t(Endpoint::Exited), &output_t, &sq)?,
             ))
         })?;
         let dropped = self.dropped_writer(node, name)?;
@@ -176,14 +177,14 @@ impl Radar {
             name: name.clone(),
             start_type: start_t.ros.clone(),
             incomplete_output: None,
-            started: SignalWriter::new(taps, started, &t(crate::Endpoint::Started), &start_t.ros),
+            started: SignalWriter::new(taps, started, &t(Endpoint::Started), &start_t.ros),
             interrupted: SignalWriter::new(
                 taps,
                 interrupted,
-                &t(crate::Endpoint::Interrupted),
+                &t(Endpoint::Interrupted),
                 &empty_t.ros,
             ),
-            exited: SignalWriter::new(taps, exited, &t(crate::Endpoint::Exited), &output_t.ros),
+            exited: SignalWriter::new(taps, exited, &t(Endpoint::Exited), &output_t.ros),
             dropped,
             state_pub,
             state_tx: watch::channel(ResponseState::default()).0,
@@ -201,7 +202,7 @@ impl Radar {
         name: &ComponentName,
     ) -> Result<Option<SignalWriter<Empty>>> {
         let (g, sq, empty_t) = (self.graph(), signal_qos(), TypeName::of::<Empty>());
-        let dropped_topic = name.endpoint(crate::Endpoint::Dropped);
+        let dropped_topic = name.endpoint(Endpoint::Dropped);
         match crate::wire::local::marked(|| {
             publisher::<Empty>(g, node, &dropped_topic, &empty_t, &sq)
         }) {

@@ -71,7 +71,7 @@ impl ComponentName {
     /// Resolves `name` against the default namespace `default_ns` and checks every rule.
     ///
     /// ```
-    /// use radar_ros::ComponentName;
+    /// use radar_ros::graph::ComponentName;
     /// let n = ComponentName::resolve("arm/grasp", "/robot").unwrap();
     /// assert_eq!(n.fully_qualified(), "/robot/arm/grasp");
     /// assert_eq!((n.namespace(), n.base()), ("/robot/arm", "grasp"));
@@ -157,7 +157,7 @@ impl ComponentName {
     /// The absolute topic of one of this component's RADAR endpoints.
     ///
     /// ```
-    /// use radar_ros::{ComponentName, Endpoint};
+    /// use radar_ros::{graph::ComponentName, graph::Endpoint};
     /// let n = ComponentName::resolve("dock", "/robot").unwrap();
     /// assert_eq!(n.endpoint(Endpoint::Exited), "/robot/dock/exited");
     /// ```

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use radar_ros::{msg::ConnectionList, Component, Radar};
+use radar_ros::{graph::Component, msg::ConnectionList, Radar};
 use serde_json::{json, Value};
 
 use crate::{

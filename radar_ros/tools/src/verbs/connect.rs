@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use clap::ValueEnum;
-use radar_ros::{Radar, RemoteStatement};
+use radar_ros::{manager::RemoteStatement, Radar};
 use serde_json::json;
 
 use crate::common::{discover, with_status, Fallible, Out, Stop};
@@ -109,7 +109,10 @@ pub(crate) async fn dis(radar: &Radar, out: &Out, manager: Manager, id: u64) -> 
 }
 
 /// The manager named, or the only one on the graph; its services matched.
-async fn manager_of(radar: &Radar, manager: Manager) -> Fallible<radar_ros::RemoteManager> {
+async fn manager_of(
+    radar: &Radar,
+    manager: Manager,
+) -> Fallible<radar_ros::manager::RemoteManager> {
     let Manager { named, discovery } = manager;
     let name = match named {
         Some(n) => n,

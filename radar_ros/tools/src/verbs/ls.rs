@@ -2,7 +2,7 @@
 
 use std::{collections::BTreeMap, time::Duration};
 
-use radar_ros::{Component, Radar};
+use radar_ros::{graph::Component, Radar};
 use serde_json::{json, Value};
 
 use crate::common::{discover, state_of, state_summary, with_status, Fallible, Out};

@@ -7,8 +7,9 @@ use std::{
 };
 
 use radar_ros::{
+    graph::Component,
     msg::{EventState, ResponseState},
-    Component, Radar,
+    Radar,
 };
 use serde_json::json;
 
@@ -24,14 +25,14 @@ use crate::{
 struct Recorded {
     topic: String,
     ros_type: String,
-    body: radar_ros::RawMessage,
+    body: radar_ros::topics::RawMessage,
     /// Source timestamp, nanoseconds since the epoch (0: unknown).
     published: i64,
     seen: Option<Seen>,
 }
 
 /// A CDR message as MCAP stores it: the 4-byte encapsulation header (little-endian CDR), then the body.
-fn cdr(body: &radar_ros::RawMessage) -> Vec<u8> {
+fn cdr(body: &radar_ros::topics::RawMessage) -> Vec<u8> {
     let mut v = vec![0, 1, 0, 0];
     v.extend_from_slice(body.as_bytes());
     v
@@ -282,7 +283,7 @@ fn tap(
             let tx = tx.clone();
             tokio::spawn(async move {
                 while let Ok((m, published)) = sub.recv_stamped().await {
-                    let Ok(body) = radar_ros::RawMessage::encode(&m) else {
+                    let Ok(body) = radar_ros::topics::RawMessage::encode(&m) else {
                         continue;
                     };
                     let r = Recorded {
@@ -353,7 +354,7 @@ fn tap_connections(
         .map_err(|e| e.to_string())?;
     Ok(tokio::spawn(async move {
         while let Ok((m, published)) = sub.recv_stamped().await {
-            let Ok(body) = radar_ros::RawMessage::encode(&m) else {
+            let Ok(body) = radar_ros::topics::RawMessage::encode(&m) else {
                 continue;
             };
             let seen = Seen::Connections {

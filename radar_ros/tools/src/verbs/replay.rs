@@ -9,11 +9,11 @@ use crate::common::{Fallible, Out};
 
 /// Whether a topic is a RADAR signal (what `replay` publishes again), not a state.
 fn is_signal(topic: &str) -> bool {
-    radar_ros::Endpoint::of_topic(topic).is_some_and(|(_, e)| e.is_signal())
+    radar_ros::graph::Endpoint::of_topic(topic).is_some_and(|(_, e)| e.is_signal())
 }
 
 /// A recorded signal: when it was logged, its topic and type, its CDR body.
-type Planned = (u64, String, String, radar_ros::RawMessage);
+type Planned = (u64, String, String, radar_ros::topics::RawMessage);
 
 /// The signals in an MCAP file, in file order, and, if the file ends in the middle of a record (a recording
 /// cut off by a recorder that wrote it all at the end), what was wrong there: the signals before it are kept.
@@ -40,7 +40,7 @@ fn signals_in(bytes: &[u8]) -> Fallible<(Vec<Planned>, Option<String>)> {
             m.log_time,
             m.channel.topic.clone(),
             schema.name.clone(),
-            radar_ros::RawMessage::from_bytes(m.data[4..].to_vec()),
+            radar_ros::topics::RawMessage::from_bytes(m.data[4..].to_vec()),
         ));
     }
     Ok((plan, None))

@@ -11,7 +11,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use radar_ros::Endpoint;
+use radar_ros::graph::Endpoint;
 use radar_spec::{
     trace::{
         Accepts, Cause, Comp, Component, ExitAction, ExitReason, Kind, Obs, Payload, Policy, Role,

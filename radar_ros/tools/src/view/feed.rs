@@ -5,8 +5,9 @@
 use std::{collections::BTreeMap, time::Duration};
 
 use radar_ros::{
+    graph::Component,
     msg::{ConnectionList, EventState, ResponseState},
-    Component, Radar,
+    Radar,
 };
 use serde_json::{json, Value};
 use tokio::{sync::mpsc::UnboundedSender, task::JoinHandle};

@@ -22,7 +22,7 @@ use axum::{
     Router,
 };
 use futures::{SinkExt, StreamExt};
-use radar_ros::{Radar, RawPublisher};
+use radar_ros::{topics::RawPublisher, Radar};
 use serde_json::{json, Value};
 use tokio::sync::mpsc;
 

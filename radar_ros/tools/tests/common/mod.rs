@@ -1,6 +1,6 @@
 //! What the `radar` command line's tests over DDS (`radar_cli.rs`) and over Zenoh (`zenoh_verbs.rs`) share.
 
-use radar_ros::{msg::Empty, params::ParamDecl, Event, EventNode, SlotError};
+use radar_ros::{msg::Empty, nodes::EventNode, params::ParamDecl, Event, SlotError};
 
 /// An event whose check never ends: it stays armed and never triggers; it has two parameters for `radar cat`
 /// to show (`gain` 1.5, `mode` "fast").

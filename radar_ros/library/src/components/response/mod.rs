@@ -86,19 +86,19 @@ pub trait Response: Send + 'static {
     }
 
     /// The ROS type of the `start` slot and of `started`, as `pkg/msg/Name`. Default: `Start`'s. A response
-    /// whose `Start` is a [`DynMessage`](crate::DynMessage) says here what it is.
+    /// whose `Start` is a [`DynMessage`](crate::topics::DynMessage) says here what it is.
     fn start_type(&self) -> String {
         Self::Start::ros_type_name()
     }
 
     /// The ROS type of `exited`. Default: `Output`'s; say it here when that is a
-    /// [`DynMessage`](crate::DynMessage).
+    /// [`DynMessage`](crate::topics::DynMessage).
     fn output_type(&self) -> String {
         Self::Output::ros_type_name()
     }
 
     /// The `exited` payload of a run that did not complete (interrupted, failed, ended by an exit signal)
-    /// when `Output::default()` is no message of the output type: a [`DynMessage`](crate::DynMessage)'s
+    /// when `Output::default()` is no message of the output type: a [`DynMessage`](crate::topics::DynMessage)'s
     /// default has no bytes, so a response whose `Output` is one gives its type's default message here.
     /// Default `None`: `Output::default()` is sent.
     fn incomplete_output(&self) -> Option<Self::Output> {

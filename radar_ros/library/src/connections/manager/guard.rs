@@ -88,7 +88,7 @@ impl ConnectionGuard {
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar, tick: radar_ros::EventRef, go: radar_ros::ResponseRef)
     /// #     -> radar_ros::Result<()> {
-    /// use radar_ros::Link;
+    /// use radar_ros::manager::Link;
     /// let c = radar.whenever(&tick).start(&go).await?;
     /// let d = c.departed().await?.expect("a whenever lives until dropped");
     /// eprintln!("{d}");                       // which component left, and why

@@ -1,8 +1,8 @@
 //! Parameters of RADAR components, served as rclcpp and rclpy serve a node's: `ros2 param list/get/set/
 //! describe/dump` and rclpy's parameter client work on them, and changes are published on `/parameter_events`.
 //!
-//! A component declares its parameters when it is set up ([`crate::EventNode::declare`],
-//! [`crate::ResponseNode::declare`]), each with a default value (its type), a description, a range, read-only
+//! A component declares its parameters when it is set up ([`crate::nodes::EventNode::declare`],
+//! [`crate::nodes::ResponseNode::declare`]), each with a default value (its type), a description, a range, read-only
 //! or not. The values start from the command line when it sets them (`-p name:=value`, `--params-file`, for
 //! the component's node name: see [`crate::node::ros_args`]), else from the defaults. A `set` from `ros2 param set` or
 //! [`Params::set`] is checked against the declaration (type, range, read-only) and refused with the reason
@@ -13,7 +13,7 @@
 //! run; one that must react mid-run awaits [`ParamWatch::changed`].
 //!
 //! ```
-//! use radar_ros::{Event, EventNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
+//! use radar_ros::{Event, nodes::EventNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
 //! /// Triggers every `interval` seconds; `ros2 param set /tick interval 0.5` changes it from the next wait.
 //! struct Tick(Option<Params>);
 //! impl Event for Tick {
