@@ -22,6 +22,7 @@ use crate::{
 /// writer and a reader of the *same* participant (its own reader proxy never gets a loopback route), so
 /// components in one process cannot signal each other. Processes on the same host still can.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum DiscoveryRange {
     /// Only this host: DDS uses the loopback interface only.
     Localhost,

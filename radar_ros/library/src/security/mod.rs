@@ -30,6 +30,7 @@ pub mod policy;
 
 /// What `ROS_SECURITY_STRATEGY` asks when the enclave cannot be found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Strategy {
     /// The program does not start.
     Enforce,
