@@ -37,36 +37,7 @@ impl Drop for Engine {
     }
 }
 
-/// Raises the `radar_ros` exception for `e`: the class says its kind, the message what to do next.
-pub(crate) fn to_py(e: radar_ros::Error) -> PyErr {
-    use radar_ros::Error as E;
-    let class = match &e {
-        E::Timeout { .. } => "RadarTimeout",
-        E::NotFound { .. } => "NotFound",
-        E::WrongKind { .. } | E::Ambiguous { .. } => "NotFound",
-        E::TypeMismatch { .. } | E::PayloadType { .. } => "PayloadTypeError",
-        E::InvalidName { .. } | E::DuplicateName(_) | E::InvalidStatement(_) | E::Config { .. } => {
-            "InvalidArgument"
-        }
-        E::ComponentLost { .. } | E::Closed(_) => "ComponentLost",
-        _ => "RadarError",
-    };
-    package_error(class, e.to_string())
-}
-
-/// The package's exception `class` (of `radar_ros._errors`) with `msg`.
-pub(crate) fn package_error(class: &str, msg: String) -> PyErr {
-    Python::attach(|py| {
-        match py
-            .import("radar_ros._errors")
-            .and_then(|m| m.getattr(class))
-            .and_then(|cls| cls.call1((msg.clone(),)))
-        {
-            Ok(exc) => PyErr::from_value(exc),
-            Err(_) => PyRuntimeError::new_err(msg),
-        }
-    })
-}
+pub(crate) use crate::errors::to_py;
 
 impl Engine {
     pub(crate) fn rt(&self) -> &tokio::runtime::Runtime {
@@ -84,12 +55,10 @@ impl Engine {
         fut: impl Future<Output = radar_ros::Result<T>> + Send,
     ) -> PyResult<T> {
         if tokio::runtime::Handle::try_current().is_ok() {
-            return Err(package_error(
-                "InvalidArgument",
+            return Err(crate::errors::InvalidArgument::new_err(
                 "a blocking call (lookup, connection, waitfor, inject, recv) in an inline slot, on the \
                  engine's own thread, would stall the engine: make it from a plain or async def slot \
-                 (Response.inline False), or from the program's own threads"
-                    .into(),
+                 (Response.inline False), or from the program's own threads",
             ));
         }
         let mut fut = Box::pin(fut);

@@ -14,6 +14,7 @@
 
 mod components;
 mod engine;
+mod errors;
 mod handles;
 mod rosidl;
 mod slot_loop;

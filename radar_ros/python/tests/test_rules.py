@@ -346,9 +346,17 @@ def test_dicts_work_without_python_message_packages() -> None:
 
 def test_bad_input_gets_errors_that_say_what_to_do() -> None:
     with radar() as r:
+        r.spawn_response("no_such_responder", lambda m: None)
         with pytest.raises(radar_ros.NotFound) as nf:
             r.response("/no_such_response", timeout=0.5)
         assert "no_such_response" in str(nf.value)
+        # the details as attributes, not only in the text
+        assert nf.value.name == "/no_such_response" and nf.value.kind == "response", vars(nf.value)
+        assert nf.value.waited == pytest.approx(0.5), vars(nf.value)
+        assert nf.value.candidates and nf.value.candidates[0].startswith("/no_such_responder"), vars(nf.value)
+        with pytest.raises(radar_ros.RadarTimeout) as to:
+            r.waitfor(radar_ros.Signal("/rules_silence/triggered", "std_msgs/msg/String"), timeout=0.2)
+        assert to.value.waited == pytest.approx(0.2) and "/rules_silence" in (to.value.what or ""), vars(to.value)
         c = r.spawn_response("rules_typed", lambda m: None, start_type=String)
         with pytest.raises(radar_ros.PayloadTypeError) as pt:
             r.inject(c.start_slot, Int32(data=1), timeout=WAIT)

@@ -2,17 +2,35 @@
 
 from __future__ import annotations
 
+from typing import Optional, Sequence
+
 
 class RadarError(Exception):
     """Base class of every radar_ros error."""
 
 
 class RadarTimeout(RadarError, TimeoutError):
-    """A wait ran out (discovery, a signal, a shutdown): the message names what was waited for."""
+    """A wait ran out (discovery, a signal, a shutdown): the message names what was waited for.
+
+    Raised by radar_ros with ``what`` (what was awaited) and ``waited`` (seconds) set.
+    """
+
+    what: Optional[str] = None
+    waited: Optional[float] = None
 
 
 class NotFound(RadarError, LookupError):
-    """No component of that name (and kind) appeared on the ROS graph in time; the message suggests names."""
+    """No component of that name (and kind) appeared on the ROS graph in time; the message suggests names.
+
+    Raised by radar_ros with ``name`` (fully qualified) and ``kind`` (``event`` or ``response``: what was asked
+    for, or what the name turned out to be) set; when nothing of that name appeared, ``waited`` (seconds) and
+    ``candidates`` (the RADAR components seen, closest names first) too.
+    """
+
+    name: Optional[str] = None
+    kind: Optional[str] = None
+    waited: Optional[float] = None
+    candidates: Sequence[str] = ()
 
 
 class PayloadTypeError(RadarError, TypeError):
