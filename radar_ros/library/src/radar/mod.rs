@@ -4,17 +4,12 @@
 mod action_clients;
 mod action_servers;
 mod builder;
-mod events;
 pub mod introspect;
-mod lookup;
 pub(crate) mod manager_node;
 mod params;
-mod plain;
-mod remote;
-mod responses;
 pub(crate) mod settings;
-mod statements;
-mod waitfor;
+mod spawn_event;
+mod spawn_response;
 
 use std::sync::Arc;
 
