@@ -18,6 +18,16 @@ export CARGO_TARGET_DIR="$PWD/target/user-crate/target" CARGO_INCREMENTAL=0 CARG
 quiet() { grep -v -e 'was not used in the crate graph' -e '^help: Check that the patched' -e '^      with the dependency' \
   -e '^      what is locked' -e '^      version. This may' -e '^warning: manifest has no documentation' -e '^  |$' \
   -e '= note: see https://doc.rust-lang.org/cargo/reference/manifest.html#package-metadata' || true; }
+# Cargo unpacks the crates of the local overlay registry (this workspace's crates, packaged, handed to the later
+# ones) into $CARGO_HOME/registry/src/<hash of the overlay's path>/ and never again for the same name and
+# version: a run from the same checkout path as an earlier one would verify the later crates against the earlier
+# run's sources (CI failed so: radar_tools built against an older radar_ros). Those copies go first; the
+# crates.io ones are never touched.
+home=${CARGO_HOME:-$HOME/.cargo}
+for d in "$home"/registry/src/* "$home"/registry/cache/*; do
+  case "$(basename "$d")" in index.crates.io-*) continue ;; esac
+  rm -rf "$d"/radar_* "$d"/radar-*
+done
 rustdds=(--config 'patch.crates-io.radar-rustdds.path="third_party/rustdds"')
 ros2_client=(--config 'patch.crates-io.radar-ros2-client.path="third_party/ros2-client"')
 

@@ -109,8 +109,10 @@ pub enum Error {
         /// How long we waited.
         after: std::time::Duration,
     },
-    /// Transport: ROS 2 (DDS) refused to create an endpoint or to send.
-    #[error("ROS 2 (DDS) could not {what}: {source}{hint}")]
+    /// Transport: the middleware (DDS or Zenoh) refused to create an endpoint or to send. The message says
+    /// what failed and what to do; the middleware's own error is the [`source`](std::error::Error::source)
+    /// ([`Error::report`] prints both).
+    #[error("ROS 2 could not {what}{hint}")]
     Transport {
         /// What was being done: `create a publisher on /x`, `send on /x`.
         what: String,
@@ -119,8 +121,9 @@ pub enum Error {
         /// What to do about it, if known.
         hint: String,
     },
-    /// Codec: a message could not be encoded or decoded as CDR of its type.
-    #[error("could not {what}: {source}")]
+    /// Codec: a message could not be encoded or decoded as CDR of its type (why: the
+    /// [`source`](std::error::Error::source); [`Error::report`] prints both).
+    #[error("could not {what}")]
     Codec {
         /// `decode a std_msgs/msg/String from 3 bytes`, ...
         what: String,
@@ -164,12 +167,64 @@ impl std::fmt::Display for Text {
 
 impl std::error::Error for Text {}
 
+/// An error and its causes, each after a colon, as a command-line tool prints an error chain:
+/// `could not decode a std_msgs/msg/String from 3 bytes: unexpected end`. Every [`Error`] keeps its cause in
+/// [`source`](std::error::Error::source) only, so that printing the chain shows it once.
+///
+/// ```
+/// use radar_ros::error::Report;
+/// let io = std::io::Error::other("disk full");
+/// let e = std::io::Error::other(io);
+/// assert_eq!(Report(&e).to_string(), "disk full");
+/// ```
+#[derive(Clone, Copy)]
+pub struct Report<'a>(pub &'a (dyn std::error::Error + 'static));
+
+impl std::fmt::Display for Report<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)?;
+        let mut cause = self.0.source();
+        while let Some(c) = cause {
+            write!(f, ": {c}")?;
+            cause = c.source();
+        }
+        Ok(())
+    }
+}
+
+impl std::fmt::Debug for Report<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
+/// Whether the process ran out of file descriptors, by the OS error somewhere in `source`'s chain (EMFILE,
+/// ENFILE), or by its text where a layer kept only text.
+fn out_of_descriptors(source: &(dyn std::error::Error + 'static)) -> bool {
+    let mut cause = Some(source);
+    while let Some(c) = cause {
+        if let Some(io) = c.downcast_ref::<std::io::Error>() {
+            if matches!(io.raw_os_error(), Some(24 | 23)) {
+                return true;
+            }
+        }
+        cause = c.source();
+    }
+    Report(source).to_string().contains("Too many open files")
+}
+
 /// Whether `source` is DDS Security refusing what was asked (RustDDS's `NotAllowedBySecurity`).
 fn denied_by_security(source: &(dyn std::error::Error + 'static)) -> bool {
     format!("{source:?}").contains("NotAllowedBySecurity")
 }
 
 impl Error {
+    /// This error with its causes, for printing: `ROS 2 could not create a publisher on /x: <the middleware's
+    /// error>`.
+    pub fn report(&self) -> Report<'_> {
+        Report(self)
+    }
+
     /// Whether this is DDS Security refusing to create an endpoint this enclave's permissions do not grant.
     pub(crate) fn not_allowed_by_security(&self) -> bool {
         match self {
@@ -183,8 +238,8 @@ impl Error {
         what: impl Into<String>,
         source: impl std::error::Error + Send + Sync + 'static,
     ) -> Error {
-        let text = source.to_string();
-        let hint = if text.contains("Too many open files") {
+        let text = Report(&source).to_string();
+        let hint = if out_of_descriptors(&source) {
             // radar_ros's own need is small since RustDDS patch 15 (2,000 components: about 22 descriptors)
             "; this process ran out of file descriptors: each `Radar` (a DDS participant) holds a few sockets and \
              its components almost none, so look for what else holds them (many `Radar`s or DDS contexts, open \
@@ -283,24 +338,38 @@ mod tests {
     use super::*;
 
     #[test]
-    fn transport_errors_keep_their_cause_and_say_what_to_do_about_file_descriptors() {
-        let e = Error::transport(
-            "a publisher on /x",
-            std::io::Error::other("Too many open files (os error 24)"),
-        );
+    fn transport_errors_keep_their_cause_in_source_only_and_tell_file_descriptors_by_the_os_error()
+    {
+        // told by the OS error itself, wherever it is in the chain
+        let emfile = std::io::Error::from_raw_os_error(24);
+        let e = Error::transport("a publisher on /x", std::io::Error::other(emfile));
         let text = e.to_string();
         assert!(
-            text.starts_with("ROS 2 (DDS) could not create a publisher on /x: Too many open files"),
+            text.starts_with("ROS 2 could not create a publisher on /x; this process ran out of file descriptors"),
             "{text}"
         );
         assert!(text.contains("ulimit -n"), "{text}");
-        assert!(e.source().unwrap().to_string().contains("os error 24"));
+        // the cause is in source() only: printed once, by the chain
+        assert!(!text.contains("os error 24"), "{text}");
+        let chain = e.report().to_string();
+        assert_eq!(chain.matches("os error 24").count(), 1, "{chain}");
+        assert!(chain.ends_with("(os error 24)"), "{chain}");
+        // a layer that kept only the text
+        let e = Error::transport("a reader", std::io::Error::other("Too many open files"));
+        assert!(e.to_string().contains("ulimit -n"));
+        // anything else: no hint
+        let e = Error::transport("a reader", std::io::Error::from_raw_os_error(2));
+        assert_eq!(e.to_string(), "ROS 2 could not create a reader");
         let e = Error::codec(
             "decode a std_msgs/msg/String from 3 bytes",
             "unexpected end",
         );
         assert_eq!(
             e.to_string(),
+            "could not decode a std_msgs/msg/String from 3 bytes"
+        );
+        assert_eq!(
+            e.report().to_string(),
             "could not decode a std_msgs/msg/String from 3 bytes: unexpected end"
         );
         assert!(e.source().is_some());

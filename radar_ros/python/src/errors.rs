@@ -16,7 +16,7 @@ pyo3::import_exception!(radar_ros._errors, ComponentLost);
 /// ...).
 pub(crate) fn to_py(e: radar_ros::Error) -> PyErr {
     use radar_ros::Error as E;
-    let msg = e.to_string();
+    let msg = e.report().to_string();
     let (err, attrs): (PyErr, Vec<(&str, Attr)>) = match e {
         E::Timeout { what, after } => (
             RadarTimeout::new_err(msg),

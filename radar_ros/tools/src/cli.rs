@@ -255,7 +255,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
         use radar_ros::security::keystore;
         match verb {
             SecurityVerb::CreateKeystore { keystore: dir } => {
-                keystore::create_keystore(&dir).map_err(|e| e.to_string())?;
+                keystore::create_keystore(&dir).map_err(|e| crate::common::chain(&e))?;
                 match out.json {
                     true => println!("{}", serde_json::json!({ "keystore": dir })),
                     false => println!("keystore made in {}", dir.display()),
@@ -266,7 +266,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 enclave,
             } => {
                 let made = keystore::create_enclave(&dir, &enclave, &keystore::Grant::all())
-                    .map_err(|e| e.to_string())?;
+                    .map_err(|e| crate::common::chain(&e))?;
                 match out.json {
                     true => println!("{}", serde_json::json!({ "enclave": enclave, "dir": made })),
                     false => println!("enclave {enclave} made in {}", made.display()),
@@ -278,7 +278,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 policy,
             } => {
                 let made = radar_ros::security::policy::create_permission(&dir, &enclave, &policy)
-                    .map_err(|e| e.to_string())?;
+                    .map_err(|e| crate::common::chain(&e))?;
                 match out.json {
                     true => {
                         println!(
@@ -317,7 +317,7 @@ async fn generate_policy(
             .nodes()
             .timeout(discovery.max(Duration::from_secs(2)))
             .await
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| crate::common::chain(&e))?;
         let shown: Vec<_> = nodes.iter().filter(|n| !n.name.starts_with('_')).collect();
         if shown.is_empty() {
             return Err(
@@ -333,7 +333,7 @@ async fn generate_policy(
         };
         let xml =
             radar_ros::security::policy::generate(existing.as_deref().map(|t| (t, policy)), &nodes)
-                .map_err(|e| e.to_string())?;
+                .map_err(|e| crate::common::chain(&e))?;
         std::fs::write(policy, xml)
             .map_err(|e| format!("cannot write {}: {e}", policy.display()))?;
         match out.json {
@@ -405,7 +405,7 @@ pub async fn run(cli: Cli) -> Result<(), String> {
             builder = builder.security(Some(secured));
         }
     }
-    let radar = builder.build().map_err(|e| e.to_string())?;
+    let radar = builder.build().map_err(|e| crate::common::chain(&e))?;
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
     dispatch(&radar, &out, discovery, cmd).await
 }

@@ -13,6 +13,12 @@ use serde_json::Value;
 /// A verb's result: its error is the message printed after `radar: `.
 pub(crate) type Fallible<T> = Result<T, String>;
 
+/// An error with its causes, as the message of a [`Fallible`] (radar_ros's errors keep their causes in
+/// `source()` only).
+pub(crate) fn chain(e: &(dyn std::error::Error + 'static)) -> String {
+    radar_ros::error::Report(e).to_string()
+}
+
 pub(crate) fn secs(s: f64) -> Fallible<Duration> {
     if s.is_finite() && s > 0.0 {
         Ok(Duration::from_secs_f64(s))

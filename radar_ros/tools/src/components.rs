@@ -85,7 +85,7 @@ pub(crate) fn forward<T: Send + 'static>(
         } else {
             radar.raw_subscription(&topic, &ros_type)
         }
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| crate::common::chain(&e))?;
         let (tx, make) = (tx.clone(), make.clone());
         tasks.push(tokio::spawn(async move {
             while let Ok(s) = sub.recv_sample().await {
@@ -130,7 +130,7 @@ impl Following {
                 radar
                     .resolve(n)
                     .map(|c| c.fully_qualified())
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| crate::common::chain(&e))
             })
             .collect::<Fallible<_>>()?;
         Ok(Following {

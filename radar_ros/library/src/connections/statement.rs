@@ -386,7 +386,7 @@ impl<T> ConnectionRequest<T> {
                 })
                 .ok()?;
             RawMessage::encode(&f(m))
-                .map_err(|e| tracing::warn!(%topic, error = %e, "map: result does not encode; not delivered"))
+                .map_err(|e| tracing::warn!(%topic, error = %crate::error::Report(&e), "map: result does not encode; not delivered"))
                 .ok()
         }));
         self

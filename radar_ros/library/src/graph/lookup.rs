@@ -196,7 +196,7 @@ mod on_radar {
                         }
                         Ok(None) => None,
                         Err(e) => {
-                            tracing::warn!(component = %name, error = %e, "not listed");
+                            tracing::warn!(component = %name, error = %crate::error::Report(&e), "not listed");
                             None
                         }
                     }

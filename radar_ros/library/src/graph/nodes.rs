@@ -71,7 +71,7 @@ impl DiscoveryInfo {
                 // a sample that does not decode (a peer's bad node name): the others still count
                 Err(e) => {
                     bad += 1;
-                    tracing::debug!(error = %e, "an undecodable ros_discovery_info sample")
+                    tracing::debug!(error = %crate::error::Report(&e), "an undecodable ros_discovery_info sample")
                 }
             }
         }

@@ -164,7 +164,7 @@ impl SimClock {
                     }
                     Err(crate::Error::Closed(_)) => break,
                     Err(e) => {
-                        tracing::warn!(error = %e, "reading /clock");
+                        tracing::warn!(error = %crate::error::Report(&e), "reading /clock");
                         tokio::time::sleep(Duration::from_millis(100)).await;
                     }
                 }

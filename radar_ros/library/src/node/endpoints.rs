@@ -327,7 +327,7 @@ pub(crate) fn reply<Req, Resp>(
             tracing::debug!(%topic, "answering before the caller's reply reader is matched");
         }
         if let Err(e) = srv.async_send_response(id, resp).await {
-            tracing::warn!(error = %e, %service, "could not answer a request");
+            tracing::warn!(error = %crate::error::Report(&e), %service, "could not answer a request");
         }
     });
 }

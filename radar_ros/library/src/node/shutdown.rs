@@ -347,7 +347,7 @@ where
             {
                 Ok(rt) => rt,
                 Err(e) => {
-                    tracing::error!(error = %e, "no runtime for {what}");
+                    tracing::error!(error = %crate::error::Report(&e), "no runtime for {what}");
                     return;
                 }
             };
@@ -359,7 +359,7 @@ where
     match spawned {
         Ok(_) => rx.recv_timeout(timeout).is_ok(),
         Err(e) => {
-            tracing::error!(error = %e, "no thread to finish a response's run on");
+            tracing::error!(error = %crate::error::Report(&e), "no thread to finish a response's run on");
             false
         }
     }

@@ -187,7 +187,7 @@ where
                 Ok(goal) => return Ok(goal),
                 Err(ros2_client::ServiceError::NoReply) => return Err(Text("closed".into())),
                 Err(e) => {
-                    tracing::warn!(error = %e, "a goal request that does not decode: dropped")
+                    tracing::warn!(error = %crate::error::Report(&e), "a goal request that does not decode: dropped")
                 }
             }
         }
@@ -203,7 +203,7 @@ where
                 }
                 Err(ros2_client::ServiceError::NoReply) => return Err(Text("closed".into())),
                 Err(e) => {
-                    tracing::warn!(error = %e, "a cancel request that does not decode: dropped")
+                    tracing::warn!(error = %crate::error::Report(&e), "a cancel request that does not decode: dropped")
                 }
             }
         }
@@ -280,14 +280,14 @@ where
                 Ok(r) => r,
                 Err(ros2_client::ServiceError::NoReply) => return,
                 Err(e) => {
-                    tracing::warn!(error = %e, "a result request that does not decode: dropped");
+                    tracing::warn!(error = %crate::error::Report(&e), "a result request that does not decode: dropped");
                     continue;
                 }
             };
             let now = self.table.lock().unwrap().result_asked(&id, req);
             if let Some((code, result)) = now {
                 if let Err(e) = self.server.respond_result(req, code, result) {
-                    tracing::debug!(error = %e, "a result request not answered");
+                    tracing::debug!(error = %crate::error::Report(&e), "a result request not answered");
                 }
             }
         }
@@ -296,7 +296,7 @@ where
     fn publish_status(&self) {
         let list = self.table.lock().unwrap().statuses();
         if let Err(e) = self.server.publish_status(list) {
-            tracing::debug!(error = %e, "goal statuses not published");
+            tracing::debug!(error = %crate::error::Report(&e), "goal statuses not published");
         }
     }
 }

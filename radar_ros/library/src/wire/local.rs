@@ -243,7 +243,7 @@ impl Tap {
                 }
             }
             Err(e) => {
-                tracing::warn!(error = %e, "a signal did not encode for this process's connections")
+                tracing::warn!(error = %crate::error::Report(&e), "a signal did not encode for this process's connections")
             }
         }
         at

@@ -60,7 +60,7 @@ async fn gather(radar: &Radar, c: Component) -> Fallible<Card> {
             .parameters_of(&fq)
             .timeout(Duration::from_secs(5))
             .await
-            .map_err(|e| e.to_string())?
+            .map_err(|e| crate::common::chain(&e))?
     } else {
         Vec::new()
     };
@@ -169,7 +169,7 @@ pub(crate) fn param_json(v: &radar_ros::params::ParameterValue) -> Value {
 
 /// The component `name`, waiting for discovery.
 async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Component> {
-    let fq = radar.resolve(name).map_err(|e| e.to_string())?;
+    let fq = radar.resolve(name).map_err(|e| crate::common::chain(&e))?;
     let deadline = tokio::time::Instant::now() + discovery.max(Duration::from_secs(3));
     loop {
         if let Some(c) = radar.components().into_iter().find(|c| *c.name() == fq) {

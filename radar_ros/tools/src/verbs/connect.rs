@@ -71,7 +71,7 @@ pub(crate) async fn con(
     }
     let id = with_status("connecting", m.connect(s))
         .await
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| crate::common::chain(&e))?;
     if out.json {
         println!(
             "{}",
@@ -91,7 +91,9 @@ pub(crate) async fn con(
     if let (Lifetime::WhileRunning(duration), Some(stop)) = (lifetime, stop.as_mut()) {
         stop.after(duration).await;
         // it would go when this process leaves the graph; say so at once
-        m.disconnect(id).await.map_err(|e| e.to_string())?;
+        m.disconnect(id)
+            .await
+            .map_err(|e| crate::common::chain(&e))?;
     }
     Ok(())
 }
@@ -99,7 +101,9 @@ pub(crate) async fn con(
 /// `radar dis`: removes connection `id` through the manager's `disconnect` service.
 pub(crate) async fn dis(radar: &Radar, out: &Out, manager: Manager, id: u64) -> Fallible<()> {
     let m = manager_of(radar, manager).await?;
-    m.disconnect(id).await.map_err(|e| e.to_string())?;
+    m.disconnect(id)
+        .await
+        .map_err(|e| crate::common::chain(&e))?;
     if out.json {
         println!("{}", json!({ "removed": id, "manager": m.name() }));
     } else {
@@ -139,5 +143,5 @@ async fn manager_of(
     };
     with_status("waiting for the manager", radar.remote_manager(&name))
         .await
-        .map_err(|e| e.to_string())
+        .map_err(|e| crate::common::chain(&e))
 }

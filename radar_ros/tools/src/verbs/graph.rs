@@ -48,7 +48,10 @@ pub(crate) async fn draw(
             None => {}
         }
         if out.json {
-            println!("{}", serde_json::to_string(&p).map_err(|e| e.to_string())?);
+            println!(
+                "{}",
+                serde_json::to_string(&p).map_err(|e| crate::common::chain(&e))?
+            );
         } else if let Some(path) = &output {
             if !watch {
                 println!(

@@ -105,7 +105,7 @@ impl Recording {
         };
         let n = self.counts.entry(seen::CHANNEL.to_owned()).or_default();
         *n += 1;
-        let data = serde_json::to_vec(s).map_err(|e| e.to_string())?;
+        let data = serde_json::to_vec(s).map_err(|e| crate::common::chain(&e))?;
         let message = MessageOut {
             channel,
             sequence: *n as u32,
@@ -279,7 +279,7 @@ fn tap(
         ($t:ty) => {{
             let sub = radar
                 .state_subscription::<$t>(&topic)
-                .map_err(|e| e.to_string())?;
+                .map_err(|e| crate::common::chain(&e))?;
             let tx = tx.clone();
             tokio::spawn(async move {
                 while let Ok((m, published)) = sub.recv_stamped().await {
@@ -351,7 +351,7 @@ fn tap_connections(
 ) -> Fallible<tokio::task::JoinHandle<()>> {
     let sub = radar
         .state_subscription::<radar_ros::msg::ConnectionList>(&topic)
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| crate::common::chain(&e))?;
     Ok(tokio::spawn(async move {
         while let Ok((m, published)) = sub.recv_stamped().await {
             let Ok(body) = radar_ros::topics::RawMessage::encode(&m) else {

@@ -80,7 +80,9 @@ pub(crate) async fn replay(
     let mut publishers = BTreeMap::new();
     for (_, topic, ty, _) in &plan {
         if !publishers.contains_key(topic) {
-            let p = radar.raw_publisher(topic, ty).map_err(|e| e.to_string())?;
+            let p = radar
+                .raw_publisher(topic, ty)
+                .map_err(|e| crate::common::chain(&e))?;
             publishers.insert(topic.clone(), p);
         }
     }
@@ -104,7 +106,7 @@ pub(crate) async fn replay(
         tokio::time::sleep_until(t0 + offset).await;
         publishers[topic]
             .publish(body.clone())
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| crate::common::chain(&e))?;
         sent += 1;
     }
     // let reliable delivery finish before the writers go

@@ -478,7 +478,10 @@ pub(crate) fn verify(
     let seen = read(path)?;
     if trace_only {
         for s in &seen {
-            println!("{}", serde_json::to_string(s).map_err(|e| e.to_string())?);
+            println!(
+                "{}",
+                serde_json::to_string(s).map_err(|e| crate::common::chain(&e))?
+            );
         }
         return Ok(());
     }

@@ -146,7 +146,7 @@ fn follow_state(
         Component::Response(_) => {
             let sub = radar
                 .state_subscription::<ResponseState>(&state_topic)
-                .map_err(|e| e.to_string())?;
+                .map_err(|e| crate::common::chain(&e))?;
             tokio::spawn(async move {
                 let mut last = String::new();
                 while let Ok(s) = sub.recv().await {
@@ -164,7 +164,7 @@ fn follow_state(
         Component::Event(_) => {
             let sub = radar
                 .state_subscription::<EventState>(&state_topic)
-                .map_err(|e| e.to_string())?;
+                .map_err(|e| crate::common::chain(&e))?;
             tokio::spawn(async move {
                 let mut last: Option<EventState> = None;
                 while let Ok(s) = sub.recv().await {

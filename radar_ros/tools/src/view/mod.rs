@@ -50,9 +50,10 @@ impl Options {
     /// The security the view's participant runs with: what the environment says, in the view's own enclave
     /// unless ROS_SECURITY_ENCLAVE_OVERRIDE names one; `None` when not secured (the environment decides).
     pub(crate) fn security(&self) -> Fallible<Option<radar_ros::security::SecurityOptions>> {
-        let plain = radar_ros::ros_args::RosArgs::parse(["radar"]).map_err(|e| e.to_string())?;
-        let Some(mut s) =
-            radar_ros::security::SecurityOptions::from_env(&plain).map_err(|e| e.to_string())?
+        let plain =
+            radar_ros::ros_args::RosArgs::parse(["radar"]).map_err(|e| crate::common::chain(&e))?;
+        let Some(mut s) = radar_ros::security::SecurityOptions::from_env(&plain)
+            .map_err(|e| crate::common::chain(&e))?
         else {
             return Ok(None);
         };

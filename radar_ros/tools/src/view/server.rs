@@ -203,7 +203,12 @@ async fn params(shared: &Shared, component: &str) -> Value {
                 .map(|(n, v)| (n.clone(), crate::verbs::cat::param_json(v)))
                 .collect::<serde_json::Map<_, _>>()
                 .into(),
-            Err(e) => return error(format!("parameters of {component}: {e}")),
+            Err(e) => {
+                return error(format!(
+                    "parameters of {component}: {}",
+                    crate::common::chain(&e)
+                ))
+            }
         },
     };
     json!({ "type": "params", "component": component, "params": params })
@@ -222,7 +227,7 @@ async fn act(shared: &Shared, ask: &Value, component: &str) -> Result<Value, Str
         .response(component)
         .timeout(ACT_TIMEOUT)
         .await
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| crate::common::chain(&e))?;
     let slot_ref = match slot {
         "start" => r.start_slot(),
         "interrupt" => r.interrupt_slot(),
@@ -240,15 +245,17 @@ async fn act(shared: &Shared, ask: &Value, component: &str) -> Result<Value, Str
             shared
                 .radar
                 .raw_publisher(slot_ref.topic(), slot_ref.ros_type())
-                .map_err(|e| e.to_string())?,
+                .map_err(|e| crate::common::chain(&e))?,
         ),
     };
     publisher
         .wait_for_subscribers(1)
         .timeout(ACT_TIMEOUT)
         .await
-        .map_err(|e| e.to_string())?;
-    publisher.publish(raw).map_err(|e| e.to_string())?;
+        .map_err(|e| crate::common::chain(&e))?;
+    publisher
+        .publish(raw)
+        .map_err(|e| crate::common::chain(&e))?;
     Ok(json!({ "type": "acted", "component": r.name().fully_qualified(), "slot": slot }))
 }
 

@@ -156,7 +156,7 @@ impl<A: Action> Serving<A> {
             Ok(h) => {
                 self.goal = Some((goal, Handle::Accepted(h)));
                 if let Err(e) = self.io.start.publish_sent(payload, start) {
-                    tracing::warn!(%action, error = %e, "could not start the response");
+                    tracing::warn!(%action, error = %crate::error::Report(&e), "could not start the response");
                 }
             }
             Err(e) => {
@@ -195,7 +195,7 @@ impl<A: Action> Serving<A> {
                 }
                 Effect::Interrupt(sent) => {
                     if let Err(e) = self.io.interrupt.publish_sent(Empty::default(), sent) {
-                        tracing::warn!(%action, error = %e, "could not interrupt the response");
+                        tracing::warn!(%action, error = %crate::error::Report(&e), "could not interrupt the response");
                     }
                 }
                 Effect::Execute(goal) => {

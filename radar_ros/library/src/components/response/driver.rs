@@ -387,7 +387,7 @@ fn slot_signals<'a, R: Response>(
         .map(move |(raw, s)| match raw.decode::<R::Start>() {
             Ok(m) => Some(Input::Start(m, s)),
             Err(e) => {
-                tracing::warn!(response = %name, error = %e, "a start delivered in this process did not decode");
+                tracing::warn!(response = %name, error = %crate::error::Report(&e), "a start delivered in this process did not decode");
                 None
             }
         });

@@ -56,7 +56,7 @@ impl Outlet {
         // reader, nothing is delivered)
         if let Some(p) = &self.dds {
             if let Err(e) = p.publish_sent(m, sent) {
-                tracing::warn!(slot = %self.key.topic, error = %e, "could not deliver a signal");
+                tracing::warn!(slot = %self.key.topic, error = %crate::error::Report(&e), "could not deliver a signal");
             }
         }
     }
@@ -157,7 +157,7 @@ impl Manager {
                 Some(matched)
             }
             Err(e) => {
-                tracing::warn!(slot = %k.topic, error = %e, "no DDS writer for a slot whose response left this process");
+                tracing::warn!(slot = %k.topic, error = %crate::error::Report(&e), "no DDS writer for a slot whose response left this process");
                 None
             }
         }
