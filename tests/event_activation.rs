@@ -209,7 +209,7 @@ async fn killed_subscriber_process_deactivates_the_event_when_its_dds_lease_expi
     let took = t0.elapsed();
     println!("SIGKILL of the subscriber process: inactive after {took:?} (DDS participant lease)");
     assert!(
-        took > radar_ros::graph::DEFAULT_LEASE - Duration::from_millis(700),
+        took > radar_ros::settings::DEFAULT_LEASE - Duration::from_millis(700),
         "a killed peer cannot be noticed before its lease: {took:?}"
     );
     assert!(

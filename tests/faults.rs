@@ -51,7 +51,7 @@ impl Fault {
     fn loses(self) -> bool {
         match self {
             Fault::Kill => true,
-            Fault::Stop(d) => d > radar_ros::graph::DEFAULT_LEASE + Duration::from_secs(1),
+            Fault::Stop(d) => d > radar_ros::settings::DEFAULT_LEASE + Duration::from_secs(1),
         }
     }
 }
@@ -375,7 +375,7 @@ async fn one_round(observer: &radar_ros::Radar, victim: Victim, fault: Fault, at
     }
     // let the leases of killed peers run out before the next round reuses the names
     tokio::time::sleep(if fault == Fault::Kill {
-        radar_ros::graph::DEFAULT_LEASE
+        radar_ros::settings::DEFAULT_LEASE
     } else {
         Duration::from_millis(300)
     })

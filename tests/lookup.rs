@@ -37,7 +37,7 @@ async fn components_in_other_participants_are_found_by_name_and_connected() {
     let me = radar_ros::Radar::builder()
         .domain_id(87)
         .namespace("/robot1")
-        .discovery_range(radar_ros::graph::DiscoveryRange::Subnet)
+        .discovery_range(radar_ros::settings::DiscoveryRange::Subnet)
         .build()
         .unwrap();
     let tick = me.event("tick").await.unwrap();

@@ -488,8 +488,11 @@ fn code_written_for_the_old_root_builds_with_notes_naming_the_new_places() {
             "SignalSubscription",
             "radar_ros::topics::SignalSubscription",
         ),
-        ("DEFAULT_LEASE", "radar_ros::graph::DEFAULT_LEASE"),
-        ("domain_id_from_env", "radar_ros::graph::domain_id_from_env"),
+        ("DEFAULT_LEASE", "radar_ros::settings::DEFAULT_LEASE"),
+        (
+            "domain_id_from_env",
+            "radar_ros::settings::domain_id_from_env",
+        ),
         ("Source", "radar_ros::error::BoxError"),
     ] {
         assert!(

@@ -15,8 +15,8 @@ use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
 
 use radar_ros::{
-    graph::DiscoveryRange,
     msg::{Empty, ResponseState, RosMessage},
+    settings::DiscoveryRange,
     topics::RawMessage,
     topics::RawPublisher,
     topics::SignalPublisher,

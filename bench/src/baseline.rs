@@ -19,7 +19,7 @@ pub(crate) const WAIT: Duration = Duration::from_secs(20);
 /// A plain ros2-client node, as a user would write it without radar_ros: context in `ROS_DOMAIN_ID`, no
 /// rosout or parameter services, spinner running.
 pub(crate) fn raw_node(name: &str) -> Result<(Context, Node)> {
-    let domain = radar_ros::graph::domain_id_from_env()?;
+    let domain = radar_ros::settings::domain_id_from_env()?;
     let ctx = Context::with_options(ContextOptions::new().domain_id(domain))
         .map_err(|e| anyhow!("ros2-client context: {e:?}"))?;
     let mut node = ctx

@@ -256,7 +256,7 @@ impl Bench {
             "throughput_window_ms": plan.window_ms,
             "oneshot_publishes": plan.oneshot_n,
             "state_changes": plan.state_changes,
-            "lease_s": radar_ros::graph::DEFAULT_LEASE.as_secs_f64(),
+            "lease_s": radar_ros::settings::DEFAULT_LEASE.as_secs_f64(),
         });
         Ok(Bench {
             next_domain: opts.domain,

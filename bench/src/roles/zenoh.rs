@@ -13,7 +13,7 @@ use ros2_client::{
 /// A Zenoh context and node in `ROS_DOMAIN_ID`, with the message's rosidl hash given to the backend (as
 /// radar_ros gives it), no rosout.
 fn zenoh_node(name: &str) -> Result<(Context, Node)> {
-    let domain = radar_ros::graph::domain_id_from_env()?;
+    let domain = radar_ros::settings::domain_id_from_env()?;
     let dds_type = Header::message_type_name().dds_msg_type();
     if let Some(hash) = Header::TYPE_HASH {
         register_type_hash(&dds_type, hash).map_err(|e| anyhow!("{e}"))?;

@@ -230,6 +230,14 @@ pub use wire::refs::{AsResponse, AsSignal, EventRef, ResponseRef, Signal, Slot};
 pub mod error;
 pub mod graph;
 
+/// How a [`Radar`] reaches the graph: which hosts discovery looks at ([`DiscoveryRange`](settings::DiscoveryRange)),
+/// how soon a silent peer counts as gone ([`DEFAULT_LEASE`](settings::DEFAULT_LEASE)), and the ROS domain from the
+/// environment ([`domain_id_from_env`](settings::domain_id_from_env)), as [`RadarBuilder`] takes them.
+pub mod settings {
+    pub use crate::radar::domain_id_from_env;
+    pub use crate::radar::settings::{DiscoveryRange, DEFAULT_LEASE};
+}
+
 pub mod statement {
     //! RADAR's statements (`once E ...`, `whenever E ...`, `waitfor`) as [`Radar::once`](crate::Radar::once), [`Radar::whenever`](crate::Radar::whenever) and
     //! [`Radar::waiter`](crate::Radar::waiter) build them: a [`Statement`] given its target is a [`ConnectionRequest`], whose type says
@@ -293,8 +301,8 @@ mod old_names {
     #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::LossCause")]
     pub type LossCause = crate::graph::LossCause;
     #[doc(hidden)]
-    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::DiscoveryRange")]
-    pub type DiscoveryRange = crate::graph::DiscoveryRange;
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::settings::DiscoveryRange")]
+    pub type DiscoveryRange = crate::settings::DiscoveryRange;
     #[doc(hidden)]
     #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::RemoteManager")]
     pub type RemoteManager = crate::manager::RemoteManager;
@@ -357,15 +365,18 @@ mod old_names {
     )]
     pub type Source = crate::error::BoxError;
     #[doc(hidden)]
-    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::DEFAULT_LEASE")]
-    pub const DEFAULT_LEASE: Duration = crate::graph::DEFAULT_LEASE;
+    #[deprecated(since = "0.2.0", note = "moved: radar_ros::settings::DEFAULT_LEASE")]
+    pub const DEFAULT_LEASE: Duration = crate::settings::DEFAULT_LEASE;
     #[doc(hidden)]
     #[deprecated(since = "0.2.0", note = "moved: radar_ros::manager::OWNER_SILENT")]
     pub const OWNER_SILENT: Duration = crate::manager::OWNER_SILENT;
     #[doc(hidden)]
-    #[deprecated(since = "0.2.0", note = "moved: radar_ros::graph::domain_id_from_env")]
+    #[deprecated(
+        since = "0.2.0",
+        note = "moved: radar_ros::settings::domain_id_from_env"
+    )]
     pub fn domain_id_from_env() -> crate::Result<u16> {
-        crate::graph::domain_id_from_env()
+        crate::settings::domain_id_from_env()
     }
 }
 #[doc(hidden)]

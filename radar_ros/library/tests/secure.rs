@@ -11,9 +11,9 @@
 use std::{path::PathBuf, time::Duration};
 
 use radar_ros::{
-    graph::DiscoveryRange,
     msg::Empty,
     security::{keystore, policy, SecurityOptions},
+    settings::DiscoveryRange,
     FnResponse, Radar,
 };
 

@@ -313,7 +313,7 @@ async fn radar_record_of_test_msgs_signals_reads_back_as_the_fixtures() {
     const DOMAIN: u16 = 115;
     let r = radar_ros::Radar::builder()
         .domain_id(DOMAIN)
-        .discovery_range(radar_ros::graph::DiscoveryRange::Subnet)
+        .discovery_range(radar_ros::settings::DiscoveryRange::Subnet)
         .build()
         .unwrap();
     let fixtures = fixtures();
@@ -460,7 +460,7 @@ async fn radar_inject_finds_a_programs_own_interfaces_in_a_directory_given() {
     std::fs::write(own.join("my_robot_msgs/msg/DockBay.msg"), "uint8 number\n").unwrap();
     let r = radar_ros::Radar::builder()
         .domain_id(DOMAIN)
-        .discovery_range(radar_ros::graph::DiscoveryRange::Subnet)
+        .discovery_range(radar_ros::settings::DiscoveryRange::Subnet)
         .build()
         .unwrap();
     let dock = r

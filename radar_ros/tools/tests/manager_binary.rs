@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use radar_ros::{graph::DiscoveryRange, msg::ConnectionList, Radar};
+use radar_ros::{msg::ConnectionList, settings::DiscoveryRange, Radar};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_radar_manager_binary_serves_a_manager_node() {

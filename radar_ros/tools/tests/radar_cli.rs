@@ -7,8 +7,8 @@ use std::{process::Output, time::Duration};
 
 use common::Never;
 use radar_ros::{
-    graph::DiscoveryRange,
     msg::{Empty, StringMsg},
+    settings::DiscoveryRange,
     FnResponse, Radar, TimerEvent,
 };
 use serde_json::Value;

@@ -10,7 +10,7 @@ use std::{
     time::Duration,
 };
 
-use radar_ros::{graph::DiscoveryRange, Radar, TimerEvent};
+use radar_ros::{settings::DiscoveryRange, Radar, TimerEvent};
 use serde_json::Value;
 
 const DOMAIN: &str = "19";

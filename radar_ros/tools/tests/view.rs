@@ -9,8 +9,8 @@ use std::{collections::BTreeMap, process::Stdio, time::Duration};
 
 use futures::{SinkExt, StreamExt};
 use radar_ros::{
-    graph::DiscoveryRange,
     msg::{Empty, ResponseState, StringMsg},
+    settings::DiscoveryRange,
     FnResponse, Radar, TimerEvent,
 };
 use radar_ros_examples::test_support::{examples_dir, require_isolation};

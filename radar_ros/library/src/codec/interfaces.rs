@@ -24,7 +24,7 @@ use super::{
         At,
     },
 };
-use crate::topics::RawMessage;
+use crate::wire::raw::RawMessage;
 
 /// Where definitions are looked for, and those read so far ([`radar_idl::Interfaces`], which it derefs to),
 /// with the CDR encoding and decoding of payloads of any type found.

@@ -17,7 +17,7 @@ use crate::{
         Bool, Connection, ConnectionList, Empty, EventState, Float64, Header, Int32, Int64, Point,
         Pose, PoseStamped, Quaternion, ResponseState, RosMessage, StringMsg, Time,
     },
-    topics::RawMessage,
+    wire::raw::RawMessage,
 };
 use serde_json::Value;
 

@@ -292,7 +292,7 @@ impl EventHandle {
     /// ```
     pub fn triggered(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Triggered),
+            self.name.endpoint(crate::endpoint::Endpoint::Triggered),
             self.payload_type.clone(),
         )
     }

@@ -274,7 +274,7 @@ impl ConnectionRequest<StartTarget> {
             exited: r.exited(),
             dropped: r.dropped(),
             interrupt: r.interrupt_slot(),
-            state: r.name().endpoint(crate::graph::Endpoint::State),
+            state: r.name().endpoint(crate::endpoint::Endpoint::State),
         });
         self
     }
@@ -353,7 +353,7 @@ impl<T> ConnectionRequest<T> {
     pub fn map_dyn<M: RosMessage>(
         self,
         ros_type: &str,
-        f: impl Fn(M) -> crate::topics::DynMessage + Send + Sync + 'static,
+        f: impl Fn(M) -> crate::wire::raw::DynMessage + Send + Sync + 'static,
     ) -> ConnectionRequest<T> {
         self.map_as(ros_type, f)
     }
@@ -466,47 +466,5 @@ impl<T> IntoFuture for ConnectionRequest<T> {
             }
             manager.arm(spec).await
         })
-    }
-}
-
-// Radar::once and Radar::whenever: this concept's face on `Radar` (kept in a module of its own for its imports).
-mod on_radar {
-    use crate::connections::statement::Statement;
-    use crate::{radar::Radar, wire::refs::AsSignal};
-    use radar_semantics::connection::Kind;
-
-    impl Radar {
-        /// `once source ...`: the connection delivers one signal. The source is a signal, or an event (for its
-        /// `triggered`); a slot is not accepted.
-        ///
-        /// ```no_run
-        /// # async fn f(radar: radar_ros::Radar, start_event: radar_ros::EventHandle, count_up: radar_ros::ResponseHandle)
-        /// #     -> radar_ros::Result<()> {
-        /// let _c = radar.once(&start_event).start(&count_up).await?;
-        /// # Ok(()) }
-        /// ```
-        pub fn once(&self, source: impl AsSignal) -> Statement {
-            Statement {
-                manager: self.manager().clone(),
-                kind: Kind::Once,
-                source: source.signal(),
-            }
-        }
-
-        /// `whenever source ...`: the connection delivers every signal while it lives.
-        ///
-        /// ```no_run
-        /// # async fn f(radar: radar_ros::Radar, tick: radar_ros::EventHandle, go: radar_ros::ResponseHandle)
-        /// #     -> radar_ros::Result<()> {
-        /// let _c = radar.whenever(&tick).start(&go).await?;
-        /// # Ok(()) }
-        /// ```
-        pub fn whenever(&self, source: impl AsSignal) -> Statement {
-            Statement {
-                manager: self.manager().clone(),
-                kind: Kind::Whenever,
-                source: source.signal(),
-            }
-        }
     }
 }

@@ -1,12 +1,9 @@
 //! The ROS graph as radar_ros sees it: components found by name ([`Component`], [`ComponentName`],
-//! [`Endpoint`]), how far discovery reaches ([`DiscoveryRange`], [`DEFAULT_LEASE`], the domain from
-//! [`domain_id_from_env`]), the nodes on it ([`GraphNode`]), and why a component left ([`Departure`],
-//! [`LossCause`]).
+//! [`Endpoint`]), the nodes on it ([`GraphNode`]), and why a component left ([`Departure`], [`LossCause`]).
+//! How far discovery reaches is a setting of the `Radar` (`radar_ros::settings`).
 
 pub use crate::departure::{Departure, LossCause};
 pub use crate::endpoint::Endpoint;
-pub use crate::radar::domain_id_from_env;
-pub use crate::radar::settings::{DiscoveryRange, DEFAULT_LEASE};
 pub use crate::wire::names::ComponentName;
 pub use lookup::Component;
 

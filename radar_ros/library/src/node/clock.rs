@@ -154,7 +154,7 @@ impl SimClock {
     }
 
     /// Follows what `sub` (a subscription to `/clock` with [`SimClock::qos`]) receives.
-    pub(crate) fn start(sub: crate::topics::SignalSubscription<ClockMsg>) -> SimClock {
+    pub(crate) fn start(sub: crate::node::topics::SignalSubscription<ClockMsg>) -> SimClock {
         let (tx, rx) = watch::channel(0i64);
         let task = tokio::spawn(async move {
             loop {

@@ -68,7 +68,7 @@ impl Radar {
                 let feedback = publisher::<A::Feedback>(
                     g,
                     node,
-                    &name.endpoint(crate::graph::Endpoint::Feedback),
+                    &name.endpoint(crate::endpoint::Endpoint::Feedback),
                     &TypeName::of::<A::Feedback>(),
                     &signal_qos(),
                 )?;
@@ -85,7 +85,7 @@ impl Radar {
             },
         )?;
         let feedback = Signal::new(
-            handle.name().endpoint(crate::graph::Endpoint::Feedback),
+            handle.name().endpoint(crate::endpoint::Endpoint::Feedback),
             A::Feedback::ros_type_name(),
         );
         tracing::info!(response = %handle.name(), action = %action_fq, "action response up");

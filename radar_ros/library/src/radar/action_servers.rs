@@ -69,10 +69,10 @@ impl Radar {
             started: self.signal_subscription::<A::Goal>(r.started().topic())?,
             exited: self.signal_subscription::<A::Result>(exited.topic())?,
             feedback: self.signal_subscription::<A::Feedback>(
-                &name.endpoint(crate::graph::Endpoint::Feedback),
+                &name.endpoint(crate::endpoint::Endpoint::Feedback),
             )?,
             state: self.state_subscription::<ResponseState>(
-                &name.endpoint(crate::graph::Endpoint::State),
+                &name.endpoint(crate::endpoint::Endpoint::State),
             )?,
         };
         let served = self.participant().served_actions().mark(action_fq.clone());

@@ -60,7 +60,7 @@ impl RadarBuilder {
     ///
     /// ```no_run
     /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use radar_ros::{graph::DiscoveryRange, Radar};
+    /// use radar_ros::{radar::settings::DiscoveryRange, Radar};
     /// let radar = Radar::builder().discovery_range(DiscoveryRange::Subnet).build()?;
     /// # Ok(()) }
     /// ```
@@ -69,8 +69,8 @@ impl RadarBuilder {
         self
     }
 
-    /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`](crate::graph::DEFAULT_LEASE): how soon peers
-    /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`](crate::graph::DEFAULT_LEASE) for the trade-off).
+    /// Uses this participant lease instead of `RADAR_LEASE_SECONDS` or [`DEFAULT_LEASE`](crate::settings::DEFAULT_LEASE): how soon peers
+    /// notice this process is gone when it dies without leaving (see [`DEFAULT_LEASE`](crate::settings::DEFAULT_LEASE) for the trade-off).
     ///
     /// ```no_run
     /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {

@@ -14,7 +14,7 @@
 //! It serves the same manager as the program's own statements, so the list shows both. A connection made
 //! through the service belongs to the caller's DDS participant (its process) and is removed when that
 //! participant leaves the ROS graph: at once when it exits cleanly, at its DDS lease expiry when killed (3-3.6 s
-//! for a radar_ros program, see [`crate::graph::DEFAULT_LEASE`]; ~20 s for an rclpy one).
+//! for a radar_ros program, see [`crate::settings::DEFAULT_LEASE`]; ~20 s for an rclpy one).
 //!
 //! An owner may also say it is alive, on `<name>/owners` (a radar_ros program does, every 200 ms, from its
 //! first owned connection on: [`RemoteManager::connect`](crate::manager::RemoteManager::connect)). The manager then
@@ -124,8 +124,8 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
         );
         armed(statement.slot(slot), req, owner, timeout).await
     } else {
-        let Some((response, crate::graph::Endpoint::Start)) =
-            crate::graph::Endpoint::of_topic(&target_topic)
+        let Some((response, crate::endpoint::Endpoint::Start)) =
+            crate::endpoint::Endpoint::of_topic(&target_topic)
         else {
             return Err(Error::InvalidStatement(format!(
                 "`until` goes with a start slot (…/start), not {target_topic}"
@@ -140,7 +140,7 @@ async fn connect(radar: &Radar, req: &ConnectRequest, owner: String) -> Result<C
 
 /// Arms `c` with the request's properties (a depth of 0 means the default).
 async fn armed<T>(
-    c: crate::statement::ConnectionRequest<T>,
+    c: crate::connections::statement::ConnectionRequest<T>,
     req: &ConnectRequest,
     owner: String,
     timeout: Duration,

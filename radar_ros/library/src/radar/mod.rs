@@ -4,12 +4,17 @@
 mod action_clients;
 mod action_servers;
 mod builder;
+mod find;
 pub mod introspect;
 pub(crate) mod manager_node;
+mod once_whenever;
 mod params;
+mod plain_topics;
+mod remote_manager;
 pub(crate) mod settings;
 mod spawn_event;
 mod spawn_response;
+mod waitfor;
 
 use std::sync::Arc;
 
@@ -30,7 +35,7 @@ use crate::{
 /// its own ros2-client `Context` (whose `Context::new()` uses domain 0 whatever the variable says).
 ///
 /// ```
-/// let domain = radar_ros::graph::domain_id_from_env()?;
+/// let domain = radar_ros::settings::domain_id_from_env()?;
 /// assert!(domain <= 232);
 /// # Ok::<(), radar_ros::Error>(())
 /// ```

@@ -40,18 +40,18 @@ impl Radar {
                 crate::node::endpoints::publisher::<E::Payload>(
                     self.graph(),
                     node,
-                    &name.endpoint(crate::graph::Endpoint::Triggered),
+                    &name.endpoint(crate::endpoint::Endpoint::Triggered),
                     &payload_t,
                     &signal_qos(),
                 )
             })?,
-            &name.endpoint(crate::graph::Endpoint::Triggered),
+            &name.endpoint(crate::endpoint::Endpoint::Triggered),
             &payload_t.ros,
         );
         let state_pub = typed_publisher::<EventState>(
             self.graph(),
             node,
-            &name.endpoint(crate::graph::Endpoint::State),
+            &name.endpoint(crate::endpoint::Endpoint::State),
             &state_qos(),
         )?;
         // its listeners: readers of `triggered` that do not only observe (`graph/observers.rs`)

@@ -389,12 +389,12 @@ impl Connection {
     pub const STATE_TARGET_LOST: u8 = 3;
 
     /// The `STATE_*` code of a link state.
-    pub fn state_of(link: crate::manager::Link) -> u8 {
+    pub fn state_of(link: radar_semantics::connection::Link) -> u8 {
         match link {
-            crate::manager::Link::Armed => Self::STATE_ARMED,
-            crate::manager::Link::WaitingForSource => Self::STATE_WAITING_FOR_SOURCE,
-            crate::manager::Link::WaitingForTarget => Self::STATE_WAITING_FOR_TARGET,
-            crate::manager::Link::TargetLost => Self::STATE_TARGET_LOST,
+            radar_semantics::connection::Link::Armed => Self::STATE_ARMED,
+            radar_semantics::connection::Link::WaitingForSource => Self::STATE_WAITING_FOR_SOURCE,
+            radar_semantics::connection::Link::WaitingForTarget => Self::STATE_WAITING_FOR_TARGET,
+            radar_semantics::connection::Link::TargetLost => Self::STATE_TARGET_LOST,
         }
     }
 }
@@ -485,7 +485,7 @@ pub(crate) const PADDING: usize = 4;
 /// delivered to a slot of type `M` (rule C2). Generated interfaces list one per type (`READERS`).
 ///
 /// ```
-/// use radar_ros::{msg::{reads, Int32}, topics::RawMessage};
+/// use radar_ros::{msg::{reads, Int32}, wire::raw::RawMessage};
 /// assert!(reads::<Int32>(RawMessage::encode(&Int32 { data: 7 }).unwrap().as_bytes()));
 /// assert!(!reads::<Int32>(&[1, 0]), "too short");
 /// assert!(!reads::<Int32>(&[7, 0, 0, 0, 1, 0, 0, 0]), "another definition: more than padding left");
@@ -596,10 +596,10 @@ mod tests {
         );
         // every link state has its constant, named after its label
         for link in [
-            crate::manager::Link::Armed,
-            crate::manager::Link::WaitingForSource,
-            crate::manager::Link::WaitingForTarget,
-            crate::manager::Link::TargetLost,
+            radar_semantics::connection::Link::Armed,
+            radar_semantics::connection::Link::WaitingForSource,
+            radar_semantics::connection::Link::WaitingForTarget,
+            radar_semantics::connection::Link::TargetLost,
         ] {
             let name = format!("STATE_{}", link.label().replace(' ', "_").to_uppercase());
             let code = Connection::state_of(link).to_string();

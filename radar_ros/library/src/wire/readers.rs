@@ -42,8 +42,8 @@ impl Readers {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::topics::RawMessage;
     use crate::wire::msg::{reads, Int32, RosMessage};
+    use crate::wire::raw::RawMessage;
 
     #[test]
     fn c2_a_shipped_type_and_a_registered_one_are_checked_and_others_are_not_known() {

@@ -136,7 +136,7 @@ impl EventRef {
     /// Its `triggered` signal.
     pub fn triggered(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Triggered),
+            self.name.endpoint(crate::endpoint::Endpoint::Triggered),
             self.payload_type.clone(),
         )
     }
@@ -152,7 +152,7 @@ impl AsSignal for EventRef {
 /// a local handle's [`reference`](crate::ResponseHandle::reference)).
 ///
 /// ```
-/// use radar_ros::{graph::ComponentName, ResponseRef};
+/// use radar_ros::{wire::names::ComponentName, ResponseRef};
 /// let dock = ResponseRef::new(ComponentName::resolve("/robot/dock", "/").unwrap(), "std_msgs/msg/Empty", "std_msgs/msg/Empty");
 /// assert_eq!(dock.exited().topic(), "/robot/dock/exited");
 /// assert_eq!(dock.start_slot().topic(), "/robot/dock/start");
@@ -184,49 +184,49 @@ impl ResponseRef {
     /// `started`, carrying the start payload.
     pub fn started(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Started),
+            self.name.endpoint(crate::endpoint::Endpoint::Started),
             self.start_type.clone(),
         )
     }
     /// `interrupted`.
     pub fn interrupted(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Interrupted),
+            self.name.endpoint(crate::endpoint::Endpoint::Interrupted),
             Empty::ros_type_name(),
         )
     }
     /// `exited`, carrying the run's output.
     pub fn exited(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Exited),
+            self.name.endpoint(crate::endpoint::Endpoint::Exited),
             self.output_type.clone(),
         )
     }
     /// `dropped`: a start a statement sent that the response did not take, with that statement's cause (R6).
     pub fn dropped(&self) -> Signal {
         Signal::new(
-            self.name.endpoint(crate::graph::Endpoint::Dropped),
+            self.name.endpoint(crate::endpoint::Endpoint::Dropped),
             Empty::ros_type_name(),
         )
     }
     /// The `start` slot.
     pub fn start_slot(&self) -> Slot {
         Slot::new(
-            self.name.endpoint(crate::graph::Endpoint::Start),
+            self.name.endpoint(crate::endpoint::Endpoint::Start),
             self.start_type.clone(),
         )
     }
     /// The `interrupt` slot.
     pub fn interrupt_slot(&self) -> Slot {
         Slot::new(
-            self.name.endpoint(crate::graph::Endpoint::Interrupt),
+            self.name.endpoint(crate::endpoint::Endpoint::Interrupt),
             Empty::ros_type_name(),
         )
     }
     /// The `exit` slot.
     pub fn exit_slot(&self) -> Slot {
         Slot::new(
-            self.name.endpoint(crate::graph::Endpoint::Exit),
+            self.name.endpoint(crate::endpoint::Endpoint::Exit),
             Empty::ros_type_name(),
         )
     }
@@ -235,7 +235,7 @@ impl ResponseRef {
 /// Something that names a response: a local [`ResponseHandle`](crate::ResponseHandle) or a [`ResponseRef`].
 ///
 /// ```
-/// use radar_ros::{AsResponse, graph::ComponentName, ResponseRef};
+/// use radar_ros::{AsResponse, wire::names::ComponentName, ResponseRef};
 /// let r = ResponseRef::new(ComponentName::resolve("dock", "/").unwrap(), "std_msgs/msg/Empty", "std_msgs/msg/Empty");
 /// assert_eq!((&r).response_ref(), r);
 /// ```

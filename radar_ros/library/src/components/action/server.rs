@@ -60,12 +60,12 @@ impl std::fmt::Debug for ActionServerHandle {
 }
 
 pub(crate) struct ServerIo<A: Action> {
-    pub(crate) start: crate::topics::SignalPublisher<A::Goal>,
-    pub(crate) interrupt: crate::topics::SignalPublisher<Empty>,
-    pub(crate) started: crate::topics::SignalSubscription<A::Goal>,
-    pub(crate) exited: crate::topics::SignalSubscription<A::Result>,
-    pub(crate) feedback: crate::topics::SignalSubscription<A::Feedback>,
-    pub(crate) state: crate::topics::SignalSubscription<ResponseState>,
+    pub(crate) start: crate::node::topics::SignalPublisher<A::Goal>,
+    pub(crate) interrupt: crate::node::topics::SignalPublisher<Empty>,
+    pub(crate) started: crate::node::topics::SignalSubscription<A::Goal>,
+    pub(crate) exited: crate::node::topics::SignalSubscription<A::Result>,
+    pub(crate) feedback: crate::node::topics::SignalSubscription<A::Feedback>,
+    pub(crate) state: crate::node::topics::SignalSubscription<ResponseState>,
 }
 
 use super::wire::Server;

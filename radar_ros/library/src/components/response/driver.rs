@@ -104,7 +104,7 @@ impl<R: Response> Io<R> {
     /// [`incomplete_output`](Response::incomplete_output).
     fn exited_payload(&self, o: R::Output) -> R::Output {
         match &self.incomplete_output {
-            Some(d) if crate::topics::RawMessage::encode(&o).is_ok_and(|r| r.is_empty()) => {
+            Some(d) if crate::wire::raw::RawMessage::encode(&o).is_ok_and(|r| r.is_empty()) => {
                 d.clone()
             }
             _ => o,
@@ -345,9 +345,9 @@ impl SlotTopics {
     fn of(name: &ComponentName, start_type: &str) -> SlotTopics {
         SlotTopics {
             response: name.fully_qualified(),
-            start: name.endpoint(crate::graph::Endpoint::Start),
-            interrupt: name.endpoint(crate::graph::Endpoint::Interrupt),
-            exit: name.endpoint(crate::graph::Endpoint::Exit),
+            start: name.endpoint(crate::endpoint::Endpoint::Start),
+            interrupt: name.endpoint(crate::endpoint::Endpoint::Interrupt),
+            exit: name.endpoint(crate::endpoint::Endpoint::Exit),
             start_type: start_type.to_owned(),
             empty_type: Empty::ros_type_name(),
         }
