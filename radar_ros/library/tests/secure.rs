@@ -463,6 +463,7 @@ async fn permissions_generated_from_what_programs_declare_let_only_the_driver_st
         .signal_publisher::<Empty>("/gen_dock/start")
         .err()
         .expect("the robot's generated policy does not let it write the dock's start")
+        .report()
         .to_string();
     assert!(e.contains("rt/gen_dock/start"), "{e}");
     let _planner = drive(program(
@@ -598,6 +599,7 @@ async fn a_policy_generated_from_the_live_graph_lets_only_the_driver_start() {
         .signal_publisher::<Empty>("/live_dock/start")
         .err()
         .expect("the robot's policy does not let it write the dock's start")
+        .report()
         .to_string();
     assert!(e.contains("rt/live_dock/start"), "{e}");
     let planner = program(
@@ -792,6 +794,7 @@ async fn only_the_planner_starts_the_dock(name: &str, policy_xml: &str) {
         .signal_publisher::<Empty>("/dock/start")
         .err()
         .expect("the robot may not write the dock's start")
+        .report()
         .to_string();
     assert!(e.contains("rt/dock/start"), "{e}");
     let planner = named("planner");
