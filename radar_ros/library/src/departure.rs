@@ -46,7 +46,7 @@ impl std::fmt::Display for LossCause {
 /// A connected component that left the ROS graph: which, through which topic that was seen, and why.
 ///
 /// ```
-/// use radar_ros::{departure::Departure, departure::LossCause};
+/// use radar_ros::{graph::Departure, graph::LossCause};
 /// let d = Departure::of_publisher("/bumper/triggered", LossCause::Left);
 /// assert_eq!(d.component(), "/bumper");
 /// assert!(d.to_string().starts_with("/bumper left the ROS graph"));

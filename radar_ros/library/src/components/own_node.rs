@@ -29,7 +29,7 @@ impl ComponentNode<'_> {
     /// values from the command line when it gives them (see [`crate::node::params`]).
     ///
     /// ```
-    /// use radar_ros::{Response, components::response::ResponseNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
+    /// use radar_ros::{Response, nodes::ResponseNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
     /// /// Counts to `limit`, one count every `period` seconds (both read when a run begins).
     /// struct CountUp(Option<Params>);
     /// impl Response for CountUp {
@@ -63,7 +63,7 @@ impl ComponentNode<'_> {
     /// QoS (reliable, volatile, keep-last 10).
     ///
     /// ```
-    /// use radar_ros::{Event, components::event::EventNode, components::own_node::EventSubscription, SlotError, msg::{Empty, Float64}};
+    /// use radar_ros::{Event, nodes::EventNode, topics::EventSubscription, SlotError, msg::{Empty, Float64}};
     /// /// Triggers when the battery reading falls below 20 %.
     /// struct LowBattery(Option<EventSubscription<Float64>>);
     /// impl Event for LowBattery {

@@ -60,7 +60,7 @@ impl RadarBuilder {
     ///
     /// ```no_run
     /// # #[tokio::main] async fn main() -> radar_ros::Result<()> {
-    /// use radar_ros::{radar::settings::DiscoveryRange, Radar};
+    /// use radar_ros::{settings::DiscoveryRange, Radar};
     /// let radar = Radar::builder().discovery_range(DiscoveryRange::Subnet).build()?;
     /// # Ok(()) }
     /// ```

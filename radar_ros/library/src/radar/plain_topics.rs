@@ -65,7 +65,7 @@ impl Radar {
     ///
     /// ```no_run
     /// # async fn f(radar: radar_ros::Radar) -> radar_ros::Result<()> {
-    /// use radar_ros::{wire::raw::RawMessage, msg::StringMsg};
+    /// use radar_ros::{topics::RawMessage, msg::StringMsg};
     /// let p = radar.raw_publisher("/say/start", "std_msgs/msg/String")?;
     /// p.wait_for_subscribers(1).await?;
     /// p.publish(RawMessage::encode(&StringMsg::from("hi"))?)?;

@@ -485,7 +485,7 @@ pub(crate) const PADDING: usize = 4;
 /// delivered to a slot of type `M` (rule C2). Generated interfaces list one per type (`READERS`).
 ///
 /// ```
-/// use radar_ros::{msg::{reads, Int32}, wire::raw::RawMessage};
+/// use radar_ros::{msg::{reads, Int32}, topics::RawMessage};
 /// assert!(reads::<Int32>(RawMessage::encode(&Int32 { data: 7 }).unwrap().as_bytes()));
 /// assert!(!reads::<Int32>(&[1, 0]), "too short");
 /// assert!(!reads::<Int32>(&[7, 0, 0, 0, 1, 0, 0, 0]), "another definition: more than padding left");

@@ -157,7 +157,7 @@ impl ComponentName {
     /// The absolute topic of one of this component's RADAR endpoints.
     ///
     /// ```
-    /// use radar_ros::{wire::names::ComponentName, endpoint::Endpoint};
+    /// use radar_ros::{graph::ComponentName, graph::Endpoint};
     /// let n = ComponentName::resolve("dock", "/robot").unwrap();
     /// assert_eq!(n.endpoint(Endpoint::Exited), "/robot/dock/exited");
     /// ```

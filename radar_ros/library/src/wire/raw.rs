@@ -24,7 +24,7 @@ use crate::wire::msg::RosMessage;
 /// The serialized CDR body of a ROS message of some type.
 ///
 /// ```
-/// use radar_ros::{wire::raw::RawMessage, msg::StringMsg};
+/// use radar_ros::{topics::RawMessage, msg::StringMsg};
 /// let raw = RawMessage::encode(&StringMsg::from("kitchen")).unwrap();
 /// let back: StringMsg = raw.decode().unwrap();
 /// assert_eq!(back.data, "kitchen");
@@ -78,7 +78,7 @@ impl RawMessage {
     /// Decodes the body as `M` (little-endian CDR).
     ///
     /// ```
-    /// use radar_ros::{wire::raw::RawMessage, msg::Int32};
+    /// use radar_ros::{topics::RawMessage, msg::Int32};
     /// let raw = RawMessage::encode(&Int32 { data: 7 }).unwrap();
     /// assert_eq!(raw.decode::<Int32>().unwrap().data, 7);
     /// assert!(RawMessage::from_bytes(vec![1]).decode::<Int32>().is_err()); // too short: a codec error
@@ -179,7 +179,7 @@ pub(crate) fn parse_type_name(ros_type: &str) -> Result<crate::wire::msg::TypeNa
 /// no ROS type: spawning a component that does not say its types is an error.
 ///
 /// ```
-/// use radar_ros::{wire::raw::DynMessage, wire::raw::RawMessage, msg::StringMsg};
+/// use radar_ros::{topics::DynMessage, topics::RawMessage, msg::StringMsg};
 /// let body = RawMessage::encode(&StringMsg::from("kitchen")).unwrap();
 /// let dynamic: DynMessage = body.decode().unwrap(); // the same bytes
 /// assert_eq!(dynamic.0, body);

@@ -152,7 +152,7 @@ impl AsSignal for EventRef {
 /// a local handle's [`reference`](crate::ResponseHandle::reference)).
 ///
 /// ```
-/// use radar_ros::{wire::names::ComponentName, ResponseRef};
+/// use radar_ros::{graph::ComponentName, ResponseRef};
 /// let dock = ResponseRef::new(ComponentName::resolve("/robot/dock", "/").unwrap(), "std_msgs/msg/Empty", "std_msgs/msg/Empty");
 /// assert_eq!(dock.exited().topic(), "/robot/dock/exited");
 /// assert_eq!(dock.start_slot().topic(), "/robot/dock/start");
@@ -235,7 +235,7 @@ impl ResponseRef {
 /// Something that names a response: a local [`ResponseHandle`](crate::ResponseHandle) or a [`ResponseRef`].
 ///
 /// ```
-/// use radar_ros::{AsResponse, wire::names::ComponentName, ResponseRef};
+/// use radar_ros::{AsResponse, graph::ComponentName, ResponseRef};
 /// let r = ResponseRef::new(ComponentName::resolve("dock", "/").unwrap(), "std_msgs/msg/Empty", "std_msgs/msg/Empty");
 /// assert_eq!((&r).response_ref(), r);
 /// ```

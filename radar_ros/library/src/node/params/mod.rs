@@ -13,7 +13,7 @@
 //! run; one that must react mid-run awaits [`ParamWatch::changed`].
 //!
 //! ```
-//! use radar_ros::{Event, components::event::EventNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
+//! use radar_ros::{Event, nodes::EventNode, SlotError, msg::Empty, params::{ParamDecl, Params}};
 //! /// Triggers every `interval` seconds; `ros2 param set /tick interval 0.5` changes it from the next wait.
 //! struct Tick(Option<Params>);
 //! impl Event for Tick {
