@@ -284,7 +284,8 @@ impl Error {
 /// Result alias for this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-/// An error returned from a user's slot or event check. Any `std::error::Error` converts into it with `?`.
+/// An error returned from a user's slot or event check. Any `std::error::Error` converts into it with `?`,
+/// keeping the text of its causes.
 ///
 /// ```
 /// use radar_ros::SlotError;
@@ -304,8 +305,18 @@ impl std::fmt::Display for SlotError {
 }
 
 impl<E: std::error::Error> From<E> for SlotError {
+    /// The error and each of its causes (`source()`), as [`Report`] prints them: an error that keeps its cause
+    /// in `source()` only (radar_ros's own, `std::io::Error::other(..)`'s wrappers, thiserror's `#[source]`)
+    /// does not lose it on the way into a response's `exited` or an event's state.
     fn from(e: E) -> Self {
-        SlotError(e.to_string())
+        let mut text = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            text.push_str(": ");
+            text.push_str(&c.to_string());
+            cause = c.source();
+        }
+        SlotError(text)
     }
 }
 
@@ -373,5 +384,25 @@ mod tests {
             "could not decode a std_msgs/msg/String from 3 bytes: unexpected end"
         );
         assert!(e.source().is_some());
+    }
+
+    #[test]
+    fn a_slot_error_made_with_question_mark_keeps_every_cause() {
+        fn slot() -> std::result::Result<(), SlotError> {
+            let refused = std::io::Error::from(std::io::ErrorKind::ConnectionRefused);
+            Err(Error::transport("a publisher on /dock/start", refused))?;
+            Ok(())
+        }
+        let e = slot().unwrap_err();
+        assert_eq!(
+            e.message(),
+            format!(
+                "ROS 2 could not create a publisher on /dock/start: {}",
+                std::io::Error::from(std::io::ErrorKind::ConnectionRefused)
+            )
+        );
+        // an error without causes is its text alone
+        let e: SlotError = "x".parse::<u32>().unwrap_err().into();
+        assert_eq!(e.message(), "invalid digit found in string");
     }
 }
