@@ -249,13 +249,13 @@ enum SecurityVerb {
     },
 }
 
-fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
+fn security(verb: SecurityVerb, out: &Out) -> Result<(), crate::Error> {
     #[cfg(feature = "security")]
     {
         use radar_ros::security::keystore;
         match verb {
             SecurityVerb::CreateKeystore { keystore: dir } => {
-                keystore::create_keystore(&dir).map_err(|e| crate::common::chain(&e))?;
+                keystore::create_keystore(&dir)?;
                 match out.json {
                     true => println!("{}", serde_json::json!({ "keystore": dir })),
                     false => println!("keystore made in {}", dir.display()),
@@ -265,8 +265,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 keystore: dir,
                 enclave,
             } => {
-                let made = keystore::create_enclave(&dir, &enclave, &keystore::Grant::all())
-                    .map_err(|e| crate::common::chain(&e))?;
+                let made = keystore::create_enclave(&dir, &enclave, &keystore::Grant::all())?;
                 match out.json {
                     true => println!("{}", serde_json::json!({ "enclave": enclave, "dir": made })),
                     false => println!("enclave {enclave} made in {}", made.display()),
@@ -277,8 +276,7 @@ fn security(verb: SecurityVerb, out: &Out) -> Result<(), String> {
                 enclave,
                 policy,
             } => {
-                let made = radar_ros::security::policy::create_permission(&dir, &enclave, &policy)
-                    .map_err(|e| crate::common::chain(&e))?;
+                let made = radar_ros::security::policy::create_permission(&dir, &enclave, &policy)?;
                 match out.json {
                     true => {
                         println!(
@@ -309,15 +307,14 @@ async fn generate_policy(
     out: &Out,
     discovery: Duration,
     policy: &std::path::Path,
-) -> Result<(), String> {
+) -> Result<(), crate::Error> {
     #[cfg(feature = "security")]
     {
         let nodes = radar
             .introspect()
             .nodes()
             .timeout(discovery.max(Duration::from_secs(2)))
-            .await
-            .map_err(|e| crate::common::chain(&e))?;
+            .await?;
         let shown: Vec<_> = nodes.iter().filter(|n| !n.name.starts_with('_')).collect();
         if shown.is_empty() {
             return Err(
@@ -329,13 +326,14 @@ async fn generate_policy(
         let existing = match std::fs::read_to_string(policy) {
             Ok(text) => Some(text),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-            Err(e) => return Err(format!("cannot read {}: {e}", policy.display())),
+            Err(e) => return Err(crate::Error::io(format!("read {}", policy.display()), e)),
         };
-        let xml =
-            radar_ros::security::policy::generate(existing.as_deref().map(|t| (t, policy)), &nodes)
-                .map_err(|e| crate::common::chain(&e))?;
+        let xml = radar_ros::security::policy::generate(
+            existing.as_deref().map(|t| (t, policy)),
+            &nodes,
+        )?;
         std::fs::write(policy, xml)
-            .map_err(|e| format!("cannot write {}: {e}", policy.display()))?;
+            .map_err(|e| crate::Error::io(format!("write {}", policy.display()), e))?;
         match out.json {
             true => println!(
                 "{}",
@@ -369,14 +367,15 @@ async fn generate_policy(
 }
 
 /// Runs the verb `cli` names, on a program node of its own (several `radar` commands may run at once).
-pub async fn run(cli: Cli) -> Result<(), String> {
+pub async fn run(cli: Cli) -> Result<(), crate::Error> {
     let out = Out { json: cli.json };
     for dir in cli.interfaces.iter().rev() {
         if !dir.is_dir() {
             return Err(format!(
                 "--interfaces {}: no such directory (give one that holds <pkg>/msg/<Name>.msg)",
                 dir.display()
-            ));
+            )
+            .into());
         }
         radar_ros::codec::add_interfaces_dir(dir.clone());
     }
@@ -405,13 +404,18 @@ pub async fn run(cli: Cli) -> Result<(), String> {
             builder = builder.security(Some(secured));
         }
     }
-    let radar = builder.build().map_err(|e| crate::common::chain(&e))?;
+    let radar = builder.build()?;
     let discovery = Duration::from_secs_f64(cli.discovery.max(0.0));
     dispatch(&radar, &out, discovery, cmd).await
 }
 
 /// Runs the verb `cmd` on `radar`.
-async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Result<(), String> {
+async fn dispatch(
+    radar: &Radar,
+    out: &Out,
+    discovery: Duration,
+    cmd: Cmd,
+) -> Result<(), crate::Error> {
     let manager = |named| verbs::connect::Manager { named, discovery };
     match cmd {
         Cmd::Security {
@@ -494,7 +498,7 @@ fn payload_arg(payload: Option<String>) -> crate::common::Fallible<Option<String
         Some("-") => {
             let mut text = String::new();
             std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
-                .map_err(|e| format!("reading the payload from standard input: {e}"))?;
+                .map_err(|e| crate::Error::io("read the payload from standard input", e))?;
             Ok(Some(text))
         }
         _ => Ok(payload),

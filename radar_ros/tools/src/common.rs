@@ -10,20 +10,14 @@ use radar_ros::{
 };
 use serde_json::Value;
 
-/// A verb's result: its error is the message printed after `radar: `.
-pub(crate) type Fallible<T> = Result<T, String>;
-
-/// An error with its causes, as the message of a [`Fallible`] (radar_ros's errors keep their causes in
-/// `source()` only).
-pub(crate) fn chain(e: &(dyn std::error::Error + 'static)) -> String {
-    radar_ros::error::Report(e).to_string()
-}
+/// A verb's result: its error is printed after `radar: `, with its causes.
+pub(crate) type Fallible<T> = Result<T, crate::Error>;
 
 pub(crate) fn secs(s: f64) -> Fallible<Duration> {
     if s.is_finite() && s > 0.0 {
         Ok(Duration::from_secs_f64(s))
     } else {
-        Err(format!("{s} is not a number of seconds above 0"))
+        Err(format!("{s} is not a number of seconds above 0").into())
     }
 }
 
@@ -149,7 +143,7 @@ impl Stop {
         #[cfg(unix)]
         {
             use tokio::signal::unix::{signal, SignalKind};
-            let err = |e: std::io::Error| format!("could not catch Ctrl-C and SIGTERM: {e}");
+            let err = |e: std::io::Error| crate::Error::io("catch Ctrl-C and SIGTERM", e);
             Ok(Stop {
                 interrupt: signal(SignalKind::interrupt()).map_err(err)?,
                 terminate: signal(SignalKind::terminate()).map_err(err)?,

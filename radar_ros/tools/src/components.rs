@@ -84,8 +84,7 @@ pub(crate) fn forward<T: Send + 'static>(
             radar.observe_raw(&topic, &ros_type)
         } else {
             radar.raw_subscription(&topic, &ros_type)
-        }
-        .map_err(|e| crate::common::chain(&e))?;
+        }?;
         let (tx, make) = (tx.clone(), make.clone());
         tasks.push(tokio::spawn(async move {
             while let Ok(s) = sub.recv_sample().await {
@@ -130,7 +129,7 @@ impl Following {
                 radar
                     .resolve(n)
                     .map(|c| c.fully_qualified())
-                    .map_err(|e| crate::common::chain(&e))
+                    .map_err(crate::Error::from)
             })
             .collect::<Fallible<_>>()?;
         Ok(Following {

@@ -16,7 +16,7 @@
 //! ```
 //!
 //! Every verb honours `ROS_DOMAIN_ID`, takes `--json` (one JSON document per line) and exits non-zero with a
-//! message that says what to do when something is wrong.
+//! message that says what to do when something is wrong: [`cli::run`]'s [`Error`], printed with its causes.
 //!
 //! Layout: [`cli`] parses the arguments and runs one module of `verbs` per verb; `common` and `components` hold
 //! what several verbs share; [`codec`] turns payloads to and from YAML/JSON, [`schemas`] gives the ROS 2 message
@@ -29,6 +29,8 @@ pub mod cli;
 pub use radar_ros::codec;
 mod common;
 mod components;
+mod error;
+pub use error::Error;
 pub mod logging;
 pub mod mcap_out;
 pub mod picture;

@@ -9,7 +9,7 @@ async fn main() {
         "warn,rustdds=error,ros2_client::distributions=error,ros2_client::service::wrappers=error",
     );
     if let Err(e) = radar_tools::cli::run(cli).await {
-        eprintln!("radar: {e}");
+        eprintln!("radar: {}", e.report());
         std::process::exit(1);
     }
 }

@@ -11,14 +11,14 @@ async fn main() {
     let radar = match radar_ros::Radar::new() {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("radar_manager: {e}");
+            eprintln!("radar_manager: {}", e.report());
             std::process::exit(2);
         }
     };
     let manager = match radar.serve_manager(&name) {
         Ok(m) => m,
         Err(e) => {
-            eprintln!("radar_manager: {e}");
+            eprintln!("radar_manager: {}", e.report());
             std::process::exit(2);
         }
     };

@@ -49,36 +49,24 @@ pub(crate) async fn act(
         "looking for the response",
         radar.response(name).timeout(timeout),
     )
-    .await
-    .map_err(|e| crate::common::chain(&e))?;
+    .await?;
     let (slot_ref, answer) = match slot {
         ActSlot::Start => (r.start_slot(), r.started()),
         ActSlot::Interrupt => (r.interrupt_slot(), r.interrupted()),
         ActSlot::Exit => (r.exit_slot(), r.exited()),
     };
     if payload.is_some() && !matches!(slot, ActSlot::Start) {
-        return Err(format!(
-            "only start takes a payload; {} does not",
-            slot.topic()
-        ));
+        return Err(format!("only start takes a payload; {} does not", slot.topic()).into());
     }
     let raw = codec::encode(slot_ref.ros_type(), payload.unwrap_or(""))?;
-    let signal = radar
-        .raw_subscription(answer.topic(), answer.ros_type())
-        .map_err(|e| crate::common::chain(&e))?;
-    let state = radar
-        .state_subscription::<ResponseState>(&r.name().topic("state"))
-        .map_err(|e| crate::common::chain(&e))?;
-    let publisher = radar
-        .raw_publisher(slot_ref.topic(), slot_ref.ros_type())
-        .map_err(|e| crate::common::chain(&e))?;
+    let signal = radar.raw_subscription(answer.topic(), answer.ros_type())?;
+    let state = radar.state_subscription::<ResponseState>(&r.name().topic("state"))?;
+    let publisher = radar.raw_publisher(slot_ref.topic(), slot_ref.ros_type())?;
     let ready = async {
         publisher.wait_for_subscribers(1).timeout(timeout).await?;
         signal.wait_for_publishers(1).timeout(timeout).await
     };
-    with_status("waiting for the match", ready)
-        .await
-        .map_err(|e| crate::common::chain(&e))?;
+    with_status("waiting for the match", ready).await?;
     // the state before, to say why if nothing comes (responses in other libraries may have no state topic)
     let has_state = state
         .wait_for_publishers(1)
@@ -89,9 +77,7 @@ pub(crate) async fn act(
         true => state.recv().timeout(timeout).await.ok(),
         false => None,
     };
-    publisher
-        .publish(raw)
-        .map_err(|e| crate::common::chain(&e))?;
+    publisher.publish(raw)?;
     match signal.recv_stamped().timeout(timeout).await {
         Ok((m, _)) => {
             let payload = codec::decode(answer.ros_type(), &m);
@@ -113,7 +99,8 @@ pub(crate) async fn act(
                 "no {} from {} within {timeout:?}; {why}",
                 slot.answer(),
                 r.name()
-            ))
+            )
+            .into())
         }
     }
 }

@@ -59,8 +59,7 @@ async fn gather(radar: &Radar, c: Component) -> Fallible<Card> {
         radar
             .parameters_of(&fq)
             .timeout(Duration::from_secs(5))
-            .await
-            .map_err(|e| crate::common::chain(&e))?
+            .await?
     } else {
         Vec::new()
     };
@@ -169,7 +168,7 @@ pub(crate) fn param_json(v: &radar_ros::params::ParameterValue) -> Value {
 
 /// The component `name`, waiting for discovery.
 async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Component> {
-    let fq = radar.resolve(name).map_err(|e| crate::common::chain(&e))?;
+    let fq = radar.resolve(name)?;
     let deadline = tokio::time::Instant::now() + discovery.max(Duration::from_secs(3));
     loop {
         if let Some(c) = radar.components().into_iter().find(|c| *c.name() == fq) {
@@ -189,7 +188,8 @@ async fn find(radar: &Radar, discovery: Duration, name: &str) -> Fallible<Compon
                 } else {
                     seen.join(", ")
                 }
-            ));
+            )
+            .into());
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
     }

@@ -69,9 +69,7 @@ pub(crate) async fn con(
     if detach {
         s = s.detach();
     }
-    let id = with_status("connecting", m.connect(s))
-        .await
-        .map_err(|e| crate::common::chain(&e))?;
+    let id = with_status("connecting", m.connect(s)).await?;
     if out.json {
         println!(
             "{}",
@@ -91,9 +89,7 @@ pub(crate) async fn con(
     if let (Lifetime::WhileRunning(duration), Some(stop)) = (lifetime, stop.as_mut()) {
         stop.after(duration).await;
         // it would go when this process leaves the graph; say so at once
-        m.disconnect(id)
-            .await
-            .map_err(|e| crate::common::chain(&e))?;
+        m.disconnect(id).await?;
     }
     Ok(())
 }
@@ -101,9 +97,7 @@ pub(crate) async fn con(
 /// `radar dis`: removes connection `id` through the manager's `disconnect` service.
 pub(crate) async fn dis(radar: &Radar, out: &Out, manager: Manager, id: u64) -> Fallible<()> {
     let m = manager_of(radar, manager).await?;
-    m.disconnect(id)
-        .await
-        .map_err(|e| crate::common::chain(&e))?;
+    m.disconnect(id).await?;
     if out.json {
         println!("{}", json!({ "removed": id, "manager": m.name() }));
     } else {
@@ -136,12 +130,12 @@ async fn manager_of(
                     return Err(format!(
                         "several managers on the graph ({}): pick one with --manager",
                         found.join(", ")
-                    ))
+                    ).into())
                 }
             }
         }
     };
     with_status("waiting for the manager", radar.remote_manager(&name))
         .await
-        .map_err(|e| crate::common::chain(&e))
+        .map_err(crate::Error::from)
 }

@@ -43,15 +43,12 @@ pub(crate) async fn draw(
         let text = if svg { p.svg() } else { p.dot() };
         match &output {
             Some(path) => std::fs::write(path, &text)
-                .map_err(|e| format!("could not write {}: {e}", path.display()))?,
+                .map_err(|e| crate::Error::io(format!("write {}", path.display()), e))?,
             None if !out.json => print!("{text}"),
             None => {}
         }
         if out.json {
-            println!(
-                "{}",
-                serde_json::to_string(&p).map_err(|e| crate::common::chain(&e))?
-            );
+            println!("{}", serde_json::to_string(&p)?);
         } else if let Some(path) = &output {
             if !watch {
                 println!(

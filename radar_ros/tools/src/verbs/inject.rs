@@ -17,29 +17,20 @@ pub(crate) async fn inject(
     payload: Option<&str>,
     timeout: Duration,
 ) -> Fallible<()> {
-    let topic = radar
-        .resolve(topic)
-        .map_err(|e| crate::common::chain(&e))?
-        .fully_qualified();
+    let topic = radar.resolve(topic)?.fully_qualified();
     let ty = with_status(
         "looking for a subscriber",
         radar.introspect().subscriber_type(&topic).timeout(timeout),
     )
-    .await
-    .map_err(|e| crate::common::chain(&e))?;
+    .await?;
     let raw = codec::encode(&ty, payload.unwrap_or(""))?;
-    let publisher = radar
-        .raw_publisher(&topic, &ty)
-        .map_err(|e| crate::common::chain(&e))?;
+    let publisher = radar.raw_publisher(&topic, &ty)?;
     with_status(
         "waiting for the match",
         publisher.wait_for_subscribers(1).timeout(timeout),
     )
-    .await
-    .map_err(|e| crate::common::chain(&e))?;
-    publisher
-        .publish(raw.clone())
-        .map_err(|e| crate::common::chain(&e))?;
+    .await?;
+    publisher.publish(raw.clone())?;
     let shown = codec::decode(&ty, &raw);
     if out.json {
         println!(

@@ -16,7 +16,7 @@ pub(crate) async fn ls(
 ) -> Fallible<()> {
     if let Some(ns) = &namespace {
         if !ns.starts_with('/') {
-            return Err(format!("the namespace is absolute, e.g. /{ns}"));
+            return Err(format!("the namespace is absolute, e.g. /{ns}").into());
         }
     }
     with_status("discovering", discover(radar, discovery)).await;

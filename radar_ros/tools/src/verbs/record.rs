@@ -58,9 +58,9 @@ impl Recording {
             .read(true)
             .write(true)
             .open(&path)
-            .map_err(|e| format!("could not create {}: {e}", path.display()))?;
+            .map_err(|e| crate::Error::io(format!("create {}", path.display()), e))?;
         let out = McapOut::create(file, ChunkLimits::default())
-            .map_err(|e| format!("could not write {}: {e}", path.display()))?;
+            .map_err(|e| crate::Error::io(format!("write {}", path.display()), e))?;
         Ok(Recording {
             path,
             out,
@@ -72,10 +72,13 @@ impl Recording {
         })
     }
 
-    fn failed(&self, e: std::io::Error) -> String {
-        format!(
-            "could not write {}: {e} (what was committed before is readable)",
-            self.path.display()
+    fn failed(&self, e: std::io::Error) -> crate::Error {
+        crate::Error::io(
+            format!(
+                "write {} (what was committed before is readable)",
+                self.path.display()
+            ),
+            e,
         )
     }
 
@@ -105,7 +108,7 @@ impl Recording {
         };
         let n = self.counts.entry(seen::CHANNEL.to_owned()).or_default();
         *n += 1;
-        let data = serde_json::to_vec(s).map_err(|e| crate::common::chain(&e))?;
+        let data = serde_json::to_vec(s)?;
         let message = MessageOut {
             channel,
             sequence: *n as u32,
@@ -171,7 +174,7 @@ impl Recording {
             ..
         } = self;
         mcap.finish()
-            .map_err(|e| format!("could not finish {}: {e}", path.display()))?;
+            .map_err(|e| crate::Error::io(format!("finish {}", path.display()), e))?;
         let total: u64 = counts.values().sum();
         if out.json {
             println!(
@@ -277,9 +280,7 @@ fn tap(
     let topic = c.name().topic("state");
     macro_rules! state_task {
         ($t:ty) => {{
-            let sub = radar
-                .state_subscription::<$t>(&topic)
-                .map_err(|e| crate::common::chain(&e))?;
+            let sub = radar.state_subscription::<$t>(&topic)?;
             let tx = tx.clone();
             tokio::spawn(async move {
                 while let Ok((m, published)) = sub.recv_stamped().await {
@@ -349,9 +350,7 @@ fn tap_connections(
     topic: String,
     tx: tokio::sync::mpsc::UnboundedSender<Recorded>,
 ) -> Fallible<tokio::task::JoinHandle<()>> {
-    let sub = radar
-        .state_subscription::<radar_ros::msg::ConnectionList>(&topic)
-        .map_err(|e| crate::common::chain(&e))?;
+    let sub = radar.state_subscription::<radar_ros::msg::ConnectionList>(&topic)?;
     Ok(tokio::spawn(async move {
         while let Ok((m, published)) = sub.recv_stamped().await {
             let Ok(body) = radar_ros::topics::RawMessage::encode(&m) else {

@@ -19,13 +19,15 @@ type Planned = (u64, String, String, radar_ros::topics::RawMessage);
 /// cut off by a recorder that wrote it all at the end), what was wrong there: the signals before it are kept.
 fn signals_in(bytes: &[u8]) -> Fallible<(Vec<Planned>, Option<String>)> {
     let mut plan = Vec::new();
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| format!("not an MCAP file: {e}"))?;
+    let stream =
+        mcap::MessageStream::new(bytes).map_err(|e| crate::Error::other("not an MCAP file", e))?;
     for m in stream {
         let m = match m {
             Ok(m) => m,
             Err(e) if plan.is_empty() => {
-                return Err(format!(
-                    "not an MCAP file, or one cut off before its first signal: {e}"
+                return Err(crate::Error::other(
+                    "not an MCAP file, or one cut off before its first signal",
+                    e,
                 ))
             }
             Err(e) => return Ok((plan, Some(e.to_string()))),
@@ -56,13 +58,12 @@ pub(crate) async fn replay(
     wait: Duration,
 ) -> Fallible<()> {
     if !(rate.is_finite() && rate > 0.0) {
-        return Err(format!(
-            "--rate {rate}: give a speed above 0 (1 is as recorded)"
-        ));
+        return Err(format!("--rate {rate}: give a speed above 0 (1 is as recorded)").into());
     }
-    let bytes =
-        std::fs::read(&input).map_err(|e| format!("could not read {}: {e}", input.display()))?;
-    let (mut plan, cut) = signals_in(&bytes).map_err(|e| format!("{}: {e}", input.display()))?;
+    let bytes = std::fs::read(&input)
+        .map_err(|e| crate::Error::io(format!("read {}", input.display()), e))?;
+    let (mut plan, cut) =
+        signals_in(&bytes).map_err(|e| crate::Error::other(input.display().to_string(), e))?;
     if let Some(e) = cut {
         eprintln!(
             "radar: {} ends early ({e}): a recording that was cut off; replaying the {} signals before",
@@ -72,17 +73,12 @@ pub(crate) async fn replay(
     }
     plan.sort_by_key(|p| p.0);
     let Some(first) = plan.first().map(|p| p.0) else {
-        return Err(format!(
-            "{} holds no RADAR signals to replay",
-            input.display()
-        ));
+        return Err(format!("{} holds no RADAR signals to replay", input.display()).into());
     };
     let mut publishers = BTreeMap::new();
     for (_, topic, ty, _) in &plan {
         if !publishers.contains_key(topic) {
-            let p = radar
-                .raw_publisher(topic, ty)
-                .map_err(|e| crate::common::chain(&e))?;
+            let p = radar.raw_publisher(topic, ty)?;
             publishers.insert(topic.clone(), p);
         }
     }
@@ -104,9 +100,7 @@ pub(crate) async fn replay(
     for (at, topic, _, body) in &plan {
         let offset = Duration::from_nanos(((at - first) as f64 / rate) as u64);
         tokio::time::sleep_until(t0 + offset).await;
-        publishers[topic]
-            .publish(body.clone())
-            .map_err(|e| crate::common::chain(&e))?;
+        publishers[topic].publish(body.clone())?;
         sent += 1;
     }
     // let reliable delivery finish before the writers go

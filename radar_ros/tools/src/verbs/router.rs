@@ -23,16 +23,16 @@ const DEFAULT: &[(&str, &str)] = &[
 ];
 
 /// Runs the router until told to stop.
-pub(crate) async fn router(listen: Vec<String>, out: &Out) -> Result<(), String> {
+pub(crate) async fn router(listen: Vec<String>, out: &Out) -> Result<(), crate::Error> {
     #[cfg(feature = "zenoh")]
     {
         let config = config(&listen)?;
         let endpoints = config
             .get_json("listen/endpoints")
             .unwrap_or_else(|_| "?".into());
-        let session = zenoh::open(config)
-            .await
-            .map_err(|e| format!("the Zenoh router did not start: {e} (is the port taken?)"))?;
+        let session = zenoh::open(config).await.map_err(|e| {
+            crate::Error::other("the Zenoh router did not start (is the port taken?)", e)
+        })?;
         let zid = session.info().zid().await.to_string();
         if out.json {
             println!(
@@ -46,7 +46,7 @@ pub(crate) async fn router(listen: Vec<String>, out: &Out) -> Result<(), String>
         session
             .close()
             .await
-            .map_err(|e| format!("closing the Zenoh router: {e}"))
+            .map_err(|e| crate::Error::other("could not close the Zenoh router", e))
     }
     #[cfg(not(feature = "zenoh"))]
     {
@@ -60,15 +60,16 @@ pub(crate) async fn router(listen: Vec<String>, out: &Out) -> Result<(), String>
 /// The router's configuration: `ZENOH_ROUTER_CONFIG_URI`'s file or [`DEFAULT`], `ZENOH_CONFIG_OVERRIDE`, then
 /// `--listen`.
 #[cfg(feature = "zenoh")]
-fn config(listen: &[String]) -> Result<zenoh::Config, String> {
+fn config(listen: &[String]) -> Result<zenoh::Config, crate::Error> {
     let mut config = match std::env::var("ZENOH_ROUTER_CONFIG_URI") {
         Ok(uri) if !uri.trim().is_empty() => zenoh::Config::from_file(uri.trim())
-            .map_err(|e| format!("ZENOH_ROUTER_CONFIG_URI={uri}: {e}"))?,
+            .map_err(|e| crate::Error::other(format!("ZENOH_ROUTER_CONFIG_URI={uri}"), e))?,
         _ => {
             let mut c = zenoh::Config::default();
             for (key, value) in DEFAULT {
-                c.insert_json5(key, value)
-                    .map_err(|e| format!("the default router configuration's {key}: {e}"))?;
+                c.insert_json5(key, value).map_err(|e| {
+                    crate::Error::other(format!("the default router configuration's {key}"), e)
+                })?;
             }
             c
         }
@@ -84,26 +85,26 @@ fn config(listen: &[String]) -> Result<zenoh::Config, String> {
             })?;
             config
                 .insert_json5(key.trim(), value.trim())
-                .map_err(|e| format!("ZENOH_CONFIG_OVERRIDE: {key}: {e}"))?;
+                .map_err(|e| crate::Error::other(format!("ZENOH_CONFIG_OVERRIDE: {key}"), e))?;
         }
     }
     if !listen.is_empty() {
         let endpoints = serde_json::to_string(listen).expect("strings");
         config
             .insert_json5("listen/endpoints", &endpoints)
-            .map_err(|e| format!("--listen {}: {e}", listen.join(" ")))?;
+            .map_err(|e| crate::Error::other(format!("--listen {}", listen.join(" ")), e))?;
     }
     Ok(config)
 }
 
 /// Until SIGINT or SIGTERM.
 #[cfg(feature = "zenoh")]
-async fn stopped() -> Result<(), String> {
+async fn stopped() -> Result<(), crate::Error> {
     use tokio::signal::unix::{signal, SignalKind};
     let mut term =
-        signal(SignalKind::terminate()).map_err(|e| format!("a SIGTERM handler: {e}"))?;
+        signal(SignalKind::terminate()).map_err(|e| crate::Error::io("catch SIGTERM", e))?;
     tokio::select! {
-        r = tokio::signal::ctrl_c() => r.map_err(|e| format!("a SIGINT handler: {e}")),
+        r = tokio::signal::ctrl_c() => r.map_err(|e| crate::Error::io("catch Ctrl-C", e)),
         _ = term.recv() => Ok(()),
     }
 }

@@ -29,7 +29,7 @@ use crate::{
 /// order its samples were sent.
 pub(crate) fn read(path: &std::path::Path) -> Fallible<Vec<Seen>> {
     let bytes =
-        std::fs::read(path).map_err(|e| format!("could not read {}: {e}", path.display()))?;
+        std::fs::read(path).map_err(|e| crate::Error::io(format!("read {}", path.display()), e))?;
     if path.extension().is_some_and(|e| e == "jsonl") {
         let mut out = String::from_utf8_lossy(&bytes)
             .lines()
@@ -37,10 +37,13 @@ pub(crate) fn read(path: &std::path::Path) -> Fallible<Vec<Seen>> {
             .enumerate()
             .map(|(i, l)| {
                 serde_json::from_str::<Seen>(l).map_err(|e| {
-                    format!(
-                        "{} line {}: not a line of a recording's trace: {e}",
-                        path.display(),
-                        i + 1
+                    crate::Error::other(
+                        format!(
+                            "{} line {}: not a line of a recording's trace",
+                            path.display(),
+                            i + 1
+                        ),
+                        e,
                     )
                 })
             })
@@ -49,19 +52,20 @@ pub(crate) fn read(path: &std::path::Path) -> Fallible<Vec<Seen>> {
         return Ok(out);
     }
     let stream = mcap::MessageStream::new(&bytes)
-        .map_err(|e| format!("{} is not an MCAP file: {e}", path.display()))?;
+        .map_err(|e| crate::Error::other(format!("{} is not an MCAP file", path.display()), e))?;
     let mut out = Vec::new();
     for m in stream {
         let m = m.map_err(|e| {
-            format!(
-                "{}: {e} (a recording cut off is read up to there)",
-                path.display()
-            )
+            let what = match out.is_empty() {
+                true => "is not an MCAP file, or one cut off before its first message",
+                false => "is damaged or cut off (a recording cut off is read up to there)",
+            };
+            crate::Error::other(format!("{} {what}", path.display()), e)
         });
         let m = match m {
             Ok(m) => m,
             Err(e) if !out.is_empty() => {
-                eprintln!("radar verify: {e}");
+                eprintln!("radar verify: {}", e.report());
                 break;
             }
             Err(e) => return Err(e),
@@ -70,10 +74,13 @@ pub(crate) fn read(path: &std::path::Path) -> Fallible<Vec<Seen>> {
             continue;
         }
         let s: Seen = serde_json::from_slice(&m.data).map_err(|e| {
-            format!(
-                "{}: a {} message that is not what radar record writes: {e}",
-                path.display(),
-                seen::CHANNEL
+            crate::Error::other(
+                format!(
+                    "{}: a {} message that is not what radar record writes",
+                    path.display(),
+                    seen::CHANNEL
+                ),
+                e,
             )
         })?;
         out.push(s);
@@ -83,7 +90,8 @@ pub(crate) fn read(path: &std::path::Path) -> Fallible<Vec<Seen>> {
             "{} has nothing on {}: record it with `radar record` (of this version)",
             path.display(),
             seen::CHANNEL
-        ));
+        )
+        .into());
     }
     out.sort_by_key(|s| (s.stamp(), s.log()));
     Ok(out)
@@ -478,10 +486,7 @@ pub(crate) fn verify(
     let seen = read(path)?;
     if trace_only {
         for s in &seen {
-            println!(
-                "{}",
-                serde_json::to_string(s).map_err(|e| crate::common::chain(&e))?
-            );
+            println!("{}", serde_json::to_string(s)?);
         }
         return Ok(());
     }
@@ -505,7 +510,8 @@ pub(crate) fn verify(
             "{}: {} rules broken",
             path.display(),
             report.violations.len()
-        ))
+        )
+        .into())
     }
 }
 

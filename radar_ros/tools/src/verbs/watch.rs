@@ -144,9 +144,7 @@ fn follow_state(
     };
     Ok(match c {
         Component::Response(_) => {
-            let sub = radar
-                .state_subscription::<ResponseState>(&state_topic)
-                .map_err(|e| crate::common::chain(&e))?;
+            let sub = radar.state_subscription::<ResponseState>(&state_topic)?;
             tokio::spawn(async move {
                 let mut last = String::new();
                 while let Ok(s) = sub.recv().await {
@@ -162,9 +160,7 @@ fn follow_state(
             })
         }
         Component::Event(_) => {
-            let sub = radar
-                .state_subscription::<EventState>(&state_topic)
-                .map_err(|e| crate::common::chain(&e))?;
+            let sub = radar.state_subscription::<EventState>(&state_topic)?;
             tokio::spawn(async move {
                 let mut last: Option<EventState> = None;
                 while let Ok(s) = sub.recv().await {

@@ -44,7 +44,12 @@ pub(crate) async fn start(
         .context(&ctx)
         .start()
         .await
-        .map_err(|e| format!("cannot start the Foxglove server on {bind}:{port}: {e}"))?;
+        .map_err(|e| {
+            crate::Error::other(
+                format!("cannot start the Foxglove server on {bind}:{port}"),
+                e,
+            )
+        })?;
     let port = server.port();
     let mut bridge = Bridge {
         ctx,

@@ -50,11 +50,8 @@ impl Options {
     /// The security the view's participant runs with: what the environment says, in the view's own enclave
     /// unless ROS_SECURITY_ENCLAVE_OVERRIDE names one; `None` when not secured (the environment decides).
     pub(crate) fn security(&self) -> Fallible<Option<radar_ros::security::SecurityOptions>> {
-        let plain =
-            radar_ros::ros_args::RosArgs::parse(["radar"]).map_err(|e| crate::common::chain(&e))?;
-        let Some(mut s) = radar_ros::security::SecurityOptions::from_env(&plain)
-            .map_err(|e| crate::common::chain(&e))?
-        else {
+        let plain = radar_ros::ros_args::RosArgs::parse(["radar"])?;
+        let Some(mut s) = radar_ros::security::SecurityOptions::from_env(&plain)? else {
             return Ok(None);
         };
         if std::env::var("ROS_SECURITY_ENCLAVE_OVERRIDE").map_or(true, |v| v.is_empty()) {
@@ -71,19 +68,23 @@ pub(crate) async fn view(radar: &Radar, out: &Out, o: Options) -> Fallible<()> {
         return Err(format!(
             "--rate {}: give the number of updates a second, above 0 and at most 100",
             o.rate
-        ));
+        )
+        .into());
     }
     let listener = tokio::net::TcpListener::bind((o.bind, o.port))
         .await
         .map_err(|e| {
-            format!(
-                "cannot listen on {}:{}: {e} (another radar view there? give --port N, or --port 0 for any free port)",
-                o.bind, o.port
+            crate::Error::io(
+                format!(
+                    "listen on {}:{} (another radar view there? give --port N, or --port 0 for any free port)",
+                    o.bind, o.port
+                ),
+                e,
             )
         })?;
     let addr = listener
         .local_addr()
-        .map_err(|e| format!("cannot tell the port listened on: {e}"))?;
+        .map_err(|e| crate::Error::io("tell the port listened on", e))?;
     if !addr.ip().is_loopback() {
         eprintln!(
             "radar view: listening on {addr}: other machines can open it{}",
@@ -128,7 +129,7 @@ pub(crate) async fn view(radar: &Radar, out: &Out, o: Options) -> Fallible<()> {
     let shared = Arc::new(server::Shared::new(radar.clone(), ask_tx, o.allow_act));
     let serve = axum::serve(listener, server::app(shared));
     let result = tokio::select! {
-        r = serve => r.map_err(|e| format!("the view's server stopped: {e}")),
+        r = serve => r.map_err(|e| crate::Error::io("go on serving the view (its server stopped)", e)),
         _ = stop.after(o.duration) => Ok(()),
     };
     feed.abort();

@@ -175,7 +175,7 @@ async fn answer(shared: &Shared, ask: &str) -> Value {
         Some("params") => params(shared, component).await,
         Some("act") => match act(shared, &ask, component).await {
             Ok(v) => v,
-            Err(e) => error(e),
+            Err(e) => error(e.report().to_string()),
         },
         _ => error(format!(
             "unknown op {}: params or act",
@@ -203,12 +203,7 @@ async fn params(shared: &Shared, component: &str) -> Value {
                 .map(|(n, v)| (n.clone(), crate::verbs::cat::param_json(v)))
                 .collect::<serde_json::Map<_, _>>()
                 .into(),
-            Err(e) => {
-                return error(format!(
-                    "parameters of {component}: {}",
-                    crate::common::chain(&e)
-                ))
-            }
+            Err(e) => return error(format!("parameters of {component}: {}", e.report())),
         },
     };
     json!({ "type": "params", "component": component, "params": params })
@@ -216,7 +211,7 @@ async fn params(shared: &Shared, component: &str) -> Value {
 
 /// `{"op":"act"}`: publishes into a response's slot, as `radar act` does (the signal that follows is on the
 /// timeline).
-async fn act(shared: &Shared, ask: &Value, component: &str) -> Result<Value, String> {
+async fn act(shared: &Shared, ask: &Value, component: &str) -> crate::common::Fallible<Value> {
     if !shared.allow_act {
         return Err("acting from the page is off: start radar view with --allow-act".into());
     }
@@ -226,16 +221,15 @@ async fn act(shared: &Shared, ask: &Value, component: &str) -> Result<Value, Str
         .radar
         .response(component)
         .timeout(ACT_TIMEOUT)
-        .await
-        .map_err(|e| crate::common::chain(&e))?;
+        .await?;
     let slot_ref = match slot {
         "start" => r.start_slot(),
         "interrupt" => r.interrupt_slot(),
         "exit" => r.exit_slot(),
-        other => return Err(format!("no slot {other:?}: start, interrupt or exit")),
+        other => return Err(format!("no slot {other:?}: start, interrupt or exit").into()),
     };
     if slot != "start" && !payload.trim().is_empty() {
-        return Err(format!("only start takes a payload; {slot} does not"));
+        return Err(format!("only start takes a payload; {slot} does not").into());
     }
     let raw = codec::encode(slot_ref.ros_type(), payload)?;
     let mut publishers = shared.publishers.lock().await;
@@ -244,18 +238,14 @@ async fn act(shared: &Shared, ask: &Value, component: &str) -> Result<Value, Str
         std::collections::hash_map::Entry::Vacant(v) => v.insert(
             shared
                 .radar
-                .raw_publisher(slot_ref.topic(), slot_ref.ros_type())
-                .map_err(|e| crate::common::chain(&e))?,
+                .raw_publisher(slot_ref.topic(), slot_ref.ros_type())?,
         ),
     };
     publisher
         .wait_for_subscribers(1)
         .timeout(ACT_TIMEOUT)
-        .await
-        .map_err(|e| crate::common::chain(&e))?;
-    publisher
-        .publish(raw)
-        .map_err(|e| crate::common::chain(&e))?;
+        .await?;
+    publisher.publish(raw)?;
     Ok(json!({ "type": "acted", "component": r.name().fully_qualified(), "slot": slot }))
 }
 
