@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 use radar_ros::Radar;
 
 use crate::{
-    common::{secs, Out},
+    common::{secs, Fallible, Out},
     verbs::{self, act::ActSlot, connect::ConKind},
 };
 
@@ -249,7 +249,7 @@ enum SecurityVerb {
     },
 }
 
-fn security(verb: SecurityVerb, out: &Out) -> Result<(), crate::Error> {
+fn security(verb: SecurityVerb, out: &Out) -> Fallible<()> {
     #[cfg(feature = "security")]
     {
         use radar_ros::security::keystore;
@@ -307,7 +307,7 @@ async fn generate_policy(
     out: &Out,
     discovery: Duration,
     policy: &std::path::Path,
-) -> Result<(), crate::Error> {
+) -> Fallible<()> {
     #[cfg(feature = "security")]
     {
         let nodes = radar
@@ -410,12 +410,7 @@ pub async fn run(cli: Cli) -> Result<(), crate::Error> {
 }
 
 /// Runs the verb `cmd` on `radar`.
-async fn dispatch(
-    radar: &Radar,
-    out: &Out,
-    discovery: Duration,
-    cmd: Cmd,
-) -> Result<(), crate::Error> {
+async fn dispatch(radar: &Radar, out: &Out, discovery: Duration, cmd: Cmd) -> Fallible<()> {
     let manager = |named| verbs::connect::Manager { named, discovery };
     match cmd {
         Cmd::Security {
