@@ -1,6 +1,7 @@
 //! Issue 25: radar_ros's `security` feature (DDS Security through RustDDS and OpenSSL). The workspace's own
-//! build leaves it off (no OpenSSL by default), so this builds radar_ros, the examples, the `radar` CLI and
-//! RustDDS again with it, in `target/security-feature` (a few minutes), and checks, in order:
+//! build leaves it off (no OpenSSL by default), so this builds radar_ros, the examples, the `radar` CLI, the bench
+//! and RustDDS again with it, beside the `zenoh` feature, in `target/features` (`radar_test_util::feature_cargo`:
+//! tests/zenoh_feature.rs reuses the build), and checks, in order:
 //! - clippy (`-D warnings`) on radar_ros, radar_tools, the examples and the bench with the feature;
 //! - radar_ros's security unit tests: the `ROS_SECURITY_*` rules; keystores and enclaves made in
 //!   `ros2 security`'s layout whose certificates and signed documents verify against the keystore's CA (a
@@ -28,53 +29,29 @@
 
 use std::process::{Command, Output};
 
-use radar_test_util::{check, ran_and_passed, repo};
+use radar_test_util::{check, feature_cargo, feature_target, ran_and_passed, repo};
 
-fn cargo(args: &[&str], env: &[(&str, &std::path::Path)]) -> Output {
-    let mut c = Command::new(env!("CARGO"));
-    c.args(args)
+/// RustDDS on its own (its manifest, its tests), with its `security` feature, in the feature builds' directory.
+fn rustdds_cargo(args: &[&str]) -> Output {
+    Command::new(env!("CARGO"))
+        .args(args)
         .current_dir(repo())
         .env_remove("RUSTFLAGS")
-        .env("CARGO_TARGET_DIR", repo().join("target/security-feature"));
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("run cargo")
+        .env("CARGO_TARGET_DIR", feature_target())
+        .output()
+        .expect("run cargo")
 }
-
-const FEATURES: &str = "radar_ros/security,radar_tools/security,radar_ros_examples/security";
 
 #[test]
 fn the_security_feature_builds_lints_and_its_tests_pass() {
-    // build and lint everything first
-    let pkgs = [
-        "-p",
-        "radar_ros",
-        "-p",
-        "radar_tools",
-        "-p",
-        "radar_ros_examples",
-    ];
-    let mut lint = vec!["clippy"];
-    lint.extend(pkgs);
-    lint.extend([
-        "--features",
-        FEATURES,
-        "--all-targets",
-        "--",
-        "-D",
-        "warnings",
-    ]);
+    // build and lint everything first (with Zenoh beside: tests/zenoh_feature.rs reuses this build)
     check(
-        &cargo(&lint, &[]),
-        "clippy with the security feature (are libssl-dev and pkg-config installed?)",
+        &feature_cargo("clippy", &["--all-targets", "--", "-D", "warnings"], &[]),
+        "clippy with the security and zenoh features (are libssl-dev and pkg-config installed?)",
     );
-    let mut build = vec!["build"];
-    build.extend(pkgs);
-    build.extend(["--features", FEATURES, "--bins"]);
     check(
-        &cargo(&build, &[]),
-        "building radar and the examples with the feature",
+        &feature_cargo("build", &["--bins"], &[]),
+        "building radar and the examples with the features",
     );
     let rustdds = repo().join("third_party/rustdds/Cargo.toml");
     let rustdds = rustdds.to_str().unwrap();
@@ -104,56 +81,21 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     let mut no_run = rustdds_tests[..6].to_vec();
     no_run.push("--no-run");
     check(
-        &cargo(&no_run, &[]),
+        &rustdds_cargo(&no_run),
         "building RustDDS's tests with security",
     );
-    let secure = [
-        "test",
-        "-p",
-        "radar_ros",
-        "--features",
-        "security",
-        "--test",
-        "secure",
-        "--",
-        "--test-threads=1",
-    ];
-    let mut no_run = secure[..7].to_vec();
-    no_run.push("--no-run");
     check(
-        &cargo(&no_run, &[]),
-        "building radar_ros/library/tests/secure.rs",
-    );
-    let timeline = [
-        "test",
-        "-p",
-        "radar_ros_examples",
-        "--features",
-        "security",
-        "--test",
-        "count_up_secured",
-    ];
-    let mut no_run = timeline.to_vec();
-    no_run.push("--no-run");
-    check(
-        &cargo(&no_run, &[]),
-        "building examples/tests/count_up_secured.rs",
+        &feature_cargo(
+            "test",
+            &["--lib", "--test", "secure", "--test", "count_up_secured", "--no-run"],
+            &[],
+        ),
+        "building radar_ros's unit tests, radar_ros/library/tests/secure.rs and examples/tests/count_up_secured.rs",
     );
 
     // then run
     let out = check(
-        &cargo(
-            &[
-                "test",
-                "-p",
-                "radar_ros",
-                "--features",
-                "security",
-                "--lib",
-                "security",
-            ],
-            &[],
-        ),
+        &feature_cargo("test", &["--lib", "security::"], &[]),
         "radar_ros's security unit tests",
     );
     ran_and_passed(
@@ -167,7 +109,7 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
         ],
     );
     let out = check(
-        &cargo(&rustdds_tests, &[]),
+        &rustdds_cargo(&rustdds_tests),
         "RustDDS's security patch tests",
     );
     ran_and_passed(
@@ -190,12 +132,15 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
     // lock test's timings would be a poor neighbour)
     let mut fuzz = rustdds_tests[..7].to_vec();
     fuzz.push("fuzzing::");
-    let out = check(&cargo(&fuzz, &[]), "RustDDS's fuzz step with security");
+    let out = check(&rustdds_cargo(&fuzz), "RustDDS's fuzz step with security");
     ran_and_passed(
         &out,
         &["every_target_survives_its_corpus_and_mutations_of_it"],
     );
-    let out = check(&cargo(&secure, &[]), "radar_ros/library/tests/secure.rs");
+    let out = check(
+        &feature_cargo("test", &["--test", "secure", "--", "--test-threads=1"], &[]),
+        "radar_ros/library/tests/secure.rs",
+    );
     println!("{out}");
     ran_and_passed(
         &out,
@@ -211,9 +156,13 @@ fn the_security_feature_builds_lints_and_its_tests_pass() {
             "a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong",
         ],
     );
-    let cli = repo().join("target/security-feature/debug/radar");
+    let cli = feature_target().join("debug/radar");
     let out = check(
-        &cargo(&timeline, &[("RADAR_CLI", &cli)]),
+        &feature_cargo(
+            "test",
+            &["--test", "count_up_secured"],
+            &[("RADAR_CLI", cli.as_os_str())],
+        ),
         "examples/tests/count_up_secured.rs",
     );
     ran_and_passed(

@@ -7,7 +7,7 @@
 #   tests/under_load.sh [N] [all|plain|secured]
 #
 # `secured` runs only the secured programs' tests (issue 32: the secured examples once logged RustDDS errors as
-# programs ended), built with the `security` feature in target/security-feature as tests/security_feature.rs
+# programs ended), built with the `security` feature in target/features as tests/security_feature.rs
 # builds them (run that first, or let this build them).
 #
 # The tests: a `ros2 topic pub --once` from a fresh rclpy process (30 starts and 30 interrupts per run), a
@@ -23,11 +23,11 @@ cd "$here/.."
 if [ "${RADAR_ISOLATED:-}" != 1 ]; then
   if [ "$which" != secured ]; then cargo build -q -p radar_ros_tests --tests; fi
   if [ "$which" != plain ]; then
-    CARGO_TARGET_DIR=target/security-feature cargo build -q -p radar_ros -p radar_tools -p radar_ros_examples \
-      --features radar_ros/security,radar_tools/security,radar_ros_examples/security --bins
-    CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros --features security --test secure --no-run
-    CARGO_TARGET_DIR=target/security-feature cargo test -q -p radar_ros_examples --features security \
-      --test count_up_secured --no-run
+    # as tests/util.rs's feature_cargo builds them (one selection, one feature set: what CI built is reused)
+    features=(-p radar_ros -p radar_tools -p radar_ros_examples -p radar_bench --features
+      radar_ros/security,radar_ros/zenoh,radar_tools/security,radar_tools/zenoh,radar_ros_examples/security,radar_ros_examples/zenoh,radar_bench/security,radar_bench/zenoh)
+    CARGO_TARGET_DIR=target/features cargo build -q "${features[@]}" --bins
+    CARGO_TARGET_DIR=target/features cargo test -q "${features[@]}" --test secure --test count_up_secured --no-run
   fi
   exec tests/isolated.sh bash tests/under_load.sh "$n" "$which"
 fi
@@ -73,7 +73,7 @@ for t in "${runs[@]}"; do
   ok=0
   for i in $(seq "$n"); do
     if [ "$3" = secured ]; then
-      run=(env CARGO_TARGET_DIR=target/security-feature RADAR_CLI="$PWD/target/security-feature/debug/radar"
+      run=(env CARGO_TARGET_DIR=target/features RADAR_CLI="$PWD/target/features/debug/radar"
         cargo test -q -p "$pkg" --features security --test "$1" -- --exact "$2" --test-threads=1)
     else
       run=(cargo test -q -p "$pkg" --test "$1" -- --exact "$2")

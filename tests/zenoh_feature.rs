@@ -1,7 +1,9 @@
 //! Issue 37 (under way): radar_ros's `zenoh` feature, which builds ros2-client's Zenoh backend beside DDS. The
-//! workspace's own build leaves it off (a DDS-only build stays small), so this builds radar_ros with it in
-//! `target/zenoh-feature` (a few minutes the first time) and checks, in order:
-//! - clippy (`-D warnings`) on radar_ros, radar_tools, the bench and the examples with the feature, all targets;
+//! workspace's own build leaves it off (a DDS-only build stays small), so this builds radar_ros with it, beside
+//! the `security` feature, in `target/features` (`radar_test_util::feature_cargo`: tests/security_feature.rs
+//! built most of it already with the same packages and features) and checks, in order:
+//! - clippy (`-D warnings`) on radar_ros, radar_tools, the bench and the examples with the features, all targets
+//!   (done already when tests/security_feature.rs ran first);
 //! - `radar_ros/library/tests/zenoh.rs` over real Zenoh: radar_ros's types cross to and from a peer written from
 //!   rmw_zenoh's design document (tests/python/zenoh_peer.py: the eclipse-zenoh wheel and rclpy's CDR) through a
 //!   router in rmw_zenoh's default layout (tests/python/zenoh_router.py), named with rosidl's type hash
@@ -58,116 +60,55 @@
 
 use std::process::{Command, Output};
 
-use radar_test_util::{check, python, ran_and_passed, repo};
+use radar_test_util::{check, feature_cargo, feature_target, python, ran_and_passed, repo};
 
-fn cargo(args: &[&str]) -> Output {
+/// `cargo test|build` of the feature builds (tests/security_feature.rs built most of it already), with the
+/// rclpy venv for the design-document peers.
+fn cargo(verb: &str, rest: &[&str]) -> Output {
     let venv = python().parent().unwrap().parent().unwrap().to_owned();
-    Command::new(env!("CARGO"))
-        .args(args)
-        .current_dir(repo())
-        .env_remove("RUSTFLAGS")
-        .env("CARGO_TARGET_DIR", repo().join("target/zenoh-feature"))
-        .env("RADAR_VENV", venv)
-        .output()
-        .expect("run cargo")
+    feature_cargo(verb, rest, &[("RADAR_VENV", venv.as_os_str())])
 }
 
 #[test]
 fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     check(
-        &cargo(&[
-            "clippy",
-            "-p",
-            "radar_ros",
-            "-p",
-            "radar_tools",
-            "-p",
-            "radar_bench",
-            "-p",
-            "radar_ros_examples",
-            "--features",
-            "radar_ros/zenoh,radar_tools/zenoh,radar_bench/zenoh,radar_ros_examples/zenoh",
-            "--all-targets",
-            "--",
-            "-D",
-            "warnings",
-        ]),
-        "clippy with the zenoh feature",
+        &cargo("clippy", &["--all-targets", "--", "-D", "warnings"]),
+        "clippy with the zenoh and security features",
     );
-    let test = ["test", "-p", "radar_ros", "--features", "zenoh", "--test"];
-    let netns = [
-        &test[..],
-        &[
-            "zenoh_netns",
-            "--test",
-            "zenoh_sites",
-            "--test",
-            "zenoh_listings",
-            "--",
-            "--nocapture",
-        ],
-    ]
-    .concat();
-    let test = [
-        &test[..],
-        &[
-            "zenoh",
-            "--test",
-            "zenoh_latched",
-            "--test",
-            "zenoh_congestion",
-            "--test",
-            "zenoh_clock",
-            "--test",
-            "zenoh_matched",
-            "--test",
-            "zenoh_raw",
-            "--test",
-            "zenoh_signals",
-            "--test",
-            "zenoh_radar",
-            "--test",
-            "zenoh_sim_time",
-            "--test",
-            "zenoh_causes",
-            "--test",
-            "zenoh_respawn",
-            "--test",
-            "zenoh_actions",
-        ],
-    ]
-    .concat();
-    let mut no_run = test.to_vec();
-    no_run.extend([
-        "--test",
-        "zenoh_netns",
-        "--test",
-        "zenoh_sites",
-        "--test",
-        "zenoh_listings",
-        "--no-run",
+    // one `--test` per name
+    let tests = |names: &[&'static str]| -> Vec<&'static str> {
+        names.iter().flat_map(|n| ["--test", *n]).collect()
+    };
+    let netns_tests = ["zenoh_netns", "zenoh_sites", "zenoh_listings"];
+    let netns = [tests(&netns_tests), vec!["--", "--nocapture"]].concat();
+    let test = tests(&[
+        "zenoh",
+        "zenoh_latched",
+        "zenoh_congestion",
+        "zenoh_clock",
+        "zenoh_matched",
+        "zenoh_raw",
+        "zenoh_signals",
+        "zenoh_radar",
+        "zenoh_sim_time",
+        "zenoh_causes",
+        "zenoh_respawn",
+        "zenoh_actions",
     ]);
-    check(&cargo(&no_run), "building radar_ros's Zenoh tests");
+    let router = tests(&["router", "zenoh_verbs"]);
+    let no_run = [&test[..], &tests(&netns_tests), &router, &["--no-run"]].concat();
+    check(
+        &cargo("test", &no_run),
+        "building radar_ros's Zenoh tests and radar_tools's router.rs and zenoh_verbs.rs",
+    );
     // zenoh_listings.rs runs the paper's listings as the example programs, over Zenoh; zenoh_actions.rs the
     // action examples
     check(
-        &cargo(&[
-            "build",
-            "-p",
-            "radar_ros_examples",
-            "--features",
-            "zenoh",
-            "--bin",
-            "deliberative",
-            "--bin",
-            "fibonacci_action",
-            "--bin",
-            "goal_until",
-        ]),
-        "building the deliberative and action examples with the zenoh feature",
+        &cargo("build", &["--bins"]),
+        "building the deliberative and action examples, radar and radar_bench with the zenoh feature",
     );
     let out = check(
-        &cargo(&netns),
+        &cargo("test", &netns),
         "radar_ros/library/tests/zenoh_netns.rs, zenoh_sites.rs and zenoh_listings.rs",
     );
     ran_and_passed(
@@ -185,7 +126,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
         println!("zenoh_netns: {l}");
     }
     let out = check(
-        &cargo(&test),
+        &cargo("test", &test),
         "radar_ros/library/tests/zenoh.rs, zenoh_latched.rs, zenoh_congestion.rs, zenoh_clock.rs, zenoh_matched.rs, zenoh_raw.rs, zenoh_signals.rs, zenoh_radar.rs, zenoh_sim_time.rs, zenoh_causes.rs, zenoh_respawn.rs and zenoh_actions.rs",
     );
     ran_and_passed(
@@ -206,19 +147,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
             "an_action_server_over_zenoh_is_a_radar_response",
         ],
     );
-    let router = [
-        "test",
-        "-p",
-        "radar_tools",
-        "--features",
-        "zenoh",
-        "--test",
-        "router",
-        "--test",
-        "zenoh_verbs",
-    ];
     let out = check(
-        &cargo(&router),
+        &cargo("test", &router),
         "radar_ros/tools/tests/router.rs and zenoh_verbs.rs",
     );
     ran_and_passed(
@@ -231,12 +161,8 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     );
     // the bench's `zenoh` scenario, quick: one hop over Zenoh peer to peer and through a router, beside DDS;
     // radar_ros's own the same
-    check(
-        &cargo(&["build", "-p", "radar_bench", "--features", "zenoh"]),
-        "building radar_bench with the zenoh feature",
-    );
     let bench_out = std::env::temp_dir().join(format!("radar_bench_zenoh_{}", std::process::id()));
-    let bench = Command::new(repo().join("target/zenoh-feature/debug/radar_bench"))
+    let bench = Command::new(feature_target().join("debug/radar_bench"))
         .args(["quick", "--only", "zenoh", "--domain", "150", "--out"])
         .arg(&bench_out)
         .output()
@@ -265,7 +191,7 @@ fn the_zenoh_feature_builds_lints_and_its_tests_pass() {
     // the Python package built with its zenoh feature (in this target directory: Zenoh is built here already)
     // and installed into the venv, then a Python program on Zenoh (the next run of tests/python_package.rs
     // installs its own build again)
-    let zenoh_target = repo().join("target/zenoh-feature");
+    let zenoh_target = feature_target();
     check(
         &Command::new("bash")
             .arg(repo().join("tests/python_package.sh"))
