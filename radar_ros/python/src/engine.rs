@@ -1,11 +1,7 @@
 //! The engine of one `Radar` (its participant, runtime and slot loop) and its Python face, `Engine`: lookups,
 //! spawning, connections, waiters, injection and subscriptions.
 
-use std::{
-    future::{Future, IntoFuture},
-    sync::Arc,
-    time::Duration,
-};
+use std::{future::IntoFuture, sync::Arc, time::Duration};
 
 use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
 use radar_ros::{topics::DynMessage, topics::RawMessage, StartPolicy};
@@ -17,74 +13,10 @@ use crate::{
         Waiter,
     },
     init_logs,
+    runtime::{timeout, to_py, Engine},
     slot_loop::{describe, SlotLoop},
+    statement::{Request, Target},
 };
-
-/// The engine of one `Radar`: its participant, runtime and the loop Python slots run on.
-pub(crate) struct Engine {
-    pub(crate) radar: radar_ros::Radar,
-    pub(crate) rt: Option<tokio::runtime::Runtime>,
-    pub(crate) slots: SlotLoop,
-}
-
-impl Drop for Engine {
-    /// The runtime goes without waiting for its tasks: this may run in a thread that holds the GIL, which a
-    /// task may be waiting for.
-    fn drop(&mut self) {
-        if let Some(rt) = self.rt.take() {
-            rt.shutdown_background();
-        }
-    }
-}
-
-pub(crate) use crate::errors::to_py;
-
-impl Engine {
-    pub(crate) fn rt(&self) -> &tokio::runtime::Runtime {
-        self.rt
-            .as_ref()
-            .expect("the runtime lives as long as the engine")
-    }
-
-    /// Runs `fut` to its end on the runtime with the GIL released, letting Python raise (Ctrl-C) every
-    /// 100 ms; a raise drops `fut`. Refused on one of the engine's own threads (an inline slot's): it would
-    /// wait there for work that thread has to do.
-    pub(crate) fn wait<T: Send>(
-        &self,
-        py: Python<'_>,
-        fut: impl Future<Output = radar_ros::Result<T>> + Send,
-    ) -> PyResult<T> {
-        if tokio::runtime::Handle::try_current().is_ok() {
-            return Err(crate::errors::InvalidArgument::new_err(
-                "a blocking call (lookup, connection, waitfor, inject, recv) in an inline slot, on the \
-                 engine's own thread, would stall the engine: make it from a plain or async def slot \
-                 (Response.inline False), or from the program's own threads",
-            ));
-        }
-        let mut fut = Box::pin(fut);
-        loop {
-            let step = py.detach(|| {
-                self.rt().block_on(async {
-                    tokio::time::timeout(Duration::from_millis(100), &mut fut)
-                        .await
-                        .ok()
-                })
-            });
-            match step {
-                Some(r) => return r.map_err(to_py),
-                None => {
-                    if let Err(e) = py.check_signals() {
-                        py.detach(|| {
-                            let _g = self.rt().enter();
-                            drop(fut);
-                        });
-                        return Err(e);
-                    }
-                }
-            }
-        }
-    }
-}
 
 /// A connection's properties from Python, for a request of any target kind.
 struct Props {
@@ -115,17 +47,6 @@ impl Props {
         }
         Ok(std::future::IntoFuture::into_future(req))
     }
-}
-
-pub(crate) fn timeout(t: Option<f64>) -> PyResult<Option<Duration>> {
-    t.map(|s| {
-        Duration::try_from_secs_f64(s).map_err(|_| {
-            pyo3::exceptions::PyValueError::new_err(format!(
-                "timeout {s}: give seconds, 0 or more (None: the default)"
-            ))
-        })
-    })
-    .transpose()
 }
 
 /// One process's RADAR participant: a DDS participant, a connection manager, the components it spawns.
@@ -321,80 +242,46 @@ impl PyEngine {
         })
     }
 
-    /// Makes a connection: `once` (or `whenever`) `source` to `target`, one of `("start"|"interrupt"|"exit",
-    /// ResponseRef)`, `("slot", Slot)` or `("call", deliver)` (an anonymous slot: `deliver(bytes)` is called
-    /// for each payload, in order, and must return at once), with `until` if given.
-    #[pyo3(signature = (once, source, kind, target, until=None, timeout=None, rearm=false, depth=None))]
-    #[allow(clippy::too_many_arguments)]
+    /// Makes the connection `request` describes (`Statement.once(source).start(response)`, ...).
+    #[pyo3(signature = (request, timeout=None, rearm=false, depth=None))]
     fn connect(
         &self,
         py: Python<'_>,
-        once: bool,
-        source: Signal,
-        kind: &str,
-        target: Bound<'_, PyAny>,
-        until: Option<Signal>,
+        mut request: PyRefMut<'_, Request>,
         timeout: Option<f64>,
         rearm: bool,
         depth: Option<usize>,
     ) -> PyResult<Connection> {
         let e = self.engine()?;
-        let st = match once {
-            true => e.radar.once(source.rust()),
-            false => e.radar.whenever(source.rust()),
-        };
-        let no_until = |kind: &str| match until.is_some() {
-            true => Err(to_py(radar_ros::Error::InvalidStatement(format!(
-                "`until` goes with a `start` target (once E start R until U), not {kind}"
-            )))),
-            false => Ok(()),
+        let target = request.take()?;
+        let source = request.source.rust();
+        let st = match request.once {
+            true => e.radar.once(source),
+            false => e.radar.whenever(source),
         };
         let props = Props {
             rearm,
             depth,
             timeout: self::timeout(timeout)?,
         };
-        let armed = match kind {
-            "start" | "interrupt" | "exit" => {
-                let r = target.extract::<PyRef<'_, ResponseRef>>()?.inner.clone();
-                match kind {
-                    "start" => {
-                        let req = st.start(&r);
-                        match until {
-                            Some(u) => props.apply(req.until(u.rust()))?,
-                            None => props.apply(req)?,
-                        }
-                    }
-                    "interrupt" => {
-                        no_until(kind)?;
-                        props.apply(st.interrupt(&r))?
-                    }
-                    _ => {
-                        no_until(kind)?;
-                        props.apply(st.exit(&r))?
-                    }
+        let armed = match target {
+            Target::Start { response, until } => {
+                let req = st.start(&response);
+                match until {
+                    Some(u) => props.apply(req.until(u.rust()))?,
+                    None => props.apply(req)?,
                 }
             }
-            "slot" => {
-                no_until(kind)?;
-                props.apply(st.slot(target.extract::<PyRef<'_, Slot>>()?.rust()))?
-            }
-            "call" => {
-                no_until(kind)?;
-                let deliver = target.unbind();
-                props.apply(st.call(move |m: DynMessage| {
-                    Python::attach(|py| {
-                        if let Err(err) = deliver.bind(py).call1((PyBytes::new(py, m.0.as_bytes()),)) {
-                            tracing::error!(error = %describe(py, &err), "anonymous slot: not delivered");
-                        }
-                    })
-                }))?
-            }
-            other => {
-                return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                    "connection target kind {other:?}: use start, interrupt, exit, slot or call"
-                )))
-            }
+            Target::Interrupt(r) => props.apply(st.interrupt(&r))?,
+            Target::Exit(r) => props.apply(st.exit(&r))?,
+            Target::Slot(s) => props.apply(st.slot(s.rust()))?,
+            Target::Call(deliver) => props.apply(st.call(move |m: DynMessage| {
+                Python::attach(|py| {
+                    if let Err(err) = deliver.bind(py).call1((PyBytes::new(py, m.0.as_bytes()),)) {
+                        tracing::error!(error = %describe(py, &err), "anonymous slot: not delivered");
+                    }
+                })
+            }))?,
         };
         let guard = e.wait(py, armed)?;
         Ok(Connection {

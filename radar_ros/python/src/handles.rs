@@ -11,7 +11,7 @@ use pyo3::{
 use radar_ros::{topics::DynMessage, ConnectionGuard};
 
 use crate::{
-    engine::{timeout, Engine},
+    runtime::{timeout, Engine},
     slot_loop::describe,
 };
 

@@ -11,13 +11,22 @@
 //! there and awaits its result without holding the GIL; cancelling the slot (an interrupt) cancels the
 //! coroutine at its current `await`, as dropping a Rust slot's future does. Blocking calls release the GIL
 //! and wake every 100 ms to let Python raise `KeyboardInterrupt`.
+//!
+//! Modules, each using only those listed after it: `engine` (the `Engine` class: lookups, spawning,
+//! connections, waiters, injection, subscriptions), `components` (Python slots as a Rust [`Response`] and
+//! [`Event`]), `statement` (a connection described before it is made: `Statement.once(source).start(r, until)`
+//! and the other target kinds, each its own method), `handles` (what `Engine` hands out: signals, slots,
+//! references, connections, waiters), `runtime` (the engine's participant, runtime and how a call waits on
+//! it), `slot_loop`, `errors`, `rosidl`.
 
 mod components;
 mod engine;
 mod errors;
 mod handles;
 mod rosidl;
+mod runtime;
 mod slot_loop;
+mod statement;
 
 use pyo3::{exceptions::PyRuntimeError, prelude::*, types::PyBytes};
 use radar_ros::topics::RawMessage;
@@ -114,5 +123,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Connection>()?;
     m.add_class::<Waiter>()?;
     m.add_class::<Subscription>()?;
+    m.add_class::<statement::Statement>()?;
+    m.add_class::<statement::Request>()?;
     Ok(())
 }

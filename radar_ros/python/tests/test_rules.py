@@ -372,6 +372,15 @@ def test_bad_input_gets_errors_that_say_what_to_do() -> None:
             r.whenever(e).start(c).connect()
         with pytest.raises(radar_ros.InvalidArgument):
             r.once("not a signal")  # type: ignore[arg-type]
+        # `until` goes with a start only (the native request has no other place for it), and says so
+        u = radar_ros.Signal("/rules_u/triggered", "std_msgs/msg/Empty")
+        with pytest.raises(radar_ros.InvalidArgument) as ia:
+            r.once(e).interrupt(c).until(u).connect()
+        assert "`until` goes with a `start` target" in str(ia.value) and "interrupt" in str(ia.value)
+        # a depth of 0 is refused by the native request, saying what the default is
+        with pytest.raises(radar_ros.InvalidArgument) as ia:
+            r.once(e).exit(c).depth(0).connect()
+        assert "at least 1" in str(ia.value)
 
 
 def test_a_with_block_ends_its_connection_on_an_exception() -> None:

@@ -34,7 +34,7 @@ import time
 import types
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable, Dict, Generator, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Generator, List, Literal, Optional, Tuple, Union
 
 from . import _native
 from ._errors import (
@@ -642,11 +642,15 @@ class Connection:
         self.close()
 
 
+#: What a :class:`Connect` delivers to: one of the native :class:`_native.Statement`'s methods.
+_Kind = Literal["start", "interrupt", "exit", "slot", "call"]
+
+
 class Connect:
     """A connection being described: add ``until``, ``rearm``, ``depth``, ``timeout``; it is made when a
     ``with`` block is entered (and ends with the block, exceptions included) or by :meth:`connect`."""
 
-    def __init__(self, radar: "Radar", once: bool, source: Any, kind: str, target: Any):
+    def __init__(self, radar: "Radar", once: bool, source: Any, kind: _Kind, target: Any):
         self._radar = radar
         self._once = once
         self._source = source
@@ -681,19 +685,22 @@ class Connect:
 
     def connect(self) -> Connection:
         """Makes it now; the caller closes it (or uses it in a ``with`` block)."""
-        target = self._target
-        if self._kind == "call":
-            target = self._deliverer(target)
-        native = self._radar._engine_().connect(
-            self._once,
-            self._source,
-            self._kind,
-            target,
-            self._until,
-            self._timeout,
-            self._rearm,
-            self._depth,
-        )
+        statement = (_native.Statement.once if self._once else _native.Statement.whenever)(self._source)
+        if self._until is not None and self._kind != "start":
+            raise InvalidArgument(
+                f"`until` goes with a `start` target (once E start R until U), not {self._kind}"
+            )
+        if self._kind == "start":
+            request = statement.start(self._target, self._until)
+        elif self._kind == "interrupt":
+            request = statement.interrupt(self._target)
+        elif self._kind == "exit":
+            request = statement.exit(self._target)
+        elif self._kind == "slot":
+            request = statement.slot(self._target)
+        else:
+            request = statement.call(self._deliverer(self._target))
+        native = self._radar._engine_().connect(request, self._timeout, self._rearm, self._depth)
         return Connection(native, self._executor)
 
     def _deliverer(self, fn: Callable[..., Any]) -> Callable[[bytes], None]:
