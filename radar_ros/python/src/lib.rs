@@ -3,7 +3,7 @@
 //!
 //! What lives here: the participant and its tokio runtime, lookups, connections, waiters and injection
 //! (all the engine's own code, with payloads as CDR bytes), and the Rust side of Python components: a
-//! [`Response`] and an [`Event`] whose slots are Python coroutines. The response state machine, the relays
+//! [`Response`](radar_ros::Response) and an [`Event`](radar_ros::Event) whose slots are Python coroutines. The response state machine, the relays
 //! and the wire stay in Rust; Python code runs only inside slots.
 //!
 //! Threads: the engine runs on its own tokio runtime. Python slots run on an asyncio event loop the Python
@@ -13,8 +13,8 @@
 //! and wake every 100 ms to let Python raise `KeyboardInterrupt`.
 //!
 //! Modules, each using only those listed after it: `engine` (the `Engine` class: lookups, spawning,
-//! connections, waiters, injection, subscriptions), `components` (Python slots as a Rust [`Response`] and
-//! [`Event`]), `statement` (a connection described before it is made: `Statement.once(source).start(r, until)`
+//! connections, waiters, injection, subscriptions), `components` (Python slots as a Rust [`Response`](radar_ros::Response) and
+//! [`Event`](radar_ros::Event)), `statement` (a connection described before it is made: `Statement.once(source).start(r, until)`
 //! and the other target kinds, each its own method), `handles` (what `Engine` hands out: signals, slots,
 //! references, connections, waiters), `runtime` (the engine's participant, runtime and how a call waits on
 //! it), `slot_loop`, `errors`, `rosidl`.
