@@ -373,6 +373,37 @@ impl Generator {
         .unwrap();
         writeln!(out, "        #[serde(crate = \"{rt}::serde\")]").unwrap();
         writeln!(out, "        pub struct {name} {{").unwrap();
+        let defaults = self.fields(&spec, uses, &mut out);
+        writeln!(out, "        }}").unwrap();
+        self.constants(&spec, name, &mut out);
+        writeln!(
+            out,
+            "        impl ::core::default::Default for {name} {{
+            fn default() -> Self {{
+                Self {{ {} }}
+            }}
+        }}
+        impl {rt}::msg::RosMessage for {name} {{
+            const PACKAGE: &'static str = \"{pkg}\";
+            const NAME: &'static str = \"{name}\";
+            const INTERFACE: &'static str = \"{kind}\";
+            const TYPE_HASH: ::core::option::Option<&'static str> = ::core::option::Option::Some(\"{hash}\");
+        }}",
+            defaults.join(", ")
+        )
+        .unwrap();
+        Ok(out)
+    }
+
+    /// The struct's fields (a placeholder byte for a message without any), written into `out`, and each field's
+    /// default, as `Default` sets it.
+    fn fields(
+        &self,
+        spec: &MessageSpecification,
+        uses: &mut BTreeSet<String>,
+        out: &mut String,
+    ) -> Vec<String> {
+        let rt = &self.runtime;
         let mut defaults = Vec::new();
         if spec.fields.is_empty() {
             out.push_str(&doc(
@@ -409,7 +440,11 @@ impl Generator {
             .unwrap();
             defaults.push(format!("{field}: {}", self.default_of(f)));
         }
-        writeln!(out, "        }}").unwrap();
+        defaults
+    }
+
+    /// The message's constants, as associated constants of `name`, written into `out` (nothing without any).
+    fn constants(&self, spec: &MessageSpecification, name: &str, out: &mut String) {
         if !spec.constants.is_empty() {
             writeln!(out, "        impl {name} {{").unwrap();
             for c in &spec.constants {
@@ -434,23 +469,6 @@ impl Generator {
             }
             writeln!(out, "        }}").unwrap();
         }
-        writeln!(
-            out,
-            "        impl ::core::default::Default for {name} {{
-            fn default() -> Self {{
-                Self {{ {} }}
-            }}
-        }}
-        impl {rt}::msg::RosMessage for {name} {{
-            const PACKAGE: &'static str = \"{pkg}\";
-            const NAME: &'static str = \"{name}\";
-            const INTERFACE: &'static str = \"{kind}\";
-            const TYPE_HASH: ::core::option::Option<&'static str> = ::core::option::Option::Some(\"{hash}\");
-        }}",
-            defaults.join(", ")
-        )
-        .unwrap();
-        Ok(out)
     }
 
     fn primitive(&self, ty: &str) -> String {

@@ -176,89 +176,106 @@ type MadeUpField = (&'static str, u8, u32, String);
 /// requests, responses and events, and its feedback message (`Name_FeedbackMessage`). Each is as the JSON
 /// rosidl writes beside the definition has it (`share/<pkg>/<srv|action>/<Name>.json`).
 fn made_up(ros_type: &str) -> Option<Vec<MadeUpField>> {
-    const NESTED: u8 = 1;
-    const BOUNDED_SEQUENCE: u8 = 96;
-    const UUID: &str = "unique_identifier_msgs/msg/UUID";
     let (pkg, kind, name) = {
         let mut parts = ros_type.split('/');
         (parts.next()?, parts.next()?, parts.next()?)
     };
-    let own = |suffix: &str| format!("{pkg}/{kind}/{name}{suffix}");
-    let nested = |field: &'static str, ty: String| (field, NESTED, 0, ty);
-    let service = |base: &str| {
-        vec![
-            nested("request_message", format!("{pkg}/{kind}/{base}_Request")),
-            nested("response_message", format!("{pkg}/{kind}/{base}_Response")),
-            nested("event_message", format!("{pkg}/{kind}/{base}_Event")),
-        ]
-    };
-    let event = |base: &str| {
-        let at_most_one = |field, ty| (field, NESTED + BOUNDED_SEQUENCE, 1, ty);
-        vec![
-            nested("info", "service_msgs/msg/ServiceEventInfo".to_owned()),
-            at_most_one("request", format!("{pkg}/{kind}/{base}_Request")),
-            at_most_one("response", format!("{pkg}/{kind}/{base}_Response")),
-        ]
-    };
     match kind {
         "srv" if name.ends_with("_Request") || name.ends_with("_Response") => None,
         "srv" => Some(match name.strip_suffix("_Event") {
-            Some(base) => event(base),
-            None => service(name),
+            Some(base) => made_up_event(&format!("{pkg}/srv/{base}")),
+            None => made_up_service(&format!("{pkg}/srv/{name}")),
         }),
-        "action" => {
-            const PARTS: [&str; 12] = [
-                "_SendGoal_Request",
-                "_SendGoal_Response",
-                "_SendGoal_Event",
-                "_GetResult_Request",
-                "_GetResult_Response",
-                "_GetResult_Event",
-                "_SendGoal",
-                "_GetResult",
-                "_FeedbackMessage",
-                "_Goal",
-                "_Result",
-                "_Feedback",
-            ];
-            let (base, part) = PARTS
-                .iter()
-                .find_map(|p| Some((name.strip_suffix(p)?, *p)))
-                .unwrap_or((name, ""));
-            let of = |suffix: &str| format!("{pkg}/action/{base}{suffix}");
-            Some(match part {
-                "" => vec![
-                    nested("goal", own("_Goal")),
-                    nested("result", own("_Result")),
-                    nested("feedback", own("_Feedback")),
-                    nested("send_goal_service", own("_SendGoal")),
-                    nested("get_result_service", own("_GetResult")),
-                    nested("feedback_message", own("_FeedbackMessage")),
-                ],
-                "_SendGoal" | "_GetResult" => service(name),
-                "_SendGoal_Event" | "_GetResult_Event" => event(name.strip_suffix("_Event")?),
-                "_SendGoal_Request" => {
-                    vec![nested("goal_id", UUID.into()), nested("goal", of("_Goal"))]
-                }
-                "_SendGoal_Response" => vec![
-                    ("accepted", 15, 0, String::new()),
-                    nested("stamp", "builtin_interfaces/msg/Time".into()),
-                ],
-                "_GetResult_Request" => vec![nested("goal_id", UUID.into())],
-                "_GetResult_Response" => vec![
-                    ("status", 2, 0, String::new()),
-                    nested("result", of("_Result")),
-                ],
-                "_FeedbackMessage" => vec![
-                    nested("goal_id", UUID.into()),
-                    nested("feedback", of("_Feedback")),
-                ],
-                // _Goal, _Result, _Feedback: the .action file's parts
-                _ => return None,
-            })
-        }
+        "action" => made_up_action(pkg, name),
         _ => None,
     }
+}
+
+/// A field of a nested type (type id 1).
+const NESTED: u8 = 1;
+/// What a type id adds for a bounded sequence.
+const BOUNDED_SEQUENCE: u8 = 96;
+const UUID: &str = "unique_identifier_msgs/msg/UUID";
+
+fn nested(field: &'static str, ty: String) -> MadeUpField {
+    (field, NESTED, 0, ty)
+}
+
+/// A service as a whole (`prefix` is `pkg/srv/Name` or `pkg/action/Name_SendGoal`): its request, response and
+/// event messages.
+fn made_up_service(prefix: &str) -> Vec<MadeUpField> {
+    vec![
+        nested("request_message", format!("{prefix}_Request")),
+        nested("response_message", format!("{prefix}_Response")),
+        nested("event_message", format!("{prefix}_Event")),
+    ]
+}
+
+/// A service's event: `service_msgs/msg/ServiceEventInfo` and at most one request and one response.
+fn made_up_event(prefix: &str) -> Vec<MadeUpField> {
+    let at_most_one = |field, ty| (field, NESTED + BOUNDED_SEQUENCE, 1, ty);
+    vec![
+        nested("info", "service_msgs/msg/ServiceEventInfo".to_owned()),
+        at_most_one("request", format!("{prefix}_Request")),
+        at_most_one("response", format!("{prefix}_Response")),
+    ]
+}
+
+/// An action's made-up types: the action as a whole, its two services with their requests, responses and
+/// events, its feedback message (`None` for the .action file's own parts: `_Goal`, `_Result`, `_Feedback`).
+fn made_up_action(pkg: &str, name: &str) -> Option<Vec<MadeUpField>> {
+    const PARTS: [&str; 12] = [
+        "_SendGoal_Request",
+        "_SendGoal_Response",
+        "_SendGoal_Event",
+        "_GetResult_Request",
+        "_GetResult_Response",
+        "_GetResult_Event",
+        "_SendGoal",
+        "_GetResult",
+        "_FeedbackMessage",
+        "_Goal",
+        "_Result",
+        "_Feedback",
+    ];
+    let own = |suffix: &str| format!("{pkg}/action/{name}{suffix}");
+    let (base, part) = PARTS
+        .iter()
+        .find_map(|p| Some((name.strip_suffix(p)?, *p)))
+        .unwrap_or((name, ""));
+    let of = |suffix: &str| format!("{pkg}/action/{base}{suffix}");
+    Some(match part {
+        "" => vec![
+            nested("goal", own("_Goal")),
+            nested("result", own("_Result")),
+            nested("feedback", own("_Feedback")),
+            nested("send_goal_service", own("_SendGoal")),
+            nested("get_result_service", own("_GetResult")),
+            nested("feedback_message", own("_FeedbackMessage")),
+        ],
+        "_SendGoal" | "_GetResult" => made_up_service(&own("")),
+        "_SendGoal_Event" | "_GetResult_Event" => {
+            made_up_event(&format!("{pkg}/action/{}", name.strip_suffix("_Event")?))
+        }
+        "_SendGoal_Request" => {
+            vec![nested("goal_id", UUID.into()), nested("goal", of("_Goal"))]
+        }
+        "_SendGoal_Response" => vec![
+            ("accepted", 15, 0, String::new()),
+            nested("stamp", "builtin_interfaces/msg/Time".into()),
+        ],
+        "_GetResult_Request" => vec![nested("goal_id", UUID.into())],
+        "_GetResult_Response" => vec![
+            ("status", 2, 0, String::new()),
+            nested("result", of("_Result")),
+        ],
+        "_FeedbackMessage" => vec![
+            nested("goal_id", UUID.into()),
+            nested("feedback", of("_Feedback")),
+        ],
+        // _Goal, _Result, _Feedback: the .action file's parts
+        _ => return None,
+    })
 }
 
 fn field(name: &str, type_id: u8, capacity: u32, string_capacity: u32, nested: &str) -> String {
