@@ -123,7 +123,7 @@ fn long_functions(root: &std::path::Path, dir: &str, max: usize) -> Vec<(String,
 }
 
 #[test]
-fn no_function_is_over_80_lines_in_the_library_semantics_idl_tools_or_python_crates() {
+fn no_function_is_over_80_lines_in_any_crate_but_the_checker() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .ancestors()
         .nth(2)
@@ -132,6 +132,9 @@ fn no_function_is_over_80_lines_in_the_library_semantics_idl_tools_or_python_cra
         "radar_ros/library/src",
         "radar_ros/semantics/src",
         "radar_ros/idl/src",
+        "radar_ros/spec/src",
+        // not yet radar_ros/checker/src: world.rs's `step`, `actions` and `effects` (140, 111, 108 lines) want
+        // splitting by action kind
         "radar_ros/tools/src",
         "radar_ros/python/src",
     ] {

@@ -164,7 +164,15 @@ impl<'t> View<'t> {
     }
 
     fn read(&mut self, i: usize, r: &Record, current: &mut BTreeMap<Who, usize>) {
-        match r.obs {
+        if !self.read_statement(i, r.obs) {
+            self.read_run(i, r.obs, current);
+        }
+    }
+
+    /// Record `i` if it is about a statement (armed, its scope's end, its end, a send, a call, a loss it saw):
+    /// true then.
+    fn read_statement(&mut self, i: usize, obs: Obs) -> bool {
+        match obs {
             Obs::Armed {
                 stmt,
                 kind,
@@ -217,6 +225,14 @@ impl<'t> View<'t> {
                     st.losses.push(i);
                 }
             }
+            _ => return false,
+        }
+        true
+    }
+
+    /// Record `i` if it is about an emission or a response's run (its records, how it ended).
+    fn read_run(&mut self, i: usize, obs: Obs, current: &mut BTreeMap<Who, usize>) {
+        match obs {
             Obs::Emitted {
                 sig, signal, inst, ..
             } => {

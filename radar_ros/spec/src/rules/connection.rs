@@ -608,6 +608,31 @@ fn closes(f: &Found<'_, '_>, j: usize, r: Comp, made_with: &[u32], k: Stmt, n: u
     })
 }
 
+/// The manager's reads of `u`'s signals while statement `st` lived: each record, signal and the stamp it took.
+fn u_reads(v: &crate::view::View<'_>, st: &StmtView, u: Signal) -> Vec<(usize, SigId, Time)> {
+    let end = st.over().unwrap_or(v.len());
+    (st.armed + 1..end)
+        .filter_map(|j| match v.obs(j) {
+            Obs::ManagerRead { sig, now } => match v.emission(sig) {
+                Some(e) if e.signal == u => Some((j, sig, taken(e.stamp, now))),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
+}
+
+/// Whether statement `k` sent signal `sig` to an interrupt slot in record `j`'s step.
+fn interrupt_sent_in_step(v: &crate::view::View<'_>, k: Stmt, j: usize, sig: SigId) -> bool {
+    v.step_of(j).any(|i| {
+        matches!(
+            v.obs(i),
+            Obs::Sent { stmt, sig: s, to: Target::Slot(Slot { kind: SlotKind::Interrupt, .. }), .. }
+                if stmt == k && s == sig
+        )
+    })
+}
+
 fn until_reaches_its_run(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &[usize]) {
     let (Some(u), Some(r)) = (st.until, st.until_response()) else {
         return;
@@ -629,25 +654,8 @@ fn until_reaches_its_run(f: &mut Found<'_, '_>, k: Stmt, st: &StmtView, sends: &
                 !(d + 1..j).any(|i| closes(f, i, r, &made_with, k, n as u64 + 1) || lost(i))
             })
     };
-    let end = st.over().unwrap_or(v.len());
-    let u_reads: Vec<(usize, SigId, Time)> = (st.armed + 1..end)
-        .filter_map(|j| match v.obs(j) {
-            Obs::ManagerRead { sig, now } => match v.emission(sig) {
-                Some(e) if e.signal == u => Some((j, sig, taken(e.stamp, now))),
-                _ => None,
-            },
-            _ => None,
-        })
-        .collect();
-    let sent_in_step = |j: usize, sig: SigId| {
-        v.step_of(j).any(|i| {
-            matches!(
-                v.obs(i),
-                Obs::Sent { stmt, sig: s, to: Target::Slot(Slot { kind: SlotKind::Interrupt, .. }), .. }
-                    if stmt == k && s == sig
-            )
-        })
-    };
+    let u_reads = u_reads(v, st, u);
+    let sent_in_step = |j: usize, sig: SigId| interrupt_sent_in_step(v, k, j, sig);
     let name = f.name(r).to_owned();
     let mut out: Vec<(usize, SigId, String)> = Vec::new();
     for &(j, sig, stamp) in &u_reads {

@@ -15,15 +15,35 @@ pub(super) fn check(f: &mut Found<'_, '_>) {
         .filter(|(_, c)| c.role == Role::Event)
         .map(|(i, _)| Comp(i as u16))
         .collect();
-    let program = v.trace.program();
-    let mut listeners: BTreeMap<(Comp, u32), u32> = BTreeMap::new();
-    let mut checking: BTreeMap<(Comp, u32), bool> = BTreeMap::new();
-    let mut read: BTreeMap<Comp, bool> = BTreeMap::new();
+    let mut known = Known::default();
     for i in 0..v.len() {
+        known.read(f, i);
+    }
+    if !f.judged(v.len().saturating_sub(1)) {
+        return;
+    }
+    for e in events {
+        known.judge_the_end(f, e);
+    }
+}
+
+/// What the records up to one point say of each event instance's listeners and checking, and of whether the
+/// manager reads each event's `triggered`.
+#[derive(Default)]
+struct Known {
+    listeners: BTreeMap<(Comp, u32), u32>,
+    checking: BTreeMap<(Comp, u32), bool>,
+    read: BTreeMap<Comp, bool>,
+}
+
+impl Known {
+    /// Takes in record `i`, adding what it breaks of E1 as it happens.
+    fn read(&mut self, f: &mut Found<'_, '_>, i: usize) {
+        let v = f.view;
         match v.obs(i) {
             Obs::Listeners { comp, inst, n } => {
-                listeners.insert((comp, inst), n);
-                if n == 0 && checking.get(&(comp, inst)) == Some(&true) {
+                self.listeners.insert((comp, inst), n);
+                if n == 0 && self.checking.get(&(comp, inst)) == Some(&true) {
                     let stops = v.step_of(i).any(|j| {
                         j > i
                             && matches!(
@@ -45,7 +65,7 @@ pub(super) fn check(f: &mut Found<'_, '_>) {
                 }
             }
             Obs::Checking { comp, inst, on } => {
-                if on && listeners.get(&(comp, inst)).copied().unwrap_or(0) == 0 {
+                if on && self.listeners.get(&(comp, inst)).copied().unwrap_or(0) == 0 {
                     let name = f.name(comp).to_owned();
                     f.add(
                         &E1_CHECKS_ONLY_WHILE_LISTENED,
@@ -56,12 +76,12 @@ pub(super) fn check(f: &mut Found<'_, '_>) {
                         format!("{name} began checking with no listener it knows of"),
                     );
                 }
-                checking.insert((comp, inst), on);
+                self.checking.insert((comp, inst), on);
             }
             Obs::Emitted {
                 signal, sig, inst, ..
             } if signal.kind == SignalKind::Triggered
-                && checking.get(&(signal.comp, inst)) != Some(&true) =>
+                && self.checking.get(&(signal.comp, inst)) != Some(&true) =>
             {
                 let name = f.name(signal.comp).to_owned();
                 f.add(
@@ -81,26 +101,26 @@ pub(super) fn check(f: &mut Found<'_, '_>) {
                     },
                 on,
             } => {
-                read.insert(comp, on);
+                self.read.insert(comp, on);
             }
             Obs::Left { comp, instance, .. } => {
-                if Some(comp) == program {
+                if Some(comp) == v.trace.program() {
                     // the manager went with its program: it reads nothing
-                    read.clear();
+                    self.read.clear();
                 }
-                listeners.remove(&(comp, instance));
-                checking.remove(&(comp, instance));
+                self.listeners.remove(&(comp, instance));
+                self.checking.remove(&(comp, instance));
             }
             _ => {}
         }
     }
-    if !f.judged(v.len().saturating_sub(1)) {
-        return;
-    }
-    for e in events {
-        let heard = read.get(&e).copied().unwrap_or(false);
+
+    /// At the end of the trace, each live instance of event `e` checks exactly when its `triggered` is read.
+    fn judge_the_end(&self, f: &mut Found<'_, '_>, e: Comp) {
+        let v = f.view;
+        let heard = self.read.get(&e).copied().unwrap_or(false);
         for inst in v.alive_at(e, v.len()) {
-            let is = checking.get(&(e, inst)).copied().unwrap_or(false);
+            let is = self.checking.get(&(e, inst)).copied().unwrap_or(false);
             if is == heard || v.stopping_before((e, inst), v.len()) {
                 continue;
             }

@@ -798,7 +798,7 @@ fn a_stop_ends_the_run(f: &mut Found<'_, '_>, who: Who, s: usize) {
 /// announced runs.
 fn starts_taken_or_told(f: &mut Found<'_, '_>) {
     let v = f.view;
-    let mut out: Vec<(&'static Rule, usize, Comp, String)> = Vec::new();
+    let mut out: Vec<Finding> = Vec::new();
     for j in 0..v.len() {
         match v.obs(j) {
             Obs::Emitted {
@@ -807,26 +807,7 @@ fn starts_taken_or_told(f: &mut Found<'_, '_>) {
                 cause: Some(c),
                 ..
             } if signal.kind == SignalKind::Dropped => {
-                let who = (signal.comp, inst);
-                let read = v
-                    .reads_of(who, 0..j)
-                    .any(|(_, slot, _, by, _)| slot == SlotKind::Start && by == Some(c));
-                let runs = v
-                    .runs
-                    .get(&who)
-                    .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began > j));
-                if !read || runs {
-                    out.push((
-                        &R6_A_START_NOT_TAKEN_IS_TOLD,
-                        j,
-                        signal.comp,
-                        format!(
-                            "{} announced it dropped the start {c:?}, which it {}",
-                            f.name(signal.comp),
-                            if runs { "then ran" } else { "never read" }
-                        ),
-                    ));
-                }
+                out.extend(dropped_was_read_and_not_run(f, j, (signal.comp, inst), c));
             }
             Obs::Read {
                 comp,
@@ -836,52 +817,93 @@ fn starts_taken_or_told(f: &mut Found<'_, '_>) {
                 payload,
                 ..
             } if !payload.unreadable && v.trace.response(comp).is_some() => {
-                let who = (comp, inst);
-                let step_end = v.step_of(j).end;
-                let began = v
-                    .runs
-                    .get(&who)
-                    .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began >= j));
-                let told = (j..v.len()).any(|i| {
-                    matches!(v.obs(i), Obs::Emitted { signal, inst: n, cause: Some(d), .. }
-                        if signal.kind == SignalKind::Dropped && (signal.comp, n) == who && d == c)
-                });
-                // read while busy by a response that ignores starts, or while it stops: dropped at once
-                let busy = v
-                    .run_at(who, j)
-                    .is_some_and(|r| r.began < j && r.exited.is_none_or(|e| e > j));
-                let ignores = v
-                    .trace
-                    .response(comp)
-                    .is_some_and(|(p, _)| p == Policy::Ignore);
-                let at_once = (busy && ignores) || v.stopping_before(who, j);
-                if at_once && !told_in(v, who, c, j..step_end) {
-                    out.push((
-                        &R6_A_START_NOT_TAKEN_IS_TOLD,
-                        j,
-                        comp,
-                        format!(
-                            "{} did not take the start {c:?} and did not announce it",
-                            f.name(comp)
-                        ),
-                    ));
-                } else if !began && !told && !v.crashed_by(who, v.len()) && f.judged(j) {
-                    out.push((
-                        &R6_EVERY_START_TAKEN_OR_TOLD,
-                        v.len().saturating_sub(1),
-                        comp,
-                        format!(
-                            "{} read the start {c:?}, and neither ran it nor announced it dropped",
-                            f.name(comp)
-                        ),
-                    ));
-                }
+                out.extend(read_start_taken_or_told(f, j, (comp, inst), c));
             }
             _ => {}
         }
     }
     for (rule, i, comp, why) in out {
         f.add(rule, i, &[comp], &[], &[], why);
+    }
+}
+
+/// A rule broken at a record, by a component, and why.
+type Finding = (&'static Rule, usize, Comp, String);
+
+/// R6 for instance `who`'s `dropped` carrying cause `c` at record `j`: it had read that start, and never ran it.
+fn dropped_was_read_and_not_run(
+    f: &Found<'_, '_>,
+    j: usize,
+    who: Who,
+    c: Cause,
+) -> Option<Finding> {
+    let v = f.view;
+    let read = v
+        .reads_of(who, 0..j)
+        .any(|(_, slot, _, by, _)| slot == SlotKind::Start && by == Some(c));
+    let runs = v
+        .runs
+        .get(&who)
+        .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began > j));
+    (!read || runs).then(|| {
+        (
+            &R6_A_START_NOT_TAKEN_IS_TOLD,
+            j,
+            who.0,
+            format!(
+                "{} announced it dropped the start {c:?}, which it {}",
+                f.name(who.0),
+                if runs { "then ran" } else { "never read" }
+            ),
+        )
+    })
+}
+
+/// R6 for the start with cause `c` instance `who` read at record `j`: one it could not take then (busy and
+/// ignoring starts, or stopping) is announced within the step; any other begins a run or is announced.
+fn read_start_taken_or_told(f: &Found<'_, '_>, j: usize, who: Who, c: Cause) -> Option<Finding> {
+    let v = f.view;
+    let comp = who.0;
+    let step_end = v.step_of(j).end;
+    let began = v
+        .runs
+        .get(&who)
+        .is_some_and(|rs| rs.iter().any(|r| r.cause == Some(c) && r.began >= j));
+    let told = (j..v.len()).any(|i| {
+        matches!(v.obs(i), Obs::Emitted { signal, inst: n, cause: Some(d), .. }
+            if signal.kind == SignalKind::Dropped && (signal.comp, n) == who && d == c)
+    });
+    // read while busy by a response that ignores starts, or while it stops: dropped at once
+    let busy = v
+        .run_at(who, j)
+        .is_some_and(|r| r.began < j && r.exited.is_none_or(|e| e > j));
+    let ignores = v
+        .trace
+        .response(comp)
+        .is_some_and(|(p, _)| p == Policy::Ignore);
+    let at_once = (busy && ignores) || v.stopping_before(who, j);
+    if at_once && !told_in(v, who, c, j..step_end) {
+        Some((
+            &R6_A_START_NOT_TAKEN_IS_TOLD,
+            j,
+            comp,
+            format!(
+                "{} did not take the start {c:?} and did not announce it",
+                f.name(comp)
+            ),
+        ))
+    } else if !began && !told && !v.crashed_by(who, v.len()) && f.judged(j) {
+        Some((
+            &R6_EVERY_START_TAKEN_OR_TOLD,
+            v.len().saturating_sub(1),
+            comp,
+            format!(
+                "{} read the start {c:?}, and neither ran it nor announced it dropped",
+                f.name(comp)
+            ),
+        ))
+    } else {
+        None
     }
 }
 
