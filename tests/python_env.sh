@@ -34,7 +34,7 @@ fi
 
 missing=()
 # (not for the venv, but the test suite's other native need: OpenSSL for radar_ros's `security` feature,
-# which tests/security_feature.rs builds)
+# which the workspace's test build turns on: tests/Cargo.toml)
 dpkg -s libssl-dev >/dev/null 2>&1 || missing+=(libssl-dev)
 command -v pkg-config >/dev/null || missing+=(pkg-config)
 # and Debian's Fast DDS (built with DDS Security) for the secured interop peer of radar_ros/library/tests/secure.rs

@@ -2,7 +2,8 @@
 //! installs it (maturin), then its pytest suite runs over real DDS (domains 215-219; see
 //! `radar_ros/python/tests/`), and `mypy --strict` checks the package's types and the Python example against
 //! its stubs. Then the same wheel (manylinux, checked by auditwheel) is installed into a fresh venv of the
-//! system's Python and runs Listing 1 with no Rust toolchain on PATH (issue 70). A missing tool or helper fails the
+//! system's Python and runs Listing 1 with no Rust toolchain on PATH (issue 70), and a Python program runs over
+//! Zenoh (the package is built with its `zenoh` feature). A missing tool or helper fails the
 //! test; a skipped Python test fails it too.
 
 use std::{
@@ -22,20 +23,27 @@ fn repo() -> PathBuf {
 
 /// The built `count_up` example (the Python example's timeline is checked against it).
 fn count_up_example() -> PathBuf {
+    example("count_up")
+}
+
+/// An example program of this build (with the `zenoh` feature: tests/Cargo.toml).
+fn example(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("the test binary's path");
-    let path = exe.parent().unwrap().parent().unwrap().join("count_up");
+    let path = exe.parent().unwrap().parent().unwrap().join(name);
     assert!(
         path.exists(),
-        "{} is missing: `cargo test --workspace` builds it, or `cargo build --bin count_up`",
+        "{} is missing: `cargo test --workspace` builds it, or `cargo build --bin {name}`",
         path.display()
     );
     path
 }
 
-/// Installs the package; the venv it is in.
+/// Installs the package, built with its `zenoh` feature (one build serves the suite over DDS and the program
+/// over Zenoh below); the venv it is in.
 fn install() -> PathBuf {
     let out = Command::new("bash")
         .arg(repo().join("tests/python_package.sh"))
+        .env("RADAR_PY_FEATURES", "zenoh")
         .output()
         .expect("run tests/python_package.sh");
     assert!(
@@ -79,6 +87,59 @@ fn the_python_package_passes_its_tests_over_real_dds_and_its_types_check() {
     // the same wheel as a user without a Rust toolchain installs it (after the suite: Listing 1's timing is
     // checked, on a machine the suite no longer loads)
     the_wheel_installs_without_rust_and_runs_listing_1(&py);
+
+    the_package_runs_over_zenoh(&py);
+}
+
+/// Issue 37: the package's `zenoh` feature: a Python program on Zenoh (`RMW_IMPLEMENTATION=rmw_zenoh_cpp`)
+/// signals a Rust program's response and runs one of its own for it (tests/python/zenoh_python_package.py,
+/// domain 144, beside the `deliberative` example of this build); then `mypy --strict` on the Zenoh helpers
+/// of the Rust tests (radar_ros/library/tests/zenoh*.rs run them).
+fn the_package_runs_over_zenoh(py: &Path) {
+    let scripts = repo().join("tests/python");
+    let out = Command::new(py)
+        .arg(scripts.join("zenoh_python_package.py"))
+        .arg("144")
+        .arg(example("deliberative"))
+        .output()
+        .expect("run tests/python/zenoh_python_package.py");
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "tests/python/zenoh_python_package.py: the Python package over Zenoh failed:\n{said}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for want in [
+        r#"{"echo": "DOCK"}"#,
+        r#"{"rust_response": ["started", "interrupted", "exited"]}"#,
+    ] {
+        assert!(
+            said.lines().any(|l| l == want),
+            "{want} in the Python program's output:\n{said}"
+        );
+    }
+    // as the helpers are run: from their directory, for the interpreter of the venv
+    let out = Command::new(py)
+        .args([
+            "-m",
+            "mypy",
+            "--strict",
+            "zenoh_peer.py",
+            "zenoh_router.py",
+            "zenoh_service_client.py",
+            "zenoh_action_server.py",
+            "zenoh_action_client.py",
+            "zenoh_python_package.py",
+        ])
+        .current_dir(&scripts)
+        .output()
+        .expect("run mypy");
+    assert!(
+        out.status.success(),
+        "mypy --strict on the Zenoh helpers:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// Issue 70: the wheel that `tests/python_package.sh` built is manylinux-tagged and auditwheel agrees; it

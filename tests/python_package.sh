@@ -13,7 +13,7 @@ VENV=$("$ROOT/tests/python_env.sh")
 export CARGO_TARGET_DIR="${RADAR_PY_TARGET:-$ROOT/target/python-pkg}"
 WHEELS="$CARGO_TARGET_DIR/wheels"
 rm -rf "$WHEELS"
-# RADAR_PY_FEATURES: the package's cargo features (`zenoh`: a Radar on Zenoh, tests/zenoh_feature.rs)
+# RADAR_PY_FEATURES: the package's cargo features (`zenoh`: a Radar on Zenoh; tests/python_package.rs builds with it)
 (cd "$ROOT/radar_ros/python" && "$VENV/bin/maturin" build --profile dev -i "$VENV/bin/python" -o "$WHEELS" \
   ${RADAR_PY_FEATURES:+--features "$RADAR_PY_FEATURES"} >&2)
 "$VENV/bin/pip" install --disable-pip-version-check -q --force-reinstall --no-deps "$WHEELS"/radar_ros-*.whl >&2

@@ -7,8 +7,8 @@
 #   tests/under_load.sh [N] [all|plain|secured]
 #
 # `secured` runs only the secured programs' tests (issue 32: the secured examples once logged RustDDS errors as
-# programs ended), built with the `security` feature in target/features as tests/security_feature.rs
-# builds them (run that first, or let this build them).
+# programs ended). Every run is of the workspace's test build (`cargo test --workspace`, the README's: it has the
+# `security` and `zenoh` features on, tests/Cargo.toml), so what CI built is reused.
 #
 # The tests: a `ros2 topic pub --once` from a fresh rclpy process (30 starts and 30 interrupts per run), a
 # service call from a fresh process, a signal emitted right before its component exits, programs
@@ -21,14 +21,7 @@ which=${2:-all}
 here=$(cd "$(dirname "$0")" && pwd)
 cd "$here/.."
 if [ "${RADAR_ISOLATED:-}" != 1 ]; then
-  if [ "$which" != secured ]; then cargo build -q -p radar_ros_tests --tests; fi
-  if [ "$which" != plain ]; then
-    # as tests/util.rs's feature_cargo builds them (one selection, one feature set: what CI built is reused)
-    features=(-p radar_ros -p radar_tools -p radar_ros_examples -p radar_bench --features
-      radar_ros/security,radar_ros/zenoh,radar_tools/security,radar_tools/zenoh,radar_ros_examples/security,radar_ros_examples/zenoh,radar_bench/security,radar_bench/zenoh)
-    CARGO_TARGET_DIR=target/features cargo build -q "${features[@]}" --bins
-    CARGO_TARGET_DIR=target/features cargo test -q "${features[@]}" --test secure --test count_up_secured --no-run
-  fi
+  cargo test -q --workspace --no-run
   exec tests/isolated.sh bash tests/under_load.sh "$n" "$which"
 fi
 cores=$(nproc)
@@ -68,16 +61,10 @@ fi
 failed=0
 for t in "${runs[@]}"; do
   set -- $t
-  pkg=$1
-  shift
+  shift # the package: every run is of the workspace's test build
   ok=0
   for i in $(seq "$n"); do
-    if [ "$3" = secured ]; then
-      run=(env CARGO_TARGET_DIR=target/features RADAR_CLI="$PWD/target/features/debug/radar"
-        cargo test -q -p "$pkg" --features security --test "$1" -- --exact "$2" --test-threads=1)
-    else
-      run=(cargo test -q -p "$pkg" --test "$1" -- --exact "$2")
-    fi
+    run=(cargo test -q --workspace --test "$1" -- --exact "$2")
     if "${run[@]}" > "/tmp/under_load_$2_$i.log" 2>&1; then
       ok=$((ok + 1))
       rm -f "/tmp/under_load_$2_$i.log"

@@ -3,7 +3,9 @@
 //! - A crate generated outside this workspace (in `target/user-crate/`, its own workspace root) from the
 //!   README's `Cargo.toml` lines and `main.rs`, depending on radar_ros by path with no `[patch]`, builds, runs,
 //!   and acts on a start published by a fresh rclpy process (`ros2 topic pub --once`, as
-//!   `python/interop.py pub_once` does it).
+//!   `python/interop.py pub_once` does it). Built as a user builds it, without radar_ros's optional features,
+//!   it refuses `RMW_IMPLEMENTATION=rmw_zenoh_cpp` and `ROS_SECURITY_ENABLE=true` (enforced) at start, saying
+//!   which feature it lacks (the workspace's own test build has them on).
 //! - The guard: a crate that depends on radar_ros through git and swaps in the crates.io RustDDS 0.15.1 for
 //!   radar_ros's (a `[patch]`) does not build: radar_ros's build script stops it, saying what to do.
 //!
@@ -183,6 +185,55 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
         .unwrap();
     assert!(status.success(), "{status}: {seen:?}");
     py.succeeds().await;
+
+    // A user's build has neither optional transport (the workspace's test build has both: tests/Cargo.toml):
+    // asked for one at run time, the program does not start, and says how to get it.
+    let keystore = dir.join("keystore");
+    let enclave = keystore.join("enclaves");
+    std::fs::create_dir_all(&enclave).unwrap();
+    for f in [
+        "identity_ca.cert.pem",
+        "cert.pem",
+        "key.pem",
+        "permissions_ca.cert.pem",
+        "governance.p7s",
+        "permissions.p7s",
+    ] {
+        std::fs::write(enclave.join(f), "").unwrap();
+    }
+    for (env, want) in [
+        (
+            [("RMW_IMPLEMENTATION", "rmw_zenoh_cpp"), ("", "")],
+            ["speaks DDS only", "`zenoh` feature"],
+        ),
+        (
+            [
+                ("ROS_SECURITY_ENABLE", "true"),
+                ("ROS_SECURITY_STRATEGY", "Enforce"),
+            ],
+            ["built without DDS Security", "`security`"],
+        ),
+    ] {
+        // a program that starts anyway waits for a start that never comes: a bounded wait, then it is killed
+        let run = tokio::process::Command::new(user_target().join("debug/hello"))
+            .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+            .env("ROS_SECURITY_KEYSTORE", &keystore)
+            .envs(env.into_iter().filter(|(k, _)| !k.is_empty()))
+            .kill_on_drop(true)
+            .output();
+        let out = tokio::time::timeout(Duration::from_secs(20), run)
+            .await
+            .unwrap_or_else(|_| {
+                panic!("with {env:?}, the user's program started (it still ran after 20 s)")
+            })
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && want.iter().all(|w| said.contains(w)),
+            "with {env:?}, the user's program stops saying {want:?}: {}\n{said}",
+            out.status
+        );
+    }
 }
 
 /// Copies the files under `from` into `to` (made as needed).

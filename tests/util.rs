@@ -766,52 +766,6 @@ pub fn ran_and_passed(out: &str, tests: &[&str]) {
 
 // ------------------------------------------------------------------------------------------ feature builds
 
-/// Where tests/security_feature.rs and tests/zenoh_feature.rs build: one target directory, one selection of
-/// packages and one set of features for both, so that cargo resolves every shared dependency the same way and
-/// the second test reuses what the first built (each used to build the whole tree again in its own directory).
-pub fn feature_target() -> PathBuf {
-    repo().join("target/features")
-}
-
-/// The packages every feature-build invocation selects (the same selection unifies dependencies the same way).
-pub const FEATURE_PACKAGES: [&str; 8] = [
-    "-p",
-    "radar_ros",
-    "-p",
-    "radar_tools",
-    "-p",
-    "radar_ros_examples",
-    "-p",
-    "radar_bench",
-];
-
-/// The optional transport features, all at once: DDS Security and Zenoh build side by side (a program picks
-/// its transport at run time, `RMW_IMPLEMENTATION`, and security by `ROS_SECURITY_*`).
-pub const ALL_FEATURES: &str =
-    "radar_ros/security,radar_ros/zenoh,radar_tools/security,radar_tools/zenoh,\
-radar_ros_examples/security,radar_ros_examples/zenoh,radar_bench/security,radar_bench/zenoh";
-
-/// `cargo <verb> <FEATURE_PACKAGES> --features <ALL_FEATURES> <rest>` in [`feature_target`], from the
-/// repository's root, with `env` set; its output once it has ended.
-pub fn feature_cargo(
-    verb: &str,
-    rest: &[&str],
-    env: &[(&str, &std::ffi::OsStr)],
-) -> std::process::Output {
-    let mut c = std::process::Command::new(env!("CARGO"));
-    c.arg(verb)
-        .args(FEATURE_PACKAGES)
-        .args(["--features", ALL_FEATURES])
-        .args(rest)
-        .current_dir(repo())
-        .env_remove("RUSTFLAGS")
-        .env("CARGO_TARGET_DIR", feature_target());
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("run cargo")
-}
-
 /// The repository's root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

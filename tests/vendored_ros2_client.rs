@@ -4,9 +4,14 @@
 use std::time::Duration;
 
 use radar_test_util::{init_logs, require_isolation, DISCOVERY};
+// the DDS backend's entities by their module path: this build has the Zenoh backend beside it
+// (tests/Cargo.toml), so ros2-client does not re-export either backend's at its root
 use ros2_client::{
-    dds::rustdds::{self, SampleIdentity, SequenceNumber, Timestamp, GUID},
-    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+    dds::{
+        rustdds::{self, SampleIdentity, SequenceNumber, Timestamp, GUID},
+        Context, ContextOptions, Node, Publisher, Subscription,
+    },
+    MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
 };
 
 const DOMAIN: u16 = 3;
@@ -16,7 +21,7 @@ struct Int32 {
     data: i32,
 }
 
-fn node(ctx: &Context, name: &str) -> ros2_client::Node {
+fn node(ctx: &Context, name: &str) -> Node {
     let mut node = ctx
         .new_node(
             NodeName::new("/", name).unwrap(),
@@ -37,8 +42,8 @@ fn qos() -> QosProfile {
 async fn pair(
     topic: &str,
 ) -> (
-    (Context, ros2_client::Node, ros2_client::Publisher<Int32>),
-    (Context, ros2_client::Node, ros2_client::Subscription<Int32>),
+    (Context, Node, Publisher<Int32>),
+    (Context, Node, Subscription<Int32>),
 ) {
     init_logs();
     require_isolation();
@@ -234,12 +239,12 @@ fn discovery_info_of(
 /// of all of them.
 #[allow(clippy::type_complexity)]
 fn pubs_and_subs(
-    n: &mut ros2_client::Node,
+    n: &mut Node,
     prefix: &str,
     count: usize,
 ) -> (
-    Vec<ros2_client::Publisher<Int32>>,
-    Vec<ros2_client::Subscription<Int32>>,
+    Vec<Publisher<Int32>>,
+    Vec<Subscription<Int32>>,
     std::collections::HashSet<ros2_client::Gid>,
 ) {
     let ty = MessageTypeName::new("std_msgs", "Int32");

@@ -1,6 +1,6 @@
 //! The vendored ros2-client's Zenoh backend (`third_party/ros2-client/src/zenoh_backend`, `zenoh` feature)
 //! passes its own unit tests, including the unit tests of radar_ros's patches to it (`RADAR_PATCHES.md`: 10, 12,
-//! 14, 17-20; the others are tested through radar_ros, by tests/zenoh_feature.rs), and those of patch 26 (DDS
+//! 14, 17-20; the others are tested through radar_ros, by its Zenoh tests (radar_ros/library/tests/zenoh*.rs)), and those of patch 26 (DDS
 //! services from rmw_cyclonedds_cpp clients), which build here as well. ros2-client is not a workspace member, so this runs `cargo test --lib --features zenoh
 //! zenoh_backend::` on it, offline, in a target directory of its own (`target/ros2-client-zenoh`); its
 //! `Cargo.lock` starts from the workspace's (so the Zenoh crates are those the workspace pins) and its crates

@@ -7,7 +7,7 @@
 //! own trigger (secured, each event begins to check when its listener has matched over secure discovery, a few
 //! hundred ms after the statement), and it ends without an error or warning line. Everything in it talks to
 //! itself: every signal is a match of one participant's own endpoints (RustDDS patch 27). Needs the `security`
-//! feature and `RADAR_CLI` (the `radar` binary built with it): `tests/security_feature.rs` runs it. Domain
+//! feature and the `radar` binary built with it (`cargo test --workspace` builds both, tests/Cargo.toml). Domain
 //! 220; inside `tests/isolated.sh`. After it, `radar view` secured in its own enclave shows the secured
 //! program (issue 35).
 //!
@@ -21,11 +21,25 @@ use radar_ros_examples::test_support::{
     assert_no_error_lines, examples_dir, require_isolation, run_launch_script_with, timeline, times,
 };
 
+/// The `radar` binary of this build (`RADAR_CLI`, or the one beside this test's binary: `cargo test --workspace`
+/// builds it, with the security feature, tests/Cargo.toml).
 fn radar_cli() -> PathBuf {
-    let p = PathBuf::from(std::env::var("RADAR_CLI").expect(
-        "RADAR_CLI names the radar binary built with `--features security` (tests/security_feature.rs sets it)",
-    ));
-    assert!(p.exists(), "{} is missing", p.display());
+    let p = std::env::var_os("RADAR_CLI")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let exe = std::env::current_exe().expect("this test's path");
+            // target/<profile>/deps/<this test> -> target/<profile>/radar
+            exe.parent()
+                .and_then(|d| d.parent())
+                .expect("a target directory")
+                .join("radar")
+        });
+    assert!(
+        p.exists(),
+        "{} is missing: `cargo test --workspace` builds it (or set RADAR_CLI to a `radar` built with \
+         `--features security`)",
+        p.display()
+    );
     p
 }
 

@@ -385,14 +385,26 @@ impl Bench {
                 );
                 continue;
             }
+            // the Zenoh hops start a router and peers of their own: `--only zenoh` runs them in a quick run
+            if key == "zenoh" && self.opts.quick && self.opts.only.is_empty() {
+                eprintln!("radar_bench: zenoh left out of quick (`--only zenoh` runs it)");
+                continue;
+            }
             // secured runs need the `security` feature (OpenSSL); `--only security` says so if it is missing
             if key == "security"
                 && (self.opts.quick || !cfg!(feature = "security"))
                 && self.opts.only.is_empty()
             {
-                eprintln!(
-                    "radar_bench: security left out (it runs with `--features security -- all --only security`)"
-                );
+                if cfg!(feature = "security") {
+                    eprintln!(
+                        "radar_bench: security left out of quick (`--only security` runs it)"
+                    );
+                } else {
+                    eprintln!(
+                        "radar_bench: security left out (built without its `security` feature: \
+                         `cargo run --release -p radar_bench -- all --only security` has it)"
+                    );
+                }
                 continue;
             }
             eprintln!("radar_bench: {key} ...");

@@ -4,7 +4,7 @@
 //! publisher starts a secured response (not a secured one without the grant, not a plain rclpy one); a secured
 //! Fast DDS 2.9 peer interoperates (and one of another CA is kept out); payloads are not readable on the wire; a tampered permissions document, a certificate from another CA and a missing
 //! file stop a program at start, naming what is wrong. Runs only with the `security` feature
-//! (`tests/security_feature.rs` runs it), over real DDS inside tests/isolated.sh (root in its namespace, the
+//! (`cargo test --workspace` runs it: its build has the feature, tests/Cargo.toml), over real DDS inside tests/isolated.sh (root in its namespace, the
 //! rclpy venv as RADAR_VENV, g++ and libfastrtps-dev). Domain 109.
 #![cfg(feature = "security")]
 
@@ -20,8 +20,11 @@ use radar_ros::{
 const DOMAIN: u16 = 109;
 const WAIT: Duration = Duration::from_secs(15);
 
+/// The tests share one domain and the captured log: each holds this while it runs, so one runs at a time.
+static ONE_AT_A_TIME: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
 /// What the process logged at warn level or above (RustDDS's `log` records too), since [`logged`] was last
-/// called. The tests run one at a time (`--test-threads=1`, as tests/security_feature.rs runs them).
+/// called. The tests run one at a time ([`ONE_AT_A_TIME`]).
 static LOG: std::sync::Mutex<Vec<u8>> = std::sync::Mutex::new(Vec::new());
 
 struct Sink;
@@ -68,6 +71,7 @@ fn radar(security: Option<SecurityOptions>) -> radar_ros::Result<Radar> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("pair");
     logged();
     let named = |program: &str| {
@@ -159,6 +163,7 @@ async fn secured_programs_signal_each_other_and_a_plain_one_is_kept_out() {
 /// ("already associated with ... key materials").
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("own");
     logged();
     let robot = radar(Some(SecurityOptions::enforce(&ks, "/robot"))).unwrap();
@@ -223,6 +228,7 @@ async fn one_secured_program_hears_its_own_signals_on_every_subscription() {
 /// not acted on, while the same publisher starts a plain response beside it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn only_a_permitted_publisher_starts_a_secured_response() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("perm");
     // an enclave whose policy (sros2's format, as `radar security create_permission` reads it) lets it do
     // everything but start the gate: it may interrupt it
@@ -394,6 +400,7 @@ fn counting_response(
 /// own program, whose policy only reads the response's slots, cannot write its `start`.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn permissions_generated_from_what_programs_declare_let_only_the_driver_start() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("generated");
     let program = |name: &str, security: Option<SecurityOptions>| {
         enclaved_program(name, &format!("/{name}"), security)
@@ -483,6 +490,7 @@ async fn permissions_generated_from_what_programs_declare_let_only_the_driver_st
 /// may not write its `start`, and the DENY holds.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_policy_generated_from_the_live_graph_lets_only_the_driver_start() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("live");
     let program = |name: &str, security: Option<SecurityOptions>| {
         enclaved_program(name, &format!("/live_{name}"), security)
@@ -656,6 +664,7 @@ fn fastdds_peer() -> PathBuf {
 /// reader). A Fast DDS peer with an enclave of another keystore does not start it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_secured_fast_dds_peer_starts_a_secured_response_and_hears_it_exit() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let peer = fastdds_peer();
     let ks = keystore("fastdds");
     keystore::create_enclave(&ks, "/fastdds", &keystore::Grant::all()).unwrap();
@@ -754,6 +763,7 @@ const DOCK_POLICY: &str = r#"<policy version="0.2.0">
 /// may only read its slots).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
+    let _one = ONE_AT_A_TIME.lock().await;
     only_the_planner_starts_the_dock("policy", DOCK_POLICY).await;
 }
 
@@ -762,6 +772,7 @@ async fn the_documented_policy_lets_only_the_planner_start_the_dock() {
 /// planner still starts it and hears it exit.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_policy_from_before_dropped_still_runs_the_response() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let before = DOCK_POLICY
         .replace("<topic>~/dropped</topic>", "")
         .replace("<topic>/diagnostics</topic>", "");
@@ -934,6 +945,7 @@ async fn start_with_marker(
 /// capture sees the traffic).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn secured_payloads_are_not_readable_on_the_wire() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("wire");
     let marker = "radar-wire-marker-5e1f0c";
     let (frames, with) = start_with_marker(Some(&ks), "wire_dock", marker).await;
@@ -954,6 +966,7 @@ async fn secured_payloads_are_not_readable_on_the_wire() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_bad_enclave_stops_the_program_at_start_naming_what_is_wrong() {
+    let _one = ONE_AT_A_TIME.lock().await;
     let ks = keystore("bad");
     // tampered: the permissions widened after signing
     let dir = ks.join("enclaves/robot");

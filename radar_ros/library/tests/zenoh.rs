@@ -15,8 +15,8 @@
 //! rosidl's hash. Domain 131 (key expressions carry it; Zenoh has no multicast here).
 //!
 //! Needs the rclpy venv (RADAR_VENV, with the eclipse-zenoh wheel; tests/python_env.sh) and the tests' own
-//! network namespace (tests/isolated.sh), where port 7447 is free. Run by tests/zenoh_feature.rs, which builds
-//! radar_ros with the feature.
+//! network namespace (tests/isolated.sh), where port 7447 is free. Run by `cargo test --workspace`, whose build
+//! has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

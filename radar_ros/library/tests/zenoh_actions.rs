@@ -23,7 +23,7 @@
 //!   goal's feedback reached it; the server ends cleanly on SIGINT, its goal ended interrupted.
 //!
 //! No settling sleeps: each wait is on a signal, a state or the peer's line. Domain 148. Needs the venv
-//! (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by tests/zenoh_feature.rs.
+//! (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;
@@ -351,7 +351,7 @@ async fn served_to_a_design_document_client(radar: &Radar) {
     );
 }
 
-/// An example of this target directory (built with `--features zenoh`: tests/zenoh_feature.rs builds it).
+/// An example of this target directory (built with `--features zenoh`: `cargo test --workspace` builds it so).
 fn example(name: &str) -> std::path::PathBuf {
     let exe = std::env::current_exe().unwrap();
     let bin = exe
@@ -362,7 +362,7 @@ fn example(name: &str) -> std::path::PathBuf {
     assert!(
         bin.exists(),
         "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --bin {name}` \
-         in this target directory (tests/zenoh_feature.rs does)",
+         in this target directory (`cargo test --workspace` does)",
         bin.display()
     );
     bin

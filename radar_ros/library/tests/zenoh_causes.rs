@@ -16,7 +16,7 @@
 //!   the statement's, with the 25 bytes of the cause after the GID, and the injected run's, with none.
 //!
 //! No settling sleeps: each wait is on a state the response publishes. Domain 146. Needs the venv
-//! (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by tests/zenoh_feature.rs.
+//! (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

@@ -9,7 +9,7 @@
 //! by those timestamps); the peer's source time is an hour ahead (libfaketime works), radar_ros's is now.
 //!
 //! Domain 136. Needs libfaketime (tests/python_env.sh installs it), the venv and tests/isolated.sh (a router on
-//! port 7447); run by tests/zenoh_feature.rs.
+//! port 7447); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

@@ -9,7 +9,7 @@
 //! control most of them are lost (mutation run).
 //!
 //! Domain 135. Needs the venv (RADAR_VENV, for the router) and the tests' own network namespace
-//! (tests/isolated.sh); run by tests/zenoh_feature.rs.
+//! (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

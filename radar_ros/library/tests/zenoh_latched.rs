@@ -14,8 +14,7 @@
 //!   subscription made after that gets it too, a volatile one made at the same moment does not;
 //! - the tokens radar_ros's side declares carry transient local in their QoS (`:1:,1:,:,:,,`).
 //!
-//! Domain 133. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
-//! tests/zenoh_feature.rs.
+//! Domain 133. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

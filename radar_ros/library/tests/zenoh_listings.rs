@@ -16,7 +16,7 @@
 //! restart's run fails: the program takes TestResponse for gone, and its connections deliver nothing more.
 //!
 //! Needs root, iproute2, util-linux (unshare, nsenter), the venv with eclipse-zenoh (the router), and the
-//! example built in this target directory (tests/zenoh_feature.rs builds it). Domain 142.
+//! example built in this target directory (`cargo test --workspace` builds it). Domain 142.
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;
@@ -39,7 +39,7 @@ fn deliberative() -> PathBuf {
     assert!(
         bin.exists(),
         "{} is missing: build it with `cargo build -p radar_ros_examples --features zenoh --bin \
-         deliberative` in this target directory (tests/zenoh_feature.rs does)",
+         deliberative` in this target directory (`cargo test --workspace` does)",
         bin.display()
     );
     bin

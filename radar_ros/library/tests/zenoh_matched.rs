@@ -16,8 +16,7 @@
 //!   publisher is volatile);
 //! - the peer SIGKILLed, both counts fall back to zero (times printed).
 //!
-//! Domain 137. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
-//! tests/zenoh_feature.rs.
+//! Domain 137. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

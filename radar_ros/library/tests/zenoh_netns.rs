@@ -16,7 +16,7 @@
 //! times are printed.
 //!
 //! Needs root, iproute2, util-linux (unshare, nsenter) and the venv with eclipse-zenoh; runs inside
-//! tests/isolated.sh (run by tests/zenoh_feature.rs). Domain 132.
+//! tests/isolated.sh (run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml)). Domain 132.
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

@@ -30,8 +30,7 @@
 //! the line dock's start slot logs is heard by a second design-document peer on `/rosout`
 //! (`rcl_interfaces/msg/Log`, rosidl's hash), with the node's rcl logger name and level.
 //!
-//! Domain 140. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
-//! tests/zenoh_feature.rs.
+//! Domain 140. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

@@ -9,8 +9,7 @@
 //! which decodes it as the `geometry_msgs/msg/PoseStamped` it is and reads that time from the attachment; the
 //! peer's sample arrives here as a raw body that decodes to what it sent, with its source time.
 //!
-//! Domain 138. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
-//! tests/zenoh_feature.rs.
+//! Domain 138. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

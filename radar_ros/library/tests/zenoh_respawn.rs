@@ -10,7 +10,7 @@
 //! sleeps: each wait is on a connection's link, a departure or the target's own output.
 //!
 //! Domain 147. Needs the venv (RADAR_VENV, for the router) and the tests' own network namespace
-//! (tests/isolated.sh); run by tests/zenoh_feature.rs.
+//! (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

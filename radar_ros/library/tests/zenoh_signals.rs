@@ -11,8 +11,7 @@
 //! (put by hand on the key the design document gives) is not heard, one of this hash is (ros2-client patch
 //! 16); a bad topic or type name is refused, saying so.
 //!
-//! Domain 139. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by
-//! tests/zenoh_feature.rs.
+//! Domain 139. Needs the venv (RADAR_VENV) and the tests' own network namespace (tests/isolated.sh); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

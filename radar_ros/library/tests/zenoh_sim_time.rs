@@ -4,7 +4,7 @@
 //! rmw_zenoh publishes it: a timer event of 10 s triggers at simulated 100, 110 and 120 s while `/clock` runs
 //! 10x faster than the wall clock, starts its period over when the time jumps back to 40 s (a trigger at 50),
 //! and stands still when `/clock` stops. As `tests/sim_time.rs` checks it over DDS with rclpy. Domain 145;
-//! needs the venv (RADAR_VENV) and tests/isolated.sh (a router on port 7447); run by tests/zenoh_feature.rs.
+//! needs the venv (RADAR_VENV) and tests/isolated.sh (a router on port 7447); run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml).
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

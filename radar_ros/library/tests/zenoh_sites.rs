@@ -11,7 +11,7 @@
 //! The times are printed.
 //!
 //! Needs root, iproute2, util-linux and the venv with eclipse-zenoh; runs inside tests/isolated.sh (port 7447
-//! is the tests' namespace's own; run by tests/zenoh_feature.rs). Domain 134.
+//! is the tests' namespace's own; run by `cargo test --workspace`, whose build has the feature (tests/Cargo.toml)). Domain 134.
 #![cfg(feature = "zenoh")]
 
 mod zenoh_util;

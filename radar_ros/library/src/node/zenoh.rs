@@ -30,7 +30,7 @@ use crate::{
 ///
 /// ```no_run
 /// # async fn f() -> radar_ros::Result<()> {
-/// use radar_ros::{msg::Empty, node::zenoh::ZenohSignals};
+/// use radar_ros::{msg::Empty, topics::ZenohSignals};
 /// // the session as rmw_zenoh's: ROS_DOMAIN_ID, ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE, else a peer
 /// // that connects to the router at tcp/localhost:7447
 /// let zenoh = ZenohSignals::open("cloud_planner")?;
