@@ -2,15 +2,19 @@
 // DDS under rclcpp's and rclpy's default rmw), plain or secured, built with g++ against Debian's Fast DDS 2.9
 // (libfastrtps-dev, built with DDS Security) by the coordinator when a scenario needs it.
 //
-//   fastdds_hop sink   --topic T [--enclave DIR]   takes each std_msgs/msg/Header from a WaitSet's thread
-//                                                  (as an rclcpp executor waits) and records its age
-//   fastdds_hop source --topic T [--enclave DIR]   publishes stamped Headers
+//   fastdds_hop sink   --topic T [--enclave DIR] [--transports udp|default]
+//                      takes each std_msgs/msg/Header from a WaitSet's thread (as an rclcpp executor waits) and
+//                      records its age
+//   fastdds_hop source --topic T [--enclave DIR] [--transports udp|default]
+//                      publishes stamped Headers
 //
 // T is the DDS topic name ("rt/bench/fastdds"). `--enclave DIR`: the participant is secured with the builtin
 // PKI-DH, Access-Permissions and AES-GCM-GMAC plugins, configured from an enclave of an SROS2 keystore as
 // rmw_fastrtps configures them (so the governance is the keystore's: the one radar_ros's secured rows use).
-// Both roles use UDPv4 alone (Fast DDS's shared-memory transport is off), as RustDDS does, and the QoS of a
-// RADAR signal (reliable, volatile, keep-last 10: rclpy's default).
+// `--transports udp` (the default): both roles use UDPv4 alone (Fast DDS's shared-memory transport is off), as
+// RustDDS does. `--transports default`: Fast DDS's builtin transports, as an rclcpp or rclpy node runs them
+// (shared memory between processes of one host, UDPv4 beside it). The QoS of a RADAR signal (reliable,
+// volatile, keep-last 10: rclpy's default).
 //
 // Speaks radar_bench's child protocol (bench/src/proto.rs): prints `ready` once its endpoints exist, then
 // answers one line per command on stdin: `wait` (source: a subscriber has matched), `run N PERIOD_US`
@@ -116,32 +120,37 @@ class HeaderType : public TopicDataType {
 };
 
 static int usage() {
-  std::fprintf(stderr, "usage: fastdds_hop sink|source --topic T [--enclave DIR]\n");
+  std::fprintf(stderr, "usage: fastdds_hop sink|source --topic T [--enclave DIR] [--transports udp|default]\n");
   return 2;
 }
 
 int main(int argc, char** argv) {
   if (argc < 4) return usage();
   const std::string role = argv[1];
-  std::string topic_name, enclave;
+  std::string topic_name, enclave, transports = "udp";
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string k = argv[i];
     if (k == "--topic") {
       topic_name = argv[i + 1];
     } else if (k == "--enclave") {
       enclave = argv[i + 1];
+    } else if (k == "--transports") {
+      transports = argv[i + 1];
     } else {
       return usage();
     }
   }
   if ((role != "sink" && role != "source") || topic_name.empty()) return usage();
+  if (transports != "udp" && transports != "default") return usage();
   const char* domain_env = std::getenv("ROS_DOMAIN_ID");
   const int domain = domain_env ? std::atoi(domain_env) : 0;
 
   DomainParticipantQos pqos = PARTICIPANT_QOS_DEFAULT;
   pqos.name("fastdds_hop_" + role);
-  pqos.transport().use_builtin_transports = false;
-  pqos.transport().user_transports.push_back(std::make_shared<UDPv4TransportDescriptor>());
+  if (transports == "udp") {
+    pqos.transport().use_builtin_transports = false;
+    pqos.transport().user_transports.push_back(std::make_shared<UDPv4TransportDescriptor>());
+  }
   if (!enclave.empty()) {
     add_security_properties(pqos, enclave);
   }

@@ -45,6 +45,7 @@ impl Bench {
         let (n, p) = (self.plan.latency_n + self.plan.warmup, self.plan.period_us);
         let run = format!("run {n} {p}");
         self.udp_latency(&run).await?;
+        self.futex_latency(&run).await?;
         self.raw_latency(&run, false).await?;
         self.raw_latency(&run, true).await?;
         // rclpy, one hop
@@ -55,6 +56,15 @@ impl Bench {
         self.push_baseline(
             "fastdds_1hop",
             "Fast DDS 2.9 (C++, UDPv4), 1 hop (writer -> WaitSet thread)",
+            fd,
+        )?;
+        // and as rclcpp and rclpy nodes run it by default: its builtin transports, shared memory on one host
+        let fd = self
+            .fastdds_1hop_with(&run, "rt/bench/lat_fastdds_default", None, "default")
+            .await;
+        self.push_baseline(
+            "fastdds_1hop_default",
+            "Fast DDS 2.9 (C++, default transports: shared memory on one host), 1 hop (writer -> WaitSet thread)",
             fd,
         )?;
         for host in [
@@ -131,8 +141,20 @@ impl Bench {
         topic: &str,
         enclave: Option<&Path>,
     ) -> Result<Value> {
+        self.fastdds_1hop_with(run, topic, enclave, "udp").await
+    }
+
+    /// [`Self::fastdds_1hop`] over Fast DDS's `transports`: `udp` (UDPv4 alone, as RustDDS) or `default` (its
+    /// builtin ones: shared memory between processes of one host).
+    async fn fastdds_1hop_with(
+        &mut self,
+        run: &str,
+        topic: &str,
+        enclave: Option<&Path>,
+        transports: &str,
+    ) -> Result<Value> {
         let d = self.domain();
-        let mut args = vec!["--topic", topic];
+        let mut args = vec!["--topic", topic, "--transports", transports];
         let enclave = enclave.map(|e| e.to_string_lossy().into_owned());
         if let Some(e) = &enclave {
             args.extend(["--enclave", e.as_str()]);
@@ -264,6 +286,25 @@ impl Bench {
         self.push_latency(
             "udp_floor",
             "UDP loopback, 1 datagram (the wire's floor, no DDS)",
+            &r,
+            "",
+        )?;
+        src.quit().await;
+        sink.quit().await;
+        Ok(())
+    }
+
+    /// The floor of a same-host signal: a futex wake between two processes sharing a page of memory
+    /// (`futex-sink` / `futex-source`), paced like the rest.
+    async fn futex_latency(&mut self, run: &str) -> Result<()> {
+        let d = self.domain();
+        let shm = format!("radar_bench_futex_{}_{d}", std::process::id());
+        let mut sink = self.child(d, &["futex-sink", "--shm", &shm]).await?;
+        let mut src = self.child(d, &["futex-source", "--shm", &shm]).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        self.push_latency(
+            "futex_floor",
+            "a futex wake between two processes (shared memory, no DDS: a same-host signal's floor)",
             &r,
             "",
         )?;

@@ -4,6 +4,7 @@
 //! receiving code begins to run. The roles by kind: [`raw`] (the baseline), [`signals`] (latency), [`setup`]
 //! (connecting), [`scale`], [`view`] (the system `radar view` watches).
 
+mod futex;
 mod raw;
 mod scale;
 mod setup;
@@ -57,6 +58,8 @@ pub async fn run(role: &str, args: &[String]) -> Result<()> {
         "raw-forward" => raw::raw_forward(&req("--from")?, &req("--to")?).await,
         "udp-sink" => raw::udp_sink(num("--port")? as u16).await,
         "udp-source" => raw::udp_source(num("--port")? as u16).await,
+        "futex-sink" => futex::futex_sink(&req("--shm")?).await,
+        "futex-source" => futex::futex_source(&req("--shm")?).await,
         "events" => {
             signals::events(
                 &req("--names")?,
