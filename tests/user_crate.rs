@@ -191,14 +191,7 @@ async fn a_crate_outside_the_workspace_builds_runs_and_acts_on_a_start_from_rclp
     let keystore = dir.join("keystore");
     let enclave = keystore.join("enclaves");
     std::fs::create_dir_all(&enclave).unwrap();
-    for f in [
-        "identity_ca.cert.pem",
-        "cert.pem",
-        "key.pem",
-        "permissions_ca.cert.pem",
-        "governance.p7s",
-        "permissions.p7s",
-    ] {
+    for f in radar_ros::security::ENCLAVE_FILES {
         std::fs::write(enclave.join(f), "").unwrap();
     }
     for (env, want) in [

@@ -280,18 +280,15 @@ impl Bench {
         // a port of its own per run: the first domain's port range is far from DDS's (7400 + 250 * domain)
         let d = self.domain();
         let port = (40_000 + u32::from(d) % 20_000).to_string();
-        let mut sink = self.child(d, &["udp-sink", "--port", &port]).await?;
-        let mut src = self.child(d, &["udp-source", "--port", &port]).await?;
-        let r = self.paced(&mut src, run, &mut sink).await?;
-        self.push_latency(
+        self.floor_row(
+            run,
+            d,
+            ["udp-sink", "udp-source"],
+            ["--port", &port],
             "udp_floor",
             "UDP loopback, 1 datagram (the wire's floor, no DDS)",
-            &r,
-            "",
-        )?;
-        src.quit().await;
-        sink.quit().await;
-        Ok(())
+        )
+        .await
     }
 
     /// The floor of a same-host signal: a futex wake between two processes sharing a page of memory
@@ -299,15 +296,31 @@ impl Bench {
     async fn futex_latency(&mut self, run: &str) -> Result<()> {
         let d = self.domain();
         let shm = format!("radar_bench_futex_{}_{d}", std::process::id());
-        let mut sink = self.child(d, &["futex-sink", "--shm", &shm]).await?;
-        let mut src = self.child(d, &["futex-source", "--shm", &shm]).await?;
-        let r = self.paced(&mut src, run, &mut sink).await?;
-        self.push_latency(
+        self.floor_row(
+            run,
+            d,
+            ["futex-sink", "futex-source"],
+            ["--shm", &shm],
             "futex_floor",
             "a futex wake between two processes (shared memory, no DDS: a same-host signal's floor)",
-            &r,
-            "",
-        )?;
+        )
+        .await
+    }
+
+    /// A floor row: the roles `sink` then `source` (both given `args`) on domain `d`, paced by `run`.
+    async fn floor_row(
+        &mut self,
+        run: &str,
+        d: u16,
+        [sink, source]: [&str; 2],
+        args: [&str; 2],
+        key: &str,
+        label: &str,
+    ) -> Result<()> {
+        let mut sink = self.child(d, &[sink, args[0], args[1]]).await?;
+        let mut src = self.child(d, &[source, args[0], args[1]]).await?;
+        let r = self.paced(&mut src, run, &mut sink).await?;
+        self.push_latency(key, label, &r, "")?;
         src.quit().await;
         sink.quit().await;
         Ok(())

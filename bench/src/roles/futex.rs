@@ -10,10 +10,8 @@ use std::{
     time::Duration,
 };
 
+use super::{now_ns, paced, serve, serve_reports, word, Record};
 use anyhow::{bail, Context as _, Result};
-use serde_json::json;
-
-use super::{now_ns, paced, serve, word, Record};
 
 /// The shared page: the futex word (how many signals were sent), and the last signal's number and stamp.
 #[repr(C)]
@@ -112,16 +110,7 @@ pub(super) async fn futex_sink(name: &str) -> Result<()> {
             r.push(seq, now.saturating_sub(t0));
         }
     });
-    serve(|w| {
-        let rec = rec.clone();
-        async move {
-            match w[0].as_str() {
-                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
-                c => bail!("unknown command {c}"),
-            }
-        }
-    })
-    .await;
+    serve_reports(rec).await;
     let _ = std::fs::remove_file(&file);
     Ok(())
 }

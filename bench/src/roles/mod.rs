@@ -180,6 +180,21 @@ fn probe_report() -> String {
     json!({ "stamps": stamps }).to_string()
 }
 
+/// Serves `report WARMUP` from `rec` until the coordinator says `quit` (the sinks whose samples a thread of
+/// their own records).
+async fn serve_reports(rec: Record) {
+    serve(|w| {
+        let rec = rec.clone();
+        async move {
+            match w[0].as_str() {
+                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
+                c => bail!("unknown command {c}"),
+            }
+        }
+    })
+    .await;
+}
+
 /// Latencies recorded by a receiver: `(sequence, nanoseconds, when it was recorded)`.
 #[derive(Clone, Default)]
 struct Record(Arc<Mutex<Vec<(u64, u64, u64)>>>);

@@ -105,16 +105,7 @@ pub(super) async fn udp_sink(port: u16) -> Result<()> {
             }
         }
     });
-    serve(|w| {
-        let rec = rec.clone();
-        async move {
-            match w[0].as_str() {
-                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
-                c => bail!("unknown command {c}"),
-            }
-        }
-    })
-    .await;
+    serve_reports(rec).await;
     Ok(())
 }
 

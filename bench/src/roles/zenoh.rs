@@ -53,16 +53,7 @@ pub(super) async fn zenoh_sink(name: &str) -> Result<()> {
             r.push(unstamp(&h).0, age);
         }
     });
-    serve(|w| {
-        let rec = rec.clone();
-        async move {
-            match w[0].as_str() {
-                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
-                c => bail!("unknown command {c}"),
-            }
-        }
-    })
-    .await;
+    serve_reports(rec).await;
     Ok(())
 }
 
@@ -138,16 +129,7 @@ pub(super) async fn zenoh_floor_sink(name: &str) -> Result<()> {
         })
         .wait()
         .map_err(|e| anyhow!("a Zenoh subscriber: {e}"))?;
-    serve(|w| {
-        let rec = rec.clone();
-        async move {
-            match w[0].as_str() {
-                "report" => Ok(rec.report(word(&w, 1)?, json!({}))),
-                c => bail!("unknown command {c}"),
-            }
-        }
-    })
-    .await;
+    serve_reports(rec).await;
     Ok(())
 }
 
