@@ -32,8 +32,8 @@ fn rustdds_cargo(args: &[&str]) -> Output {
 
 #[test]
 fn rustdds_security_patches_pass_their_tests() {
-    // the workspace's test build has the feature on (a compile error here if tests/Cargo.toml loses it: the
-    // secured tests above would build to nothing)
+    // the workspace's test build has the feature on (a compile error here if tests/Cargo.toml loses it: secure.rs
+    // and count_up_secured.rs would build to nothing)
     let _: fn(&std::path::Path) -> _ = radar_ros::security::keystore::create_keystore;
     let rustdds = repo().join("third_party/rustdds/Cargo.toml");
     let rustdds = rustdds.to_str().unwrap();

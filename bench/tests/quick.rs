@@ -102,6 +102,9 @@ fn quick_mode_measures_every_scenario_and_writes_table_json_and_plots() {
             p50(2)
         );
     }
+    // the futex floor measures every signal, those sent in a burst too (its ring; a one-slot sink lost ~1%)
+    assert_eq!(r["latency"][1]["key"], "futex_floor");
+    assert_eq!(r["latency"][1]["missing"], 0, "{}", r["latency"][1]);
     // the paced latency runs send 300 signals each; nearly all must have been measured
     for l in &r["latency"].as_array().unwrap()[..15] {
         assert!(l["summary"]["n"].as_u64().unwrap() >= 290, "{l}");
