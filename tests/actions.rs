@@ -1,7 +1,7 @@
 //! ROS 2 actions and RADAR responses, both ways, over real DDS: an action server as a response
 //! (`Radar::action_response`) and a response as an action server (`Radar::serve_as_action`), against each other
 //! and against real rclpy (`rclpy.action`, `test_msgs/action/Fibonacci` from the ros-jazzy-test-msgs wheel;
-//! `tests/python/actions.py`). Rules A1-A7 and S1-S7 are in `radar_ros::action`. Domains 63-67, 16-17.
+//! `tests/python/actions.py`). Rules A1-A7 and S1-S7 are in `radar_ros::action`. Domains 63-67, 16-17, 149.
 
 use std::time::Duration;
 
@@ -682,4 +682,108 @@ async fn the_go_to_pose_example_is_started_by_a_one_shot_pose_stamped() {
         "{stdout}"
     );
     assert_eq!(stdout.matches("arrived (completed)").count(), 2, "{stdout}");
+}
+
+/// A goal whose answer is lost on the way (as rmw_fastrtps drops a reply when the server's reply writer has not
+/// matched the client's reply reader within ~100 ms: discovery runs on each side at its own pace, and under load
+/// the server may hear the goal before it knows our reader) still starts: the server's status list, a transient
+/// local topic that reaches us whenever its writer matches, names the goal accepted. The server here is a raw
+/// ros2-client action server that never sends the goal's answer, only the status list and the result. Before,
+/// the response waited for the answer forever (`goal_until` under load: the bumper's cancel then waited its 10 s,
+/// a failure seen once in CI).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_goal_whose_answer_is_lost_starts_when_the_status_list_shows_it_accepted() {
+    use ros2_client::{
+        action::{GetResultResponse, GoalStatusEnum},
+        action_msgs::{GoalInfo, GoalStatus, GoalStatusArray},
+        dds::ServiceMapping,
+        ActionTypeName, Name, NodeName, NodeOptions,
+    };
+    use serde::{Deserialize, Serialize};
+    #[derive(Clone, Serialize, Deserialize)]
+    struct G {
+        order: i32,
+    }
+    #[derive(Clone, Serialize, Deserialize)]
+    struct R {
+        sequence: Vec<i32>,
+    }
+    impl ros2_client::Message for G {}
+    impl ros2_client::Message for R {}
+
+    let (server_side, client_side) = (radar(149), radar(149));
+    let mut node = server_side
+        .dds_context()
+        .expect("a DDS Radar")
+        .new_node(
+            NodeName::new("/", "answer_lost_server").unwrap(),
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
+        )
+        .unwrap();
+    let (signal, state) = (radar_ros::qos::signal_qos(), radar_ros::qos::state_qos());
+    let mut server = node
+        .create_action_server::<G, R, R>(
+            ServiceMapping::Enhanced,
+            &Name::parse("/answer_lost").unwrap(),
+            &ActionTypeName::new("test_msgs", "Fibonacci"),
+            ros2_client::action::ActionServerQosPolicies {
+                goal_service: signal.clone(),
+                result_service: signal.clone(),
+                cancel_service: signal.clone(),
+                feedback_publisher: signal,
+                status_publisher: state,
+            },
+        )
+        .unwrap();
+    let fib = client_side
+        .action_response::<Fibonacci>("/answer_lost")
+        .unwrap();
+    let probe = Probe::connect(&client_side, "/answer_lost").await;
+    probe.start.publish(goal(4)).unwrap();
+
+    let (_, request) = tokio::time::timeout(T, server.goal_server().async_receive_request())
+        .await
+        .expect("the goal reaches the server")
+        .unwrap();
+    assert_eq!(request.goal.order, 4);
+    // no answer to the goal; the goal in the status list, as a server lists a goal it accepted
+    let listed = |status| GoalStatusArray {
+        status_list: vec![GoalStatus {
+            goal_info: GoalInfo {
+                goal_id: request.goal_id,
+                stamp: ros2_client::builtin_interfaces::Time::ZERO,
+            },
+            status,
+        }],
+    };
+    server
+        .send_goal_statuses(listed(GoalStatusEnum::Executing))
+        .unwrap();
+    let (result_req, asked) =
+        tokio::time::timeout(T, server.result_server().async_receive_request())
+            .await
+            .expect("the client asks for the result once the goal runs")
+            .unwrap();
+    assert_eq!(asked.goal_id, request.goal_id);
+    server
+        .send_goal_statuses(listed(GoalStatusEnum::Succeeded))
+        .unwrap();
+    server
+        .send_result(
+            result_req,
+            GetResultResponse {
+                status: GoalStatusEnum::Succeeded,
+                result: R {
+                    sequence: sequence(4),
+                },
+            },
+        )
+        .unwrap();
+    assert_eq!(
+        probe.signals(2, T).await,
+        vec![Seen::Started(goal(4)), Seen::Exited(result(4))]
+    );
+    drop(fib);
 }

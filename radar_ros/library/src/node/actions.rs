@@ -121,15 +121,40 @@ where
         }
     }
 
-    /// Whether the server accepted the goal `call` sent.
-    pub(crate) async fn goal_answer(&self, call: &Call<bool>) -> Result<bool, Text> {
+    /// Whether the server accepted the goal `call` sent (goal `goal`).
+    ///
+    /// Over DDS the answer is the reply, or the goal in the server's status list, whichever comes first: a
+    /// server answers as soon as it has the goal, and if its reply writer has not yet matched our reply reader
+    /// (discovery runs on each side at its own pace; rmw_fastrtps waits ~100 ms for the match, then drops the
+    /// reply) the answer is lost and never sent again, while the status list (transient local) reaches us
+    /// whenever its writer matches. A goal in the list was accepted; a rejected goal is never in it.
+    pub(crate) async fn goal_answer(&self, call: &Call<bool>, goal: GoalId) -> Result<bool, Text> {
         match (self, call) {
-            (ActionClient::Dds(c), Call::Dds(req)) => c
-                .goal_client()
-                .async_receive_response(*req)
-                .await
-                .map(|r| r.accepted)
-                .map_err(|e| Text(format!("{e:?}"))),
+            (ActionClient::Dds(c), Call::Dds(req)) => {
+                use futures::FutureExt;
+                let reply = c.goal_client().async_receive_response(*req).fuse();
+                let listed = async {
+                    let statuses = c.status_stream(goal);
+                    futures::pin_mut!(statuses);
+                    while let Some(s) = statuses.next().await {
+                        match s {
+                            Ok(s) if s.status != GoalStatusEnum::Unknown => return s.status,
+                            _ => {}
+                        }
+                    }
+                    // the stream ended (the client is going away): the reply is all there is
+                    std::future::pending().await
+                }
+                .fuse();
+                futures::pin_mut!(reply, listed);
+                futures::select_biased! {
+                    r = reply => r.map(|r| r.accepted).map_err(|e| Text(format!("{e:?}"))),
+                    status = listed => {
+                        tracing::debug!(?status, "no answer to the goal came; the server's status list has it");
+                        Ok(true)
+                    }
+                }
+            }
             #[cfg(feature = "zenoh")]
             (_, Call::Zenoh { answer, .. }) => answer.clone().await,
             _ => Err(Text("a call of another transport".into())),

@@ -267,7 +267,7 @@ impl<A: Action> ActionProxy<A> {
                 Cancel::Now => Cancel::Now,
                 // rule A5: the answer is still to come; a canceled goal must not start running afterwards
                 Cancel::OnceAccepted => {
-                    let accepted = match client.goal_answer(&req).await {
+                    let accepted = match client.goal_answer(&req, goal_id).await {
                         Ok(accepted) => accepted,
                         Err(e) => {
                             tracing::warn!(action = %self.action, error = ?e, "no answer to the goal");
@@ -336,7 +336,7 @@ impl<A: Action> Response for ActionProxy<A> {
             g.rules.sent(); // rule A1
         }
         let answer = futures::select_biased! {
-            r = client.goal_answer(&req).fuse() =>
+            r = client.goal_answer(&req, goal_id).fuse() =>
                 r.map_err(|e| self.failed(format_args!("the goal's answer did not come: {e}")))?,
             gone = self.server_gone(server).fuse() => {
                 let _ = self.goal.lock().unwrap().rules.server_left(); // rule A7

@@ -12,7 +12,8 @@
 //!
 //! An action server as a response (`A1`-`A7`, decided by [`radar_semantics::goal::GoalMachine`], one per
 //! run, where the rules are stated in full): `start(goal)` sends the goal once the server is matched both ways
-//! (A1); `started` means the server accepted it (A2); a rejected goal fails the run (A3); `interrupt` cancels
+//! (A1); `started` means the server accepted it (A2: its answer says so, or, when the answer was lost on the
+//! way, the server's status list names the goal); a rejected goal fails the run (A3); `interrupt` cancels
 //! the goal, at once or as soon as it is accepted (A4, A5); any other end of the run cancels a goal that may
 //! still run (A6); the goal's end, or the server leaving, ends the run (A7).
 //!
