@@ -6,20 +6,40 @@
 #
 #   tests/python_env.sh            # prints the venv's path; builds it first if missing or out of date
 #
-# Idempotent and cached: the venv is rebuilt only when this script or msgs/radar_msgs changes. The location
-# is $RADAR_VENV, default target/ros2-venv. Needs cmake and a C++ compiler (installed with apt if missing,
-# when running as root) and PyPI. Everything it prints goes to stderr except the venv's path.
+# Idempotent and cached: the venv is rebuilt only when this script or msgs/ changes. The location is
+# $RADAR_VENV if set; by default a directory outside the checkout named by what the venv is built from,
+# ${RADAR_CACHE:-~/.cache/radar_ros}/ros2-venv-<hash of this script and msgs/>, linked as target/ros2-venv, so a
+# fresh clone of the same sources (CI's) finds it built (the three newest are kept, ~1.1 GB each). Needs cmake
+# and a C++ compiler (installed with apt if missing, when running as root) and PyPI. Everything it prints goes to
+# stderr except the venv's path.
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-VENV=${RADAR_VENV:-$ROOT/target/ros2-venv}
 PY=${PYTHON:-python3}
 
-# what the venv is built from: this script and the interface package
+# what the venv is built from: this script and the interface packages
 KEY=$(cat "$0" $(find "$ROOT/msgs" -type f | sort) | sha256sum | cut -c1-16)
+if [ -n "${RADAR_VENV:-}" ]; then
+    VENV=$RADAR_VENV
+    LINK=
+else
+    CACHE=${RADAR_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/radar_ros}
+    VENV=$CACHE/ros2-venv-$KEY
+    LINK=$ROOT/target/ros2-venv
+fi
 STAMP="$VENV/.radar-env-$KEY"
+# target/ros2-venv names the cached venv (where the tests and the bench look when RADAR_VENV is unset)
+link() {
+    [ -n "$LINK" ] || return 0
+    if [ "$(readlink "$LINK" 2>/dev/null)" != "$VENV" ]; then
+        mkdir -p "$(dirname "$LINK")"
+        rm -rf "$LINK"
+        ln -s "$VENV" "$LINK"
+    fi
+}
 if [ -f "$STAMP" ]; then
-    echo "$VENV"
+    link
+    echo "${LINK:-$VENV}"
     exit 0
 fi
 
@@ -153,4 +173,12 @@ print("python_env: Kilted rclpy ok, rmw", get_rmw_implementation_identifier())
 EOF2
 
 touch "$STAMP"
-echo "$VENV"
+link
+if [ -n "$LINK" ]; then
+    # older sources' venvs: the three newest stay (another checkout may be at another commit)
+    ls -1dt "$CACHE"/ros2-venv-* 2>/dev/null | tail -n +4 | while read -r old; do
+        log "removing an older cached venv: $old"
+        rm -rf "$old"
+    done
+fi
+echo "${LINK:-$VENV}"
