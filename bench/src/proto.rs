@@ -315,9 +315,23 @@ mod tests {
                 .into_values()
                 .fold(Sched::default(), |a, b| a + b)
         };
+        // this thread's CPU clock (the kernel's per-thread accounting, not schedstat) says when it has worked
+        // 30 ms: a wall-clock loop works less on a loaded machine (other tests beside it)
+        let thread_cpu = || {
+            let mut ts = libc::timespec {
+                tv_sec: 0,
+                tv_nsec: 0,
+            };
+            // SAFETY: `ts` is a valid timespec to write into.
+            assert_eq!(
+                unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) },
+                0
+            );
+            Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+        };
         let before = sched(pid);
-        let t = std::time::Instant::now();
-        while t.elapsed() < Duration::from_millis(30) {}
+        let worked = thread_cpu();
+        while thread_cpu() - worked < Duration::from_millis(30) {}
         // this thread sleeps and is woken ten times: ten more times on a core at least
         for _ in 0..10 {
             std::thread::sleep(Duration::from_millis(1));
