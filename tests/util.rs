@@ -46,13 +46,14 @@ pub fn require_isolation() {
     assert!(
         ok,
         "DDS tests send multicast discovery traffic: run them inside a private network namespace with \
-         `tests/isolated.sh cargo test --workspace` (as README.md and .ci/run do), or set \
+         `tests/all.sh` (as README.md and .ci/run do) or `tests/isolated.sh cargo test --workspace`, or set \
          RADAR_ALLOW_NETWORK=1 to use the host network"
     );
 }
 
 /// UDP datagrams sent in this network namespace so far (`/proc/self/net/snmp`: every process of the test
-/// namespace counts, so a test that reads it runs alone in its binary).
+/// namespace counts, so a test that reads it runs alone in its binary, and alone under nextest:
+/// .config/nextest.toml).
 pub fn datagrams_sent() -> u64 {
     let snmp = std::fs::read_to_string("/proc/self/net/snmp").expect("/proc/self/net/snmp");
     let mut udp = snmp.lines().filter(|l| l.starts_with("Udp:"));
