@@ -15,6 +15,10 @@
 # cannot be built the other tests still run and the interop tests fail, saying why.
 set -euo pipefail
 if [ "${RADAR_ISOLATED:-}" = 1 ]; then exec "$@"; fi
+# The tests build crates of their own too (the vendored RustDDS and ros2-client with their unit tests, the Python
+# package, colcon's packages, a user's crate): line tables only, as the workspace's own dev profile has it (a
+# panic still names file:line), not full debug info, which doubles what they write to disk.
+export CARGO_PROFILE_DEV_DEBUG="${CARGO_PROFILE_DEV_DEBUG:-line-tables-only}"
 here=$(cd "$(dirname "$0")" && pwd)
 if [ "${1:-}" = cargo ]; then
   # the vendored ros2-client's lock starts from the workspace's (its Zenoh crates pinned as the workspace's)
