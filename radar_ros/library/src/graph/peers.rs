@@ -60,6 +60,14 @@ impl Table {
                 e.observing.remove(g);
                 if e.peers.remove(g) {
                     e.last_loss = Some(cause.clone());
+                    if e.peers.is_empty() {
+                        let p = super::participant_of(*g);
+                        e.emptied_by.retain(|q| *q != p);
+                        if e.emptied_by.len() == super::EMPTIED_KEPT {
+                            e.emptied_by.pop_front();
+                        }
+                        e.emptied_by.push_back(p);
+                    }
                     touched.insert((side, local));
                 }
             }
@@ -177,6 +185,58 @@ mod tests {
         });
         assert_eq!((*c1.borrow(), *c2.borrow()), (1, 0));
         assert_eq!(g.table.lock().unwrap().mentions.len(), 1, "y only");
+    }
+
+    /// C5: a component that quits cleanly and is started again in a new process: the count of the writer that
+    /// reaches its slot goes to zero and back, and the graph says which process's going made it zero (the
+    /// look at the processes does not tell that departure again), and only that one.
+    #[test]
+    fn an_endpoint_remembers_which_processes_left_it_without_peers() {
+        let g = Graph::default();
+        let w = guid(1, 2);
+        let c = g.watch_writer(w, TOPIC, TYPE);
+        // the old process 2 and a second reader of process 3; 3 goes first (not the last one), then 2
+        let (old, other, new) = (guid(2, 1), guid(3, 1), guid(4, 1));
+        matched(&g, w, old);
+        matched(&g, w, other);
+        g.apply(Ev::ReaderLost {
+            guid: other,
+            reason: LostReason::Disposed,
+        });
+        assert!(!g.emptied_by(w, other), "1 peer was left when 3 went");
+        g.apply(Ev::ReaderLost {
+            guid: old,
+            reason: LostReason::Disposed,
+        });
+        assert_eq!(*c.borrow(), 0);
+        assert!(g.emptied_by(w, old), "2's going left it without peers");
+        assert!(
+            g.emptied_by(w, guid(2, 7)),
+            "asked by any GUID of process 2"
+        );
+        // the new process comes: nothing of it is remembered
+        matched(&g, w, new);
+        assert!(!g.emptied_by(w, new));
+        assert!(g.emptied_by(w, old), "still known");
+        // only the last few are kept
+        for p in 10..20 {
+            matched(&g, w, guid(p, 1));
+            g.apply(Ev::ReaderLost {
+                guid: new,
+                reason: LostReason::Disposed,
+            });
+            g.apply(Ev::ReaderLost {
+                guid: guid(p, 1),
+                reason: LostReason::Disposed,
+            });
+        }
+        assert!(g.emptied_by(w, guid(19, 1)));
+        assert!(
+            !g.emptied_by(w, old),
+            "forgotten after {} more",
+            super::super::EMPTIED_KEPT
+        );
+        assert!(g.table.lock().unwrap().writers[&w].emptied_by.len() <= super::super::EMPTIED_KEPT);
     }
 
     #[test]

@@ -108,6 +108,11 @@ impl<M: serde::Serialize + Send + Sync + 'static> SignalPublisher<M> {
         self.publisher.matching().matched.clone()
     }
 
+    /// Whether the last subscriber this publisher had was of process `participant` when it went (lately).
+    pub(crate) fn emptied_by(&self, participant: crate::node::transport::EndpointId) -> bool {
+        self.publisher.matching().emptied_by(participant)
+    }
+
     /// The last subscriber left: who, and why (as far as DDS told).
     pub(crate) fn departure(&self) -> crate::departure::Departure {
         let cause = self
@@ -186,6 +191,11 @@ impl<M: Send + Sync + 'static> SignalSubscription<M> {
     /// The live count of matched publishers.
     pub(crate) fn matched_watch(&self) -> tokio::sync::watch::Receiver<usize> {
         self.subscription.matching().matched.clone()
+    }
+
+    /// Whether the last publisher this subscription had was of process `participant` when it went (lately).
+    pub(crate) fn emptied_by(&self, participant: crate::node::transport::EndpointId) -> bool {
+        self.subscription.matching().emptied_by(participant)
     }
 
     /// The last publisher left: who, and why (as far as DDS told).

@@ -79,6 +79,16 @@ impl Matching {
         Ok(())
     }
 
+    /// Whether this endpoint was left without peers when an endpoint of process `participant` went (lately):
+    /// its count has told that departure. Over Zenoh a token's deletion does not say whose it was: false.
+    pub(crate) fn emptied_by(&self, participant: ros2_client::dds::rustdds::GUID) -> bool {
+        match &self.source {
+            Source::Dds { guid, graph } => graph.emptied_by(*guid, participant),
+            #[cfg(feature = "zenoh")]
+            Source::Zenoh { .. } => false,
+        }
+    }
+
     /// Why the last peer that went went, if one did (over Zenoh a token's deletion does not say: none).
     pub(crate) fn last_loss(&self) -> Option<crate::departure::LossCause> {
         match &self.source {

@@ -14,6 +14,13 @@
 //! laptop running the same launch file) changes nothing for the connections: it is reported once, naming both
 //! processes, and the response signals of the second carry no cause to this manager's table (they close no
 //! `until` window of its statements). Components without a `state` topic (rclpy ones) keep the counts alone.
+//!
+//! A replacement is told only to the ends whose count did not tell it: a component that quits cleanly and is
+//! started again may be seen by one look as gone off the graph and replaced, while its ends' counts went to
+//! zero and back in between (each told its connections then). Telling those again would re-arm a re-arming
+//! connection a second time, and what was emitted between the two re-arms would be lost (C1: a failed CI run,
+//! `tests/failure.rs`). The graph remembers whose going left an endpoint without peers
+//! (`Graph::emptied_by`); over Zenoh it cannot say, and such an end is told twice.
 
 use std::{
     collections::HashMap,
@@ -116,9 +123,10 @@ impl Manager {
                     )
                 }
                 Seen::Replaced { old, new } => {
-                    let (old, new) = (
+                    let (old, new, old_id) = (
                         m.graph().describe_process(old),
                         m.graph().describe_process(new),
+                        old,
                     );
                     tracing::warn!(
                         component = %component,
@@ -126,6 +134,12 @@ impl Manager {
                          connections take it as gone"
                     );
                     for end in &ends {
+                        // an end whose count reached zero as the old process went has told its connections
+                        // (and told them of the new one's return): a second departure would re-arm a
+                        // re-arming connection once more, dropping what was emitted in between (C1)
+                        if m.counted_departure_of(end, old_id) {
+                            continue;
+                        }
                         let d = match end {
                             End::Source(k) => {
                                 Departure::of_publisher(&k.topic, LossCause::Replaced)
@@ -142,5 +156,19 @@ impl Manager {
             }
         }
         true
+    }
+
+    /// Whether `end`'s match count reached zero as process `old` went (so its connections were told then).
+    fn counted_departure_of(&self, end: &End, old: GUID) -> bool {
+        let st = self.state();
+        match end {
+            End::Source(k) => st.relays.get(k).is_some_and(|r| r.sub.emptied_by(old)),
+            End::Target(Target::Slot(k)) => st
+                .outlets
+                .get(k)
+                .and_then(|o| o.dds.as_ref())
+                .is_some_and(|p| p.emptied_by(old)),
+            End::Target(Target::Anon(_)) => false,
+        }
     }
 }

@@ -18,6 +18,8 @@ use crate::{
 /// A source the table reads: the task that feeds its reader's signals to the table (stopped on drop), and
 /// its listening to this process's emitters of the source (ends on drop).
 pub(super) struct Relay {
+    /// Its reader (also held by the task): whose departure its count has told (`instances.rs`).
+    pub(super) sub: Arc<RawSubscription>,
     _stop: tokio::sync::oneshot::Sender<()>,
     _tap: Option<crate::wire::local::TapListener>,
 }
@@ -62,6 +64,7 @@ impl Manager {
             (Some(b), Some(t)) => b.before(t.since(), to_table),
             _ => Vec::new(),
         };
+        let held = sub.clone();
         tokio::spawn(async move {
             let mut samples = std::pin::pin!(sub.stream_from());
             loop {
@@ -91,6 +94,7 @@ impl Manager {
         });
         (
             Relay {
+                sub: held,
                 _stop: stop,
                 _tap: token,
             },
