@@ -70,12 +70,9 @@ struct Entry {
     /// For a writer: the count of matched readers that do not only observe ([`Graph::watch_listeners`]).
     listeners_tx: Option<watch::Sender<usize>>,
     /// The participants (their participant GUIDs) whose endpoint was the last peer of this one when it went,
-    /// latest last (at most [`EMPTIED_KEPT`]): the departures the match count has told ([`Graph::emptied_by`]).
+    /// latest last (a few: `peers::EMPTIED_KEPT`): the departures its count has told (`Graph::emptied_by`).
     emptied_by: std::collections::VecDeque<GUID>,
 }
-
-/// How many of the participants that left an endpoint without peers it remembers.
-const EMPTIED_KEPT: usize = 4;
 
 impl Entry {
     fn notify(&self) {
@@ -461,17 +458,6 @@ impl Graph {
     pub(crate) fn forget(&self, guid: GUID) {
         self.index.lock().unwrap().remove(&guid);
         self.table.lock().unwrap().forget_local(guid);
-    }
-
-    /// Whether local endpoint `guid` was left without peers when an endpoint of `participant` (a GUID of it)
-    /// went, lately: its match count has then told that departure (it reached zero), which a look at the
-    /// processes running a component (`connections/manager/instances.rs`) must not tell again.
-    pub(crate) fn emptied_by(&self, guid: GUID, participant: GUID) -> bool {
-        let t = self.table.lock().unwrap();
-        t.writers
-            .get(&guid)
-            .or_else(|| t.readers.get(&guid))
-            .is_some_and(|e| e.emptied_by.contains(&participant_of(participant)))
     }
 
     /// Why the last peer that left local endpoint `guid` left, if one did.

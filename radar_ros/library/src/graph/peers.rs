@@ -19,6 +19,22 @@ pub(super) const FORGOTTEN_FOR: std::time::Duration = std::time::Duration::from_
 /// Below this many, the deleted endpoints remembered are not pruned.
 const FORGOTTEN_PRUNE_MIN: usize = 1024;
 
+/// How many of the participants that left an endpoint without peers it remembers.
+pub(super) const EMPTIED_KEPT: usize = 4;
+
+impl super::Graph {
+    /// Whether local endpoint `guid` was left without peers when an endpoint of `participant` (a GUID of it)
+    /// went, lately: its match count has then told that departure (it reached zero), which a look at the
+    /// processes running a component (`connections/manager/instances.rs`) must not tell again.
+    pub(crate) fn emptied_by(&self, guid: GUID, participant: GUID) -> bool {
+        let t = self.table.lock().unwrap();
+        t.writers
+            .get(&guid)
+            .or_else(|| t.readers.get(&guid))
+            .is_some_and(|e| e.emptied_by.contains(&super::participant_of(participant)))
+    }
+}
+
 impl Table {
     /// Notes that local endpoint `local` (a writer for [`Side::Writer`]) may hold `peer` in one of its sets.
     /// A note may outlive what it notes (it is only a place to look).
@@ -63,7 +79,7 @@ impl Table {
                     if e.peers.is_empty() {
                         let p = super::participant_of(*g);
                         e.emptied_by.retain(|q| *q != p);
-                        if e.emptied_by.len() == super::EMPTIED_KEPT {
+                        if e.emptied_by.len() == EMPTIED_KEPT {
                             e.emptied_by.pop_front();
                         }
                         e.emptied_by.push_back(p);
@@ -234,9 +250,9 @@ mod tests {
         assert!(
             !g.emptied_by(w, old),
             "forgotten after {} more",
-            super::super::EMPTIED_KEPT
+            super::EMPTIED_KEPT
         );
-        assert!(g.table.lock().unwrap().writers[&w].emptied_by.len() <= super::super::EMPTIED_KEPT);
+        assert!(g.table.lock().unwrap().writers[&w].emptied_by.len() <= super::EMPTIED_KEPT);
     }
 
     #[test]
