@@ -123,21 +123,20 @@ impl Manager {
                     )
                 }
                 Seen::Replaced { old, new } => {
-                    let (old, new, old_id) = (
+                    let (old_named, new_named) = (
                         m.graph().describe_process(old),
                         m.graph().describe_process(new),
-                        old,
                     );
                     tracing::warn!(
                         component = %component,
-                        "{component} was started again in {new}, and the one in {old} is gone (respawned?): its \
+                        "{component} was started again in {new_named}, and the one in {old_named} is gone (respawned?): its \
                          connections take it as gone"
                     );
                     for end in &ends {
                         // an end whose count reached zero as the old process went has told its connections
                         // (and told them of the new one's return): a second departure would re-arm a
                         // re-arming connection once more, dropping what was emitted in between (C1)
-                        if m.counted_departure_of(end, old_id) {
+                        if m.counted_departure_of(end, old) {
                             continue;
                         }
                         let d = match end {
